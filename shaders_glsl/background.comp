@@ -1,0 +1,49 @@
+#version 460
+//! background — the scene behind the fluid, ray-cast analytically per pixel (compute).
+//! Out: colour (rgba16f, linear) and LINEAR EYE DEPTH (r32f, +inf for sky) at full resolution.
+//! A checkered ground plane with distance fog, the boxes of the frame block (Lambert + sun), and the
+//! procedural sky of common.glsl. Composite and thickness read the depth to hide fluid behind geometry.
+#include "common.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D color_out;
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D depth_out;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(color_out);
+    if (any(greaterThanEqual(p, size))) return;
+    vec3 dv = pixel_dir(vec2(p), vec2(size), focal_for(float(size.y)));
+    vec3 dw = mat3(frame.inv_view) * dv; // world direction; t along it is the linear eye depth
+    vec3 o = frame.eye.xyz;
+    float t = INF;
+    vec3 c = sky(dw);
+    float tb; vec3 nb;
+    bool box = hit_boxes(o, dw, tb, nb);
+    float tg = INF;
+    if (frame.ground.z > 0.5 && dw.y < 0.0) tg = (frame.ground.x - o.y) / dw.y;
+    if (tg <= 0.0) tg = INF;
+    float ambient = frame.fluid_color.w;
+    float diffuse_sun = frame.sun.w;
+    if (box && tb < tg) {
+        t = tb;
+        vec3 base = vec3(0.78, 0.42, 0.30);
+        vec3 hp = o + t * dw;
+        // Faint stripes so reflections and refraction of the boxes read as texture.
+        float stripe = 0.85 + 0.15 * step(0.5, fract(hp.y / max(frame.ground.y * 0.5, 1e-6)));
+        c = base * stripe * (ambient + diffuse_sun * max(dot(nb, frame.sun.xyz), 0.0));
+    } else if (tg < INF) {
+        t = tg;
+        vec3 hp = o + t * dw;
+        vec2 cell = floor(hp.xz / frame.ground.y);
+        float checker = mod(cell.x + cell.y, 2.0);
+        vec3 base = mix(vec3(0.82, 0.80, 0.74), vec3(0.42, 0.44, 0.46), checker);
+        // Shadow of the boxes on the ground.
+        float ts; vec3 ns;
+        float shadow = hit_boxes(hp + vec3(0, 1e-4, 0), frame.sun.xyz, ts, ns) ? 0.35 : 1.0;
+        c = base * (ambient + diffuse_sun * shadow * max(frame.sun.y, 0.0));
+        float fog = 1.0 - exp(-t / max(frame.ground.w, 1e-6));
+        c = mix(c, sky(vec3(dw.x, 0.0, dw.z)), clamp(fog, 0.0, 1.0));
+    }
+    imageStore(color_out, p, vec4(c, 1.0));
+    imageStore(depth_out, p, vec4(t));
+}

@@ -1,0 +1,60 @@
+#version 460
+//! composite — shades the fluid over the background (Moritz §3.4–3.6, eq. 3.21; method.md §5):
+//!   c = mix(c_fluid, c_refract·(1−F), τ) + c_reflect·F + σ
+//! c_fluid = I0·exp(−η·T) (Beer–Lambert per channel); c_refract = background at the pixel offset by
+//! n.xy·min(T·α, β) (eq. 3.27 with the min fix), attenuated by exp(−η·T) as well; τ = exp(−γ·T) (eq. 3.28);
+//! F = Schlick Fresnel; c_reflect = sky in the reflected direction (or the SSR hit when bound);
+//! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
+//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled). Out: rgba8, gamma 2.2.
+#include "common.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 1) uniform sampler2D scene_color;
+layout(set = 0, binding = 2, r32f) uniform readonly image2D scene_depth;
+layout(set = 0, binding = 3, r32f) uniform readonly image2D fluid_depth;
+layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D normals;
+layout(set = 0, binding = 5) uniform sampler2D thickness;
+layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
+
+vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(out_color);
+    if (any(greaterThanEqual(p, size))) return;
+    vec2 uv = (vec2(p) + 0.5) / vec2(size);
+    vec3 bg = texture(scene_color, uv).rgb;
+    float sd = imageLoad(scene_depth, p).x;
+    float d = imageLoad(fluid_depth, p).x;
+    if (!is_fluid(d) || d >= sd) {
+        imageStore(out_color, p, encode(bg));
+        return;
+    }
+    vec3 n = unpack_normal(imageLoad(normals, p).x);
+    vec3 P = d * pixel_dir(vec2(p), vec2(size), focal_for(float(size.y)));
+    vec3 V = normalize(-P);
+    float T = max(texture(thickness, uv).x, 0.0);
+    vec3 atten = exp(-frame.extinction.rgb * T);
+
+    // Refraction: offset in pixels along the normal's screen projection (image y grows downwards).
+    vec2 off = vec2(n.x, -n.y) * min(T * frame.shading.x, frame.shading.y);
+    ivec2 rp = clamp(ivec2(vec2(p) + off), ivec2(0), size - 1);
+    vec2 ruv = (vec2(rp) + 0.5) / vec2(size);
+    // Never refract scene geometry that lies in front of the water.
+    if (imageLoad(scene_depth, rp).x < d) ruv = uv;
+    vec3 c_refract = texture(scene_color, ruv).rgb * atten;
+    vec3 c_fluid = frame.fluid_color.rgb * frame.fluid_color.w * atten;
+    float tau = exp(-frame.shading.z * T);
+
+    float ndv = max(dot(n, V), 0.0);
+    float F0 = frame.shading2.y;
+    float fres = F0 + (1.0 - F0) * pow(1.0 - ndv, 5.0);
+    vec3 R = mat3(frame.inv_view) * reflect(-V, n);
+    vec3 c_reflect = frame.shading2.z > 0.5 ? sky(R) : vec3(0.0);
+
+    vec3 L = mat3(frame.view) * frame.sun.xyz;
+    vec3 H = normalize(L + V);
+    float spec = frame.shading.w * pow(max(dot(n, H), 0.0), frame.shading2.x) * frame.sun.w;
+
+    vec3 c = mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
+    imageStore(out_color, p, encode(c));
+}

@@ -1,0 +1,41 @@
+//! sphere.glsl — exact ray–sphere coverage of one particle, shared by `splat` and `thickness`.
+//! Instead of a flat impostor with the fixed normal n = (u, v, sqrt(1−u²−v²)) (Moritz eq. 3.2–3.4) each pixel's
+//! view ray is intersected with the sphere exactly (as recommended in method.md §1, after FleX/blub), in a
+//! numerically stable form (closest approach first: no cancellation of |c|² against r²).
+
+/// Pixel bounds [lo, hi] of the sphere (view-space centre c, radius r) in an image of `size` with focal F;
+/// the full image when the sphere crosses the near plane. Returns false when nothing can be covered.
+bool sphere_bounds(vec3 c, float r, vec2 size, float F, float near, out ivec2 lo, out ivec2 hi) {
+    float cd = -c.z;
+    if (cd + r <= near) return false;
+    if (cd - r <= near) {
+        lo = ivec2(0);
+        hi = ivec2(size) - 1;
+        return true;
+    }
+    float d0 = cd - r, d1 = cd + r;
+    float xmin = min((c.x - r) / d0, (c.x - r) / d1), xmax = max((c.x + r) / d0, (c.x + r) / d1);
+    float ymin = min((c.y - r) / d0, (c.y - r) / d1), ymax = max((c.y + r) / d0, (c.y + r) / d1);
+    vec2 h = 0.5 * size;
+    // Pixel x is covered when its centre x + 0.5 lies inside the projected interval.
+    lo = ivec2(ceil(h.x + F * xmin - 0.5), ceil(h.y - F * ymax - 0.5));
+    hi = ivec2(floor(h.x + F * xmax - 0.5), floor(h.y - F * ymin - 0.5));
+    lo = max(lo, ivec2(0));
+    hi = min(hi, ivec2(size) - 1);
+    return all(lessThanEqual(lo, hi));
+}
+
+/// Entry and exit LINEAR EYE DEPTH of the ray with direction `dir` (z = −1) through the sphere; false on a miss.
+bool ray_sphere(vec3 dir, vec3 c, float r, out float d_in, out float d_out) {
+    float len = length(dir);
+    vec3 u = dir / len;
+    float tc = dot(u, c);
+    vec3 q = c - tc * u;
+    float h2 = r * r - dot(q, q);
+    if (h2 < 0.0) return false;
+    float h = sqrt(h2);
+    // t along the unit ray; depth = t / len because dir has z = −1.
+    d_in = (tc - h) / len;
+    d_out = (tc + h) / len;
+    return true;
+}

@@ -1,0 +1,37 @@
+#version 460
+//! splat — nearest linear eye depth of all particles (van der Laan et al. 2009; Moritz §3.2.1), as a COMPUTE
+//! splat: one thread per particle walks the pixels its sphere covers and keeps the minimum with a 32-bit
+//! atomicMin on the float's bits (positive floats order like their bit patterns; Schütz et al. 2021).
+//! No gl_FragDepth, so no early-Z to lose, and no fragment-shader arithmetic (slow on some GPUs).
+//! In:  particles (vec4: world xyz, radius or 0 = frame radius), frame block.
+//! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
+#include "common.glsl"
+#include "sphere.glsl"
+layout(local_size_x = 64) in;
+layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
+layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D depth_bits;
+layout(push_constant) uniform Push { uint count; uint max_pixels; } pc;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.count) return;
+    vec4 pr = particles[i];
+    float r = pr.w > 0.0 ? pr.w : frame.fluid.x;
+    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    vec2 size = vec2(imageSize(depth_bits));
+    float F = focal_for(size.y);
+    float near = frame.proj.w;
+    ivec2 lo, hi;
+    if (!sphere_bounds(c, r, size, F, near, lo, hi)) return;
+    // Bound the work of one thread (a sphere swallowing the camera); such a sphere is clipped, not dropped.
+    uint area = uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1);
+    if (area > pc.max_pixels) return;
+    for (int y = lo.y; y <= hi.y; ++y) {
+        for (int x = lo.x; x <= hi.x; ++x) {
+            float d_in, d_out;
+            if (!ray_sphere(pixel_dir(vec2(x, y), size, F), c, r, d_in, d_out)) continue;
+            if (d_out < near) continue;
+            imageAtomicMin(depth_bits, ivec2(x, y), floatBitsToUint(max(d_in, near)));
+        }
+    }
+}

@@ -1,0 +1,46 @@
+#version 460
+//! thickness — additive fluid thickness (Moritz eq. 3.6, T = 2·r·n_z per sphere), at reduced resolution.
+//! Compute splat: one thread per particle adds the exact chord of each covered pixel's view ray through its
+//! sphere, cut at the scene depth, so particles behind scene geometry add nothing. Fixed-point uint atomics
+//! (frame.fluid.z units per world unit) keep it portable (no float-atomic extension needed).
+//! In: particles, scene depth (full-res r32f). Out: thickness accumulator (r32ui), cleared to 0.
+#include "common.glsl"
+#include "sphere.glsl"
+layout(local_size_x = 64) in;
+layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
+layout(set = 0, binding = 2, r32f) uniform readonly image2D scene_depth;
+layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;
+layout(push_constant) uniform Push { uint count; uint max_pixels; } pc;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.count) return;
+    vec4 pr = particles[i];
+    float r = pr.w > 0.0 ? pr.w : frame.fluid.x;
+    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    vec2 size = vec2(imageSize(accum));
+    vec2 scene_size = vec2(imageSize(scene_depth));
+    float F = focal_for(size.y);
+    float near = frame.proj.w;
+    ivec2 lo, hi;
+    if (!sphere_bounds(c, r, size, F, near, lo, hi)) return;
+    uint area = uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1);
+    if (area > pc.max_pixels) return;
+    vec2 to_scene = scene_size / size;
+    for (int y = lo.y; y <= hi.y; ++y) {
+        for (int x = lo.x; x <= hi.x; ++x) {
+            vec3 dir = pixel_dir(vec2(x, y), size, F);
+            float d_in, d_out;
+            if (!ray_sphere(dir, c, r, d_in, d_out)) continue;
+            ivec2 sp = min(ivec2((vec2(x, y) + 0.5) * to_scene), ivec2(scene_size) - 1);
+            float scene = imageLoad(scene_depth, sp).x;
+            d_in = max(d_in, near);
+            d_out = min(d_out, scene);
+            if (d_out <= d_in) continue;
+            // Chord length along the ray: depth difference times the ray's length per unit depth.
+            float chord = (d_out - d_in) * length(dir);
+            uint units = uint(chord * frame.fluid.z + 0.5);
+            if (units > 0u) imageAtomicAdd(accum, ivec2(x, y), units);
+        }
+    }
+}

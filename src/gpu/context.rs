@@ -1,0 +1,141 @@
+//! The recording context of one frame: derives and batches the barriers each pass needs from the resources'
+//! last accesses, and opens a debug label and a timestamp scope per pass.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::access::{Access, Dependency};
+use super::{Buffer, Gpu, Image, Timer};
+
+/// One declared use of a resource by a pass.
+pub enum Use<'a> {
+    /// An image read or written; `discard`: the pass overwrites all of it, old contents are not needed.
+    Image(&'a Image, Access, bool),
+    /// A buffer read or written.
+    Buffer(&'a Buffer, Access),
+}
+
+impl<'a> Use<'a> {
+    /// Shorthands.
+    pub fn read(img: &'a Image) -> Self {
+        Use::Image(img, Access::ComputeRead, false)
+    }
+    pub fn sampled(img: &'a Image) -> Self {
+        Use::Image(img, Access::ComputeSampled, false)
+    }
+    pub fn write(img: &'a Image) -> Self {
+        Use::Image(img, Access::ComputeWrite, false)
+    }
+    /// Written in full: the previous contents are dropped.
+    pub fn overwrite(img: &'a Image) -> Self {
+        Use::Image(img, Access::ComputeWrite, true)
+    }
+    pub fn buf_read(b: &'a Buffer) -> Self {
+        Use::Buffer(b, Access::ComputeRead)
+    }
+}
+
+/// A frame (or one-shot) being recorded.
+pub struct FrameCtx<'t> {
+    pub gpu: Arc<Gpu>,
+    pub cmd: vk::CommandBuffer,
+    pub timer: Option<&'t mut Timer>,
+    open: Vec<Option<u32>>,
+    /// Barrier batches flushed (for tests and the bench).
+    pub barrier_batches: u32,
+}
+
+impl<'t> FrameCtx<'t> {
+    /// Start recording into `cmd`; resets the timer if given.
+    pub fn new(gpu: &Arc<Gpu>, cmd: vk::CommandBuffer, mut timer: Option<&'t mut Timer>) -> Self {
+        if let Some(t) = timer.as_deref_mut() {
+            t.reset(cmd);
+        }
+        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0 }
+    }
+
+    /// Derive the barriers for `uses` from each resource's last access, record them in ONE
+    /// `vkCmdPipelineBarrier2`, and update the resources' states.
+    pub fn barrier(&mut self, uses: &[Use]) {
+        let mut images = vec![];
+        let mut buffers = vec![];
+        for u in uses {
+            match *u {
+                Use::Image(img, access, discard) => {
+                    let (dep, next) = img.state.get().transition(access, discard);
+                    img.state.set(next);
+                    if let Some(d) = dep {
+                        images.push(image_barrier(img.raw, &d));
+                    }
+                }
+                Use::Buffer(buf, access) => {
+                    let (dep, next) = buf.state.get().transition(access, false);
+                    buf.state.set(crate::gpu::AccessState { layout: vk::ImageLayout::UNDEFINED, ..next });
+                    if let Some(d) = dep {
+                        if !d.src_stage.is_empty() {
+                            buffers.push(
+                                vk::BufferMemoryBarrier2::default()
+                                    .src_stage_mask(d.src_stage)
+                                    .src_access_mask(d.src_access)
+                                    .dst_stage_mask(d.dst_stage)
+                                    .dst_access_mask(d.dst_access)
+                                    .buffer(buf.raw)
+                                    .offset(0)
+                                    .size(vk::WHOLE_SIZE),
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        if images.is_empty() && buffers.is_empty() {
+            return;
+        }
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&images).buffer_memory_barriers(&buffers);
+        unsafe { self.gpu.device.cmd_pipeline_barrier2(self.cmd, &dep) };
+        self.barrier_batches += 1;
+    }
+
+    /// Open pass `name`: barriers for `uses`, then a debug label and a timestamp scope.
+    pub fn begin_pass(&mut self, name: &str, uses: &[Use]) {
+        self.barrier(uses);
+        self.gpu.begin_label(self.cmd, name);
+        let q = self.timer.as_deref_mut().and_then(|t| t.begin(self.cmd, name));
+        self.open.push(q);
+    }
+
+    /// Close the innermost open pass.
+    pub fn end_pass(&mut self) {
+        if let Some(q) = self.open.pop() {
+            if let (Some(q), Some(t)) = (q, self.timer.as_deref_mut()) {
+                t.end(self.cmd, q);
+            }
+            self.gpu.end_label(self.cmd);
+        }
+    }
+
+    /// `begin_pass`, `f`, `end_pass`.
+    pub fn pass<R>(&mut self, name: &str, uses: &[Use], f: impl FnOnce(&mut Self) -> R) -> R {
+        self.begin_pass(name, uses);
+        let r = f(self);
+        self.end_pass();
+        r
+    }
+}
+
+fn image_barrier(image: vk::Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {
+    // A barrier with no earlier stage (first use) still carries the layout transition.
+    let src_stage = if d.src_stage.is_empty() { vk::PipelineStageFlags2::NONE } else { d.src_stage };
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(src_stage)
+        .src_access_mask(d.src_access)
+        .dst_stage_mask(d.dst_stage)
+        .dst_access_mask(d.dst_access)
+        .old_layout(d.old_layout)
+        .new_layout(d.new_layout)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(Image::color_range())
+}

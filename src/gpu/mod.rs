@@ -1,0 +1,449 @@
+//! The GPU core: instance, validation messenger that counts, device choice, allocator, one-shot submission.
+//!
+//! Device choice: discrete > integrated > virtual > CPU (lavapipe), overridden by a case-insensitive name
+//! substring in `MENISCUS_DEVICE`. Validation (with synchronization validation) is on when asked for, by flag or
+//! `MENISCUS_VALIDATION=1`; tests always ask. Resources hold an `Arc<Gpu>`, so the device outlives every
+//! allocation and the allocator is dropped before the device (see `Drop for Gpu`).
+
+pub mod access;
+pub mod context;
+pub mod pipeline;
+pub mod resource;
+pub mod timer;
+
+use std::ffi::{c_void, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use crate::error::{Error, Result, VkContext};
+
+pub use access::{Access, AccessState};
+pub use context::{FrameCtx, Use};
+pub use pipeline::{Bind, ComputeProgram};
+pub use resource::{Buffer, Image};
+pub use timer::{PassTimes, Timer};
+
+/// Options for [`Gpu::new`].
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Enable the Khronos validation layer with synchronization validation.
+    pub validation: bool,
+    /// Pick the first device whose name contains this (case-insensitive); `MENISCUS_DEVICE` if `None`.
+    pub device_filter: Option<String>,
+}
+
+/// Counts of validation messages, shared with the messenger callback.
+#[derive(Default)]
+pub struct ValidationLog {
+    errors: AtomicU32,
+    warnings: AtomicU32,
+    messages: Mutex<Vec<String>>,
+}
+
+impl ValidationLog {
+    /// Errors reported so far.
+    pub fn errors(&self) -> u32 {
+        self.errors.load(Ordering::SeqCst)
+    }
+    /// Warnings reported so far.
+    pub fn warnings(&self) -> u32 {
+        self.warnings.load(Ordering::SeqCst)
+    }
+    /// The first messages (errors and warnings), for test failure output.
+    pub fn messages(&self) -> Vec<String> {
+        self.messages.lock().map(|m| m.clone()).unwrap_or_default()
+    }
+}
+
+/// What the user and the benchmark want to know about the device.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub driver: String,
+    pub api_version: String,
+    pub device_type: String,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period: f32,
+    pub timestamp_valid_bits: u32,
+    pub subgroup_size: u32,
+    pub max_storage_buffer_range: u64,
+}
+
+/// The device and everything that lives as long as it.
+pub struct Gpu {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical: vk::PhysicalDevice,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub push_descriptor: ash::khr::push_descriptor::Device,
+    pub debug_device: Option<ash::ext::debug_utils::Device>,
+    pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub info: DeviceInfo,
+    /// Linear-filtering, clamp-to-edge sampler.
+    pub linear_sampler: vk::Sampler,
+    /// Nearest-filtering, clamp-to-edge sampler.
+    pub nearest_sampler: vk::Sampler,
+    command_pool: vk::CommandPool,
+    messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    validation: Arc<ValidationLog>,
+    /// Keeps the pointer handed to the messenger alive.
+    _validation_ptr: Option<Box<Arc<ValidationLog>>>,
+}
+
+unsafe extern "system" fn messenger_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    let log = &*(user as *const Arc<ValidationLog>);
+    let msg = if data.is_null() || (*data).p_message.is_null() {
+        String::from("(no message)")
+    } else {
+        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
+    };
+    let kind = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        log.errors.fetch_add(1, Ordering::SeqCst);
+        "error"
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        log.warnings.fetch_add(1, Ordering::SeqCst);
+        "warning"
+    } else {
+        return vk::FALSE;
+    };
+    eprintln!("[vulkan {kind}] {msg}");
+    if let Ok(mut m) = log.messages.lock() {
+        if m.len() < 64 {
+            m.push(format!("{kind}: {msg}"));
+        }
+    }
+    vk::FALSE
+}
+
+fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 4,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 3,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 1,
+        _ => 0,
+    }
+}
+
+fn cstr_of(raw: &[std::ffi::c_char]) -> String {
+    // SAFETY: Vulkan guarantees NUL-terminated fixed arrays.
+    unsafe { CStr::from_ptr(raw.as_ptr()) }.to_string_lossy().into_owned()
+}
+
+impl Gpu {
+    /// Create the instance and device. Errors (never panics) when no loader or device is found.
+    pub fn new(opts: &GpuOptions) -> Result<Arc<Gpu>> {
+        let validation_wanted = opts.validation
+            || std::env::var("MENISCUS_VALIDATION").map(|v| v != "0" && !v.is_empty()).unwrap_or(false);
+        // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?;
+
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
+        let has_validation = layers.iter().any(|l| cstr_of(&l.layer_name) == "VK_LAYER_KHRONOS_validation");
+        if validation_wanted && !has_validation {
+            return Err(Error::NoDevice(
+                "validation was requested but VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)".into(),
+            ));
+        }
+        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .vk("vkEnumerateInstanceExtensionProperties")?;
+        let has_debug_utils = exts.iter().any(|e| cstr_of(&e.extension_name) == "VK_EXT_debug_utils");
+
+        let app_name = CString::new("meniscus").unwrap();
+        let app = vk::ApplicationInfo::default()
+            .application_name(&app_name)
+            .engine_name(&app_name)
+            .api_version(vk::API_VERSION_1_3);
+        let layer_names: Vec<*const std::ffi::c_char> =
+            if validation_wanted { vec![c"VK_LAYER_KHRONOS_validation".as_ptr()] } else { vec![] };
+        let mut ext_names: Vec<*const std::ffi::c_char> = vec![];
+        if has_debug_utils {
+            ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+        let mut ci = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_names)
+            .enabled_extension_names(&ext_names);
+        if validation_wanted {
+            ci = ci.push_next(&mut features);
+        }
+        let instance = unsafe { entry.create_instance(&ci, None) }.map_err(|r| match r {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => {
+                Error::NoDevice("the Vulkan loader found no driver (ERROR_INCOMPATIBLE_DRIVER)".into())
+            }
+            r => Error::Vulkan { call: "vkCreateInstance", result: r },
+        })?;
+
+        let validation = Arc::new(ValidationLog::default());
+        let mut validation_ptr = None;
+        let messenger = if validation_wanted && has_debug_utils {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let boxed = Box::new(validation.clone());
+            let user = &*boxed as *const Arc<ValidationLog> as *mut c_void;
+            // A fresh create-info for the messenger itself (push_next mutates what it chains).
+            let mci = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(messenger_callback))
+                .user_data(user);
+            let m = unsafe { loader.create_debug_utils_messenger(&mci, None) }.vk("vkCreateDebugUtilsMessengerEXT")?;
+            validation_ptr = Some(boxed);
+            Some((loader, m))
+        } else {
+            None
+        };
+
+        let result = Self::pick_device(&entry, &instance, opts, has_debug_utils);
+        let (physical, device, queue_family, info) = match result {
+            Ok(v) => v,
+            Err(e) => {
+                unsafe {
+                    if let Some((l, m)) = &messenger {
+                        l.destroy_debug_utils_messenger(*m, None);
+                    }
+                    instance.destroy_instance(None);
+                }
+                return Err(e);
+            }
+        };
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
+        let debug_device = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|e| Error::Alloc { what: "allocator".into(), source: e })?;
+        let pool_ci = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let command_pool = unsafe { device.create_command_pool(&pool_ci, None) }.vk("vkCreateCommandPool")?;
+        let sampler = |filter| {
+            let ci = vk::SamplerCreateInfo::default()
+                .mag_filter(filter)
+                .min_filter(filter)
+                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .max_lod(0.0);
+            unsafe { device.create_sampler(&ci, None) }.vk("vkCreateSampler")
+        };
+        let linear_sampler = sampler(vk::Filter::LINEAR)?;
+        let nearest_sampler = sampler(vk::Filter::NEAREST)?;
+        Ok(Arc::new(Gpu {
+            entry,
+            instance,
+            physical,
+            device,
+            queue,
+            queue_family,
+            push_descriptor,
+            debug_device,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            info,
+            linear_sampler,
+            nearest_sampler,
+            command_pool,
+            messenger,
+            validation,
+            _validation_ptr: validation_ptr,
+        }))
+    }
+
+    fn pick_device(
+        entry: &ash::Entry,
+        instance: &ash::Instance,
+        opts: &GpuOptions,
+        _debug_utils: bool,
+    ) -> Result<(vk::PhysicalDevice, ash::Device, u32, DeviceInfo)> {
+        let _ = entry;
+        let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+        if physicals.is_empty() {
+            return Err(Error::NoDevice("the Vulkan loader lists no physical device".into()));
+        }
+        let filter = opts
+            .device_filter
+            .clone()
+            .or_else(|| std::env::var("MENISCUS_DEVICE").ok().filter(|s| !s.is_empty()))
+            .map(|s| s.to_lowercase());
+        let mut candidates = vec![];
+        let mut names = vec![];
+        for &pd in &physicals {
+            let props = unsafe { instance.get_physical_device_properties(pd) };
+            let name = cstr_of(&props.device_name);
+            names.push(name.clone());
+            if props.api_version < vk::API_VERSION_1_3 {
+                continue;
+            }
+            if let Some(f) = &filter {
+                if !name.to_lowercase().contains(f) {
+                    continue;
+                }
+            }
+            let exts = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+            if !exts.iter().any(|e| cstr_of(&e.extension_name) == "VK_KHR_push_descriptor") {
+                continue;
+            }
+            let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+            let Some(qf) = families.iter().position(|f| {
+                f.queue_flags.contains(vk::QueueFlags::COMPUTE | vk::QueueFlags::GRAPHICS) && f.timestamp_valid_bits > 0
+            }) else {
+                continue;
+            };
+            candidates.push((device_type_rank(props.device_type), pd, qf as u32, families[qf].timestamp_valid_bits));
+        }
+        // Highest rank first; among equals the loader's order.
+        candidates.sort_by_key(|c| std::cmp::Reverse(c.0));
+        let Some(&(_, pd, qf, valid_bits)) = candidates.first() else {
+            return Err(Error::NoDevice(match filter {
+                Some(f) => format!("no Vulkan 1.3 device with push descriptors matches MENISCUS_DEVICE={f:?} (devices: {names:?})"),
+                None => format!("no Vulkan 1.3 device with push descriptors and timestamps (devices: {names:?})"),
+            }));
+        };
+
+        let props = unsafe { instance.get_physical_device_properties(pd) };
+        let mut driver = vk::PhysicalDeviceDriverProperties::default();
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver).push_next(&mut subgroup);
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+        let v = props.api_version;
+        let info = DeviceInfo {
+            name: cstr_of(&props.device_name),
+            driver: format!("{} {}", cstr_of(&driver.driver_name), cstr_of(&driver.driver_info)),
+            api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+            device_type: format!("{:?}", props.device_type),
+            timestamp_period: props.limits.timestamp_period,
+            timestamp_valid_bits: valid_bits,
+            subgroup_size: subgroup.subgroup_size,
+            max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
+        };
+
+        // Features: synchronization2 and dynamic rendering (1.3), demote-to-helper (shaderc turns `discard`
+        // into it), maintenance4 (quiets "output not consumed" warnings).
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
+        unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+        let base = f2.features;
+        if f13.synchronization2 == vk::FALSE {
+            return Err(Error::NoDevice(format!("{} lacks synchronization2", info.name)));
+        }
+        let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
+            .synchronization2(true)
+            .dynamic_rendering(f13.dynamic_rendering == vk::TRUE)
+            .shader_demote_to_helper_invocation(f13.shader_demote_to_helper_invocation == vk::TRUE)
+            .maintenance4(f13.maintenance4 == vk::TRUE);
+        let mut e12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(f12.host_query_reset == vk::TRUE);
+        let base_enable = vk::PhysicalDeviceFeatures::default()
+            .fragment_stores_and_atomics(base.fragment_stores_and_atomics == vk::TRUE)
+            .vertex_pipeline_stores_and_atomics(base.vertex_pipeline_stores_and_atomics == vk::TRUE)
+            .shader_storage_image_extended_formats(base.shader_storage_image_extended_formats == vk::TRUE)
+            .large_points(base.large_points == vk::TRUE);
+        let mut enable2 = vk::PhysicalDeviceFeatures2::default().features(base_enable).push_next(&mut e13).push_next(&mut e12);
+        let prio = [1.0f32];
+        let qci = [vk::DeviceQueueCreateInfo::default().queue_family_index(qf).queue_priorities(&prio)];
+        let dev_exts = [ash::khr::push_descriptor::NAME.as_ptr()];
+        let dci = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&qci)
+            .enabled_extension_names(&dev_exts)
+            .push_next(&mut enable2);
+        let device = unsafe { instance.create_device(pd, &dci, None) }.vk("vkCreateDevice")?;
+        Ok((pd, device, qf, info))
+    }
+
+    /// Validation counters (all zero when validation is off).
+    pub fn validation(&self) -> &ValidationLog {
+        &self.validation
+    }
+
+    /// True when the validation messenger is installed.
+    pub fn validation_enabled(&self) -> bool {
+        self.messenger.is_some()
+    }
+
+    /// Record with `f` into a fresh command buffer, submit, wait for completion.
+    pub fn one_shot<R>(&self, f: impl FnOnce(vk::CommandBuffer) -> Result<R>) -> Result<R> {
+        let d = &self.device;
+        let ai = vk::CommandBufferAllocateInfo::default()
+            .command_pool(self.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = unsafe { d.allocate_command_buffers(&ai) }.vk("vkAllocateCommandBuffers")?[0];
+        let run = || -> Result<R> {
+            let bi = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            unsafe { d.begin_command_buffer(cmd, &bi) }.vk("vkBeginCommandBuffer")?;
+            let r = f(cmd)?;
+            unsafe { d.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
+            let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let res = unsafe { d.queue_submit(self.queue, &submit, fence) }
+                .vk("vkQueueSubmit")
+                .and_then(|_| unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }.vk("vkWaitForFences"));
+            unsafe { d.destroy_fence(fence, None) };
+            res.map(|_| r)
+        };
+        let r = run();
+        unsafe { d.free_command_buffers(self.command_pool, &[cmd]) };
+        r
+    }
+
+    /// Wrap a command buffer region in a debug label (no-op without VK_EXT_debug_utils).
+    pub fn begin_label(&self, cmd: vk::CommandBuffer, name: &str) {
+        if let Some(dd) = &self.debug_device {
+            let c = CString::new(name).unwrap_or_default();
+            let label = vk::DebugUtilsLabelEXT::default().label_name(&c);
+            unsafe { dd.cmd_begin_debug_utils_label(cmd, &label) };
+        }
+    }
+
+    /// Close the label opened by [`Gpu::begin_label`].
+    pub fn end_label(&self, cmd: vk::CommandBuffer) {
+        if let Some(dd) = &self.debug_device {
+            unsafe { dd.cmd_end_debug_utils_label(cmd) };
+        }
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // Order matters: idle, then objects, then the allocator (it frees its memory blocks), then the device,
+        // then the messenger and the instance. Every resource holds an Arc<Gpu>, so none is alive here.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_sampler(self.linear_sampler, None);
+            self.device.destroy_sampler(self.nearest_sampler, None);
+            self.device.destroy_command_pool(self.command_pool, None);
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((l, m)) = self.messenger.take() {
+                l.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

@@ -1,0 +1,241 @@
+//! Images and buffers that remember their last access ([`AccessState`]), so barriers can be derived, and free
+//! their memory on drop (each holds an `Arc<Gpu>`, so the device outlives it).
+
+use std::cell::Cell;
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::{AccessState, Gpu};
+use crate::error::{Error, Result, VkContext};
+
+/// A 2D image with one view (and optionally a second view in another 32-bit format of the same class, e.g.
+/// an R32_UINT view of an R32_SFLOAT image for atomics).
+pub struct Image {
+    gpu: Arc<Gpu>,
+    pub raw: vk::Image,
+    pub view: vk::ImageView,
+    pub alt_view: Option<vk::ImageView>,
+    pub format: vk::Format,
+    pub extent: vk::Extent2D,
+    pub name: String,
+    pub(crate) state: Cell<AccessState>,
+    alloc: Option<Allocation>,
+}
+
+/// Bytes per texel of the formats Meniscus uses.
+pub fn format_bytes(f: vk::Format) -> u64 {
+    match f {
+        vk::Format::R8G8B8A8_UNORM | vk::Format::B8G8R8A8_UNORM | vk::Format::R8G8B8A8_SRGB => 4,
+        vk::Format::R32_SFLOAT | vk::Format::R32_UINT | vk::Format::D32_SFLOAT => 4,
+        vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT => 8,
+        vk::Format::R32G32B32A32_SFLOAT => 16,
+        vk::Format::R16_SFLOAT => 2,
+        _ => 4,
+    }
+}
+
+impl Image {
+    /// A GPU-only 2D image. `alt_format`: a second view format (the image is created MUTABLE_FORMAT).
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        extent: vk::Extent2D,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        alt_format: Option<vk::Format>,
+    ) -> Result<Image> {
+        let d = &gpu.device;
+        let flags = if alt_format.is_some() { vk::ImageCreateFlags::MUTABLE_FORMAT } else { vk::ImageCreateFlags::empty() };
+        let ci = vk::ImageCreateInfo::default()
+            .flags(flags)
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D { width: extent.width.max(1), height: extent.height.max(1), depth: 1 })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let raw = unsafe { d.create_image(&ci, None) }.vk("vkCreateImage")?;
+        let req = unsafe { d.get_image_memory_requirements(raw) };
+        let alloc = gpu
+            .allocator
+            .lock()
+            .expect("allocator lock poisoned")
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements: req,
+                location: MemoryLocation::GpuOnly,
+                linear: false,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .map_err(|e| {
+                unsafe { d.destroy_image(raw, None) };
+                Error::Alloc { what: name.to_string(), source: e }
+            })?;
+        let mut img = Image {
+            gpu: gpu.clone(),
+            raw,
+            view: vk::ImageView::null(),
+            alt_view: None,
+            format,
+            extent,
+            name: name.to_string(),
+            state: Cell::new(AccessState::default()),
+            alloc: None,
+        };
+        unsafe { d.bind_image_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindImageMemory")?;
+        img.alloc = Some(alloc);
+        img.view = img.make_view(format)?;
+        if let Some(f) = alt_format {
+            img.alt_view = Some(img.make_view(f)?);
+        }
+        if let Some(dd) = &gpu.debug_device {
+            let n = std::ffi::CString::new(name).unwrap_or_default();
+            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(raw).object_name(&n);
+            let _ = unsafe { dd.set_debug_utils_object_name(&info) };
+        }
+        Ok(img)
+    }
+
+    fn make_view(&self, format: vk::Format) -> Result<vk::ImageView> {
+        let ci = vk::ImageViewCreateInfo::default()
+            .image(self.raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(Self::color_range());
+        unsafe { self.gpu.device.create_image_view(&ci, None) }.vk("vkCreateImageView")
+    }
+
+    /// The whole colour subresource.
+    pub fn color_range() -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        }
+    }
+
+    /// Size in bytes of the texels (not counting driver padding).
+    pub fn bytes(&self) -> u64 {
+        self.extent.width as u64 * self.extent.height as u64 * format_bytes(self.format)
+    }
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        let d = &self.gpu.device;
+        unsafe {
+            if let Some(v) = self.alt_view.take() {
+                d.destroy_image_view(v, None);
+            }
+            d.destroy_image_view(self.view, None);
+            d.destroy_image(self.raw, None);
+        }
+        if let Some(a) = self.alloc.take() {
+            if let Ok(mut al) = self.gpu.allocator.lock() {
+                let _ = al.free(a);
+            }
+        }
+    }
+}
+
+/// A buffer; host-visible ones are persistently mapped.
+pub struct Buffer {
+    gpu: Arc<Gpu>,
+    pub raw: vk::Buffer,
+    pub size: u64,
+    pub name: String,
+    pub(crate) state: Cell<AccessState>,
+    alloc: Option<Allocation>,
+}
+
+impl Buffer {
+    /// A buffer of `size` bytes in `location`.
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer> {
+        let d = &gpu.device;
+        let ci = vk::BufferCreateInfo::default().size(size.max(16)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let raw = unsafe { d.create_buffer(&ci, None) }.vk("vkCreateBuffer")?;
+        let req = unsafe { d.get_buffer_memory_requirements(raw) };
+        let alloc = gpu
+            .allocator
+            .lock()
+            .expect("allocator lock poisoned")
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements: req,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .map_err(|e| {
+                unsafe { d.destroy_buffer(raw, None) };
+                Error::Alloc { what: format!("{name} ({size} bytes)"), source: e }
+            })?;
+        unsafe { d.bind_buffer_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindBufferMemory")?;
+        Ok(Buffer {
+            gpu: gpu.clone(),
+            raw,
+            size,
+            name: name.to_string(),
+            state: Cell::new(AccessState::default()),
+            alloc: Some(alloc),
+        })
+    }
+
+    /// A host-visible buffer filled with `data` (CPU→GPU upload, also used as uniform/storage directly).
+    pub fn with_data(gpu: &Arc<Gpu>, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Buffer> {
+        let mut b = Buffer::new(gpu, name, data.len() as u64, usage, MemoryLocation::CpuToGpu)?;
+        b.write(0, data)?;
+        Ok(b)
+    }
+
+    /// Copy `data` into a mapped buffer at `offset`.
+    pub fn write(&mut self, offset: usize, data: &[u8]) -> Result<()> {
+        let name = self.name.clone();
+        let slice = self
+            .alloc
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .ok_or_else(|| Error::Invalid(format!("buffer {name} is not host-visible")))?;
+        let end = offset + data.len();
+        if end > slice.len() {
+            return Err(Error::Invalid(format!("write of {} bytes past the end of buffer {name}", data.len())));
+        }
+        slice[offset..end].copy_from_slice(data);
+        Ok(())
+    }
+
+    /// The mapped bytes of a host-visible buffer.
+    pub fn read(&self) -> Result<&[u8]> {
+        self.alloc
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .map(|s| &s[..self.size as usize])
+            .ok_or_else(|| Error::Invalid(format!("buffer {} is not host-visible", self.name)))
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        unsafe { self.gpu.device.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.alloc.take() {
+            if let Ok(mut al) = self.gpu.allocator.lock() {
+                let _ = al.free(a);
+            }
+        }
+    }
+}

@@ -1,0 +1,102 @@
+//! GPU timestamp scopes, one per pass. Tick differences are masked to the queue family's
+//! `timestampValidBits` and multiplied by `timestampPeriod` (ns per tick).
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::Gpu;
+use crate::error::{Result, VkContext};
+
+/// Most scopes a frame can open.
+pub const MAX_SCOPES: u32 = 64;
+
+/// Milliseconds per pass name, in recording order; a name used twice in a frame is summed.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PassTimes(pub Vec<(String, f64)>);
+
+impl PassTimes {
+    /// Time of `name`, if it ran.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.0.iter().find(|(n, _)| n == name).map(|(_, t)| *t)
+    }
+    /// Sum over all passes.
+    pub fn total(&self) -> f64 {
+        self.0.iter().map(|(_, t)| t).sum()
+    }
+}
+
+/// A timestamp query pool and the names of the scopes written into it.
+pub struct Timer {
+    gpu: Arc<Gpu>,
+    pool: vk::QueryPool,
+    names: Vec<String>,
+}
+
+impl Timer {
+    /// A pool for [`MAX_SCOPES`] begin/end pairs.
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Timer> {
+        let ci = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2 * MAX_SCOPES);
+        let pool = unsafe { gpu.device.create_query_pool(&ci, None) }.vk("vkCreateQueryPool")?;
+        Ok(Timer { gpu: gpu.clone(), pool, names: vec![] })
+    }
+
+    /// Reset the pool in `cmd`; call once at the start of a frame.
+    pub fn reset(&mut self, cmd: vk::CommandBuffer) {
+        self.names.clear();
+        unsafe { self.gpu.device.cmd_reset_query_pool(cmd, self.pool, 0, 2 * MAX_SCOPES) };
+    }
+
+    /// Write the begin timestamp of scope `name`; returns its index, or None when the pool is full.
+    pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> Option<u32> {
+        let i = self.names.len() as u32;
+        if i >= MAX_SCOPES {
+            return None;
+        }
+        self.names.push(name.to_string());
+        unsafe { self.gpu.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 2 * i) };
+        Some(i)
+    }
+
+    /// Write the end timestamp of scope `i` (after all earlier work finished).
+    pub fn end(&mut self, cmd: vk::CommandBuffer, i: u32) {
+        unsafe { self.gpu.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 2 * i + 1) };
+    }
+
+    /// Read the results of the last frame (waits for them). Same-named scopes are summed.
+    pub fn read(&self) -> Result<PassTimes> {
+        let n = self.names.len();
+        if n == 0 {
+            return Ok(PassTimes::default());
+        }
+        let mut raw = vec![0u64; 2 * n];
+        unsafe {
+            self.gpu.device.get_query_pool_results(
+                self.pool,
+                0,
+                &mut raw,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .vk("vkGetQueryPoolResults")?;
+        let bits = self.gpu.info.timestamp_valid_bits;
+        let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        let period = self.gpu.info.timestamp_period as f64;
+        let mut out: Vec<(String, f64)> = vec![];
+        for (k, name) in self.names.iter().enumerate() {
+            let ticks = raw[2 * k + 1].wrapping_sub(raw[2 * k]) & mask;
+            let ms = ticks as f64 * period * 1e-6;
+            match out.iter_mut().find(|(n, _)| n == name) {
+                Some(e) => e.1 += ms,
+                None => out.push((name.clone(), ms)),
+            }
+        }
+        Ok(PassTimes(out))
+    }
+}
+
+impl Drop for Timer {
+    fn drop(&mut self) {
+        unsafe { self.gpu.device.destroy_query_pool(self.pool, None) };
+    }
+}

@@ -1,0 +1,24 @@
+//! Meniscus — a Vulkan-native, compute-heavy screen-space fluid renderer for SPH particle data
+//! (van der Laan, Green & Sainz 2009; Green 2010; Moritz 2016).
+//!
+//! Layout: [`gpu`] (device, resources, access tracking, timestamps), [`passes`] (one struct per pass),
+//! [`frame`] (the frame's table of contents), [`renderer`] (frame driver and readback), [`scene`]
+//! (particles, loaders, camera, procedural scenes), [`settings`], [`output`] (PNG/NPY writers).
+#![warn(missing_docs)]
+#![allow(missing_docs)] // TODO: document every public item; module headers are in place.
+
+pub mod error;
+pub mod frame;
+pub mod gpu;
+pub mod output;
+pub mod passes;
+pub mod renderer;
+pub mod scene;
+pub mod settings;
+
+/// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.
+pub mod shaders {
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}
+
+pub use error::{Error, Result};

@@ -1,0 +1,31 @@
+//! The passes, in frame order. Each is a plain struct that owns its compute program(s) and binding table and
+//! has one `record`; the name is the same everywhere: module, shader stem, debug label, timestamp key, JSON key.
+
+pub mod background;
+pub mod composite;
+pub mod normals;
+pub mod smooth;
+pub mod splat;
+pub mod thickness;
+
+pub use background::Background;
+pub use composite::Composite;
+pub use normals::Normals;
+pub use smooth::Smooth;
+pub use splat::Splat;
+pub use thickness::Thickness;
+
+/// Every pass name, in frame order (timestamp keys, JSON keys, `--timings` rows).
+pub const PASS_NAMES: &[&str] = &[
+    background::NAME,
+    splat::NAME,
+    thickness::NAME,
+    smooth::NAME,
+    normals::NAME,
+    composite::NAME,
+];
+
+/// 8×8 work groups for image passes.
+pub(crate) const LOCAL_2D: u32 = 8;
+/// 64-thread work groups for per-particle passes.
+pub(crate) const LOCAL_1D: u32 = 64;

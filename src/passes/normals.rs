@@ -1,0 +1,47 @@
+//! `normals` pass: discontinuity-aware view-space normals from the smoothed depth, octahedral-packed.
+//! Shader: shaders_glsl/normals.comp.
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::gpu::pipeline::bt::*;
+use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::shaders;
+
+pub const NAME: &str = "normals";
+
+pub struct Normals {
+    prog: ComputeProgram,
+}
+
+impl Normals {
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
+        Ok(Normals { prog: ComputeProgram::new(gpu, NAME, shaders::NORMALS, &[UBO, IMG, IMG], 4)? })
+    }
+
+    /// `edge`: depth jump (world units) above which a neighbour is on another surface.
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, depth: &Image, normals: &Image, edge: f32) {
+        ctx.pass(NAME, &[Use::buf_read(frame), Use::read(depth), Use::overwrite(normals)], |ctx| {
+            let g = ComputeProgram::groups_2d(normals.extent.width, normals.extent.height, super::LOCAL_2D);
+            self.prog.dispatch(
+                ctx,
+                &[Bind::Uniform(frame), Bind::Storage(depth), Bind::Storage(normals)],
+                bytemuck::bytes_of(&edge),
+                g,
+            );
+        });
+    }
+}
+
+/// CPU mirror of `unpack_normal` in common.glsl (octahedral, 2 × snorm16).
+pub fn unpack(u: u32) -> [f32; 3] {
+    let sn = |v: u16| (v as i16 as f32 / 32767.0).clamp(-1.0, 1.0);
+    let (ex, ey) = (sn(u as u16), sn((u >> 16) as u16));
+    let mut n = [ex, ey, 1.0 - ex.abs() - ey.abs()];
+    if n[2] < 0.0 {
+        let (x, y) = (n[0], n[1]);
+        n[0] = (1.0 - y.abs()) * if x >= 0.0 { 1.0 } else { -1.0 };
+        n[1] = (1.0 - x.abs()) * if y >= 0.0 { 1.0 } else { -1.0 };
+    }
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    [n[0] / l, n[1] / l, n[2] / l]
+}

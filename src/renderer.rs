@@ -1,0 +1,204 @@
+//! The renderer: owns the passes, the frame's images, the particle buffer and the timer; renders a frame
+//! and reads results back (final colour as PNG-ready RGBA, any float image for dumps and tests).
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::error::{Error, Result};
+use crate::frame::{record_frame, FrameUniforms, Passes, Smoothed, Targets, View};
+use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Timer, Use};
+use crate::settings::Settings;
+
+/// Renders frames on one device.
+pub struct Renderer {
+    pub gpu: Arc<Gpu>,
+    pub passes: Passes,
+    pub targets: Option<Targets>,
+    pub uniforms: Buffer,
+    particles: Option<Buffer>,
+    count: u32,
+    timer: Timer,
+    smoothed: Smoothed,
+}
+
+impl Renderer {
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Renderer> {
+        let uniforms = Buffer::new(
+            gpu,
+            "frame",
+            std::mem::size_of::<FrameUniforms>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        Ok(Renderer {
+            gpu: gpu.clone(),
+            passes: Passes::new(gpu)?,
+            targets: None,
+            uniforms,
+            particles: None,
+            count: 0,
+            timer: Timer::new(gpu)?,
+            smoothed: Smoothed::Raw,
+        })
+    }
+
+    /// Upload particles: 16 bytes each (world xyz + radius, 0 = the frame's radius), GPU-local.
+    pub fn set_particles(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>) -> Result<()> {
+        let n = positions.len();
+        let bytes = n as u64 * 16;
+        if bytes > self.gpu.info.max_storage_buffer_range {
+            return Err(Error::Limit(format!(
+                "{n} particles need {bytes} bytes, more than this device's storage buffer limit of {} bytes ({} particles)",
+                self.gpu.info.max_storage_buffer_range,
+                self.gpu.info.max_storage_buffer_range / 16
+            )));
+        }
+        let data: Vec<[f32; 4]> = positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| [p[0], p[1], p[2], radii.map(|r| r[i]).unwrap_or(0.0)])
+            .collect();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
+        let reuse = self.particles.as_ref().is_some_and(|b| b.size >= bytes.max(16));
+        if !reuse {
+            self.particles = None;
+            self.particles = Some(Buffer::new(&self.gpu, "particles", bytes.max(16), usage, MemoryLocation::GpuOnly)?);
+        }
+        let dst = self.particles.as_ref().expect("just created");
+        if n > 0 {
+            let staging = Buffer::with_data(&self.gpu, "particles_staging", bytemuck::cast_slice(&data), vk::BufferUsageFlags::TRANSFER_SRC)?;
+            self.gpu.one_shot(|cmd| {
+                let mut ctx = FrameCtx::new(&self.gpu, cmd, None);
+                ctx.barrier(&[Use::Buffer(dst, Access::TransferDst)]);
+                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes };
+                unsafe { self.gpu.device.cmd_copy_buffer(cmd, staging.raw, dst.raw, &[region]) };
+                Ok(())
+            })?;
+        }
+        self.count = n as u32;
+        Ok(())
+    }
+
+    /// Particles on the device.
+    pub fn particle_count(&self) -> u32 {
+        self.count
+    }
+
+    /// Make sure the images fit `width`×`height` and the settings' scales.
+    pub fn ensure_targets(&mut self, width: u32, height: u32, s: &Settings) -> Result<()> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(Error::Invalid(format!("image size {width}×{height} is out of range (1 … 16384)")));
+        }
+        let ts = s.thickness_scale.clamp(0.05, 1.0);
+        let want_thick = ((width as f32 * ts).round() as u32).max(1);
+        let ok = self
+            .targets
+            .as_ref()
+            .is_some_and(|t| t.width == width && t.height == height && t.thickness.extent.width == want_thick);
+        if !ok {
+            self.targets = None;
+            self.targets = Some(Targets::new(&self.gpu, width, height, s)?);
+        }
+        Ok(())
+    }
+
+    /// Write the frame uniform block.
+    pub fn write_uniforms(&mut self, view: &View, s: &Settings) -> Result<()> {
+        let u = FrameUniforms::new(view, s, self.count);
+        self.uniforms.write(0, bytemuck::bytes_of(&u))
+    }
+
+    /// Render one frame and wait for it; returns the GPU time of each pass.
+    pub fn render(&mut self, view: &View, s: &Settings) -> Result<PassTimes> {
+        s.validate()?;
+        self.ensure_targets(view.width, view.height, s)?;
+        self.write_uniforms(view, s)?;
+        let particles = match &self.particles {
+            Some(p) => p,
+            None => return Err(Error::Invalid("no particles uploaded".into())),
+        };
+        let t = self.targets.as_ref().expect("ensured");
+        let count = self.count;
+        let (passes, uniforms, gpu) = (&self.passes, &self.uniforms, self.gpu.clone());
+        let timer = &mut self.timer;
+        let smoothed = gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
+            Ok(record_frame(&mut ctx, passes, t, uniforms, particles, count, s))
+        })?;
+        self.smoothed = smoothed;
+        self.timer.read()
+    }
+
+    /// The image that holds the smoothed depth of the last frame.
+    pub fn smoothed_depth(&self) -> Option<&Image> {
+        let t = self.targets.as_ref()?;
+        Some(match self.smoothed {
+            Smoothed::Raw => &t.depth,
+            Smoothed::A => &t.smooth_a,
+            Smoothed::B => &t.smooth_b,
+        })
+    }
+
+    /// Read the final colour of the last frame.
+    pub fn read_final(&self) -> Result<image::RgbaImage> {
+        let t = self.targets.as_ref().ok_or_else(|| Error::Invalid("nothing rendered yet".into()))?;
+        let bytes = read_image(&self.gpu, &t.final_color)?;
+        image::RgbaImage::from_raw(t.width, t.height, bytes)
+            .ok_or_else(|| Error::Invalid("readback size mismatch".into()))
+    }
+}
+
+/// Copy a whole image into host memory (tightly packed texels).
+pub fn read_image(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<u8>> {
+    let size = img.bytes();
+    let buf = Buffer::new(gpu, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(gpu, cmd, None);
+        ctx.barrier(&[Use::Image(img, Access::TransferSrc, false), Use::Buffer(&buf, Access::TransferDst)]);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
+        unsafe {
+            gpu.device.cmd_copy_image_to_buffer(cmd, img.raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buf.raw, &[region])
+        };
+        ctx.barrier(&[Use::Buffer(&buf, Access::HostRead)]);
+        Ok(())
+    })?;
+    Ok(buf.read()?.to_vec())
+}
+
+/// Read a 32-bit float image.
+pub fn read_f32(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<f32>> {
+    Ok(bytemuck::pod_collect_to_vec(&read_image(gpu, img)?))
+}
+
+/// Fill a whole image from host memory (tightly packed texels); leaves it ready for compute reads.
+pub fn upload_image(gpu: &Arc<Gpu>, img: &Image, data: &[u8]) -> Result<()> {
+    if data.len() as u64 != img.bytes() {
+        return Err(Error::Invalid(format!("upload of {} bytes into {} ({} bytes)", data.len(), img.name, img.bytes())));
+    }
+    let staging = Buffer::with_data(gpu, "upload", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(gpu, cmd, None);
+        ctx.barrier(&[Use::Image(img, Access::TransferDst, true)]);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
+        unsafe {
+            gpu.device.cmd_copy_buffer_to_image(cmd, staging.raw, img.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region])
+        };
+        Ok(())
+    })
+}

@@ -1,0 +1,234 @@
+//! Houdini classic BGEO (version 5), as written by Partio / SPlisHSPlasH; gzip-compressed or plain;
+//! big-endian. Layout (../shared/data/splishsplash/README.md): "Bgeo" 'V', nine int32 (version, nPoints,
+//! nPrims, nPointGroups, nPrimGroups, nPointAttrib, nVertexAttrib, nPrimAttrib, nDetailAttrib), the point
+//! attribute definitions (u16 name length, name, u16 size, int32 type, defaults — or for indexed strings a
+//! string table), then nPoints records of x y z w and the attribute values (4 bytes per component).
+//! Every count is checked against the bytes that remain before anything is allocated.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::scene::Particles;
+
+/// Houdini attribute types used in point attributes.
+const T_FLOAT: i32 = 0;
+const T_INT: i32 = 1;
+const T_INDEX: i32 = 4;
+const T_VECTOR: i32 = 5;
+
+struct Reader<'a> {
+    data: &'a [u8],
+    pos: usize,
+    path: &'a Path,
+    compressed: bool,
+}
+
+impl<'a> Reader<'a> {
+    fn err(&self, at: usize, reason: impl Into<String>) -> Error {
+        let mut reason = reason.into();
+        if self.compressed {
+            reason.push_str(" (offset in the gzip-decompressed data)");
+        }
+        Error::Parse { path: self.path.to_path_buf(), offset: at as u64, reason }
+    }
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+        if self.data.len() - self.pos < n {
+            return Err(self.err(self.pos, format!("file truncated: {what} needs {n} bytes, {} remain", self.data.len() - self.pos)));
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn i32(&mut self, what: &str) -> Result<i32> {
+        Ok(i32::from_be_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn u16(&mut self, what: &str) -> Result<u16> {
+        Ok(u16::from_be_bytes(self.take(2, what)?.try_into().unwrap()))
+    }
+    fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+}
+
+struct Attr {
+    name: String,
+    size: usize,
+    ty: i32,
+}
+
+/// Parse BGEO bytes (gzip or plain). `path` only names the file in errors.
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
+    let compressed = bytes.starts_with(&[0x1f, 0x8b]);
+    let owned;
+    let data: &[u8] = if compressed {
+        let mut v = Vec::new();
+        flate2::read::MultiGzDecoder::new(bytes).read_to_end(&mut v).map_err(|e| Error::Parse {
+            path: path.to_path_buf(),
+            offset: 0,
+            reason: format!("gzip stream is corrupt: {e} ({} bytes decompressed before the error)", v.len()),
+        })?;
+        owned = v;
+        &owned
+    } else {
+        bytes
+    };
+    let mut r = Reader { data, pos: 0, path, compressed };
+    let magic = r.take(4, "magic")?;
+    if magic != b"Bgeo" {
+        return Err(r.err(0, format!("wrong magic {:?}: not a classic BGEO file (expected \"Bgeo\")", String::from_utf8_lossy(magic))));
+    }
+    let v = r.take(1, "version marker")?[0];
+    if v != b'V' {
+        return Err(r.err(4, format!("expected 'V' after the magic, found byte 0x{v:02x}")));
+    }
+    let version = r.i32("version")?;
+    if version != 5 {
+        return Err(r.err(5, format!("unsupported BGEO version {version} (only classic version 5 is read)")));
+    }
+    let names = [
+        "nPoints", "nPrims", "nPointGroups", "nPrimGroups", "nPointAttrib", "nVertexAttrib", "nPrimAttrib", "nDetailAttrib",
+    ];
+    let mut h = [0i32; 8];
+    for (k, n) in names.iter().enumerate() {
+        let at = r.pos;
+        h[k] = r.i32(n)?;
+        if h[k] < 0 {
+            return Err(r.err(at, format!("{n} is negative ({})", h[k])));
+        }
+    }
+    let n_points = h[0] as usize;
+    let n_attr = h[4] as usize;
+    // Each attribute definition takes at least 8 bytes.
+    if n_attr > r.remaining() / 8 {
+        return Err(r.err(r.pos, format!("header claims {n_attr} point attributes, more than the file can hold")));
+    }
+    let mut attrs = Vec::with_capacity(n_attr);
+    for _ in 0..n_attr {
+        let at = r.pos;
+        let len = r.u16("attribute name length")? as usize;
+        let name = String::from_utf8_lossy(r.take(len, "attribute name")?).into_owned();
+        let size = r.u16("attribute size")? as usize;
+        let ty = r.i32("attribute type")?;
+        match ty {
+            T_FLOAT | T_INT | T_VECTOR => {
+                r.take(4 * size, "attribute defaults")?;
+            }
+            T_INDEX => {
+                let count = r.i32("string count")?;
+                if count < 0 || count as usize > r.remaining() / 2 {
+                    return Err(r.err(at, format!("attribute {name:?}: bad string count {count}")));
+                }
+                for _ in 0..count {
+                    let l = r.u16("string length")? as usize;
+                    r.take(l, "string")?;
+                }
+            }
+            other => return Err(r.err(at, format!("attribute {name:?} has unsupported type {other}"))),
+        }
+        if size == 0 {
+            return Err(r.err(at, format!("attribute {name:?} has size 0")));
+        }
+        attrs.push(Attr { name, size, ty });
+    }
+    let record = 16 + 4 * attrs.iter().map(|a| a.size).sum::<usize>();
+    let need = n_points.checked_mul(record).ok_or_else(|| r.err(5, "point count overflows"))?;
+    if need > r.remaining() {
+        return Err(r.err(
+            r.pos,
+            format!(
+                "header claims {n_points} points ({need} bytes of {record}-byte records) but only {} bytes remain",
+                r.remaining()
+            ),
+        ));
+    }
+    let find = |names: &[&str], size: usize| {
+        attrs.iter().position(|a| a.size == size && names.iter().any(|n| a.name.eq_ignore_ascii_case(n)))
+    };
+    let vel = find(&["velocity", "v", "vel"], 3);
+    let dens = find(&["density", "rho"], 1);
+    let id = find(&["id", "ids"], 1).filter(|&k| attrs[k].ty == T_INT);
+    let mut offsets = vec![];
+    let mut o = 16;
+    for a in &attrs {
+        offsets.push(o);
+        o += 4 * a.size;
+    }
+    let body = &data[r.pos..r.pos + need];
+    let f = |rec: &[u8], off: usize| f32::from_be_bytes(rec[off..off + 4].try_into().unwrap());
+    let mut p = Particles { positions: Vec::with_capacity(n_points), ..Default::default() };
+    let mut vels = vel.map(|_| Vec::with_capacity(n_points));
+    let mut denss = dens.map(|_| Vec::with_capacity(n_points));
+    let mut ids = id.map(|_| Vec::with_capacity(n_points));
+    for rec in body.chunks_exact(record) {
+        p.positions.push([f(rec, 0), f(rec, 4), f(rec, 8)]);
+        if let (Some(k), Some(v)) = (vel, vels.as_mut()) {
+            let o = offsets[k];
+            v.push([f(rec, o), f(rec, o + 4), f(rec, o + 8)]);
+        }
+        if let (Some(k), Some(v)) = (dens, denss.as_mut()) {
+            v.push(f(rec, offsets[k]));
+        }
+        if let (Some(k), Some(v)) = (id, ids.as_mut()) {
+            let o = offsets[k];
+            v.push(i32::from_be_bytes(rec[o..o + 4].try_into().unwrap()) as i64);
+        }
+    }
+    p.velocities = vels;
+    p.densities = denss;
+    p.ids = ids;
+    Ok(p)
+}
+
+/// Write classic BGEO v5 the way Partio does (attributes id, velocity, density when present), plain or gzip.
+pub fn write(p: &Particles, gzip: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(b"BgeoV");
+    let mut attrs: Vec<(&str, u16, i32)> = vec![];
+    if p.ids.is_some() {
+        attrs.push(("id", 1, T_INT));
+    }
+    if p.velocities.is_some() {
+        attrs.push(("velocity", 3, T_VECTOR));
+    }
+    if p.densities.is_some() {
+        attrs.push(("density", 1, T_FLOAT));
+    }
+    for v in [5, p.len() as i32, 0, 0, 0, attrs.len() as i32, 0, 0, 0] {
+        out.extend_from_slice(&v.to_be_bytes());
+    }
+    for (name, size, ty) in &attrs {
+        out.extend_from_slice(&(name.len() as u16).to_be_bytes());
+        out.extend_from_slice(name.as_bytes());
+        out.extend_from_slice(&size.to_be_bytes());
+        out.extend_from_slice(&ty.to_be_bytes());
+        for _ in 0..*size {
+            out.extend_from_slice(&0i32.to_be_bytes());
+        }
+    }
+    for i in 0..p.len() {
+        for c in p.positions[i] {
+            out.extend_from_slice(&c.to_be_bytes());
+        }
+        out.extend_from_slice(&1f32.to_be_bytes());
+        if let Some(ids) = &p.ids {
+            out.extend_from_slice(&(ids[i] as i32).to_be_bytes());
+        }
+        if let Some(v) = &p.velocities {
+            for c in v[i] {
+                out.extend_from_slice(&c.to_be_bytes());
+            }
+        }
+        if let Some(d) = &p.densities {
+            out.extend_from_slice(&d[i].to_be_bytes());
+        }
+    }
+    out.extend_from_slice(&[0x00, 0xff]);
+    if gzip {
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        std::io::Write::write_all(&mut e, &out).expect("write to memory");
+        e.finish().expect("gzip to memory")
+    } else {
+        out
+    }
+}

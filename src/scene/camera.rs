@@ -1,0 +1,110 @@
+//! The camera: look-at + vertical field of view, parsed from and printed as `--camera EYE:TARGET[:FOVY]`,
+//! and fitted automatically to particles with percentile bounds (robust to a few stray particles).
+
+use glam::{Mat4, Vec3};
+
+use crate::error::{Error, Result};
+
+/// A pinhole camera in world space (right-handed, y up by default).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub fovy_deg: f32,
+    /// Near plane distance (> 0).
+    pub near: f32,
+}
+
+impl Camera {
+    /// World → view (glam's look_at_rh: the camera looks down −z).
+    pub fn view(&self) -> Mat4 {
+        Mat4::look_at_rh(self.eye, self.target, self.up)
+    }
+
+    /// Focal length in pixels for an image `height` pixels tall: F = H / (2 tan(fovy/2)).
+    pub fn focal_px(&self, height: u32) -> f32 {
+        height as f32 / (2.0 * (self.fovy_deg.to_radians() * 0.5).tan())
+    }
+
+    /// Parse `ex,ey,ez:tx,ty,tz[:fovy]`.
+    pub fn parse(s: &str) -> Result<Camera> {
+        let err = || {
+            Error::Invalid(format!(
+                "bad --camera {s:?}: expected EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45"
+            ))
+        };
+        let parts: Vec<&str> = s.split(':').collect();
+        if parts.len() < 2 || parts.len() > 3 {
+            return Err(err());
+        }
+        let v = |p: &str| -> Result<Vec3> {
+            let n: Vec<f32> = p.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|_| err())?;
+            if n.len() != 3 || n.iter().any(|x| !x.is_finite()) {
+                return Err(err());
+            }
+            Ok(Vec3::new(n[0], n[1], n[2]))
+        };
+        let eye = v(parts[0])?;
+        let target = v(parts[1])?;
+        let fovy_deg = match parts.get(2) {
+            Some(f) => f.trim().parse::<f32>().map_err(|_| err())?,
+            None => 45.0,
+        };
+        if !(fovy_deg > 1.0 && fovy_deg < 170.0) || (eye - target).length() < 1e-6 {
+            return Err(err());
+        }
+        let dist = (eye - target).length();
+        Ok(Camera { eye, target, up: Vec3::Y, fovy_deg, near: (dist * 1e-3).max(1e-4) })
+    }
+
+    /// The `--camera` argument that reproduces this camera.
+    pub fn to_arg(&self) -> String {
+        let f = |v: Vec3| format!("{},{},{}", fmt(v.x), fmt(v.y), fmt(v.z));
+        format!("{}:{}:{}", f(self.eye), f(self.target), fmt(self.fovy_deg))
+    }
+
+    /// Fit the view to the particles' 1st–99th percentile box, seen from the front (+z) and a little above.
+    pub fn fit(bounds: &crate::scene::Bounds, aspect: f32) -> Camera {
+        let center = (bounds.lo + bounds.hi) * 0.5;
+        let radius = ((bounds.hi - bounds.lo) * 0.5).length().max(1e-3);
+        let fovy_deg: f32 = 45.0;
+        let half_v = fovy_deg.to_radians() * 0.5;
+        let half_h = (half_v.tan() * aspect).atan();
+        let half = half_v.min(half_h);
+        let dist = radius / half.sin() * 1.02;
+        let dir = Vec3::new(0.0, 0.55, 1.0).normalize();
+        Camera { eye: center + dir * dist, target: center, up: Vec3::Y, fovy_deg, near: (dist * 1e-3).max(1e-4) }
+    }
+}
+
+fn fmt(x: f32) -> String {
+    let s = format!("{x:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.to_string() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_round_trip() {
+        let c = Camera::parse("0,2.5,6:0,0.3,0:45").unwrap();
+        assert_eq!(c.eye, Vec3::new(0.0, 2.5, 6.0));
+        assert_eq!(Camera::parse(&c.to_arg()).unwrap(), c);
+    }
+
+    #[test]
+    fn parse_rejects_garbage() {
+        for s in ["", "1,2:3,4,5", "1,2,3", "a,b,c:1,2,3", "0,0,0:0,0,0", "0,0,1:0,0,0:400"] {
+            assert!(Camera::parse(s).is_err(), "{s}");
+        }
+    }
+
+    #[test]
+    fn focal_length() {
+        let c = Camera::parse("0,0,1:0,0,0:90").unwrap();
+        assert!((c.focal_px(100) - 50.0).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,325 @@
+//! Legacy VTK ("# vtk DataFile Version x.y"), ASCII or BINARY (big-endian), any dataset whose points come
+//! from a `POINTS` section (POLYDATA, UNSTRUCTURED_GRID, ...). Cells are skipped (legacy lists and the 5.x
+//! OFFSETS/CONNECTIVITY form); `POINT_DATA` arrays from SCALARS, VECTORS, NORMALS and FIELD sections are read
+//! and mapped by name (velocity, density, id). Counts are checked against the bytes that remain before any
+//! allocation; errors name the byte offset.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::scene::Particles;
+
+struct Cur<'a> {
+    d: &'a [u8],
+    pos: usize,
+    path: &'a Path,
+    binary: bool,
+}
+
+fn type_size(t: &str) -> Option<usize> {
+    Some(match t.to_ascii_lowercase().as_str() {
+        "bit" => return None,
+        "unsigned_char" | "char" => 1,
+        "unsigned_short" | "short" => 2,
+        "unsigned_int" | "int" | "float" => 4,
+        "unsigned_long" | "long" | "double" | "vtktypeint64" | "vtktypeuint64" => 8,
+        _ => return None,
+    })
+}
+
+impl<'a> Cur<'a> {
+    fn err(&self, at: usize, reason: impl Into<String>) -> Error {
+        Error::Parse { path: self.path.to_path_buf(), offset: at as u64, reason: reason.into() }
+    }
+    fn skip_ws(&mut self) {
+        while self.pos < self.d.len() && self.d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+    }
+    /// Next whitespace-separated token, or None at the end.
+    fn token(&mut self) -> Option<&'a str> {
+        self.skip_ws();
+        let s = self.pos;
+        while self.pos < self.d.len() && !self.d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        (self.pos > s).then(|| std::str::from_utf8(&self.d[s..self.pos]).unwrap_or("?"))
+    }
+    fn expect_token(&mut self, what: &str) -> Result<&'a str> {
+        let at = self.pos;
+        self.token().ok_or_else(|| self.err(at, format!("file truncated: expected {what}")))
+    }
+    fn number<T: std::str::FromStr>(&mut self, what: &str) -> Result<T> {
+        let at = self.pos;
+        let t = self.expect_token(what)?;
+        t.parse().map_err(|_| self.err(at, format!("expected {what}, found {t:?}")))
+    }
+    /// Rest of the current line (and move past its newline).
+    fn line(&mut self) -> &'a str {
+        let s = self.pos;
+        while self.pos < self.d.len() && self.d[self.pos] != b'\n' {
+            self.pos += 1;
+        }
+        let l = std::str::from_utf8(&self.d[s..self.pos]).unwrap_or("");
+        if self.pos < self.d.len() {
+            self.pos += 1;
+        }
+        l.trim_end_matches('\r')
+    }
+    /// `count` values of VTK type `ty`, as f64.
+    fn values(&mut self, count: usize, ty: &str, what: &str) -> Result<Vec<f64>> {
+        let at = self.pos;
+        let size = type_size(ty).ok_or_else(|| self.err(at, format!("{what}: unsupported data type {ty:?}")))?;
+        if self.binary {
+            // The binary block starts after the newline that ends the header line.
+            self.line();
+            let start = self.pos;
+            let need = count.checked_mul(size).ok_or_else(|| self.err(at, format!("{what}: count overflows")))?;
+            if need > self.d.len() - start {
+                return Err(self.err(
+                    start,
+                    format!("{what}: {count} values of {ty} need {need} bytes but only {} remain", self.d.len() - start),
+                ));
+            }
+            let b = &self.d[start..start + need];
+            let lt = ty.to_ascii_lowercase();
+            let v: Vec<f64> = b
+                .chunks_exact(size)
+                .map(|c| match (lt.as_str(), size) {
+                    ("float", _) => f32::from_be_bytes(c.try_into().unwrap()) as f64,
+                    ("double", _) => f64::from_be_bytes(c.try_into().unwrap()),
+                    ("char", _) => c[0] as i8 as f64,
+                    (_, 1) => c[0] as f64,
+                    ("short", _) => i16::from_be_bytes(c.try_into().unwrap()) as f64,
+                    (_, 2) => u16::from_be_bytes(c.try_into().unwrap()) as f64,
+                    ("int", _) => i32::from_be_bytes(c.try_into().unwrap()) as f64,
+                    (_, 4) => u32::from_be_bytes(c.try_into().unwrap()) as f64,
+                    ("unsigned_long" | "vtktypeuint64", _) => u64::from_be_bytes(c.try_into().unwrap()) as f64,
+                    _ => i64::from_be_bytes(c.try_into().unwrap()) as f64,
+                })
+                .collect();
+            self.pos = start + need;
+            Ok(v)
+        } else {
+            // Each ASCII value takes at least two bytes (digit + separator).
+            if count > (self.d.len() - self.pos) / 2 + 1 {
+                return Err(self.err(at, format!("{what}: {count} values cannot fit in the {} bytes that remain", self.d.len() - self.pos)));
+            }
+            let mut v = Vec::with_capacity(count);
+            for _ in 0..count {
+                v.push(self.number::<f64>(what)?);
+            }
+            Ok(v)
+        }
+    }
+}
+
+/// Parse legacy VTK bytes. `path` only names the file in errors.
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
+    let mut c = Cur { d: bytes, pos: 0, path, binary: false };
+    let first = c.line();
+    if !first.starts_with("# vtk DataFile") {
+        return Err(c.err(0, "wrong magic: not a legacy VTK file (expected \"# vtk DataFile Version\")"));
+    }
+    let _title = c.line();
+    let at = c.pos;
+    let mode = c.line().trim().to_ascii_uppercase();
+    c.binary = match mode.as_str() {
+        "ASCII" => false,
+        "BINARY" => true,
+        m => return Err(c.err(at, format!("expected ASCII or BINARY, found {m:?}"))),
+    };
+    let mut positions: Option<Vec<[f32; 3]>> = None;
+    let mut arrays: Vec<(String, usize, Vec<f64>)> = vec![];
+    let mut in_point_data = false;
+    let mut n_point_data = 0usize;
+    while let Some(kw) = c.token() {
+        let at = c.pos - kw.len();
+        match kw.to_ascii_uppercase().as_str() {
+            "DATASET" => {
+                let t = c.expect_token("dataset type")?;
+                if t.eq_ignore_ascii_case("STRUCTURED_POINTS") || t.eq_ignore_ascii_case("RECTILINEAR_GRID") {
+                    return Err(c.err(at, format!("dataset {t} has no particle positions")));
+                }
+            }
+            "POINTS" => {
+                let n: usize = c.number("point count")?;
+                let ty = c.expect_token("point type")?;
+                let v = c.values(n.checked_mul(3).ok_or_else(|| c.err(at, "point count overflows"))?, ty, "POINTS")?;
+                positions = Some(v.chunks_exact(3).map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect());
+            }
+            "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" | "CELLS" => {
+                let _n: usize = c.number("cell count")?;
+                let size: usize = c.number("cell list size")?;
+                // VTK 5.x: OFFSETS/CONNECTIVITY follow; legacy: `size` ints.
+                let save = c.pos;
+                match c.token() {
+                    Some(t) if t.eq_ignore_ascii_case("OFFSETS") => {
+                        let ty = c.expect_token("offsets type")?;
+                        c.values(_n, ty, "OFFSETS")?;
+                        let t2 = c.expect_token("CONNECTIVITY")?;
+                        if !t2.eq_ignore_ascii_case("CONNECTIVITY") {
+                            return Err(c.err(c.pos, format!("expected CONNECTIVITY, found {t2:?}")));
+                        }
+                        let ty = c.expect_token("connectivity type")?;
+                        c.values(size, ty, "CONNECTIVITY")?;
+                    }
+                    _ => {
+                        c.pos = save;
+                        c.values(size, "int", kw)?;
+                    }
+                }
+            }
+            "CELL_TYPES" => {
+                let n: usize = c.number("cell type count")?;
+                c.values(n, "int", "CELL_TYPES")?;
+            }
+            "POINT_DATA" => {
+                n_point_data = c.number("point data count")?;
+                in_point_data = true;
+            }
+            "CELL_DATA" => {
+                let _n: usize = c.number("cell data count")?;
+                in_point_data = false;
+            }
+            "SCALARS" => {
+                let name = c.expect_token("scalar name")?.to_string();
+                let ty = c.expect_token("scalar type")?;
+                // Optional component count, then LOOKUP_TABLE.
+                let save = c.pos;
+                let mut ncomp = 1usize;
+                match c.token() {
+                    Some(t) if t.eq_ignore_ascii_case("LOOKUP_TABLE") => {
+                        c.expect_token("lookup table name")?;
+                    }
+                    Some(t) => {
+                        ncomp = t.parse().map_err(|_| c.err(save, format!("bad component count {t:?}")))?;
+                        let s2 = c.pos;
+                        match c.token() {
+                            Some(t) if t.eq_ignore_ascii_case("LOOKUP_TABLE") => {
+                                c.expect_token("lookup table name")?;
+                            }
+                            _ => c.pos = s2,
+                        }
+                    }
+                    None => return Err(c.err(save, "file truncated after SCALARS")),
+                }
+                let n = if in_point_data { n_point_data } else { 0 };
+                let v = c.values(n * ncomp, ty, "SCALARS")?;
+                if in_point_data {
+                    arrays.push((name, ncomp, v));
+                }
+            }
+            "VECTORS" | "NORMALS" => {
+                let name = c.expect_token("array name")?.to_string();
+                let ty = c.expect_token("array type")?;
+                let n = if in_point_data { n_point_data } else { 0 };
+                let v = c.values(n * 3, ty, kw)?;
+                if in_point_data {
+                    arrays.push((name, 3, v));
+                }
+            }
+            "FIELD" => {
+                c.expect_token("field name")?;
+                let k: usize = c.number("field array count")?;
+                for _ in 0..k {
+                    let name = c.expect_token("array name")?.to_string();
+                    let ncomp: usize = c.number("component count")?;
+                    let nt: usize = c.number("tuple count")?;
+                    let ty = c.expect_token("array type")?;
+                    let total = ncomp.checked_mul(nt).ok_or_else(|| c.err(at, "array size overflows"))?;
+                    let v = c.values(total, ty, "FIELD array")?;
+                    if in_point_data && nt == n_point_data {
+                        arrays.push((name, ncomp, v));
+                    }
+                }
+            }
+            "LOOKUP_TABLE" => {
+                c.expect_token("table name")?;
+                let n: usize = c.number("table size")?;
+                if c.binary {
+                    c.values(4 * n, "unsigned_char", "LOOKUP_TABLE")?;
+                } else {
+                    c.values(4 * n, "float", "LOOKUP_TABLE")?;
+                }
+            }
+            "METADATA" => {
+                // Skip to the blank line that ends the block.
+                c.line();
+                while c.pos < c.d.len() && !c.line().trim().is_empty() {}
+            }
+            other => return Err(c.err(at, format!("unexpected keyword {other:?}"))),
+        }
+    }
+    let positions = positions.ok_or_else(|| c.err(c.d.len(), "no POINTS section"))?;
+    let n = positions.len();
+    let find = |names: &[&str], nc: usize| {
+        arrays.iter().find(|(a, k, v)| *k == nc && v.len() == n * nc && names.iter().any(|m| a.eq_ignore_ascii_case(m)))
+    };
+    let mut p = Particles { positions, ..Default::default() };
+    p.velocities = find(&["velocity", "v", "vel"], 3).map(|(_, _, v)| {
+        v.chunks_exact(3).map(|q| [q[0] as f32, q[1] as f32, q[2] as f32]).collect()
+    });
+    p.densities = find(&["density", "rho"], 1).map(|(_, _, v)| v.iter().map(|&x| x as f32).collect());
+    p.ids = find(&["id", "ids"], 1).map(|(_, _, v)| v.iter().map(|&x| x as i64).collect());
+    Ok(p)
+}
+
+/// Write legacy VTK like SPlisHSPlasH (UNSTRUCTURED_GRID of vertex cells, id/velocity/density point data).
+pub fn write(p: &Particles, binary: bool) -> Vec<u8> {
+    let n = p.len();
+    let mut o: Vec<u8> = Vec::new();
+    let nl = |o: &mut Vec<u8>| o.push(b'\n');
+    o.extend_from_slice(b"# vtk DataFile Version 4.1\nmeniscus particles\n");
+    o.extend_from_slice(if binary { b"BINARY\n" } else { b"ASCII\n" });
+    o.extend_from_slice(b"DATASET UNSTRUCTURED_GRID\n");
+    o.extend_from_slice(format!("POINTS {n} float\n").as_bytes());
+    let put_f = |o: &mut Vec<u8>, xs: &mut dyn Iterator<Item = f32>| {
+        for x in xs {
+            if binary {
+                o.extend_from_slice(&x.to_be_bytes());
+            } else {
+                o.extend_from_slice(format!("{x} ").as_bytes());
+            }
+        }
+    };
+    let put_i = |o: &mut Vec<u8>, xs: &mut dyn Iterator<Item = i64>| {
+        for x in xs {
+            if binary {
+                o.extend_from_slice(&(x as i32).to_be_bytes());
+            } else {
+                o.extend_from_slice(format!("{x} ").as_bytes());
+            }
+        }
+    };
+    put_f(&mut o, &mut p.positions.iter().flatten().copied());
+    nl(&mut o);
+    o.extend_from_slice(format!("CELLS {n} {}\n", 2 * n).as_bytes());
+    put_i(&mut o, &mut (0..n as i64).flat_map(|i| [1, i]));
+    nl(&mut o);
+    o.extend_from_slice(format!("CELL_TYPES {n}\n").as_bytes());
+    put_i(&mut o, &mut (0..n).map(|_| 1));
+    nl(&mut o);
+    o.extend_from_slice(format!("POINT_DATA {n}\n").as_bytes());
+    if let Some(ids) = &p.ids {
+        o.extend_from_slice(b"SCALARS id int 1\nLOOKUP_TABLE id_table\n");
+        put_i(&mut o, &mut ids.iter().copied());
+        nl(&mut o);
+    }
+    let mut fields = vec![];
+    if let Some(v) = &p.velocities {
+        fields.push(("velocity", 3, v.iter().flatten().copied().collect::<Vec<f32>>()));
+    }
+    if let Some(d) = &p.densities {
+        fields.push(("density", 1, d.clone()));
+    }
+    if !fields.is_empty() {
+        o.extend_from_slice(format!("FIELD FieldData {}\n", fields.len()).as_bytes());
+        for (name, k, v) in fields {
+            o.extend_from_slice(format!("{name} {k} {n} float\n").as_bytes());
+            put_f(&mut o, &mut v.into_iter());
+            nl(&mut o);
+        }
+    }
+    o
+}

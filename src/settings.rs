@@ -1,0 +1,156 @@
+//! Every shading and filter parameter in one struct. Widths are in multiples of the particle radius so the
+//! defaults carry over between simulations of different scale.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Depth smoothing filter (`--filter`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Filter {
+    /// No smoothing: the raw spheres.
+    None,
+    /// Separable Gaussian (a baseline: merges silhouettes).
+    Gaussian,
+    /// Separable bilateral (default).
+    Bilateral,
+    /// Exact 2D bilateral.
+    Bilateral2d,
+}
+
+impl Filter {
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::None => "none",
+            Filter::Gaussian => "gaussian",
+            Filter::Bilateral => "bilateral",
+            Filter::Bilateral2d => "bilateral2d",
+        }
+    }
+}
+
+/// All render settings.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Settings {
+    /// Particle radius in world units (set from `--radius` or estimated from the data).
+    pub radius: f32,
+    pub filter: Filter,
+    /// World radius ρ of the smoothing kernel, in particle radii.
+    pub smooth_radius: f32,
+    /// Cap of the kernel radius in pixels.
+    pub smooth_max_px: u32,
+    /// Range σ_r of the bilateral filter, in particle radii.
+    pub bilateral_sigma_range: f32,
+    /// How many times the (separable) filter runs.
+    pub bilateral_iterations: u32,
+    /// Thickness resolution relative to the output (0.5 = half).
+    pub thickness_scale: f32,
+    /// Thickness blur radius in thickness pixels (0 = none).
+    pub thickness_blur_px: u32,
+    /// Depth jump, in particle radii, that the normals pass treats as a discontinuity.
+    pub normal_edge: f32,
+    /// Beer–Lambert extinction of water per metre (Moritz table 3.1) …
+    pub extinction: [f32; 3],
+    /// … times this scale (scenes are rarely metres thick).
+    pub extinction_scale: f32,
+    /// Colour I0 of the light scattered out of the fluid.
+    pub fluid_color: [f32; 3],
+    /// Ambient light on the fluid and the scene.
+    pub ambient: f32,
+    /// Refraction offset: pixels per world unit of thickness (α) …
+    pub refraction_alpha: f32,
+    /// … clamped to this many pixels (β).
+    pub refraction_beta: f32,
+    /// Transparency τ = exp(−γ·T), γ per world unit.
+    pub transparency_gamma: f32,
+    /// Specular strength k_s and Blinn–Phong exponent c.
+    pub specular: f32,
+    pub shininess: f32,
+    /// Fresnel reflectance at normal incidence (water ≈ 0.02).
+    pub f0: f32,
+    /// Direction towards the sun (world), normalised on use.
+    pub sun_dir: [f32; 3],
+    pub sun_intensity: f32,
+    /// Reflect the sky.
+    pub reflect_sky: bool,
+    /// Put a few boxes beside the fluid.
+    pub scene_boxes: bool,
+    /// Draw the ground plane.
+    pub ground: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            radius: 0.0,
+            filter: Filter::Bilateral,
+            smooth_radius: 4.0,
+            smooth_max_px: 24,
+            bilateral_sigma_range: 2.0,
+            bilateral_iterations: 2,
+            thickness_scale: 0.5,
+            thickness_blur_px: 3,
+            normal_edge: 2.0,
+            extinction: [0.555, 0.041, 0.0208],
+            extinction_scale: 6.0,
+            fluid_color: [0.35, 0.62, 0.75],
+            ambient: 0.55,
+            refraction_alpha: 60.0,
+            refraction_beta: 24.0,
+            transparency_gamma: 1.5,
+            specular: 0.6,
+            shininess: 300.0,
+            f0: 0.02,
+            sun_dir: [0.45, 0.8, 0.35],
+            sun_intensity: 1.0,
+            reflect_sky: true,
+            scene_boxes: true,
+            ground: true,
+        }
+    }
+}
+
+impl Settings {
+    /// Named presets.
+    pub fn preset(name: &str) -> Result<Settings> {
+        let d = Settings::default();
+        match name {
+            "default" => Ok(d),
+            "fast" => Ok(Settings { bilateral_iterations: 1, smooth_max_px: 12, thickness_blur_px: 2, ..d }),
+            _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast)"))),
+        }
+    }
+
+    /// Read a TOML file of settings over the defaults.
+    pub fn from_toml(path: &std::path::Path) -> Result<Settings> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        toml::from_str(&text).map_err(|e| Error::Parse {
+            path: path.to_path_buf(),
+            offset: e.span().map(|s| s.start as u64).unwrap_or(0),
+            reason: e.message().to_string(),
+        })
+    }
+
+    /// Check values a user could get wrong.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: &str| Err(Error::Invalid(format!("setting {what} is out of range")));
+        if !(self.radius.is_finite() && self.radius > 0.0) {
+            return bad("radius (must be > 0)");
+        }
+        if !(self.thickness_scale > 0.0 && self.thickness_scale <= 1.0) {
+            return bad("thickness_scale (0 < s ≤ 1)");
+        }
+        if self.smooth_max_px > 64 {
+            return bad("smooth_max_px (≤ 64)");
+        }
+        if self.thickness_blur_px > 16 {
+            return bad("thickness_blur_px (≤ 16)");
+        }
+        if self.bilateral_iterations > 64 {
+            return bad("bilateral_iterations (≤ 64)");
+        }
+        Ok(())
+    }
+}
