@@ -36,7 +36,7 @@ void main() {
         vec3 hp = o + t * dw;
         vec2 cell = floor(hp.xz / frame.ground.y);
         float checker = mod(cell.x + cell.y, 2.0);
-        vec3 base = mix(vec3(0.82, 0.80, 0.74), vec3(0.42, 0.44, 0.46), checker);
+        vec3 base = mix(vec3(0.62, 0.60, 0.56), vec3(0.30, 0.32, 0.34), checker);
         // Shadow of the boxes on the ground.
         float ts; vec3 ns;
         float shadow = hit_boxes(hp + vec3(0, 1e-4, 0), frame.sun.xyz, ts, ns) ? 0.35 : 1.0;

@@ -57,9 +57,9 @@ impl Environment {
         let ground_y = b.lo.y - radius;
         let mut boxes = vec![];
         if s.scene_boxes {
-            let w = size * 0.08;
-            let h = ext.y.max(size * 0.25) * 1.4;
-            let z0 = b.lo.z - w * 3.0;
+            let w = size * 0.06;
+            let h = size * 0.3;
+            let z0 = b.lo.z - size * 0.15;
             for fx in [0.2f32, 0.75] {
                 let x = b.lo.x + fx * ext.x;
                 boxes.push((Vec3::new(x, ground_y, z0 - w), Vec3::new(x + w, ground_y + h, z0)));

@@ -45,7 +45,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 540)]
     height: u32,
     /// Particle radius in world units (default: from the scene, or half the median particle spacing).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     radius: Option<f32>,
     /// Particle count of a built-in scene (default: the scene's own).
     #[arg(long)]

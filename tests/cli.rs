@@ -1,0 +1,70 @@
+//! The `meniscus` binary as a user runs it: a PNG from a built-in scene, clear errors and no PNG on bad input.
+
+use std::process::Command;
+
+fn meniscus() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_meniscus"))
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("meniscus-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn render_builtin_scene_writes_png_and_timings() {
+    let d = tmpdir("ok");
+    let out = d.join("f.png");
+    let o = meniscus()
+        .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--validation"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for pass in meniscus::passes::PASS_NAMES {
+        assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
+    }
+    let img = image::open(&out).unwrap();
+    assert_eq!((img.width(), img.height()), (64, 48));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!stderr.contains("[vulkan"), "validation messages: {stderr}");
+}
+
+#[test]
+fn corrupt_file_gives_one_line_error_and_no_png() {
+    let d = tmpdir("bad");
+    let bad = d.join("broken.bgeo");
+    let mut bytes = meniscus::scene::bgeo::write(
+        &meniscus::scene::Particles { positions: vec![[0.0; 3]; 100], ..Default::default() },
+        false,
+    );
+    bytes.truncate(300);
+    std::fs::write(&bad, bytes).unwrap();
+    let out = d.join("never.png");
+    let o = meniscus().arg("render").arg(&bad).arg("--out").arg(&out).output().unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+    assert!(err.contains("broken.bgeo") && err.contains("byte"), "{err}");
+    assert!(!out.exists(), "no PNG on failure");
+    assert!(!d.join("never.png.partial").exists());
+}
+
+#[test]
+fn bad_flags_are_errors_not_panics() {
+    for args in [
+        vec!["render", "no-such-scene"],
+        vec!["render", "block", "--camera", "1,2:3"],
+        vec!["render", "block", "--width", "0"],
+        vec!["render", "block", "--radius", "-1"],
+        vec!["render", "block", "--dump", "bogus"],
+    ] {
+        let o = meniscus().args(&args).arg("--out").arg(tmpdir("flags").join("x.png")).output().unwrap();
+        assert_eq!(o.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.starts_with("error:") && !err.contains("panicked"), "{args:?}: {err}");
+    }
+}

@@ -1,0 +1,60 @@
+//! Shared test helpers: a validated lavapipe device that FAILS (never skips) when absent, CPU references.
+#![allow(dead_code)]
+
+use std::sync::Arc;
+
+use meniscus::frame::{Environment, View};
+use meniscus::gpu::{Gpu, GpuOptions};
+use meniscus::scene::Camera;
+use meniscus::settings::Settings;
+
+/// A device with validation + synchronization validation. No device is a test FAILURE, in CI and out.
+pub fn gpu() -> Arc<Gpu> {
+    match Gpu::new(&GpuOptions { validation: true, device_filter: None }) {
+        Ok(g) => {
+            assert!(g.validation_enabled(), "validation layer must be active in tests");
+            g
+        }
+        Err(e) => panic!(
+            "GPU test needs a Vulkan device (lavapipe: apt-get install mesa-vulkan-drivers vulkan-validationlayers); CI={}: {e}",
+            std::env::var("CI").unwrap_or_default()
+        ),
+    }
+}
+
+/// Assert no validation error or warning was reported on `gpu`.
+pub fn assert_clean(gpu: &Gpu) {
+    let v = gpu.validation();
+    assert_eq!(v.errors() + v.warnings(), 0, "validation messages: {:#?}", v.messages());
+}
+
+/// A camera at `eye` looking at the origin, with nothing else in the scene.
+pub fn view(eye: [f32; 3], target: [f32; 3], w: u32, h: u32, fovy: f32) -> View {
+    let mut camera = Camera::parse(&format!(
+        "{},{},{}:{},{},{}:{fovy}",
+        eye[0], eye[1], eye[2], target[0], target[1], target[2]
+    ))
+    .unwrap();
+    camera.near = 0.05;
+    View { camera, width: w, height: h, env: Environment { ground_y: -100.0, tile: 1.0, fog: 1e6, ground: false, boxes: vec![] } }
+}
+
+/// Settings with the given radius and nothing extra.
+pub fn settings(radius: f32) -> Settings {
+    Settings { radius, scene_boxes: false, ground: false, ..Settings::default() }
+}
+
+/// View-space ray direction through pixel (x, y) (z = −1), mirroring `pixel_dir` in common.glsl, in f64.
+pub fn pixel_dir(x: usize, y: usize, w: usize, h: usize, f: f64) -> [f64; 3] {
+    [(x as f64 + 0.5 - 0.5 * w as f64) / f, -(y as f64 + 0.5 - 0.5 * h as f64) / f, -1.0]
+}
+
+/// Entry/exit linear depth of a ray (z = −1 direction) through a sphere at view-space centre c, radius r.
+pub fn ray_sphere(dir: [f64; 3], c: [f64; 3], r: f64) -> Option<(f64, f64)> {
+    let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    let u = [dir[0] / len, dir[1] / len, dir[2] / len];
+    let tc = u[0] * c[0] + u[1] * c[1] + u[2] * c[2];
+    let q = [c[0] - tc * u[0], c[1] - tc * u[1], c[2] - tc * u[2]];
+    let h2 = r * r - (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+    (h2 >= 0.0).then(|| ((tc - h2.sqrt()) / len, (tc + h2.sqrt()) / len))
+}

@@ -1,0 +1,59 @@
+//! A small golden frame: the built-in `wave` scene at 160×96 compared with tests/golden/wave_160x96.png with a
+//! tolerance. A missing golden FAILS; blessing is deliberate: `MENISCUS_BLESS=1 cargo test --test golden`
+//! (tools/bless-golden). On a mismatch, `-actual.png` and `-difference.png` are written to target/golden-out/.
+
+mod common;
+
+use common::*;
+use meniscus::frame::{Environment, View};
+use meniscus::renderer::Renderer;
+use meniscus::scene::{self, procedural, Camera};
+
+#[test]
+fn golden_wave_frame() {
+    let gpu = gpu();
+    let g = procedural::generate("wave", 20_000).unwrap();
+    let mut s = meniscus::settings::Settings { radius: g.radius, ..Default::default() };
+    s.radius = g.radius;
+    let b = scene::percentile_bounds(&g.particles.positions, 0.01).unwrap();
+    let (w, h) = (160u32, 96u32);
+    let v = View { camera: Camera::fit(&b, w as f32 / h as f32), width: w, height: h, env: Environment::around(&b, g.radius, &s) };
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_particles(&g.particles.positions, None).unwrap();
+    r.render(&v, &s).unwrap();
+    let img = r.read_final().unwrap();
+    assert_clean(&gpu);
+
+    let golden = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/wave_160x96.png");
+    if std::env::var("MENISCUS_BLESS").as_deref() == Ok("1") {
+        assert!(std::env::var("CI").is_err(), "never bless goldens in CI");
+        meniscus::output::write_png(&golden, &img).unwrap();
+        eprintln!("blessed {}", golden.display());
+        return;
+    }
+    let want = image::open(&golden)
+        .unwrap_or_else(|e| panic!("golden {} missing or unreadable ({e}); bless it with tools/bless-golden", golden.display()))
+        .to_rgba8();
+    assert_eq!(want.dimensions(), img.dimensions());
+    let mut diff = image::RgbaImage::new(w, h);
+    let (mut sum, mut bad) = (0u64, 0u32);
+    for (x, y, p) in img.enumerate_pixels() {
+        let q = want.get_pixel(x, y);
+        let d = (0..3).map(|c| (p[c] as i32 - q[c] as i32).unsigned_abs()).max().unwrap();
+        sum += d as u64;
+        if d > 24 {
+            bad += 1;
+        }
+        let v = (d * 8).min(255) as u8;
+        diff.put_pixel(x, y, image::Rgba([v, v, v, 255]));
+    }
+    let mean = sum as f64 / (w * h) as f64;
+    // Tolerance: mean channel difference ≤ 2 levels and ≤ 0.5 % of pixels off by more than 24 levels.
+    if mean > 2.0 || bad as f64 > 0.005 * (w * h) as f64 {
+        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/golden-out");
+        std::fs::create_dir_all(&out).unwrap();
+        img.save(out.join("wave_160x96-actual.png")).unwrap();
+        diff.save(out.join("wave_160x96-difference.png")).unwrap();
+        panic!("golden mismatch: mean diff {mean:.2}, {bad} pixels > 24 levels; see {}", out.display());
+    }
+}

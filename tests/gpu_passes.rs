@@ -1,0 +1,312 @@
+//! GPU tests on lavapipe: each pass against an analytic or CPU reference, with validation and
+//! synchronization validation on (any message fails the test).
+
+mod common;
+
+use common::*;
+use meniscus::gpu::FrameCtx;
+use meniscus::renderer::{read_f32, read_image, upload_image, Renderer};
+use meniscus::settings::Filter;
+
+/// One sphere of radius 0.5 at the origin, camera at z = 3: splat depth equals the exact ray–sphere entry.
+#[test]
+fn splat_depth_matches_analytic_sphere() {
+    let gpu = gpu();
+    let (w, h) = (96usize, 64usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let mut s = settings(0.5);
+    s.filter = Filter::None;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
+    r.render(&v, &s).unwrap();
+    let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
+    let f = v.camera.focal_px(h as u32) as f64;
+    let (mut covered, mut max_err) = (0, 0f64);
+    for y in 0..h {
+        for x in 0..w {
+            let got = depth[y * w + x];
+            match ray_sphere(pixel_dir(x, y, w, h, f), [0.0, 0.0, -3.0], 0.5) {
+                Some((d_in, _)) => {
+                    assert!(got.is_finite(), "pixel ({x},{y}) should be covered");
+                    max_err = max_err.max((got as f64 - d_in).abs());
+                    covered += 1;
+                }
+                None => assert!(got.is_infinite(), "pixel ({x},{y}) should be empty, got {got}"),
+            }
+        }
+    }
+    assert!(covered > 300, "sphere covers {covered} pixels");
+    assert!(max_err < 1e-4, "max depth error {max_err}");
+    assert_clean(&gpu);
+}
+
+/// The near plane clamps: a sphere cut by the near plane reads exactly `near` where it is cut.
+#[test]
+fn splat_clamps_to_near_plane() {
+    let gpu = gpu();
+    let v = view([0.0, 0.0, 0.3], [0.0, 0.0, 0.0], 32, 32, 60.0);
+    let mut s = settings(0.5);
+    s.filter = Filter::None;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
+    r.render(&v, &s).unwrap();
+    let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
+    let centre = depth[16 * 32 + 16];
+    assert!((centre - v.camera.near).abs() < 1e-6, "centre depth {centre}, near {}", v.camera.near);
+    assert_clean(&gpu);
+}
+
+/// Thickness of one sphere = chord of each pixel ray = 2·r·(n·v) (Moritz eq. 3.6 with the exact normal).
+#[test]
+fn thickness_of_one_sphere_is_its_chord() {
+    let gpu = gpu();
+    let (w, h) = (64usize, 64usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let mut s = settings(0.5);
+    s.thickness_scale = 1.0;
+    s.thickness_blur_px = 0;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
+    r.render(&v, &s).unwrap();
+    let t = read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap();
+    let f = v.camera.focal_px(h as u32) as f64;
+    let mut max_err = 0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let dir = pixel_dir(x, y, w, h, f);
+            let len = (dir[0] * dir[0] + dir[1] * dir[1] + 1.0).sqrt();
+            let want = ray_sphere(dir, [0.0, 0.0, -3.0], 0.5).map(|(a, b)| (b - a) * len).unwrap_or(0.0);
+            max_err = max_err.max((t[y * w + x] as f64 - want).abs());
+        }
+    }
+    // Fixed point: 1024 units per radius → 0.5/1024 per unit; plus float rounding.
+    assert!(max_err < 1e-3, "max thickness error {max_err}");
+    let centre = t[32 * w + 32] as f64;
+    assert!((centre - 1.0).abs() < 5e-3, "centre thickness {centre} ≈ 2r");
+    assert_clean(&gpu);
+}
+
+/// A box between camera and sphere: no thickness where the box hides the sphere.
+#[test]
+fn thickness_is_zero_behind_scene_geometry() {
+    let gpu = gpu();
+    let (w, h) = (64usize, 64usize);
+    let mut v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    // A box covering the left half of the screen in front of the sphere.
+    v.env.boxes = vec![(glam::Vec3::new(-5.0, -5.0, 0.8), glam::Vec3::new(0.0, 5.0, 1.0))];
+    let mut s = settings(0.5);
+    s.thickness_scale = 1.0;
+    s.thickness_blur_px = 0;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
+    r.render(&v, &s).unwrap();
+    let t = read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap();
+    // The sphere covers a disc of about 15 px radius around (32, 32); the box hides x < 32.
+    for y in 26..38 {
+        assert_eq!(t[y * w + 21], 0.0, "hidden pixel ({}, {y}) has thickness", 21);
+        assert!(t[y * w + 42] > 0.0, "visible pixel (42, {y}) lacks thickness");
+    }
+    assert_clean(&gpu);
+}
+
+/// CPU reference of smooth_bilateral.comp (one dispatch), same math.
+fn bilateral_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32, sr: f32, max_px: i32) -> Vec<f32> {
+    let mut out = src.to_vec();
+    for y in 0..h as i32 {
+        for x in 0..w as i32 {
+            let d = src[(y as usize) * w + x as usize];
+            if !(d < 1e30) {
+                continue;
+            }
+            let rpx = (rho * f / d).clamp(1.0, max_px as f32);
+            let r = rpx.ceil() as i32;
+            let sd = (rpx * 0.5).max(0.5);
+            let kd = 1.0 / (2.0 * sd * sd);
+            let kr = if sr > 0.0 { 1.0 / (2.0 * sr * sr) } else { 0.0 };
+            let (mut sum, mut ws) = (d, 1.0f32);
+            let mut tap = |qx: i32, qy: i32, dist2: f32| {
+                if qx < 0 || qy < 0 || qx >= w as i32 || qy >= h as i32 {
+                    return;
+                }
+                let dq = src[qy as usize * w + qx as usize];
+                if !(dq < 1e30) {
+                    return;
+                }
+                let dz = dq - d;
+                let wt = (-dist2 * kd - dz * dz * kr).exp();
+                sum += wt * dq;
+                ws += wt;
+            };
+            if dir != (0, 0) {
+                for i in -r..=r {
+                    if i != 0 {
+                        tap(x + i * dir.0, y + i * dir.1, (i * i) as f32);
+                    }
+                }
+            } else {
+                for j in -r..=r {
+                    for i in -r..=r {
+                        if i != 0 || j != 0 {
+                            tap(x + i, y + j, (i * i + j * j) as f32);
+                        }
+                    }
+                }
+            }
+            out[y as usize * w + x as usize] = sum / ws;
+        }
+    }
+    out
+}
+
+/// Synthetic depth: a plane at depth 3 with bumps, a nearer disc (second surface), background corners.
+fn bumpy_depth(w: usize, h: usize) -> Vec<f32> {
+    let mut d = vec![f32::INFINITY; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (fx, fy) = (x as f32, y as f32);
+            if fx + fy < 10.0 {
+                continue; // background corner
+            }
+            let bump = 0.02 * ((fx * 1.7).sin() * (fy * 1.3).cos());
+            let mut z = 3.0 + 0.004 * fx + bump;
+            let (cx, cy) = (fx - 40.0, fy - 24.0);
+            if cx * cx + cy * cy < 100.0 {
+                z = 2.2 + bump; // a nearer surface overlapping the plane
+            }
+            d[y * w + x] = z;
+        }
+    }
+    d
+}
+
+#[test]
+fn bilateral_separable_and_2d_match_cpu_reference() {
+    let gpu = gpu();
+    let (w, h) = (64usize, 48usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let f = v.camera.focal_px(h as u32);
+    for filter in [Filter::Bilateral, Filter::Bilateral2d, Filter::Gaussian] {
+        let mut s = settings(0.05);
+        s.filter = filter;
+        s.bilateral_iterations = 1;
+        let mut r = Renderer::new(&gpu).unwrap();
+        r.ensure_targets(w as u32, h as u32, &s).unwrap();
+        r.write_uniforms(&v, &s).unwrap();
+        let src = bumpy_depth(w, h);
+        let t = r.targets.as_ref().unwrap();
+        upload_image(&gpu, &t.depth, bytemuck::cast_slice(&src)).unwrap();
+        let out_is_a = gpu
+            .one_shot(|cmd| {
+                let mut ctx = FrameCtx::new(&gpu, cmd, None);
+                let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, &s);
+                Ok(std::ptr::eq(out, &t.smooth_a))
+            })
+            .unwrap();
+        let got = read_f32(&gpu, if out_is_a { &t.smooth_a } else { &t.smooth_b }).unwrap();
+        let sr = if filter == Filter::Gaussian { 0.0 } else { s.bilateral_sigma_range * s.radius };
+        let rho = s.smooth_radius * s.radius;
+        let max_px = s.smooth_max_px as i32;
+        let want = match filter {
+            Filter::Bilateral2d => bilateral_cpu(&src, w, h, f, (0, 0), rho, sr, max_px),
+            _ => {
+                let a = bilateral_cpu(&src, w, h, f, (1, 0), rho, sr, max_px);
+                bilateral_cpu(&a, w, h, f, (0, 1), rho, sr, max_px)
+            }
+        };
+        for i in 0..w * h {
+            if want[i].is_infinite() {
+                assert!(got[i].is_infinite(), "{filter:?}: background pixel {i} became fluid");
+            } else {
+                assert!((got[i] - want[i]).abs() < 1e-4, "{filter:?}: pixel {i}: gpu {} cpu {}", got[i], want[i]);
+            }
+        }
+        assert_clean(&gpu);
+    }
+}
+
+/// Normals of an analytic tilted plane and of a sphere, from depth.
+#[test]
+fn normals_of_plane_and_sphere() {
+    let gpu = gpu();
+    let (w, h) = (64usize, 64usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let f = v.camera.focal_px(h as u32) as f64;
+    let s = settings(0.05);
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.ensure_targets(w as u32, h as u32, &s).unwrap();
+    r.write_uniforms(&v, &s).unwrap();
+    let t = r.targets.as_ref().unwrap();
+    // Plane through (0,0,−3) with view-space normal n: n·P = n·(0,0,−3).
+    let n = {
+        let n = [0.3f64, -0.2, 1.0];
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        [n[0] / l, n[1] / l, n[2] / l]
+    };
+    let mut depth = vec![0f32; w * h];
+    let mut truth = vec![[0f64; 3]; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let dir = pixel_dir(x, y, w, h, f);
+            let sphere = ray_sphere(dir, [0.0, 0.0, -3.0], 0.6);
+            if let (Some((d, _)), true) = (sphere, x >= w / 2) {
+                // Right half: a sphere.
+                let p = [dir[0] * d, dir[1] * d, dir[2] * d + 3.0];
+                depth[y * w + x] = d as f32;
+                truth[y * w + x] = [p[0] / 0.6, p[1] / 0.6, p[2] / 0.6];
+            } else if x < w / 2 {
+                let d = (n[2] * -3.0) / (n[0] * dir[0] + n[1] * dir[1] + n[2] * dir[2]);
+                depth[y * w + x] = d as f32;
+                truth[y * w + x] = n;
+            } else {
+                depth[y * w + x] = f32::INFINITY;
+            }
+        }
+    }
+    upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(&gpu, cmd, None);
+        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
+        Ok(())
+    })
+    .unwrap();
+    let words: Vec<u32> = bytemuck::pod_collect_to_vec(&read_image(&gpu, &t.normals).unwrap());
+    let angle = |i: usize| {
+        let g = meniscus::passes::normals::unpack(words[i]);
+        let tr = truth[i];
+        let c = g[0] as f64 * tr[0] + g[1] as f64 * tr[1] + g[2] as f64 * tr[2];
+        c.clamp(-1.0, 1.0).acos().to_degrees()
+    };
+    let mut sphere_errs = vec![];
+    for y in 2..h - 2 {
+        for x in 2..w / 2 - 2 {
+            assert!(angle(y * w + x) < 0.5, "plane normal off by {}° at ({x},{y})", angle(y * w + x));
+        }
+        for x in w / 2 + 2..w - 2 {
+            let i = y * w + x;
+            // Interior of the sphere: all 8 neighbours covered and facing the camera well.
+            let interior = (0..9).all(|k| depth[(y + k / 3 - 1) * w + x + k % 3 - 1].is_finite());
+            if interior && truth[i][2] > 0.3 {
+                sphere_errs.push(angle(i));
+            }
+        }
+    }
+    sphere_errs.sort_by(f64::total_cmp);
+    let median = sphere_errs[sphere_errs.len() / 2];
+    let max = *sphere_errs.last().unwrap();
+    assert!(median < 1.0 && max < 6.0, "sphere normal error median {median}°, max {max}°");
+    // Empty pixels get 0.
+    assert_eq!(words[w - 1], 0);
+    assert_clean(&gpu);
+}
+
+/// The messenger really counts: an invalid call (a zero-sized buffer) is reported as an error.
+#[test]
+fn validation_messenger_counts_errors() {
+    let gpu = gpu();
+    let ci = ash::vk::BufferCreateInfo::default().size(0).usage(ash::vk::BufferUsageFlags::STORAGE_BUFFER);
+    // SAFETY: deliberately invalid parameters, caught by the validation layer before the driver.
+    if let Ok(b) = unsafe { gpu.device.create_buffer(&ci, None) } {
+        unsafe { gpu.device.destroy_buffer(b, None) };
+    }
+    assert!(gpu.validation().errors() >= 1, "the validation layer reported nothing");
+}
