@@ -20,8 +20,8 @@ pub enum Error {
     #[error("GPU memory allocation for {what} failed: {source}")]
     Alloc { what: String, source: gpu_allocator::AllocationError },
     /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    #[error("{}: {err}", path.display())]
+    Io { path: PathBuf, err: std::io::Error },
     /// A particle or settings file is malformed.
     #[error("{}: byte {offset}: {reason}", path.display())]
     Parse { path: PathBuf, offset: u64, reason: String },
@@ -50,6 +50,6 @@ impl<T> VkContext<T> for Result<T, ash::vk::Result> {
 impl Error {
     /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io { path: path.into(), err: source }
     }
 }

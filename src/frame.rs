@@ -214,11 +214,12 @@ pub fn record_frame(
     particles: &Buffer,
     count: u32,
     s: &Settings,
+    cf_iterations: u32,
 ) -> Smoothed {
     p.background.record(ctx, frame, &t.scene_color, &t.scene_depth);
     p.splat.record(ctx, frame, particles, count, &t.depth);
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
-    let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, &t.smooth_b, s);
+    let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, &t.smooth_b, s, cf_iterations);
     p.normals.record(ctx, frame, smoothed, &t.normals, s.normal_edge * s.radius);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,

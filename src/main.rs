@@ -62,9 +62,15 @@ struct RenderArgs {
     /// TOML file of settings applied over the preset's (see README).
     #[arg(long)]
     settings: Option<PathBuf>,
-    /// Print a per-pass GPU time table.
+    /// Print a per-pass GPU time table (median over the timed frames, after warm-up).
     #[arg(long)]
     timings: bool,
+    /// With --timings: frames rendered first and not timed (lavapipe compiles pipelines at first use).
+    #[arg(long, default_value_t = 2)]
+    warmup: u32,
+    /// With --timings: frames timed; the table shows per-pass medians.
+    #[arg(long, default_value_t = 5)]
+    frames: u32,
     /// Write buffers next to the PNG as OUT.NAME.npy (float32): depth, smoothed, thickness; normals as .npy (H,W,3).
     #[arg(long, value_delimiter = ',')]
     dump: Vec<String>,
@@ -145,7 +151,17 @@ fn render(a: &RenderArgs) -> Result<()> {
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
     let mut r = Renderer::new(&gpu)?;
     r.set_particles(&particles.positions, None)?;
-    let times = r.render(&view, &s)?;
+    let mut times = r.render(&view, &s)?;
+    if a.timings {
+        let mut runs = vec![];
+        for k in 0..a.warmup + a.frames.max(1) {
+            let t = r.render(&view, &s)?;
+            if k >= a.warmup {
+                runs.push(t);
+            }
+        }
+        times = meniscus::gpu::timer::median_times(&runs);
+    }
     let img = r.read_final()?;
     meniscus::output::write_png(&a.out, &img)?;
     eprintln!(
@@ -159,6 +175,7 @@ fn render(a: &RenderArgs) -> Result<()> {
     );
     eprintln!("camera: --camera {}", camera.to_arg());
     if a.timings {
+        println!("median of {} frames after {} warm-up frames", a.frames.max(1), a.warmup);
         println!("| pass | GPU ms |\n|---|---:|");
         for (name, ms) in &times.0 {
             println!("| {name} | {ms:.3} |");

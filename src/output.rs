@@ -11,6 +11,9 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut std::io::BufWriter<std:
     tmp.push(".partial");
     let tmp = std::path::PathBuf::from(tmp);
     let res = (|| {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)?;
+        }
         let f = std::fs::File::create(&tmp)?;
         let mut w = std::io::BufWriter::new(f);
         write(&mut w)?;

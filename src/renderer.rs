@@ -21,6 +21,8 @@ pub struct Renderer {
     count: u32,
     timer: Timer,
     smoothed: Smoothed,
+    /// CPU copy of the positions (for per-frame bounds such as the nearest depth).
+    positions: Vec<[f32; 3]>,
 }
 
 impl Renderer {
@@ -41,6 +43,7 @@ impl Renderer {
             count: 0,
             timer: Timer::new(gpu)?,
             smoothed: Smoothed::Raw,
+            positions: vec![],
         })
     }
 
@@ -78,6 +81,7 @@ impl Renderer {
             })?;
         }
         self.count = n as u32;
+        self.positions = positions.to_vec();
         Ok(())
     }
 
@@ -121,14 +125,27 @@ impl Renderer {
         };
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
+        let cf_iterations = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), self.nearest_depth(view, s));
         let (passes, uniforms, gpu) = (&self.passes, &self.uniforms, self.gpu.clone());
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            Ok(record_frame(&mut ctx, passes, t, uniforms, particles, count, s))
+            Ok(record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations))
         })?;
         self.smoothed = smoothed;
         self.timer.read()
+    }
+
+    /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
+    pub fn nearest_depth(&self, view: &View, s: &Settings) -> f32 {
+        let m = view.camera.view();
+        let near = view.camera.near;
+        self.positions
+            .iter()
+            .map(|p| -(m.transform_point3(glam::Vec3::from(*p)).z) - s.radius)
+            .filter(|d| *d > -s.radius)
+            .fold(f32::INFINITY, f32::min)
+            .max(near)
     }
 
     /// The image that holds the smoothed depth of the last frame.

@@ -17,6 +17,10 @@ pub enum Filter {
     Bilateral,
     /// Exact 2D bilateral.
     Bilateral2d,
+    /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
+    CurvatureFlow,
+    /// Narrow-range filter (Truong & Yuksel 2018).
+    NarrowRange,
 }
 
 impl Filter {
@@ -26,6 +30,8 @@ impl Filter {
             Filter::Gaussian => "gaussian",
             Filter::Bilateral => "bilateral",
             Filter::Bilateral2d => "bilateral2d",
+            Filter::CurvatureFlow => "curvature-flow",
+            Filter::NarrowRange => "narrow-range",
         }
     }
 }
@@ -45,6 +51,29 @@ pub struct Settings {
     pub bilateral_sigma_range: f32,
     /// How many times the (separable) filter runs.
     pub bilateral_iterations: u32,
+    /// Curvature flow: time step Δt (Moritz: 0.005).
+    pub cf_dt: f32,
+    /// Curvature flow: iteration cap it_max (Moritz: 60).
+    pub cf_it_max: u32,
+    /// Curvature flow: world radius ρ in particle radii; a pixel iterates F·ρ/d times (Moritz eq. 3.8).
+    pub cf_radius: f32,
+    /// Curvature flow: κ stabiliser near the camera, world units (Moritz: 3).
+    pub cf_kappa: f32,
+    /// Curvature flow: iterations per dispatch (2–4: shared-memory tile; 1: one untiled dispatch per iteration,
+    /// the faster on lavapipe, see README's measurements).
+    pub cf_iters_per_dispatch: u32,
+    /// Depth jump in particle radii that separates surfaces (curvature flow).
+    pub cf_edge: f32,
+    /// Narrow-range filter: world radius ρ of the kernel, in particle radii.
+    pub nrf_radius: f32,
+    /// Narrow-range filter: accepted range half-width, in particle radii (paper: 10–10.5).
+    pub nrf_threshold: f32,
+    /// Narrow-range filter: clamp offset μ behind the centre, in particle radii (paper: 1).
+    pub nrf_mu: f32,
+    /// Narrow-range filter: window radius of the final 2D pass, pixels.
+    pub nrf_2d_px: u32,
+    /// Narrow-range filter: how many times the separable + 2D passes run.
+    pub nrf_iterations: u32,
     /// Thickness resolution relative to the output (0.5 = half).
     pub thickness_scale: f32,
     /// Thickness blur radius in thickness pixels (0 = none).
@@ -90,6 +119,17 @@ impl Default for Settings {
             smooth_max_px: 24,
             bilateral_sigma_range: 2.0,
             bilateral_iterations: 2,
+            cf_dt: 0.005,
+            cf_it_max: 60,
+            cf_radius: 12.0,
+            cf_kappa: 3.0,
+            cf_iters_per_dispatch: 1,
+            cf_edge: 6.0,
+            nrf_radius: 6.0,
+            nrf_threshold: 10.0,
+            nrf_mu: 1.0,
+            nrf_2d_px: 2,
+            nrf_iterations: 1,
             thickness_scale: 0.5,
             thickness_blur_px: 3,
             normal_edge: 2.0,
@@ -119,7 +159,9 @@ impl Settings {
         match name {
             "default" => Ok(d),
             "fast" => Ok(Settings { bilateral_iterations: 1, smooth_max_px: 12, thickness_blur_px: 2, ..d }),
-            _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast)"))),
+            // Moritz 2016 (thesis values): curvature flow, Δt = 0.005, ≤ 60 iterations, κ = 3.
+            "moritz" => Ok(Settings { filter: Filter::CurvatureFlow, cf_dt: 0.005, cf_it_max: 60, cf_kappa: 3.0, ..d }),
+            _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast, moritz)"))),
         }
     }
 
@@ -147,6 +189,15 @@ impl Settings {
         }
         if self.thickness_blur_px > 16 {
             return bad("thickness_blur_px (≤ 16)");
+        }
+        if self.cf_iters_per_dispatch == 0 || self.cf_iters_per_dispatch > 4 {
+            return bad("cf_iters_per_dispatch (1 … 4)");
+        }
+        if self.cf_it_max > 1000 || self.nrf_iterations > 16 || self.nrf_2d_px > 8 {
+            return bad("cf_it_max (≤ 1000), nrf_iterations (≤ 16) or nrf_2d_px (≤ 8)");
+        }
+        if !(self.cf_dt >= 0.0 && self.cf_dt.is_finite()) {
+            return bad("cf_dt (≥ 0)");
         }
         if self.bilateral_iterations > 64 {
             return bad("bilateral_iterations (≤ 64)");

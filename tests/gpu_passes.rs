@@ -198,7 +198,7 @@ fn bilateral_separable_and_2d_match_cpu_reference() {
         let out_is_a = gpu
             .one_shot(|cmd| {
                 let mut ctx = FrameCtx::new(&gpu, cmd, None);
-                let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, &s);
+                let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, &s, 0);
                 Ok(std::ptr::eq(out, &t.smooth_a))
             })
             .unwrap();

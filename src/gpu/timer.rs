@@ -100,3 +100,34 @@ impl Drop for Timer {
         unsafe { self.gpu.device.destroy_query_pool(self.pool, None) };
     }
 }
+
+/// Per-pass medians over several frames (passes in the order of the first frame).
+pub fn median_times(runs: &[PassTimes]) -> PassTimes {
+    let Some(first) = runs.first() else { return PassTimes::default() };
+    PassTimes(
+        first
+            .0
+            .iter()
+            .map(|(name, _)| {
+                let mut v: Vec<f64> = runs.iter().filter_map(|r| r.get(name)).collect();
+                (name.clone(), crate::gpu::timer::median(&mut v))
+            })
+            .collect(),
+    )
+}
+
+/// Median of `v` (sorts it); 0 when empty.
+pub fn median(v: &mut [f64]) -> f64 {
+    percentile(v, 0.5)
+}
+
+/// Percentile `p` in [0, 1] of `v` with linear interpolation (sorts it); 0 when empty.
+pub fn percentile(v: &mut [f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let x = p.clamp(0.0, 1.0) * (v.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x.fract());
+    if i + 1 < v.len() { v[i] * (1.0 - f) + v[i + 1] * f } else { v[i] }
+}
