@@ -10,6 +10,22 @@ fn main() {
     let src = Path::new("shaders_glsl");
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
     println!("cargo:rerun-if-changed=shaders_glsl");
+    // The commit the binary was built from, for benchmark JSON ("unknown" outside a git checkout).
+    let commit = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into());
+    let dirty = std::process::Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=no"])
+        .output()
+        .ok()
+        .is_some_and(|o| !o.stdout.is_empty());
+    println!("cargo:rustc-env=MENISCUS_GIT_COMMIT={commit}{}", if dirty { "-dirty" } else { "" });
+    println!("cargo:rerun-if-changed=.git/HEAD");
+    println!("cargo:rerun-if-changed=.git/index");
     let compiler = shaderc::Compiler::new().expect("shaderc: cannot create a compiler");
     let mut entries: Vec<_> = std::fs::read_dir(src)
         .expect("shaders_glsl/ is missing")

@@ -18,7 +18,8 @@ float curvature_step(float z, float n0, float n1, float n2, float n3, float n5, 
     float H = (C * (0.5 * zx * Dx - zxx * D) + C * (0.5 * zy * Dy - zyy * D)) / (2.0 * pow(D, 1.5));
     // Stability of the explicit step: for small slopes the update is λ·Laplacian with λ = Δt·F/(2(z+κ));
     // keep λ ≤ 0.2.
-    float lambda = dt_in * F / (2.0 * zk);
-    float dt = lambda > 0.2 ? dt_in * 0.2 / lambda : dt_in;
+    // dt_in ≤ 0 asks for that largest stable step.
+    float dt_stable = 0.2 * 2.0 * zk / F;
+    float dt = dt_in > 0.0 ? min(dt_in, dt_stable) : dt_stable;
     return z - dt * H;
 }

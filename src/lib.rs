@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 #![allow(missing_docs)] // TODO: document every public item; module headers are in place.
 
+pub mod bench;
 pub mod error;
 pub mod frame;
 pub mod gpu;

@@ -30,6 +30,52 @@ enum Cmd {
     },
     /// List the built-in procedural scenes.
     Scenes,
+    /// Benchmark: scenes × resolutions, per-pass GPU medians/p95/min, memory; markdown table + JSON.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Clone)]
+struct BenchArgs {
+    /// Settings preset: default, fast, moritz (curvature flow ≤ 60 iterations, fluid ≈ ¼ of the screen,
+    /// Moritz's five scenes at 1920×1080 and 960×540 unless --scenes/--resolutions say otherwise).
+    #[arg(long, default_value = "default")]
+    preset: String,
+    /// Comma-separated workloads: wave, crown1 (38,146), crown2 (157,944), waterfall (819,417), worst (a block
+    /// filling the screen), any built-in scene as NAME or NAME:COUNT, or a particle file.
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Comma-separated WIDTHxHEIGHT list.
+    #[arg(long, value_delimiter = ',')]
+    resolutions: Vec<String>,
+    /// Frames rendered before measuring (lavapipe compiles pipelines at first use).
+    #[arg(long, default_value_t = 3)]
+    warmup: u32,
+    /// Measured frames.
+    #[arg(long, default_value_t = 10)]
+    frames: u32,
+    /// Particle radius for file workloads (default: estimated from the spacing).
+    #[arg(long)]
+    radius: Option<f32>,
+    /// Camera for file workloads, EYE:TARGET[:FOVY] (default: fitted).
+    #[arg(long)]
+    camera: Option<String>,
+    /// Also measure design variants on the first workload and resolution (same run, so ratios compare):
+    /// each smoothing filter, curvature flow 1 vs 4 iterations per dispatch.
+    #[arg(long)]
+    variants: bool,
+    /// Write the JSON report here (schema: benches/README.md).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write the markdown table here too.
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+    /// TOML settings over the preset.
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    #[arg(long)]
+    validation: bool,
+    #[arg(long)]
+    device: Option<String>,
 }
 
 #[derive(Args, Clone)]
@@ -87,6 +133,7 @@ fn main() {
     let r = match cli.cmd {
         Cmd::Render(a) => render(&a),
         Cmd::Info { file } => info(&file),
+        Cmd::Bench(b) => bench(&b),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");
@@ -239,6 +286,138 @@ fn info(file: &Path) -> Result<()> {
     match scene::estimate_spacing(&p.positions) {
         Some(sp) => println!("spacing:     {sp:.5} (median nearest neighbour) → suggested --radius {:.5}", sp * 0.5),
         None => println!("spacing:     unknown (too few distinct particles)"),
+    }
+    Ok(())
+}
+
+fn parse_resolution(r: &str) -> Result<(u32, u32)> {
+    let (w, h) = r.split_once(['x', 'X']).with_context(|| format!("bad resolution {r:?}: expected WIDTHxHEIGHT"))?;
+    let w: u32 = w.trim().parse().with_context(|| format!("bad width in {r:?}"))?;
+    let h: u32 = h.trim().parse().with_context(|| format!("bad height in {r:?}"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        bail!("resolution {r:?} out of range (1 … 16384)");
+    }
+    Ok((w, h))
+}
+
+/// A workload from its command-line name.
+fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench::Workload> {
+    use meniscus::bench::Workload;
+    let dist = if quarter { 2.0 } else { 1.0 };
+    let (scene, count, distance, label) = match name {
+        "wave" => ("wave", 143_944, dist, "wave".to_string()),
+        "crown1" => ("crown", 38_146, dist, "crown 1".to_string()),
+        "crown2" => ("crown", 157_944, dist, "crown 2".to_string()),
+        "waterfall" => ("waterfall", 819_417, dist, "waterfall".to_string()),
+        "worst" => ("block", 143_944, 0.55, "worst case (block fills the screen)".to_string()),
+        other => {
+            let (n, c) = match other.split_once(':') {
+                Some((n, c)) => (n, Some(c.parse::<usize>().with_context(|| format!("bad particle count in {other:?}"))?)),
+                None => (other, None),
+            };
+            if let Some((sn, def, _)) = procedural::SCENES.iter().find(|s| s.0 == n) {
+                (*sn, c.unwrap_or(*def), dist, n.to_string())
+            } else {
+                let (p, _, label) = load_input(other, None)?;
+                let radius = match a.radius {
+                    Some(r) => r,
+                    None => scene::estimate_radius(&p.positions).context("cannot estimate the radius; pass --radius")?,
+                };
+                let camera = a.camera.as_deref().map(Camera::parse).transpose()?;
+                let label = Path::new(&label).file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or(label);
+                return Ok(Workload { label, particles: p, radius, distance: 1.0, camera });
+            }
+        }
+    };
+    let g = procedural::generate(scene, count)?;
+    Ok(Workload { label, particles: g.particles, radius: g.radius, distance, camera: None })
+}
+
+fn bench(a: &BenchArgs) -> Result<()> {
+    let moritz = a.preset == "moritz";
+    let base = match &a.settings {
+        Some(f) => Settings::from_toml(f)?,
+        None => Settings::preset(&a.preset)?,
+    };
+    let scenes: Vec<String> = if !a.scenes.is_empty() {
+        a.scenes.clone()
+    } else if moritz {
+        ["wave", "crown1", "crown2", "waterfall", "worst"].map(String::from).to_vec()
+    } else {
+        vec!["wave".into()]
+    };
+    let resolutions: Vec<(u32, u32)> = if !a.resolutions.is_empty() {
+        a.resolutions.iter().map(|r| parse_resolution(r)).collect::<Result<_>>()?
+    } else if moritz {
+        vec![(1920, 1080), (960, 540)]
+    } else {
+        vec![(960, 540)]
+    };
+    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
+    eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
+    let mut r = Renderer::new(&gpu)?;
+    let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
+    let n_var = if a.variants { 6 } else { 0 };
+    let bar = indicatif::ProgressBar::new((scenes.len() * resolutions.len() + n_var) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("valid template"),
+    );
+    let mut entries = vec![];
+    for (k, name) in scenes.iter().enumerate() {
+        bar.set_message(format!("generating {name}"));
+        let w = workload(name, a, moritz)?;
+        for (j, &(wd, ht)) in resolutions.iter().enumerate() {
+            bar.set_message(format!("{} {}×{}", w.label, wd, ht));
+            entries.push(meniscus::bench::measure(&mut r, &w, wd, ht, &base, &a.preset, a.warmup, a.frames)?);
+            bar.inc(1);
+            if a.variants && k == 0 && j == 0 {
+                variants.clear();
+                for f in [Filter::Bilateral, Filter::NarrowRange, Filter::CurvatureFlow] {
+                    variants.push((format!("filter {}", f.name()), Settings { filter: f, ..base.clone() }));
+                }
+                for kk in [1, 4] {
+                    variants.push((
+                        format!("curvature-flow {kk} it/dispatch"),
+                        Settings { filter: Filter::CurvatureFlow, cf_iters_per_dispatch: kk, ..base.clone() },
+                    ));
+                }
+                variants.push(("no smoothing".into(), Settings { filter: Filter::None, ..base.clone() }));
+                for (label, vs) in &variants {
+                    bar.set_message(format!("variant {label}"));
+                    entries.push(meniscus::bench::measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+                    bar.inc(1);
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let table = meniscus::bench::markdown(&entries);
+    println!("{} — {} — preset {} — commit {}\n", gpu.info.name, gpu.info.driver, a.preset, meniscus::bench::git_commit());
+    println!("{table}");
+    if a.variants {
+        let find = |v: &str| entries.iter().find(|e| e.variant == v).map(|e| e.passes.iter().find(|p| p.0 == "smooth").map(|p| p.1.median).unwrap_or(0.0));
+        if let (Some(k1), Some(k4)) = (find("curvature-flow 1 it/dispatch"), find("curvature-flow 4 it/dispatch")) {
+            println!("ratio smooth (curvature flow) 4 it/dispatch vs 1 it/dispatch: {:.2}× the time", k4 / k1.max(1e-9));
+        }
+    }
+    let report = meniscus::bench::Report {
+        schema: meniscus::bench::SCHEMA,
+        device: meniscus::bench::device_info(&gpu),
+        git_commit: meniscus::bench::git_commit(),
+        preset: a.preset.clone(),
+        settings: base,
+        entries,
+    };
+    if let Some(p) = &a.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.markdown {
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
+    }
+    if gpu.validation().errors() > 0 {
+        bail!("{} Vulkan validation errors", gpu.validation().errors());
     }
     Ok(())
 }

@@ -51,7 +51,8 @@ pub struct Settings {
     pub bilateral_sigma_range: f32,
     /// How many times the (separable) filter runs.
     pub bilateral_iterations: u32,
-    /// Curvature flow: time step Δt (Moritz: 0.005).
+    /// Curvature flow: time step Δt (Moritz: 0.005); 0 = the largest stable step at each pixel
+    /// (λ = Δt·F/(2(d+κ)) = 0.2), which carries over between resolutions and scene scales.
     pub cf_dt: f32,
     /// Curvature flow: iteration cap it_max (Moritz: 60).
     pub cf_it_max: u32,
@@ -119,7 +120,7 @@ impl Default for Settings {
             smooth_max_px: 24,
             bilateral_sigma_range: 2.0,
             bilateral_iterations: 2,
-            cf_dt: 0.005,
+            cf_dt: 0.0,
             cf_it_max: 60,
             cf_radius: 12.0,
             cf_kappa: 3.0,

@@ -68,3 +68,27 @@ fn bad_flags_are_errors_not_panics() {
         assert!(err.starts_with("error:") && !err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+/// CI smoke test of the benchmark: tiny workload, valid JSON with every pass; no timing is asserted.
+#[test]
+fn tiny_bench_writes_valid_json() {
+    let d = tmpdir("bench");
+    let json = d.join("b.json");
+    let o = meniscus()
+        .args(["bench", "--scenes", "block:2000", "--resolutions", "64x64", "--warmup", "1", "--frames", "3", "--validation"])
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(v["schema"], 1);
+    assert!(v["device"]["name"].as_str().unwrap().len() > 0);
+    let e = &v["entries"][0];
+    assert_eq!(e["width"], 64);
+    assert_eq!(e["frames"], 3);
+    let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
+    assert_eq!(passes, meniscus::passes::PASS_NAMES);
+    assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
+}

@@ -310,3 +310,72 @@ fn validation_messenger_counts_errors() {
     }
     assert!(gpu.validation().errors() >= 1, "the validation layer reported nothing");
 }
+
+/// Behaviour of every filter on a bumpy tilted plane with a background border: background stays background,
+/// bumps shrink (RMS deviation from the true plane drops), a perfectly flat plane stays flat.
+#[test]
+fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
+    let gpu = gpu();
+    let (w, h) = (96usize, 64usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let f = v.camera.focal_px(h as u32) as f64;
+    let r = 0.01f32;
+    // Plane through (0,0,−3), slightly tilted; bumps of ±0.5 r with a period of ~4 px.
+    let plane = |x: usize, y: usize| {
+        let dir = pixel_dir(x, y, w, h, f);
+        let n = [0.1f64, 0.05, 1.0];
+        (n[2] * -3.0) / (n[0] * dir[0] + n[1] * dir[1] + n[2] * dir[2])
+    };
+    let make = |bumpy: bool| -> Vec<f32> {
+        let mut d = vec![f32::INFINITY; w * h];
+        for y in 8..h - 8 {
+            for x in 8..w - 8 {
+                let b = if bumpy { 0.5 * r as f64 * ((x as f64 * 1.6).sin() * (y as f64 * 1.3).cos()) } else { 0.0 };
+                d[y * w + x] = (plane(x, y) + b) as f32;
+            }
+        }
+        d
+    };
+    let rms = |d: &[f32]| {
+        let mut s = 0.0;
+        let mut n = 0;
+        for y in 12..h - 12 {
+            for x in 12..w - 12 {
+                s += (d[y * w + x] as f64 - plane(x, y)).powi(2);
+                n += 1;
+            }
+        }
+        (s / n as f64).sqrt()
+    };
+    for filter in [Filter::Gaussian, Filter::Bilateral, Filter::Bilateral2d, Filter::CurvatureFlow, Filter::NarrowRange] {
+        for bumpy in [true, false] {
+            let mut s = settings(r);
+            s.filter = filter;
+            let mut rd = Renderer::new(&gpu).unwrap();
+            rd.ensure_targets(w as u32, h as u32, &s).unwrap();
+            rd.write_uniforms(&v, &s).unwrap();
+            let src = make(bumpy);
+            let t = rd.targets.as_ref().unwrap();
+            upload_image(&gpu, &t.depth, bytemuck::cast_slice(&src)).unwrap();
+            let its = meniscus::passes::smooth::iterations_needed(&s, f as f32, 2.5);
+            let which = gpu
+                .one_shot(|cmd| {
+                    let mut ctx = FrameCtx::new(&gpu, cmd, None);
+                    let out = rd.passes.smooth.record(&mut ctx, &rd.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, &s, its);
+                    Ok(std::ptr::eq(out, &t.smooth_a))
+                })
+                .unwrap();
+            let got = read_f32(&gpu, if which { &t.smooth_a } else { &t.smooth_b }).unwrap();
+            for i in 0..w * h {
+                assert_eq!(src[i].is_infinite(), got[i].is_infinite(), "{filter:?}: coverage changed at {i}");
+            }
+            let (before, after) = (rms(&src), rms(&got));
+            if bumpy {
+                assert!(after < 0.6 * before, "{filter:?}: bumps RMS {before:.2e} → {after:.2e}");
+            } else {
+                assert!(after < 0.05 * r as f64, "{filter:?}: flat plane moved by RMS {after:.2e}");
+            }
+        }
+    }
+    assert_clean(&gpu);
+}

@@ -12,6 +12,8 @@ pub const SCENES: &[(&str, usize, &str)] = &[
     ("block", 65_536, "a dense cube of particles"),
     ("wave", 143_944, "a pool with a breaking wave crest"),
     ("drop", 100_000, "a drop falling into a pool, crown rising"),
+    ("crown", 157_944, "a crown splash: a thin rising ring around an impact crater"),
+    ("waterfall", 819_417, "a falling sheet of water over a ledge into a pool"),
 ];
 
 /// A generated scene and the radius it was generated with.
@@ -96,6 +98,38 @@ pub fn generate(name: &str, count: usize) -> Result<Generated> {
                     pool || crown || drop
                 },
                 &|x, y, z| if y > 0.7 { [0.0, -3.0, 0.0] } else { [(x - 1.0) * 2.0, 1.5 * (y > 0.25) as i32 as f32, (z - 1.0) * 2.0] },
+            ),
+            "crown" => fill(
+                [0.0, 0.0, 0.0],
+                [2.0, 1.0, 2.0],
+                s,
+                &|x, y, z| {
+                    let (dx, dz) = (x - 1.0, z - 1.0);
+                    let rr = (dx * dx + dz * dz).sqrt();
+                    let a = dz.atan2(dx);
+                    let pool = y < 0.12 && (rr > 0.25 || y < 0.12 - 0.08 * (1.0 - rr / 0.25));
+                    let top = 0.12 + 0.45 * (1.0 + 0.25 * (12.0 * a).cos());
+                    let wall = (rr - 0.3 - 0.15 * (y - 0.12)).abs() < 0.025 && y < top;
+                    // Droplets at the rim's spikes.
+                    let spike = (12.0 * a).cos() > 0.97 && (rr - 0.3 - 0.15 * (top - 0.12)).abs() < 0.03 && (y - top - 0.06).abs() < 0.03;
+                    pool || wall || spike
+                },
+                &|x, y, z| [(x - 1.0) * 1.5, 2.0 * (y > 0.12) as i32 as f32, (z - 1.0) * 1.5],
+            ),
+            "waterfall" => fill(
+                [0.0, 0.0, 0.0],
+                [3.0, 2.0, 1.5],
+                s,
+                &|x, y, _z| {
+                    let upper = x < 1.0 && y > 1.5 && y < 1.7;
+                    // The sheet leaves the ledge at x = 1 and follows a ballistic curve.
+                    let t = ((x - 1.0) / 1.2).max(0.0);
+                    let centre = 1.6 - 4.9 * t * t;
+                    let sheet = x >= 1.0 && (y - centre).abs() < 0.05 + 0.05 * t && y > 0.2;
+                    let pool = y < 0.2 && x > 0.8;
+                    upper || sheet || pool
+                },
+                &|x, y, _| if x < 1.0 && y > 1.4 { [1.2, 0.0, 0.0] } else { [1.2, -3.0, 0.0] },
             ),
             other => {
                 let known: Vec<&str> = SCENES.iter().map(|s| s.0).collect();
