@@ -3,9 +3,10 @@
 //!   c = mix(c_fluid, c_refract·(1−F), τ) + c_reflect·F + σ
 //! c_fluid = I0·exp(−η·T) (Beer–Lambert per channel); c_refract = background at the pixel offset by
 //! n.xy·min(T·α, β) (eq. 3.27 with the min fix), attenuated by exp(−η·T) as well; τ = exp(−γ·T) (eq. 3.28);
-//! F = Schlick Fresnel; c_reflect = sky in the reflected direction (or the SSR hit when bound);
+//! F = Schlick Fresnel; c_reflect = the `ssr` hit where there is one, else the sky in the reflected direction;
 //! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
-//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled). Out: rgba8, gamma 2.2.
+//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled).
+//! Out: rgba8, gamma 2.2.
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1) uniform sampler2D scene_color;
@@ -14,6 +15,7 @@ layout(set = 0, binding = 3, r32f) uniform readonly image2D fluid_depth;
 layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D normals;
 layout(set = 0, binding = 5) uniform sampler2D thickness;
 layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
+layout(set = 0, binding = 7) uniform sampler2D ssr;
 
 vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
 
@@ -50,6 +52,8 @@ void main() {
     float fres = F0 + (1.0 - F0) * pow(1.0 - ndv, 5.0);
     vec3 R = mat3(frame.inv_view) * reflect(-V, n);
     vec3 c_reflect = frame.shading2.z > 0.5 ? sky(R) : vec3(0.0);
+    vec4 hit = texture(ssr, uv);
+    c_reflect = mix(c_reflect, hit.rgb, hit.a);
 
     vec3 L = mat3(frame.view) * frame.sun.xyz;
     vec3 H = normalize(L + V);

@@ -9,7 +9,7 @@ use glam::{Mat4, Vec3};
 use crate::error::Result;
 use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
 use crate::passes::composite::CompositeInputs;
-use crate::passes::{Background, Composite, Normals, Smooth, Splat, Thickness};
+use crate::passes::{Background, Composite, Normals, Smooth, Splat, Ssr, Thickness};
 use crate::scene::{Bounds, Camera};
 use crate::settings::Settings;
 
@@ -126,6 +126,7 @@ pub struct Targets {
     pub thickness_accum: Image,
     pub thickness: Image,
     pub normals: Image,
+    pub ssr: Image,
     pub final_color: Image,
 }
 
@@ -151,6 +152,7 @@ impl Targets {
             thickness_accum: img("thickness_accum", thick, vk::Format::R32_UINT, storage, None)?,
             thickness: img("thickness", thick, vk::Format::R32_SFLOAT, storage | U::SAMPLED, None)?,
             normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
+            ssr: img("ssr", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
             final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
         })
     }
@@ -166,6 +168,7 @@ impl Targets {
             &self.thickness_accum,
             &self.thickness,
             &self.normals,
+            &self.ssr,
             &self.final_color,
         ]
         .iter()
@@ -181,6 +184,7 @@ pub struct Passes {
     pub thickness: Thickness,
     pub smooth: Smooth,
     pub normals: Normals,
+    pub ssr: Ssr,
     pub composite: Composite,
 }
 
@@ -192,6 +196,7 @@ impl Passes {
             thickness: Thickness::new(gpu)?,
             smooth: Smooth::new(gpu)?,
             normals: Normals::new(gpu)?,
+            ssr: Ssr::new(gpu)?,
             composite: Composite::new(gpu)?,
         })
     }
@@ -221,12 +226,14 @@ pub fn record_frame(
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
     let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, &t.smooth_b, s, cf_iterations);
     p.normals.record(ctx, frame, smoothed, &t.normals, s.normal_edge * s.radius);
+    p.ssr.record(ctx, frame, smoothed, &t.normals, &t.scene_depth, &t.scene_color, &t.ssr, s);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,
         scene_depth: &t.scene_depth,
         depth: smoothed,
         normals: &t.normals,
         thickness: &t.thickness,
+        ssr: &t.ssr,
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
     if std::ptr::eq(smoothed, &t.smooth_a) {

@@ -13,13 +13,13 @@ pub enum Filter {
     None,
     /// Separable Gaussian (a baseline: merges silhouettes).
     Gaussian,
-    /// Separable bilateral (default).
+    /// Separable bilateral.
     Bilateral,
     /// Exact 2D bilateral.
     Bilateral2d,
     /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
     CurvatureFlow,
-    /// Narrow-range filter (Truong & Yuksel 2018).
+    /// Narrow-range filter (Truong & Yuksel 2018); the default: smoothest surface at bilateral cost.
     NarrowRange,
 }
 
@@ -105,6 +105,18 @@ pub struct Settings {
     pub sun_intensity: f32,
     /// Reflect the sky.
     pub reflect_sky: bool,
+    /// Screen-space reflections of the scene (McGuire & Mara DDA).
+    pub ssr: bool,
+    /// SSR: pixels per step.
+    pub ssr_stride: f32,
+    /// SSR: most steps.
+    pub ssr_max_steps: u32,
+    /// SSR: binary refinement iterations after a hit.
+    pub ssr_refine: u32,
+    /// SSR: longest reflected ray, in particle radii.
+    pub ssr_max_distance: f32,
+    /// SSR: depth tolerance of a hit, in particle radii.
+    pub ssr_thickness: f32,
     /// Put a few boxes beside the fluid.
     pub scene_boxes: bool,
     /// Draw the ground plane.
@@ -115,7 +127,7 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             radius: 0.0,
-            filter: Filter::Bilateral,
+            filter: Filter::NarrowRange,
             smooth_radius: 4.0,
             smooth_max_px: 24,
             bilateral_sigma_range: 2.0,
@@ -147,6 +159,12 @@ impl Default for Settings {
             sun_dir: [0.45, 0.8, 0.35],
             sun_intensity: 1.0,
             reflect_sky: true,
+            ssr: true,
+            ssr_stride: 8.0,
+            ssr_max_steps: 100,
+            ssr_refine: 4,
+            ssr_max_distance: 400.0,
+            ssr_thickness: 40.0,
             scene_boxes: true,
             ground: true,
         }

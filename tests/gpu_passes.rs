@@ -379,3 +379,133 @@ fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
     }
     assert_clean(&gpu);
 }
+
+/// SSR against a CPU ray tracer: a flat mirror of fluid at y = 0 and a box standing behind it. Where the CPU
+/// says the reflected ray hits the box's visible front face, the GPU's hit pixel is within 2 px of the
+/// projection of the CPU hit point; where the CPU ray hits nothing, the GPU reports no hit.
+#[test]
+fn ssr_hits_match_cpu_ray_tracer() {
+    use glam::{Vec3, Vec4Swizzles};
+    let gpu = gpu();
+    let (w, h) = (128usize, 96usize);
+    let mut v = view([0.0, 1.0, 4.0], [0.0, 0.3, 0.0], w as u32, h as u32, 45.0);
+    let (bmin, bmax) = (Vec3::new(-0.8, 0.0, -1.5), Vec3::new(0.8, 1.0, -1.0));
+    v.env.boxes = vec![(bmin, bmax)];
+    let mut s = settings(0.01);
+    s.ssr_stride = 2.0;
+    s.ssr_max_steps = 400;
+    s.ssr_refine = 4;
+    s.ssr_max_distance = 800.0;
+    s.ssr_thickness = 5.0;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.passes.ssr.debug_coords = true;
+    r.ensure_targets(w as u32, h as u32, &s).unwrap();
+    r.write_uniforms(&v, &s).unwrap();
+    let view_m = v.camera.view();
+    let inv = view_m.inverse();
+    let f = v.camera.focal_px(h as u32) as f64;
+    // Fluid: the plane y = 0 in front of the box (z > −1), as linear depth.
+    let mut depth = vec![f32::INFINITY; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let d = pixel_dir(x, y, w, h, f);
+            let dw = inv.transform_vector3(Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
+            if dw.y < 0.0 {
+                let t = -v.camera.eye.y / dw.y;
+                let p = v.camera.eye + dw * t;
+                if p.z > -0.9 && p.x.abs() < 3.0 {
+                    depth[y * w + x] = t;
+                }
+            }
+        }
+    }
+    let t = r.targets.as_ref().unwrap();
+    upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(&gpu, cmd, None);
+        r.passes.background.record(&mut ctx, &r.uniforms, &t.scene_color, &t.scene_depth);
+        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
+        r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.scene_color, &t.ssr, &s);
+        Ok(())
+    })
+    .unwrap();
+    let raw = read_image(&gpu, &t.ssr).unwrap();
+    let half: Vec<HalfF16> = raw.chunks_exact(2).map(|c| HalfF16(u16::from_le_bytes([c[0], c[1]]))).collect();
+    let (mut checked, mut misses, mut bad) = (0, 0, vec![]);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            if !depth[i].is_finite() {
+                continue;
+            }
+            let d = pixel_dir(x, y, w, h, f);
+            let dw = inv.transform_vector3(Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
+            let p = v.camera.eye + dw * depth[i];
+            let rd = Vec3::new(dw.x, -dw.y, dw.z).normalize();
+            // Ray against the box's front face z = bmax.z (the only face visible from the camera).
+            let (gx, gy, ga) = (half[4 * i].to_f32(), half[4 * i + 1].to_f32(), half[4 * i + 3].to_f32());
+            let hit = if rd.z < 0.0 {
+                let tt = (bmax.z - p.z) / rd.z;
+                let q = p + rd * tt;
+                (q.x > bmin.x && q.x < bmax.x && q.y > bmin.y && q.y < bmax.y).then_some(q)
+            } else {
+                None
+            };
+            match hit {
+                Some(q) => {
+                    let qv = (view_m * q.extend(1.0)).xyz();
+                    let dq = -qv.z as f64;
+                    let px = 0.5 * w as f64 + f * qv.x as f64 / dq - 0.5;
+                    let py = 0.5 * h as f64 - f * qv.y as f64 / dq - 0.5;
+                    // Skip grazing cases near the box's outline, where one pixel decides.
+                    let inner = q.x.abs() < 0.75 && q.y > 0.05 && q.y < 0.95;
+                    if inner && ga > 0.5 {
+                        checked += 1;
+                        let e = ((gx as f64 - px).powi(2) + (gy as f64 - py).powi(2)).sqrt();
+                        if e > 2.0 {
+                            bad.push((x, y, e));
+                        }
+                    } else if inner {
+                        misses += 1;
+                    }
+                }
+                None => {
+                    if rd.y > 0.05 && rd.z > -0.2 {
+                        assert!(ga == 0.0, "pixel ({x},{y}): reflected ray escapes but SSR reports a hit");
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 200, "only {checked} pixels see the box in the mirror");
+    assert!(misses * 50 < checked, "{misses} box reflections missed of {checked}");
+    assert!(bad.len() * 100 < checked, "{} of {checked} hits off by > 2 px, e.g. {:?}", bad.len(), &bad[..bad.len().min(5)]);
+    assert_clean(&gpu);
+}
+
+/// IEEE half → f32 (the SSR image is rgba16f).
+#[derive(Clone, Copy)]
+struct HalfF16(u16);
+impl HalfF16 {
+    fn to_f32(self) -> f32 {
+        let h = self.0 as u32;
+        let sign = (h >> 15) << 31;
+        let exp = (h >> 10) & 0x1f;
+        let man = h & 0x3ff;
+        let bits = match exp {
+            0 if man == 0 => sign,
+            0 => {
+                let mut e = 127 - 15 + 1;
+                let mut m = man;
+                while m & 0x400 == 0 {
+                    m <<= 1;
+                    e -= 1;
+                }
+                sign | ((e as u32) << 23) | ((m & 0x3ff) << 13)
+            }
+            31 => sign | 0x7f80_0000 | (man << 13),
+            _ => sign | ((exp + 127 - 15) << 23) | (man << 13),
+        };
+        f32::from_bits(bits)
+    }
+}

@@ -20,11 +20,12 @@ pub struct CompositeInputs<'a> {
     pub depth: &'a Image,
     pub normals: &'a Image,
     pub thickness: &'a Image,
+    pub ssr: &'a Image,
 }
 
 impl Composite {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG], 0)? })
+        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, TEX], 0)? })
     }
 
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {
@@ -36,6 +37,7 @@ impl Composite {
             Use::read(i.normals),
             Use::sampled(i.thickness),
             Use::overwrite(out),
+            Use::sampled(i.ssr),
         ];
         ctx.pass(NAME, &uses, |ctx| {
             let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
@@ -49,6 +51,7 @@ impl Composite {
                     Bind::Storage(i.normals),
                     Bind::Linear(i.thickness),
                     Bind::Storage(out),
+                    Bind::Nearest(i.ssr),
                 ],
                 &[],
                 g,

@@ -6,6 +6,7 @@ pub mod composite;
 pub mod normals;
 pub mod smooth;
 pub mod splat;
+pub mod ssr;
 pub mod thickness;
 
 pub use background::Background;
@@ -13,6 +14,7 @@ pub use composite::Composite;
 pub use normals::Normals;
 pub use smooth::Smooth;
 pub use splat::Splat;
+pub use ssr::Ssr;
 pub use thickness::Thickness;
 
 /// Every pass name, in frame order (timestamp keys, JSON keys, `--timings` rows).
@@ -22,6 +24,7 @@ pub const PASS_NAMES: &[&str] = &[
     thickness::NAME,
     smooth::NAME,
     normals::NAME,
+    ssr::NAME,
     composite::NAME,
 ];
 
