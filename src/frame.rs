@@ -9,7 +9,7 @@ use glam::{Mat4, Vec3};
 use crate::error::Result;
 use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
 use crate::passes::composite::CompositeInputs;
-use crate::passes::{Background, Composite, Normals, Smooth, Splat, Ssr, Thickness};
+use crate::passes::{Background, Composite, Normals, Smooth, Splat, Ssr, Thickness, Upsample};
 use crate::scene::{Bounds, Camera};
 use crate::settings::Settings;
 
@@ -94,7 +94,7 @@ impl FrameUniforms {
             eye: v.camera.eye.extend(1.0).to_array(),
             proj: [v.camera.focal_px(v.height), v.width as f32, v.height as f32, v.camera.near],
             // Thickness fixed point: 1024 units per particle radius.
-            fluid: [s.radius, 1.0, 1024.0 / s.radius, count as f32],
+            fluid: [s.radius, s.fluid_scale, 1024.0 / s.radius, count as f32],
             sun: sun.extend(s.sun_intensity).to_array(),
             ground: [v.env.ground_y, v.env.tile, v.env.ground as u32 as f32, v.env.fog],
             extinction: ext.extend(0.0).to_array(),
@@ -123,6 +123,8 @@ pub struct Targets {
     pub depth: Image,
     pub smooth_a: Image,
     pub smooth_b: Image,
+    /// Full-resolution depth upsampled from the fluid resolution (unused at fluid scale 1).
+    pub depth_full: Image,
     pub thickness_accum: Image,
     pub thickness: Image,
     pub normals: Image,
@@ -140,15 +142,18 @@ impl Targets {
             height: ((height as f32 * ts).round() as u32).max(1),
         };
         let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
+        let fluid = fluid_extent(width, height, s.fluid_scale);
+        let upsampled = if fluid == full { vk::Extent2D { width: 1, height: 1 } } else { full };
         let img = |name, ext, fmt, usage, alt| Image::new(gpu, name, ext, fmt, usage, alt);
         Ok(Targets {
             width,
             height,
             scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
             scene_depth: img("scene_depth", full, vk::Format::R32_SFLOAT, storage, None)?,
-            depth: img("depth", full, vk::Format::R32_SFLOAT, storage, Some(vk::Format::R32_UINT))?,
-            smooth_a: img("smooth_a", full, vk::Format::R32_SFLOAT, storage, None)?,
-            smooth_b: img("smooth_b", full, vk::Format::R32_SFLOAT, storage, None)?,
+            depth: img("depth", fluid, vk::Format::R32_SFLOAT, storage, Some(vk::Format::R32_UINT))?,
+            smooth_a: img("smooth_a", fluid, vk::Format::R32_SFLOAT, storage, None)?,
+            smooth_b: img("smooth_b", fluid, vk::Format::R32_SFLOAT, storage, None)?,
+            depth_full: img("depth_full", upsampled, vk::Format::R32_SFLOAT, storage, None)?,
             thickness_accum: img("thickness_accum", thick, vk::Format::R32_UINT, storage, None)?,
             thickness: img("thickness", thick, vk::Format::R32_SFLOAT, storage | U::SAMPLED, None)?,
             normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
@@ -165,6 +170,7 @@ impl Targets {
             &self.depth,
             &self.smooth_a,
             &self.smooth_b,
+            &self.depth_full,
             &self.thickness_accum,
             &self.thickness,
             &self.normals,
@@ -186,6 +192,7 @@ pub struct Passes {
     pub normals: Normals,
     pub ssr: Ssr,
     pub composite: Composite,
+    pub upsample: Upsample,
 }
 
 impl Passes {
@@ -197,9 +204,16 @@ impl Passes {
             smooth: Smooth::new(gpu)?,
             normals: Normals::new(gpu)?,
             ssr: Ssr::new(gpu)?,
+            upsample: Upsample::new(gpu)?,
             composite: Composite::new(gpu)?,
         })
     }
+}
+
+/// Size of the fluid images at `scale` of `width`×`height` (at least 1×1).
+pub fn fluid_extent(width: u32, height: u32, scale: f32) -> vk::Extent2D {
+    let s = scale.clamp(0.05, 1.0);
+    vk::Extent2D { width: ((width as f32 * s).round() as u32).max(1), height: ((height as f32 * s).round() as u32).max(1) }
 }
 
 /// Which image holds the smoothed depth after a frame.
@@ -225,12 +239,18 @@ pub fn record_frame(
     p.splat.record(ctx, frame, particles, count, &t.depth);
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
     let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, &t.smooth_b, s, cf_iterations);
-    p.normals.record(ctx, frame, smoothed, &t.normals, s.normal_edge * s.radius);
-    p.ssr.record(ctx, frame, smoothed, &t.normals, &t.scene_depth, &t.scene_color, &t.ssr, s);
+    let surface = if smoothed.extent == t.normals.extent {
+        smoothed
+    } else {
+        p.upsample.record(ctx, frame, smoothed, &t.depth_full, s.normal_edge * s.radius);
+        &t.depth_full
+    };
+    p.normals.record(ctx, frame, surface, &t.normals, s.normal_edge * s.radius);
+    p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.scene_color, &t.ssr, s);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,
         scene_depth: &t.scene_depth,
-        depth: smoothed,
+        depth: surface,
         normals: &t.normals,
         thickness: &t.thickness,
         ssr: &t.ssr,

@@ -102,9 +102,12 @@ struct RenderArgs {
     /// Depth smoothing filter.
     #[arg(long, value_enum)]
     filter: Option<Filter>,
-    /// Settings preset: default, fast.
+    /// Settings preset: default, fast, moritz.
     #[arg(long, default_value = "default")]
     preset: String,
+    /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
+    #[arg(long)]
+    fluid_scale: Option<f32>,
     /// TOML file of settings applied over the preset's (see README).
     #[arg(long)]
     settings: Option<PathBuf>,
@@ -117,7 +120,8 @@ struct RenderArgs {
     /// With --timings: frames timed; the table shows per-pass medians.
     #[arg(long, default_value_t = 5)]
     frames: u32,
-    /// Write buffers next to the PNG as OUT.NAME.npy (float32): depth, smoothed, thickness; normals as .npy (H,W,3).
+    /// Write buffers next to the PNG: depth, smoothed, thickness as OUT.NAME.npy (float32, H×W, +inf = none),
+    /// normals as OUT.normals.npy (H×W×3, view space) and OUT.normals.png, ssr as OUT.ssr.png, final = the PNG.
     #[arg(long, value_delimiter = ',')]
     dump: Vec<String>,
     /// Enable the Vulkan validation layer with synchronization validation (also MENISCUS_VALIDATION=1).
@@ -173,6 +177,9 @@ fn render(a: &RenderArgs) -> Result<()> {
     if let Some(f) = a.filter {
         s.filter = f;
     }
+    if let Some(fs) = a.fluid_scale {
+        s.fluid_scale = fs;
+    }
     s.radius = match a.radius.or(scene_radius) {
         Some(r) => r,
         None => {
@@ -190,8 +197,8 @@ fn render(a: &RenderArgs) -> Result<()> {
     };
     let view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
     for d in &a.dump {
-        if !["depth", "smoothed", "thickness", "normals", "final"].contains(&d.as_str()) {
-            bail!("--dump {d:?}: expected some of depth, smoothed, thickness, normals, final");
+        if !["depth", "smoothed", "thickness", "normals", "ssr", "final"].contains(&d.as_str()) {
+            bail!("--dump {d:?}: expected some of depth, smoothed, thickness, normals, ssr, final");
         }
     }
 
@@ -263,6 +270,31 @@ fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
                 }
                 let p = path(d, "npy");
                 meniscus::output::write_npy(&p, &[view.height as usize, view.width as usize, 3], &data)?;
+                eprintln!("wrote {}", p.display());
+                let png = image::RgbaImage::from_fn(view.width, view.height, |x, y| {
+                    let i = 3 * (y * view.width + x) as usize;
+                    let c = |k: usize| ((data[i + k] * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
+                    if data[i..i + 3] == [0.0; 3] { image::Rgba([0, 0, 0, 255]) } else { image::Rgba([c(0), c(1), c(2), 255]) }
+                });
+                let p = path(d, "png");
+                meniscus::output::write_png(&p, &png)?;
+                eprintln!("wrote {}", p.display());
+            }
+            "ssr" => {
+                // rgba16f → PNG: the reflected scene colour where SSR hit, black elsewhere.
+                let raw = meniscus::renderer::read_image(&r.gpu, &t.ssr)?;
+                let halves: Vec<u16> = bytemuck::pod_collect_to_vec(&raw);
+                let png = image::RgbaImage::from_fn(view.width, view.height, |x, y| {
+                    let i = 4 * (y * view.width + x) as usize;
+                    let a = meniscus::output::f16_to_f32(halves[i + 3]);
+                    let c = |k: usize| {
+                        let v = meniscus::output::f16_to_f32(halves[i + k]) * a;
+                        (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8
+                    };
+                    image::Rgba([c(0), c(1), c(2), 255])
+                });
+                let p = path(d, "png");
+                meniscus::output::write_png(&p, &png)?;
                 eprintln!("wrote {}", p.display());
             }
             _ => {} // "final" is the PNG itself

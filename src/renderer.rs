@@ -95,12 +95,11 @@ impl Renderer {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(Error::Invalid(format!("image size {width}×{height} is out of range (1 … 16384)")));
         }
-        let ts = s.thickness_scale.clamp(0.05, 1.0);
-        let want_thick = ((width as f32 * ts).round() as u32).max(1);
-        let ok = self
-            .targets
-            .as_ref()
-            .is_some_and(|t| t.width == width && t.height == height && t.thickness.extent.width == want_thick);
+        let want_thick = crate::frame::fluid_extent(width, height, s.thickness_scale);
+        let want_fluid = crate::frame::fluid_extent(width, height, s.fluid_scale);
+        let ok = self.targets.as_ref().is_some_and(|t| {
+            t.width == width && t.height == height && t.thickness.extent == want_thick && t.depth.extent == want_fluid
+        });
         if !ok {
             self.targets = None;
             self.targets = Some(Targets::new(&self.gpu, width, height, s)?);

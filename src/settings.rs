@@ -75,6 +75,9 @@ pub struct Settings {
     pub nrf_2d_px: u32,
     /// Narrow-range filter: how many times the separable + 2D passes run.
     pub nrf_iterations: u32,
+    /// Fluid resolution (splat, smooth) relative to the output: 1, 0.5 (half) or 0.25 (quarter); upsampled
+    /// to full resolution by the `upsample` pass.
+    pub fluid_scale: f32,
     /// Thickness resolution relative to the output (0.5 = half).
     pub thickness_scale: f32,
     /// Thickness blur radius in thickness pixels (0 = none).
@@ -143,6 +146,7 @@ impl Default for Settings {
             nrf_mu: 1.0,
             nrf_2d_px: 2,
             nrf_iterations: 1,
+            fluid_scale: 1.0,
             thickness_scale: 0.5,
             thickness_blur_px: 3,
             normal_edge: 2.0,
@@ -199,6 +203,9 @@ impl Settings {
         let bad = |what: &str| Err(Error::Invalid(format!("setting {what} is out of range")));
         if !(self.radius.is_finite() && self.radius > 0.0) {
             return bad("radius (must be > 0)");
+        }
+        if !(self.fluid_scale > 0.0 && self.fluid_scale <= 1.0) {
+            return bad("fluid_scale (0 < s ≤ 1)");
         }
         if !(self.thickness_scale > 0.0 && self.thickness_scale <= 1.0) {
             return bad("thickness_scale (0 < s ≤ 1)");

@@ -18,17 +18,33 @@ fn render_builtin_scene_writes_png_and_timings() {
     let out = d.join("f.png");
     let o = meniscus()
         .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--validation"])
+        .args(["--dump", "depth,smoothed,thickness,normals,ssr"])
         .arg("--out")
         .arg(&out)
         .output()
         .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for pass in meniscus::passes::PASS_NAMES {
+    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| **p != "upsample") {
         assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
     }
     let img = image::open(&out).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));
+    for dump in ["f.depth.npy", "f.smoothed.npy", "f.thickness.npy", "f.normals.npy", "f.ssr.png"] {
+        let bytes = std::fs::read(d.join(dump)).unwrap_or_else(|e| panic!("{dump}: {e}"));
+        if dump.ends_with(".npy") {
+            assert!(bytes.starts_with(b"\x93NUMPY"), "{dump} is not .npy");
+        }
+    }
+    // Reduced resolution runs the upsample pass.
+    let o = meniscus()
+        .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--fluid-scale", "0.5"])
+        .arg("--out")
+        .arg(d.join("half.png"))
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("| upsample |"));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!stderr.contains("[vulkan"), "validation messages: {stderr}");
 }
@@ -88,7 +104,8 @@ fn tiny_bench_writes_valid_json() {
     assert_eq!(e["width"], 64);
     assert_eq!(e["frames"], 3);
     let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
-    assert_eq!(passes, meniscus::passes::PASS_NAMES);
+    let want: Vec<&str> = meniscus::passes::PASS_NAMES.iter().copied().filter(|p| *p != "upsample").collect();
+    assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
 }

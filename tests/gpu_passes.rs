@@ -430,7 +430,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
     })
     .unwrap();
     let raw = read_image(&gpu, &t.ssr).unwrap();
-    let half: Vec<HalfF16> = raw.chunks_exact(2).map(|c| HalfF16(u16::from_le_bytes([c[0], c[1]]))).collect();
+    let half: Vec<f32> = raw.chunks_exact(2).map(|c| meniscus::output::f16_to_f32(u16::from_le_bytes([c[0], c[1]]))).collect();
     let (mut checked, mut misses, mut bad) = (0, 0, vec![]);
     for y in 0..h {
         for x in 0..w {
@@ -443,7 +443,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
             let p = v.camera.eye + dw * depth[i];
             let rd = Vec3::new(dw.x, -dw.y, dw.z).normalize();
             // Ray against the box's front face z = bmax.z (the only face visible from the camera).
-            let (gx, gy, ga) = (half[4 * i].to_f32(), half[4 * i + 1].to_f32(), half[4 * i + 3].to_f32());
+            let (gx, gy, ga) = (half[4 * i], half[4 * i + 1], half[4 * i + 3]);
             let hit = if rd.z < 0.0 {
                 let tt = (bmax.z - p.z) / rd.z;
                 let q = p + rd * tt;
@@ -483,29 +483,62 @@ fn ssr_hits_match_cpu_ray_tracer() {
     assert_clean(&gpu);
 }
 
-/// IEEE half → f32 (the SSR image is rgba16f).
-#[derive(Clone, Copy)]
-struct HalfF16(u16);
-impl HalfF16 {
-    fn to_f32(self) -> f32 {
-        let h = self.0 as u32;
-        let sign = (h >> 15) << 31;
-        let exp = (h >> 10) & 0x1f;
-        let man = h & 0x3ff;
-        let bits = match exp {
-            0 if man == 0 => sign,
-            0 => {
-                let mut e = 127 - 15 + 1;
-                let mut m = man;
-                while m & 0x400 == 0 {
-                    m <<= 1;
-                    e -= 1;
-                }
-                sign | ((e as u32) << 23) | ((m & 0x3ff) << 13)
+
+/// Upsampling never invents a depth between two separated surfaces, keeps background as background, and
+/// interpolates inside a surface.
+#[test]
+fn upsample_never_lands_between_surfaces() {
+    let gpu = gpu();
+    let (w, h) = (64usize, 48usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let mut s = settings(0.01);
+    s.fluid_scale = 0.5;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.ensure_targets(w as u32, h as u32, &s).unwrap();
+    r.write_uniforms(&v, &s).unwrap();
+    let t = r.targets.as_ref().unwrap();
+    let (lw, lh) = (t.depth.extent.width as usize, t.depth.extent.height as usize);
+    assert_eq!((lw, lh), (32, 24));
+    // Left: a near surface sloping from 2.0; right: a far one at 3.0; a background band at the top.
+    let low: Vec<f32> = (0..lw * lh)
+        .map(|i| {
+            let (x, y) = (i % lw, i / lw);
+            if y < 4 {
+                f32::INFINITY
+            } else if x < 13 {
+                2.0 + 0.002 * x as f32
+            } else {
+                3.0
             }
-            31 => sign | 0x7f80_0000 | (man << 13),
-            _ => sign | ((exp + 127 - 15) << 23) | (man << 13),
-        };
-        f32::from_bits(bits)
+        })
+        .collect();
+    upload_image(&gpu, &t.depth, bytemuck::cast_slice(&low)).unwrap();
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(&gpu, cmd, None);
+        r.passes.upsample.record(&mut ctx, &r.uniforms, &t.depth, &t.depth_full, 0.05);
+        Ok(())
+    })
+    .unwrap();
+    let full = read_f32(&gpu, &t.depth_full).unwrap();
+    let mut interpolated = 0;
+    for (i, d) in full.iter().enumerate() {
+        let (x, y) = (i % w, i / w);
+        if y < 7 {
+            assert!(d.is_infinite(), "background pixel ({x},{y}) got fluid {d}");
+            continue;
+        }
+        if y > 9 {
+            assert!(d.is_finite(), "fluid pixel ({x},{y}) lost");
+        }
+        if d.is_finite() {
+            let near = (2.0..=2.03).contains(d);
+            assert!(near || *d == 3.0, "pixel ({x},{y}) has depth {d}, between the surfaces");
+            // Bilinear samples fall between the low-resolution values 2 + 0.002·k.
+            if near && ((d - 2.0) / 0.002 - ((d - 2.0) / 0.002).round()).abs() > 0.05 {
+                interpolated += 1;
+            }
+        }
     }
+    assert!(interpolated > 50, "inside the near surface the depth should be interpolated ({interpolated})");
+    assert_clean(&gpu);
 }

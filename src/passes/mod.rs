@@ -8,6 +8,7 @@ pub mod smooth;
 pub mod splat;
 pub mod ssr;
 pub mod thickness;
+pub mod upsample;
 
 pub use background::Background;
 pub use composite::Composite;
@@ -16,8 +17,10 @@ pub use smooth::Smooth;
 pub use splat::Splat;
 pub use ssr::Ssr;
 pub use thickness::Thickness;
+pub use upsample::Upsample;
 
-/// Every pass name, in frame order (timestamp keys, JSON keys, `--timings` rows).
+/// Every pass name (timestamp keys, JSON keys, `--timings` rows); `upsample` runs between `smooth` and
+/// `normals`, only when the fluid is rendered at reduced resolution.
 pub const PASS_NAMES: &[&str] = &[
     background::NAME,
     splat::NAME,
@@ -26,6 +29,7 @@ pub const PASS_NAMES: &[&str] = &[
     normals::NAME,
     ssr::NAME,
     composite::NAME,
+    upsample::NAME,
 ];
 
 /// 8×8 work groups for image passes.
