@@ -542,3 +542,159 @@ fn upsample_never_lands_between_surfaces() {
     assert!(interpolated > 50, "inside the near surface the depth should be interpolated ({interpolated})");
     assert_clean(&gpu);
 }
+
+/// CPU reference of smooth_narrow.comp (one dispatch).
+#[allow(clippy::too_many_arguments)]
+fn narrow_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32, thr: f32, mu: f32, max_px: i32, r2d: i32) -> Vec<f32> {
+    let at = |x: i32, y: i32| if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 { f32::INFINITY } else { src[y as usize * w + x as usize] };
+    let mut out = src.to_vec();
+    for y in 0..h as i32 {
+        for x in 0..w as i32 {
+            let d = at(x, y);
+            if !(d < 1e30) {
+                continue;
+            }
+            let rpx = (rho * f / d).clamp(1.0, max_px as f32);
+            let sigma = (rpx * 0.5).max(0.5);
+            let k = 1.0 / (2.0 * sigma * sigma);
+            let (mut sum, mut ws) = (d, 1.0f32);
+            let (mut lo, mut hi) = (d - thr, d + thr);
+            let judge = |z: &mut f32, lo: &mut f32, hi: &mut f32| -> bool {
+                if *z < *lo {
+                    return false;
+                }
+                if *z > *hi {
+                    *z = d + mu;
+                } else {
+                    *lo = lo.min(*z - thr);
+                    *hi = hi.max(*z + thr);
+                }
+                true
+            };
+            let mut pair = |i: i32, j: i32, dist2: f32, lo: &mut f32, hi: &mut f32| {
+                let (mut za, mut zb) = if dir != (0, 0) { (at(x - i, y - j), at(x + i, y + j)) } else { (at(x + i, y + j), at(x - i, y - j)) };
+                let ka = judge(&mut za, lo, hi);
+                let kb = judge(&mut zb, lo, hi);
+                if ka && kb {
+                    let wt = (-dist2 * k).exp();
+                    sum += wt * (za + zb);
+                    ws += 2.0 * wt;
+                }
+            };
+            if dir != (0, 0) {
+                for i in 1..=rpx.ceil() as i32 {
+                    pair(i * dir.0, i * dir.1, (i * i) as f32, &mut lo, &mut hi);
+                }
+            } else {
+                let rr = r2d.min(rpx.ceil() as i32);
+                for ring in 1..=rr {
+                    for j in -ring..=ring {
+                        for i in -ring..=ring {
+                            if i.abs().max(j.abs()) != ring || j < 0 || (j == 0 && i < 0) {
+                                continue;
+                            }
+                            pair(i, j, (i * i + j * j) as f32, &mut lo, &mut hi);
+                        }
+                    }
+                }
+            }
+            out[y as usize * w + x as usize] = sum / ws;
+        }
+    }
+    out
+}
+
+/// CPU reference of one curvature-flow iteration (curvature.glsl, untiled).
+fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscus::settings::Settings) -> Vec<f32> {
+    let edge = s.cf_edge * s.radius;
+    let at = |x: i32, y: i32, z: f32| {
+        if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 {
+            return z;
+        }
+        let v = src[y as usize * w + x as usize];
+        if v < 1e30 && (v - z).abs() < edge { v } else { z }
+    };
+    let mut out = src.to_vec();
+    for y in 0..h as i32 {
+        for x in 0..w as i32 {
+            let z = src[y as usize * w + x as usize];
+            let its = (s.cf_it_max as i32).min((f * s.cf_radius * s.radius / z.max(1e-6)) as i32);
+            if !(z < 1e30) || iter >= its {
+                continue;
+            }
+            let n = |dx: i32, dy: i32| at(x + dx, y + dy, z);
+            let (zx, zy) = (0.5 * (n(1, 0) - n(-1, 0)), 0.5 * (n(0, 1) - n(0, -1)));
+            let zxx = n(1, 0) - 2.0 * z + n(-1, 0);
+            let zyy = n(0, 1) - 2.0 * z + n(0, -1);
+            let zxy = 0.25 * (n(1, 1) - n(-1, 1) - n(1, -1) + n(-1, -1));
+            let c = 1.0 / f;
+            let zk = z + s.cf_kappa;
+            let c2 = c * c;
+            let dd = c2 * zx * zx + c2 * zy * zy + c2 * c2 * zk * zk;
+            let dx = 2.0 * c2 * zx * zxx + 2.0 * c2 * zy * zxy + 2.0 * c2 * c2 * zk * zx;
+            let dy = 2.0 * c2 * zx * zxy + 2.0 * c2 * zy * zyy + 2.0 * c2 * c2 * zk * zy;
+            let hh = (c * (0.5 * zx * dx - zxx * dd) + c * (0.5 * zy * dy - zyy * dd)) / (2.0 * dd.powf(1.5));
+            let stable = 0.2 * 2.0 * zk / f;
+            let dt = if s.cf_dt > 0.0 { s.cf_dt.min(stable) } else { stable };
+            out[y as usize * w + x as usize] = z - dt * hh;
+        }
+    }
+    out
+}
+
+/// Narrow-range and curvature flow (1 and 4 iterations per dispatch) against their CPU references.
+#[test]
+fn narrow_range_and_curvature_flow_match_cpu_references() {
+    let gpu = gpu();
+    let (w, h) = (64usize, 48usize);
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let f = v.camera.focal_px(h as u32);
+    let src = bumpy_depth(w, h);
+    let run = |s: &meniscus::settings::Settings, its: u32| -> Vec<f32> {
+        let mut r = Renderer::new(&gpu).unwrap();
+        r.ensure_targets(w as u32, h as u32, s).unwrap();
+        r.write_uniforms(&v, s).unwrap();
+        let t = r.targets.as_ref().unwrap();
+        upload_image(&gpu, &t.depth, bytemuck::cast_slice(&src)).unwrap();
+        let a = gpu
+            .one_shot(|cmd| {
+                let mut ctx = FrameCtx::new(&gpu, cmd, None);
+                let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, s, its);
+                Ok(std::ptr::eq(out, &t.smooth_a))
+            })
+            .unwrap();
+        read_f32(&gpu, if a { &t.smooth_a } else { &t.smooth_b }).unwrap()
+    };
+    let close = |got: &[f32], want: &[f32], what: &str, tol: f32| {
+        for i in 0..got.len() {
+            if want[i].is_infinite() {
+                assert!(got[i].is_infinite(), "{what}: pixel {i} background changed");
+            } else {
+                assert!((got[i] - want[i]).abs() < tol, "{what}: pixel {i}: gpu {} cpu {}", got[i], want[i]);
+            }
+        }
+    };
+    // Narrow range: two separable passes then one 2D pass.
+    let mut s = settings(0.05);
+    s.filter = Filter::NarrowRange;
+    let (rho, thr, mu) = (s.nrf_radius * s.radius, s.nrf_threshold * s.radius, s.nrf_mu * s.radius);
+    let mp = s.smooth_max_px as i32;
+    let a = narrow_cpu(&src, w, h, f, (1, 0), rho, thr, mu, mp, 0);
+    let b = narrow_cpu(&a, w, h, f, (0, 1), rho, thr, mu, mp, 0);
+    let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.nrf_2d_px as i32);
+    close(&run(&s, 0), &want, "narrow-range", 1e-4);
+    // Curvature flow: 8 iterations, CPU vs GPU untiled vs GPU tiled (4 per dispatch).
+    let mut s = settings(0.05);
+    s.filter = Filter::CurvatureFlow;
+    s.cf_it_max = 8;
+    s.cf_radius = 40.0;
+    let mut want = src.clone();
+    for it in 0..8 {
+        want = curvature_cpu(&want, w, h, f, it, &s);
+    }
+    s.cf_iters_per_dispatch = 1;
+    close(&run(&s, 8), &want, "curvature flow, 1 it/dispatch", 2e-4);
+    s.cf_iters_per_dispatch = 4;
+    close(&run(&s, 8), &want, "curvature flow, 4 it/dispatch", 2e-4);
+    assert_clean(&gpu);
+}
