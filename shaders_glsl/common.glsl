@@ -29,6 +29,9 @@ layout(std140, set = 0, binding = 0) uniform Frame {
 
 bool is_fluid(float d) { return d < 1e30; }
 
+/// `ssr` output where the reflected ray hits nothing on screen.
+#define SSR_MISS 0xffffffffu
+
 /// View-space ray direction through pixel centre p of an image of `size`, focal `F` (pixels), with z = −1:
 /// the point at linear depth d is d * dir.
 vec3 pixel_dir(vec2 p, vec2 size, float F) {

@@ -15,7 +15,7 @@ layout(set = 0, binding = 3, r32f) uniform readonly image2D fluid_depth;
 layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D normals;
 layout(set = 0, binding = 5) uniform sampler2D thickness;
 layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
-layout(set = 0, binding = 7) uniform sampler2D ssr;
+layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ssr;
 
 vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
 
@@ -52,8 +52,14 @@ void main() {
     float fres = F0 + (1.0 - F0) * pow(1.0 - ndv, 5.0);
     vec3 R = mat3(frame.inv_view) * reflect(-V, n);
     vec3 c_reflect = frame.shading2.z > 0.5 ? sky(R) : vec3(0.0);
-    vec4 hit = texture(ssr, uv);
-    c_reflect = mix(c_reflect, hit.rgb, hit.a);
+    uint hit = imageLoad(ssr, p).x;
+    if (hit != SSR_MISS) {
+        vec2 huv = unpackUnorm2x16(hit);
+        // Fade towards the screen border, where the missing off-screen scene would show as a hard edge.
+        vec2 edge = min(huv, 1.0 - huv);
+        float fade = clamp(min(edge.x, edge.y) * 10.0, 0.0, 1.0);
+        c_reflect = mix(c_reflect, texture(scene_color, huv).rgb, fade);
+    }
 
     vec3 L = mat3(frame.view) * frame.sun.xyz;
     vec3 H = normalize(L + V);

@@ -6,21 +6,20 @@
 //! scene depth within `thickness`. After a hit with stride > 1, binary refinement halves the step back and
 //! forth. No hit → alpha 0 and the composite falls back to the sky.
 //! In: fluid depth (r32f), normals (r32ui), scene depth (r32f), scene colour (sampled).
-//! Out: reflection (rgba16f: rgb = scene colour at the hit, a = 1 hit / 0 miss, faded at the screen border).
+//! Out: hit (r32ui: packUnorm2x16 of the hit's uv, SSR_MISS where nothing is hit) — 4 bytes a pixel; the
+//! composite samples the scene colour there and fades towards the screen border.
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D fluid_depth;
 layout(set = 0, binding = 2, r32ui) uniform readonly uimage2D normals;
 layout(set = 0, binding = 3, r32f) uniform readonly image2D scene_depth;
-layout(set = 0, binding = 4) uniform sampler2D scene_color;
-layout(set = 0, binding = 5, rgba16f) uniform writeonly image2D ssr_out;
+layout(set = 0, binding = 4, r32ui) uniform writeonly uimage2D ssr_out;
 layout(push_constant) uniform Push {
     float stride;       // pixels per step (≥ 1)
     int max_steps;
     int refine;         // binary refinement iterations
     float max_distance; // world units along the reflected ray
     float thickness;    // world depth tolerance of a hit
-    int debug_coords;   // 1: write the hit pixel (x, y) instead of its colour (tests)
 } pc;
 
 void main() {
@@ -29,7 +28,7 @@ void main() {
     if (any(greaterThanEqual(p, size))) return;
     float d0 = imageLoad(fluid_depth, p).x;
     if (!is_fluid(d0) || d0 >= imageLoad(scene_depth, p).x) {
-        imageStore(ssr_out, p, vec4(0.0));
+        imageStore(ssr_out, p, uvec4(SSR_MISS));
         return;
     }
     float F = focal_for(float(size.y));
@@ -89,16 +88,8 @@ void main() {
         prev_d = ray_d;
     }
     if (!hit) {
-        imageStore(ssr_out, p, vec4(0.0));
+        imageStore(ssr_out, p, uvec4(SSR_MISS));
         return;
     }
-    if (pc.debug_coords != 0) {
-        imageStore(ssr_out, p, vec4(hit_px, 0.0, 1.0));
-        return;
-    }
-    vec2 uv = (hit_px + 0.5) / vec2(size);
-    // Fade towards the screen border, where the missing off-screen scene would show as a hard edge.
-    vec2 edge = min(uv, 1.0 - uv);
-    float fade = clamp(min(edge.x, edge.y) * 10.0, 0.0, 1.0);
-    imageStore(ssr_out, p, vec4(texture(scene_color, uv).rgb, fade));
+    imageStore(ssr_out, p, uvec4(packUnorm2x16((hit_px + 0.5) / vec2(size))));
 }

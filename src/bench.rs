@@ -71,6 +71,8 @@ pub struct Entry {
     pub cpu_frame: Stat,
     pub memory: Vec<Mem>,
     pub memory_images_bytes: u64,
+    /// The fluid's own screen-sized images (all but the background's colour/depth and the 8-bit output).
+    pub memory_fluid_images_bytes: u64,
     pub memory_particles_bytes: u64,
 }
 
@@ -142,6 +144,11 @@ pub fn measure(
         gpu_total: Stat::of(&totals),
         cpu_frame: Stat::of(&cpu),
         memory_images_bytes: memory.iter().map(|m| m.bytes).sum(),
+        memory_fluid_images_bytes: memory
+            .iter()
+            .filter(|m| !matches!(m.name.as_str(), "scene_color" | "scene_depth" | "final"))
+            .map(|m| m.bytes)
+            .sum(),
         memory,
         memory_particles_bytes: 16 * w.particles.len() as u64,
     })
@@ -154,7 +161,7 @@ pub fn markdown(entries: &[Entry]) -> String {
     for n in &names {
         s.push_str(&format!(" {n} |"));
     }
-    s.push_str(" GPU total (median / p95) | CPU frame | images MB |\n|---|---:|---|---|");
+    s.push_str(" GPU total (median / p95) | CPU frame | fluid images MB |\n|---|---:|---|---|");
     for _ in &names {
         s.push_str("---:|");
     }
@@ -172,7 +179,7 @@ pub fn markdown(entries: &[Entry]) -> String {
             e.gpu_total.median,
             e.gpu_total.p95,
             e.cpu_frame.median,
-            e.memory_images_bytes as f64 / 1e6
+            e.memory_fluid_images_bytes as f64 / 1e6
         ));
     }
     s

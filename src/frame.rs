@@ -133,7 +133,9 @@ pub struct Targets {
 }
 
 impl Targets {
-    pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32, s: &Settings) -> Result<Targets> {
+    /// `keep_raw`: keep the splatted depth intact through smoothing (for dumps); otherwise it doubles as a
+    /// ping-pong image and `smooth_b` is a 1×1 placeholder (saves one screen-sized image).
+    pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32, s: &Settings, keep_raw: bool) -> Result<Targets> {
         use vk::ImageUsageFlags as U;
         let full = vk::Extent2D { width, height };
         let ts = s.thickness_scale.clamp(0.05, 1.0);
@@ -143,7 +145,8 @@ impl Targets {
         };
         let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
         let fluid = fluid_extent(width, height, s.fluid_scale);
-        let upsampled = if fluid == full { vk::Extent2D { width: 1, height: 1 } } else { full };
+        let tiny = vk::Extent2D { width: 1, height: 1 };
+        let upsampled = if fluid == full { tiny } else { full };
         let img = |name, ext, fmt, usage, alt| Image::new(gpu, name, ext, fmt, usage, alt);
         Ok(Targets {
             width,
@@ -152,12 +155,12 @@ impl Targets {
             scene_depth: img("scene_depth", full, vk::Format::R32_SFLOAT, storage, None)?,
             depth: img("depth", fluid, vk::Format::R32_SFLOAT, storage, Some(vk::Format::R32_UINT))?,
             smooth_a: img("smooth_a", fluid, vk::Format::R32_SFLOAT, storage, None)?,
-            smooth_b: img("smooth_b", fluid, vk::Format::R32_SFLOAT, storage, None)?,
+            smooth_b: img("smooth_b", if keep_raw { fluid } else { tiny }, vk::Format::R32_SFLOAT, storage, None)?,
             depth_full: img("depth_full", upsampled, vk::Format::R32_SFLOAT, storage, None)?,
             thickness_accum: img("thickness_accum", thick, vk::Format::R32_UINT, storage, None)?,
             thickness: img("thickness", thick, vk::Format::R32_SFLOAT, storage | U::SAMPLED, None)?,
             normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
-            ssr: img("ssr", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
+            ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
             final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
         })
     }
@@ -238,7 +241,9 @@ pub fn record_frame(
     p.background.record(ctx, frame, &t.scene_color, &t.scene_depth);
     p.splat.record(ctx, frame, particles, count, &t.depth);
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
-    let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, &t.smooth_b, s, cf_iterations);
+    // Without a full-size smooth_b the raw depth is the second ping-pong image.
+    let pong = if t.smooth_b.extent == t.smooth_a.extent { &t.smooth_b } else { &t.depth };
+    let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, pong, s, cf_iterations);
     let surface = if smoothed.extent == t.normals.extent {
         smoothed
     } else {
@@ -246,7 +251,7 @@ pub fn record_frame(
         &t.depth_full
     };
     p.normals.record(ctx, frame, surface, &t.normals, s.normal_edge * s.radius);
-    p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.scene_color, &t.ssr, s);
+    p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.ssr, s);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,
         scene_depth: &t.scene_depth,

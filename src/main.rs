@@ -204,6 +204,7 @@ fn render(a: &RenderArgs) -> Result<()> {
 
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
     let mut r = Renderer::new(&gpu)?;
+    r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
     r.set_particles(&particles.positions, None)?;
     let mut times = r.render(&view, &s)?;
     if a.timings {
@@ -281,17 +282,19 @@ fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
                 eprintln!("wrote {}", p.display());
             }
             "ssr" => {
-                // rgba16f → PNG: the reflected scene colour where SSR hit, black elsewhere.
-                let raw = meniscus::renderer::read_image(&r.gpu, &t.ssr)?;
-                let halves: Vec<u16> = bytemuck::pod_collect_to_vec(&raw);
-                let png = image::RgbaImage::from_fn(view.width, view.height, |x, y| {
-                    let i = 4 * (y * view.width + x) as usize;
-                    let a = meniscus::output::f16_to_f32(halves[i + 3]);
-                    let c = |k: usize| {
-                        let v = meniscus::output::f16_to_f32(halves[i + k]) * a;
-                        (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8
-                    };
-                    image::Rgba([c(0), c(1), c(2), 255])
+                // The reflected scene colour where SSR hit, black elsewhere.
+                let hits: Vec<u32> = bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.ssr)?);
+                let scene: Vec<u16> = bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.scene_color)?);
+                let (w, h) = (view.width, view.height);
+                let png = image::RgbaImage::from_fn(w, h, |x, y| match meniscus::passes::ssr::decode(hits[(y * w + x) as usize]) {
+                    Some([u, v]) => {
+                        let sx = ((u * w as f32) as u32).min(w - 1);
+                        let sy = ((v * h as f32) as u32).min(h - 1);
+                        let i = 4 * (sy * w + sx) as usize;
+                        let c = |k: usize| (meniscus::output::f16_to_f32(scene[i + k]).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+                        image::Rgba([c(0), c(1), c(2), 255])
+                    }
+                    None => image::Rgba([0, 0, 0, 255]),
                 });
                 let p = path(d, "png");
                 meniscus::output::write_png(&p, &png)?;

@@ -21,6 +21,9 @@ pub struct Renderer {
     count: u32,
     timer: Timer,
     smoothed: Smoothed,
+    /// Keep the raw splatted depth through smoothing (costs one more screen-sized image); set before rendering
+    /// when the raw depth will be read back.
+    pub keep_raw_depth: bool,
     /// CPU copy of the positions (for per-frame bounds such as the nearest depth).
     positions: Vec<[f32; 3]>,
 }
@@ -44,6 +47,7 @@ impl Renderer {
             timer: Timer::new(gpu)?,
             smoothed: Smoothed::Raw,
             positions: vec![],
+            keep_raw_depth: false,
         })
     }
 
@@ -98,11 +102,15 @@ impl Renderer {
         let want_thick = crate::frame::fluid_extent(width, height, s.thickness_scale);
         let want_fluid = crate::frame::fluid_extent(width, height, s.fluid_scale);
         let ok = self.targets.as_ref().is_some_and(|t| {
-            t.width == width && t.height == height && t.thickness.extent == want_thick && t.depth.extent == want_fluid
+            t.width == width
+                && t.height == height
+                && t.thickness.extent == want_thick
+                && t.depth.extent == want_fluid
+                && (t.smooth_b.extent == t.depth.extent) == self.keep_raw_depth
         });
         if !ok {
             self.targets = None;
-            self.targets = Some(Targets::new(&self.gpu, width, height, s)?);
+            self.targets = Some(Targets::new(&self.gpu, width, height, s, self.keep_raw_depth)?);
         }
         Ok(())
     }

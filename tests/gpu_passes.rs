@@ -17,6 +17,7 @@ fn splat_depth_matches_analytic_sphere() {
     let mut s = settings(0.5);
     s.filter = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
+    r.keep_raw_depth = true;
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
     r.render(&v, &s).unwrap();
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
@@ -48,6 +49,7 @@ fn splat_clamps_to_near_plane() {
     let mut s = settings(0.5);
     s.filter = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
+    r.keep_raw_depth = true;
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
     r.render(&v, &s).unwrap();
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
@@ -190,6 +192,7 @@ fn bilateral_separable_and_2d_match_cpu_reference() {
         s.filter = filter;
         s.bilateral_iterations = 1;
         let mut r = Renderer::new(&gpu).unwrap();
+        r.keep_raw_depth = true;
         r.ensure_targets(w as u32, h as u32, &s).unwrap();
         r.write_uniforms(&v, &s).unwrap();
         let src = bumpy_depth(w, h);
@@ -352,6 +355,7 @@ fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
             let mut s = settings(r);
             s.filter = filter;
             let mut rd = Renderer::new(&gpu).unwrap();
+            rd.keep_raw_depth = true;
             rd.ensure_targets(w as u32, h as u32, &s).unwrap();
             rd.write_uniforms(&v, &s).unwrap();
             let src = make(bumpy);
@@ -398,7 +402,6 @@ fn ssr_hits_match_cpu_ray_tracer() {
     s.ssr_max_distance = 800.0;
     s.ssr_thickness = 5.0;
     let mut r = Renderer::new(&gpu).unwrap();
-    r.passes.ssr.debug_coords = true;
     r.ensure_targets(w as u32, h as u32, &s).unwrap();
     r.write_uniforms(&v, &s).unwrap();
     let view_m = v.camera.view();
@@ -425,12 +428,12 @@ fn ssr_hits_match_cpu_ray_tracer() {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
         r.passes.background.record(&mut ctx, &r.uniforms, &t.scene_color, &t.scene_depth);
         r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
-        r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.scene_color, &t.ssr, &s);
+        r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s);
         Ok(())
     })
     .unwrap();
     let raw = read_image(&gpu, &t.ssr).unwrap();
-    let half: Vec<f32> = raw.chunks_exact(2).map(|c| meniscus::output::f16_to_f32(u16::from_le_bytes([c[0], c[1]]))).collect();
+    let hits: Vec<Option<[f32; 2]>> = bytemuck::pod_collect_to_vec::<u8, u32>(&raw).into_iter().map(meniscus::passes::ssr::decode).collect();
     let (mut checked, mut misses, mut bad) = (0, 0, vec![]);
     for y in 0..h {
         for x in 0..w {
@@ -443,7 +446,10 @@ fn ssr_hits_match_cpu_ray_tracer() {
             let p = v.camera.eye + dw * depth[i];
             let rd = Vec3::new(dw.x, -dw.y, dw.z).normalize();
             // Ray against the box's front face z = bmax.z (the only face visible from the camera).
-            let (gx, gy, ga) = (half[4 * i], half[4 * i + 1], half[4 * i + 3]);
+            let (gx, gy, ga) = match hits[i] {
+                Some([u, v]) => (u * w as f32 - 0.5, v * h as f32 - 0.5, 1.0),
+                None => (0.0, 0.0, 0.0),
+            };
             let hit = if rd.z < 0.0 {
                 let tt = (bmax.z - p.z) / rd.z;
                 let q = p + rd * tt;
@@ -652,6 +658,7 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     let src = bumpy_depth(w, h);
     let run = |s: &meniscus::settings::Settings, its: u32| -> Vec<f32> {
         let mut r = Renderer::new(&gpu).unwrap();
+        r.keep_raw_depth = true;
         r.ensure_targets(w as u32, h as u32, s).unwrap();
         r.write_uniforms(&v, s).unwrap();
         let t = r.targets.as_ref().unwrap();

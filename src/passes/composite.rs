@@ -25,7 +25,7 @@ pub struct CompositeInputs<'a> {
 
 impl Composite {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, TEX], 0)? })
+        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, IMG], 0)? })
     }
 
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {
@@ -37,7 +37,7 @@ impl Composite {
             Use::read(i.normals),
             Use::sampled(i.thickness),
             Use::overwrite(out),
-            Use::sampled(i.ssr),
+            Use::read(i.ssr),
         ];
         ctx.pass(NAME, &uses, |ctx| {
             let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
@@ -51,7 +51,7 @@ impl Composite {
                     Bind::Storage(i.normals),
                     Bind::Linear(i.thickness),
                     Bind::Storage(out),
-                    Bind::Nearest(i.ssr),
+                    Bind::Storage(i.ssr),
                 ],
                 &[],
                 g,

@@ -1,4 +1,4 @@
-//! `ssr` pass: screen-space reflections of the background scene in the fluid (McGuire & Mara DDA, stride,
+//! `ssr` pass: screen-space reflections (hit uv per pixel, 4 bytes) of the background scene in the fluid (McGuire & Mara DDA, stride,
 //! binary refinement; sky fallback in the composite). Shader: shaders_glsl/ssr.comp.
 use std::sync::Arc;
 
@@ -12,8 +12,6 @@ pub const NAME: &str = "ssr";
 
 pub struct Ssr {
     prog: ComputeProgram,
-    /// Write hit pixel coordinates instead of colours (for tests against a CPU ray tracer).
-    pub debug_coords: bool,
 }
 
 #[repr(C)]
@@ -24,12 +22,11 @@ struct Push {
     refine: i32,
     max_distance: f32,
     thickness: f32,
-    debug_coords: i32,
 }
 
 impl Ssr {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Ssr { prog: ComputeProgram::new(gpu, NAME, shaders::SSR, &[UBO, IMG, IMG, IMG, TEX, IMG], 24)?, debug_coords: false })
+        Ok(Ssr { prog: ComputeProgram::new(gpu, NAME, shaders::SSR, &[UBO, IMG, IMG, IMG, IMG], 20)? })
     }
 
     /// Writes all of `out` (alpha 0 where nothing is hit, everywhere when SSR is off).
@@ -41,7 +38,6 @@ impl Ssr {
         depth: &Image,
         normals: &Image,
         scene_depth: &Image,
-        scene_color: &Image,
         out: &Image,
         s: &Settings,
     ) {
@@ -50,7 +46,6 @@ impl Ssr {
             Use::read(depth),
             Use::read(normals),
             Use::read(scene_depth),
-            Use::sampled(scene_color),
             Use::overwrite(out),
         ];
         ctx.pass(NAME, &uses, |ctx| {
@@ -60,7 +55,6 @@ impl Ssr {
                 refine: s.ssr_refine as i32,
                 max_distance: s.ssr_max_distance * s.radius,
                 thickness: s.ssr_thickness * s.radius,
-                debug_coords: self.debug_coords as i32,
             };
             let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             self.prog.dispatch(
@@ -70,7 +64,6 @@ impl Ssr {
                     Bind::Storage(depth),
                     Bind::Storage(normals),
                     Bind::Storage(scene_depth),
-                    Bind::Linear(scene_color),
                     Bind::Storage(out),
                 ],
                 bytemuck::bytes_of(&push),
@@ -78,4 +71,12 @@ impl Ssr {
             );
         });
     }
+}
+
+/// Value of an `ssr` pixel whose ray hits nothing (mirrors SSR_MISS in common.glsl).
+pub const MISS: u32 = 0xffff_ffff;
+
+/// Decode an `ssr` pixel: the hit's uv, or None.
+pub fn decode(v: u32) -> Option<[f32; 2]> {
+    (v != MISS).then(|| [(v & 0xffff) as f32 / 65535.0, (v >> 16) as f32 / 65535.0])
 }
