@@ -17,6 +17,7 @@ layout(push_constant) uniform Push {
     float mu;           // clamp offset behind the centre (world), ≈ r
     int max_px;         // kernel radius cap (px)
     int radius_2d;      // window radius of the 2D pass (px)
+    int skip_background;// 1: background samples are dropped (with their mirror) instead of clamped
 } pc;
 
 ivec2 g_size;
@@ -28,7 +29,7 @@ float sample_depth(ivec2 q) {
 
 /// Judge one sample against the range; returns false when it must be dropped (with its mirror).
 bool judge(inout float z, inout float lo, inout float hi, float d) {
-    if (z < lo) return false;
+    if (z < lo || (pc.skip_background != 0 && !is_fluid(z))) return false;
     if (z > hi) {
         z = d + pc.mu;
     } else {

@@ -3,20 +3,24 @@
 //! splat: one thread per particle walks the pixels its sphere covers and keeps the minimum with a 32-bit
 //! atomicMin on the float's bits (positive floats order like their bit patterns; Schütz et al. 2021).
 //! No gl_FragDepth, so no early-Z to lose, and no fragment-shader arithmetic (slow on some GPUs).
-//! In:  particles (vec4: world xyz, radius or 0 = frame radius), frame block.
+//! In:  particles (vec4: world xyz, w: radius, 0 = frame radius, < 0 = spray: not part of the surface).
 //! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
 #include "common.glsl"
 #include "sphere.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D depth_bits;
-layout(push_constant) uniform Push { uint count; uint max_pixels; } pc;
+layout(push_constant) uniform Push { uint count; uint max_pixels; float radius_scale; } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
     vec4 pr = particles[i];
-    float r = pr.w > 0.0 ? pr.w : frame.fluid.x;
+    // Spray (w < 0) is left out of the surface (NVIDIA patent US 8,947,430).
+    if (pr.w < 0.0) return;
+    // The depth splat may use a larger sphere than the particle (radius_scale): SPH surfaces lie about half a
+    // radius outside the particle centres' spheres, and the larger spheres close gaps between particles.
+    float r = (pr.w > 0.0 ? pr.w : frame.fluid.x) * pc.radius_scale;
     vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
     vec2 size = vec2(imageSize(depth_bits));
     float F = focal_for(size.y);

@@ -16,7 +16,8 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
     vec4 pr = particles[i];
-    float r = pr.w > 0.0 ? pr.w : frame.fluid.x;
+    // Spray (w < 0) still adds thickness; |w| ≈ 0 means the frame's radius.
+    float r = abs(pr.w) > 1e-30 ? abs(pr.w) : frame.fluid.x;
     vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
     vec2 size = vec2(imageSize(accum));
     vec2 scene_size = vec2(imageSize(scene_depth));

@@ -108,7 +108,8 @@ pub fn measure(
         c
     });
     let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
-    r.set_particles(&w.particles.positions, None)?;
+    let spray = scene::spray_mask(&w.particles, s.radius, s.spray_density);
+    r.set_particles_with(&w.particles.positions, None, Some(&spray))?;
     let mut per_pass: Vec<(String, Vec<f64>)> = vec![];
     let (mut totals, mut cpu) = (vec![], vec![]);
     for k in 0..warmup + frames.max(1) {

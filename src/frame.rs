@@ -239,7 +239,7 @@ pub fn record_frame(
     cf_iterations: u32,
 ) -> Smoothed {
     p.background.record(ctx, frame, &t.scene_color, &t.scene_depth);
-    p.splat.record(ctx, frame, particles, count, &t.depth);
+    p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_radius_scale);
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
     // Without a full-size smooth_b the raw depth is the second ping-pong image.
     let pong = if t.smooth_b.extent == t.smooth_a.extent { &t.smooth_b } else { &t.depth };

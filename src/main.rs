@@ -205,7 +205,8 @@ fn render(a: &RenderArgs) -> Result<()> {
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
     let mut r = Renderer::new(&gpu)?;
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
-    r.set_particles(&particles.positions, None)?;
+    let spray = scene::spray_mask(&particles, s.radius, s.spray_density);
+    r.set_particles_with(&particles.positions, None, Some(&spray))?;
     let mut times = r.render(&view, &s)?;
     if a.timings {
         let mut runs = vec![];

@@ -51,8 +51,9 @@ impl Renderer {
         })
     }
 
-    /// Upload particles: 16 bytes each (world xyz + radius, 0 = the frame's radius), GPU-local.
-    pub fn set_particles(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>) -> Result<()> {
+    /// Upload particles: 16 bytes each (world xyz + w), GPU-local. w = the particle's radius from `radii`, else 0
+    /// (the frame's radius); negated for particles marked in `spray` (kept out of the surface).
+    pub fn set_particles_with(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>, spray: Option<&[bool]>) -> Result<()> {
         let n = positions.len();
         let bytes = n as u64 * 16;
         if bytes > self.gpu.info.max_storage_buffer_range {
@@ -65,7 +66,13 @@ impl Renderer {
         let data: Vec<[f32; 4]> = positions
             .iter()
             .enumerate()
-            .map(|(i, p)| [p[0], p[1], p[2], radii.map(|r| r[i]).unwrap_or(0.0)])
+            .map(|(i, p)| {
+                let r = radii.map(|r| r[i]).unwrap_or(0.0);
+                let spray = spray.is_some_and(|s| s[i]);
+                // Spray without its own radius: −1 means "frame radius" for the thickness pass.
+                let w = if spray { if r > 0.0 { -r } else { -f32::MIN_POSITIVE } } else { r };
+                [p[0], p[1], p[2], w]
+            })
             .collect();
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
         let reuse = self.particles.as_ref().is_some_and(|b| b.size >= bytes.max(16));
@@ -87,6 +94,11 @@ impl Renderer {
         self.count = n as u32;
         self.positions = positions.to_vec();
         Ok(())
+    }
+
+    /// Upload particles (no per-particle radius, no spray); see [`Renderer::set_particles_with`].
+    pub fn set_particles(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>) -> Result<()> {
+        self.set_particles_with(positions, radii, None)
     }
 
     /// Particles on the device.

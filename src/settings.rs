@@ -43,6 +43,14 @@ pub struct Settings {
     /// Particle radius in world units (set from `--radius` or estimated from the data).
     pub radius: f32,
     pub filter: Filter,
+    /// Particles whose density is below this fraction of the median density are spray and left out of the
+    /// surface (0 = off). Uses the file's density, else a neighbour count.
+    pub spray_density: f32,
+    /// The depth splat draws spheres of this many particle radii (1 = the particles themselves).
+    pub splat_radius_scale: f32,
+    /// Narrow-range filter: background samples are skipped (true) or clamped to centre + μ like any far
+    /// sample (false, the paper).
+    pub nrf_skip_background: bool,
     /// World radius ρ of the smoothing kernel, in particle radii.
     pub smooth_radius: f32,
     /// Cap of the kernel radius in pixels.
@@ -131,6 +139,9 @@ impl Default for Settings {
         Settings {
             radius: 0.0,
             filter: Filter::NarrowRange,
+            spray_density: 0.0,
+            splat_radius_scale: 1.3,
+            nrf_skip_background: true,
             smooth_radius: 4.0,
             smooth_max_px: 24,
             bilateral_sigma_range: 2.0,
@@ -206,6 +217,9 @@ impl Settings {
         }
         if !(self.fluid_scale > 0.0 && self.fluid_scale <= 1.0) {
             return bad("fluid_scale (0 < s ≤ 1)");
+        }
+        if !(self.splat_radius_scale >= 0.25 && self.splat_radius_scale <= 4.0) {
+            return bad("splat_radius_scale (0.25 … 4)");
         }
         if !(self.thickness_scale > 0.0 && self.thickness_scale <= 1.0) {
             return bad("thickness_scale (0 < s ≤ 1)");

@@ -551,7 +551,7 @@ fn upsample_never_lands_between_surfaces() {
 
 /// CPU reference of smooth_narrow.comp (one dispatch).
 #[allow(clippy::too_many_arguments)]
-fn narrow_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32, thr: f32, mu: f32, max_px: i32, r2d: i32) -> Vec<f32> {
+fn narrow_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32, thr: f32, mu: f32, max_px: i32, r2d: i32, skip_bg: bool) -> Vec<f32> {
     let at = |x: i32, y: i32| if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 { f32::INFINITY } else { src[y as usize * w + x as usize] };
     let mut out = src.to_vec();
     for y in 0..h as i32 {
@@ -566,7 +566,7 @@ fn narrow_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32
             let (mut sum, mut ws) = (d, 1.0f32);
             let (mut lo, mut hi) = (d - thr, d + thr);
             let judge = |z: &mut f32, lo: &mut f32, hi: &mut f32| -> bool {
-                if *z < *lo {
+                if *z < *lo || (skip_bg && !(*z < 1e30)) {
                     return false;
                 }
                 if *z > *hi {
@@ -686,10 +686,13 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     s.filter = Filter::NarrowRange;
     let (rho, thr, mu) = (s.nrf_radius * s.radius, s.nrf_threshold * s.radius, s.nrf_mu * s.radius);
     let mp = s.smooth_max_px as i32;
-    let a = narrow_cpu(&src, w, h, f, (1, 0), rho, thr, mu, mp, 0);
-    let b = narrow_cpu(&a, w, h, f, (0, 1), rho, thr, mu, mp, 0);
-    let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.nrf_2d_px as i32);
-    close(&run(&s, 0), &want, "narrow-range", 1e-4);
+    for skip in [false, true] {
+        s.nrf_skip_background = skip;
+        let a = narrow_cpu(&src, w, h, f, (1, 0), rho, thr, mu, mp, 0, skip);
+        let b = narrow_cpu(&a, w, h, f, (0, 1), rho, thr, mu, mp, 0, skip);
+        let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.nrf_2d_px as i32, skip);
+        close(&run(&s, 0), &want, &format!("narrow-range, skip background {skip}"), 1e-4);
+    }
     // Curvature flow: 8 iterations, CPU vs GPU untiled vs GPU tiled (4 per dispatch).
     let mut s = settings(0.05);
     s.filter = Filter::CurvatureFlow;

@@ -27,6 +27,7 @@ struct NarrowPush {
     mu: f32,
     max_px: i32,
     radius_2d: i32,
+    skip_background: i32,
 }
 
 #[repr(C)]
@@ -57,7 +58,7 @@ impl Smooth {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Smooth {
             bilateral: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_BILATERAL, &[UBO, IMG, IMG], 20)?,
-            narrow: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_NARROW, &[UBO, IMG, IMG], 28)?,
+            narrow: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_NARROW, &[UBO, IMG, IMG], 32)?,
             curvature: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_CURVATURE, &[UBO, IMG, IMG], 28)?,
             curvature1: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_CURVATURE1, &[UBO, IMG, IMG], 28)?,
         })
@@ -118,6 +119,7 @@ impl Smooth {
                             mu: s.nrf_mu * r,
                             max_px: s.smooth_max_px as i32,
                             radius_2d: s.nrf_2d_px as i32,
+                            skip_background: s.nrf_skip_background as i32,
                         };
                         src = step(ctx, &self.narrow, src, bytemuck::bytes_of(&push), super::LOCAL_2D);
                     }

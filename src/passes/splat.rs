@@ -20,15 +20,16 @@ pub struct Splat {
 
 impl Splat {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG], 8)? })
+        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG], 12)? })
     }
 
     /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it.
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: &Buffer, count: u32, depth: &Image) {
+    /// `radius_scale`: splat spheres of this many particle radii.
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: &Buffer, count: u32, depth: &Image, radius_scale: f32) {
         ctx.pass(NAME, &[Use::Image(depth, Access::TransferDst, true)], |ctx| {
             clear(ctx, depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
             ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(depth)]);
-            let push = [count, MAX_PIXELS_PER_PARTICLE];
+            let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits()];
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             self.prog.dispatch(
                 ctx,

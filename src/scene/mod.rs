@@ -147,6 +147,66 @@ pub fn estimate_radius(pos: &[[f32; 3]]) -> Option<f32> {
     estimate_spacing(pos).map(|s| 0.5 * s)
 }
 
+/// Spray classification (NVIDIA patent US 8,947,430: particles of low density are spray, left out of the
+/// surface): a particle is spray when its density is below `threshold` × the median density. The density is the
+/// file's `density` attribute when present, else the number of neighbours within 4 radii.
+pub fn spray_mask(p: &Particles, radius: f32, threshold: f32) -> Vec<bool> {
+    if threshold <= 0.0 || p.is_empty() {
+        return vec![false; p.len()];
+    }
+    let dens: Vec<f32> = match &p.densities {
+        Some(d) => d.clone(),
+        None => neighbour_counts(&p.positions, 4.0 * radius).into_iter().map(|c| c as f32).collect(),
+    };
+    let mut sorted: Vec<f32> = dens.iter().copied().filter(|d| d.is_finite()).collect();
+    if sorted.is_empty() {
+        return vec![false; p.len()];
+    }
+    let m = sorted.len() / 2;
+    let rest = *sorted.select_nth_unstable_by(m, f32::total_cmp).1;
+    dens.iter().map(|&d| !(d >= threshold * rest)).collect()
+}
+
+/// Number of other particles within `h` of each particle (uniform grid of cell size h).
+pub fn neighbour_counts(pos: &[[f32; 3]], h: f32) -> Vec<u32> {
+    use std::collections::HashMap;
+    let h = h.max(1e-9);
+    let key = |p: &[f32; 3]| ((p[0] / h).floor() as i64, (p[1] / h).floor() as i64, (p[2] / h).floor() as i64);
+    let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
+    for (i, p) in pos.iter().enumerate() {
+        if p.iter().all(|c| c.is_finite()) {
+            grid.entry(key(p)).or_default().push(i as u32);
+        }
+    }
+    let h2 = h * h;
+    pos.iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if !p.iter().all(|c| c.is_finite()) {
+                return 0;
+            }
+            let (x, y, z) = key(p);
+            let mut n = 0;
+            for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        if let Some(v) = grid.get(&(x + dx, y + dy, z + dz)) {
+                            for &j in v {
+                                let q = pos[j as usize];
+                                let d2 = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2);
+                                if j as usize != i && d2 <= h2 {
+                                    n += 1;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            n
+        })
+        .collect()
+}
+
 /// Known particle file formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
@@ -214,6 +274,26 @@ mod tests {
         let s = estimate_spacing(&pos).unwrap();
         assert!((s - 0.025).abs() < 1e-4, "{s}");
         assert!((estimate_radius(&pos).unwrap() - 0.0125).abs() < 1e-4);
+    }
+
+    #[test]
+    fn isolated_particles_are_spray() {
+        let mut pos = vec![];
+        for z in 0..8 {
+            for y in 0..8 {
+                for x in 0..8 {
+                    pos.push([x as f32 * 0.02, y as f32 * 0.02, z as f32 * 0.02]);
+                }
+            }
+        }
+        pos.push([1.0, 1.0, 1.0]);
+        let p = Particles { positions: pos, ..Default::default() };
+        let m = spray_mask(&p, 0.01, 0.5);
+        assert!(m[512] && !m[100] && m.iter().filter(|x| **x).count() < 20);
+        // With densities from the file.
+        let p2 = Particles { densities: Some(vec![1000.0, 990.0, 300.0, 1010.0]), positions: vec![[0.0; 3]; 4], ..Default::default() };
+        assert_eq!(spray_mask(&p2, 0.01, 0.6), vec![false, false, true, false]);
+        assert_eq!(spray_mask(&p2, 0.01, 0.0), vec![false; 4]);
     }
 
     #[test]
