@@ -11,7 +11,7 @@ use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
 use crate::passes::composite::CompositeInputs;
 use crate::passes::{Background, Composite, Normals, Smooth, Splat, Ssr, Thickness, Upsample};
 use crate::scene::{Bounds, Camera};
-use crate::settings::Settings;
+use crate::settings::{Settings, SplatMode};
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
 pub const MAX_BOXES: usize = 8;
@@ -123,6 +123,8 @@ pub struct Targets {
     pub depth: Image,
     pub smooth_a: Image,
     pub smooth_b: Image,
+    /// D32 depth buffer of the rasterised splat variants (1×1 when the compute splat runs).
+    pub zbuffer: Image,
     /// Full-resolution depth upsampled from the fluid resolution (unused at fluid scale 1).
     pub depth_full: Image,
     pub thickness_accum: Image,
@@ -153,7 +155,14 @@ impl Targets {
             height,
             scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
             scene_depth: img("scene_depth", full, vk::Format::R32_SFLOAT, storage, None)?,
-            depth: img("depth", fluid, vk::Format::R32_SFLOAT, storage, Some(vk::Format::R32_UINT))?,
+            depth: img("depth", fluid, vk::Format::R32_SFLOAT, storage | U::COLOR_ATTACHMENT, Some(vk::Format::R32_UINT))?,
+            zbuffer: img(
+                "zbuffer",
+                if s.splat.depth_tested() { fluid } else { tiny },
+                vk::Format::D32_SFLOAT,
+                U::DEPTH_STENCIL_ATTACHMENT,
+                None,
+            )?,
             smooth_a: img("smooth_a", fluid, vk::Format::R32_SFLOAT, storage, None)?,
             smooth_b: img("smooth_b", if keep_raw { fluid } else { tiny }, vk::Format::R32_SFLOAT, storage, None)?,
             depth_full: img("depth_full", upsampled, vk::Format::R32_SFLOAT, storage, None)?,
@@ -174,6 +183,7 @@ impl Targets {
             &self.smooth_a,
             &self.smooth_b,
             &self.depth_full,
+            &self.zbuffer,
             &self.thickness_accum,
             &self.thickness,
             &self.normals,
@@ -237,9 +247,12 @@ pub fn record_frame(
     count: u32,
     s: &Settings,
     cf_iterations: u32,
-) -> Smoothed {
+) -> Result<Smoothed> {
     p.background.record(ctx, frame, &t.scene_color, &t.scene_depth);
-    p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_radius_scale);
+    match s.splat {
+        SplatMode::Compute => p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_radius_scale),
+        mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_radius_scale, mode)?,
+    }
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
     // Without a full-size smooth_b the raw depth is the second ping-pong image.
     let pong = if t.smooth_b.extent == t.smooth_a.extent { &t.smooth_b } else { &t.depth };
@@ -261,11 +274,11 @@ pub fn record_frame(
         ssr: &t.ssr,
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
-    if std::ptr::eq(smoothed, &t.smooth_a) {
+    Ok(if std::ptr::eq(smoothed, &t.smooth_a) {
         Smoothed::A
     } else if std::ptr::eq(smoothed, &t.smooth_b) {
         Smoothed::B
     } else {
         Smoothed::Raw
-    }
+    })
 }

@@ -10,7 +10,7 @@ use meniscus::frame::{Environment, View};
 use meniscus::gpu::{Gpu, GpuOptions};
 use meniscus::renderer::{read_f32, Renderer};
 use meniscus::scene::{self, procedural, Camera, Particles};
-use meniscus::settings::{Filter, Settings};
+use meniscus::settings::{Filter, Settings, SplatMode};
 
 #[derive(Parser)]
 #[command(name = "meniscus", version, about = "Screen-space fluid rendering of SPH particles on Vulkan")]
@@ -36,8 +36,10 @@ enum Cmd {
 
 #[derive(Args, Clone)]
 struct BenchArgs {
-    /// Settings preset: default, fast, moritz (curvature flow ≤ 60 iterations, fluid ≈ ¼ of the screen,
-    /// Moritz's five scenes at 1920×1080 and 960×540 unless --scenes/--resolutions say otherwise).
+    /// Settings preset: default, fast, moritz (curvature flow ≤ 60 iterations, SSR stride 8 / 100 steps /
+    /// 4 refinements, fluid ≈ ¼ of the screen, Moritz's five workloads at 1920×1080 and 960×540 unless
+    /// --scenes/--resolutions say otherwise), table43 (the moritz settings with the five SSR settings of
+    /// Moritz table 4.3, wave scene, 1920×1080).
     #[arg(long, default_value = "default")]
     preset: String,
     /// Comma-separated workloads: wave, crown1 (38,146), crown2 (157,944), waterfall (819,417), worst (a block
@@ -60,7 +62,8 @@ struct BenchArgs {
     #[arg(long)]
     camera: Option<String>,
     /// Also measure design variants on the first workload and resolution (same run, so ratios compare):
-    /// each smoothing filter, curvature flow 1 vs 4 iterations per dispatch.
+    /// each splat mode (compute, quads/points with gl_FragDepth, conservative depth, MIN blending), each
+    /// smoothing filter, curvature flow 1 vs 4 iterations per dispatch.
     #[arg(long)]
     variants: bool,
     /// Write the JSON report here (schema: benches/README.md).
@@ -108,6 +111,9 @@ struct RenderArgs {
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
     #[arg(long)]
     fluid_scale: Option<f32>,
+    /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
+    #[arg(long, value_enum)]
+    splat: Option<SplatMode>,
     /// TOML file of settings applied over the preset's (see README).
     #[arg(long)]
     settings: Option<PathBuf>,
@@ -179,6 +185,9 @@ fn render(a: &RenderArgs) -> Result<()> {
     }
     if let Some(fs) = a.fluid_scale {
         s.fluid_scale = fs;
+    }
+    if let Some(m) = a.splat {
+        s.splat = m;
     }
     s.radius = match a.radius.or(scene_radius) {
         Some(r) => r,
@@ -370,13 +379,16 @@ fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench:
 }
 
 fn bench(a: &BenchArgs) -> Result<()> {
-    let moritz = a.preset == "moritz";
+    let table43 = a.preset == "table43";
+    let moritz = a.preset == "moritz" || table43;
     let base = match &a.settings {
         Some(f) => Settings::from_toml(f)?,
-        None => Settings::preset(&a.preset)?,
+        None => Settings::preset(if table43 { "moritz" } else { &a.preset })?,
     };
     let scenes: Vec<String> = if !a.scenes.is_empty() {
         a.scenes.clone()
+    } else if table43 {
+        vec!["wave".into()]
     } else if moritz {
         ["wave", "crown1", "crown2", "waterfall", "worst"].map(String::from).to_vec()
     } else {
@@ -384,6 +396,8 @@ fn bench(a: &BenchArgs) -> Result<()> {
     };
     let resolutions: Vec<(u32, u32)> = if !a.resolutions.is_empty() {
         a.resolutions.iter().map(|r| parse_resolution(r)).collect::<Result<_>>()?
+    } else if table43 {
+        vec![(1920, 1080)]
     } else if moritz {
         vec![(1920, 1080), (960, 540)]
     } else {
@@ -393,7 +407,7 @@ fn bench(a: &BenchArgs) -> Result<()> {
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
     let mut r = Renderer::new(&gpu)?;
     let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
-    let n_var = if a.variants { 6 } else { 0 };
+    let n_var = if a.variants { 12 } else { 0 };
     let bar = indicatif::ProgressBar::new((scenes.len() * resolutions.len() + n_var) as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("valid template"),
@@ -404,6 +418,16 @@ fn bench(a: &BenchArgs) -> Result<()> {
         let w = workload(name, a, moritz)?;
         for (j, &(wd, ht)) in resolutions.iter().enumerate() {
             bar.set_message(format!("{} {}×{}", w.label, wd, ht));
+            if table43 {
+                // Moritz table 4.3: stride / refinement iterations / max steps.
+                for (stride, refine, steps) in [(1, 0, 280), (4, 0, 180), (4, 2, 180), (8, 0, 100), (8, 4, 100)] {
+                    let vs = Settings { ssr_stride: stride as f32, ssr_refine: refine, ssr_max_steps: steps, ..base.clone() };
+                    let label = format!("ssr stride {stride}, refine {refine}, steps {steps}");
+                    entries.push(meniscus::bench::measure(&mut r, &w, wd, ht, &vs, &label, a.warmup, a.frames)?);
+                }
+                bar.inc(1);
+                continue;
+            }
             entries.push(meniscus::bench::measure(&mut r, &w, wd, ht, &base, &a.preset, a.warmup, a.frames)?);
             bar.inc(1);
             if a.variants && k == 0 && j == 0 {
@@ -418,6 +442,18 @@ fn bench(a: &BenchArgs) -> Result<()> {
                     ));
                 }
                 variants.push(("no smoothing".into(), Settings { filter: Filter::None, ..base.clone() }));
+                for m in [
+                    SplatMode::Compute,
+                    SplatMode::QuadFragDepth,
+                    SplatMode::QuadConservative,
+                    SplatMode::QuadMin,
+                    SplatMode::PointFragDepth,
+                    SplatMode::PointMin,
+                ] {
+                    if r.passes.splat.supports(m) {
+                        variants.push((format!("splat {}", m.name()), Settings { splat: m, ..base.clone() }));
+                    }
+                }
                 for (label, vs) in &variants {
                     bar.set_message(format!("variant {label}"));
                     entries.push(meniscus::bench::measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
@@ -433,7 +469,15 @@ fn bench(a: &BenchArgs) -> Result<()> {
     if a.variants {
         let find = |v: &str| entries.iter().find(|e| e.variant == v).map(|e| e.passes.iter().find(|p| p.0 == "smooth").map(|p| p.1.median).unwrap_or(0.0));
         if let (Some(k1), Some(k4)) = (find("curvature-flow 1 it/dispatch"), find("curvature-flow 4 it/dispatch")) {
-            println!("ratio smooth (curvature flow) 4 it/dispatch vs 1 it/dispatch: {:.2}× the time", k4 / k1.max(1e-9));
+            println!("ratio smooth (curvature flow) 1 it/dispatch ÷ 4 it/dispatch: {:.2} (> 1: several per dispatch is faster)", k1 / k4.max(1e-9));
+        }
+        let splat = |v: &str| entries.iter().find(|e| e.variant == v).and_then(|e| e.passes.iter().find(|p| p.0 == "splat").map(|p| p.1.median));
+        if let Some(fd) = splat("splat quad-frag-depth") {
+            for m in ["compute", "quad-conservative", "quad-min", "point-frag-depth", "point-min"] {
+                if let Some(t) = splat(&format!("splat {m}")) {
+                    println!("ratio splat quad-frag-depth ÷ {m}: {:.2} (> 1: {m} is faster)", fd / t.max(1e-9));
+                }
+            }
         }
     }
     let report = meniscus::bench::Report {

@@ -119,6 +119,7 @@ impl Renderer {
                 && t.thickness.extent == want_thick
                 && t.depth.extent == want_fluid
                 && (t.smooth_b.extent == t.depth.extent) == self.keep_raw_depth
+                && (t.zbuffer.extent == t.depth.extent) == s.splat.depth_tested()
         });
         if !ok {
             self.targets = None;
@@ -136,6 +137,9 @@ impl Renderer {
     /// Render one frame and wait for it; returns the GPU time of each pass.
     pub fn render(&mut self, view: &View, s: &Settings) -> Result<PassTimes> {
         s.validate()?;
+        if !self.passes.splat.supports(s.splat) {
+            return Err(Error::Invalid(format!("splat mode {} is not supported on {}", s.splat.name(), self.gpu.info.name)));
+        }
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
         let particles = match &self.particles {
@@ -149,7 +153,7 @@ impl Renderer {
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            Ok(record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations))
+            record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations)
         })?;
         self.smoothed = smoothed;
         self.timer.read()

@@ -36,6 +36,41 @@ impl Filter {
     }
 }
 
+/// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum SplatMode {
+    /// One thread per particle, atomicMin on the depth bits (default).
+    Compute,
+    /// Instanced quads, exact depth through gl_FragDepth (no early depth test).
+    QuadFragDepth,
+    /// Quads with conservative depth (depth_less + GREATER test keeps early depth test valid).
+    QuadConservative,
+    /// Quads, no depth buffer, MIN blending of linear depth into R32F.
+    QuadMin,
+    /// Point sprites with gl_FragDepth (sizes above the device's point size limit are clipped).
+    PointFragDepth,
+    /// Point sprites with MIN blending.
+    PointMin,
+}
+
+impl SplatMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            SplatMode::Compute => "compute",
+            SplatMode::QuadFragDepth => "quad-frag-depth",
+            SplatMode::QuadConservative => "quad-conservative",
+            SplatMode::QuadMin => "quad-min",
+            SplatMode::PointFragDepth => "point-frag-depth",
+            SplatMode::PointMin => "point-min",
+        }
+    }
+    /// Needs a D32 depth buffer.
+    pub fn depth_tested(self) -> bool {
+        matches!(self, SplatMode::QuadFragDepth | SplatMode::QuadConservative | SplatMode::PointFragDepth)
+    }
+}
+
 /// All render settings.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -43,6 +78,8 @@ pub struct Settings {
     /// Particle radius in world units (set from `--radius` or estimated from the data).
     pub radius: f32,
     pub filter: Filter,
+    /// How the depth splat draws.
+    pub splat: SplatMode,
     /// Particles whose density is below this fraction of the median density are spray and left out of the
     /// surface (0 = off). Uses the file's density, else a neighbour count.
     pub spray_density: f32,
@@ -139,6 +176,7 @@ impl Default for Settings {
         Settings {
             radius: 0.0,
             filter: Filter::NarrowRange,
+            splat: SplatMode::Compute,
             spray_density: 0.0,
             splat_radius_scale: 1.3,
             nrf_skip_background: true,
@@ -194,7 +232,16 @@ impl Settings {
             "default" => Ok(d),
             "fast" => Ok(Settings { bilateral_iterations: 1, smooth_max_px: 12, thickness_blur_px: 2, ..d }),
             // Moritz 2016 (thesis values): curvature flow, Δt = 0.005, ≤ 60 iterations, κ = 3.
-            "moritz" => Ok(Settings { filter: Filter::CurvatureFlow, cf_dt: 0.005, cf_it_max: 60, cf_kappa: 3.0, ..d }),
+            "moritz" => Ok(Settings {
+                filter: Filter::CurvatureFlow,
+                cf_dt: 0.005,
+                cf_it_max: 60,
+                cf_kappa: 3.0,
+                ssr_stride: 8.0,
+                ssr_max_steps: 100,
+                ssr_refine: 4,
+                ..d
+            }),
             _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast, moritz)"))),
         }
     }

@@ -708,3 +708,51 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     close(&run(&s, 8), &want, "curvature flow, 4 it/dispatch", 2e-4);
     assert_clean(&gpu);
 }
+
+/// Every rasterised splat variant produces exactly the compute splat's depth (same exact ray–sphere math).
+#[test]
+fn raster_splat_variants_equal_compute_splat() {
+    use meniscus::settings::SplatMode;
+    let gpu = gpu();
+    let g = meniscus::scene::procedural::generate("drop", 3000).unwrap();
+    let (w, h) = (96u32, 64u32);
+    let b = meniscus::scene::percentile_bounds(&g.particles.positions, 0.01).unwrap();
+    let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
+    v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
+    let mut depths = vec![];
+    for mode in [
+        SplatMode::Compute,
+        SplatMode::QuadFragDepth,
+        SplatMode::QuadConservative,
+        SplatMode::QuadMin,
+        SplatMode::PointFragDepth,
+        SplatMode::PointMin,
+    ] {
+        let mut s = settings(g.radius);
+        s.filter = Filter::None;
+        s.splat = mode;
+        let mut r = Renderer::new(&gpu).unwrap();
+        if !r.passes.splat.supports(mode) {
+            eprintln!("{mode:?} unsupported on this device");
+            continue;
+        }
+        r.keep_raw_depth = true;
+        r.set_particles(&g.particles.positions, None).unwrap();
+        r.render(&v, &s).unwrap();
+        depths.push((mode, read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap()));
+    }
+    let (_, reference) = &depths[0];
+    assert!(reference.iter().filter(|d| d.is_finite()).count() > 500);
+    for (mode, d) in &depths[1..] {
+        for i in 0..d.len() {
+            assert!(
+                d[i] == reference[i] || (d[i] - reference[i]).abs() < 1e-6,
+                "{mode:?}: pixel {i}: {} vs compute {}",
+                d[i],
+                reference[i]
+            );
+        }
+    }
+    assert!(depths.len() >= 4, "lavapipe supports all variants");
+    assert_clean(&gpu);
+}

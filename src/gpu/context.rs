@@ -66,7 +66,7 @@ impl<'t> FrameCtx<'t> {
                     let (dep, next) = img.state.get().transition(access, discard);
                     img.state.set(next);
                     if let Some(d) = dep {
-                        images.push(image_barrier(img.raw, &d));
+                        images.push(image_barrier(img, &d));
                     }
                 }
                 Use::Buffer(buf, access) => {
@@ -124,7 +124,7 @@ impl<'t> FrameCtx<'t> {
     }
 }
 
-fn image_barrier(image: vk::Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {
+fn image_barrier(img: &Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {
     // A barrier with no earlier stage (first use) still carries the layout transition.
     let src_stage = if d.src_stage.is_empty() { vk::PipelineStageFlags2::NONE } else { d.src_stage };
     vk::ImageMemoryBarrier2::default()
@@ -136,6 +136,6 @@ fn image_barrier(image: vk::Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'s
         .new_layout(d.new_layout)
         .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
         .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .image(image)
-        .subresource_range(Image::color_range())
+        .image(img.raw)
+        .subresource_range(img.range())
 }

@@ -190,3 +190,166 @@ impl Drop for ComputeProgram {
         }
     }
 }
+
+/// What a graphics program draws into (dynamic rendering, no render pass objects).
+#[derive(Clone, Copy, Debug)]
+pub struct RasterTargets {
+    pub color_format: vk::Format,
+    /// `None`: no depth buffer.
+    pub depth_format: Option<vk::Format>,
+    /// MIN-blend the colour output (with no depth test).
+    pub min_blend: bool,
+    pub topology: vk::PrimitiveTopology,
+}
+
+/// A graphics pipeline (vertex + fragment) with its binding table, for the rasterised splat variants.
+pub struct GraphicsProgram {
+    gpu: Arc<Gpu>,
+    pub name: &'static str,
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    pub set_layout: vk::DescriptorSetLayout,
+    pub bindings: Vec<vk::DescriptorType>,
+    pub push_size: u32,
+}
+
+impl GraphicsProgram {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        gpu: &Arc<Gpu>,
+        name: &'static str,
+        vert: &[u8],
+        frag: &[u8],
+        bindings: &[vk::DescriptorType],
+        push_size: u32,
+        t: RasterTargets,
+    ) -> Result<GraphicsProgram> {
+        let d = &gpu.device;
+        let stages_flags = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let set_layout = set_layout(gpu, bindings, stages_flags)?;
+        let ranges = [vk::PushConstantRange { stage_flags: stages_flags, offset: 0, size: push_size }];
+        let layouts = [set_layout];
+        let lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&layouts).push_constant_ranges(&ranges);
+        let layout = unsafe { d.create_pipeline_layout(&lci, None) }.vk("vkCreatePipelineLayout")?;
+        let vm = shader_module(gpu, vert)?;
+        let fm = shader_module(gpu, frag)?;
+        let stages = [
+            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::VERTEX).module(vm).name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::FRAGMENT).module(fm).name(c"main"),
+        ];
+        let vi = vk::PipelineVertexInputStateCreateInfo::default();
+        let ia = vk::PipelineInputAssemblyStateCreateInfo::default().topology(t.topology);
+        let vp = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
+        let rs = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .line_width(1.0);
+        let ms = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let ds = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(t.depth_format.is_some())
+            .depth_write_enable(t.depth_format.is_some())
+            .depth_compare_op(vk::CompareOp::GREATER);
+        let blend = [vk::PipelineColorBlendAttachmentState::default()
+            .blend_enable(t.min_blend)
+            .src_color_blend_factor(vk::BlendFactor::ONE)
+            .dst_color_blend_factor(vk::BlendFactor::ONE)
+            .color_blend_op(vk::BlendOp::MIN)
+            .src_alpha_blend_factor(vk::BlendFactor::ONE)
+            .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+            .alpha_blend_op(vk::BlendOp::MIN)
+            .color_write_mask(vk::ColorComponentFlags::R)];
+        let cb = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend);
+        let dyn_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dy = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dyn_states);
+        let color_formats = [t.color_format];
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&color_formats)
+            .depth_attachment_format(t.depth_format.unwrap_or(vk::Format::UNDEFINED));
+        let ci = [vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vi)
+            .input_assembly_state(&ia)
+            .viewport_state(&vp)
+            .rasterization_state(&rs)
+            .multisample_state(&ms)
+            .depth_stencil_state(&ds)
+            .color_blend_state(&cb)
+            .dynamic_state(&dy)
+            .layout(layout)
+            .push_next(&mut rendering)];
+        let pipeline = unsafe { d.create_graphics_pipelines(vk::PipelineCache::null(), &ci, None) }
+            .map_err(|(_, r)| Error::Vulkan { call: "vkCreateGraphicsPipelines", result: r });
+        unsafe {
+            d.destroy_shader_module(vm, None);
+            d.destroy_shader_module(fm, None);
+        }
+        Ok(GraphicsProgram {
+            gpu: gpu.clone(),
+            name,
+            pipeline: pipeline?[0],
+            layout,
+            set_layout,
+            bindings: bindings.to_vec(),
+            push_size,
+        })
+    }
+
+    /// Draw `vertices` non-indexed into `color` (cleared to `clear`) and `depth` (cleared to 0, reversed Z).
+    /// Barriers are the caller's `begin_pass` (ColorAttachment / DepthAttachment accesses).
+    pub fn draw(&self, ctx: &FrameCtx, res: &[Bind], push: &[u8], color: &Image, clear: f32, depth: Option<&Image>, vertices: u32) {
+        let d = &self.gpu.device;
+        let cmd = ctx.cmd;
+        let area = vk::Rect2D { offset: vk::Offset2D { x: 0, y: 0 }, extent: color.extent };
+        let color_att = [vk::RenderingAttachmentInfo::default()
+            .image_view(color.view)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: [clear; 4] } })];
+        let depth_att = depth.map(|z| {
+            vk::RenderingAttachmentInfo::default()
+                .image_view(z.view)
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .clear_value(vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 } })
+        });
+        let mut ri = vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_att);
+        if let Some(z) = depth_att.as_ref() {
+            ri = ri.depth_attachment(z);
+        }
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: color.extent.width as f32,
+            height: color.extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        unsafe {
+            d.cmd_begin_rendering(cmd, &ri);
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline);
+            d.cmd_set_viewport(cmd, 0, &[viewport]);
+            d.cmd_set_scissor(cmd, 0, &[area]);
+        }
+        push_descriptors(&self.gpu, cmd, vk::PipelineBindPoint::GRAPHICS, self.layout, &self.bindings, res);
+        unsafe {
+            d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT, 0, push);
+            if vertices > 0 {
+                d.cmd_draw(cmd, vertices, 1, 0, 0);
+            }
+            d.cmd_end_rendering(cmd);
+        }
+    }
+}
+
+impl Drop for GraphicsProgram {
+    fn drop(&mut self) {
+        let d = &self.gpu.device;
+        unsafe {
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

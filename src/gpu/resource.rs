@@ -21,6 +21,7 @@ pub struct Image {
     pub format: vk::Format,
     pub extent: vk::Extent2D,
     pub name: String,
+    pub aspect: vk::ImageAspectFlags,
     pub(crate) state: Cell<AccessState>,
     alloc: Option<Allocation>,
 }
@@ -86,6 +87,7 @@ impl Image {
             format,
             extent,
             name: name.to_string(),
+            aspect: if format == vk::Format::D32_SFLOAT { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR },
             state: Cell::new(AccessState::default()),
             alloc: None,
         };
@@ -108,7 +110,7 @@ impl Image {
             .image(self.raw)
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
-            .subresource_range(Self::color_range());
+            .subresource_range(self.range());
         unsafe { self.gpu.device.create_image_view(&ci, None) }.vk("vkCreateImageView")
     }
 
@@ -121,6 +123,11 @@ impl Image {
             base_array_layer: 0,
             layer_count: 1,
         }
+    }
+
+    /// The whole image (colour or depth aspect).
+    pub fn range(&self) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange { aspect_mask: self.aspect, ..Self::color_range() }
     }
 
     /// Size in bytes of the texels (not counting driver padding).

@@ -1,12 +1,15 @@
-//! `splat` pass: nearest linear eye depth of every particle sphere (compute splat with atomicMin).
-//! Shader: shaders_glsl/splat.comp. The depth image is R32_SFLOAT with an R32_UINT view for the atomics.
+//! `splat` pass: nearest linear eye depth of every particle sphere. Default: the compute splat with
+//! atomicMin (shaders_glsl/splat.comp; the depth image is R32_SFLOAT with an R32_UINT view for the atomics).
+//! Rasterised variants for measurement (`SplatMode`): quads or point sprites with gl_FragDepth, conservative
+//! depth, or MIN blending (shaders_glsl/splat_{quad,point}.vert + splat_{fragdepth,conservative,min}.frag).
 use std::sync::Arc;
 
 use ash::vk;
 
-use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
+use crate::error::{Error, Result};
+use crate::gpu::pipeline::{bt::*, GraphicsProgram, RasterTargets};
 use crate::gpu::{Access, Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::settings::SplatMode;
 use crate::shaders;
 
 pub const NAME: &str = "splat";
@@ -16,11 +19,104 @@ pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
 
 pub struct Splat {
     prog: ComputeProgram,
+    /// Rasterised variants, by mode; None where the device lacks what the variant needs.
+    raster: Vec<(SplatMode, Option<GraphicsProgram>)>,
+}
+
+/// Push constants of the rasterised variants (splat_raster.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct RasterPush {
+    count: u32,
+    radius_scale: f32,
+    size: [f32; 2],
 }
 
 impl Splat {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG], 12)? })
+        let props = unsafe { gpu.instance.get_physical_device_format_properties(gpu.physical, vk::Format::R32_SFLOAT) };
+        let can_blend = props.optimal_tiling_features.contains(vk::FormatFeatureFlags::COLOR_ATTACHMENT_BLEND);
+        let mut raster = vec![];
+        for mode in [
+            SplatMode::QuadFragDepth,
+            SplatMode::QuadConservative,
+            SplatMode::QuadMin,
+            SplatMode::PointFragDepth,
+            SplatMode::PointMin,
+        ] {
+            let point = matches!(mode, SplatMode::PointFragDepth | SplatMode::PointMin);
+            let min = matches!(mode, SplatMode::QuadMin | SplatMode::PointMin);
+            let frag = match mode {
+                SplatMode::QuadConservative => shaders::SPLAT_CONSERVATIVE_FRAG,
+                _ if min => shaders::SPLAT_MIN_FRAG,
+                _ => shaders::SPLAT_FRAGDEPTH_FRAG,
+            };
+            let vert = if point { shaders::SPLAT_POINT_VERT } else { shaders::SPLAT_QUAD_VERT };
+            let t = RasterTargets {
+                color_format: vk::Format::R32_SFLOAT,
+                depth_format: (!min).then_some(vk::Format::D32_SFLOAT),
+                min_blend: min,
+                topology: if point { vk::PrimitiveTopology::POINT_LIST } else { vk::PrimitiveTopology::TRIANGLE_LIST },
+            };
+            let prog = if min && !can_blend { None } else { Some(GraphicsProgram::new(gpu, NAME, vert, frag, &[UBO, SSBO], 16, t)?) };
+            raster.push((mode, prog));
+        }
+        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG], 12)?, raster })
+    }
+
+    /// Whether `mode` can run on this device.
+    pub fn supports(&self, mode: SplatMode) -> bool {
+        mode == SplatMode::Compute || self.raster.iter().any(|(m, p)| *m == mode && p.is_some())
+    }
+
+    /// Rasterised splat into `depth` (as colour attachment) with `zbuffer` for the depth-tested variants.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_raster(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        particles: &Buffer,
+        count: u32,
+        depth: &Image,
+        zbuffer: &Image,
+        radius_scale: f32,
+        mode: SplatMode,
+    ) -> Result<()> {
+        let prog = self
+            .raster
+            .iter()
+            .find(|(m, _)| *m == mode)
+            .and_then(|(_, p)| p.as_ref())
+            .ok_or_else(|| Error::Invalid(format!("splat mode {mode:?} is not supported on this device")))?;
+        let min = matches!(mode, SplatMode::QuadMin | SplatMode::PointMin);
+        let point = matches!(mode, SplatMode::PointFragDepth | SplatMode::PointMin);
+        let mut uses = vec![
+            Use::Buffer(frame, Access::GraphicsRead),
+            Use::Buffer(particles, Access::GraphicsRead),
+            Use::Image(depth, Access::ColorAttachment, true),
+        ];
+        if !min {
+            uses.push(Use::Image(zbuffer, Access::DepthAttachment, true));
+        }
+        ctx.pass(NAME, &uses, |ctx| {
+            let push = RasterPush {
+                count,
+                radius_scale,
+                size: [depth.extent.width as f32, depth.extent.height as f32],
+            };
+            let vertices = if point { count } else { count * 6 };
+            let z = (!min).then_some(zbuffer);
+            prog.draw(
+                ctx,
+                &[Bind::Uniform(frame), Bind::StorageBuf(particles)],
+                bytemuck::bytes_of(&push),
+                depth,
+                f32::INFINITY,
+                z,
+                vertices,
+            );
+        });
+        Ok(())
     }
 
     /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it.
