@@ -8,6 +8,7 @@
 #![allow(missing_docs)] // TODO: document every public item; module headers are in place.
 
 pub mod bench;
+pub mod chart;
 pub mod error;
 pub mod frame;
 pub mod gpu;

@@ -72,6 +72,16 @@ struct BenchArgs {
     /// Write the markdown table here too.
     #[arg(long)]
     markdown: Option<PathBuf>,
+    /// Scaling sweeps instead of the scene list: `particles` (wave scene, 10k → 4M particles at fixed screen
+    /// coverage, first resolution), `pixels` (wave scene, 480p → 4K), or `both`.
+    #[arg(long, value_parser = ["particles", "pixels", "both"])]
+    sweep: Option<String>,
+    /// With --sweep: particle counts (comma-separated) instead of 10k, 40k, 160k, 640k, 2.56M, 4M.
+    #[arg(long, value_delimiter = ',')]
+    sweep_particles: Vec<usize>,
+    /// With --sweep: write the chart (per-pass ms against particles and pixels) as PNG here.
+    #[arg(long)]
+    chart: Option<PathBuf>,
     /// TOML settings over the preset.
     #[arg(long)]
     settings: Option<PathBuf>,
@@ -413,6 +423,10 @@ fn bench(a: &BenchArgs) -> Result<()> {
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("valid template"),
     );
     let mut entries = vec![];
+    if let Some(sweep) = &a.sweep {
+        bar.finish_and_clear();
+        return run_sweep(a, sweep, &gpu, &mut r, &base, resolutions[0]);
+    }
     for (k, name) in scenes.iter().enumerate() {
         bar.set_message(format!("generating {name}"));
         let w = workload(name, a, moritz)?;
@@ -498,6 +512,85 @@ fn bench(a: &BenchArgs) -> Result<()> {
     }
     if gpu.validation().errors() > 0 {
         bail!("{} Vulkan validation errors", gpu.validation().errors());
+    }
+    Ok(())
+}
+
+/// Per-pass medians plus the total of an entry, for the chart.
+fn chart_point(e: &meniscus::bench::Entry) -> Vec<(String, f64)> {
+    let mut v: Vec<(String, f64)> = e.passes.iter().map(|(n, s)| (n.clone(), s.median)).collect();
+    v.push(("total".into(), e.gpu_total.median));
+    v
+}
+
+fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Renderer, base: &Settings, res: (u32, u32)) -> Result<()> {
+    use meniscus::bench::{measure, Workload};
+    let counts: Vec<usize> = if a.sweep_particles.is_empty() {
+        vec![10_000, 40_000, 160_000, 640_000, 2_560_000, 4_000_000]
+    } else {
+        a.sweep_particles.clone()
+    };
+    let sizes = [(854u32, 480u32), (1280, 720), (1920, 1080), (2560, 1440), (3840, 2160)];
+    let do_particles = sweep == "particles" || sweep == "both";
+    let do_pixels = sweep == "pixels" || sweep == "both";
+    let total = if do_particles { counts.len() } else { 0 } + if do_pixels { sizes.len() } else { 0 };
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("template"));
+    let mut entries = vec![];
+    let mut panels = vec![];
+    if do_particles {
+        let mut pts = vec![];
+        for &n in &counts {
+            bar.set_message(format!("{n} particles"));
+            // The same pool at every count: the camera fit keeps the screen coverage fixed.
+            let g = procedural::generate("wave", n)?;
+            let w = Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
+            let e = measure(r, &w, res.0, res.1, base, "sweep particles", a.warmup, a.frames)?;
+            pts.push((e.particles as f64, chart_point(&e)));
+            entries.push(e);
+            bar.inc(1);
+        }
+        panels.push(("particles", pts));
+    }
+    if do_pixels {
+        let g = procedural::generate("wave", 143_944)?;
+        let w = Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
+        let mut pts = vec![];
+        for &(wd, ht) in &sizes {
+            bar.set_message(format!("{wd}×{ht}"));
+            let e = measure(r, &w, wd, ht, base, "sweep pixels", a.warmup, a.frames)?;
+            pts.push(((wd * ht) as f64, chart_point(&e)));
+            entries.push(e);
+            bar.inc(1);
+        }
+        panels.push(("pixels", pts));
+    }
+    bar.finish_and_clear();
+    let table = meniscus::bench::markdown(&entries);
+    println!("{} — {} — preset {} — sweep {sweep}\n\n{table}", gpu.info.name, gpu.info.driver, a.preset);
+    if let Some(p) = &a.chart {
+        let series: Vec<meniscus::chart::Series> = panels
+            .into_iter()
+            .map(|(x, points)| meniscus::chart::Series { x_label: if x == "particles" { "particles" } else { "pixels" }, points })
+            .collect();
+        meniscus::chart::write(p, &format!("meniscus bench --sweep {sweep} — {}", gpu.info.name), &series)?;
+        eprintln!("wrote {}", p.display());
+    }
+    let report = meniscus::bench::Report {
+        schema: meniscus::bench::SCHEMA,
+        device: meniscus::bench::device_info(gpu),
+        git_commit: meniscus::bench::git_commit(),
+        preset: a.preset.clone(),
+        settings: base.clone(),
+        entries,
+    };
+    if let Some(p) = &a.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.markdown {
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
     }
     Ok(())
 }
