@@ -25,8 +25,11 @@ enum Cmd {
     Render(RenderArgs),
     /// Describe a particle file: format, count, attributes, bounds, spacing and suggested radius.
     Info {
-        /// A .bgeo (gzip or plain) or legacy .vtk file.
-        file: PathBuf,
+        /// A particle file, or a sequence (pattern with {}, folder, glob): then its frames are listed and the
+        /// first one described.
+        file: String,
+        #[command(flatten)]
+        load: LoadArgs,
     },
     /// List the built-in procedural scenes.
     Scenes,
@@ -91,14 +94,69 @@ struct BenchArgs {
     device: Option<String>,
 }
 
+/// How to read particle files: attribute names, up axis, unit scale.
+#[derive(Args, Clone)]
+struct LoadArgs {
+    /// Attribute holding the velocity (default: velocity, v, vel).
+    #[arg(long, value_name = "NAME")]
+    velocity_attr: Option<String>,
+    /// Attribute holding the density (default: density, rho).
+    #[arg(long, value_name = "NAME")]
+    density_attr: Option<String>,
+    /// Attribute holding the particle id (default: id).
+    #[arg(long, value_name = "NAME")]
+    id_attr: Option<String>,
+    /// Attribute holding a per-particle radius (default: radius, pscale); used for splatting when present.
+    #[arg(long, value_name = "NAME")]
+    radius_attr: Option<String>,
+    /// The file's up axis (z-up data, e.g. from Blender, is turned to y-up).
+    #[arg(long, value_parser = ["y", "z"], default_value = "y")]
+    up: String,
+    /// Multiply positions, radii and velocities by this (unit conversion).
+    #[arg(long, default_value_t = 1.0)]
+    scale: f32,
+}
+
+impl LoadArgs {
+    fn options(&self) -> Result<scene::LoadOptions> {
+        let mut o = scene::LoadOptions::default();
+        let set = |v: &mut Vec<String>, name: &Option<String>| {
+            if let Some(n) = name {
+                *v = vec![n.clone()];
+            }
+        };
+        set(&mut o.velocity, &self.velocity_attr);
+        set(&mut o.density, &self.density_attr);
+        set(&mut o.id, &self.id_attr);
+        set(&mut o.radius, &self.radius_attr);
+        o.z_up = self.up == "z";
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            bail!("--scale must be a positive number");
+        }
+        o.scale = self.scale;
+        Ok(o)
+    }
+}
+
 #[derive(Args, Clone)]
 struct RenderArgs {
-    /// A built-in scene (block, wave, drop) or a particle file (.bgeo, .vtk).
+    /// A built-in scene (block, wave, drop, crown, waterfall), a particle file (.bgeo, .vtk, .vtu/.vtp, .ply,
+    /// .xyz, .csv, RealFlow .bin; detected from the content), or a sequence: a pattern with {} for the frame
+    /// number (ParticleData_Fluid_{}.bgeo), a folder, or a glob ('frames/*.vtk').
     #[arg(default_value = "wave")]
     input: String,
-    /// Output PNG (written atomically: no half-written file on failure).
+    /// Output PNG (written atomically: no half-written file on failure). For a sequence, {} in the name is the
+    /// frame number (4 digits), else _NNNN is added before the extension.
     #[arg(short, long, default_value = "frame.png")]
     out: PathBuf,
+    /// Sequence: frames FIRST..LAST[:STEP] (inclusive, by the numbers in the file names), e.g. 10..40:2.
+    #[arg(long = "frames", value_name = "RANGE")]
+    frames_range: Option<String>,
+    /// Sequence: render only shard K of N (every Nth frame starting with the Kth), e.g. 2/8.
+    #[arg(long)]
+    shard: Option<String>,
+    #[command(flatten)]
+    load: LoadArgs,
     #[arg(long, default_value_t = 960)]
     width: u32,
     #[arg(long, default_value_t = 540)]
@@ -134,7 +192,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 2)]
     warmup: u32,
     /// With --timings: frames timed; the table shows per-pass medians.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long = "timed-frames", default_value_t = 5)]
     frames: u32,
     /// Write buffers next to the PNG: depth, smoothed, thickness as OUT.NAME.npy (float32, H×W, +inf = none),
     /// normals as OUT.normals.npy (H×W×3, view space) and OUT.normals.png, ssr as OUT.ssr.png, final = the PNG.
@@ -152,7 +210,7 @@ fn main() {
     let cli = Cli::parse();
     let r = match cli.cmd {
         Cmd::Render(a) => render(&a),
-        Cmd::Info { file } => info(&file),
+        Cmd::Info { file, load } => info(&file, &load),
         Cmd::Bench(b) => bench(&b),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
@@ -168,7 +226,7 @@ fn main() {
 }
 
 /// Particles and the radius they come with (if the source knows it).
-fn load_input(input: &str, count: Option<usize>) -> Result<(Particles, Option<f32>, String)> {
+fn load_input(input: &str, count: Option<usize>, o: &scene::LoadOptions) -> Result<(Particles, Option<f32>, String)> {
     if let Some((name, n, _)) = procedural::SCENES.iter().find(|s| s.0 == input) {
         let g = procedural::generate(name, count.unwrap_or(*n))?;
         return Ok((g.particles, Some(g.radius), format!("scene {name}")));
@@ -181,51 +239,30 @@ fn load_input(input: &str, count: Option<usize>) -> Result<(Particles, Option<f3
     if count.is_some() {
         bail!("--particles applies to built-in scenes only");
     }
-    Ok((scene::load(path)?, None, input.to_string()))
+    Ok((scene::load_with(path, o)?, None, input.to_string()))
 }
 
 fn render(a: &RenderArgs) -> Result<()> {
-    let (particles, scene_radius, label) = load_input(&a.input, a.particles)?;
-    let mut s = match &a.settings {
-        Some(f) => Settings::from_toml(f)?,
-        None => Settings::preset(&a.preset)?,
-    };
-    if let Some(f) = a.filter {
-        s.filter = f;
+    let opts = a.load.options()?;
+    if !procedural::SCENES.iter().any(|s| s.0 == a.input) && meniscus::scene::sequence::is_sequence(&a.input) {
+        return render_sequence(a, &opts);
     }
-    if let Some(fs) = a.fluid_scale {
-        s.fluid_scale = fs;
+    if a.frames_range.is_some() || a.shard.is_some() {
+        bail!("--frames and --shard apply to sequences (a pattern with {{}}, a folder or a glob)");
     }
-    if let Some(m) = a.splat {
-        s.splat = m;
-    }
-    s.radius = match a.radius.or(scene_radius) {
-        Some(r) => r,
-        None => {
-            let r = scene::estimate_radius(&particles.positions)
-                .context("cannot estimate the particle radius (too few distinct particles); pass --radius")?;
-            eprintln!("radius {r:.5} estimated from the particle spacing (pass --radius to override)");
-            r
-        }
-    };
-    s.validate()?;
+    let (particles, scene_radius, label) = load_input(&a.input, a.particles, &opts)?;
+    let s = settings_for(a, &particles, scene_radius)?;
     let bounds = scene::percentile_bounds(&particles.positions, 0.01).context("no finite particle positions")?;
     let camera = match &a.camera {
         Some(c) => Camera::parse(c)?,
         None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
     };
     let view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
-    for d in &a.dump {
-        if !["depth", "smoothed", "thickness", "normals", "ssr", "final"].contains(&d.as_str()) {
-            bail!("--dump {d:?}: expected some of depth, smoothed, thickness, normals, ssr, final");
-        }
-    }
-
+    check_dumps(a)?;
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
     let mut r = Renderer::new(&gpu)?;
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
-    let spray = scene::spray_mask(&particles, s.radius, s.spray_density);
-    r.set_particles_with(&particles.positions, None, Some(&spray))?;
+    upload(&mut r, &particles, &s)?;
     let mut times = r.render(&view, &s)?;
     if a.timings {
         let mut runs = vec![];
@@ -258,6 +295,115 @@ fn render(a: &RenderArgs) -> Result<()> {
         println!("| **total** | **{:.3}** |", times.total());
     }
     dump(&r, a, &view)?;
+    if gpu.validation().errors() > 0 {
+        bail!("{} Vulkan validation errors", gpu.validation().errors());
+    }
+    Ok(())
+}
+
+fn check_dumps(a: &RenderArgs) -> Result<()> {
+    for d in &a.dump {
+        if !["depth", "smoothed", "thickness", "normals", "ssr", "final"].contains(&d.as_str()) {
+            bail!("--dump {d:?}: expected some of depth, smoothed, thickness, normals, ssr, final");
+        }
+    }
+    Ok(())
+}
+
+/// Upload particles with their spray flags and per-particle radii (when mapped).
+fn upload(r: &mut Renderer, p: &Particles, s: &Settings) -> Result<()> {
+    let spray = scene::spray_mask(p, s.radius, s.spray_density);
+    r.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))?;
+    Ok(())
+}
+
+/// Settings from preset/TOML/flags, with the radius from the flag, the scene, or the particle spacing.
+fn settings_for(a: &RenderArgs, particles: &Particles, scene_radius: Option<f32>) -> Result<Settings> {
+    let mut s = match &a.settings {
+        Some(f) => Settings::from_toml(f)?,
+        None => Settings::preset(&a.preset)?,
+    };
+    if let Some(f) = a.filter {
+        s.filter = f;
+    }
+    if let Some(fs) = a.fluid_scale {
+        s.fluid_scale = fs;
+    }
+    if let Some(m) = a.splat {
+        s.splat = m;
+    }
+    s.radius = match a.radius.or(scene_radius) {
+        Some(r) => r,
+        None => {
+            let r = scene::estimate_radius(&particles.positions)
+                .context("cannot estimate the particle radius (too few distinct particles); pass --radius")?;
+            eprintln!("radius {r:.5} estimated from the particle spacing (pass --radius to override)");
+            r
+        }
+    };
+    s.validate()?;
+    Ok(s)
+}
+
+/// Render a sequence to numbered PNGs: background prefetch, progress bar, camera fitted once on the first frame.
+fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
+    use meniscus::scene::sequence::{self, FrameRange, Prefetch};
+    let range = a.frames_range.as_deref().map(FrameRange::parse).transpose()?;
+    let shard = a.shard.as_deref().map(sequence::parse_shard).transpose()?;
+    let frames = sequence::resolve(&a.input, range, shard)?;
+    check_dumps(a)?;
+    if !a.dump.is_empty() {
+        bail!("--dump applies to single frames");
+    }
+    let out_name = |n: u64| -> PathBuf {
+        let s = a.out.to_string_lossy();
+        if s.contains("{}") {
+            PathBuf::from(s.replace("{}", &format!("{n:04}")))
+        } else {
+            let stem = a.out.with_extension("");
+            let ext = a.out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "png".into());
+            PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
+        }
+    };
+    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
+    let mut r = Renderer::new(&gpu)?;
+    let total = frames.len();
+    eprintln!("{}: {total} frames ({} … {}) on {}", a.input, frames[0].number, frames[total - 1].number, gpu.info.name);
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  [{elapsed} < {eta}]").expect("template"),
+    );
+    let mut fixed: Option<(Settings, View)> = None;
+    let t0 = std::time::Instant::now();
+    let mut gpu_ms = 0.0;
+    for (frame, loaded) in Prefetch::start(frames, opts.clone(), 2) {
+        let particles = loaded?;
+        if fixed.is_none() {
+            let s = settings_for(a, &particles, None)?;
+            let bounds = scene::percentile_bounds(&particles.positions, 0.01).context("no finite particle positions")?;
+            let camera = match &a.camera {
+                Some(c) => Camera::parse(c)?,
+                None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
+            };
+            bar.println(format!("camera: --camera {}", camera.to_arg()));
+            let view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
+            fixed = Some((s, view));
+        }
+        let (s, view) = fixed.as_ref().expect("set above");
+        upload(&mut r, &particles, s)?;
+        gpu_ms += r.render(view, s)?.total();
+        let path = out_name(frame.number);
+        meniscus::output::write_png(&path, &r.read_final()?)?;
+        bar.set_message(format!("{} → {}", frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(), path.display()));
+        bar.inc(1);
+    }
+    bar.finish();
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "{total} frames in {secs:.1} s ({:.2} frames/s, mean GPU frame {:.1} ms)",
+        total as f64 / secs,
+        gpu_ms / total as f64
+    );
     if gpu.validation().errors() > 0 {
         bail!("{} Vulkan validation errors", gpu.validation().errors());
     }
@@ -326,18 +472,34 @@ fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
     Ok(())
 }
 
-fn info(file: &Path) -> Result<()> {
-    let bytes = std::fs::read(file).with_context(|| format!("{}", file.display()))?;
-    let format = scene::detect_format(file, &bytes);
-    let p = scene::load(file)?;
-    println!("file:        {}", file.display());
-    println!("format:      {:?}{}", format.unwrap(), if bytes.starts_with(&[0x1f, 0x8b]) { " (gzip)" } else { "" });
+fn info(spec: &str, load: &LoadArgs) -> Result<()> {
+    use meniscus::scene::sequence;
+    let opts = load.options()?;
+    let file = if sequence::is_sequence(spec) {
+        let frames = sequence::resolve(spec, None, None)?;
+        println!("sequence:    {} frames, numbers {} … {}", frames.len(), frames[0].number, frames[frames.len() - 1].number);
+        println!("first file:  {}", frames[0].path.display());
+        frames[0].path.clone()
+    } else {
+        PathBuf::from(spec)
+    };
+    let bytes = std::fs::read(&file).with_context(|| format!("{}", file.display()))?;
+    let format = scene::detect_format(&file, &bytes);
+    let t0 = std::time::Instant::now();
+    let p = scene::load_with(&file, &opts)?;
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    println!("file:        {} ({} bytes, loaded in {ms:.1} ms)", file.display(), bytes.len());
+    println!(
+        "format:      {}{}",
+        format.map(|f| f.name()).unwrap_or("?"),
+        if bytes.starts_with(&[0x1f, 0x8b]) { " (gzip)" } else { "" }
+    );
     println!("particles:   {}", p.len());
     println!("attributes:  position{}", p.attribute_names().iter().map(|a| format!(", {a}")).collect::<String>());
     let full = scene::percentile_bounds(&p.positions, 0.0).context("no finite positions")?;
     let pct = scene::percentile_bounds(&p.positions, 0.01).context("no finite positions")?;
     println!("bounds:      min {:?} max {:?}", full.lo.to_array(), full.hi.to_array());
-    println!("1–99 %:      min {:?} max {:?}", pct.lo.to_array(), pct.hi.to_array());
+    println!("1–99 %:      min {:?} max {:?}  (a much smaller box than min/max means stray particles)", pct.lo.to_array(), pct.hi.to_array());
     match scene::estimate_spacing(&p.positions) {
         Some(sp) => println!("spacing:     {sp:.5} (median nearest neighbour) → suggested --radius {:.5}", sp * 0.5),
         None => println!("spacing:     unknown (too few distinct particles)"),
@@ -373,7 +535,7 @@ fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench:
             if let Some((sn, def, _)) = procedural::SCENES.iter().find(|s| s.0 == n) {
                 (*sn, c.unwrap_or(*def), dist, n.to_string())
             } else {
-                let (p, _, label) = load_input(other, None)?;
+                let (p, _, label) = load_input(other, None, &scene::LoadOptions::default())?;
                 let radius = match a.radius {
                     Some(r) => r,
                     None => scene::estimate_radius(&p.positions).context("cannot estimate the radius; pass --radius")?,

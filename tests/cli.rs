@@ -54,7 +54,7 @@ fn corrupt_file_gives_one_line_error_and_no_png() {
     let d = tmpdir("bad");
     let bad = d.join("broken.bgeo");
     let mut bytes = meniscus::scene::bgeo::write(
-        &meniscus::scene::Particles { positions: vec![[0.0; 3]; 100], ..Default::default() },
+        &meniscus::scene::Particles { positions: vec![[0.0; 3]; 100], ..Default::default() }.to_raw(),
         false,
     );
     bytes.truncate(300);

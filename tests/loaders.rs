@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use meniscus::scene::{self, bgeo, vtk, Particles};
+use meniscus::scene::{self, bgeo, csv, ply, realflow, vtk, vtu, xyz, Particles};
 use meniscus::Error;
 
 fn sample(n: usize) -> Particles {
@@ -12,6 +12,7 @@ fn sample(n: usize) -> Particles {
         velocities: Some((0..n).map(|i| [1.0, i as f32, -2.0]).collect()),
         densities: Some((0..n).map(|i| 1000.0 + i as f32).collect()),
         ids: Some((0..n as i64).rev().collect()),
+        ..Default::default()
     }
 }
 
@@ -27,7 +28,7 @@ fn tmp(name: &str, bytes: &[u8]) -> PathBuf {
 fn bgeo_round_trip_plain_and_gzip() {
     let p = sample(37);
     for gz in [false, true] {
-        let path = tmp(&format!("rt{gz}.bgeo"), &bgeo::write(&p, gz));
+        let path = tmp(&format!("rt{gz}.bgeo"), &bgeo::write(&p.to_raw(), gz));
         assert_eq!(scene::load(&path).unwrap(), p);
     }
 }
@@ -36,7 +37,7 @@ fn bgeo_round_trip_plain_and_gzip() {
 fn vtk_round_trip_ascii_and_binary() {
     let p = sample(23);
     for bin in [false, true] {
-        let path = tmp(&format!("rt{bin}.vtk"), &vtk::write(&p, bin));
+        let path = tmp(&format!("rt{bin}.vtk"), &vtk::write(&p.to_raw(), bin));
         assert_eq!(scene::load(&path).unwrap(), p, "binary={bin}");
     }
 }
@@ -44,9 +45,9 @@ fn vtk_round_trip_ascii_and_binary() {
 #[test]
 fn format_is_detected_from_content_not_extension() {
     let p = sample(5);
-    let path = tmp("actually_vtk.bgeo", &vtk::write(&p, true));
+    let path = tmp("actually_vtk.bgeo", &vtk::write(&p.to_raw(), true));
     assert_eq!(scene::load(&path).unwrap(), p);
-    let path = tmp("actually_bgeo.dat", &bgeo::write(&p, true));
+    let path = tmp("actually_bgeo.dat", &bgeo::write(&p.to_raw(), true));
     assert_eq!(scene::load(&path).unwrap(), p);
 }
 
@@ -64,7 +65,7 @@ fn parse_err(path: &Path) -> (u64, String) {
 
 #[test]
 fn malformed_bgeo_files_are_clear_errors() {
-    let good = bgeo::write(&sample(10), false);
+    let good = bgeo::write(&sample(10).to_raw(), false);
     // Truncated inside the records.
     let (_, why) = parse_err(&tmp("trunc.bgeo", &good[..good.len() - 50]));
     assert!(why.contains("points") && why.contains("remain"), "{why}");
@@ -90,7 +91,7 @@ fn malformed_bgeo_files_are_clear_errors() {
     assert_eq!(off, 9);
     assert!(why.contains("negative"), "{why}");
     // Corrupt gzip.
-    let mut gz = bgeo::write(&sample(10), true);
+    let mut gz = bgeo::write(&sample(10).to_raw(), true);
     let n = gz.len();
     gz.truncate(n / 2);
     let (_, why) = parse_err(&tmp("corrupt.bgeo", &gz));
@@ -99,7 +100,7 @@ fn malformed_bgeo_files_are_clear_errors() {
 
 #[test]
 fn malformed_vtk_files_are_clear_errors() {
-    let good = vtk::write(&sample(10), true);
+    let good = vtk::write(&sample(10).to_raw(), true);
     let (_, why) = parse_err(&tmp("trunc.vtk", &good[..150]));
     assert!(why.contains("remain") || why.contains("truncated"), "{why}");
     let (off, why) = parse_err(&tmp("magic.vtk", b"# not vtk\nx\nASCII\n"));
@@ -142,4 +143,98 @@ fn shared_splishsplash_bgeo_equals_vtk() {
             assert!((r - 0.025).abs() < 0.003, "estimated radius {r}");
         }
     }
+}
+
+#[test]
+fn every_format_round_trips() {
+    let p = sample(29);
+    let raw = p.to_raw();
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("a.vtu", vtu::write(&raw, vtu::Encoding::Ascii)),
+        ("b.vtu", vtu::write(&raw, vtu::Encoding::Binary { zlib: false })),
+        ("c.vtu", vtu::write(&raw, vtu::Encoding::Binary { zlib: true })),
+        ("d.vtu", vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: false })),
+        ("e.vtu", vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: true })),
+        ("f.vtu", vtu::write(&raw, vtu::Encoding::AppendedBase64)),
+        ("g.ply", ply::write(&raw, "ascii")),
+        ("h.ply", ply::write(&raw, "binary_little_endian")),
+        ("i.ply", ply::write(&raw, "binary_big_endian")),
+        ("j.csv", csv::write(&raw)),
+        ("k.bin", realflow::write(&raw)),
+    ];
+    for (name, bytes) in cases {
+        let path = tmp(name, &bytes);
+        let got = scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(got.positions, p.positions, "{name}");
+        assert_eq!(got.velocities, p.velocities, "{name}");
+        assert_eq!(got.densities, p.densities, "{name}");
+        assert_eq!(got.ids, p.ids, "{name}");
+    }
+    // Raw XYZ holds positions only.
+    let path = tmp("l.xyz", &xyz::write(&raw));
+    assert_eq!(scene::load(&path).unwrap().positions, p.positions);
+    let path = tmp("m.xyz", b"# x y z\n0 1 2\n3.5 4 5 extra\n");
+    assert_eq!(scene::load(&path).unwrap().positions, vec![[0.0, 1.0, 2.0], [3.5, 4.0, 5.0]]);
+}
+
+#[test]
+fn attribute_mapping_up_axis_and_scale() {
+    let mut raw = sample(4).to_raw();
+    raw.arrays.push(scene::Attribute { name: "pscale".into(), components: 1, data: vec![0.5; 4] });
+    raw.arrays.push(scene::Attribute { name: "speed_custom".into(), components: 3, data: vec![1.0; 12] });
+    let path = tmp("map.bgeo", &bgeo::write(&raw, false));
+    let o = scene::LoadOptions { velocity: vec!["speed_custom".into()], z_up: true, scale: 2.0, ..Default::default() };
+    let p = scene::load_with(&path, &o).unwrap();
+    // z-up → y-up: (x, y, z) → (x, z, −y); scaled by 2.
+    assert_eq!(p.positions[1], [1.0, 0.5, 2.0]);
+    assert_eq!(p.velocities.as_ref().unwrap()[0], [2.0, 2.0, -2.0]);
+    assert_eq!(p.radii.as_ref().unwrap()[0], 1.0);
+    // The unmapped default-named velocity stays as an extra attribute.
+    assert!(p.extra.iter().any(|a| a.name == "velocity"));
+}
+
+#[test]
+fn malformed_new_formats_are_clear_errors() {
+    let raw = sample(10).to_raw();
+    let cut = |b: Vec<u8>, n: usize| b[..b.len() - n].to_vec();
+    for (name, bytes, want) in [
+        ("t1.vtu", cut(vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: false }), 80), "truncated"),
+        ("t2.vtu", cut(vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: true }), 60), ""),
+        ("t3.ply", cut(ply::write(&raw, "binary_little_endian"), 100), "truncated"),
+        ("t4.bin", cut(realflow::write(&raw), 30), "remain"),
+        ("t5.xyz", vec![0u8; 13], "multiple of 12"),
+        ("t6.csv", b"a,b,c\n1,2,3\n".to_vec(), "x, y and z"),
+        ("t7.csv", b"x,y,z\n1,2,three\n".to_vec(), "not a number"),
+        ("t8.ply", b"ply\nformat ascii 1.0\nelement vertex 99999999\nproperty float x\nend_header\n1\n".to_vec(), "99999999"),
+        ("t9.vtu", b"<?xml version=\"1.0\"?><VTKFile><UnstructuredGrid><Piece NumberOfPoints=\"2000000000\"><Points><DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">1 2 3</DataArray></Points></Piece></UnstructuredGrid></VTKFile>".to_vec(), "2000000000"),
+    ] {
+        let path = tmp(name, &bytes);
+        let (_, why) = parse_err(&path);
+        assert!(why.contains(want), "{name}: {why}");
+    }
+}
+
+#[test]
+fn sequences_sort_numerically_with_ranges_and_shards() {
+    use meniscus::scene::sequence::{resolve, FrameRange, Prefetch};
+    let dir = std::env::temp_dir().join(format!("meniscus-seq-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for n in [1, 2, 10, 11, 20] {
+        let mut p = sample(3);
+        p.positions[0][0] = n as f32;
+        std::fs::write(dir.join(format!("ParticleData_Fluid_{n}.bgeo")), bgeo::write(&p.to_raw(), true)).unwrap();
+    }
+    std::fs::write(dir.join("notes.txt"), b"not a frame").unwrap();
+    let pattern = format!("{}/ParticleData_Fluid_{{}}.bgeo", dir.display());
+    let nums = |v: Vec<scene::sequence::Frame>| v.into_iter().map(|f| f.number).collect::<Vec<_>>();
+    assert_eq!(nums(resolve(&pattern, None, None).unwrap()), vec![1, 2, 10, 11, 20]);
+    assert_eq!(nums(resolve(dir.to_str().unwrap(), None, None).unwrap()), vec![1, 2, 10, 11, 20]);
+    let glob = format!("{}/*.bgeo", dir.display());
+    assert_eq!(nums(resolve(&glob, Some(FrameRange::parse("2..11").unwrap()), None).unwrap()), vec![2, 10, 11]);
+    assert_eq!(nums(resolve(&pattern, None, Some((2, 2))).unwrap()), vec![2, 11]);
+    assert!(resolve(&pattern, Some(FrameRange::parse("30..40").unwrap()), None).is_err());
+    // Prefetch delivers every frame in order, loaded.
+    let frames = resolve(&pattern, None, None).unwrap();
+    let got: Vec<f32> = Prefetch::start(frames, Default::default(), 2).map(|(_, p)| p.unwrap().positions[0][0]).collect();
+    assert_eq!(got, vec![1.0, 2.0, 10.0, 11.0, 20.0]);
 }

@@ -9,7 +9,7 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::scene::Particles;
+use crate::scene::{Attribute, Raw};
 
 /// Houdini attribute types used in point attributes.
 const T_FLOAT: i32 = 0;
@@ -58,7 +58,7 @@ struct Attr {
 }
 
 /// Parse BGEO bytes (gzip or plain). `path` only names the file in errors.
-pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let compressed = bytes.starts_with(&[0x1f, 0x8b]);
     let owned;
     let data: &[u8] = if compressed {
@@ -142,12 +142,6 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
             ),
         ));
     }
-    let find = |names: &[&str], size: usize| {
-        attrs.iter().position(|a| a.size == size && names.iter().any(|n| a.name.eq_ignore_ascii_case(n)))
-    };
-    let vel = find(&["velocity", "v", "vel"], 3);
-    let dens = find(&["density", "rho"], 1);
-    let id = find(&["id", "ids"], 1).filter(|&k| attrs[k].ty == T_INT);
     let mut offsets = vec![];
     let mut o = 16;
     for a in &attrs {
@@ -156,71 +150,64 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
     }
     let body = &data[r.pos..r.pos + need];
     let f = |rec: &[u8], off: usize| f32::from_be_bytes(rec[off..off + 4].try_into().unwrap());
-    let mut p = Particles { positions: Vec::with_capacity(n_points), ..Default::default() };
-    let mut vels = vel.map(|_| Vec::with_capacity(n_points));
-    let mut denss = dens.map(|_| Vec::with_capacity(n_points));
-    let mut ids = id.map(|_| Vec::with_capacity(n_points));
-    for rec in body.chunks_exact(record) {
-        p.positions.push([f(rec, 0), f(rec, 4), f(rec, 8)]);
-        if let (Some(k), Some(v)) = (vel, vels.as_mut()) {
-            let o = offsets[k];
-            v.push([f(rec, o), f(rec, o + 4), f(rec, o + 8)]);
-        }
-        if let (Some(k), Some(v)) = (dens, denss.as_mut()) {
-            v.push(f(rec, offsets[k]));
-        }
-        if let (Some(k), Some(v)) = (id, ids.as_mut()) {
-            let o = offsets[k];
-            v.push(i32::from_be_bytes(rec[o..o + 4].try_into().unwrap()) as i64);
-        }
-    }
-    p.velocities = vels;
-    p.densities = denss;
-    p.ids = ids;
-    Ok(p)
+    let positions = body.chunks_exact(record).map(|rec| [f(rec, 0), f(rec, 4), f(rec, 8)]).collect();
+    let arrays = attrs
+        .iter()
+        .zip(&offsets)
+        .map(|(a, &off)| {
+            let mut v = Vec::with_capacity(n_points * a.size);
+            for rec in body.chunks_exact(record) {
+                for c in 0..a.size {
+                    let b: [u8; 4] = rec[off + 4 * c..off + 4 * c + 4].try_into().unwrap();
+                    v.push(if a.ty == T_FLOAT || a.ty == T_VECTOR { f32::from_be_bytes(b) as f64 } else { i32::from_be_bytes(b) as f64 });
+                }
+            }
+            Attribute { name: a.name.clone(), components: a.size, data: v }
+        })
+        .collect();
+    Ok(Raw { positions, arrays })
 }
 
-/// Write classic BGEO v5 the way Partio does (attributes id, velocity, density when present), plain or gzip.
-pub fn write(p: &Particles, gzip: bool) -> Vec<u8> {
+/// Write classic BGEO v5 the way Partio does: every array (`id`-like names as int, 3-component ones as vector,
+/// others float), plain or gzip.
+pub fn write(p: &Raw, gzip: bool) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(b"BgeoV");
-    let mut attrs: Vec<(&str, u16, i32)> = vec![];
-    if p.ids.is_some() {
-        attrs.push(("id", 1, T_INT));
-    }
-    if p.velocities.is_some() {
-        attrs.push(("velocity", 3, T_VECTOR));
-    }
-    if p.densities.is_some() {
-        attrs.push(("density", 1, T_FLOAT));
-    }
-    for v in [5, p.len() as i32, 0, 0, 0, attrs.len() as i32, 0, 0, 0] {
+    let ty = |a: &Attribute| {
+        if a.name == "id" {
+            T_INT
+        } else if a.components == 3 {
+            T_VECTOR
+        } else {
+            T_FLOAT
+        }
+    };
+    for v in [5, p.positions.len() as i32, 0, 0, 0, p.arrays.len() as i32, 0, 0, 0] {
         out.extend_from_slice(&v.to_be_bytes());
     }
-    for (name, size, ty) in &attrs {
-        out.extend_from_slice(&(name.len() as u16).to_be_bytes());
-        out.extend_from_slice(name.as_bytes());
-        out.extend_from_slice(&size.to_be_bytes());
-        out.extend_from_slice(&ty.to_be_bytes());
-        for _ in 0..*size {
+    for a in &p.arrays {
+        out.extend_from_slice(&(a.name.len() as u16).to_be_bytes());
+        out.extend_from_slice(a.name.as_bytes());
+        out.extend_from_slice(&(a.components as u16).to_be_bytes());
+        out.extend_from_slice(&ty(a).to_be_bytes());
+        for _ in 0..a.components {
             out.extend_from_slice(&0i32.to_be_bytes());
         }
     }
-    for i in 0..p.len() {
-        for c in p.positions[i] {
+    for (i, pos) in p.positions.iter().enumerate() {
+        for c in pos {
             out.extend_from_slice(&c.to_be_bytes());
         }
         out.extend_from_slice(&1f32.to_be_bytes());
-        if let Some(ids) = &p.ids {
-            out.extend_from_slice(&(ids[i] as i32).to_be_bytes());
-        }
-        if let Some(v) = &p.velocities {
-            for c in v[i] {
-                out.extend_from_slice(&c.to_be_bytes());
+        for a in &p.arrays {
+            for c in 0..a.components {
+                let x = a.data[i * a.components + c];
+                if ty(a) == T_INT {
+                    out.extend_from_slice(&(x as i32).to_be_bytes());
+                } else {
+                    out.extend_from_slice(&(x as f32).to_be_bytes());
+                }
             }
-        }
-        if let Some(d) = &p.densities {
-            out.extend_from_slice(&d[i].to_be_bytes());
         }
     }
     out.extend_from_slice(&[0x00, 0xff]);

@@ -4,8 +4,14 @@
 
 pub mod bgeo;
 pub mod camera;
+pub mod csv;
+pub mod ply;
 pub mod procedural;
+pub mod realflow;
+pub mod sequence;
 pub mod vtk;
+pub mod vtu;
+pub mod xyz;
 
 use std::path::Path;
 
@@ -14,14 +20,93 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 
 pub use camera::Camera;
+pub(crate) use self::csv::split_vector as csv_split;
 
-/// Particle data as loaded: positions always, attributes when the file has them.
+/// Particle data as loaded: positions always, the mapped attributes when the file has them, and every other
+/// per-particle array by name.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Particles {
     pub positions: Vec<[f32; 3]>,
     pub velocities: Option<Vec<[f32; 3]>>,
     pub densities: Option<Vec<f32>>,
     pub ids: Option<Vec<i64>>,
+    /// Per-particle radius (e.g. Houdini `pscale`), when mapped.
+    pub radii: Option<Vec<f32>>,
+    /// Attributes not mapped to one of the above.
+    pub extra: Vec<Attribute>,
+}
+
+/// One named per-particle array as read from a file (`components` values per particle).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Attribute {
+    pub name: String,
+    pub components: usize,
+    pub data: Vec<f64>,
+}
+
+/// What a loader returns: positions and every per-particle array it found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Raw {
+    pub positions: Vec<[f32; 3]>,
+    pub arrays: Vec<Attribute>,
+}
+
+/// Which file attribute is what, the up axis and a unit scale (`--velocity-attr`, `--up z`, `--scale`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadOptions {
+    pub velocity: Vec<String>,
+    pub density: Vec<String>,
+    pub id: Vec<String>,
+    pub radius: Vec<String>,
+    /// The file's up axis: positions (and vectors) are rotated so that it becomes +y.
+    pub z_up: bool,
+    /// Multiply positions (and radii, velocities) by this.
+    pub scale: f32,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        let v = |xs: &[&str]| xs.iter().map(|s| s.to_string()).collect();
+        LoadOptions {
+            velocity: v(&["velocity", "v", "vel", "velocities"]),
+            density: v(&["density", "rho", "densities"]),
+            id: v(&["id", "ids", "particle_id"]),
+            radius: v(&["radius", "pscale", "radii"]),
+            z_up: false,
+            scale: 1.0,
+        }
+    }
+}
+
+impl Raw {
+    /// Map named arrays to the known attributes (first matching name, right component count), convert the
+    /// up axis and the scale; everything else stays in `extra`.
+    pub fn into_particles(self, o: &LoadOptions) -> Particles {
+        let n = self.positions.len();
+        let mut arrays = self.arrays;
+        let mut take = |names: &[String], comps: usize| -> Option<Vec<f64>> {
+            let k = names.iter().find_map(|want| {
+                arrays.iter().position(|a| a.name.eq_ignore_ascii_case(want) && a.components == comps && a.data.len() == n * comps)
+            })?;
+            Some(arrays.remove(k).data)
+        };
+        let vel = take(&o.velocity, 3);
+        let dens = take(&o.density, 1);
+        let ids = take(&o.id, 1);
+        let radii = take(&o.radius, 1);
+        let s = o.scale;
+        let orient = |v: [f32; 3]| if o.z_up { [v[0], v[2], -v[1]] } else { v };
+        Particles {
+            positions: self.positions.into_iter().map(|p| orient([p[0] * s, p[1] * s, p[2] * s])).collect(),
+            velocities: vel.map(|v| {
+                v.chunks_exact(3).map(|c| orient([c[0] as f32 * s, c[1] as f32 * s, c[2] as f32 * s])).collect()
+            }),
+            densities: dens.map(|v| v.into_iter().map(|x| x as f32).collect()),
+            ids: ids.map(|v| v.into_iter().map(|x| x as i64).collect()),
+            radii: radii.map(|v| v.into_iter().map(|x| x as f32 * s).collect()),
+            extra: arrays,
+        }
+    }
 }
 
 impl Particles {
@@ -31,19 +116,44 @@ impl Particles {
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }
-    /// Names of the attributes present besides position.
-    pub fn attribute_names(&self) -> Vec<&'static str> {
-        let mut v = vec![];
+    /// Names of the attributes present besides position (mapped ones first, then the others as in the file).
+    pub fn attribute_names(&self) -> Vec<String> {
+        let mut v: Vec<String> = vec![];
         if self.velocities.is_some() {
-            v.push("velocity");
+            v.push("velocity (mapped)".into());
         }
         if self.densities.is_some() {
-            v.push("density");
+            v.push("density (mapped)".into());
         }
         if self.ids.is_some() {
-            v.push("id");
+            v.push("id (mapped)".into());
+        }
+        if self.radii.is_some() {
+            v.push("radius (mapped)".into());
+        }
+        for a in &self.extra {
+            v.push(format!("{} ({} component{})", a.name, a.components, if a.components == 1 { "" } else { "s" }));
         }
         v
+    }
+
+    /// The known attributes as named arrays (for writers).
+    pub fn to_raw(&self) -> Raw {
+        let mut arrays = vec![];
+        if let Some(ids) = &self.ids {
+            arrays.push(Attribute { name: "id".into(), components: 1, data: ids.iter().map(|&x| x as f64).collect() });
+        }
+        if let Some(v) = &self.velocities {
+            arrays.push(Attribute { name: "velocity".into(), components: 3, data: v.iter().flatten().map(|&x| x as f64).collect() });
+        }
+        if let Some(d) = &self.densities {
+            arrays.push(Attribute { name: "density".into(), components: 1, data: d.iter().map(|&x| x as f64).collect() });
+        }
+        if let Some(r) = &self.radii {
+            arrays.push(Attribute { name: "radius".into(), components: 1, data: r.iter().map(|&x| x as f64).collect() });
+        }
+        arrays.extend(self.extra.iter().cloned());
+        Raw { positions: self.positions.clone(), arrays }
     }
 }
 
@@ -212,49 +322,103 @@ pub fn neighbour_counts(pos: &[[f32; 3]], h: f32) -> Vec<u32> {
 pub enum Format {
     Bgeo,
     Vtk,
+    Vtu,
+    Ply,
+    Xyz,
+    Csv,
+    RealFlow,
 }
 
-/// Detect the format from the content (gzip is looked through), falling back to the extension.
+impl Format {
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Bgeo => "Houdini classic BGEO",
+            Format::Vtk => "legacy VTK",
+            Format::Vtu => "VTK XML (VTU/VTP)",
+            Format::Ply => "PLY",
+            Format::Xyz => "raw XYZ (f32 triplets)",
+            Format::Csv => "CSV",
+            Format::RealFlow => "RealFlow particle .bin",
+        }
+    }
+}
+
+/// Detect the format from the content (gzip is looked through); raw XYZ and CSV, which have no signature,
+/// by extension (and, for CSV, a header line naming x, y and z).
 pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<Format> {
     let head = if bytes.starts_with(&[0x1f, 0x8b]) {
         let mut d = flate2::read::GzDecoder::new(bytes);
-        let mut buf = [0u8; 32];
+        let mut buf = [0u8; 64];
         let n = std::io::Read::read(&mut d, &mut buf).unwrap_or(0);
         buf[..n].to_vec()
     } else {
-        bytes[..bytes.len().min(32)].to_vec()
+        bytes[..bytes.len().min(256)].to_vec()
     };
-    if head.starts_with(b"Bgeo") || head.starts_with(b"BgeoV") {
+    if head.starts_with(b"Bgeo") {
         return Some(Format::Bgeo);
     }
     if head.starts_with(b"# vtk DataFile") {
         return Some(Format::Vtk);
     }
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) {
-        Some(e) if e == "bgeo" || e == "gz" => Some(Format::Bgeo),
-        Some(e) if e == "vtk" => Some(Format::Vtk),
-        _ => None,
+    if head.starts_with(b"ply") && head.get(3).is_some_and(|c| *c == b'\n' || *c == b'\r') {
+        return Some(Format::Ply);
+    }
+    if head.len() >= 4 && i32::from_le_bytes([head[0], head[1], head[2], head[3]]) == realflow::MAGIC {
+        return Some(Format::RealFlow);
+    }
+    let text = String::from_utf8_lossy(&head);
+    let trimmed = text.trim_start_matches('\u{feff}').trim_start();
+    if trimmed.starts_with("<?xml") || trimmed.starts_with("<VTKFile") {
+        return Some(Format::Vtu);
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("csv") => return Some(Format::Csv),
+        Some("xyz") | Some("raw") | Some("f32") => return Some(Format::Xyz),
+        Some("bgeo") | Some("gz") => return Some(Format::Bgeo),
+        Some("vtk") => return Some(Format::Vtk),
+        Some("vtu") | Some("vtp") => return Some(Format::Vtu),
+        Some("ply") => return Some(Format::Ply),
+        _ => {}
+    }
+    let first = text.lines().next().unwrap_or("").to_ascii_lowercase();
+    if first.contains(',') && ["x", "y", "z"].iter().all(|c| first.split(',').any(|f| f.trim().trim_matches('"') == *c)) {
+        return Some(Format::Csv);
+    }
+    None
+}
+
+/// Parse bytes of a known format into named arrays.
+pub fn parse_raw(format: Format, path: &Path, bytes: &[u8]) -> Result<Raw> {
+    match format {
+        Format::Bgeo => bgeo::parse(path, bytes),
+        Format::Vtk => vtk::parse(path, bytes),
+        Format::Vtu => vtu::parse(path, bytes),
+        Format::Ply => ply::parse(path, bytes),
+        Format::Xyz => xyz::parse(path, bytes),
+        Format::Csv => csv::parse(path, bytes),
+        Format::RealFlow => realflow::parse(path, bytes),
     }
 }
 
-/// Load a particle file, detecting its format.
+/// Load a particle file with the default attribute mapping.
 pub fn load(path: &Path) -> Result<Particles> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// Load a particle file, detecting its format, mapping attributes by `o`.
+pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let p = match detect_format(path, &bytes) {
-        Some(Format::Bgeo) => bgeo::parse(path, &bytes)?,
-        Some(Format::Vtk) => vtk::parse(path, &bytes)?,
-        None => {
-            return Err(Error::Parse {
-                path: path.to_path_buf(),
-                offset: 0,
-                reason: "unknown particle format (expected classic BGEO or legacy VTK)".into(),
-            })
-        }
-    };
-    if p.is_empty() {
+    let format = detect_format(path, &bytes).ok_or_else(|| Error::Parse {
+        path: path.to_path_buf(),
+        offset: 0,
+        reason: "unknown particle format (expected BGEO, legacy VTK, VTU/VTP, PLY, RealFlow .bin, or .xyz/.csv by extension)".into(),
+    })?;
+    let raw = parse_raw(format, path, &bytes)?;
+    if raw.positions.is_empty() {
         return Err(Error::Parse { path: path.to_path_buf(), offset: 0, reason: "the file holds no particles".into() });
     }
-    Ok(p)
+    Ok(raw.into_particles(o))
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::scene::Particles;
+use crate::scene::{Attribute, Raw};
 
 struct Cur<'a> {
     d: &'a [u8],
@@ -115,7 +115,7 @@ impl<'a> Cur<'a> {
 }
 
 /// Parse legacy VTK bytes. `path` only names the file in errors.
-pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut c = Cur { d: bytes, pos: 0, path, binary: false };
     let first = c.line();
     if !first.starts_with("# vtk DataFile") {
@@ -253,23 +253,19 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Particles> {
     }
     let positions = positions.ok_or_else(|| c.err(c.d.len(), "no POINTS section"))?;
     let n = positions.len();
-    let find = |names: &[&str], nc: usize| {
-        arrays.iter().find(|(a, k, v)| *k == nc && v.len() == n * nc && names.iter().any(|m| a.eq_ignore_ascii_case(m)))
-    };
-    let mut p = Particles { positions, ..Default::default() };
-    p.velocities = find(&["velocity", "v", "vel"], 3).map(|(_, _, v)| {
-        v.chunks_exact(3).map(|q| [q[0] as f32, q[1] as f32, q[2] as f32]).collect()
-    });
-    p.densities = find(&["density", "rho"], 1).map(|(_, _, v)| v.iter().map(|&x| x as f32).collect());
-    p.ids = find(&["id", "ids"], 1).map(|(_, _, v)| v.iter().map(|&x| x as i64).collect());
-    Ok(p)
+    let arrays = arrays
+        .into_iter()
+        .filter(|(_, k, v)| v.len() == n * k)
+        .map(|(name, components, data)| Attribute { name, components, data })
+        .collect();
+    Ok(Raw { positions, arrays })
 }
 
-/// Write legacy VTK like SPlisHSPlasH (UNSTRUCTURED_GRID of vertex cells, id/velocity/density point data).
-pub fn write(p: &Particles, binary: bool) -> Vec<u8> {
-    let n = p.len();
+/// Write legacy VTK like SPlisHSPlasH (UNSTRUCTURED_GRID of vertex cells; `id` as SCALARS int, the other
+/// arrays in one FIELD block as float).
+pub fn write(p: &Raw, binary: bool) -> Vec<u8> {
+    let n = p.positions.len();
     let mut o: Vec<u8> = Vec::new();
-    let nl = |o: &mut Vec<u8>| o.push(b'\n');
     o.extend_from_slice(b"# vtk DataFile Version 4.1\nmeniscus particles\n");
     o.extend_from_slice(if binary { b"BINARY\n" } else { b"ASCII\n" });
     o.extend_from_slice(b"DATASET UNSTRUCTURED_GRID\n");
@@ -282,6 +278,7 @@ pub fn write(p: &Particles, binary: bool) -> Vec<u8> {
                 o.extend_from_slice(format!("{x} ").as_bytes());
             }
         }
+        o.push(b'\n');
     };
     let put_i = |o: &mut Vec<u8>, xs: &mut dyn Iterator<Item = i64>| {
         for x in xs {
@@ -291,34 +288,24 @@ pub fn write(p: &Particles, binary: bool) -> Vec<u8> {
                 o.extend_from_slice(format!("{x} ").as_bytes());
             }
         }
+        o.push(b'\n');
     };
     put_f(&mut o, &mut p.positions.iter().flatten().copied());
-    nl(&mut o);
     o.extend_from_slice(format!("CELLS {n} {}\n", 2 * n).as_bytes());
     put_i(&mut o, &mut (0..n as i64).flat_map(|i| [1, i]));
-    nl(&mut o);
     o.extend_from_slice(format!("CELL_TYPES {n}\n").as_bytes());
     put_i(&mut o, &mut (0..n).map(|_| 1));
-    nl(&mut o);
     o.extend_from_slice(format!("POINT_DATA {n}\n").as_bytes());
-    if let Some(ids) = &p.ids {
+    let (ids, fields): (Vec<&Attribute>, Vec<&Attribute>) = p.arrays.iter().partition(|a| a.name == "id" && a.components == 1);
+    for a in ids {
         o.extend_from_slice(b"SCALARS id int 1\nLOOKUP_TABLE id_table\n");
-        put_i(&mut o, &mut ids.iter().copied());
-        nl(&mut o);
-    }
-    let mut fields = vec![];
-    if let Some(v) = &p.velocities {
-        fields.push(("velocity", 3, v.iter().flatten().copied().collect::<Vec<f32>>()));
-    }
-    if let Some(d) = &p.densities {
-        fields.push(("density", 1, d.clone()));
+        put_i(&mut o, &mut a.data.iter().map(|&x| x as i64));
     }
     if !fields.is_empty() {
         o.extend_from_slice(format!("FIELD FieldData {}\n", fields.len()).as_bytes());
-        for (name, k, v) in fields {
-            o.extend_from_slice(format!("{name} {k} {n} float\n").as_bytes());
-            put_f(&mut o, &mut v.into_iter());
-            nl(&mut o);
+        for a in fields {
+            o.extend_from_slice(format!("{} {} {n} float\n", a.name, a.components).as_bytes());
+            put_f(&mut o, &mut a.data.iter().map(|&x| x as f32));
         }
     }
     o

@@ -1,0 +1,283 @@
+//! PLY (Turk 1994): ASCII, binary little- and big-endian. The `vertex` element's `x y z` give positions; its
+//! other scalar properties become attributes (`nx ny nz`-style triples and `vx vy vz` are grouped by the CSV
+//! rules). Elements before `vertex` (and list properties) are skipped properly. Hand-written: the PLY crates on
+//! crates.io are unmaintained (ply-rs: last release 2020) and none bounds its allocations by the file size.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::scene::{Attribute, Raw};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Enc {
+    Ascii,
+    Le,
+    Be,
+}
+
+#[derive(Clone, Debug)]
+enum Prop {
+    Scalar { name: String, ty: usize },
+    List { count_ty: usize, item_ty: usize },
+}
+
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Prop>,
+}
+
+fn type_size(t: &str) -> Option<usize> {
+    Some(match t {
+        "char" | "uchar" | "int8" | "uint8" => 1,
+        "short" | "ushort" | "int16" | "uint16" => 2,
+        "int" | "uint" | "int32" | "uint32" | "float" | "float32" => 4,
+        "double" | "float64" => 8,
+        _ => return None,
+    })
+}
+
+/// Type code: size in the low bits, signed/float flags.
+fn type_code(t: &str) -> Option<usize> {
+    let size = type_size(t)?;
+    let float = matches!(t, "float" | "float32" | "double" | "float64");
+    let signed = matches!(t, "char" | "int8" | "short" | "int16" | "int" | "int32");
+    Some(size | if float { 0x100 } else { 0 } | if signed { 0x200 } else { 0 })
+}
+
+fn read_bin(b: &[u8], code: usize, enc: Enc) -> f64 {
+    let size = code & 0xff;
+    let mut a = [0u8; 8];
+    a[..size].copy_from_slice(&b[..size]);
+    if enc == Enc::Be {
+        a[..size].reverse();
+    }
+    match (size, code & 0x100 != 0, code & 0x200 != 0) {
+        (4, true, _) => f32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
+        (8, true, _) => f64::from_le_bytes(a),
+        (1, _, true) => a[0] as i8 as f64,
+        (1, _, false) => a[0] as f64,
+        (2, _, true) => i16::from_le_bytes([a[0], a[1]]) as f64,
+        (2, _, false) => u16::from_le_bytes([a[0], a[1]]) as f64,
+        (4, _, true) => i32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
+        _ => u32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
+    }
+}
+
+/// Parse PLY bytes.
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
+    let err = |offset: usize, reason: String| Error::Parse { path: path.to_path_buf(), offset: offset as u64, reason };
+    // Header: lines up to "end_header".
+    let mut pos = 0;
+    let mut enc = None;
+    let mut elements: Vec<Element> = vec![];
+    loop {
+        let end = bytes[pos..].iter().position(|&b| b == b'\n').ok_or_else(|| err(pos, "header has no end_header line".into()))?;
+        let line = String::from_utf8_lossy(&bytes[pos..pos + end]).trim().to_string();
+        let at = pos;
+        pos += end + 1;
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w.first().copied() {
+            Some("ply") | Some("comment") | Some("obj_info") | None => {}
+            Some("format") => {
+                enc = Some(match w.get(1).copied() {
+                    Some("ascii") => Enc::Ascii,
+                    Some("binary_little_endian") => Enc::Le,
+                    Some("binary_big_endian") => Enc::Be,
+                    other => return Err(err(at, format!("unknown PLY format {other:?}"))),
+                })
+            }
+            Some("element") => {
+                let count: usize =
+                    w.get(2).and_then(|c| c.parse().ok()).ok_or_else(|| err(at, format!("bad element line {line:?}")))?;
+                elements.push(Element { name: w.get(1).unwrap_or(&"").to_string(), count, props: vec![] });
+            }
+            Some("property") => {
+                let el = elements.last_mut().ok_or_else(|| err(at, "property before any element".into()))?;
+                if w.get(1) == Some(&"list") {
+                    let (Some(c), Some(i)) = (w.get(2).and_then(|t| type_code(t)), w.get(3).and_then(|t| type_code(t))) else {
+                        return Err(err(at, format!("bad list property {line:?}")));
+                    };
+                    el.props.push(Prop::List { count_ty: c, item_ty: i });
+                } else {
+                    let ty = w.get(1).and_then(|t| type_code(t)).ok_or_else(|| err(at, format!("unknown property type in {line:?}")))?;
+                    let name = w.get(2).ok_or_else(|| err(at, format!("property without a name: {line:?}")))?;
+                    el.props.push(Prop::Scalar { name: name.to_string(), ty });
+                }
+            }
+            Some("end_header") => break,
+            Some(other) => return Err(err(at, format!("unexpected header keyword {other:?}"))),
+        }
+    }
+    let enc = enc.ok_or_else(|| err(0, "header has no format line".into()))?;
+    let vi = elements.iter().position(|e| e.name == "vertex").ok_or_else(|| err(0, "no vertex element".into()))?;
+    // Bound allocations: every vertex takes at least one byte per property (two in ASCII).
+    let v = &elements[vi];
+    let min_bytes = v.props.len().max(1) * if enc == Enc::Ascii { 2 } else { 1 };
+    if v.count > (bytes.len() - pos) / min_bytes + 1 {
+        return Err(err(pos, format!("header claims {} vertices, more than the {} bytes of data can hold", v.count, bytes.len() - pos)));
+    }
+    let mut tokens = if enc == Enc::Ascii { Some(AsciiTokens { b: bytes, pos }) } else { None };
+    let mut values: Vec<Vec<f64>> = vec![];
+    for (k, el) in elements.iter().enumerate() {
+        if k > vi {
+            break;
+        }
+        let keep = k == vi;
+        if keep {
+            values = vec![Vec::with_capacity(el.count); el.props.len()];
+        }
+        for _ in 0..el.count {
+            for (j, prop) in el.props.iter().enumerate() {
+                match prop {
+                    Prop::Scalar { ty, .. } => {
+                        let x = match tokens.as_mut() {
+                            Some(t) => t.next_num().map_err(|(o, r)| err(o, r))?,
+                            None => {
+                                let s = ty & 0xff;
+                                if bytes.len() - pos < s {
+                                    return Err(err(pos, format!("file truncated in element {:?}", el.name)));
+                                }
+                                let x = read_bin(&bytes[pos..], *ty, enc);
+                                pos += s;
+                                x
+                            }
+                        };
+                        if keep {
+                            values[j].push(x);
+                        }
+                    }
+                    Prop::List { count_ty, item_ty } => {
+                        let n = match tokens.as_mut() {
+                            Some(t) => t.next_num().map_err(|(o, r)| err(o, r))?,
+                            None => {
+                                let s = count_ty & 0xff;
+                                if bytes.len() - pos < s {
+                                    return Err(err(pos, format!("file truncated in element {:?}", el.name)));
+                                }
+                                let x = read_bin(&bytes[pos..], *count_ty, enc);
+                                pos += s;
+                                x
+                            }
+                        };
+                        if !(n >= 0.0 && n < 1e9) {
+                            return Err(err(pos, format!("bad list length {n}")));
+                        }
+                        for _ in 0..n as usize {
+                            match tokens.as_mut() {
+                                Some(t) => {
+                                    t.next_num().map_err(|(o, r)| err(o, r))?;
+                                }
+                                None => {
+                                    let s = item_ty & 0xff;
+                                    if bytes.len() - pos < s {
+                                        return Err(err(pos, "file truncated in a list".into()));
+                                    }
+                                    pos += s;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let names: Vec<Option<&str>> =
+        v.props.iter().map(|p| if let Prop::Scalar { name, .. } = p { Some(name.as_str()) } else { None }).collect();
+    let col = |n: &str| names.iter().position(|m| *m == Some(n));
+    let (Some(x), Some(y), Some(z)) = (col("x"), col("y"), col("z")) else {
+        return Err(err(0, "the vertex element has no x, y and z properties".into()));
+    };
+    let positions = (0..v.count).map(|i| [values[x][i] as f32, values[y][i] as f32, values[z][i] as f32]).collect();
+    // Group the other properties like CSV columns (vx vy vz → velocity, nx ny nz → n).
+    let mut arrays: Vec<Attribute> = vec![];
+    for (j, n) in names.iter().enumerate() {
+        let Some(n) = n else { continue };
+        if [x, y, z].contains(&j) {
+            continue;
+        }
+        let grouped = super::csv_split(n);
+        let (base, comp) = grouped.unwrap_or_else(|| (n.to_string(), 0));
+        match arrays.iter_mut().find(|a| a.name == base) {
+            Some(a) if comp == a.components => {
+                // Append a component: interleave.
+                let old = std::mem::take(&mut a.data);
+                let k = a.components;
+                a.data = (0..v.count).flat_map(|i| old[i * k..i * k + k].iter().copied().chain([values[j][i]])).collect();
+                a.components += 1;
+            }
+            _ => arrays.push(Attribute { name: if comp == 0 { base } else { n.to_string() }, components: 1, data: values[j].clone() }),
+        }
+    }
+    Ok(Raw { positions, arrays })
+}
+
+struct AsciiTokens<'a> {
+    b: &'a [u8],
+    pos: usize,
+}
+
+impl AsciiTokens<'_> {
+    fn next_num(&mut self) -> std::result::Result<f64, (usize, String)> {
+        while self.pos < self.b.len() && self.b[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        let s = self.pos;
+        while self.pos < self.b.len() && !self.b[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        if s == self.pos {
+            return Err((s, "file truncated: expected a number".into()));
+        }
+        let t = String::from_utf8_lossy(&self.b[s..self.pos]);
+        t.parse::<f64>().map_err(|_| (s, format!("not a number: {t:?}")))
+    }
+}
+
+/// Write PLY with `x y z` and every array as float properties (vectors as name_x …); `enc`: "ascii",
+/// "binary_little_endian" or "binary_big_endian".
+pub fn write(p: &Raw, enc: &str) -> Vec<u8> {
+    let mut o = format!("ply\nformat {enc} 1.0\ncomment meniscus\nelement vertex {}\n", p.positions.len()).into_bytes();
+    let mut props = vec!["x".to_string(), "y".into(), "z".into()];
+    for a in &p.arrays {
+        if a.components == 1 {
+            props.push(a.name.clone());
+        } else {
+            for c in 0..a.components {
+                props.push(format!("{}_{}", a.name, ["x", "y", "z", "w"][c.min(3)]));
+            }
+        }
+    }
+    for n in &props {
+        o.extend_from_slice(format!("property float {n}\n").as_bytes());
+    }
+    o.extend_from_slice(b"element face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    for (i, pos) in p.positions.iter().enumerate() {
+        let mut row: Vec<f32> = pos.to_vec();
+        for a in &p.arrays {
+            row.extend(a.data[i * a.components..(i + 1) * a.components].iter().map(|&x| x as f32));
+        }
+        match enc {
+            "ascii" => {
+                let line: Vec<String> = row.iter().map(|x| x.to_string()).collect();
+                o.extend_from_slice(line.join(" ").as_bytes());
+                o.push(b'\n');
+            }
+            "binary_big_endian" => row.iter().for_each(|x| o.extend_from_slice(&x.to_be_bytes())),
+            _ => row.iter().for_each(|x| o.extend_from_slice(&x.to_le_bytes())),
+        }
+    }
+    // One face, to exercise list skipping in readers.
+    match enc {
+        "ascii" => o.extend_from_slice(b"3 0 0 0\n"),
+        "binary_big_endian" => {
+            o.push(3);
+            (0..3).for_each(|_| o.extend_from_slice(&0i32.to_be_bytes()));
+        }
+        _ => {
+            o.push(3);
+            (0..3).for_each(|_| o.extend_from_slice(&0i32.to_le_bytes()));
+        }
+    }
+    o
+}

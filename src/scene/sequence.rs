@@ -1,0 +1,214 @@
+//! Particle sequences: a pattern with `{}` (`ParticleData_Fluid_{}.bgeo`), a folder, or a glob
+//! (`frames/*.vtk`), sorted by frame NUMBER (SPlisHSPlasH does not zero-pad), restricted by a frame range
+//! (`10..40:2`, inclusive) and a shard (`2/8`: every 8th frame starting with the 2nd, for render farms).
+//! [`Prefetch`] loads frames on a background thread, at most `depth` ahead, so rendering does not wait on I/O
+//! and memory stays constant over long sequences.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+
+use crate::error::{Error, Result};
+use crate::scene::{LoadOptions, Particles};
+
+/// One frame of a sequence.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Frame {
+    pub number: u64,
+    pub path: PathBuf,
+}
+
+/// `first..last[:step]`, inclusive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameRange {
+    pub first: u64,
+    pub last: u64,
+    pub step: u64,
+}
+
+impl FrameRange {
+    /// Parse `a..b`, `a..b:s`, `a..`, `..b`, or a single `a`.
+    pub fn parse(s: &str) -> Result<FrameRange> {
+        let bad = || Error::Invalid(format!("bad --frames {s:?}: expected FIRST..LAST[:STEP], e.g. 10..40:2"));
+        let (range, step) = match s.split_once(':') {
+            Some((r, st)) => (r, st.trim().parse::<u64>().map_err(|_| bad())?),
+            None => (s, 1),
+        };
+        if step == 0 {
+            return Err(bad());
+        }
+        let (first, last) = match range.split_once("..") {
+            Some((a, b)) => (
+                if a.trim().is_empty() { 0 } else { a.trim().parse().map_err(|_| bad())? },
+                if b.trim().is_empty() { u64::MAX } else { b.trim().trim_start_matches('=').parse().map_err(|_| bad())? },
+            ),
+            None => {
+                let a = range.trim().parse().map_err(|_| bad())?;
+                (a, a)
+            }
+        };
+        if first > last {
+            return Err(bad());
+        }
+        Ok(FrameRange { first, last, step })
+    }
+
+    pub fn contains(&self, n: u64) -> bool {
+        n >= self.first && n <= self.last && (n - self.first) % self.step == 0
+    }
+}
+
+/// `k/n` with 1 ≤ k ≤ n.
+pub fn parse_shard(s: &str) -> Result<(usize, usize)> {
+    let bad = || Error::Invalid(format!("bad --shard {s:?}: expected K/N with 1 ≤ K ≤ N, e.g. 2/8"));
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    if k == 0 || n == 0 || k > n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// The last run of digits in a file name, as a frame number.
+fn frame_number(name: &str) -> Option<u64> {
+    let stem = name.rsplit_once('.').map(|(s, _)| s).unwrap_or(name);
+    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = stem[..end].rfind(|c: char| !c.is_ascii_digit()).map(|i| i + 1).unwrap_or(0);
+    stem[start..end].parse().ok()
+}
+
+const EXTENSIONS: &[&str] = &["bgeo", "gz", "vtk", "vtu", "vtp", "ply", "xyz", "raw", "csv", "bin"];
+
+/// True when `spec` names a sequence rather than one file.
+pub fn is_sequence(spec: &str) -> bool {
+    spec.contains("{}") || spec.contains('*') || spec.contains('?') || Path::new(spec).is_dir()
+}
+
+/// Resolve a pattern, folder or glob to frames sorted by number, filtered by `range` and `shard`.
+pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usize)>) -> Result<Vec<Frame>> {
+    let mut frames: Vec<Frame> = if let Some((pre, post)) = spec.split_once("{}") {
+        let pre_path = Path::new(pre);
+        let (dir, prefix) = if pre.ends_with('/') {
+            (pre_path.to_path_buf(), String::new())
+        } else {
+            (
+                pre_path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }).unwrap_or(Path::new(".")).to_path_buf(),
+                pre_path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
+            )
+        };
+        let rd = std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))?;
+        rd.filter_map(|e| e.ok())
+            .filter_map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let mid = name.strip_prefix(&prefix)?.strip_suffix(post)?;
+                if mid.is_empty() || !mid.bytes().all(|b| b.is_ascii_digit()) {
+                    return None;
+                }
+                Some(Frame { number: mid.parse().ok()?, path: e.path() })
+            })
+            .collect()
+    } else if Path::new(spec).is_dir() {
+        let rd = std::fs::read_dir(spec).map_err(|e| Error::io(spec, e))?;
+        let mut files: Vec<PathBuf> = rd
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file() && p.extension().and_then(|e| e.to_str()).is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str())))
+            .collect();
+        files.sort();
+        numbered(files)
+    } else {
+        let paths = glob::glob(spec).map_err(|e| Error::Invalid(format!("bad glob {spec:?}: {e}")))?;
+        let mut files: Vec<PathBuf> = paths.filter_map(|p| p.ok()).filter(|p| p.is_file()).collect();
+        files.sort();
+        numbered(files)
+    };
+    if frames.is_empty() {
+        return Err(Error::Invalid(format!("{spec}: no particle files match")));
+    }
+    frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
+    if let Some(r) = range {
+        frames.retain(|f| r.contains(f.number));
+    }
+    if let Some((k, n)) = shard {
+        frames = frames.into_iter().enumerate().filter(|(i, _)| i % n == k - 1).map(|(_, f)| f).collect();
+    }
+    if frames.is_empty() {
+        return Err(Error::Invalid(format!("{spec}: no frames left after --frames/--shard")));
+    }
+    Ok(frames)
+}
+
+/// Number files by the digits in their names (or their position when a name has none).
+fn numbered(files: Vec<PathBuf>) -> Vec<Frame> {
+    let all_numbered = files.iter().all(|p| p.file_name().and_then(|n| frame_number(&n.to_string_lossy())).is_some());
+    files
+        .into_iter()
+        .enumerate()
+        .map(|(i, path)| {
+            let number = if all_numbered { frame_number(&path.file_name().unwrap().to_string_lossy()).unwrap() } else { i as u64 };
+            Frame { number, path }
+        })
+        .collect()
+}
+
+/// Loads frames on a background thread, at most `depth` ahead of the consumer.
+pub struct Prefetch {
+    rx: mpsc::Receiver<(Frame, Result<Particles>)>,
+    handle: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Prefetch {
+    pub fn start(frames: Vec<Frame>, opts: LoadOptions, depth: usize) -> Prefetch {
+        let (tx, rx) = mpsc::sync_channel(depth.max(1));
+        let handle = std::thread::Builder::new()
+            .name("meniscus-prefetch".into())
+            .spawn(move || {
+                for f in frames {
+                    let p = crate::scene::load_with(&f.path, &opts);
+                    if tx.send((f, p)).is_err() {
+                        return; // consumer gone
+                    }
+                }
+            })
+            .expect("spawn prefetch thread");
+        Prefetch { rx, handle: Some(handle) }
+    }
+}
+
+impl Iterator for Prefetch {
+    type Item = (Frame, Result<Particles>);
+    fn next(&mut self) -> Option<Self::Item> {
+        self.rx.recv().ok()
+    }
+}
+
+impl Drop for Prefetch {
+    fn drop(&mut self) {
+        // Unblock the loader (its next send fails) and wait for it.
+        let (_tx, rx) = mpsc::sync_channel(1);
+        drop(std::mem::replace(&mut self.rx, rx));
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_and_shards() {
+        let r = FrameRange::parse("10..40:2").unwrap();
+        assert!(r.contains(10) && r.contains(40) && !r.contains(11) && !r.contains(42));
+        assert_eq!(FrameRange::parse("5").unwrap(), FrameRange { first: 5, last: 5, step: 1 });
+        assert!(FrameRange::parse("4..2").is_err() && FrameRange::parse("1..5:0").is_err() && FrameRange::parse("x").is_err());
+        assert_eq!(parse_shard("2/8").unwrap(), (2, 8));
+        assert!(parse_shard("0/8").is_err() && parse_shard("9/8").is_err() && parse_shard("3").is_err());
+    }
+
+    #[test]
+    fn frame_numbers_from_names() {
+        assert_eq!(frame_number("ParticleData_Fluid_20.bgeo"), Some(20));
+        assert_eq!(frame_number("a7b_0012.vtk"), Some(12));
+        assert_eq!(frame_number("none.vtk"), None);
+    }
+}

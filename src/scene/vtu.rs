@@ -1,0 +1,384 @@
+//! VTK XML (`.vtu` UnstructuredGrid, `.vtp` PolyData): the `<Points>` array and every `<PointData>` array, in
+//! each of the encodings VTK writes — `ascii`, inline `binary` (base64), and `appended` data (raw or base64) —
+//! optionally zlib-compressed (`compressor="vtkZLibDataCompressor"`), UInt32 or UInt64 headers, either byte
+//! order. XML by quick-xml, base64 by `base64`, zlib by flate2. Sizes claimed in headers are checked against the
+//! bytes present and the point count before anything is allocated or inflated.
+
+use std::io::Read;
+use std::path::Path;
+
+use base64::Engine;
+use quick_xml::events::Event;
+
+use crate::error::{Error, Result};
+use crate::scene::{Attribute, Raw};
+
+#[derive(Clone, Debug, Default)]
+struct ArrayDesc {
+    name: String,
+    ty: String,
+    comps: usize,
+    format: String,
+    offset: Option<usize>,
+    text: String,
+    in_points: bool,
+    at: usize,
+}
+
+fn type_size(t: &str) -> Option<usize> {
+    Some(match t {
+        "Int8" | "UInt8" => 1,
+        "Int16" | "UInt16" => 2,
+        "Int32" | "UInt32" | "Float32" => 4,
+        "Int64" | "UInt64" | "Float64" => 8,
+        _ => return None,
+    })
+}
+
+fn value(b: &[u8], ty: &str, big: bool) -> f64 {
+    let mut a = [0u8; 8];
+    let s = b.len();
+    a[..s].copy_from_slice(b);
+    if big {
+        a[..s].reverse();
+    }
+    match ty {
+        "Int8" => a[0] as i8 as f64,
+        "UInt8" => a[0] as f64,
+        "Int16" => i16::from_le_bytes([a[0], a[1]]) as f64,
+        "UInt16" => u16::from_le_bytes([a[0], a[1]]) as f64,
+        "Int32" => i32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
+        "UInt32" => u32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
+        "Float32" => f32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
+        "Int64" => i64::from_le_bytes(a) as f64,
+        "UInt64" => u64::from_le_bytes(a) as f64,
+        _ => f64::from_le_bytes(a),
+    }
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    big: bool,
+    header: usize,
+    zlib: bool,
+}
+
+impl Ctx<'_> {
+    fn err(&self, at: usize, reason: impl Into<String>) -> Error {
+        Error::Parse { path: self.path.to_path_buf(), offset: at as u64, reason: reason.into() }
+    }
+    fn uint(&self, b: &[u8]) -> u64 {
+        value(b, if self.header == 8 { "UInt64" } else { "UInt32" }, self.big) as u64
+    }
+    /// Decode one array's bytes from a header-prefixed block; `take(n)` yields the next n bytes of the block.
+    fn block(&self, at: usize, want: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>) -> Result<Vec<u8>> {
+        let h = self.header;
+        let short = || self.err(at, "data block truncated");
+        if !self.zlib {
+            let n = self.uint(&take(h).ok_or_else(short)?) as usize;
+            if n < want {
+                return Err(self.err(at, format!("data block holds {n} bytes, the array needs {want}")));
+            }
+            return take(want).ok_or_else(short);
+        }
+        let head = take(3 * h).ok_or_else(short)?;
+        let (nb, bs, last) = (self.uint(&head[..h]), self.uint(&head[h..2 * h]), self.uint(&head[2 * h..]));
+        let total = if nb == 0 { 0 } else { (nb - 1).saturating_mul(bs).saturating_add(if last == 0 { bs } else { last }) };
+        if (total as usize) < want || nb > (want as u64 / bs.max(1)) + 2 {
+            return Err(self.err(at, format!("compressed header claims {nb} blocks of {bs} bytes ({total} bytes); the array needs {want}")));
+        }
+        let sizes = take(nb as usize * h).ok_or_else(short)?;
+        let mut out = Vec::with_capacity(want);
+        for k in 0..nb as usize {
+            let cs = self.uint(&sizes[k * h..(k + 1) * h]) as usize;
+            let comp = take(cs).ok_or_else(short)?;
+            let limit = if k + 1 == nb as usize && last != 0 { last } else { bs };
+            let mut d = flate2::read::ZlibDecoder::new(&comp[..]).take(limit);
+            d.read_to_end(&mut out).map_err(|e| self.err(at, format!("zlib block {k} is corrupt: {e}")))?;
+        }
+        if out.len() < want {
+            return Err(self.err(at, format!("inflated {} bytes, the array needs {want}", out.len())));
+        }
+        out.truncate(want);
+        Ok(out)
+    }
+}
+
+/// Decode base64 from `text` in independently padded pieces of `n` raw bytes each (VTK encodes the header and
+/// the data as separate base64 runs when compressed, and sometimes when not).
+struct B64<'a> {
+    text: Vec<u8>,
+    pos: usize,
+    joined: Option<Vec<u8>>,
+    jpos: usize,
+    _p: std::marker::PhantomData<&'a ()>,
+}
+
+impl B64<'_> {
+    fn new(text: &str) -> Self {
+        B64 { text: text.bytes().filter(|b| !b.is_ascii_whitespace()).collect(), pos: 0, joined: None, jpos: 0, _p: Default::default() }
+    }
+    fn take(&mut self, n: usize) -> Option<Vec<u8>> {
+        if let Some(j) = &self.joined {
+            let r = j.get(self.jpos..self.jpos + n)?.to_vec();
+            self.jpos += n;
+            return Some(r);
+        }
+        let chars = n.div_ceil(3) * 4;
+        let piece = self.text.get(self.pos..self.pos + chars)?;
+        if n % 3 != 0 && !piece.ends_with(b"=") {
+            // One continuous run (header and data encoded together): decode the rest at once.
+            let all = base64::engine::general_purpose::STANDARD.decode(&self.text[self.pos..]).ok()?;
+            self.joined = Some(all);
+            self.jpos = 0;
+            return self.take(n);
+        }
+        let d = base64::engine::general_purpose::STANDARD.decode(piece).ok()?;
+        self.pos += chars;
+        (d.len() >= n).then(|| d[..n].to_vec())
+    }
+}
+
+/// Parse VTU/VTP bytes.
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
+    let perr = |at: usize, r: String| Error::Parse { path: path.to_path_buf(), offset: at as u64, reason: r };
+    // Appended data is not XML: cut it off, remember where it starts.
+    let (xml, appended, app_b64) = match find(bytes, b"<AppendedData") {
+        Some(i) => {
+            let tag_end = bytes[i..].iter().position(|&b| b == b'>').map(|k| i + k).ok_or_else(|| perr(i, "unterminated <AppendedData>".into()))?;
+            let tag = String::from_utf8_lossy(&bytes[i..tag_end]);
+            let us = bytes[tag_end..].iter().position(|&b| b == b'_').map(|k| tag_end + k + 1).ok_or_else(|| perr(tag_end, "appended data lacks the '_' marker".into()))?;
+            (&bytes[..i], Some(us), tag.contains("base64"))
+        }
+        None => (bytes, None, false),
+    };
+    let mut rd = quick_xml::Reader::from_reader(xml);
+    rd.config_mut().check_end_names = false;
+    let mut buf = vec![];
+    let (mut big, mut header, mut zlib) = (false, 4, false);
+    let mut n_points: Option<usize> = None;
+    let (mut in_points, mut in_point_data) = (false, false);
+    let mut arrays: Vec<ArrayDesc> = vec![];
+    let mut current: Option<ArrayDesc> = None;
+    loop {
+        let at = rd.buffer_position() as usize;
+        let ev = match rd.read_event_into(&mut buf) {
+            Ok(e) => e,
+            Err(e) => return Err(perr(at, format!("malformed XML: {e}"))),
+        };
+        match ev {
+            Event::Eof => break,
+            Event::Start(ref e) | Event::Empty(ref e) => {
+                let empty = matches!(ev, Event::Empty(_));
+                let get = |k: &str| -> Option<String> {
+                    e.attributes().flatten().find(|a| a.key.as_ref() == k.as_bytes()).map(|a| String::from_utf8_lossy(&a.value).into_owned())
+                };
+                match e.name().as_ref() {
+                    b"VTKFile" => {
+                        big = get("byte_order").as_deref() == Some("BigEndian");
+                        header = if get("header_type").as_deref() == Some("UInt64") { 8 } else { 4 };
+                        zlib = match get("compressor").as_deref() {
+                            None | Some("") => false,
+                            Some("vtkZLibDataCompressor") => true,
+                            Some(c) => return Err(perr(at, format!("unsupported compressor {c} (only vtkZLibDataCompressor)"))),
+                        };
+                    }
+                    b"Piece" => {
+                        if n_points.is_some() {
+                            return Err(perr(at, "files with several <Piece>s are not supported".into()));
+                        }
+                        let n = get("NumberOfPoints").ok_or_else(|| perr(at, "<Piece> lacks NumberOfPoints".into()))?;
+                        n_points = Some(n.trim().parse().map_err(|_| perr(at, format!("bad NumberOfPoints {n:?}")))?);
+                    }
+                    b"Points" => in_points = !empty,
+                    b"PointData" => in_point_data = !empty,
+                    b"DataArray" if in_points || in_point_data => {
+                        let d = ArrayDesc {
+                            name: get("Name").unwrap_or_default(),
+                            ty: get("type").unwrap_or_default(),
+                            comps: get("NumberOfComponents").and_then(|c| c.parse().ok()).unwrap_or(1),
+                            format: get("format").unwrap_or_else(|| "ascii".into()),
+                            offset: get("offset").and_then(|o| o.trim().parse().ok()),
+                            text: String::new(),
+                            in_points,
+                            at,
+                        };
+                        if empty {
+                            arrays.push(d);
+                        } else {
+                            current = Some(d);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Event::Text(t) => {
+                if let Some(c) = current.as_mut() {
+                    c.text.push_str(&String::from_utf8_lossy(&t));
+                }
+            }
+            Event::End(ref e) => match e.name().as_ref() {
+                b"DataArray" => {
+                    if let Some(c) = current.take() {
+                        arrays.push(c);
+                    }
+                }
+                b"Points" => in_points = false,
+                b"PointData" => in_point_data = false,
+                _ => {}
+            },
+            _ => {}
+        }
+        buf.clear();
+    }
+    let n = n_points.ok_or_else(|| perr(0, "no <Piece NumberOfPoints=…>".into()))?;
+    let ctx = Ctx { path, big, header, zlib };
+    let mut positions = None;
+    let mut out = vec![];
+    for a in arrays {
+        let size = type_size(&a.ty).ok_or_else(|| perr(a.at, format!("DataArray {:?}: unsupported type {:?}", a.name, a.ty)))?;
+        let count = n.checked_mul(a.comps).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
+        let want = count.checked_mul(size).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
+        // Bytes that can hold this array: the inline text or the appended section (zlib inflates ≤ 1032×).
+        let avail = if a.format == "appended" { appended.map(|s| bytes.len() - s).unwrap_or(0) } else { a.text.len() };
+        let limit = avail.saturating_mul(if zlib { 1100 } else { 1 }).saturating_add(64);
+        if a.format != "ascii" && want > limit {
+            return Err(perr(a.at, format!("DataArray {:?}: {n} points × {} components need {want} bytes, more than the file holds", a.name, a.comps)));
+        }
+        let vals: Vec<f64> = match a.format.as_str() {
+            "ascii" => {
+                let v: Vec<f64> = a.text.split_ascii_whitespace().take(count).map(|t| t.parse::<f64>()).collect::<std::result::Result<_, _>>()
+                    .map_err(|_| perr(a.at, format!("DataArray {:?}: not a number in ascii data", a.name)))?;
+                if v.len() < count {
+                    return Err(perr(
+                        a.at,
+                        format!("DataArray {:?}: {n} points × {} components need {count} values, the file has {}", a.name, a.comps, v.len()),
+                    ));
+                }
+                v
+            }
+            "binary" => {
+                let mut b = B64::new(&a.text);
+                let raw = ctx.block(a.at, want, &mut |k| b.take(k))?;
+                raw.chunks_exact(size).map(|c| value(c, &a.ty, big)).collect()
+            }
+            "appended" => {
+                let start = appended.ok_or_else(|| perr(a.at, "format=\"appended\" but no <AppendedData>".into()))?;
+                let off = a.offset.ok_or_else(|| perr(a.at, format!("DataArray {:?} lacks offset", a.name)))?;
+                let raw = if app_b64 {
+                    let end = find(&bytes[start..], b"<").map(|k| start + k).unwrap_or(bytes.len());
+                    let text = String::from_utf8_lossy(&bytes[start..end]).into_owned();
+                    let text: String = text.chars().filter(|c| !c.is_whitespace()).collect();
+                    let mut b = B64::new(text.get(off..).ok_or_else(|| perr(a.at, format!("offset {off} past the appended data")))?);
+                    ctx.block(start + off, want, &mut |k| b.take(k))?
+                } else {
+                    let mut p = start.checked_add(off).filter(|&p| p <= bytes.len()).ok_or_else(|| perr(a.at, format!("offset {off} past the end of the file")))?;
+                    ctx.block(p, want, &mut |k| {
+                        let r = bytes.get(p..p.checked_add(k)?)?.to_vec();
+                        p += k;
+                        Some(r)
+                    })?
+                };
+                raw.chunks_exact(size).map(|c| value(c, &a.ty, big)).collect()
+            }
+            f => return Err(perr(a.at, format!("DataArray {:?}: unknown format {f:?}", a.name))),
+        };
+        if a.in_points {
+            if a.comps != 3 {
+                return Err(perr(a.at, format!("<Points> array has {} components, expected 3", a.comps)));
+            }
+            positions = Some(vals.chunks_exact(3).map(|c| [c[0] as f32, c[1] as f32, c[2] as f32]).collect());
+        } else {
+            out.push(Attribute { name: a.name, components: a.comps, data: vals });
+        }
+    }
+    let positions = positions.ok_or_else(|| perr(0, "no <Points> DataArray".into()))?;
+    Ok(Raw { positions, arrays: out })
+}
+
+fn find(h: &[u8], needle: &[u8]) -> Option<usize> {
+    h.windows(needle.len()).position(|w| w == needle)
+}
+
+/// How [`write`] encodes the arrays.
+#[derive(Clone, Copy, Debug)]
+pub enum Encoding {
+    Ascii,
+    Binary { zlib: bool },
+    AppendedRaw { zlib: bool },
+    AppendedBase64,
+}
+
+/// Write a VTU (UnstructuredGrid of points, no cells) in the given encoding, little-endian, UInt64 headers.
+pub fn write(p: &Raw, enc: Encoding) -> Vec<u8> {
+    let zlib = matches!(enc, Encoding::Binary { zlib: true } | Encoding::AppendedRaw { zlib: true });
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let n = p.positions.len();
+    let mut arrays: Vec<(String, usize, Vec<f32>, bool)> =
+        vec![("Points".into(), 3, p.positions.iter().flatten().copied().collect(), true)];
+    for a in &p.arrays {
+        arrays.push((a.name.clone(), a.components, a.data.iter().map(|&x| x as f32).collect(), false));
+    }
+    let block = |data: &[f32]| -> (Vec<u8>, Vec<u8>) {
+        let raw: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+        if zlib {
+            let mut e = flate2::write::ZlibEncoder::new(vec![], flate2::Compression::fast());
+            std::io::Write::write_all(&mut e, &raw).unwrap();
+            let c = e.finish().unwrap();
+            let mut h = vec![];
+            for v in [1u64, raw.len().max(1) as u64, raw.len() as u64, c.len() as u64] {
+                h.extend_from_slice(&v.to_le_bytes());
+            }
+            (h, c)
+        } else {
+            ((raw.len() as u64).to_le_bytes().to_vec(), raw)
+        }
+    };
+    let mut xml = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\"");
+    if zlib {
+        xml.push_str(" compressor=\"vtkZLibDataCompressor\"");
+    }
+    xml.push_str(&format!(">\n<UnstructuredGrid>\n<Piece NumberOfPoints=\"{n}\" NumberOfCells=\"0\">\n"));
+    let mut appended: Vec<u8> = vec![];
+    let mut emit = |xml: &mut String, (name, comps, data, _): &(String, usize, Vec<f32>, bool)| {
+        let head = format!("<DataArray type=\"Float32\" Name=\"{name}\" NumberOfComponents=\"{comps}\"");
+        match enc {
+            Encoding::Ascii => {
+                let t: Vec<String> = data.iter().map(|x| x.to_string()).collect();
+                xml.push_str(&format!("{head} format=\"ascii\">\n{}\n</DataArray>\n", t.join(" ")));
+            }
+            Encoding::Binary { .. } => {
+                let (h, d) = block(data);
+                xml.push_str(&format!("{head} format=\"binary\">\n{}{}\n</DataArray>\n", b64.encode(h), b64.encode(d)));
+            }
+            Encoding::AppendedRaw { .. } => {
+                let (h, d) = block(data);
+                xml.push_str(&format!("{head} format=\"appended\" offset=\"{}\"/>\n", appended.len()));
+                appended.extend_from_slice(&h);
+                appended.extend_from_slice(&d);
+            }
+            Encoding::AppendedBase64 => {
+                let (h, d) = block(data);
+                xml.push_str(&format!("{head} format=\"appended\" offset=\"{}\"/>\n", appended.len()));
+                appended.extend_from_slice(b64.encode(h).as_bytes());
+                appended.extend_from_slice(b64.encode(d).as_bytes());
+            }
+        }
+    };
+    xml.push_str("<PointData>\n");
+    for a in arrays.iter().filter(|a| !a.3) {
+        emit(&mut xml, a);
+    }
+    xml.push_str("</PointData>\n<Points>\n");
+    emit(&mut xml, &arrays[0]);
+    xml.push_str("</Points>\n<Cells>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\"></DataArray>\n</Cells>\n</Piece>\n</UnstructuredGrid>\n");
+    let mut out = xml.into_bytes();
+    if !appended.is_empty() {
+        let e = if matches!(enc, Encoding::AppendedBase64) { "base64" } else { "raw" };
+        out.extend_from_slice(format!("<AppendedData encoding=\"{e}\">\n_").as_bytes());
+        out.extend_from_slice(&appended);
+        out.extend_from_slice(b"\n</AppendedData>\n");
+    }
+    out.extend_from_slice(b"</VTKFile>\n");
+    out
+}
