@@ -1,0 +1,50 @@
+//! Loader throughput: `cargo bench --bench loaders`. Writes 1,000,000 particles (position, velocity, density,
+//! id) in every format in memory, parses each 5 times, prints the median as MB/s and particles/s.
+//! A CPU benchmark (no GPU); numbers depend on the machine, so compare formats within one run.
+
+use std::path::Path;
+use std::time::Instant;
+
+use meniscus::scene::{bgeo, csv, parse_raw, ply, realflow, vtk, vtu, xyz, Format, Particles};
+
+fn main() {
+    let n = std::env::var("MENISCUS_BENCH_PARTICLES").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000usize);
+    let p = Particles {
+        positions: (0..n).map(|i| [(i % 100) as f32 * 0.01, (i / 100 % 100) as f32 * 0.01, (i / 10000) as f32 * 0.01]).collect(),
+        velocities: Some((0..n).map(|i| [1.0, (i % 7) as f32, -2.0]).collect()),
+        densities: Some((0..n).map(|i| 1000.0 + (i % 13) as f32).collect()),
+        ids: Some((0..n as i64).collect()),
+        ..Default::default()
+    }
+    .to_raw();
+    let cases: Vec<(&str, Format, Vec<u8>)> = vec![
+        ("BGEO (gzip)", Format::Bgeo, bgeo::write(&p, true)),
+        ("BGEO (plain)", Format::Bgeo, bgeo::write(&p, false)),
+        ("VTK legacy binary", Format::Vtk, vtk::write(&p, true)),
+        ("VTK legacy ASCII", Format::Vtk, vtk::write(&p, false)),
+        ("VTU appended raw", Format::Vtu, vtu::write(&p, vtu::Encoding::AppendedRaw { zlib: false })),
+        ("VTU appended raw + zlib", Format::Vtu, vtu::write(&p, vtu::Encoding::AppendedRaw { zlib: true })),
+        ("VTU inline base64", Format::Vtu, vtu::write(&p, vtu::Encoding::Binary { zlib: false })),
+        ("VTU ASCII", Format::Vtu, vtu::write(&p, vtu::Encoding::Ascii)),
+        ("PLY binary LE", Format::Ply, ply::write(&p, "binary_little_endian")),
+        ("PLY ASCII", Format::Ply, ply::write(&p, "ascii")),
+        ("XYZ raw f32", Format::Xyz, xyz::write(&p)),
+        ("CSV", Format::Csv, csv::write(&p)),
+        ("RealFlow .bin v11", Format::RealFlow, realflow::write(&p)),
+    ];
+    println!("{n} particles (position + velocity + density + id; XYZ positions only), median of 5 parses\n");
+    println!("| format | file MB | ms | MB/s | M particles/s |\n|---|---:|---:|---:|---:|");
+    for (name, f, bytes) in cases {
+        let mut t = vec![];
+        for _ in 0..5 {
+            let t0 = Instant::now();
+            let r = parse_raw(f, Path::new("bench"), &bytes).expect("parse");
+            t.push(t0.elapsed().as_secs_f64());
+            assert_eq!(r.positions.len(), n);
+        }
+        t.sort_by(f64::total_cmp);
+        let s = t[2];
+        let mb = bytes.len() as f64 / 1e6;
+        println!("| {name} | {mb:.1} | {:.0} | {:.0} | {:.1} |", s * 1e3, mb / s, n as f64 / s / 1e6);
+    }
+}
