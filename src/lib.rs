@@ -9,6 +9,7 @@
 
 pub mod bench;
 pub mod chart;
+pub mod demo;
 pub mod error;
 pub mod frame;
 pub mod gpu;

@@ -35,6 +35,52 @@ enum Cmd {
     Scenes,
     /// Benchmark: scenes × resolutions, per-pass GPU medians/p95/min, memory; markdown table + JSON.
     Bench(BenchArgs),
+    /// Interactive window: play a sequence, fly the camera, look inside every pass.
+    #[command(after_help = meniscus::demo::HELP)]
+    Demo(DemoArgs),
+}
+
+#[derive(Args, Clone)]
+struct DemoArgs {
+    /// A built-in scene, a particle file, or a sequence (pattern with {}, folder, glob).
+    #[arg(default_value = "wave")]
+    input: String,
+    #[arg(long, default_value_t = 1280)]
+    width: u32,
+    #[arg(long, default_value_t = 720)]
+    height: u32,
+    #[arg(long)]
+    radius: Option<f32>,
+    /// Particle count of a built-in scene.
+    #[arg(long)]
+    particles: Option<usize>,
+    /// Start camera EYE:TARGET[:FOVY] (C in the window prints the current one).
+    #[arg(long)]
+    camera: Option<String>,
+    #[arg(long, value_enum)]
+    filter: Option<Filter>,
+    #[arg(long, default_value = "default")]
+    preset: String,
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    /// Playback rate of a sequence in frames per second (before the speed factor).
+    #[arg(long, default_value_t = 25.0)]
+    fps: f32,
+    /// Present without vsync (IMMEDIATE or MAILBOX when the driver has them).
+    #[arg(long)]
+    no_vsync: bool,
+    /// Scripted run: draw this many frames, then exit.
+    #[arg(long)]
+    frames: Option<u64>,
+    /// With --frames: write the last frame here (PNG).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    #[command(flatten)]
+    load: LoadArgs,
+    #[arg(long)]
+    validation: bool,
+    #[arg(long)]
+    device: Option<String>,
 }
 
 #[derive(Args, Clone)]
@@ -212,6 +258,7 @@ fn main() {
         Cmd::Render(a) => render(&a),
         Cmd::Info { file, load } => info(&file, &load),
         Cmd::Bench(b) => bench(&b),
+        Cmd::Demo(d) => demo(&d),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");
@@ -259,7 +306,7 @@ fn render(a: &RenderArgs) -> Result<()> {
     };
     let view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
     check_dumps(a)?;
-    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
+    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
     upload(&mut r, &particles, &s)?;
@@ -365,7 +412,7 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
             PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
         }
     };
-    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
+    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
     let total = frames.len();
     eprintln!("{}: {total} frames ({} … {}) on {}", a.input, frames[0].number, frames[total - 1].number, gpu.info.name);
@@ -575,7 +622,7 @@ fn bench(a: &BenchArgs) -> Result<()> {
     } else {
         vec![(960, 540)]
     };
-    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone() })?;
+    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
     let mut r = Renderer::new(&gpu)?;
     let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
@@ -754,5 +801,38 @@ fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Rend
     if let Some(p) = &a.markdown {
         meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
     }
+    Ok(())
+}
+
+fn demo(a: &DemoArgs) -> Result<()> {
+    let mut s = match &a.settings {
+        Some(f) => Settings::from_toml(f)?,
+        None => Settings::preset(&a.preset)?,
+    };
+    if let Some(f) = a.filter {
+        s.filter = f;
+    }
+    if a.screenshot.is_some() && a.frames.is_none() {
+        bail!("--screenshot needs --frames N (or press P in the window)");
+    }
+    if a.width == 0 || a.height == 0 || a.width > 16384 || a.height > 16384 {
+        bail!("window size {}×{} is out of range", a.width, a.height);
+    }
+    meniscus::demo::run(meniscus::demo::DemoOptions {
+        input: a.input.clone(),
+        particles: a.particles,
+        radius: a.radius,
+        camera: a.camera.as_deref().map(Camera::parse).transpose()?,
+        width: a.width,
+        height: a.height,
+        settings: s,
+        load: a.load.options()?,
+        vsync: !a.no_vsync,
+        validation: a.validation,
+        device: a.device.clone(),
+        frames: a.frames,
+        screenshot: a.screenshot.clone(),
+        fps: a.fps.max(0.1),
+    })?;
     Ok(())
 }

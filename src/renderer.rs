@@ -24,6 +24,8 @@ pub struct Renderer {
     /// Keep the raw splatted depth through smoothing (costs one more screen-sized image); set before rendering
     /// when the raw depth will be read back.
     pub keep_raw_depth: bool,
+    /// Debug views, particle view and overlay (demo).
+    views: crate::passes::view::View,
     /// CPU copy of the positions (for per-frame bounds such as the nearest depth).
     positions: Vec<[f32; 3]>,
 }
@@ -48,6 +50,7 @@ impl Renderer {
             smoothed: Smoothed::Raw,
             positions: vec![],
             keep_raw_depth: false,
+            views: crate::passes::view::View::new(gpu)?,
         })
     }
 
@@ -154,6 +157,63 @@ impl Renderer {
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
             record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations)
+        })?;
+        self.smoothed = smoothed;
+        self.timer.read()
+    }
+
+    /// Render one frame for the demo: the full pipeline, then the chosen view, then the text `overlay`.
+    /// `values`: per-particle attribute in [0, 1] for the particle view.
+    pub fn render_view(
+        &mut self,
+        view: &View,
+        s: &Settings,
+        mode: crate::passes::view::ViewMode,
+        values: Option<&Buffer>,
+        overlay: Option<&Image>,
+    ) -> Result<PassTimes> {
+        use crate::passes::view::ViewMode;
+        s.validate()?;
+        if !self.passes.splat.supports(s.splat) {
+            return Err(Error::Invalid(format!("splat mode {} is not supported on {}", s.splat.name(), self.gpu.info.name)));
+        }
+        self.keep_raw_depth = true;
+        self.ensure_targets(view.width, view.height, s)?;
+        self.write_uniforms(view, s)?;
+        let particles = self.particles.as_ref().ok_or_else(|| Error::Invalid("no particles uploaded".into()))?;
+        let t = self.targets.as_ref().expect("ensured");
+        let count = self.count;
+        let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), self.nearest_depth(view, s));
+        let d_near = self.nearest_depth(view, s);
+        let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
+        let (passes, uniforms, gpu, views) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views);
+        let timer = &mut self.timer;
+        let smoothed = gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf)?;
+            let smoothed_img = match sm {
+                Smoothed::Raw => &t.depth,
+                Smoothed::A => &t.smooth_a,
+                Smoothed::B => &t.smooth_b,
+            };
+            let t_max = 60.0 * s.radius;
+            match mode {
+                ViewMode::Final => {}
+                ViewMode::Particles => {
+                    views.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
+                    if let Some(v) = values {
+                        views.record_particles(&mut ctx, uniforms, particles, v, count, t, s.splat_radius_scale);
+                    }
+                }
+                m => {
+                    let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
+                    views.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
+                }
+            }
+            if let Some(o) = overlay {
+                views.record_overlay(&mut ctx, uniforms, o, &t.final_color);
+            }
+            Ok(sm)
         })?;
         self.smoothed = smoothed;
         self.timer.read()

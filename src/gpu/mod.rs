@@ -34,6 +34,9 @@ pub struct GpuOptions {
     pub validation: bool,
     /// Pick the first device whose name contains this (case-insensitive); `MENISCUS_DEVICE` if `None`.
     pub device_filter: Option<String>,
+    /// Instance extensions a window surface needs (from `ash_window::enumerate_required_extensions`); when
+    /// given, the device is created with VK_KHR_swapchain.
+    pub surface_extensions: Vec<&'static std::ffi::CStr>,
 }
 
 /// Counts of validation messages, shared with the messenger callback.
@@ -167,7 +170,12 @@ impl Gpu {
             .api_version(vk::API_VERSION_1_3);
         let layer_names: Vec<*const std::ffi::c_char> =
             if validation_wanted { vec![c"VK_LAYER_KHRONOS_validation".as_ptr()] } else { vec![] };
-        let mut ext_names: Vec<*const std::ffi::c_char> = vec![];
+        let mut ext_names: Vec<*const std::ffi::c_char> = opts.surface_extensions.iter().map(|e| e.as_ptr()).collect();
+        for e in &opts.surface_extensions {
+            if !exts.iter().any(|x| cstr_of(&x.extension_name) == e.to_string_lossy()) {
+                return Err(Error::NoDevice(format!("the Vulkan loader lacks the window extension {}", e.to_string_lossy())));
+            }
+        }
         if has_debug_utils {
             ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
         }
@@ -212,7 +220,7 @@ impl Gpu {
             None
         };
 
-        let result = Self::pick_device(&entry, &instance, opts, has_debug_utils);
+        let result = Self::pick_device(&entry, &instance, opts, !opts.surface_extensions.is_empty());
         let (physical, device, queue_family, info) = match result {
             Ok(v) => v,
             Err(e) => {
@@ -278,7 +286,7 @@ impl Gpu {
         entry: &ash::Entry,
         instance: &ash::Instance,
         opts: &GpuOptions,
-        _debug_utils: bool,
+        swapchain: bool,
     ) -> Result<(vk::PhysicalDevice, ash::Device, u32, DeviceInfo)> {
         let _ = entry;
         let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
@@ -306,6 +314,9 @@ impl Gpu {
             }
             let exts = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
             if !exts.iter().any(|e| cstr_of(&e.extension_name) == "VK_KHR_push_descriptor") {
+                continue;
+            }
+            if swapchain && !exts.iter().any(|e| cstr_of(&e.extension_name) == "VK_KHR_swapchain") {
                 continue;
             }
             let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
@@ -366,7 +377,10 @@ impl Gpu {
         let mut enable2 = vk::PhysicalDeviceFeatures2::default().features(base_enable).push_next(&mut e13).push_next(&mut e12);
         let prio = [1.0f32];
         let qci = [vk::DeviceQueueCreateInfo::default().queue_family_index(qf).queue_priorities(&prio)];
-        let dev_exts = [ash::khr::push_descriptor::NAME.as_ptr()];
+        let mut dev_exts = vec![ash::khr::push_descriptor::NAME.as_ptr()];
+        if swapchain {
+            dev_exts.push(ash::khr::swapchain::NAME.as_ptr());
+        }
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&qci)
             .enabled_extension_names(&dev_exts)

@@ -24,6 +24,8 @@ pub struct Image {
     pub aspect: vk::ImageAspectFlags,
     pub(crate) state: Cell<AccessState>,
     alloc: Option<Allocation>,
+    /// False for images owned by someone else (swapchain images): only the view is destroyed.
+    owned: bool,
 }
 
 /// Bytes per texel of the formats Meniscus uses.
@@ -90,6 +92,7 @@ impl Image {
             aspect: if format == vk::Format::D32_SFLOAT { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR },
             state: Cell::new(AccessState::default()),
             alloc: None,
+            owned: true,
         };
         unsafe { d.bind_image_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindImageMemory")?;
         img.alloc = Some(alloc);
@@ -102,6 +105,25 @@ impl Image {
             let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(raw).object_name(&n);
             let _ = unsafe { dd.set_debug_utils_object_name(&info) };
         }
+        Ok(img)
+    }
+
+    /// Track an image owned elsewhere (a swapchain image) so barriers can be derived for it; its view is ours.
+    pub fn wrap(gpu: &Arc<Gpu>, raw: vk::Image, format: vk::Format, extent: vk::Extent2D, name: &str) -> Result<Image> {
+        let mut img = Image {
+            gpu: gpu.clone(),
+            raw,
+            view: vk::ImageView::null(),
+            alt_view: None,
+            format,
+            extent,
+            name: name.to_string(),
+            aspect: vk::ImageAspectFlags::COLOR,
+            state: Cell::new(AccessState::default()),
+            alloc: None,
+            owned: false,
+        };
+        img.view = img.make_view(format)?;
         Ok(img)
     }
 
@@ -144,7 +166,9 @@ impl Drop for Image {
                 d.destroy_image_view(v, None);
             }
             d.destroy_image_view(self.view, None);
-            d.destroy_image(self.raw, None);
+            if self.owned {
+                d.destroy_image(self.raw, None);
+            }
         }
         if let Some(a) = self.alloc.take() {
             if let Ok(mut al) = self.gpu.allocator.lock() {

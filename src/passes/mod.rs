@@ -9,6 +9,7 @@ pub mod splat;
 pub mod ssr;
 pub mod thickness;
 pub mod upsample;
+pub mod view;
 
 pub use background::Background;
 pub use composite::Composite;

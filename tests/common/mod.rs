@@ -10,7 +10,7 @@ use meniscus::settings::Settings;
 
 /// A device with validation + synchronization validation. No device is a test FAILURE, in CI and out.
 pub fn gpu() -> Arc<Gpu> {
-    match Gpu::new(&GpuOptions { validation: true, device_filter: None }) {
+    match Gpu::new(&GpuOptions { validation: true, ..Default::default() }) {
         Ok(g) => {
             assert!(g.validation_enabled(), "validation layer must be active in tests");
             g

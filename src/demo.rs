@@ -1,0 +1,762 @@
+//! `meniscus demo`: a window (winit + Vulkan swapchain) that plays a particle sequence, a built-in scene or a
+//! file through the renderer. The renderer draws offscreen exactly as `render` does; the demo only blits the
+//! result (plus a text overlay) into the swapchain image. Keys and mouse: see [`HELP`].
+//!
+//! Frame loop: render (submit + wait), read that frame's timestamps (already complete: no query wait), acquire,
+//! blit, present. CPU and GPU do not overlap — simple and exact on lavapipe; a real GPU would want two frames in
+//! flight (not done yet).
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use ash::vk;
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, ModifiersState, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::error::{Error, Result, VkContext};
+use crate::frame::{Environment, View};
+use crate::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Use};
+use crate::passes::view::ViewMode;
+use crate::renderer::Renderer;
+use crate::scene::{self, Camera, LoadOptions, Particles};
+use crate::settings::{Filter, Settings};
+
+/// Every key, for `--help` and the on-screen help (H).
+pub const HELP: &str = "\
+mouse: left drag orbit · right drag (or shift+left) pan · wheel zoom
+W A S D / Q E  fly forward, left, back, right / down, up      R  reset camera to the automatic fit
+C  print the camera as a --camera argument (stdout)
+Space play/pause · Left/Right step a frame · Up/Down speed ×2 / ÷2 · L loop on/off
+1 final · 2 raw depth · 3 smoothed depth · 4 thickness · 5 normals · 6 SSR hits · 7 particles
+B  particle colour by speed / density / height
+F  next smoothing filter · G fluid scale 1 / ½ / ¼ · X SSR on/off · O next settings preset
+V  vsync on/off · P screenshot (PNG) · H help on/off · Esc quit";
+
+/// Demo options (from the CLI).
+#[derive(Clone, Debug)]
+pub struct DemoOptions {
+    pub input: String,
+    pub particles: Option<usize>,
+    pub radius: Option<f32>,
+    pub camera: Option<Camera>,
+    pub width: u32,
+    pub height: u32,
+    pub settings: Settings,
+    pub load: LoadOptions,
+    pub vsync: bool,
+    pub validation: bool,
+    pub device: Option<String>,
+    /// Run this many frames, then exit (after writing `screenshot` if given).
+    pub frames: Option<u64>,
+    pub screenshot: Option<PathBuf>,
+    pub fps: f32,
+}
+
+/// Where frames come from.
+enum Source {
+    Static(Particles),
+    Sequence { frames: Vec<scene::sequence::Frame>, cache: HashMap<usize, Particles>, order: Vec<usize> },
+}
+
+impl Source {
+    fn len(&self) -> usize {
+        match self {
+            Source::Static(_) => 1,
+            Source::Sequence { frames, .. } => frames.len(),
+        }
+    }
+    /// Frame `i`, loading it (and keeping the last 8) on demand.
+    fn get(&mut self, i: usize, o: &LoadOptions) -> Result<&Particles> {
+        match self {
+            Source::Static(p) => Ok(p),
+            Source::Sequence { frames, cache, order } => {
+                if !cache.contains_key(&i) {
+                    let p = scene::load_with(&frames[i].path, o)?;
+                    cache.insert(i, p);
+                    order.push(i);
+                    if order.len() > 8 {
+                        let old = order.remove(0);
+                        cache.remove(&old);
+                    }
+                }
+                Ok(&cache[&i])
+            }
+        }
+    }
+}
+
+struct Swapchain {
+    loader: ash::khr::swapchain::Device,
+    raw: vk::SwapchainKHR,
+    images: Vec<Image>,
+    extent: vk::Extent2D,
+    fence: vk::Fence,
+}
+
+struct State {
+    window: Arc<Window>,
+    gpu: Arc<Gpu>,
+    surface_loader: ash::khr::surface::Instance,
+    surface: vk::SurfaceKHR,
+    swap: Option<Swapchain>,
+    renderer: Renderer,
+    overlay: Option<Image>,
+    values: Option<Buffer>,
+}
+
+struct App {
+    o: DemoOptions,
+    src: Source,
+    radius: f32,
+    fit: Camera,
+    camera: Camera,
+    env: Environment,
+    state: Option<State>,
+    error: Option<Error>,
+    // Playback and interaction.
+    frame: usize,
+    playing: bool,
+    speed: f32,
+    looping: bool,
+    last_advance: Instant,
+    mode: ViewMode,
+    color_by: usize,
+    presets: usize,
+    help: bool,
+    mods: ModifiersState,
+    cursor: Option<(f64, f64)>,
+    dragging: Option<MouseButton>,
+    keys: std::collections::HashSet<KeyCode>,
+    // Stats.
+    frames_drawn: u64,
+    started: Instant,
+    fps_window: (Instant, u32, f32),
+    last_frame: Instant,
+    last_times: PassTimes,
+    screenshot_count: u32,
+    resized: bool,
+}
+
+/// Run the demo until the window closes or `frames` are done.
+pub fn run(o: DemoOptions) -> Result<()> {
+    let (src, radius_hint, first) = open_source(&o)?;
+    let radius = o.radius.or(radius_hint).or_else(|| scene::estimate_radius(&first.positions)).ok_or_else(|| {
+        Error::Invalid("cannot estimate the particle radius; pass --radius".into())
+    })?;
+    let bounds = scene::percentile_bounds(&first.positions, 0.01).ok_or_else(|| Error::Invalid("no finite particles".into()))?;
+    let fit = Camera::fit(&bounds, o.width as f32 / o.height as f32);
+    let mut s = o.settings.clone();
+    s.radius = radius;
+    let env = Environment::around(&bounds, radius, &s);
+    let event_loop = EventLoop::new().map_err(|e| {
+        Error::Invalid(format!(
+            "cannot open a window ({e}); the demo needs an X server: set DISPLAY, or run it under Xvfb (`Xvfb :99 & DISPLAY=:99 meniscus demo`)"
+        ))
+    })?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App {
+        camera: o.camera.unwrap_or(fit),
+        fit,
+        env,
+        src,
+        radius,
+        state: None,
+        error: None,
+        frame: 0,
+        playing: true,
+        speed: 1.0,
+        looping: true,
+        last_advance: Instant::now(),
+        mode: ViewMode::Final,
+        color_by: 0,
+        presets: 0,
+        help: false,
+        mods: ModifiersState::empty(),
+        cursor: None,
+        dragging: None,
+        keys: Default::default(),
+        frames_drawn: 0,
+        started: Instant::now(),
+        fps_window: (Instant::now(), 0, 0.0),
+        last_frame: Instant::now(),
+        last_times: PassTimes::default(),
+        screenshot_count: 0,
+        resized: false,
+        o: DemoOptions { settings: s, ..o },
+    };
+    event_loop.run_app(&mut app).map_err(|e| Error::Invalid(format!("window event loop failed: {e}")))?;
+    if let Some(e) = app.error.take() {
+        return Err(e);
+    }
+    let secs = app.started.elapsed().as_secs_f64();
+    eprintln!("{} frames in {secs:.1} s ({:.2} frames/s)", app.frames_drawn, app.frames_drawn as f64 / secs.max(1e-9));
+    if let Some(st) = &app.state {
+        let v = st.gpu.validation();
+        if v.errors() + v.warnings() > 0 {
+            return Err(Error::Invalid(format!("{} Vulkan validation errors, {} warnings", v.errors(), v.warnings())));
+        }
+    }
+    Ok(())
+}
+
+fn open_source(o: &DemoOptions) -> Result<(Source, Option<f32>, Particles)> {
+    if let Some((name, n, _)) = scene::procedural::SCENES.iter().find(|s| s.0 == o.input) {
+        let g = scene::procedural::generate(name, o.particles.unwrap_or(*n))?;
+        let p = g.particles.clone();
+        return Ok((Source::Static(g.particles), Some(g.radius), p));
+    }
+    if scene::sequence::is_sequence(&o.input) {
+        let frames = scene::sequence::resolve(&o.input, None, None)?;
+        let first = scene::load_with(&frames[0].path, &o.load)?;
+        let mut cache = HashMap::new();
+        cache.insert(0, first.clone());
+        return Ok((Source::Sequence { frames, cache, order: vec![0] }, None, first));
+    }
+    let p = scene::load_with(std::path::Path::new(&o.input), &o.load)?;
+    Ok((Source::Static(p.clone()), None, p))
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.state.is_some() {
+            return;
+        }
+        match self.create_state(el) {
+            Ok(s) => self.state = Some(s),
+            Err(e) => {
+                self.error = Some(e);
+                el.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        match event {
+            WindowEvent::CloseRequested => el.exit(),
+            WindowEvent::Resized(_) => self.resized = true,
+            WindowEvent::ModifiersChanged(m) => self.mods = m.state(),
+            WindowEvent::KeyboardInput { event, .. } => {
+                if let PhysicalKey::Code(code) = event.physical_key {
+                    if event.state == ElementState::Pressed {
+                        if !event.repeat {
+                            self.key(code, el);
+                        }
+                        self.keys.insert(code);
+                    } else {
+                        self.keys.remove(&code);
+                    }
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                self.dragging = (state == ElementState::Pressed).then_some(button);
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                if let (Some((x0, y0)), Some(b)) = (self.cursor, self.dragging) {
+                    let (dx, dy) = ((position.x - x0) as f32, (position.y - y0) as f32);
+                    if b == MouseButton::Right || (b == MouseButton::Left && self.mods.shift_key()) {
+                        self.pan(dx, dy);
+                    } else if b == MouseButton::Left {
+                        self.orbit(dx, dy);
+                    }
+                }
+                self.cursor = Some((position.x, position.y));
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                let d = self.camera.eye - self.camera.target;
+                self.camera.eye = self.camera.target + d * 0.9f32.powf(steps);
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.draw(el) {
+                    self.error = Some(e);
+                    el.exit();
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, _el: &ActiveEventLoop) {
+        if let Some(s) = &self.state {
+            s.window.request_redraw();
+        }
+    }
+}
+
+impl App {
+    fn create_state(&mut self, el: &ActiveEventLoop) -> Result<State> {
+        let attrs = Window::default_attributes()
+            .with_title("meniscus demo")
+            .with_inner_size(winit::dpi::PhysicalSize::new(self.o.width, self.o.height));
+        let window = Arc::new(el.create_window(attrs).map_err(|e| Error::Invalid(format!("cannot create a window: {e}")))?);
+        let display = window.display_handle().map_err(|e| Error::Invalid(format!("no display handle: {e}")))?.as_raw();
+        let wh = window.window_handle().map_err(|e| Error::Invalid(format!("no window handle: {e}")))?.as_raw();
+        let exts = ash_window::enumerate_required_extensions(display).vk("enumerate surface extensions")?;
+        // SAFETY: ash-window returns pointers to static NUL-terminated extension names.
+        let surface_extensions = exts.iter().map(|&p| unsafe { std::ffi::CStr::from_ptr(p) }).collect();
+        let gpu = Gpu::new(&GpuOptions { validation: self.o.validation, device_filter: self.o.device.clone(), surface_extensions })?;
+        // SAFETY: the handles come from a live window that outlives the surface (State drops the surface first).
+        let surface = unsafe { ash_window::create_surface(&gpu.entry, &gpu.instance, display, wh, None) }.vk("vkCreateSurfaceKHR")?;
+        let surface_loader = ash::khr::surface::Instance::new(&gpu.entry, &gpu.instance);
+        let ok = unsafe { surface_loader.get_physical_device_surface_support(gpu.physical, gpu.queue_family, surface) }
+            .vk("vkGetPhysicalDeviceSurfaceSupportKHR")?;
+        if !ok {
+            return Err(Error::NoDevice(format!("{} cannot present to this window", gpu.info.name)));
+        }
+        let renderer = Renderer::new(&gpu)?;
+        eprintln!("demo on {} ({}); keys:\n{HELP}", gpu.info.name, gpu.info.driver);
+        let mut st = State { window, gpu, surface_loader, surface, swap: None, renderer, overlay: None, values: None };
+        self.recreate_swapchain(&mut st)?;
+        Ok(st)
+    }
+
+    fn recreate_swapchain(&self, st: &mut State) -> Result<()> {
+        let gpu = st.gpu.clone();
+        unsafe { gpu.device.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
+        let caps = unsafe { st.surface_loader.get_physical_device_surface_capabilities(gpu.physical, st.surface) }
+            .vk("vkGetPhysicalDeviceSurfaceCapabilitiesKHR")?;
+        let size = st.window.inner_size();
+        let extent = if caps.current_extent.width != u32::MAX {
+            caps.current_extent
+        } else {
+            vk::Extent2D {
+                width: size.width.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+                height: size.height.clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+            }
+        };
+        let old = st.swap.take();
+        if extent.width == 0 || extent.height == 0 {
+            // Minimised: keep no swapchain until restored.
+            if let Some(o) = old {
+                destroy_swapchain(&gpu, o);
+            }
+            return Ok(());
+        }
+        let formats = unsafe { st.surface_loader.get_physical_device_surface_formats(gpu.physical, st.surface) }
+            .vk("vkGetPhysicalDeviceSurfaceFormatsKHR")?;
+        let format = formats
+            .iter()
+            .find(|f| f.format == vk::Format::B8G8R8A8_UNORM || f.format == vk::Format::R8G8B8A8_UNORM)
+            .or(formats.first())
+            .copied()
+            .ok_or_else(|| Error::NoDevice("the surface offers no formats".into()))?;
+        let modes = unsafe { st.surface_loader.get_physical_device_surface_present_modes(gpu.physical, st.surface) }
+            .vk("vkGetPhysicalDeviceSurfacePresentModesKHR")?;
+        let mode = if self.o.vsync {
+            vk::PresentModeKHR::FIFO
+        } else if modes.contains(&vk::PresentModeKHR::IMMEDIATE) {
+            vk::PresentModeKHR::IMMEDIATE
+        } else if modes.contains(&vk::PresentModeKHR::MAILBOX) {
+            vk::PresentModeKHR::MAILBOX
+        } else {
+            vk::PresentModeKHR::FIFO
+        };
+        let mut count = caps.min_image_count + 1;
+        if caps.max_image_count > 0 {
+            count = count.min(caps.max_image_count);
+        }
+        let loader = old.as_ref().map(|o| o.loader.clone()).unwrap_or_else(|| ash::khr::swapchain::Device::new(&gpu.instance, &gpu.device));
+        let ci = vk::SwapchainCreateInfoKHR::default()
+            .surface(st.surface)
+            .min_image_count(count)
+            .image_format(format.format)
+            .image_color_space(format.color_space)
+            .image_extent(extent)
+            .image_array_layers(1)
+            .image_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::COLOR_ATTACHMENT)
+            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .pre_transform(caps.current_transform)
+            .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
+            .present_mode(mode)
+            .clipped(true)
+            .old_swapchain(old.as_ref().map(|o| o.raw).unwrap_or_default());
+        let raw = unsafe { loader.create_swapchain(&ci, None) }.vk("vkCreateSwapchainKHR")?;
+        if let Some(o) = old {
+            destroy_swapchain(&gpu, o);
+        }
+        let images = unsafe { loader.get_swapchain_images(raw) }
+            .vk("vkGetSwapchainImagesKHR")?
+            .into_iter()
+            .enumerate()
+            .map(|(k, i)| Image::wrap(&gpu, i, format.format, extent, &format!("swapchain{k}")))
+            .collect::<Result<Vec<_>>>()?;
+        let fence = unsafe { gpu.device.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
+        st.swap = Some(Swapchain { loader, raw, images, extent, fence });
+        Ok(())
+    }
+
+    fn key(&mut self, code: KeyCode, el: &ActiveEventLoop) {
+        let n = self.src.len();
+        match code {
+            KeyCode::Escape => el.exit(),
+            KeyCode::Space => self.playing = !self.playing,
+            KeyCode::ArrowRight => {
+                self.playing = false;
+                self.frame = (self.frame + 1) % n;
+            }
+            KeyCode::ArrowLeft => {
+                self.playing = false;
+                self.frame = (self.frame + n - 1) % n;
+            }
+            KeyCode::ArrowUp => self.speed = (self.speed * 2.0).min(64.0),
+            KeyCode::ArrowDown => self.speed = (self.speed * 0.5).max(1.0 / 64.0),
+            KeyCode::KeyL => self.looping = !self.looping,
+            KeyCode::KeyR => self.camera = self.fit,
+            KeyCode::KeyC => println!("--camera {}", self.camera.to_arg()),
+            KeyCode::KeyH => self.help = !self.help,
+            KeyCode::KeyB => self.color_by = (self.color_by + 1) % 3,
+            KeyCode::KeyF => {
+                const ORDER: [Filter; 6] =
+                    [Filter::NarrowRange, Filter::Bilateral, Filter::Bilateral2d, Filter::CurvatureFlow, Filter::Gaussian, Filter::None];
+                let k = ORDER.iter().position(|f| *f == self.o.settings.filter).unwrap_or(0);
+                self.o.settings.filter = ORDER[(k + 1) % ORDER.len()];
+            }
+            KeyCode::KeyG => {
+                let s = &mut self.o.settings.fluid_scale;
+                *s = if *s > 0.75 { 0.5 } else if *s > 0.375 { 0.25 } else { 1.0 };
+            }
+            KeyCode::KeyX => self.o.settings.ssr = !self.o.settings.ssr,
+            KeyCode::KeyO => {
+                const NAMES: [&str; 3] = ["default", "fast", "moritz"];
+                self.presets = (self.presets + 1) % NAMES.len();
+                if let Ok(mut s) = Settings::preset(NAMES[self.presets]) {
+                    s.radius = self.radius;
+                    self.o.settings = s;
+                }
+            }
+            KeyCode::KeyV => {
+                self.o.vsync = !self.o.vsync;
+                self.resized = true;
+            }
+            KeyCode::KeyP => {
+                self.screenshot_count += 1;
+                let p = PathBuf::from(format!("meniscus-screenshot-{:04}.png", self.screenshot_count));
+                if let Err(e) = self.save_screenshot(&p) {
+                    eprintln!("screenshot failed: {e}");
+                } else {
+                    eprintln!("wrote {}", p.display());
+                }
+            }
+            c => {
+                let digits = [KeyCode::Digit1, KeyCode::Digit2, KeyCode::Digit3, KeyCode::Digit4, KeyCode::Digit5, KeyCode::Digit6, KeyCode::Digit7];
+                if let Some(k) = digits.iter().position(|d| *d == c) {
+                    self.mode = ViewMode::ALL[k];
+                }
+            }
+        }
+    }
+
+    fn orbit(&mut self, dx: f32, dy: f32) {
+        let c = &mut self.camera;
+        let d = c.eye - c.target;
+        let r = d.length();
+        let yaw = d.z.atan2(d.x) + dx * 0.008;
+        let pitch = (d.y / r).clamp(-1.0, 1.0).asin() + dy * 0.008;
+        let pitch = pitch.clamp(-1.5, 1.5);
+        c.eye = c.target + r * Vec3::new(pitch.cos() * yaw.cos(), pitch.sin(), pitch.cos() * yaw.sin());
+    }
+
+    fn pan(&mut self, dx: f32, dy: f32) {
+        let c = &mut self.camera;
+        let f = (c.target - c.eye).normalize();
+        let right = f.cross(c.up).normalize();
+        let up = right.cross(f);
+        let k = (c.eye - c.target).length() * 0.0015;
+        let m = (-right * dx + up * dy) * k;
+        c.eye += m;
+        c.target += m;
+    }
+
+    fn fly(&mut self, dt: f32) {
+        let c = &mut self.camera;
+        let f = (c.target - c.eye).normalize();
+        let right = f.cross(c.up).normalize();
+        let v = (c.eye - c.target).length().max(1e-3) * 0.8 * dt;
+        let mut m = Vec3::ZERO;
+        for (k, dir) in [(KeyCode::KeyW, f), (KeyCode::KeyS, -f), (KeyCode::KeyD, right), (KeyCode::KeyA, -right), (KeyCode::KeyE, c.up), (KeyCode::KeyQ, -c.up)] {
+            if self.keys.contains(&k) {
+                m += dir;
+            }
+        }
+        c.eye += m * v;
+        c.target += m * v;
+    }
+
+    /// Per-particle values in [0, 1] for the particle view (speed, density or height), and the legend range.
+    fn values(&self, p: &Particles) -> (Vec<f32>, String, f32, f32) {
+        let (name, raw): (&str, Vec<f32>) = match self.color_by {
+            0 => ("speed", p.velocities.as_ref().map(|v| v.iter().map(|v| Vec3::from(*v).length()).collect()).unwrap_or_else(|| vec![0.0; p.len()])),
+            1 => ("density", p.densities.clone().unwrap_or_else(|| vec![0.0; p.len()])),
+            _ => ("height", p.positions.iter().map(|q| q[1]).collect()),
+        };
+        let mut sorted: Vec<f32> = raw.iter().copied().filter(|x| x.is_finite()).collect();
+        sorted.sort_by(f32::total_cmp);
+        let (lo, hi) = if sorted.is_empty() { (0.0, 1.0) } else { (sorted[sorted.len() / 50], sorted[sorted.len() - 1 - sorted.len() / 50]) };
+        let span = (hi - lo).max(1e-9);
+        (raw.iter().map(|x| (x - lo) / span).collect(), name.to_string(), lo, hi)
+    }
+
+    fn draw(&mut self, el: &ActiveEventLoop) -> Result<()> {
+        let Some(mut st) = self.state.take() else { return Ok(()) };
+        let r = self.draw_inner(&mut st, el);
+        self.state = Some(st);
+        r
+    }
+
+    fn draw_inner(&mut self, st: &mut State, el: &ActiveEventLoop) -> Result<()> {
+        if self.resized {
+            self.resized = false;
+            self.recreate_swapchain(st)?;
+        }
+        let Some(extent) = st.swap.as_ref().map(|s| s.extent) else {
+            std::thread::sleep(Duration::from_millis(30)); // minimised
+            return Ok(());
+        };
+        // Playback.
+        let now = Instant::now();
+        let dt = now.duration_since(self.last_frame).as_secs_f32().min(0.1);
+        self.last_frame = now;
+        self.fly(dt);
+        let n = self.src.len();
+        if self.playing && n > 1 && now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed) {
+            self.last_advance = now;
+            if self.frame + 1 < n {
+                self.frame += 1;
+            } else if self.looping {
+                self.frame = 0;
+            } else {
+                self.playing = false;
+            }
+        }
+        let p = self.src.get(self.frame, &self.o.load)?.clone();
+        let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
+        let spray = scene::spray_mask(&p, self.radius, self.o.settings.spray_density);
+        st.renderer.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))?;
+        let legend = if self.mode == ViewMode::Particles {
+            let (vals, name, lo, hi) = self.values(&p);
+            let bytes: &[u8] = bytemuck::cast_slice(&vals);
+            let reuse = st.values.as_ref().is_some_and(|b| b.size >= bytes.len() as u64);
+            if !reuse {
+                st.values = Some(Buffer::new(&st.gpu, "values", bytes.len().max(16) as u64, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::CpuToGpu)?);
+            }
+            st.values.as_mut().expect("set").write(0, bytes)?;
+            Some((name, lo, hi))
+        } else {
+            None
+        };
+        // Overlay text (last frame's GPU times: this frame's are read after it completes).
+        let text = self.overlay_text(st, n, legend.as_ref());
+        let ov = rasterize(&text, legend.is_some());
+        let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
+        let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
+        if need_new {
+            st.overlay = Some(Image::new(&st.gpu, "overlay", vk::Extent2D { width: ow, height: oh }, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST, None)?);
+        }
+        let cropped = image::imageops::crop_imm(&ov, 0, 0, ow, oh).to_image();
+        crate::renderer::upload_image(&st.gpu, st.overlay.as_ref().expect("set"), cropped.as_raw())?;
+        let values = if self.mode == ViewMode::Particles { st.values.as_ref() } else { None };
+        self.last_times = st.renderer.render_view(&view, &self.o.settings, self.mode, values, st.overlay.as_ref())?;
+        self.present(st)?;
+        self.frames_drawn += 1;
+        self.fps_window.1 += 1;
+        let el_s = now.duration_since(self.fps_window.0).as_secs_f32();
+        if el_s >= 0.5 {
+            self.fps_window = (now, 0, self.fps_window.1 as f32 / el_s);
+        }
+        if let Some(limit) = self.o.frames {
+            if self.frames_drawn >= limit {
+                if let Some(p) = self.o.screenshot.clone() {
+                    self.save_screenshot_of(st, &p)?;
+                    eprintln!("wrote {}", p.display());
+                }
+                el.exit();
+            }
+        }
+        Ok(())
+    }
+
+    fn overlay_text(&self, st: &State, n: usize, legend: Option<&(String, f32, f32)>) -> Vec<String> {
+        let s = &self.o.settings;
+        let mut t = vec![
+            format!("meniscus demo  {}", st.gpu.info.name),
+            format!(
+                "frame {}/{}  {}  speed {}x  loop {}   {:.1} FPS   {} particles",
+                self.frame + 1,
+                n,
+                if self.playing { "playing" } else { "paused" },
+                self.speed,
+                if self.looping { "on" } else { "off" },
+                self.fps_window.2,
+                st.renderer.particle_count()
+            ),
+            format!(
+                "view {}  filter {}  fluid scale {}  ssr {}  vsync {}",
+                self.mode.name(),
+                s.filter.name(),
+                s.fluid_scale,
+                if s.ssr { "on" } else { "off" },
+                if self.o.vsync { "on" } else { "off" }
+            ),
+        ];
+        // Per-pass GPU ms of the last frame, four to a line.
+        let mut entries: Vec<String> = self.last_times.0.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        entries.push(format!("total {:.1}", self.last_times.total()));
+        for (k, chunk) in entries.chunks(4).enumerate() {
+            t.push(format!("{}{}", if k == 0 { "GPU ms: " } else { "        " }, chunk.join("  ")));
+        }
+        if let Some((name, lo, hi)) = legend {
+            t.push(format!("colour by {name}: {lo:.3} (blue) .. {hi:.3} (red)"));
+        }
+        if self.help {
+            t.extend(HELP.lines().map(|l| l.to_string()));
+        } else {
+            t.push("H: help".into());
+        }
+        t
+    }
+
+    fn present(&mut self, st: &mut State) -> Result<()> {
+        let gpu = st.gpu.clone();
+        let Some(swap) = st.swap.as_ref() else { return Ok(()) };
+        let acquired = unsafe { swap.loader.acquire_next_image(swap.raw, u64::MAX, vk::Semaphore::null(), swap.fence) };
+        let index = match acquired {
+            Ok((i, suboptimal)) => {
+                if suboptimal {
+                    self.resized = true;
+                }
+                i
+            }
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                self.resized = true;
+                return Ok(());
+            }
+            Err(e) => return Err(Error::Vulkan { call: "vkAcquireNextImageKHR", result: e }),
+        };
+        unsafe {
+            gpu.device.wait_for_fences(&[swap.fence], true, u64::MAX).vk("vkWaitForFences")?;
+            gpu.device.reset_fences(&[swap.fence]).vk("vkResetFences")?;
+        }
+        let target = &swap.images[index as usize];
+        let src = &st.renderer.targets.as_ref().expect("rendered").final_color;
+        gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&gpu, cmd, None);
+            ctx.barrier(&[Use::Image(src, Access::TransferSrc, false), Use::Image(target, Access::TransferDst, true)]);
+            let sub = vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 };
+            let corner = |e: vk::Extent2D| [vk::Offset3D { x: 0, y: 0, z: 0 }, vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 }];
+            let blit = vk::ImageBlit { src_subresource: sub, src_offsets: corner(src.extent), dst_subresource: sub, dst_offsets: corner(target.extent) };
+            unsafe {
+                gpu.device.cmd_blit_image(
+                    cmd,
+                    src.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    target.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[blit],
+                    vk::Filter::NEAREST,
+                )
+            };
+            ctx.barrier(&[Use::Image(target, Access::Present, false)]);
+            Ok(())
+        })?;
+        let swapchains = [swap.raw];
+        let indices = [index];
+        let pi = vk::PresentInfoKHR::default().swapchains(&swapchains).image_indices(&indices);
+        match unsafe { swap.loader.queue_present(gpu.queue, &pi) } {
+            Ok(false) => {}
+            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => self.resized = true,
+            Err(e) => return Err(Error::Vulkan { call: "vkQueuePresentKHR", result: e }),
+        }
+        Ok(())
+    }
+
+    fn save_screenshot(&mut self, p: &std::path::Path) -> Result<()> {
+        let st = self.state.as_ref().ok_or_else(|| Error::Invalid("no window yet".into()))?;
+        self.save_screenshot_of(st, p)
+    }
+
+    fn save_screenshot_of(&self, st: &State, p: &std::path::Path) -> Result<()> {
+        let img = st.renderer.read_final()?;
+        crate::output::write_png(p, &img)
+    }
+}
+
+fn destroy_swapchain(gpu: &Gpu, s: Swapchain) {
+    unsafe {
+        let _ = gpu.device.device_wait_idle();
+        gpu.device.destroy_fence(s.fence, None);
+    }
+    drop(s.images); // views only
+    unsafe { s.loader.destroy_swapchain(s.raw, None) };
+}
+
+impl Drop for State {
+    fn drop(&mut self) {
+        if let Some(s) = self.swap.take() {
+            destroy_swapchain(&self.gpu, s);
+        }
+        unsafe { self.surface_loader.destroy_surface(self.surface, None) };
+    }
+}
+
+/// Rasterise the overlay lines with the font8x8 glyphs (public domain, 8×8, scaled ×2) on a translucent panel;
+/// with a legend, a blue→red hue bar under the text. CPU text + a one-dispatch blend pass is all the demo needs:
+/// no font atlas, no extra pipeline state, identical on every driver.
+fn rasterize(lines: &[String], legend: bool) -> image::RgbaImage {
+    const S: u32 = 2;
+    let cols = lines.iter().map(|l| l.chars().count()).max().unwrap_or(1) as u32;
+    let w = (cols * 8 * S + 16).min(2048);
+    let h = lines.len() as u32 * 10 * S + 16 + if legend { 24 } else { 0 };
+    let mut img = image::RgbaImage::from_pixel(w, h, image::Rgba([10, 14, 24, 150]));
+    for (row, line) in lines.iter().enumerate() {
+        for (col, ch) in line.chars().enumerate() {
+            let c = ch as usize;
+            let glyph = if c < 128 { font8x8::legacy::BASIC_LEGACY[c] } else { font8x8::legacy::BASIC_LEGACY[b'?' as usize] };
+            for (gy, bits) in glyph.iter().enumerate() {
+                for gx in 0..8 {
+                    if bits >> gx & 1 == 1 {
+                        for sy in 0..S {
+                            for sx in 0..S {
+                                let x = 8 + (col as u32 * 8 + gx) * S + sx;
+                                let y = 8 + (row as u32 * 10 + gy as u32) * S + sy;
+                                if x < w && y < h {
+                                    img.put_pixel(x, y, image::Rgba([235, 240, 245, 255]));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if legend {
+        let y0 = h - 22;
+        for x in 8..w.min(408) {
+            let t = (x - 8) as f32 / 400.0;
+            let hue = 0.62 * (1.0 - t);
+            let rgb = hsv(hue, 0.85, 0.95);
+            for y in y0..y0 + 14 {
+                img.put_pixel(x, y, image::Rgba([rgb[0], rgb[1], rgb[2], 255]));
+            }
+        }
+    }
+    img
+}
+
+fn hsv(h: f32, s: f32, v: f32) -> [u8; 3] {
+    let f = |n: f32| {
+        let k = (n + h * 6.0) % 6.0;
+        v - v * s * (k.min(4.0 - k).clamp(0.0, 1.0))
+    };
+    [(f(5.0) * 255.0) as u8, (f(3.0) * 255.0) as u8, (f(1.0) * 255.0) as u8]
+}
