@@ -31,14 +31,14 @@ use crate::settings::{Filter, Settings};
 
 /// Every key, for `--help` and the on-screen help (H).
 pub const HELP: &str = "\
-mouse: left drag orbit · right drag (or shift+left) pan · wheel zoom
-W A S D / Q E  fly forward, left, back, right / down, up      R  reset camera to the automatic fit
-C  print the camera as a --camera argument (stdout)
-Space play/pause · Left/Right step a frame · Up/Down speed ×2 / ÷2 · L loop on/off
-1 final · 2 raw depth · 3 smoothed depth · 4 thickness · 5 normals · 6 SSR hits · 7 particles
-B  particle colour by speed / density / height
-F  next smoothing filter · G fluid scale 1 / ½ / ¼ · X SSR on/off · O next settings preset
-V  vsync on/off · P screenshot (PNG) · H help on/off · Esc quit";
+mouse: left drag orbit | right drag (or shift+left) pan | wheel zoom
+W A S D / Q E: fly forward, left, back, right / down, up | R: reset camera
+C: print the camera as a --camera argument (stdout)
+Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
+1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
+B: particle colour by speed / density / height
+F: next filter | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
+V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit";
 
 /// Demo options (from the CLI).
 #[derive(Clone, Debug)]
@@ -557,7 +557,7 @@ impl App {
         };
         // Overlay text (last frame's GPU times: this frame's are read after it completes).
         let text = self.overlay_text(st, n, legend.as_ref());
-        let ov = rasterize(&text, legend.is_some());
+        let ov = rasterize(&text, legend.is_some(), if extent.width >= 1000 { 2 } else { 1 });
         let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
         let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
         if need_new {
@@ -712,8 +712,10 @@ impl Drop for State {
 /// Rasterise the overlay lines with the font8x8 glyphs (public domain, 8×8, scaled ×2) on a translucent panel;
 /// with a legend, a blue→red hue bar under the text. CPU text + a one-dispatch blend pass is all the demo needs:
 /// no font atlas, no extra pipeline state, identical on every driver.
-fn rasterize(lines: &[String], legend: bool) -> image::RgbaImage {
-    const S: u32 = 2;
+fn rasterize(lines: &[String], legend: bool, scale: u32) -> image::RgbaImage {
+    let s_ = scale.max(1);
+    #[allow(non_snake_case)]
+    let S = s_;
     let cols = lines.iter().map(|l| l.chars().count()).max().unwrap_or(1) as u32;
     let w = (cols * 8 * S + 16).min(2048);
     let h = lines.len() as u32 * 10 * S + 16 + if legend { 24 } else { 0 };
