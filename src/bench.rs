@@ -108,7 +108,7 @@ pub fn measure(
         c
     });
     let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
-    let spray = scene::spray_mask(&w.particles, s.radius, s.spray_density);
+    let spray = scene::spray_mask_with(&w.particles, s.radius, s.spray_density, s.spray_by_neighbours);
     r.set_particles_with(&w.particles.positions, None, Some(&spray))?;
     let mut per_pass: Vec<(String, Vec<f64>)> = vec![];
     let (mut totals, mut cpu) = (vec![], vec![]);

@@ -541,7 +541,7 @@ impl App {
         }
         let p = self.src.get(self.frame, &self.o.load)?.clone();
         let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
-        let spray = scene::spray_mask(&p, self.radius, self.o.settings.spray_density);
+        let spray = scene::spray_mask_with(&p, self.radius, self.o.settings.spray_density, self.o.settings.spray_by_neighbours);
         st.renderer.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))?;
         let legend = if self.mode == ViewMode::Particles {
             let (vals, name, lo, hi) = self.values(&p);

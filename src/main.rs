@@ -359,7 +359,7 @@ fn check_dumps(a: &RenderArgs) -> Result<()> {
 
 /// Upload particles with their spray flags and per-particle radii (when mapped).
 fn upload(r: &mut Renderer, p: &Particles, s: &Settings) -> Result<()> {
-    let spray = scene::spray_mask(p, s.radius, s.spray_density);
+    let spray = scene::spray_mask_with(p, s.radius, s.spray_density, s.spray_by_neighbours);
     r.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))?;
     Ok(())
 }

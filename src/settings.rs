@@ -80,6 +80,8 @@ pub struct Settings {
     pub filter: Filter,
     /// How the depth splat draws.
     pub splat: SplatMode,
+    /// Spray classification by neighbour count within 4 r even when the file has densities.
+    pub spray_by_neighbours: bool,
     /// Particles whose density is below this fraction of the median density are spray and left out of the
     /// surface (0 = off). Uses the file's density, else a neighbour count.
     pub spray_density: f32,
@@ -177,6 +179,7 @@ impl Default for Settings {
             radius: 0.0,
             filter: Filter::NarrowRange,
             splat: SplatMode::Compute,
+            spray_by_neighbours: true,
             spray_density: 0.0,
             splat_radius_scale: 1.3,
             nrf_skip_background: true,

@@ -261,12 +261,18 @@ pub fn estimate_radius(pos: &[[f32; 3]]) -> Option<f32> {
 /// surface): a particle is spray when its density is below `threshold` × the median density. The density is the
 /// file's `density` attribute when present, else the number of neighbours within 4 radii.
 pub fn spray_mask(p: &Particles, radius: f32, threshold: f32) -> Vec<bool> {
+    spray_mask_with(p, radius, threshold, false)
+}
+
+/// [`spray_mask`], optionally ignoring the file's densities and counting neighbours within 4 radii instead
+/// (the kernel support of a surface reconstruction such as splashsurf's).
+pub fn spray_mask_with(p: &Particles, radius: f32, threshold: f32, neighbours: bool) -> Vec<bool> {
     if threshold <= 0.0 || p.is_empty() {
         return vec![false; p.len()];
     }
     let dens: Vec<f32> = match &p.densities {
-        Some(d) => d.clone(),
-        None => neighbour_counts(&p.positions, 4.0 * radius).into_iter().map(|c| c as f32).collect(),
+        Some(d) if !neighbours => d.clone(),
+        _ => neighbour_counts(&p.positions, 4.0 * radius).into_iter().map(|c| c as f32).collect(),
     };
     let mut sorted: Vec<f32> = dens.iter().copied().filter(|d| d.is_finite()).collect();
     if sorted.is_empty() {
