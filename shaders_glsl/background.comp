@@ -2,7 +2,8 @@
 //! background — the scene behind the fluid, ray-cast analytically per pixel (compute).
 //! Out: colour (rgba16f, linear) and LINEAR EYE DEPTH (r32f, +inf for sky) at full resolution.
 //! A checkered ground plane with distance fog, the boxes of the frame block (Lambert + sun), and the
-//! procedural sky of common.glsl. Composite and thickness read the depth to hide fluid behind geometry.
+//! sky of common.glsl (procedural, or the cube map from six images). Composite and thickness read the depth to hide fluid behind geometry.
+#define SKY_BINDING 3
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D color_out;

@@ -19,7 +19,7 @@ layout(std140, set = 0, binding = 0) uniform Frame {
     vec4 extinction;    // rgb: Beer-Lambert extinction per world unit (eta * scale)
     vec4 fluid_color;   // rgb: I0, light scattered out of the fluid; w: ambient light
     vec4 shading;       // x: refraction alpha (px per world unit), y: beta (max px), z: gamma (transparency), w: k_s
-    vec4 shading2;      // x: shininess c, y: F0, z: sky reflection on/off, w: unused
+    vec4 shading2;      // x: shininess c, y: F0, z: sky reflection on/off, w: 1 = sky cube map loaded
     vec4 box_count;     // x: number of boxes
     vec4 box_min[8];    // axis-aligned boxes of the background scene (world)
     vec4 box_max[8];
@@ -55,9 +55,23 @@ vec3 unpack_normal(uint u) {
     return normalize(n);
 }
 
-/// Procedural sky: horizon-to-zenith gradient, a darker ground hemisphere, a sun disc with a glow.
+#ifdef SKY_BINDING
+/// Sky cube map (six images from files) when frame.shading2.w is 1; a 1×1 placeholder otherwise.
+layout(set = 0, binding = SKY_BINDING) uniform samplerCube sky_cube;
+#endif
+
+/// The sky: the cube map when one is loaded (passes that define SKY_BINDING), else procedural — a
+/// horizon-to-zenith gradient, a darker ground hemisphere — plus a sun disc with a glow either way.
 vec3 sky(vec3 dir) {
     dir = normalize(dir);
+#ifdef SKY_BINDING
+    if (frame.shading2.w > 0.5) {
+        // Right-handed world, cube maps are left-handed: mirror z.
+        vec3 c = pow(texture(sky_cube, vec3(dir.x, dir.y, -dir.z)).rgb, vec3(2.2));
+        float s = max(dot(dir, frame.sun.xyz), 0.0);
+        return c + vec3(1.0, 0.92, 0.8) * pow(s, 900.0) * 12.0 * frame.sun.w;
+    }
+#endif
     vec3 zenith = vec3(0.18, 0.36, 0.78);
     vec3 horizon = vec3(0.72, 0.82, 0.94);
     vec3 c;

@@ -7,6 +7,7 @@
 //! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
 //! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled).
 //! Out: rgba8, gamma 2.2.
+#define SKY_BINDING 8
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1) uniform sampler2D scene_color;

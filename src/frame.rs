@@ -46,6 +46,8 @@ pub struct Environment {
     pub fog: f32,
     pub ground: bool,
     pub boxes: Vec<(Vec3, Vec3)>,
+    /// A sky cube map is loaded in the renderer (see `Renderer::set_skybox`).
+    pub sky_cube: bool,
 }
 
 impl Environment {
@@ -68,7 +70,7 @@ impl Environment {
             boxes.push((Vec3::new(x, ground_y, b.lo.z + ext.z * 0.3), Vec3::new(x + 2.0 * w, ground_y + 0.5 * h, b.lo.z + ext.z * 0.3 + 2.0 * w)));
         }
         let tile = (size / 8.0).max(radius * 4.0);
-        Environment { ground_y, tile, fog: size * 12.0, ground: s.ground, boxes }
+        Environment { ground_y, tile, fog: size * 12.0, ground: s.ground, boxes, sky_cube: false }
     }
 }
 
@@ -100,7 +102,7 @@ impl FrameUniforms {
             extinction: ext.extend(0.0).to_array(),
             fluid_color: [s.fluid_color[0], s.fluid_color[1], s.fluid_color[2], s.ambient],
             shading: [s.refraction_alpha, s.refraction_beta, s.transparency_gamma, s.specular],
-            shading2: [s.shininess, s.f0, s.reflect_sky as u32 as f32, 0.0],
+            shading2: [s.shininess, s.f0, s.reflect_sky as u32 as f32, v.env.sky_cube as u32 as f32],
             box_count: [v.env.boxes.len().min(MAX_BOXES) as f32, 0.0, 0.0, 0.0],
             box_min: [[0.0; 4]; MAX_BOXES],
             box_max: [[0.0; 4]; MAX_BOXES],
@@ -247,8 +249,9 @@ pub fn record_frame(
     count: u32,
     s: &Settings,
     cf_iterations: u32,
+    sky: &Image,
 ) -> Result<Smoothed> {
-    p.background.record(ctx, frame, &t.scene_color, &t.scene_depth);
+    p.background.record(ctx, frame, sky, &t.scene_color, &t.scene_depth);
     match s.splat {
         SplatMode::Compute => p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_radius_scale),
         mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_radius_scale, mode)?,
@@ -272,6 +275,7 @@ pub fn record_frame(
         normals: &t.normals,
         thickness: &t.thickness,
         ssr: &t.ssr,
+        sky,
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
     Ok(if std::ptr::eq(smoothed, &t.smooth_a) {

@@ -18,6 +18,7 @@ pub mod passes;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
+pub mod sky;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.
 pub mod shaders {

@@ -225,6 +225,9 @@ struct RenderArgs {
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
     #[arg(long)]
     fluid_scale: Option<f32>,
+    /// Sky cube map from six images DIR/{px,nx,py,ny,pz,nz}.png (default: procedural sky).
+    #[arg(long, value_name = "DIR")]
+    skybox: Option<PathBuf>,
     /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
     #[arg(long, value_enum)]
     splat: Option<SplatMode>,
@@ -304,10 +307,15 @@ fn render(a: &RenderArgs) -> Result<()> {
         Some(c) => Camera::parse(c)?,
         None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
     };
-    let view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
+    let mut view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
     check_dumps(a)?;
+    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
+    if let Some((size, faces)) = &sky {
+        r.set_skybox(*size, faces)?;
+        view.env.sky_cube = true;
+    }
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
     upload(&mut r, &particles, &s)?;
     let mut times = r.render(&view, &s)?;
@@ -412,8 +420,12 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
             PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
         }
     };
+    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
+    if let Some((size, faces)) = &sky {
+        r.set_skybox(*size, faces)?;
+    }
     let total = frames.len();
     eprintln!("{}: {total} frames ({} … {}) on {}", a.input, frames[0].number, frames[total - 1].number, gpu.info.name);
     let bar = indicatif::ProgressBar::new(total as u64);
@@ -433,7 +445,8 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
                 None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
             };
             bar.println(format!("camera: --camera {}", camera.to_arg()));
-            let view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
+            let mut view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
+            view.env.sky_cube = sky.is_some();
             fixed = Some((s, view));
         }
         let (s, view) = fixed.as_ref().expect("set above");

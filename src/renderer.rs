@@ -24,6 +24,8 @@ pub struct Renderer {
     /// Keep the raw splatted depth through smoothing (costs one more screen-sized image); set before rendering
     /// when the raw depth will be read back.
     pub keep_raw_depth: bool,
+    /// Sky cube map (a 1×1 placeholder until `set_skybox`).
+    pub sky: Image,
     /// Debug views, particle view and overlay (demo).
     views: crate::passes::view::View,
     /// CPU copy of the positions (for per-frame bounds such as the nearest depth).
@@ -51,6 +53,11 @@ impl Renderer {
             positions: vec![],
             keep_raw_depth: false,
             views: crate::passes::view::View::new(gpu)?,
+            sky: {
+                let sky = Image::new_cube(gpu, "sky", 1, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)?;
+                upload_image(gpu, &sky, &[150, 190, 235, 255].repeat(6))?;
+                sky
+            },
         })
     }
 
@@ -104,6 +111,15 @@ impl Renderer {
         self.set_particles_with(positions, radii, None)
     }
 
+    /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::sky`). Set
+    /// `Environment::sky_cube` to use it.
+    pub fn set_skybox(&mut self, size: u32, faces: &[u8]) -> Result<()> {
+        let sky = Image::new_cube(&self.gpu, "sky", size, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)?;
+        upload_image(&self.gpu, &sky, faces)?;
+        self.sky = sky;
+        Ok(())
+    }
+
     /// Particles on the device.
     pub fn particle_count(&self) -> u32 {
         self.count
@@ -152,11 +168,11 @@ impl Renderer {
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
         let cf_iterations = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), self.nearest_depth(view, s));
-        let (passes, uniforms, gpu) = (&self.passes, &self.uniforms, self.gpu.clone());
+        let (passes, uniforms, gpu, sky) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.sky);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations)
+            record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations, sky)
         })?;
         self.smoothed = smoothed;
         self.timer.read()
@@ -186,11 +202,11 @@ impl Renderer {
         let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), self.nearest_depth(view, s));
         let d_near = self.nearest_depth(view, s);
         let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
-        let (passes, uniforms, gpu, views) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views);
+        let (passes, uniforms, gpu, views, sky) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf)?;
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf, sky)?;
             let smoothed_img = match sm {
                 Smoothed::Raw => &t.depth,
                 Smoothed::A => &t.smooth_a,
@@ -293,7 +309,7 @@ pub fn upload_image(gpu: &Arc<Gpu>, img: &Image, data: &[u8]) -> Result<()> {
                 aspect_mask: vk::ImageAspectFlags::COLOR,
                 mip_level: 0,
                 base_array_layer: 0,
-                layer_count: 1,
+                layer_count: img.layers,
             })
             .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
         unsafe {

@@ -426,7 +426,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.background.record(&mut ctx, &r.uniforms, &t.scene_color, &t.scene_depth);
+        r.passes.background.record(&mut ctx, &r.uniforms, &r.sky, &t.scene_color, &t.scene_depth);
         r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
         r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s);
         Ok(())
@@ -754,5 +754,40 @@ fn raster_splat_variants_equal_compute_splat() {
         }
     }
     assert!(depths.len() >= 4, "lavapipe supports all variants");
+    assert_clean(&gpu);
+}
+
+/// A sky cube map from six PNG files: looking along +x shows the +x face, looking up the +y face.
+#[test]
+fn skybox_faces_from_files() {
+    let gpu = gpu();
+    let dir = std::env::temp_dir().join(format!("meniscus-sky-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let colours = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0], [0, 255, 255], [255, 0, 255]];
+    for (name, c) in ["px", "nx", "py", "ny", "pz", "nz"].iter().zip(colours) {
+        image::RgbaImage::from_pixel(4, 4, image::Rgba([c[0], c[1], c[2], 255])).save(dir.join(format!("{name}.png"))).unwrap();
+    }
+    let (size, faces) = meniscus::sky::load_faces(&dir).unwrap();
+    assert_eq!(size, 4);
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_skybox(size, &faces).unwrap();
+    let mut s = settings(0.05);
+    s.sun_intensity = 0.0;
+    s.filter = Filter::None;
+    r.set_particles(&[[100.0, 100.0, 100.0]], None).unwrap();
+    for (target, want) in [([1.0f32, 0.0, 0.0], [255u8, 0, 0]), ([0.0, 1.0, 0.001], [0, 0, 255])] {
+        let mut v = view([0.0, 0.0, 0.0], target, 16, 16, 30.0);
+        v.env.sky_cube = true;
+        r.render(&v, &s).unwrap();
+        let img = r.read_final().unwrap();
+        let p = img.get_pixel(8, 8);
+        for k in 0..3 {
+            assert!((p[k] as i32 - want[k] as i32).abs() < 8, "looking at {target:?}: got {p:?}, want {want:?}");
+        }
+    }
+    // A missing face is a clear error naming it.
+    std::fs::remove_file(dir.join("nz.png")).unwrap();
+    let e = meniscus::sky::load_faces(&dir).unwrap_err().to_string();
+    assert!(e.contains("nz.png"), "{e}");
     assert_clean(&gpu);
 }

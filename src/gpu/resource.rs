@@ -22,6 +22,8 @@ pub struct Image {
     pub extent: vk::Extent2D,
     pub name: String,
     pub aspect: vk::ImageAspectFlags,
+    /// Array layers (6 for a cube map).
+    pub layers: u32,
     pub(crate) state: Cell<AccessState>,
     alloc: Option<Allocation>,
     /// False for images owned by someone else (swapchain images): only the view is destroyed.
@@ -50,15 +52,35 @@ impl Image {
         usage: vk::ImageUsageFlags,
         alt_format: Option<vk::Format>,
     ) -> Result<Image> {
+        Self::create(gpu, name, extent, format, usage, alt_format, 1)
+    }
+
+    /// A cube map: six square layers, viewed as a cube (`samplerCube`).
+    pub fn new_cube(gpu: &Arc<Gpu>, name: &str, size: u32, format: vk::Format, usage: vk::ImageUsageFlags) -> Result<Image> {
+        Self::create(gpu, name, vk::Extent2D { width: size, height: size }, format, usage, None, 6)
+    }
+
+    fn create(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        extent: vk::Extent2D,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        alt_format: Option<vk::Format>,
+        layers: u32,
+    ) -> Result<Image> {
         let d = &gpu.device;
-        let flags = if alt_format.is_some() { vk::ImageCreateFlags::MUTABLE_FORMAT } else { vk::ImageCreateFlags::empty() };
+        let mut flags = if alt_format.is_some() { vk::ImageCreateFlags::MUTABLE_FORMAT } else { vk::ImageCreateFlags::empty() };
+        if layers == 6 {
+            flags |= vk::ImageCreateFlags::CUBE_COMPATIBLE;
+        }
         let ci = vk::ImageCreateInfo::default()
             .flags(flags)
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
             .extent(vk::Extent3D { width: extent.width.max(1), height: extent.height.max(1), depth: 1 })
             .mip_levels(1)
-            .array_layers(1)
+            .array_layers(layers)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
@@ -90,6 +112,7 @@ impl Image {
             extent,
             name: name.to_string(),
             aspect: if format == vk::Format::D32_SFLOAT { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR },
+            layers,
             state: Cell::new(AccessState::default()),
             alloc: None,
             owned: true,
@@ -119,6 +142,7 @@ impl Image {
             extent,
             name: name.to_string(),
             aspect: vk::ImageAspectFlags::COLOR,
+            layers: 1,
             state: Cell::new(AccessState::default()),
             alloc: None,
             owned: false,
@@ -130,7 +154,7 @@ impl Image {
     fn make_view(&self, format: vk::Format) -> Result<vk::ImageView> {
         let ci = vk::ImageViewCreateInfo::default()
             .image(self.raw)
-            .view_type(vk::ImageViewType::TYPE_2D)
+            .view_type(if self.layers == 6 { vk::ImageViewType::CUBE } else { vk::ImageViewType::TYPE_2D })
             .format(format)
             .subresource_range(self.range());
         unsafe { self.gpu.device.create_image_view(&ci, None) }.vk("vkCreateImageView")
@@ -149,12 +173,12 @@ impl Image {
 
     /// The whole image (colour or depth aspect).
     pub fn range(&self) -> vk::ImageSubresourceRange {
-        vk::ImageSubresourceRange { aspect_mask: self.aspect, ..Self::color_range() }
+        vk::ImageSubresourceRange { aspect_mask: self.aspect, layer_count: self.layers, ..Self::color_range() }
     }
 
     /// Size in bytes of the texels (not counting driver padding).
     pub fn bytes(&self) -> u64 {
-        self.extent.width as u64 * self.extent.height as u64 * format_bytes(self.format)
+        self.extent.width as u64 * self.extent.height as u64 * format_bytes(self.format) * self.layers as u64
     }
 }
 

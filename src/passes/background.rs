@@ -15,14 +15,19 @@ pub struct Background {
 
 impl Background {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Background { prog: ComputeProgram::new(gpu, NAME, shaders::BACKGROUND, &[UBO, IMG, IMG], 0)? })
+        Ok(Background { prog: ComputeProgram::new(gpu, NAME, shaders::BACKGROUND, &[UBO, IMG, IMG, TEX], 0)? })
     }
 
-    /// Writes all of `color` and `depth`.
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, color: &Image, depth: &Image) {
-        ctx.pass(NAME, &[Use::buf_read(frame), Use::overwrite(color), Use::overwrite(depth)], |ctx| {
+    /// Writes all of `color` and `depth`; `sky` is the cube map (a placeholder when procedural).
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, sky: &Image, color: &Image, depth: &Image) {
+        ctx.pass(NAME, &[Use::buf_read(frame), Use::sampled(sky), Use::overwrite(color), Use::overwrite(depth)], |ctx| {
             let g = ComputeProgram::groups_2d(color.extent.width, color.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(ctx, &[Bind::Uniform(frame), Bind::Storage(color), Bind::Storage(depth)], &[], g);
+            self.prog.dispatch(
+                ctx,
+                &[Bind::Uniform(frame), Bind::Storage(color), Bind::Storage(depth), Bind::Linear(sky)],
+                &[],
+                g,
+            );
         });
     }
 }

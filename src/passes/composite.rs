@@ -21,11 +21,13 @@ pub struct CompositeInputs<'a> {
     pub normals: &'a Image,
     pub thickness: &'a Image,
     pub ssr: &'a Image,
+    /// The sky cube map (placeholder when procedural).
+    pub sky: &'a Image,
 }
 
 impl Composite {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, IMG], 0)? })
+        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, IMG, TEX], 0)? })
     }
 
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {
@@ -38,6 +40,7 @@ impl Composite {
             Use::sampled(i.thickness),
             Use::overwrite(out),
             Use::read(i.ssr),
+            Use::sampled(i.sky),
         ];
         ctx.pass(NAME, &uses, |ctx| {
             let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
@@ -52,6 +55,7 @@ impl Composite {
                     Bind::Linear(i.thickness),
                     Bind::Storage(out),
                     Bind::Storage(i.ssr),
+                    Bind::Linear(i.sky),
                 ],
                 &[],
                 g,
