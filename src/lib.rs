@@ -4,8 +4,6 @@
 //! Layout: [`gpu`] (device, resources, access tracking, timestamps), [`passes`] (one struct per pass),
 //! [`frame`] (the frame's table of contents), [`renderer`] (frame driver and readback), [`scene`]
 //! (particles, loaders, camera, procedural scenes), [`settings`], [`output`] (PNG/NPY writers).
-#![warn(missing_docs)]
-#![allow(missing_docs)] // TODO: document every public item; module headers are in place.
 
 pub mod bench;
 pub mod chart;

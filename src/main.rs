@@ -57,12 +57,8 @@ struct DemoArgs {
     /// Start camera EYE:TARGET[:FOVY] (C in the window prints the current one).
     #[arg(long)]
     camera: Option<String>,
-    #[arg(long, value_enum)]
-    filter: Option<Filter>,
-    #[arg(long, default_value = "default")]
-    preset: String,
-    #[arg(long)]
-    settings: Option<PathBuf>,
+    #[command(flatten)]
+    set: SettingsArgs,
     /// Playback rate of a sequence in frames per second (before the speed factor).
     #[arg(long, default_value_t = 25.0)]
     fps: f32,
@@ -184,6 +180,45 @@ impl LoadArgs {
     }
 }
 
+/// Settings: a preset, a TOML file over it, and the most used fields as flags.
+#[derive(Args, Clone)]
+struct SettingsArgs {
+    /// Settings preset: default, fast, moritz.
+    #[arg(long, default_value = "default")]
+    preset: String,
+    /// TOML file of settings applied over the preset (any field of src/settings.rs, e.g. `nrf_radius = 8.0`).
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    /// Depth smoothing filter.
+    #[arg(long, value_enum)]
+    filter: Option<Filter>,
+    /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
+    #[arg(long)]
+    fluid_scale: Option<f32>,
+    /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
+    #[arg(long, value_enum)]
+    splat: Option<SplatMode>,
+}
+
+impl SettingsArgs {
+    fn resolve(&self, preset_override: Option<&str>) -> Result<Settings> {
+        let mut s = Settings::preset(preset_override.unwrap_or(&self.preset))?;
+        if let Some(f) = &self.settings {
+            s = s.with_toml(f)?;
+        }
+        if let Some(f) = self.filter {
+            s.filter = f;
+        }
+        if let Some(fs) = self.fluid_scale {
+            s.fluid_scale = fs;
+        }
+        if let Some(m) = self.splat {
+            s.splat = m;
+        }
+        Ok(s)
+    }
+}
+
 #[derive(Args, Clone)]
 struct RenderArgs {
     /// A built-in scene (block, wave, drop, crown, waterfall), a particle file (.bgeo, .vtk, .vtu/.vtp, .ply,
@@ -216,24 +251,11 @@ struct RenderArgs {
     /// Camera as EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45 (default: fitted to the particles).
     #[arg(long)]
     camera: Option<String>,
-    /// Depth smoothing filter.
-    #[arg(long, value_enum)]
-    filter: Option<Filter>,
-    /// Settings preset: default, fast, moritz.
-    #[arg(long, default_value = "default")]
-    preset: String,
-    /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
-    #[arg(long)]
-    fluid_scale: Option<f32>,
+    #[command(flatten)]
+    set: SettingsArgs,
     /// Sky cube map from six images DIR/{px,nx,py,ny,pz,nz}.png (default: procedural sky).
     #[arg(long, value_name = "DIR")]
     skybox: Option<PathBuf>,
-    /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
-    #[arg(long, value_enum)]
-    splat: Option<SplatMode>,
-    /// TOML file of settings applied over the preset's (see README).
-    #[arg(long)]
-    settings: Option<PathBuf>,
     /// Print a per-pass GPU time table (median over the timed frames, after warm-up).
     #[arg(long)]
     timings: bool,
@@ -374,19 +396,7 @@ fn upload(r: &mut Renderer, p: &Particles, s: &Settings) -> Result<()> {
 
 /// Settings from preset/TOML/flags, with the radius from the flag, the scene, or the particle spacing.
 fn settings_for(a: &RenderArgs, particles: &Particles, scene_radius: Option<f32>) -> Result<Settings> {
-    let mut s = match &a.settings {
-        Some(f) => Settings::from_toml(f)?,
-        None => Settings::preset(&a.preset)?,
-    };
-    if let Some(f) = a.filter {
-        s.filter = f;
-    }
-    if let Some(fs) = a.fluid_scale {
-        s.fluid_scale = fs;
-    }
-    if let Some(m) = a.splat {
-        s.splat = m;
-    }
+    let mut s = a.set.resolve(None)?;
     s.radius = match a.radius.or(scene_radius) {
         Some(r) => r,
         None => {
@@ -613,10 +623,10 @@ fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench:
 fn bench(a: &BenchArgs) -> Result<()> {
     let table43 = a.preset == "table43";
     let moritz = a.preset == "moritz" || table43;
-    let base = match &a.settings {
-        Some(f) => Settings::from_toml(f)?,
-        None => Settings::preset(if table43 { "moritz" } else { &a.preset })?,
-    };
+    let mut base = Settings::preset(if table43 { "moritz" } else { &a.preset })?;
+    if let Some(f) = &a.settings {
+        base = base.with_toml(f)?;
+    }
     let scenes: Vec<String> = if !a.scenes.is_empty() {
         a.scenes.clone()
     } else if table43 {
@@ -678,14 +688,7 @@ fn bench(a: &BenchArgs) -> Result<()> {
                     ));
                 }
                 variants.push(("no smoothing".into(), Settings { filter: Filter::None, ..base.clone() }));
-                for m in [
-                    SplatMode::Compute,
-                    SplatMode::QuadFragDepth,
-                    SplatMode::QuadConservative,
-                    SplatMode::QuadMin,
-                    SplatMode::PointFragDepth,
-                    SplatMode::PointMin,
-                ] {
+                for m in SplatMode::ALL {
                     if r.passes.splat.supports(m) {
                         variants.push((format!("splat {}", m.name()), Settings { splat: m, ..base.clone() }));
                     }
@@ -818,13 +821,7 @@ fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Rend
 }
 
 fn demo(a: &DemoArgs) -> Result<()> {
-    let mut s = match &a.settings {
-        Some(f) => Settings::from_toml(f)?,
-        None => Settings::preset(&a.preset)?,
-    };
-    if let Some(f) = a.filter {
-        s.filter = f;
-    }
+    let s = a.set.resolve(None)?;
     if a.screenshot.is_some() && a.frames.is_none() {
         bail!("--screenshot needs --frames N (or press P in the window)");
     }

@@ -55,6 +55,16 @@ pub enum SplatMode {
 }
 
 impl SplatMode {
+    /// Every mode, compute first.
+    pub const ALL: [SplatMode; 6] = [
+        SplatMode::Compute,
+        SplatMode::QuadFragDepth,
+        SplatMode::QuadConservative,
+        SplatMode::QuadMin,
+        SplatMode::PointFragDepth,
+        SplatMode::PointMin,
+    ];
+
     pub fn name(self) -> &'static str {
         match self {
             SplatMode::Compute => "compute",
@@ -251,12 +261,24 @@ impl Settings {
 
     /// Read a TOML file of settings over the defaults.
     pub fn from_toml(path: &std::path::Path) -> Result<Settings> {
+        Settings::default().with_toml(path)
+    }
+
+    /// These settings with the fields a TOML file sets replaced (unknown keys and wrong types are errors that
+    /// name the file and the byte offset).
+    pub fn with_toml(&self, path: &std::path::Path) -> Result<Settings> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        toml::from_str(&text).map_err(|e| Error::Parse {
-            path: path.to_path_buf(),
-            offset: e.span().map(|s| s.start as u64).unwrap_or(0),
-            reason: e.message().to_string(),
-        })
+        let parse_err = |offset: u64, reason: String| Error::Parse { path: path.to_path_buf(), offset, reason };
+        let table: toml::Table = toml::from_str(&text)
+            .map_err(|e| parse_err(e.span().map(|s| s.start as u64).unwrap_or(0), e.message().to_string()))?;
+        let mut merged = serde_json::to_value(self).map_err(|e| Error::Invalid(e.to_string()))?;
+        let over = serde_json::to_value(&table).map_err(|e| Error::Invalid(e.to_string()))?;
+        if let (Some(m), Some(o)) = (merged.as_object_mut(), over.as_object()) {
+            for (k, v) in o {
+                m.insert(k.clone(), v.clone());
+            }
+        }
+        serde_json::from_value(merged).map_err(|e| parse_err(0, format!("bad settings: {e}")))
     }
 
     /// Check values a user could get wrong.
@@ -293,5 +315,39 @@ impl Settings {
             return bad("bilateral_iterations (≤ 64)");
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_overrides_the_preset_and_rejects_unknown_keys() {
+        let dir = std::env::temp_dir().join(format!("meniscus-settings-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("good.toml");
+        std::fs::write(&good, "nrf_radius = 8.0\nfilter = \"bilateral\"\n").unwrap();
+        let s = Settings::preset("moritz").unwrap().with_toml(&good).unwrap();
+        assert_eq!(s.nrf_radius, 8.0);
+        assert_eq!(s.filter, Filter::Bilateral);
+        assert_eq!(s.ssr_stride, 8.0); // from the preset
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, "nrf_radiu = 8.0\n").unwrap();
+        let e = Settings::default().with_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("bad.toml") && e.contains("nrf_radiu"), "{e}");
+        let syntax = dir.join("syntax.toml");
+        std::fs::write(&syntax, "nrf_radius = = 8\n").unwrap();
+        let e = Settings::default().with_toml(&syntax).unwrap_err().to_string();
+        assert!(e.contains("syntax.toml") && e.contains("byte"), "{e}");
+    }
+
+    #[test]
+    fn presets_validate() {
+        for p in ["default", "fast", "moritz"] {
+            let s = Settings { radius: 0.01, ..Settings::preset(p).unwrap() };
+            s.validate().unwrap();
+        }
+        assert!(Settings::preset("nope").is_err());
     }
 }

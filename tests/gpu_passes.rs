@@ -720,14 +720,7 @@ fn raster_splat_variants_equal_compute_splat() {
     let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
     v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
     let mut depths = vec![];
-    for mode in [
-        SplatMode::Compute,
-        SplatMode::QuadFragDepth,
-        SplatMode::QuadConservative,
-        SplatMode::QuadMin,
-        SplatMode::PointFragDepth,
-        SplatMode::PointMin,
-    ] {
+    for mode in SplatMode::ALL {
         let mut s = settings(g.radius);
         s.filter = Filter::None;
         s.splat = mode;

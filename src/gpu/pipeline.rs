@@ -51,6 +51,25 @@ pub fn set_layout(gpu: &Gpu, bindings: &[vk::DescriptorType], stages: vk::Shader
     unsafe { gpu.device.create_descriptor_set_layout(&ci, None) }.vk("vkCreateDescriptorSetLayout")
 }
 
+/// The push-descriptor set layout of a binding table and a pipeline layout with `push_size` bytes of push
+/// constants for `stages`.
+fn layouts(
+    gpu: &Gpu,
+    bindings: &[vk::DescriptorType],
+    stages: vk::ShaderStageFlags,
+    push_size: u32,
+) -> Result<(vk::DescriptorSetLayout, vk::PipelineLayout)> {
+    let set = set_layout(gpu, bindings, stages)?;
+    let ranges = [vk::PushConstantRange { stage_flags: stages, offset: 0, size: push_size }];
+    let sets = [set];
+    let mut lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&sets);
+    if push_size > 0 {
+        lci = lci.push_constant_ranges(&ranges);
+    }
+    let layout = unsafe { gpu.device.create_pipeline_layout(&lci, None) }.vk("vkCreatePipelineLayout")?;
+    Ok((set, layout))
+}
+
 /// A compute pipeline with its binding table.
 pub struct ComputeProgram {
     gpu: Arc<Gpu>,
@@ -83,14 +102,7 @@ impl ComputeProgram {
         assert!(push_size <= 128, "push constants of {name} exceed 128 bytes");
         let d = &gpu.device;
         let module = shader_module(gpu, spirv)?;
-        let set_layout = set_layout(gpu, bindings, vk::ShaderStageFlags::COMPUTE)?;
-        let ranges = [vk::PushConstantRange { stage_flags: vk::ShaderStageFlags::COMPUTE, offset: 0, size: push_size }];
-        let layouts = [set_layout];
-        let mut lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&layouts);
-        if push_size > 0 {
-            lci = lci.push_constant_ranges(&ranges);
-        }
-        let layout = unsafe { d.create_pipeline_layout(&lci, None) }.vk("vkCreatePipelineLayout")?;
+        let (set_layout, layout) = layouts(gpu, bindings, vk::ShaderStageFlags::COMPUTE, push_size)?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
@@ -226,11 +238,7 @@ impl GraphicsProgram {
     ) -> Result<GraphicsProgram> {
         let d = &gpu.device;
         let stages_flags = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let set_layout = set_layout(gpu, bindings, stages_flags)?;
-        let ranges = [vk::PushConstantRange { stage_flags: stages_flags, offset: 0, size: push_size }];
-        let layouts = [set_layout];
-        let lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&layouts).push_constant_ranges(&ranges);
-        let layout = unsafe { d.create_pipeline_layout(&lci, None) }.vk("vkCreatePipelineLayout")?;
+        let (set_layout, layout) = layouts(gpu, bindings, stages_flags, push_size)?;
         let vm = shader_module(gpu, vert)?;
         let fm = shader_module(gpu, frag)?;
         let stages = [

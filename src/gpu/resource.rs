@@ -30,6 +30,21 @@ pub struct Image {
     owned: bool,
 }
 
+/// Allocate memory for a resource through the GPU's allocator.
+fn allocate(gpu: &Gpu, name: &str, requirements: vk::MemoryRequirements, location: MemoryLocation, linear: bool) -> Result<Allocation> {
+    gpu.allocator
+        .lock()
+        .map_err(|_| Error::Invalid("the GPU allocator lock was poisoned by an earlier panic".into()))?
+        .allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        })
+        .map_err(|e| Error::Alloc { what: format!("{name} ({} bytes)", requirements.size), source: e })
+}
+
 /// Bytes per texel of the formats Meniscus uses.
 pub fn format_bytes(f: vk::Format) -> u64 {
     match f {
@@ -88,21 +103,7 @@ impl Image {
             .initial_layout(vk::ImageLayout::UNDEFINED);
         let raw = unsafe { d.create_image(&ci, None) }.vk("vkCreateImage")?;
         let req = unsafe { d.get_image_memory_requirements(raw) };
-        let alloc = gpu
-            .allocator
-            .lock()
-            .expect("allocator lock poisoned")
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements: req,
-                location: MemoryLocation::GpuOnly,
-                linear: false,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .map_err(|e| {
-                unsafe { d.destroy_image(raw, None) };
-                Error::Alloc { what: name.to_string(), source: e }
-            })?;
+        let alloc = allocate(gpu, name, req, MemoryLocation::GpuOnly, false).inspect_err(|_| unsafe { d.destroy_image(raw, None) })?;
         let mut img = Image {
             gpu: gpu.clone(),
             raw,
@@ -225,21 +226,7 @@ impl Buffer {
         let ci = vk::BufferCreateInfo::default().size(size.max(16)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { d.create_buffer(&ci, None) }.vk("vkCreateBuffer")?;
         let req = unsafe { d.get_buffer_memory_requirements(raw) };
-        let alloc = gpu
-            .allocator
-            .lock()
-            .expect("allocator lock poisoned")
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements: req,
-                location,
-                linear: true,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .map_err(|e| {
-                unsafe { d.destroy_buffer(raw, None) };
-                Error::Alloc { what: format!("{name} ({size} bytes)"), source: e }
-            })?;
+        let alloc = allocate(gpu, name, req, location, true).inspect_err(|_| unsafe { d.destroy_buffer(raw, None) })?;
         unsafe { d.bind_buffer_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindBufferMemory")?;
         Ok(Buffer {
             gpu: gpu.clone(),
