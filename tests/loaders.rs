@@ -238,3 +238,27 @@ fn sequences_sort_numerically_with_ranges_and_shards() {
     let got: Vec<f32> = Prefetch::start(frames, Default::default(), 2).map(|(_, p)| p.unwrap().positions[0][0]).collect();
     assert_eq!(got, vec![1.0, 2.0, 10.0, 11.0, 20.0]);
 }
+
+/// Every file in tests/malformed/ (fuzzer finds and hand-made breakage) is a clean error, never a panic.
+#[test]
+fn malformed_corpus_gives_errors_not_panics() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/malformed");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        let r = std::panic::catch_unwind(|| scene::load(&path));
+        match r {
+            Ok(Err(_)) => {}
+            Ok(Ok(p)) => panic!("{}: expected an error, loaded {} particles", path.display(), p.len()),
+            Err(_) => panic!("{}: the loader panicked", path.display()),
+        }
+        // Every parser on every file: no panic whatever the format.
+        let bytes = std::fs::read(&path).unwrap();
+        for f in [scene::Format::Bgeo, scene::Format::Vtk, scene::Format::Vtu, scene::Format::Ply, scene::Format::Xyz, scene::Format::Csv, scene::Format::RealFlow] {
+            let r = std::panic::catch_unwind(|| scene::parse_raw(f, &path, &bytes));
+            assert!(r.is_ok(), "{}: the {f:?} parser panicked", path.display());
+        }
+        n += 1;
+    }
+    assert!(n >= 5, "tests/malformed holds {n} files");
+}

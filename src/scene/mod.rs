@@ -86,7 +86,7 @@ impl Raw {
         let mut arrays = self.arrays;
         let mut take = |names: &[String], comps: usize| -> Option<Vec<f64>> {
             let k = names.iter().find_map(|want| {
-                arrays.iter().position(|a| a.name.eq_ignore_ascii_case(want) && a.components == comps && a.data.len() == n * comps)
+                arrays.iter().position(|a| a.name.eq_ignore_ascii_case(want) && a.components == comps && n.checked_mul(comps) == Some(a.data.len()))
             })?;
             Some(arrays.remove(k).data)
         };

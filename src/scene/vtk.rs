@@ -133,6 +133,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut arrays: Vec<(String, usize, Vec<f64>)> = vec![];
     let mut in_point_data = false;
     let mut n_point_data = 0usize;
+    let mut n_cell_data = 0usize;
     while let Some(kw) = c.token() {
         let at = c.pos - kw.len();
         match kw.to_ascii_uppercase().as_str() {
@@ -179,7 +180,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 in_point_data = true;
             }
             "CELL_DATA" => {
-                let _n: usize = c.number("cell data count")?;
+                n_cell_data = c.number("cell data count")?;
                 in_point_data = false;
             }
             "SCALARS" => {
@@ -204,8 +205,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                     }
                     None => return Err(c.err(save, "file truncated after SCALARS")),
                 }
-                let n = if in_point_data { n_point_data } else { 0 };
-                let v = c.values(n * ncomp, ty, "SCALARS")?;
+                let n = if in_point_data { n_point_data } else { n_cell_data };
+                let total = n.checked_mul(ncomp).ok_or_else(|| c.err(at, "SCALARS size overflows"))?;
+                let v = c.values(total, ty, "SCALARS")?;
                 if in_point_data {
                     arrays.push((name, ncomp, v));
                 }
@@ -213,8 +215,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             "VECTORS" | "NORMALS" => {
                 let name = c.expect_token("array name")?.to_string();
                 let ty = c.expect_token("array type")?;
-                let n = if in_point_data { n_point_data } else { 0 };
-                let v = c.values(n * 3, ty, kw)?;
+                let n = if in_point_data { n_point_data } else { n_cell_data };
+                let total = n.checked_mul(3).ok_or_else(|| c.err(at, format!("{kw} size overflows")))?;
+                let v = c.values(total, ty, kw)?;
                 if in_point_data {
                     arrays.push((name, 3, v));
                 }
@@ -237,11 +240,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             "LOOKUP_TABLE" => {
                 c.expect_token("table name")?;
                 let n: usize = c.number("table size")?;
-                if c.binary {
-                    c.values(4 * n, "unsigned_char", "LOOKUP_TABLE")?;
-                } else {
-                    c.values(4 * n, "float", "LOOKUP_TABLE")?;
-                }
+                let total = n.checked_mul(4).ok_or_else(|| c.err(at, "LOOKUP_TABLE size overflows"))?;
+                c.values(total, if c.binary { "unsigned_char" } else { "float" }, "LOOKUP_TABLE")?;
             }
             "METADATA" => {
                 // Skip to the blank line that ends the block.
@@ -255,7 +255,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let n = positions.len();
     let arrays = arrays
         .into_iter()
-        .filter(|(_, k, v)| v.len() == n * k)
+        .filter(|(_, k, v)| n.checked_mul(*k) == Some(v.len()))
         .map(|(name, components, data)| Attribute { name, components, data })
         .collect();
     Ok(Raw { positions, arrays })
