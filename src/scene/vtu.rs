@@ -120,12 +120,13 @@ impl B64<'_> {
     }
     fn take(&mut self, n: usize) -> Option<Vec<u8>> {
         if let Some(j) = &self.joined {
-            let r = j.get(self.jpos..self.jpos + n)?.to_vec();
+            let r = j.get(self.jpos..self.jpos.checked_add(n)?)?.to_vec();
             self.jpos += n;
             return Some(r);
         }
-        let chars = n.div_ceil(3) * 4;
-        let piece = self.text.get(self.pos..self.pos + chars)?;
+        // Sizes come from the file: checked arithmetic, a huge claim is simply "not there".
+        let chars = n.div_ceil(3).checked_mul(4)?;
+        let piece = self.text.get(self.pos..self.pos.checked_add(chars)?)?;
         if n % 3 != 0 && !piece.ends_with(b"=") {
             // One continuous run (header and data encoded together): decode the rest at once.
             let all = base64::engine::general_purpose::STANDARD.decode(&self.text[self.pos..]).ok()?;
