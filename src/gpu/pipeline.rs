@@ -70,8 +70,8 @@ fn layouts(
     Ok((set, layout))
 }
 
-/// A compute pipeline with its binding table.
-pub struct ComputeProgram {
+/// What every program owns: the pipeline, its layouts and its binding table (destroyed on drop).
+pub struct ProgramCore {
     gpu: Arc<Gpu>,
     pub name: &'static str,
     pub pipeline: vk::Pipeline,
@@ -79,6 +79,22 @@ pub struct ComputeProgram {
     pub set_layout: vk::DescriptorSetLayout,
     pub bindings: Vec<vk::DescriptorType>,
     pub push_size: u32,
+}
+
+impl Drop for ProgramCore {
+    fn drop(&mut self) {
+        let d = &self.gpu.device;
+        unsafe {
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// A compute pipeline with its binding table.
+pub struct ComputeProgram {
+    pub core: ProgramCore,
 }
 
 /// Shorthands for binding tables.
@@ -111,20 +127,23 @@ impl ComputeProgram {
         let pipeline = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) }
             .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0];
         unsafe { d.destroy_shader_module(module, None) };
-        Ok(ComputeProgram { gpu: gpu.clone(), name, pipeline, layout, set_layout, bindings: bindings.to_vec(), push_size })
+        Ok(ComputeProgram {
+            core: ProgramCore { gpu: gpu.clone(), name, pipeline, layout, set_layout, bindings: bindings.to_vec(), push_size },
+        })
     }
 
     /// Bind `res` (in binding order), push `push`, dispatch `groups`. Barriers are the caller's `begin_pass`.
     pub fn dispatch(&self, ctx: &FrameCtx, res: &[Bind], push: &[u8], groups: [u32; 3]) {
-        debug_assert_eq!(res.len(), self.bindings.len(), "{}: binding count", self.name);
-        debug_assert_eq!(push.len() as u32, self.push_size, "{}: push constant size", self.name);
-        let d = &self.gpu.device;
+        let c = &self.core;
+        debug_assert_eq!(res.len(), c.bindings.len(), "{}: binding count", c.name);
+        debug_assert_eq!(push.len() as u32, c.push_size, "{}: push constant size", c.name);
+        let d = &c.gpu.device;
         let cmd = ctx.cmd;
-        push_descriptors(&self.gpu, cmd, vk::PipelineBindPoint::COMPUTE, self.layout, &self.bindings, res);
+        push_descriptors(&c.gpu, cmd, vk::PipelineBindPoint::COMPUTE, c.layout, &c.bindings, res);
         unsafe {
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline);
             if !push.is_empty() {
-                d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+                d.cmd_push_constants(cmd, c.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
             if groups.iter().all(|&g| g > 0) {
                 d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
@@ -192,16 +211,6 @@ pub fn push_descriptors(
     unsafe { gpu.push_descriptor.cmd_push_descriptor_set(cmd, bind_point, layout, 0, &writes) };
 }
 
-impl Drop for ComputeProgram {
-    fn drop(&mut self) {
-        let d = &self.gpu.device;
-        unsafe {
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
-        }
-    }
-}
 
 /// What a graphics program draws into (dynamic rendering, no render pass objects).
 #[derive(Clone, Copy, Debug)]
@@ -216,13 +225,7 @@ pub struct RasterTargets {
 
 /// A graphics pipeline (vertex + fragment) with its binding table, for the rasterised splat variants.
 pub struct GraphicsProgram {
-    gpu: Arc<Gpu>,
-    pub name: &'static str,
-    pub pipeline: vk::Pipeline,
-    pub layout: vk::PipelineLayout,
-    pub set_layout: vk::DescriptorSetLayout,
-    pub bindings: Vec<vk::DescriptorType>,
-    pub push_size: u32,
+    pub core: ProgramCore,
 }
 
 impl GraphicsProgram {
@@ -292,20 +295,15 @@ impl GraphicsProgram {
             d.destroy_shader_module(fm, None);
         }
         Ok(GraphicsProgram {
-            gpu: gpu.clone(),
-            name,
-            pipeline: pipeline?[0],
-            layout,
-            set_layout,
-            bindings: bindings.to_vec(),
-            push_size,
+            core: ProgramCore { gpu: gpu.clone(), name, pipeline: pipeline?[0], layout, set_layout, bindings: bindings.to_vec(), push_size },
         })
     }
 
     /// Draw `vertices` non-indexed into `color` (cleared to `clear`) and `depth` (cleared to 0, reversed Z).
     /// Barriers are the caller's `begin_pass` (ColorAttachment / DepthAttachment accesses).
     pub fn draw(&self, ctx: &FrameCtx, res: &[Bind], push: &[u8], color: &Image, clear: f32, depth: Option<&Image>, vertices: u32) {
-        let d = &self.gpu.device;
+        let c = &self.core;
+        let d = &c.gpu.device;
         let cmd = ctx.cmd;
         let area = vk::Rect2D { offset: vk::Offset2D { x: 0, y: 0 }, extent: color.extent };
         let color_att = [vk::RenderingAttachmentInfo::default()
@@ -336,13 +334,13 @@ impl GraphicsProgram {
         };
         unsafe {
             d.cmd_begin_rendering(cmd, &ri);
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline);
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, c.pipeline);
             d.cmd_set_viewport(cmd, 0, &[viewport]);
             d.cmd_set_scissor(cmd, 0, &[area]);
         }
-        push_descriptors(&self.gpu, cmd, vk::PipelineBindPoint::GRAPHICS, self.layout, &self.bindings, res);
+        push_descriptors(&c.gpu, cmd, vk::PipelineBindPoint::GRAPHICS, c.layout, &c.bindings, res);
         unsafe {
-            d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT, 0, push);
+            d.cmd_push_constants(cmd, c.layout, vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT, 0, push);
             if vertices > 0 {
                 d.cmd_draw(cmd, vertices, 1, 0, 0);
             }
@@ -351,13 +349,3 @@ impl GraphicsProgram {
     }
 }
 
-impl Drop for GraphicsProgram {
-    fn drop(&mut self) {
-        let d = &self.gpu.device;
-        unsafe {
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
-        }
-    }
-}
