@@ -250,8 +250,12 @@ pub fn record_frame(
     s: &Settings,
     cf_iterations: u32,
     sky: &Image,
+    background_cached: bool,
 ) -> Result<Smoothed> {
-    p.background.record(ctx, frame, sky, &t.scene_color, &t.scene_depth);
+    // The background is static: when neither the view nor the scene changed, last frame's images stand.
+    if !background_cached {
+        p.background.record(ctx, frame, sky, &t.scene_color, &t.scene_depth);
+    }
     match s.splat {
         SplatMode::Compute => p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_radius_scale),
         mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_radius_scale, mode)?,

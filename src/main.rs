@@ -114,6 +114,10 @@ struct BenchArgs {
     /// Write the JSON report here (schema: benches/README.md).
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Reuse the static background while the camera stays (as `render` of a sequence does) instead of
+    /// re-rendering it every measured frame.
+    #[arg(long)]
+    cache_background: bool,
     /// Write the markdown table here too.
     #[arg(long)]
     markdown: Option<PathBuf>,
@@ -340,6 +344,8 @@ fn render(a: &RenderArgs) -> Result<()> {
     }
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
     upload(&mut r, &particles, &s)?;
+    // Timed frames re-render the static background too, so the table shows every pass.
+    r.always_render_background = a.timings;
     let mut times = r.render(&view, &s)?;
     if a.timings {
         let mut runs = vec![];
@@ -648,6 +654,7 @@ fn bench(a: &BenchArgs) -> Result<()> {
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
     let mut r = Renderer::new(&gpu)?;
+    r.always_render_background = !a.cache_background;
     let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
     let n_var = if a.variants { 12 } else { 0 };
     let bar = indicatif::ProgressBar::new((scenes.len() * resolutions.len() + n_var) as u64);

@@ -28,6 +28,10 @@ pub struct Renderer {
     pub sky: Image,
     /// Debug views, particle view and overlay (demo).
     views: crate::passes::view::View,
+    /// What the background images show (camera, size, scene); the `background` pass is skipped while it holds.
+    background_key: Option<String>,
+    /// Re-render the background every frame even when nothing changed (for measuring the pass).
+    pub always_render_background: bool,
     /// CPU copy of the positions (for per-frame bounds such as the nearest depth).
     positions: Vec<[f32; 3]>,
 }
@@ -51,6 +55,8 @@ impl Renderer {
             timer: Timer::new(gpu)?,
             smoothed: Smoothed::Raw,
             positions: vec![],
+            background_key: None,
+            always_render_background: false,
             keep_raw_depth: false,
             views: crate::passes::view::View::new(gpu)?,
             sky: {
@@ -111,12 +117,24 @@ impl Renderer {
         self.set_particles_with(positions, radii, None)
     }
 
+    /// Whether this frame can reuse last frame's background, and remember this frame's.
+    fn background_cached(&mut self, view: &View, s: &Settings) -> bool {
+        let key = format!(
+            "{:?}|{}x{}|{:?}|{:?}|{:?}|{}",
+            view.camera, view.width, view.height, view.env, s.sun_dir, s.sun_intensity, s.ambient
+        );
+        let hit = !self.always_render_background && self.background_key.as_deref() == Some(key.as_str());
+        self.background_key = Some(key);
+        hit
+    }
+
     /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::sky`). Set
     /// `Environment::sky_cube` to use it.
     pub fn set_skybox(&mut self, size: u32, faces: &[u8]) -> Result<()> {
         let sky = Image::new_cube(&self.gpu, "sky", size, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)?;
         upload_image(&self.gpu, &sky, faces)?;
         self.sky = sky;
+        self.background_key = None;
         Ok(())
     }
 
@@ -142,6 +160,7 @@ impl Renderer {
         });
         if !ok {
             self.targets = None;
+            self.background_key = None;
             self.targets = Some(Targets::new(&self.gpu, width, height, s, self.keep_raw_depth)?);
         }
         Ok(())
@@ -161,6 +180,7 @@ impl Renderer {
         }
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
+        let cached = self.background_cached(view, s);
         let particles = match &self.particles {
             Some(p) => p,
             None => return Err(Error::Invalid("no particles uploaded".into())),
@@ -172,7 +192,7 @@ impl Renderer {
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations, sky)
+            record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations, sky, cached)
         })?;
         self.smoothed = smoothed;
         self.timer.read()
@@ -196,6 +216,7 @@ impl Renderer {
         self.keep_raw_depth = true;
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
+        let cached = self.background_cached(view, s);
         let particles = self.particles.as_ref().ok_or_else(|| Error::Invalid("no particles uploaded".into()))?;
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
@@ -206,7 +227,7 @@ impl Renderer {
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf, sky)?;
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf, sky, cached)?;
             let smoothed_img = match sm {
                 Smoothed::Raw => &t.depth,
                 Smoothed::A => &t.smooth_a,
