@@ -42,21 +42,12 @@ enum Cmd {
 
 #[derive(Args, Clone)]
 struct DemoArgs {
-    /// A built-in scene, a particle file, or a sequence (pattern with {}, folder, glob).
-    #[arg(default_value = "wave")]
-    input: String,
+    #[command(flatten)]
+    scene: SceneArgs,
     #[arg(long, default_value_t = 1280)]
     width: u32,
     #[arg(long, default_value_t = 720)]
     height: u32,
-    #[arg(long)]
-    radius: Option<f32>,
-    /// Particle count of a built-in scene.
-    #[arg(long)]
-    particles: Option<usize>,
-    /// Start camera EYE:TARGET[:FOVY] (C in the window prints the current one).
-    #[arg(long)]
-    camera: Option<String>,
     #[command(flatten)]
     set: SettingsArgs,
     /// Playback rate of a sequence in frames per second (before the speed factor).
@@ -184,6 +175,26 @@ impl LoadArgs {
     }
 }
 
+/// What to render and from where it is seen (shared by render and demo).
+#[derive(Args, Clone)]
+struct SceneArgs {
+    /// A built-in scene (block, wave, drop, crown, waterfall), a particle file (.bgeo, .vtk, .vtu/.vtp, .ply,
+    /// .xyz, .csv, RealFlow .bin; detected from the content), or a sequence: a pattern with {} for the frame
+    /// number (ParticleData_Fluid_{}.bgeo), a folder, or a glob ('frames/*.vtk').
+    #[arg(default_value = "wave")]
+    input: String,
+    /// Particle radius in world units (default: from the scene, or half the median particle spacing).
+    #[arg(long, allow_negative_numbers = true)]
+    radius: Option<f32>,
+    /// Particle count of a built-in scene (default: the scene's own).
+    #[arg(long)]
+    particles: Option<usize>,
+    /// Camera as EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45 (default: fitted to the particles; C in the
+    /// demo prints the current one).
+    #[arg(long)]
+    camera: Option<String>,
+}
+
 /// Settings: a preset, a TOML file over it, and the most used fields as flags.
 #[derive(Args, Clone)]
 struct SettingsArgs {
@@ -225,11 +236,8 @@ impl SettingsArgs {
 
 #[derive(Args, Clone)]
 struct RenderArgs {
-    /// A built-in scene (block, wave, drop, crown, waterfall), a particle file (.bgeo, .vtk, .vtu/.vtp, .ply,
-    /// .xyz, .csv, RealFlow .bin; detected from the content), or a sequence: a pattern with {} for the frame
-    /// number (ParticleData_Fluid_{}.bgeo), a folder, or a glob ('frames/*.vtk').
-    #[arg(default_value = "wave")]
-    input: String,
+    #[command(flatten)]
+    scene: SceneArgs,
     /// Output PNG (written atomically: no half-written file on failure). For a sequence, {} in the name is the
     /// frame number (4 digits), else _NNNN is added before the extension.
     #[arg(short, long, default_value = "frame.png")]
@@ -246,15 +254,6 @@ struct RenderArgs {
     width: u32,
     #[arg(long, default_value_t = 540)]
     height: u32,
-    /// Particle radius in world units (default: from the scene, or half the median particle spacing).
-    #[arg(long, allow_negative_numbers = true)]
-    radius: Option<f32>,
-    /// Particle count of a built-in scene (default: the scene's own).
-    #[arg(long)]
-    particles: Option<usize>,
-    /// Camera as EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45 (default: fitted to the particles).
-    #[arg(long)]
-    camera: Option<String>,
     #[command(flatten)]
     set: SettingsArgs,
     /// Sky cube map from six images DIR/{px,nx,py,ny,pz,nz}.png (default: procedural sky).
@@ -320,16 +319,16 @@ fn load_input(input: &str, count: Option<usize>, o: &scene::LoadOptions) -> Resu
 
 fn render(a: &RenderArgs) -> Result<()> {
     let opts = a.load.options()?;
-    if !procedural::SCENES.iter().any(|s| s.0 == a.input) && meniscus::scene::sequence::is_sequence(&a.input) {
+    if !procedural::SCENES.iter().any(|s| s.0 == a.scene.input) && meniscus::scene::sequence::is_sequence(&a.scene.input) {
         return render_sequence(a, &opts);
     }
     if a.frames_range.is_some() || a.shard.is_some() {
         bail!("--frames and --shard apply to sequences (a pattern with {{}}, a folder or a glob)");
     }
-    let (particles, scene_radius, label) = load_input(&a.input, a.particles, &opts)?;
+    let (particles, scene_radius, label) = load_input(&a.scene.input, a.scene.particles, &opts)?;
     let s = settings_for(a, &particles, scene_radius)?;
     let bounds = scene::percentile_bounds(&particles.positions, 0.01).context("no finite particle positions")?;
-    let camera = match &a.camera {
+    let camera = match &a.scene.camera {
         Some(c) => Camera::parse(c)?,
         None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
     };
@@ -403,7 +402,7 @@ fn upload(r: &mut Renderer, p: &Particles, s: &Settings) -> Result<()> {
 /// Settings from preset/TOML/flags, with the radius from the flag, the scene, or the particle spacing.
 fn settings_for(a: &RenderArgs, particles: &Particles, scene_radius: Option<f32>) -> Result<Settings> {
     let mut s = a.set.resolve(None)?;
-    s.radius = match a.radius.or(scene_radius) {
+    s.radius = match a.scene.radius.or(scene_radius) {
         Some(r) => r,
         None => {
             let r = scene::estimate_radius(&particles.positions)
@@ -421,7 +420,7 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
     use meniscus::scene::sequence::{self, FrameRange, Prefetch};
     let range = a.frames_range.as_deref().map(FrameRange::parse).transpose()?;
     let shard = a.shard.as_deref().map(sequence::parse_shard).transpose()?;
-    let frames = sequence::resolve(&a.input, range, shard)?;
+    let frames = sequence::resolve(&a.scene.input, range, shard)?;
     check_dumps(a)?;
     if !a.dump.is_empty() {
         bail!("--dump applies to single frames");
@@ -443,7 +442,7 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
         r.set_skybox(*size, faces)?;
     }
     let total = frames.len();
-    eprintln!("{}: {total} frames ({} … {}) on {}", a.input, frames[0].number, frames[total - 1].number, gpu.info.name);
+    eprintln!("{}: {total} frames ({} … {}) on {}", a.scene.input, frames[0].number, frames[total - 1].number, gpu.info.name);
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  [{elapsed} < {eta}]").expect("template"),
@@ -456,7 +455,7 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
         if fixed.is_none() {
             let s = settings_for(a, &particles, None)?;
             let bounds = scene::percentile_bounds(&particles.positions, 0.01).context("no finite particle positions")?;
-            let camera = match &a.camera {
+            let camera = match &a.scene.camera {
                 Some(c) => Camera::parse(c)?,
                 None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
             };
@@ -836,10 +835,10 @@ fn demo(a: &DemoArgs) -> Result<()> {
         bail!("window size {}×{} is out of range", a.width, a.height);
     }
     meniscus::demo::run(meniscus::demo::DemoOptions {
-        input: a.input.clone(),
-        particles: a.particles,
-        radius: a.radius,
-        camera: a.camera.as_deref().map(Camera::parse).transpose()?,
+        input: a.scene.input.clone(),
+        particles: a.scene.particles,
+        radius: a.scene.radius,
+        camera: a.scene.camera.as_deref().map(Camera::parse).transpose()?,
         width: a.width,
         height: a.height,
         settings: s,

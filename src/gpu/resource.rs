@@ -104,20 +104,7 @@ impl Image {
         let raw = unsafe { d.create_image(&ci, None) }.vk("vkCreateImage")?;
         let req = unsafe { d.get_image_memory_requirements(raw) };
         let alloc = allocate(gpu, name, req, MemoryLocation::GpuOnly, false).inspect_err(|_| unsafe { d.destroy_image(raw, None) })?;
-        let mut img = Image {
-            gpu: gpu.clone(),
-            raw,
-            view: vk::ImageView::null(),
-            alt_view: None,
-            format,
-            extent,
-            name: name.to_string(),
-            aspect: if format == vk::Format::D32_SFLOAT { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR },
-            layers,
-            state: Cell::new(AccessState::default()),
-            alloc: None,
-            owned: true,
-        };
+        let mut img = Image::bare(gpu, raw, format, extent, name, layers, true);
         unsafe { d.bind_image_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindImageMemory")?;
         img.alloc = Some(alloc);
         img.view = img.make_view(format)?;
@@ -134,7 +121,14 @@ impl Image {
 
     /// Track an image owned elsewhere (a swapchain image) so barriers can be derived for it; its view is ours.
     pub fn wrap(gpu: &Arc<Gpu>, raw: vk::Image, format: vk::Format, extent: vk::Extent2D, name: &str) -> Result<Image> {
-        let mut img = Image {
+        let mut img = Image::bare(gpu, raw, format, extent, name, 1, false);
+        img.view = img.make_view(format)?;
+        Ok(img)
+    }
+
+    /// The struct around a raw image, before memory and views (no access yet: layout UNDEFINED).
+    fn bare(gpu: &Arc<Gpu>, raw: vk::Image, format: vk::Format, extent: vk::Extent2D, name: &str, layers: u32, owned: bool) -> Image {
+        Image {
             gpu: gpu.clone(),
             raw,
             view: vk::ImageView::null(),
@@ -142,14 +136,12 @@ impl Image {
             format,
             extent,
             name: name.to_string(),
-            aspect: vk::ImageAspectFlags::COLOR,
-            layers: 1,
+            aspect: if format == vk::Format::D32_SFLOAT { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR },
+            layers,
             state: Cell::new(AccessState::default()),
             alloc: None,
-            owned: false,
-        };
-        img.view = img.make_view(format)?;
-        Ok(img)
+            owned,
+        }
     }
 
     fn make_view(&self, format: vk::Format) -> Result<vk::ImageView> {
