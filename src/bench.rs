@@ -88,6 +88,7 @@ pub struct Report {
 }
 
 /// Run one workload at one size with settings `s`.
+#[allow(clippy::too_many_arguments)]
 pub fn measure(
     r: &mut Renderer,
     w: &Workload,

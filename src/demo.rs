@@ -78,9 +78,9 @@ impl Source {
         match self {
             Source::Static(p) => Ok(p),
             Source::Sequence { frames, cache, order } => {
-                if !cache.contains_key(&i) {
+                if let std::collections::hash_map::Entry::Vacant(e) = cache.entry(i) {
                     let p = scene::load_with(&frames[i].path, o)?;
-                    cache.insert(i, p);
+                    e.insert(p);
                     order.push(i);
                     if order.len() > 8 {
                         let old = order.remove(0);

@@ -96,6 +96,7 @@ pub struct Gpu {
     messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation: Arc<ValidationLog>,
     /// Keeps the pointer handed to the messenger alive.
+    #[allow(clippy::redundant_allocation)] // the Box gives the callback a stable address for the Arc
     _validation_ptr: Option<Box<Arc<ValidationLog>>>,
 }
 

@@ -301,6 +301,7 @@ impl GraphicsProgram {
 
     /// Draw `vertices` non-indexed into `color` (cleared to `clear`) and `depth` (cleared to 0, reversed Z).
     /// Barriers are the caller's `begin_pass` (ColorAttachment / DepthAttachment accesses).
+    #[allow(clippy::too_many_arguments)]
     pub fn draw(&self, ctx: &FrameCtx, res: &[Bind], push: &[u8], color: &Image, clear: f32, depth: Option<&Image>, vertices: u32) {
         let c = &self.core;
         let d = &c.gpu.device;

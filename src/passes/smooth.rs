@@ -68,6 +68,7 @@ impl Smooth {
     /// (`depth` itself when the filter is `None`). `depth` is only read. `cf_iterations_needed`: the largest
     /// adaptive iteration count any pixel can have this frame (F·ρ/d of the nearest particle), see
     /// [`iterations_needed`].
+    #[allow(clippy::too_many_arguments)]
     pub fn record<'a>(
         &self,
         ctx: &mut FrameCtx,

@@ -280,6 +280,8 @@ pub fn spray_mask_with(p: &Particles, radius: f32, threshold: f32, neighbours: b
     }
     let m = sorted.len() / 2;
     let rest = *sorted.select_nth_unstable_by(m, f32::total_cmp).1;
+    // Written negated on purpose: a NaN density counts as spray.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     dens.iter().map(|&d| !(d >= threshold * rest)).collect()
 }
 

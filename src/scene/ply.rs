@@ -160,7 +160,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                                 x
                             }
                         };
-                        if !(n >= 0.0 && n < 1e9) {
+                        if !(0.0..1e9).contains(&n) {
                             return Err(err(pos, format!("bad list length {n}")));
                         }
                         for _ in 0..n as usize {

@@ -53,7 +53,7 @@ impl FrameRange {
     }
 
     pub fn contains(&self, n: u64) -> bool {
-        n >= self.first && n <= self.last && (n - self.first) % self.step == 0
+        n >= self.first && n <= self.last && (n - self.first).is_multiple_of(self.step)
     }
 }
 

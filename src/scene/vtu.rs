@@ -127,7 +127,7 @@ impl B64<'_> {
         // Sizes come from the file: checked arithmetic, a huge claim is simply "not there".
         let chars = n.div_ceil(3).checked_mul(4)?;
         let piece = self.text.get(self.pos..self.pos.checked_add(chars)?)?;
-        if n % 3 != 0 && !piece.ends_with(b"=") {
+        if !n.is_multiple_of(3) && !piece.ends_with(b"=") {
             // One continuous run (header and data encoded together): decode the rest at once.
             let all = base64::engine::general_purpose::STANDARD.decode(&self.text[self.pos..]).ok()?;
             self.joined = Some(all);

@@ -33,7 +33,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         }
         return Ok(Raw { positions, arrays: vec![] });
     }
-    if bytes.len() % 12 != 0 {
+    if !bytes.len().is_multiple_of(12) {
         return Err(err(
             bytes.len() - bytes.len() % 12,
             format!("binary XYZ must be a multiple of 12 bytes (3 × f32 per particle); {} bytes left over", bytes.len() % 12),
