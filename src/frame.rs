@@ -176,6 +176,15 @@ impl Targets {
         })
     }
 
+    /// The image that `Smoothed` names.
+    pub fn smoothed(&self, which: Smoothed) -> &Image {
+        match which {
+            Smoothed::Raw => &self.depth,
+            Smoothed::A => &self.smooth_a,
+            Smoothed::B => &self.smooth_b,
+        }
+    }
+
     /// (name, bytes) of every image.
     pub fn memory(&self) -> Vec<(&str, u64)> {
         [

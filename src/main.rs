@@ -725,12 +725,21 @@ fn bench(a: &BenchArgs) -> Result<()> {
             }
         }
     }
+    write_reports(a, &gpu, base, entries, &table)?;
+    if gpu.validation().errors() > 0 {
+        bail!("{} Vulkan validation errors", gpu.validation().errors());
+    }
+    Ok(())
+}
+
+/// Write the JSON report (`--json`) and the markdown table (`--markdown`) of a bench run.
+fn write_reports(a: &BenchArgs, gpu: &std::sync::Arc<Gpu>, settings: Settings, entries: Vec<meniscus::bench::Entry>, table: &str) -> Result<()> {
     let report = meniscus::bench::Report {
         schema: meniscus::bench::SCHEMA,
-        device: meniscus::bench::device_info(&gpu),
+        device: meniscus::bench::device_info(gpu),
         git_commit: meniscus::bench::git_commit(),
         preset: a.preset.clone(),
-        settings: base,
+        settings,
         entries,
     };
     if let Some(p) = &a.json {
@@ -740,9 +749,6 @@ fn bench(a: &BenchArgs) -> Result<()> {
     }
     if let Some(p) = &a.markdown {
         meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
-    }
-    if gpu.validation().errors() > 0 {
-        bail!("{} Vulkan validation errors", gpu.validation().errors());
     }
     Ok(())
 }
@@ -807,23 +813,7 @@ fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Rend
         meniscus::chart::write(p, &format!("meniscus bench --sweep {sweep} — {}", gpu.info.name), &series)?;
         eprintln!("wrote {}", p.display());
     }
-    let report = meniscus::bench::Report {
-        schema: meniscus::bench::SCHEMA,
-        device: meniscus::bench::device_info(gpu),
-        git_commit: meniscus::bench::git_commit(),
-        preset: a.preset.clone(),
-        settings: base.clone(),
-        entries,
-    };
-    if let Some(p) = &a.json {
-        let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
-        eprintln!("wrote {}", p.display());
-    }
-    if let Some(p) = &a.markdown {
-        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
-    }
-    Ok(())
+    write_reports(a, gpu, base.clone(), entries, &table)
 }
 
 fn demo(a: &DemoArgs) -> Result<()> {

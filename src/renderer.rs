@@ -174,28 +174,7 @@ impl Renderer {
 
     /// Render one frame and wait for it; returns the GPU time of each pass.
     pub fn render(&mut self, view: &View, s: &Settings) -> Result<PassTimes> {
-        s.validate()?;
-        if !self.passes.splat.supports(s.splat) {
-            return Err(Error::Invalid(format!("splat mode {} is not supported on {}", s.splat.name(), self.gpu.info.name)));
-        }
-        self.ensure_targets(view.width, view.height, s)?;
-        self.write_uniforms(view, s)?;
-        let cached = self.background_cached(view, s);
-        let particles = match &self.particles {
-            Some(p) => p,
-            None => return Err(Error::Invalid("no particles uploaded".into())),
-        };
-        let t = self.targets.as_ref().expect("ensured");
-        let count = self.count;
-        let cf_iterations = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), self.nearest_depth(view, s));
-        let (passes, uniforms, gpu, sky) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.sky);
-        let timer = &mut self.timer;
-        let smoothed = gpu.one_shot(|cmd| {
-            let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf_iterations, sky, cached)
-        })?;
-        self.smoothed = smoothed;
-        self.timer.read()
+        self.render_frame(view, s, None)
     }
 
     /// Render one frame for the demo: the full pipeline, then the chosen view, then the text `overlay`.
@@ -208,47 +187,57 @@ impl Renderer {
         values: Option<&Buffer>,
         overlay: Option<&Image>,
     ) -> Result<PassTimes> {
+        // The raw depth view and the particle view read the splatted depth after smoothing.
+        self.keep_raw_depth = true;
+        self.render_frame(view, s, Some((mode, values, overlay)))
+    }
+
+    /// The frame driver behind `render` and `render_view`: checks, uniforms, record_frame, then (demo only)
+    /// the view and overlay passes; waits and reads the timestamps.
+    fn render_frame(
+        &mut self,
+        view: &View,
+        s: &Settings,
+        demo: Option<(crate::passes::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
+    ) -> Result<PassTimes> {
         use crate::passes::view::ViewMode;
         s.validate()?;
         if !self.passes.splat.supports(s.splat) {
             return Err(Error::Invalid(format!("splat mode {} is not supported on {}", s.splat.name(), self.gpu.info.name)));
         }
-        self.keep_raw_depth = true;
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
         let cached = self.background_cached(view, s);
         let particles = self.particles.as_ref().ok_or_else(|| Error::Invalid("no particles uploaded".into()))?;
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
-        let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), self.nearest_depth(view, s));
         let d_near = self.nearest_depth(view, s);
-        let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
+        let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), d_near);
         let (passes, uniforms, gpu, views, sky) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
             let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf, sky, cached)?;
-            let smoothed_img = match sm {
-                Smoothed::Raw => &t.depth,
-                Smoothed::A => &t.smooth_a,
-                Smoothed::B => &t.smooth_b,
-            };
-            let t_max = 60.0 * s.radius;
-            match mode {
-                ViewMode::Final => {}
-                ViewMode::Particles => {
-                    views.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
-                    if let Some(v) = values {
-                        views.record_particles(&mut ctx, uniforms, particles, v, count, t, s.splat_radius_scale);
+            if let Some((mode, values, overlay)) = demo {
+                let smoothed_img = t.smoothed(sm);
+                let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
+                let t_max = 60.0 * s.radius;
+                match mode {
+                    ViewMode::Final => {}
+                    ViewMode::Particles => {
+                        views.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
+                        if let Some(v) = values {
+                            views.record_particles(&mut ctx, uniforms, particles, v, count, t, s.splat_radius_scale);
+                        }
+                    }
+                    m => {
+                        let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
+                        views.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
                     }
                 }
-                m => {
-                    let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
-                    views.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
+                if let Some(o) = overlay {
+                    views.record_overlay(&mut ctx, uniforms, o, &t.final_color);
                 }
-            }
-            if let Some(o) = overlay {
-                views.record_overlay(&mut ctx, uniforms, o, &t.final_color);
             }
             Ok(sm)
         })?;
@@ -270,12 +259,7 @@ impl Renderer {
 
     /// The image that holds the smoothed depth of the last frame.
     pub fn smoothed_depth(&self) -> Option<&Image> {
-        let t = self.targets.as_ref()?;
-        Some(match self.smoothed {
-            Smoothed::Raw => &t.depth,
-            Smoothed::A => &t.smooth_a,
-            Smoothed::B => &t.smooth_b,
-        })
+        Some(self.targets.as_ref()?.smoothed(self.smoothed))
     }
 
     /// Read the final colour of the last frame.
