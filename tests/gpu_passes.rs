@@ -181,6 +181,24 @@ fn bumpy_depth(w: usize, h: usize) -> Vec<f32> {
     d
 }
 
+/// Run only the `smooth` pass on `src` (a depth image of the view's size) and read the result back.
+fn smooth_once(gpu: &std::sync::Arc<meniscus::gpu::Gpu>, v: &meniscus::frame::View, s: &meniscus::settings::Settings, src: &[f32], its: u32) -> Vec<f32> {
+    let mut r = Renderer::new(gpu).unwrap();
+    r.keep_raw_depth = true;
+    r.ensure_targets(v.width, v.height, s).unwrap();
+    r.write_uniforms(v, s).unwrap();
+    let t = r.targets.as_ref().unwrap();
+    upload_image(gpu, &t.depth, bytemuck::cast_slice(src)).unwrap();
+    let out_is_a = gpu
+        .one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(gpu, cmd, None);
+            let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, s, its);
+            Ok(std::ptr::eq(out, &t.smooth_a))
+        })
+        .unwrap();
+    read_f32(gpu, if out_is_a { &t.smooth_a } else { &t.smooth_b }).unwrap()
+}
+
 #[test]
 fn bilateral_separable_and_2d_match_cpu_reference() {
     let gpu = gpu();
@@ -191,21 +209,8 @@ fn bilateral_separable_and_2d_match_cpu_reference() {
         let mut s = settings(0.05);
         s.filter = filter;
         s.bilateral_iterations = 1;
-        let mut r = Renderer::new(&gpu).unwrap();
-        r.keep_raw_depth = true;
-        r.ensure_targets(w as u32, h as u32, &s).unwrap();
-        r.write_uniforms(&v, &s).unwrap();
         let src = bumpy_depth(w, h);
-        let t = r.targets.as_ref().unwrap();
-        upload_image(&gpu, &t.depth, bytemuck::cast_slice(&src)).unwrap();
-        let out_is_a = gpu
-            .one_shot(|cmd| {
-                let mut ctx = FrameCtx::new(&gpu, cmd, None);
-                let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, &s, 0);
-                Ok(std::ptr::eq(out, &t.smooth_a))
-            })
-            .unwrap();
-        let got = read_f32(&gpu, if out_is_a { &t.smooth_a } else { &t.smooth_b }).unwrap();
+        let got = smooth_once(&gpu, &v, &s, &src, 0);
         let sr = if filter == Filter::Gaussian { 0.0 } else { s.bilateral_sigma_range * s.radius };
         let rho = s.smooth_radius * s.radius;
         let max_px = s.smooth_max_px as i32;
@@ -354,22 +359,9 @@ fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
         for bumpy in [true, false] {
             let mut s = settings(r);
             s.filter = filter;
-            let mut rd = Renderer::new(&gpu).unwrap();
-            rd.keep_raw_depth = true;
-            rd.ensure_targets(w as u32, h as u32, &s).unwrap();
-            rd.write_uniforms(&v, &s).unwrap();
             let src = make(bumpy);
-            let t = rd.targets.as_ref().unwrap();
-            upload_image(&gpu, &t.depth, bytemuck::cast_slice(&src)).unwrap();
             let its = meniscus::passes::smooth::iterations_needed(&s, f as f32, 2.5);
-            let which = gpu
-                .one_shot(|cmd| {
-                    let mut ctx = FrameCtx::new(&gpu, cmd, None);
-                    let out = rd.passes.smooth.record(&mut ctx, &rd.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, &s, its);
-                    Ok(std::ptr::eq(out, &t.smooth_a))
-                })
-                .unwrap();
-            let got = read_f32(&gpu, if which { &t.smooth_a } else { &t.smooth_b }).unwrap();
+            let got = smooth_once(&gpu, &v, &s, &src, its);
             for i in 0..w * h {
                 assert_eq!(src[i].is_infinite(), got[i].is_infinite(), "{filter:?}: coverage changed at {i}");
             }
@@ -656,22 +648,7 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let f = v.camera.focal_px(h as u32);
     let src = bumpy_depth(w, h);
-    let run = |s: &meniscus::settings::Settings, its: u32| -> Vec<f32> {
-        let mut r = Renderer::new(&gpu).unwrap();
-        r.keep_raw_depth = true;
-        r.ensure_targets(w as u32, h as u32, s).unwrap();
-        r.write_uniforms(&v, s).unwrap();
-        let t = r.targets.as_ref().unwrap();
-        upload_image(&gpu, &t.depth, bytemuck::cast_slice(&src)).unwrap();
-        let a = gpu
-            .one_shot(|cmd| {
-                let mut ctx = FrameCtx::new(&gpu, cmd, None);
-                let out = r.passes.smooth.record(&mut ctx, &r.uniforms, &t.depth, &t.smooth_a, &t.smooth_b, s, its);
-                Ok(std::ptr::eq(out, &t.smooth_a))
-            })
-            .unwrap();
-        read_f32(&gpu, if a { &t.smooth_a } else { &t.smooth_b }).unwrap()
-    };
+    let run = |s: &meniscus::settings::Settings, its: u32| -> Vec<f32> { smooth_once(&gpu, &v, s, &src, its) };
     let close = |got: &[f32], want: &[f32], what: &str, tol: f32| {
         for i in 0..got.len() {
             if want[i].is_infinite() {
