@@ -9,9 +9,10 @@ use glam::{Mat4, Vec3};
 use crate::error::Result;
 use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
 use crate::passes::composite::CompositeInputs;
-use crate::passes::{Background, Composite, Normals, Smooth, Splat, Ssr, Thickness, Upsample};
+use crate::passes::iso::IsoBuffers;
+use crate::passes::{Background, Composite, Iso, Normals, Smooth, Splat, Ssr, Thickness, Upsample};
 use crate::scene::{Bounds, Camera};
-use crate::settings::{Settings, SplatMode};
+use crate::settings::{Settings, SplatMode, Surface};
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
 pub const MAX_BOXES: usize = 8;
@@ -211,6 +212,7 @@ impl Targets {
 pub struct Passes {
     pub background: Background,
     pub splat: Splat,
+    pub iso: Iso,
     pub thickness: Thickness,
     pub smooth: Smooth,
     pub normals: Normals,
@@ -224,6 +226,7 @@ impl Passes {
         Ok(Passes {
             background: Background::new(gpu)?,
             splat: Splat::new(gpu)?,
+            iso: Iso::new(gpu)?,
             thickness: Thickness::new(gpu)?,
             smooth: Smooth::new(gpu)?,
             normals: Normals::new(gpu)?,
@@ -257,6 +260,7 @@ pub fn record_frame(
     frame: &Buffer,
     particles: &Buffer,
     count: u32,
+    iso: Option<&IsoBuffers>,
     s: &Settings,
     cf_iterations: u32,
     sky: &Image,
@@ -267,8 +271,11 @@ pub fn record_frame(
         p.background.record(ctx, frame, sky, &t.scene_color, &t.scene_depth);
     }
     match s.splat {
-        SplatMode::Compute => p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_radius_scale),
-        mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_radius_scale, mode)?,
+        SplatMode::Compute => p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_scale()),
+        mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_scale(), mode)?,
+    }
+    if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
+        p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth);
     }
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
     // Without a full-size smooth_b the raw depth is the second ping-pong image.

@@ -11,6 +11,7 @@ pub mod demo;
 pub mod error;
 pub mod frame;
 pub mod gpu;
+pub mod iso;
 pub mod output;
 pub mod passes;
 pub mod renderer;

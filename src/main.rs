@@ -10,7 +10,7 @@ use meniscus::frame::{Environment, View};
 use meniscus::gpu::{Gpu, GpuOptions};
 use meniscus::renderer::{read_f32, Renderer};
 use meniscus::scene::{self, procedural, Camera, Particles};
-use meniscus::settings::{Filter, Settings, SplatMode};
+use meniscus::settings::{Filter, Settings, SplatMode, Surface};
 
 #[derive(Parser)]
 #[command(name = "meniscus", version, about = "Screen-space fluid rendering of SPH particles on Vulkan")]
@@ -210,6 +210,9 @@ struct SettingsArgs {
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
     #[arg(long)]
     fluid_scale: Option<f32>,
+    /// Fluid depth: nearest particle spheres, or the ray-cast SPH iso-surface (then filtered either way).
+    #[arg(long, value_enum)]
+    surface: Option<Surface>,
     /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
     #[arg(long, value_enum)]
     splat: Option<SplatMode>,
@@ -229,6 +232,9 @@ impl SettingsArgs {
         }
         if let Some(m) = self.splat {
             s.splat = m;
+        }
+        if let Some(m) = self.surface {
+            s.surface = m;
         }
         Ok(s)
     }

@@ -32,8 +32,12 @@ pub struct Renderer {
     background_key: Option<String>,
     /// Re-render the background every frame even when nothing changed (for measuring the pass).
     pub always_render_background: bool,
-    /// CPU copy of the positions (for per-frame bounds such as the nearest depth).
+    /// CPU copy of the positions (for per-frame bounds such as the nearest depth, and the iso grid).
     positions: Vec<[f32; 3]>,
+    /// Particles marked as spray (left out of the surface), if any.
+    spray: Option<Vec<bool>>,
+    /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
+    iso: Option<crate::passes::iso::IsoBuffers>,
 }
 
 impl Renderer {
@@ -55,6 +59,8 @@ impl Renderer {
             timer: Timer::new(gpu)?,
             smoothed: Smoothed::Raw,
             positions: vec![],
+            spray: None,
+            iso: None,
             background_key: None,
             always_render_background: false,
             keep_raw_depth: false,
@@ -90,25 +96,12 @@ impl Renderer {
                 [p[0], p[1], p[2], w]
             })
             .collect();
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
-        let reuse = self.particles.as_ref().is_some_and(|b| b.size >= bytes.max(16));
-        if !reuse {
-            self.particles = None;
-            self.particles = Some(Buffer::new(&self.gpu, "particles", bytes.max(16), usage, MemoryLocation::GpuOnly)?);
-        }
-        let dst = self.particles.as_ref().expect("just created");
-        if n > 0 {
-            let staging = Buffer::with_data(&self.gpu, "particles_staging", bytemuck::cast_slice(&data), vk::BufferUsageFlags::TRANSFER_SRC)?;
-            self.gpu.one_shot(|cmd| {
-                let mut ctx = FrameCtx::new(&self.gpu, cmd, None);
-                ctx.barrier(&[Use::Buffer(dst, Access::TransferDst)]);
-                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes };
-                unsafe { self.gpu.device.cmd_copy_buffer(cmd, staging.raw, dst.raw, &[region]) };
-                Ok(())
-            })?;
-        }
+        let reuse = self.particles.take().filter(|b| b.size >= bytes.max(16));
+        self.particles = Some(upload_buffer(&self.gpu, "particles", bytemuck::cast_slice(&data), reuse)?);
         self.count = n as u32;
         self.positions = positions.to_vec();
+        self.spray = spray.map(|s| s.to_vec());
+        self.iso = None;
         Ok(())
     }
 
@@ -208,6 +201,10 @@ impl Renderer {
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
         let cached = self.background_cached(view, s);
+        if s.surface == crate::settings::Surface::Iso {
+            self.ensure_iso(s.iso_support * s.radius)?;
+        }
+        let iso = if s.surface == crate::settings::Surface::Iso { self.iso.as_ref() } else { None };
         let particles = self.particles.as_ref().ok_or_else(|| Error::Invalid("no particles uploaded".into()))?;
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
@@ -217,7 +214,7 @@ impl Renderer {
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, s, cf, sky, cached)?;
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, cf, sky, cached)?;
             if let Some((mode, values, overlay)) = demo {
                 let smoothed_img = t.smoothed(sm);
                 let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
@@ -245,6 +242,35 @@ impl Renderer {
         self.timer.read()
     }
 
+    /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`
+    /// (world units), unless it is there already.
+    fn ensure_iso(&mut self, support: f32) -> Result<()> {
+        if self.iso.as_ref().is_some_and(|b| b.grid.support == support) {
+            return Ok(());
+        }
+        let pts: Vec<[f32; 3]> = match &self.spray {
+            Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
+            None => self.positions.clone(),
+        };
+        let grid = crate::iso::IsoGrid::build(&pts, support);
+        let limit = self.gpu.info.max_storage_buffer_range;
+        if (grid.points.len() as u64 * 16).max(grid.cells.len() as u64 * 8) > limit {
+            return Err(Error::Limit(format!("the iso grid of {} particles exceeds the storage buffer limit of {limit} bytes", grid.points.len())));
+        }
+        self.iso = None;
+        let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?;
+        let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?;
+        let weights = Buffer::new(
+            &self.gpu,
+            "iso_weights",
+            (grid.points.len() as u64 * 4).max(16),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
+        self.iso = Some(crate::passes::iso::IsoBuffers { points, cells, weights, grid });
+        Ok(())
+    }
+
     /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
     pub fn nearest_depth(&self, view: &View, s: &Settings) -> f32 {
         let m = view.camera.view();
@@ -269,6 +295,33 @@ impl Renderer {
         image::RgbaImage::from_raw(t.width, t.height, bytes)
             .ok_or_else(|| Error::Invalid("readback size mismatch".into()))
     }
+}
+
+/// A GPU-local storage buffer holding `data` (via a staging copy); `reuse` is filled instead of allocating
+/// when it is given (it must be large enough).
+pub fn upload_buffer(gpu: &Arc<Gpu>, name: &str, data: &[u8], reuse: Option<Buffer>) -> Result<Buffer> {
+    let size = (data.len() as u64).max(16);
+    let dst = match reuse {
+        Some(b) if b.size >= size => b,
+        _ => Buffer::new(
+            gpu,
+            name,
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?,
+    };
+    if !data.is_empty() {
+        let staging = Buffer::with_data(gpu, "staging", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
+        gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(gpu, cmd, None);
+            ctx.barrier(&[Use::Buffer(&dst, Access::TransferDst)]);
+            let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 };
+            unsafe { gpu.device.cmd_copy_buffer(cmd, staging.raw, dst.raw, &[region]) };
+            Ok(())
+        })?;
+    }
+    Ok(dst)
 }
 
 /// Copy a whole image into host memory (tightly packed texels).

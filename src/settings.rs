@@ -36,6 +36,26 @@ impl Filter {
     }
 }
 
+/// What the fluid's depth is (`--surface`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Surface {
+    /// The nearest particle sphere (van der Laan et al. 2009), smoothed by the filter.
+    Spheres,
+    /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass), then
+    /// filtered like the spheres.
+    Iso,
+}
+
+impl Surface {
+    pub fn name(self) -> &'static str {
+        match self {
+            Surface::Spheres => "spheres",
+            Surface::Iso => "iso",
+        }
+    }
+}
+
 /// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
@@ -88,6 +108,20 @@ pub struct Settings {
     /// Particle radius in world units (set from `--radius` or estimated from the data).
     pub radius: f32,
     pub filter: Filter,
+    /// Depth from spheres or from the ray-cast iso-surface.
+    pub surface: Surface,
+    /// Iso-surface: kernel support in particle radii (splashsurf: 2 × smoothing length 2.0 = 4).
+    pub iso_support: f32,
+    /// Iso-surface: threshold of the normalised field (splashsurf: 0.6).
+    pub iso_threshold: f32,
+    /// Iso-surface: smallest march step, particle radii.
+    pub iso_step: f32,
+    /// Iso-surface: radius of the spheres the march starts from, particle radii (the surface lies inside).
+    pub iso_bound: f32,
+    /// Iso-surface: most march steps per pixel.
+    pub iso_max_steps: u32,
+    /// Iso-surface: bisection iterations after the first step past the threshold.
+    pub iso_refine: u32,
     /// How the depth splat draws.
     pub splat: SplatMode,
     /// Spray classification by neighbour count within 4 r even when the file has densities.
@@ -188,6 +222,13 @@ impl Default for Settings {
         Settings {
             radius: 0.0,
             filter: Filter::NarrowRange,
+            surface: Surface::Spheres,
+            iso_support: 4.0,
+            iso_threshold: 0.6,
+            iso_step: 0.25,
+            iso_bound: 2.0,
+            iso_max_steps: 512,
+            iso_refine: 8,
             splat: SplatMode::Compute,
             spray_by_neighbours: true,
             spray_density: 0.0,
@@ -281,6 +322,25 @@ impl Settings {
         serde_json::from_value(merged).map_err(|e| parse_err(0, format!("bad settings: {e}")))
     }
 
+    /// The ray-cast parameters in world units.
+    pub fn iso_params(&self) -> crate::iso::IsoParams {
+        crate::iso::IsoParams {
+            threshold: self.iso_threshold,
+            step: self.iso_step * self.radius,
+            bound: self.iso_bound * self.radius,
+            max_steps: self.iso_max_steps,
+            refine: self.iso_refine,
+        }
+    }
+
+    /// Radius scale of the splatted spheres: the bound spheres when the iso-surface is ray-cast from them.
+    pub fn splat_scale(&self) -> f32 {
+        match self.surface {
+            Surface::Spheres => self.splat_radius_scale,
+            Surface::Iso => self.iso_bound,
+        }
+    }
+
     /// Check values a user could get wrong.
     pub fn validate(&self) -> Result<()> {
         let bad = |what: &str| Err(Error::Invalid(format!("setting {what} is out of range")));
@@ -310,6 +370,16 @@ impl Settings {
         }
         if !(self.cf_dt >= 0.0 && self.cf_dt.is_finite()) {
             return bad("cf_dt (≥ 0)");
+        }
+        if !(self.iso_support >= 1.0 && self.iso_support <= 16.0)
+            || !(self.iso_threshold > 0.0 && self.iso_threshold < 1.0)
+            || !(self.iso_step >= 0.01 && self.iso_step <= 4.0)
+            || !(self.iso_bound >= 0.5 && self.iso_bound <= self.iso_support)
+            || self.iso_max_steps == 0
+            || self.iso_max_steps > 65536
+            || self.iso_refine > 32
+        {
+            return bad("iso_* (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements)");
         }
         if self.bilateral_iterations > 64 {
             return bad("bilateral_iterations (≤ 64)");

@@ -761,3 +761,76 @@ fn skybox_faces_from_files() {
     assert!(e.contains("nz.png"), "{e}");
     assert_clean(&gpu);
 }
+
+/// The `iso` pass against the CPU reference (src/iso.rs) on a bumpy slab, a lone particle and a close
+/// pair: same coverage and the same depth where both are covered.
+#[test]
+fn iso_surface_matches_cpu_ray_cast() {
+    use glam::Vec3;
+    use meniscus::iso::{cast, ray_end, IsoGrid};
+    let gpu = gpu();
+    let (w, h) = (128usize, 96usize);
+    let r = 0.05f32;
+    let mut pts = vec![];
+    let mut seed = 12345u32;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+    };
+    for i in 0..14 {
+        for k in 0..10 {
+            for j in 0..3 {
+                let p = [-0.65 + i as f32 * 2.0 * r, -0.3 + j as f32 * 2.0 * r, -0.5 + k as f32 * 2.0 * r];
+                pts.push([p[0] + rnd() * r, p[1] + rnd() * r * 1.5, p[2] + rnd() * r]);
+            }
+        }
+    }
+    pts.push([0.0, 0.45, 0.0]); // lone particle: a sphere of ≈ 1.24 r
+    pts.push([0.4, 0.35, 0.1]); // a pair that merges
+    pts.push([0.4 + 2.2 * r, 0.35, 0.1]);
+    let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
+    let mut s = settings(r);
+    s.filter = Filter::None;
+    s.surface = meniscus::settings::Surface::Iso;
+    let mut rd = Renderer::new(&gpu).unwrap();
+    rd.keep_raw_depth = true;
+    rd.set_particles(&pts, None).unwrap();
+    rd.render(&v, &s).unwrap();
+    let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+
+    let grid = IsoGrid::build(&pts, s.iso_support * r);
+    let inv = grid.inv_density();
+    let p = s.iso_params();
+    let view_m = v.camera.view();
+    let inv_view = view_m.inverse();
+    let f = v.camera.focal_px(h as u32) as f64;
+    let centres: Vec<[f64; 3]> = pts.iter().map(|q| view_m.transform_point3(Vec3::from(*q)).as_dvec3().to_array()).collect();
+    let (mut both, mut mismatch, mut close, mut max_err) = (0, 0, 0, 0f32);
+    for y in 0..h {
+        for x in 0..w {
+            let dv = pixel_dir(x, y, w, h, f);
+            let start = centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso_bound * r) as f64)).map(|(a, _)| a).fold(f64::INFINITY, f64::min);
+            let dir = inv_view.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
+            let eye = v.camera.eye;
+            let want = if start.is_finite() { cast(&grid, &inv, &p, eye, dir, start as f32, ray_end(&grid, eye, dir)) } else { None };
+            let g = got[y * w + x];
+            match want {
+                Some(d) if g.is_finite() => {
+                    both += 1;
+                    let e = (g - d).abs();
+                    max_err = max_err.max(e);
+                    if e < 0.01 * r {
+                        close += 1;
+                    }
+                }
+                None if g.is_infinite() => {}
+                _ => mismatch += 1,
+            }
+        }
+    }
+    assert!(both > 1500, "covered {both}");
+    assert!(mismatch * 200 <= both, "coverage differs on {mismatch} of {both} pixels");
+    assert!(close * 100 >= both * 99, "{close} of {both} pixels within 0.01 r");
+    assert!(max_err < 0.5 * r, "max depth difference {max_err}");
+    assert_clean(&gpu);
+}

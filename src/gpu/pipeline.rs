@@ -9,6 +9,7 @@ use super::{Buffer, FrameCtx, Gpu, Image};
 use crate::error::{Error, Result, VkContext};
 
 /// A resource bound at the binding with the same index in the program's table.
+#[derive(Clone, Copy)]
 pub enum Bind<'a> {
     /// Storage image through its main view.
     Storage(&'a Image),

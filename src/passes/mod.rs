@@ -3,6 +3,7 @@
 
 pub mod background;
 pub mod composite;
+pub mod iso;
 pub mod normals;
 pub mod smooth;
 pub mod splat;
@@ -13,6 +14,7 @@ pub mod view;
 
 pub use background::Background;
 pub use composite::Composite;
+pub use iso::Iso;
 pub use normals::Normals;
 pub use smooth::Smooth;
 pub use splat::Splat;
@@ -20,11 +22,12 @@ pub use ssr::Ssr;
 pub use thickness::Thickness;
 pub use upsample::Upsample;
 
-/// Every pass name (timestamp keys, JSON keys, `--timings` rows); `upsample` runs between `smooth` and
-/// `normals`, only when the fluid is rendered at reduced resolution.
+/// Every pass name (timestamp keys, JSON keys, `--timings` rows); `iso` runs only with `surface = "iso"`,
+/// `upsample` between `smooth` and `normals` only when the fluid is rendered at reduced resolution.
 pub const PASS_NAMES: &[&str] = &[
     background::NAME,
     splat::NAME,
+    iso::NAME,
     thickness::NAME,
     smooth::NAME,
     normals::NAME,

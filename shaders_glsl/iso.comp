@@ -1,0 +1,50 @@
+#version 460
+//! iso — ray-casts the SPH colour-field iso-surface φ = threshold per pixel (direct ray casting of the
+//! field as in Fraedrich et al. 2010; the field is splashsurf's, see iso_field.glsl and src/iso.rs for the
+//! CPU reference). The march starts at the depth the `splat` pass wrote for spheres of the bound radius (the
+//! surface lies inside them), steps by max(nearest point − bound, smallest step) so empty space is skipped,
+//! and refines the first step past the threshold by bisection. Rays that leave the grid's box miss.
+//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel.
+#include "common.glsl"
+#include "iso_field.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 4, r32f) uniform image2D depth;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(depth);
+    if (any(greaterThanEqual(p, size))) return;
+    float d0 = imageLoad(depth, p).x;
+    if (!is_fluid(d0)) return;
+    vec3 dir = mat3(frame.inv_view) * pixel_dir(vec2(p), vec2(size), focal_for(float(size.y)));
+    vec3 eye = frame.eye.xyz;
+    // Where the ray leaves the grid's box grown by the support (no field beyond it).
+    vec3 lo = pc.origin.xyz - pc.params.x;
+    vec3 hi = pc.origin.xyz + vec3(pc.dims.xyz) * pc.origin.w + pc.params.x;
+    vec3 safe = mix(dir, vec3(1e-12), lessThan(abs(dir), vec3(1e-12)));
+    vec3 t0 = (lo - eye) / safe, t1 = (hi - eye) / safe;
+    vec3 tf = max(t0, t1);
+    float d_end = min(tf.x, min(tf.y, tf.z));
+    float len = length(dir);
+    float threshold = pc.params.y;
+    float d = d0, prev = d0;
+    float result = INF;
+    for (uint k = 0u; k < pc.steps.x; ++k) {
+        if (d > d_end) break;
+        float dmin;
+        float phi = iso_sum(eye + dir * d, true, dmin);
+        if (phi >= threshold) {
+            float a = prev, b = d;
+            for (uint j = 0u; j < pc.steps.y; ++j) {
+                float m = 0.5 * (a + b);
+                float unused;
+                if (iso_sum(eye + dir * m, true, unused) >= threshold) b = m; else a = m;
+            }
+            result = b;
+            break;
+        }
+        prev = d;
+        d += max(dmin - pc.params.w, pc.params.z) / len;
+    }
+    imageStore(depth, p, vec4(result));
+}

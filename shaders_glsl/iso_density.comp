@@ -1,0 +1,15 @@
+#version 460
+//! iso_density — first dispatch of the `iso` pass: per grid point j, 1/n_j with n_j = Σ_k W(|x_j − x_k|)
+//! (the particle's SPH volume up to the rest mass; splashsurf's normalisation). CPU reference:
+//! IsoGrid::inv_density in src/iso.rs.
+//! In: sorted points, cells. Out: weights (one float per point).
+#include "common.glsl"
+#include "iso_field.glsl"
+layout(local_size_x = 64) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.dims.w) return;
+    float dmin;
+    iso_w[i] = 1.0 / iso_sum(iso_points[i].xyz, false, dmin);
+}

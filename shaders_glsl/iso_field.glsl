@@ -1,0 +1,49 @@
+//! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
+//! (src/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
+//! Bindings 1–3: points sorted by cell (xyz), cells (first point, count), weights 1/n_j (one per point).
+
+layout(std430, set = 0, binding = 1) readonly buffer IsoPoints { vec4 iso_points[]; };
+layout(std430, set = 0, binding = 2) readonly buffer IsoCells { uvec2 iso_cells[]; };
+layout(std430, set = 0, binding = 3) buffer IsoWeights { float iso_w[]; };
+
+layout(push_constant) uniform IsoPush {
+    vec4 origin;  // xyz: grid origin (world), w: cell size (≥ support)
+    uvec4 dims;   // xyz: cells per axis, w: point count
+    vec4 params;  // x: kernel support h, y: iso threshold, z: smallest step, w: bound radius (world units)
+    uvec4 steps;  // x: most march steps, y: bisection iterations
+} pc;
+
+/// Cubic spline without its constant (it cancels in φ); q = distance / support.
+float iso_kernel(float q) {
+    if (q <= 0.5) return 1.0 - 6.0 * q * q + 6.0 * q * q * q;
+    if (q < 1.0) { float a = 1.0 - q; return 2.0 * a * a * a; }
+    return 0.0;
+}
+
+/// Σ W(|x − x_j|) (weighted by 1/n_j when `weighted`) over the 3×3×3 cells around x; `dmin`: the distance
+/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far).
+float iso_sum(vec3 x, bool weighted, out float dmin) {
+    ivec3 c = ivec3(floor((x - pc.origin.xyz) / pc.origin.w));
+    ivec3 dims = ivec3(pc.dims.xyz);
+    float s = 0.0;
+    float d2min = pc.origin.w * pc.origin.w;
+    float inv_h = 1.0 / pc.params.x;
+    for (int dz = -1; dz <= 1; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+                ivec3 q = c + ivec3(dx, dy, dz);
+                if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
+                uvec2 cell = iso_cells[q.x + dims.x * (q.y + dims.y * q.z)];
+                for (uint i = cell.x; i < cell.x + cell.y; ++i) {
+                    vec3 v = iso_points[i].xyz - x;
+                    float d2 = dot(v, v);
+                    d2min = min(d2min, d2);
+                    float w = iso_kernel(sqrt(d2) * inv_h);
+                    s += weighted ? w * iso_w[i] : w;
+                }
+            }
+        }
+    }
+    dmin = sqrt(d2min);
+    return s;
+}

@@ -1,0 +1,79 @@
+//! `iso` pass (runs after `splat` when `surface = "iso"`): replaces the splatted sphere depth by the depth of
+//! the SPH colour-field iso-surface, ray-cast per pixel (shaders_glsl/iso.comp, field in iso_field.glsl,
+//! CPU reference and grid build in src/iso.rs). Two dispatches: `iso_density` (1/n_j per point), then the
+//! march from the bound spheres' depth. The grid (points sorted by cell + cell table) is uploaded with the
+//! particles.
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::gpu::pipeline::bt::*;
+use crate::gpu::{Access, Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::iso::IsoGrid;
+use crate::shaders;
+
+pub const NAME: &str = "iso";
+
+/// The grid on the device.
+pub struct IsoBuffers {
+    pub points: Buffer,
+    pub cells: Buffer,
+    pub weights: Buffer,
+    pub grid: IsoGrid,
+}
+
+/// Push constants (IsoPush in iso_field.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct IsoPush {
+    pub origin: [f32; 4],
+    pub dims: [u32; 4],
+    pub params: [f32; 4],
+    pub steps: [u32; 4],
+}
+
+impl IsoPush {
+    pub fn new(g: &IsoGrid, p: &crate::iso::IsoParams) -> IsoPush {
+        IsoPush {
+            origin: [g.origin.x, g.origin.y, g.origin.z, g.cell],
+            dims: [g.dims[0], g.dims[1], g.dims[2], g.points.len() as u32],
+            params: [g.support, p.threshold, p.step, p.bound],
+            steps: [p.max_steps, p.refine, 0, 0],
+        }
+    }
+}
+
+pub struct Iso {
+    density: ComputeProgram,
+    cast: ComputeProgram,
+}
+
+impl Iso {
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
+        let push = std::mem::size_of::<IsoPush>() as u32;
+        Ok(Iso {
+            density: ComputeProgram::new(gpu, NAME, shaders::ISO_DENSITY, &[UBO, SSBO, SSBO, SSBO], push)?,
+            cast: ComputeProgram::new(gpu, NAME, shaders::ISO, &[UBO, SSBO, SSBO, SSBO, IMG], push)?,
+        })
+    }
+
+    /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry).
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, params: &crate::iso::IsoParams, depth: &Image) {
+        let push = IsoPush::new(&b.grid, params);
+        let uses = [
+            Use::buf_read(frame),
+            Use::buf_read(&b.points),
+            Use::buf_read(&b.cells),
+            Use::Buffer(&b.weights, Access::ComputeWrite),
+            Use::write(depth),
+        ];
+        ctx.pass(NAME, &uses, |ctx| {
+            let bufs = [Bind::Uniform(frame), Bind::StorageBuf(&b.points), Bind::StorageBuf(&b.cells), Bind::StorageBuf(&b.weights)];
+            let n = b.grid.points.len() as u32;
+            self.density.dispatch(ctx, &bufs, bytemuck::bytes_of(&push), [n.div_ceil(super::LOCAL_1D), 1, 1]);
+            ctx.barrier(&[Use::buf_read(&b.weights)]);
+            let g = ComputeProgram::groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
+            let all = [bufs[0], bufs[1], bufs[2], bufs[3], Bind::Storage(depth)];
+            self.cast.dispatch(ctx, &all, bytemuck::bytes_of(&push), g);
+        });
+    }
+}
