@@ -4,11 +4,14 @@
 //! CPU reference). The march starts at the depth the `splat` pass wrote for spheres of the bound radius (the
 //! surface lies inside them), steps by max(nearest point − bound, smallest step) so empty space is skipped,
 //! and refines the first step past the threshold by bisection. Rays that leave the grid's box miss.
-//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel.
+//! The march ends where the ray leaves the grid's box or, with pc.steps.z = 1, behind the farthest sphere
+//! exit (`back`, from the splat). The bracket is refined by bisection, then by one linear interpolation.
+//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F).
 #include "common.glsl"
 #include "iso_field.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 4, r32f) uniform image2D depth;
+layout(set = 0, binding = 5, r32f) uniform readonly image2D back;
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -25,25 +28,29 @@ void main() {
     vec3 t0 = (lo - eye) / safe, t1 = (hi - eye) / safe;
     vec3 tf = max(t0, t1);
     float d_end = min(tf.x, min(tf.y, tf.z));
+    if (pc.steps.z != 0u) d_end = min(d_end, imageLoad(back, p).x);
     float len = length(dir);
     float threshold = pc.params.y;
-    float d = d0, prev = d0;
+    float d = d0, prev = d0, phi_prev = 0.0;
     float result = INF;
     for (uint k = 0u; k < pc.steps.x; ++k) {
         if (d > d_end) break;
         float dmin;
         float phi = iso_sum(eye + dir * d, true, dmin);
         if (phi >= threshold) {
-            float a = prev, b = d;
+            if (k == 0u) { result = d; break; } // the march started inside
+            float a = prev, b = d, fa = phi_prev, fb = phi;
             for (uint j = 0u; j < pc.steps.y; ++j) {
                 float m = 0.5 * (a + b);
                 float unused;
-                if (iso_sum(eye + dir * m, true, unused) >= threshold) b = m; else a = m;
+                float fm = iso_sum(eye + dir * m, true, unused);
+                if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
             }
-            result = b;
+            result = a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
             break;
         }
         prev = d;
+        phi_prev = phi;
         d += max(dmin - pc.params.w, pc.params.z) / len;
     }
     imageStore(depth, p, vec4(result));

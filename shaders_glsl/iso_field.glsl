@@ -10,7 +10,7 @@ layout(push_constant) uniform IsoPush {
     vec4 origin;  // xyz: grid origin (world), w: cell size (≥ support)
     uvec4 dims;   // xyz: cells per axis, w: point count
     vec4 params;  // x: kernel support h, y: iso threshold, z: smallest step, w: bound radius (world units)
-    uvec4 steps;  // x: most march steps, y: bisection iterations
+    uvec4 steps;  // x: most march steps, y: bisection iterations, z: 1 = the back image bounds the march
 } pc;
 
 /// Cubic spline without its constant (it cancels in φ); q = distance / support.

@@ -5,12 +5,15 @@
 //! No gl_FragDepth, so no early-Z to lose, and no fragment-shader arithmetic (slow on some GPUs).
 //! In:  particles (vec4: world xyz, w: radius, 0 = frame radius, < 0 = spray: not part of the surface).
 //! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
+//!      back (same layout, cleared to 0), only when pc.back = 1: the FARTHEST exit depth of the spheres, where
+//!      the `iso` march can stop (the iso-surface lies inside the spheres).
 #include "common.glsl"
 #include "sphere.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D depth_bits;
-layout(push_constant) uniform Push { uint count; uint max_pixels; float radius_scale; } pc;
+layout(set = 0, binding = 3, r32ui) uniform coherent uimage2D back_bits;
+layout(push_constant) uniform Push { uint count; uint max_pixels; float radius_scale; uint back; } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -36,6 +39,7 @@ void main() {
             if (!ray_sphere(pixel_dir(vec2(x, y), size, F), c, r, d_in, d_out)) continue;
             if (d_out < near) continue;
             imageAtomicMin(depth_bits, ivec2(x, y), floatBitsToUint(max(d_in, near)));
+            if (pc.back != 0u) imageAtomicMax(back_bits, ivec2(x, y), floatBitsToUint(d_out));
         }
     }
 }

@@ -27,7 +27,7 @@ use crate::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Us
 use crate::passes::view::ViewMode;
 use crate::renderer::Renderer;
 use crate::scene::{self, Camera, LoadOptions, Particles};
-use crate::settings::{Filter, Settings};
+use crate::settings::{Filter, Settings, Surface};
 
 /// Every key, for `--help` and the on-screen help (H).
 pub const HELP: &str = "\
@@ -37,7 +37,7 @@ C: print the camera as a --camera argument (stdout)
 Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
-F: next filter | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
+F: next filter | I: spheres / iso-surface | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
 V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit";
 
 /// Demo options (from the CLI).
@@ -427,8 +427,14 @@ impl App {
                 *s = if *s > 0.75 { 0.5 } else if *s > 0.375 { 0.25 } else { 1.0 };
             }
             KeyCode::KeyX => self.o.settings.ssr = !self.o.settings.ssr,
+            KeyCode::KeyI => {
+                self.o.settings.surface = match self.o.settings.surface {
+                    Surface::Spheres => Surface::Iso,
+                    Surface::Iso => Surface::Spheres,
+                }
+            }
             KeyCode::KeyO => {
-                const NAMES: [&str; 3] = ["default", "fast", "moritz"];
+                const NAMES: [&str; 4] = ["default", "fast", "quality", "moritz"];
                 self.presets = (self.presets + 1) % NAMES.len();
                 if let Ok(mut s) = Settings::preset(NAMES[self.presets]) {
                     s.radius = self.radius;
@@ -601,8 +607,9 @@ impl App {
                 st.renderer.particle_count()
             ),
             format!(
-                "view {}  filter {}  fluid scale {}  ssr {}  vsync {}",
+                "view {}  surface {}  filter {}  fluid scale {}  ssr {}  vsync {}",
                 self.mode.name(),
+                s.surface.name(),
                 s.filter.name(),
                 s.fluid_scale,
                 if s.ssr { "on" } else { "off" },

@@ -126,6 +126,8 @@ pub struct Targets {
     pub depth: Image,
     pub smooth_a: Image,
     pub smooth_b: Image,
+    /// Farthest exit depth of the splatted spheres (`surface = "iso"` only; 1×1 otherwise), R32F + R32_UINT view.
+    pub depth_back: Image,
     /// D32 depth buffer of the rasterised splat variants (1×1 when the compute splat runs).
     pub zbuffer: Image,
     /// Full-resolution depth upsampled from the fluid resolution (unused at fluid scale 1).
@@ -159,6 +161,13 @@ impl Targets {
             scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
             scene_depth: img("scene_depth", full, vk::Format::R32_SFLOAT, storage, None)?,
             depth: img("depth", fluid, vk::Format::R32_SFLOAT, storage | U::COLOR_ATTACHMENT, Some(vk::Format::R32_UINT))?,
+            depth_back: img(
+                "depth_back",
+                if s.surface == Surface::Iso { fluid } else { tiny },
+                vk::Format::R32_SFLOAT,
+                storage,
+                Some(vk::Format::R32_UINT),
+            )?,
             zbuffer: img(
                 "zbuffer",
                 if s.splat.depth_tested() { fluid } else { tiny },
@@ -196,6 +205,7 @@ impl Targets {
             &self.smooth_b,
             &self.depth_full,
             &self.zbuffer,
+            &self.depth_back,
             &self.thickness_accum,
             &self.thickness,
             &self.normals,
@@ -271,11 +281,16 @@ pub fn record_frame(
         p.background.record(ctx, frame, sky, &t.scene_color, &t.scene_depth);
     }
     match s.splat {
-        SplatMode::Compute => p.splat.record(ctx, frame, particles, count, &t.depth, s.splat_scale()),
+        SplatMode::Compute => {
+            let back = s.surface == Surface::Iso && t.depth_back.extent == t.depth.extent;
+            p.splat.record(ctx, frame, particles, count, &t.depth, &t.depth_back, back, s.splat_scale())
+        }
         mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_scale(), mode)?,
     }
     if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
-        p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth);
+        // The rasterised splats do not write the far exit: the march then runs to the grid's box.
+        let back = (s.splat == SplatMode::Compute).then_some(&t.depth_back);
+        p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);
     }
     p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
     // Without a full-size smooth_b the raw depth is the second ping-pong image.

@@ -156,29 +156,34 @@ pub fn ray_end(grid: &IsoGrid, origin: Vec3, dir: Vec3) -> f32 {
 }
 
 /// CPU reference of the march of `iso.comp` along `origin + d·dir` (d: linear depth, dir with unit forward
-/// component) from `d_start` (the bound spheres' depth) to `d_end`: the first depth where φ ≥ threshold.
+/// component) from `d_start` (the bound spheres' depth) to `d_end`: the first depth where φ ≥ threshold,
+/// bracketed by the march, bisected `refine` times, then linearly interpolated.
 pub fn cast(grid: &IsoGrid, inv_n: &[f32], p: &IsoParams, origin: Vec3, dir: Vec3, d_start: f32, d_end: f32) -> Option<f32> {
     let len = dir.length();
-    let mut d = d_start;
-    let mut prev = d_start;
-    for _ in 0..p.max_steps {
+    let (mut d, mut prev, mut phi_prev) = (d_start, d_start, 0.0);
+    for k in 0..p.max_steps {
         if d > d_end {
             return None;
         }
         let (phi, dmin) = grid.field(origin + dir * d, inv_n);
         if phi >= p.threshold {
-            let (mut lo, mut hi) = (prev, d);
+            if k == 0 {
+                return Some(d);
+            }
+            let (mut a, mut b, mut fa, mut fb) = (prev, d, phi_prev, phi);
             for _ in 0..p.refine {
-                let m = 0.5 * (lo + hi);
-                if grid.field(origin + dir * m, inv_n).0 >= p.threshold {
-                    hi = m;
+                let m = 0.5 * (a + b);
+                let fm = grid.field(origin + dir * m, inv_n).0;
+                if fm >= p.threshold {
+                    (b, fb) = (m, fm);
                 } else {
-                    lo = m;
+                    (a, fa) = (m, fm);
                 }
             }
-            return Some(hi);
+            return Some(a + (b - a) * ((p.threshold - fa) / (fb - fa).max(1e-12)).clamp(0.0, 1.0));
         }
         prev = d;
+        phi_prev = phi;
         d += (dmin - p.bound).max(p.step) / len;
     }
     None

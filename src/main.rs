@@ -198,7 +198,8 @@ struct SceneArgs {
 /// Settings: a preset, a TOML file over it, and the most used fields as flags.
 #[derive(Args, Clone)]
 struct SettingsArgs {
-    /// Settings preset: default, fast, moritz.
+    /// Settings preset: default (spheres + narrow-range), fast, quality (ray-cast SPH iso-surface, unfiltered),
+    /// moritz (the thesis' curvature flow).
     #[arg(long, default_value = "default")]
     preset: String,
     /// TOML file of settings applied over the preset (any field of src/settings.rs, e.g. `nrf_radius = 8.0`).

@@ -150,6 +150,7 @@ impl Renderer {
                 && t.depth.extent == want_fluid
                 && (t.smooth_b.extent == t.depth.extent) == self.keep_raw_depth
                 && (t.zbuffer.extent == t.depth.extent) == s.splat.depth_tested()
+                && (t.depth_back.extent == t.depth.extent) == (s.surface == crate::settings::Surface::Iso)
         });
         if !ok {
             self.targets = None;

@@ -225,10 +225,10 @@ impl Default for Settings {
             surface: Surface::Spheres,
             iso_support: 4.0,
             iso_threshold: 0.6,
-            iso_step: 0.25,
+            iso_step: 0.5,
             iso_bound: 2.0,
             iso_max_steps: 512,
-            iso_refine: 8,
+            iso_refine: 4,
             splat: SplatMode::Compute,
             spray_by_neighbours: true,
             spray_density: 0.0,
@@ -284,6 +284,9 @@ impl Settings {
         let d = Settings::default();
         match name {
             "default" => Ok(d),
+            // The SPH iso-surface itself (what splashsurf reconstructs), unfiltered: the closest match to a
+            // reconstructed reference surface, at the cost of the `iso` ray cast.
+            "quality" => Ok(Settings { surface: Surface::Iso, filter: Filter::None, ..d }),
             "fast" => Ok(Settings { bilateral_iterations: 1, smooth_max_px: 12, thickness_blur_px: 2, ..d }),
             // Moritz 2016 (thesis values): curvature flow, Δt = 0.005, ≤ 60 iterations, κ = 3.
             "moritz" => Ok(Settings {
@@ -296,7 +299,7 @@ impl Settings {
                 ssr_refine: 4,
                 ..d
             }),
-            _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast, moritz)"))),
+            _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast, quality, moritz)"))),
         }
     }
 
@@ -371,10 +374,10 @@ impl Settings {
         if !(self.cf_dt >= 0.0 && self.cf_dt.is_finite()) {
             return bad("cf_dt (≥ 0)");
         }
-        if !(self.iso_support >= 1.0 && self.iso_support <= 16.0)
+        if !(1.0..=16.0).contains(&self.iso_support)
             || !(self.iso_threshold > 0.0 && self.iso_threshold < 1.0)
-            || !(self.iso_step >= 0.01 && self.iso_step <= 4.0)
-            || !(self.iso_bound >= 0.5 && self.iso_bound <= self.iso_support)
+            || !(0.01..=4.0).contains(&self.iso_step)
+            || !(0.5..=self.iso_support).contains(&self.iso_bound)
             || self.iso_max_steps == 0
             || self.iso_max_steps > 65536
             || self.iso_refine > 32
@@ -414,7 +417,7 @@ mod tests {
 
     #[test]
     fn presets_validate() {
-        for p in ["default", "fast", "moritz"] {
+        for p in ["default", "fast", "quality", "moritz"] {
             let s = Settings { radius: 0.01, ..Settings::preset(p).unwrap() };
             s.validate().unwrap();
         }

@@ -25,7 +25,7 @@ fn render_builtin_scene_writes_png_and_timings() {
         .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| **p != "upsample") {
+    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !["upsample", "iso"].contains(*p)) {
         assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
     }
     let img = image::open(&out).unwrap();
@@ -36,15 +36,17 @@ fn render_builtin_scene_writes_png_and_timings() {
             assert!(bytes.starts_with(b"\x93NUMPY"), "{dump} is not .npy");
         }
     }
-    // Reduced resolution runs the upsample pass.
+    // Reduced resolution runs the upsample pass; the iso-surface runs the iso pass (here at half resolution).
     let o = meniscus()
         .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--fluid-scale", "0.5"])
+        .args(["--surface", "iso", "--validation"])
         .arg("--out")
         .arg(d.join("half.png"))
         .output()
         .unwrap();
-    assert!(o.status.success());
-    assert!(String::from_utf8_lossy(&o.stdout).contains("| upsample |"));
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("| upsample |") && stdout.contains("| iso |"), "{stdout}");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!stderr.contains("[vulkan"), "validation messages: {stderr}");
 }
@@ -99,12 +101,12 @@ fn tiny_bench_writes_valid_json() {
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(v["schema"], 1);
-    assert!(v["device"]["name"].as_str().unwrap().len() > 0);
+    assert!(!v["device"]["name"].as_str().unwrap().is_empty());
     let e = &v["entries"][0];
     assert_eq!(e["width"], 64);
     assert_eq!(e["frames"], 3);
     let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
-    let want: Vec<&str> = meniscus::passes::PASS_NAMES.iter().copied().filter(|p| *p != "upsample").collect();
+    let want: Vec<&str> = meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso"].contains(p)).collect();
     assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));

@@ -809,10 +809,12 @@ fn iso_surface_matches_cpu_ray_cast() {
     for y in 0..h {
         for x in 0..w {
             let dv = pixel_dir(x, y, w, h, f);
-            let start = centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso_bound * r) as f64)).map(|(a, _)| a).fold(f64::INFINITY, f64::min);
+            let hits: Vec<(f64, f64)> = centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso_bound * r) as f64)).collect();
+            let start = hits.iter().map(|h| h.0).fold(f64::INFINITY, f64::min);
+            let back = hits.iter().map(|h| h.1).fold(0.0, f64::max) as f32;
             let dir = inv_view.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
             let eye = v.camera.eye;
-            let want = if start.is_finite() { cast(&grid, &inv, &p, eye, dir, start as f32, ray_end(&grid, eye, dir)) } else { None };
+            let want = if start.is_finite() { cast(&grid, &inv, &p, eye, dir, start as f32, ray_end(&grid, eye, dir).min(back)) } else { None };
             let g = got[y * w + x];
             match want {
                 Some(d) if g.is_finite() => {

@@ -52,27 +52,34 @@ impl Iso {
         let push = std::mem::size_of::<IsoPush>() as u32;
         Ok(Iso {
             density: ComputeProgram::new(gpu, NAME, shaders::ISO_DENSITY, &[UBO, SSBO, SSBO, SSBO], push)?,
-            cast: ComputeProgram::new(gpu, NAME, shaders::ISO, &[UBO, SSBO, SSBO, SSBO, IMG], push)?,
+            cast: ComputeProgram::new(gpu, NAME, shaders::ISO, &[UBO, SSBO, SSBO, SSBO, IMG, IMG], push)?,
         })
     }
 
-    /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry).
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, params: &crate::iso::IsoParams, depth: &Image) {
-        let push = IsoPush::new(&b.grid, params);
-        let uses = [
+    /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the
+    /// spheres' farthest exit depth, where the march may stop (else it runs to the grid's box).
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, params: &crate::iso::IsoParams, depth: &Image, back: Option<&Image>) {
+        let mut push = IsoPush::new(&b.grid, params);
+        push.steps[2] = back.is_some() as u32;
+        // Without a back image the binding still needs an image: the depth itself (never read then).
+        let back_img = back.unwrap_or(depth);
+        let mut uses = vec![
             Use::buf_read(frame),
             Use::buf_read(&b.points),
             Use::buf_read(&b.cells),
             Use::Buffer(&b.weights, Access::ComputeWrite),
             Use::write(depth),
         ];
+        if let Some(bk) = back {
+            uses.push(Use::read(bk));
+        }
         ctx.pass(NAME, &uses, |ctx| {
             let bufs = [Bind::Uniform(frame), Bind::StorageBuf(&b.points), Bind::StorageBuf(&b.cells), Bind::StorageBuf(&b.weights)];
             let n = b.grid.points.len() as u32;
             self.density.dispatch(ctx, &bufs, bytemuck::bytes_of(&push), [n.div_ceil(super::LOCAL_1D), 1, 1]);
             ctx.barrier(&[Use::buf_read(&b.weights)]);
             let g = ComputeProgram::groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
-            let all = [bufs[0], bufs[1], bufs[2], bufs[3], Bind::Storage(depth)];
+            let all = [bufs[0], bufs[1], bufs[2], bufs[3], Bind::Storage(depth), Bind::Storage(back_img)];
             self.cast.dispatch(ctx, &all, bytemuck::bytes_of(&push), g);
         });
     }

@@ -55,7 +55,7 @@ impl Splat {
             let prog = if min && !can_blend { None } else { Some(GraphicsProgram::new(gpu, NAME, vert, frag, &[UBO, SSBO], 16, t)?) };
             raster.push((mode, prog));
         }
-        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG], 12)?, raster })
+        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG, IMG], 16)?, raster })
     }
 
     /// Whether `mode` can run on this device.
@@ -113,17 +113,31 @@ impl Splat {
         Ok(())
     }
 
-    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it.
-    /// `radius_scale`: splat spheres of this many particle radii.
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: &Buffer, count: u32, depth: &Image, radius_scale: f32) {
-        ctx.pass(NAME, &[Use::Image(depth, Access::TransferDst, true)], |ctx| {
+    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it; with `back`, also the
+    /// farthest sphere exit per pixel into `back_img` (cleared to 0). `radius_scale`: spheres of this many
+    /// particle radii.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        particles: &Buffer,
+        count: u32,
+        depth: &Image,
+        back_img: &Image,
+        back: bool,
+        radius_scale: f32,
+    ) {
+        let uses = [Use::Image(depth, Access::TransferDst, true), Use::Image(back_img, Access::TransferDst, true)];
+        ctx.pass(NAME, &uses, |ctx| {
             clear(ctx, depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
-            ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(depth)]);
-            let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits()];
+            clear(ctx, back_img, vk::ClearColorValue { float32: [0.0; 4] });
+            ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(depth), Use::write(back_img)]);
+            let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits(), back as u32];
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             self.prog.dispatch(
                 ctx,
-                &[Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::StorageAlt(depth)],
+                &[Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::StorageAlt(depth), Bind::StorageAlt(back_img)],
                 bytemuck::cast_slice(&push),
                 groups,
             );
