@@ -374,14 +374,14 @@ impl Settings {
         if !(self.cf_dt >= 0.0 && self.cf_dt.is_finite()) {
             return bad("cf_dt (≥ 0)");
         }
-        if !(1.0..=16.0).contains(&self.iso_support)
-            || !(self.iso_threshold > 0.0 && self.iso_threshold < 1.0)
-            || !(0.01..=4.0).contains(&self.iso_step)
-            || !(0.5..=self.iso_support).contains(&self.iso_bound)
-            || self.iso_max_steps == 0
-            || self.iso_max_steps > 65536
-            || self.iso_refine > 32
-        {
+        let iso_ok = (1.0..=16.0).contains(&self.iso_support)
+            && self.iso_threshold > 0.0
+            && self.iso_threshold < 1.0
+            && (0.01..=4.0).contains(&self.iso_step)
+            && (0.5..=self.iso_support).contains(&self.iso_bound)
+            && (1..=65536).contains(&self.iso_max_steps)
+            && self.iso_refine <= 32;
+        if !iso_ok {
             return bad("iso_* (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements)");
         }
         if self.bilateral_iterations > 64 {
