@@ -273,12 +273,12 @@ pub fn record_frame(
     iso: Option<&IsoBuffers>,
     s: &Settings,
     cf_iterations: u32,
-    sky: &Image,
+    (sky, mesh): (&Image, &crate::passes::background::MeshBuffers),
     background_cached: bool,
 ) -> Result<Smoothed> {
     // The background is static: when neither the view nor the scene changed, last frame's images stand.
     if !background_cached {
-        p.background.record(ctx, frame, sky, &t.scene_color, &t.scene_depth);
+        p.background.record(ctx, frame, sky, mesh, &t.scene_color, &t.scene_depth);
     }
     match s.splat {
         SplatMode::Compute => {

@@ -12,6 +12,7 @@ pub mod error;
 pub mod frame;
 pub mod gpu;
 pub mod iso;
+pub mod mesh;
 pub mod output;
 pub mod passes;
 pub mod renderer;

@@ -195,6 +195,32 @@ struct SceneArgs {
     camera: Option<String>,
 }
 
+/// What `--skybox` and `--background-obj` add to the background, read (and checked) before the GPU starts.
+struct BackgroundExtras {
+    sky: Option<(u32, Vec<u8>)>,
+    mesh: Option<meniscus::mesh::Mesh>,
+}
+
+impl BackgroundExtras {
+    fn load(a: &RenderArgs) -> Result<Self> {
+        Ok(BackgroundExtras {
+            sky: a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?,
+            mesh: a.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?,
+        })
+    }
+
+    /// Upload into the renderer; true when a sky cube map was loaded.
+    fn apply(&self, r: &mut Renderer) -> Result<bool> {
+        if let Some(m) = &self.mesh {
+            r.set_background_mesh(m)?;
+        }
+        if let Some((size, faces)) = &self.sky {
+            r.set_skybox(*size, faces)?;
+        }
+        Ok(self.sky.is_some())
+    }
+}
+
 /// Settings: a preset, a TOML file over it, and the most used fields as flags.
 #[derive(Args, Clone)]
 struct SettingsArgs {
@@ -266,6 +292,10 @@ struct RenderArgs {
     /// Sky cube map from six images DIR/{px,nx,py,ny,pz,nz}.png (default: procedural sky).
     #[arg(long, value_name = "DIR")]
     skybox: Option<PathBuf>,
+    /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene: it is
+    /// reflected, refracted and casts shadows on the ground.
+    #[arg(long, value_name = "FILE")]
+    background_obj: Option<PathBuf>,
     /// Print a per-pass GPU time table (median over the timed frames, after warm-up).
     #[arg(long)]
     timings: bool,
@@ -341,13 +371,10 @@ fn render(a: &RenderArgs) -> Result<()> {
     };
     let mut view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
     check_dumps(a)?;
-    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
+    let extras = BackgroundExtras::load(a)?;
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
-    if let Some((size, faces)) = &sky {
-        r.set_skybox(*size, faces)?;
-        view.env.sky_cube = true;
-    }
+    view.env.sky_cube = extras.apply(&mut r)?;
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
     upload(&mut r, &particles, &s)?;
     // Timed frames re-render the static background too, so the table shows every pass.
@@ -442,12 +469,10 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
             PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
         }
     };
-    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
+    let extras = BackgroundExtras::load(a)?;
     let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
-    if let Some((size, faces)) = &sky {
-        r.set_skybox(*size, faces)?;
-    }
+    let sky_cube = extras.apply(&mut r)?;
     let total = frames.len();
     eprintln!("{}: {total} frames ({} … {}) on {}", a.scene.input, frames[0].number, frames[total - 1].number, gpu.info.name);
     let bar = indicatif::ProgressBar::new(total as u64);
@@ -468,7 +493,7 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
             };
             bar.println(format!("camera: --camera {}", camera.to_arg()));
             let mut view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
-            view.env.sky_cube = sky.is_some();
+            view.env.sky_cube = sky_cube;
             fixed = Some((s, view));
         }
         let (s, view) = fixed.as_ref().expect("set above");

@@ -36,6 +36,8 @@ pub struct Renderer {
     positions: Vec<[f32; 3]>,
     /// Particles marked as spray (left out of the surface), if any.
     spray: Option<Vec<bool>>,
+    /// The background mesh's BVH (placeholders and node count 0 without one).
+    mesh: crate::passes::background::MeshBuffers,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
 }
@@ -61,6 +63,11 @@ impl Renderer {
             positions: vec![],
             spray: None,
             iso: None,
+            mesh: crate::passes::background::MeshBuffers {
+                nodes: upload_buffer(gpu, "bvh_nodes", &[0; 32], None)?,
+                triangles: upload_buffer(gpu, "bvh_triangles", &[0; 48], None)?,
+                node_count: 0,
+            },
             background_key: None,
             always_render_background: false,
             keep_raw_depth: false,
@@ -119,6 +126,27 @@ impl Renderer {
         let hit = !self.always_render_background && self.background_key.as_deref() == Some(key.as_str());
         self.background_key = Some(key);
         hit
+    }
+
+    /// The background mesh's buffers (placeholders when none is set).
+    pub fn background_mesh(&self) -> &crate::passes::background::MeshBuffers {
+        &self.mesh
+    }
+
+    /// Add a triangle mesh (world coordinates) to the background scene.
+    pub fn set_background_mesh(&mut self, mesh: &crate::mesh::Mesh) -> Result<()> {
+        let bvh = crate::mesh::GpuBvh::build(mesh);
+        let limit = self.gpu.info.max_storage_buffer_range;
+        if bvh.triangles.len() as u64 * 16 > limit {
+            return Err(Error::Limit(format!("a mesh of {} triangles exceeds the storage buffer limit of {limit} bytes", mesh.triangles.len())));
+        }
+        self.mesh = crate::passes::background::MeshBuffers {
+            nodes: upload_buffer(&self.gpu, "bvh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
+            triangles: upload_buffer(&self.gpu, "bvh_triangles", bytemuck::cast_slice(&bvh.triangles), None)?,
+            node_count: bvh.len() as u32,
+        };
+        self.background_key = None;
+        Ok(())
     }
 
     /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::sky`). Set
@@ -211,11 +239,11 @@ impl Renderer {
         let count = self.count;
         let d_near = self.nearest_depth(view, s);
         let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), d_near);
-        let (passes, uniforms, gpu, views, sky) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky);
+        let (passes, uniforms, gpu, views, sky, mesh) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky, &self.mesh);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, cf, sky, cached)?;
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, cf, (sky, mesh), cached)?;
             if let Some((mode, values, overlay)) = demo {
                 let smoothed_img = t.smoothed(sm);
                 let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);

@@ -72,6 +72,26 @@ fn corrupt_file_gives_one_line_error_and_no_png() {
 }
 
 #[test]
+fn bad_background_obj_is_a_one_line_error_with_the_byte_offset() {
+    let d = tmpdir("obj");
+    let obj = d.join("bad.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    let out = d.join("never.png");
+    let o = meniscus()
+        .args(["render", "drop", "--particles", "500", "--width", "32", "--height", "24", "--background-obj"])
+        .arg(&obj)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bad.obj") && err.contains("byte 16") && err.contains("index 9"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
 fn bad_flags_are_errors_not_panics() {
     for args in [
         vec!["render", "no-such-scene"],

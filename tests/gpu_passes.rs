@@ -418,7 +418,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.background.record(&mut ctx, &r.uniforms, &r.sky, &t.scene_color, &t.scene_depth);
+        r.passes.background.record(&mut ctx, &r.uniforms, &r.sky, r.background_mesh(), &t.scene_color, &t.scene_depth);
         r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
         r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s);
         Ok(())
@@ -834,5 +834,48 @@ fn iso_surface_matches_cpu_ray_cast() {
     assert!(mismatch * 200 <= both, "coverage differs on {mismatch} of {both} pixels");
     assert!(close * 100 >= both * 99, "{close} of {both} pixels within 0.01 r");
     assert!(max_err < 0.5 * r, "max depth difference {max_err}");
+    assert_clean(&gpu);
+}
+
+/// An OBJ mesh in the background: scene depth equals the CPU ray cast of the same triangles (a tilted
+/// quad and a tetrahedron), and the rest stays sky.
+#[test]
+fn background_mesh_depth_matches_cpu_ray_cast() {
+    use glam::Vec3;
+    let gpu = gpu();
+    let (w, h) = (96usize, 64usize);
+    let obj = b"v -1 -0.6 -0.5\nv 1 -0.6 0.2\nv 1 0.4 0.2\nv -1 0.4 -0.5\nf 1 2 3 4\n\
+v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 6 7 8\nf 5 7 8\n";
+    let mesh = meniscus::mesh::Mesh::parse_obj(obj).unwrap();
+    let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
+    let mut s = settings(0.05);
+    s.filter = Filter::None;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.set_particles(&[[10.0, 10.0, 10.0]], None).unwrap();
+    r.set_background_mesh(&mesh).unwrap();
+    r.render(&v, &s).unwrap();
+    let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().scene_depth).unwrap();
+    let inv = v.camera.view().inverse();
+    let f = v.camera.focal_px(h as u32) as f64;
+    let (mut hit, mut max_err, mut mismatch) = (0, 0f32, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let dv = pixel_dir(x, y, w, h, f);
+            let d = inv.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
+            let got = depth[y * w + x];
+            match mesh.intersect(v.camera.eye, d) {
+                Some((t, _)) if got.is_finite() => {
+                    hit += 1;
+                    max_err = max_err.max((got - t).abs());
+                }
+                None if got.is_infinite() => {}
+                _ => mismatch += 1,
+            }
+        }
+    }
+    assert!(hit > 1000, "{hit} mesh pixels");
+    // Pixels whose centre ray grazes a shared edge may differ.
+    assert!(mismatch <= 4, "{mismatch} pixels disagree on coverage");
+    assert!(max_err < 1e-4, "max depth error {max_err}");
     assert_clean(&gpu);
 }

@@ -1,0 +1,276 @@
+//! A background mesh from an OBJ file (`--background-obj`): the parser, a bounding volume hierarchy the
+//! `background` pass walks on the GPU (shaders_glsl/background.comp), and a brute-force CPU intersection the
+//! tests hold the traversal to.
+//!
+//! OBJ: `v x y z` and `f` with `i`, `i/t`, `i//n`, `i/t/n` (1-based, negative = relative); polygons are
+//! fan-triangulated; everything else (normals, texture coordinates, groups, materials) is ignored. Errors
+//! name the file, the byte offset of the line and the reason. BVH: binary, split at the median centroid on
+//! the longest axis, leaves of at most 4 triangles (a plain, well-known build; fine for background meshes).
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+
+/// Leaf size of the BVH.
+const LEAF: usize = 4;
+/// Depth bound of the BVH (the shader's traversal stack holds this many entries).
+pub const MAX_DEPTH: usize = 32;
+
+/// Triangles in world space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub triangles: Vec<[Vec3; 3]>,
+}
+
+impl Mesh {
+    /// Read an OBJ file.
+    pub fn load_obj(path: &Path) -> Result<Mesh> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Mesh::parse_obj(&bytes).map_err(|(offset, reason)| Error::Parse { path: path.to_path_buf(), offset, reason })
+    }
+
+    /// Parse OBJ text; errors are (byte offset, reason).
+    pub fn parse_obj(bytes: &[u8]) -> std::result::Result<Mesh, (u64, String)> {
+        let text = std::str::from_utf8(bytes).map_err(|e| (e.valid_up_to() as u64, "not UTF-8 text".to_string()))?;
+        let mut verts: Vec<Vec3> = vec![];
+        let mut triangles = vec![];
+        let mut offset = 0u64;
+        for line in text.split_inclusive('\n') {
+            let at = offset;
+            offset += line.len() as u64;
+            let line = line.split('#').next().unwrap_or("").trim();
+            let mut it = line.split_whitespace();
+            match it.next() {
+                Some("v") => {
+                    let mut c = [0f32; 3];
+                    for v in c.iter_mut() {
+                        let tok = it.next().ok_or((at, "vertex with fewer than 3 coordinates".to_string()))?;
+                        *v = tok.parse().map_err(|_| (at, format!("bad vertex coordinate {tok:?}")))?;
+                        if !v.is_finite() {
+                            return Err((at, format!("non-finite vertex coordinate {tok:?}")));
+                        }
+                    }
+                    verts.push(Vec3::from(c));
+                }
+                Some("f") => {
+                    let mut idx = vec![];
+                    for tok in it {
+                        let first = tok.split('/').next().unwrap_or("");
+                        let i: i64 = first.parse().map_err(|_| (at, format!("bad face index {tok:?}")))?;
+                        let n = verts.len() as i64;
+                        let k = if i > 0 { i - 1 } else { n + i };
+                        if i == 0 || k < 0 || k >= n {
+                            return Err((at, format!("face index {i} is outside the {n} vertices defined so far")));
+                        }
+                        idx.push(k as usize);
+                    }
+                    if idx.len() < 3 {
+                        return Err((at, "face with fewer than 3 vertices".to_string()));
+                    }
+                    for k in 1..idx.len() - 1 {
+                        triangles.push([verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]]);
+                    }
+                }
+                _ => {}
+            }
+        }
+        if triangles.is_empty() {
+            return Err((0, "no faces (f lines) in the file".to_string()));
+        }
+        Ok(Mesh { triangles })
+    }
+
+    /// Nearest hit t > 0 of `o + t·d` and the geometric normal facing the ray (brute force, the reference).
+    pub fn intersect(&self, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
+        let mut best: Option<(f32, Vec3)> = None;
+        for tri in &self.triangles {
+            if let Some(t) = ray_triangle(o, d, tri) {
+                if best.is_none_or(|b| t < b.0) {
+                    let mut n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+                    if n.dot(d) > 0.0 {
+                        n = -n;
+                    }
+                    best = Some((t, n));
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Möller–Trumbore; the same arithmetic as `ray_triangle` in background.comp.
+pub fn ray_triangle(o: Vec3, d: Vec3, t: &[Vec3; 3]) -> Option<f32> {
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - t[0];
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let tt = e2.dot(q) * inv;
+    (tt > 0.0).then_some(tt)
+}
+
+/// The BVH flattened for the GPU: nodes as two vec4 (min, w = right child or first triangle as float bits;
+/// max, w = triangle count as float bits, 0 for an inner node whose left child follows it), triangles as
+/// three vec4 each, in leaf order.
+#[derive(Clone, Debug, Default)]
+pub struct GpuBvh {
+    pub nodes: Vec<[f32; 4]>,
+    pub triangles: Vec<[f32; 4]>,
+}
+
+impl GpuBvh {
+    pub fn build(mesh: &Mesh) -> GpuBvh {
+        let mut order: Vec<usize> = (0..mesh.triangles.len()).collect();
+        let centroid = |i: usize| (mesh.triangles[i][0] + mesh.triangles[i][1] + mesh.triangles[i][2]) / 3.0;
+        let mut out = GpuBvh::default();
+        fn node(mesh: &Mesh, order: &mut [usize], first: usize, depth: usize, out: &mut GpuBvh, centroid: &dyn Fn(usize) -> Vec3) {
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for &i in order.iter() {
+                for v in mesh.triangles[i] {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            let me = out.nodes.len();
+            out.nodes.push([lo.x, lo.y, lo.z, 0.0]);
+            out.nodes.push([hi.x, hi.y, hi.z, 0.0]);
+            if order.len() <= LEAF || depth + 1 >= MAX_DEPTH {
+                out.nodes[me][3] = f32::from_bits(first as u32);
+                out.nodes[me + 1][3] = f32::from_bits(order.len() as u32);
+                return;
+            }
+            let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for &i in order.iter() {
+                clo = clo.min(centroid(i));
+                chi = chi.max(centroid(i));
+            }
+            let ext = chi - clo;
+            let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+            let mid = order.len() / 2;
+            order.select_nth_unstable_by(mid, |a, b| centroid(*a)[axis].total_cmp(&centroid(*b)[axis]));
+            let (left, right) = order.split_at_mut(mid);
+            node(mesh, left, first, depth + 1, out, centroid);
+            let right_index = out.nodes.len() / 2;
+            out.nodes[me][3] = f32::from_bits(right_index as u32);
+            node(mesh, right, first + mid, depth + 1, out, centroid);
+        }
+        if !order.is_empty() {
+            node(mesh, &mut order, 0, 0, &mut out, &centroid);
+        }
+        for &i in &order {
+            for v in mesh.triangles[i] {
+                out.triangles.push([v.x, v.y, v.z, 0.0]);
+            }
+        }
+        out
+    }
+
+    /// Node count.
+    pub fn len(&self) -> usize {
+        self.nodes.len() / 2
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// CPU walk of the flattened BVH, mirroring the shader's traversal (for tests).
+    pub fn intersect(&self, o: Vec3, d: Vec3) -> Option<f32> {
+        if self.is_empty() {
+            return None;
+        }
+        let inv = Vec3::ONE / d;
+        let mut stack = vec![0usize];
+        let mut best = f32::INFINITY;
+        while let Some(n) = stack.pop() {
+            let a = self.nodes[2 * n];
+            let b = self.nodes[2 * n + 1];
+            let t0 = (Vec3::new(a[0], a[1], a[2]) - o) * inv;
+            let t1 = (Vec3::new(b[0], b[1], b[2]) - o) * inv;
+            let tn = t0.min(t1).max_element().max(0.0);
+            let tf = t0.max(t1).min_element();
+            if tn > tf || tn >= best {
+                continue;
+            }
+            let count = b[3].to_bits() as usize;
+            if count > 0 {
+                let first = a[3].to_bits() as usize;
+                for k in first..first + count {
+                    let v = |j: usize| Vec3::new(self.triangles[3 * k + j][0], self.triangles[3 * k + j][1], self.triangles[3 * k + j][2]);
+                    if let Some(t) = ray_triangle(o, d, &[v(0), v(1), v(2)]) {
+                        best = best.min(t);
+                    }
+                }
+            } else {
+                stack.push(a[3].to_bits() as usize);
+                stack.push(n + 1);
+            }
+        }
+        best.is_finite().then_some(best)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obj_faces_quads_negative_indices_and_errors() {
+        let m = Mesh::parse_obj(b"# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\nf -4 -3 -2\n").unwrap();
+        assert_eq!(m.triangles.len(), 3);
+        assert_eq!(m.triangles[2], [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)]);
+        let e = Mesh::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap_err();
+        assert_eq!(e.0, 16, "{e:?}");
+        assert!(e.1.contains("index 7"));
+        assert_eq!(Mesh::parse_obj(b"v 0 0 x\n").unwrap_err().0, 0);
+        assert!(Mesh::parse_obj(b"v 0 0 0\n").unwrap_err().1.contains("no faces"));
+        assert!(Mesh::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2\n").is_err());
+        assert!(Mesh::parse_obj(&[b'v', b' ', 0xff]).is_err());
+    }
+
+    #[test]
+    fn bvh_walk_equals_brute_force() {
+        // A ring of 300 small random triangles.
+        let mut seed = 7u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut tris = vec![];
+        for _ in 0..300 {
+            let c = Vec3::new(rnd() * 4.0 - 2.0, rnd() * 2.0, rnd() * 4.0 - 2.0);
+            tris.push([c, c + Vec3::new(rnd(), rnd(), rnd()) * 0.4, c + Vec3::new(rnd(), rnd(), rnd()) * 0.4]);
+        }
+        let mesh = Mesh { triangles: tris };
+        let bvh = GpuBvh::build(&mesh);
+        assert_eq!(bvh.triangles.len(), 900);
+        let mut hits = 0;
+        for i in 0..2000 {
+            let o = Vec3::new(0.1, 1.0, 6.0);
+            let d = Vec3::new((i % 50) as f32 / 50.0 - 0.5, (i / 50) as f32 / 40.0 * 0.6 - 0.3, -1.0);
+            let want = mesh.intersect(o, d).map(|h| h.0);
+            let got = bvh.intersect(o, d);
+            assert_eq!(want.is_some(), got.is_some(), "ray {i}");
+            if let (Some(a), Some(b)) = (want, got) {
+                assert!((a - b).abs() < 1e-5, "ray {i}: {a} vs {b}");
+                hits += 1;
+            }
+        }
+        assert!(hits > 100, "{hits} hits");
+    }
+}
