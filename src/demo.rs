@@ -58,6 +58,8 @@ pub struct DemoOptions {
     pub frames: Option<u64>,
     pub screenshot: Option<PathBuf>,
     pub fps: f32,
+    /// Background mesh (`--background-obj`).
+    pub mesh: Option<crate::mesh::Mesh>,
 }
 
 /// Where frames come from.
@@ -314,7 +316,10 @@ impl App {
         if !ok {
             return Err(Error::NoDevice(format!("{} cannot present to this window", gpu.info.name)));
         }
-        let renderer = Renderer::new(&gpu)?;
+        let mut renderer = Renderer::new(&gpu)?;
+        if let Some(m) = &self.o.mesh {
+            renderer.set_background_mesh(m)?;
+        }
         eprintln!("demo on {} ({}); keys:\n{HELP}", gpu.info.name, gpu.info.driver);
         let mut st = State { window, gpu, surface_loader, surface, swap: None, renderer, overlay: None, values: None };
         self.recreate_swapchain(&mut st)?;

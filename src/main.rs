@@ -50,6 +50,9 @@ struct DemoArgs {
     height: u32,
     #[command(flatten)]
     set: SettingsArgs,
+    /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene.
+    #[arg(long, value_name = "FILE")]
+    background_obj: Option<PathBuf>,
     /// Playback rate of a sequence in frames per second (before the speed factor).
     #[arg(long, default_value_t = 25.0)]
     fps: f32,
@@ -871,6 +874,7 @@ fn demo(a: &DemoArgs) -> Result<()> {
         frames: a.frames,
         screenshot: a.screenshot.clone(),
         fps: a.fps.max(0.1),
+        mesh: a.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?,
     })?;
     Ok(())
 }
