@@ -240,7 +240,8 @@ struct SettingsArgs {
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
     #[arg(long)]
     fluid_scale: Option<f32>,
-    /// Fluid depth: nearest particle spheres, or the ray-cast SPH iso-surface (then filtered either way).
+    /// Fluid depth: nearest particle spheres (fast), or the ray-cast SPH iso-surface (the surface splashsurf
+    /// reconstructs; a filter only blurs it: use --filter none, or --preset quality).
     #[arg(long, value_enum)]
     surface: Option<Surface>,
     /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
