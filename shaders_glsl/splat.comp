@@ -3,6 +3,8 @@
 //! splat: one thread per particle walks the pixels its sphere covers and keeps the minimum with a 32-bit
 //! atomicMin on the float's bits (positive floats order like their bit patterns; Schütz et al. 2021).
 //! No gl_FragDepth, so no early-Z to lose, and no fragment-shader arithmetic (slow on some GPUs).
+//! Pixels are walked tile by tile (8×8); with pc.cull a tile is skipped when `splat_cull`'s occlusion bound
+//! proves the sphere hidden there (a software Hi-Z test; the output is unchanged).
 //! In:  particles (vec4: world xyz, w: radius, 0 = frame radius, < 0 = spray: not part of the surface).
 //! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
 //!      back (same layout, cleared to 0), only when pc.back = 1: the FARTHEST exit depth of the spheres, where
@@ -13,7 +15,19 @@ layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D depth_bits;
 layout(set = 0, binding = 3, r32ui) uniform coherent uimage2D back_bits;
-layout(push_constant) uniform Push { uint count; uint max_pixels; float radius_scale; uint back; } pc;
+// Occlusion bound per tile from `splat_cull` (float bits); used when pc.cull = 1 (not with `back`, which
+// needs every sphere's exit).
+layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D tiles;
+layout(push_constant) uniform Push { uint count; uint max_pixels; float radius_scale; uint back; uint cull; uint tile; } pc;
+
+/// Nearest entry (atomicMin) and, with pc.back, farthest exit (atomicMax) of the sphere at pixel q.
+void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
+    float d_in, d_out;
+    if (!ray_sphere(pixel_dir(vec2(q), size, F), c, r, d_in, d_out)) return;
+    if (d_out < near) return;
+    imageAtomicMin(depth_bits, q, floatBitsToUint(max(d_in, near)));
+    if (pc.back != 0u) imageAtomicMax(back_bits, q, floatBitsToUint(d_out));
+}
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -33,13 +47,22 @@ void main() {
     // Bound the work of one thread (a sphere swallowing the camera); such a sphere is clipped, not dropped.
     uint area = uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1);
     if (area > pc.max_pixels) return;
-    for (int y = lo.y; y <= hi.y; ++y) {
-        for (int x = lo.x; x <= hi.x; ++x) {
-            float d_in, d_out;
-            if (!ray_sphere(pixel_dir(vec2(x, y), size, F), c, r, d_in, d_out)) continue;
-            if (d_out < near) continue;
-            imageAtomicMin(depth_bits, ivec2(x, y), floatBitsToUint(max(d_in, near)));
-            if (pc.back != 0u) imageAtomicMax(back_bits, ivec2(x, y), floatBitsToUint(d_out));
+    if (pc.cull == 0u) {
+        for (int y = lo.y; y <= hi.y; ++y) {
+            for (int x = lo.x; x <= hi.x; ++x) splat_pixel(ivec2(x, y), c, r, size, F, near);
+        }
+        return;
+    }
+    int T = int(pc.tile);
+    uint nearest = floatBitsToUint(max(-c.z - r, near));
+    for (int ty = lo.y / T; ty <= hi.y / T; ++ty) {
+        for (int tx = lo.x / T; tx <= hi.x / T; ++tx) {
+            // Hidden in this whole tile: every pixel already ends at or before the bound.
+            if (nearest >= imageLoad(tiles, ivec2(tx, ty)).x) continue;
+            ivec2 a = max(lo, ivec2(tx, ty) * T), b = min(hi, ivec2(tx, ty) * T + T - 1);
+            for (int y = a.y; y <= b.y; ++y) {
+                for (int x = a.x; x <= b.x; ++x) splat_pixel(ivec2(x, y), c, r, size, F, near);
+            }
         }
     }
 }

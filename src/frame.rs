@@ -128,6 +128,8 @@ pub struct Targets {
     pub smooth_b: Image,
     /// Farthest exit depth of the splatted spheres (`surface = "iso"` only; 1×1 otherwise), R32F + R32_UINT view.
     pub depth_back: Image,
+    /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
+    pub depth_tiles: Image,
     /// D32 depth buffer of the rasterised splat variants (1×1 when the compute splat runs).
     pub zbuffer: Image,
     /// Full-resolution depth upsampled from the fluid resolution (unused at fluid scale 1).
@@ -168,6 +170,16 @@ impl Targets {
                 storage,
                 Some(vk::Format::R32_UINT),
             )?,
+            depth_tiles: img(
+                "depth_tiles",
+                vk::Extent2D {
+                    width: fluid.width.div_ceil(crate::passes::splat::TILE),
+                    height: fluid.height.div_ceil(crate::passes::splat::TILE),
+                },
+                vk::Format::R32_UINT,
+                storage,
+                None,
+            )?,
             zbuffer: img(
                 "zbuffer",
                 if s.splat.depth_tested() { fluid } else { tiny },
@@ -206,6 +218,7 @@ impl Targets {
             &self.depth_full,
             &self.zbuffer,
             &self.depth_back,
+            &self.depth_tiles,
             &self.thickness_accum,
             &self.thickness,
             &self.normals,
@@ -272,7 +285,7 @@ pub fn record_frame(
     count: u32,
     iso: Option<&IsoBuffers>,
     s: &Settings,
-    cf_iterations: u32,
+    (cf_iterations, splat_cull): (u32, bool),
     (sky, mesh): (&Image, &crate::passes::background::MeshBuffers),
     background_cached: bool,
 ) -> Result<Smoothed> {
@@ -283,7 +296,7 @@ pub fn record_frame(
     match s.splat {
         SplatMode::Compute => {
             let back = s.surface == Surface::Iso && t.depth_back.extent == t.depth.extent;
-            p.splat.record(ctx, frame, particles, count, &t.depth, &t.depth_back, back, s.splat_scale())
+            p.splat.record(ctx, frame, particles, count, &t.depth, &t.depth_back, &t.depth_tiles, back, splat_cull, s.splat_scale())
         }
         mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_scale(), mode)?,
     }

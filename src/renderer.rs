@@ -239,11 +239,15 @@ impl Renderer {
         let count = self.count;
         let d_near = self.nearest_depth(view, s);
         let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), d_near);
+        // Sphere size in fluid pixels at the camera's target distance decides the splat's occlusion pre-pass.
+        let fluid_h = t.depth.extent.height;
+        let typical = (view.camera.eye - view.camera.target).length().max(view.camera.near);
+        let cull = crate::passes::splat::cull_pays(view.camera.focal_px(fluid_h) * s.radius * s.splat_scale() / typical);
         let (passes, uniforms, gpu, views, sky, mesh) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky, &self.mesh);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, cf, (sky, mesh), cached)?;
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, (cf, cull), (sky, mesh), cached)?;
             if let Some((mode, values, overlay)) = demo {
                 let smoothed_img = t.smoothed(sm);
                 let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);

@@ -879,3 +879,39 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
     assert!(max_err < 1e-4, "max depth error {max_err}");
     assert_clean(&gpu);
 }
+
+/// The splat's occlusion pre-pass (`splat_cull`, on when spheres span tiles) changes nothing: a dense block
+/// of large spheres splats bit-identically to the rasterised MIN-blend variant, which has no culling.
+#[test]
+fn occlusion_culled_splat_equals_unculled_raster() {
+    use meniscus::settings::SplatMode;
+    let gpu = gpu();
+    let g = meniscus::scene::procedural::generate("block", 4000).unwrap();
+    let (w, h) = (320u32, 240u32);
+    let b = meniscus::scene::percentile_bounds(&g.particles.positions, 0.0).unwrap();
+    let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
+    v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
+    // Close up: the block fills the view and its spheres span several tiles.
+    v.camera.eye = v.camera.target + (v.camera.eye - v.camera.target) * 0.45;
+    let dist = (v.camera.eye - v.camera.target).length();
+    let mut out = vec![];
+    for mode in [SplatMode::Compute, SplatMode::QuadMin] {
+        let mut s = settings(g.radius);
+        s.filter = Filter::None;
+        s.splat = mode;
+        if mode == SplatMode::Compute {
+            let px = v.camera.focal_px(h) * s.radius * s.splat_scale() / dist;
+            assert!(meniscus::passes::splat::cull_pays(px), "spheres of {px} px must take the culled path");
+        }
+        let mut r = Renderer::new(&gpu).unwrap();
+        r.keep_raw_depth = true;
+        r.set_particles(&g.particles.positions, None).unwrap();
+        r.render(&v, &s).unwrap();
+        out.push(read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap());
+    }
+    assert!(out[0].iter().filter(|d| d.is_finite()).count() > 5000);
+    for i in 0..out[0].len() {
+        assert!(out[0][i] == out[1][i] || (out[0][i] - out[1][i]).abs() < 1e-6, "pixel {i}: {} vs {}", out[0][i], out[1][i]);
+    }
+    assert_clean(&gpu);
+}

@@ -17,8 +17,12 @@ pub const NAME: &str = "splat";
 /// Per-thread pixel budget: a sphere covering more (it swallowed the camera) is skipped.
 pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
 
+/// Tile size of the occlusion bound (`splat_cull`).
+pub const TILE: u32 = 8;
+
 pub struct Splat {
     prog: ComputeProgram,
+    cull: ComputeProgram,
     /// Rasterised variants, by mode; None where the device lacks what the variant needs.
     raster: Vec<(SplatMode, Option<GraphicsProgram>)>,
 }
@@ -55,7 +59,11 @@ impl Splat {
             let prog = if min && !can_blend { None } else { Some(GraphicsProgram::new(gpu, NAME, vert, frag, &[UBO, SSBO], 16, t)?) };
             raster.push((mode, prog));
         }
-        Ok(Splat { prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG, IMG], 16)?, raster })
+        Ok(Splat {
+            prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG, IMG, IMG], 24)?,
+            cull: ComputeProgram::new(gpu, NAME, shaders::SPLAT_CULL, &[UBO, SSBO, IMG], 24)?,
+            raster,
+        })
     }
 
     /// Whether `mode` can run on this device.
@@ -114,8 +122,10 @@ impl Splat {
     }
 
     /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it; with `back`, also the
-    /// farthest sphere exit per pixel into `back_img` (cleared to 0). `radius_scale`: spheres of this many
-    /// particle radii.
+    /// farthest sphere exit per pixel into `back_img` (cleared to 0). With `cull` (and without `back`, which
+    /// needs every sphere), `splat_cull` first bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip
+    /// the tile; worth it when spheres span tiles (see `cull_pays`). `radius_scale`: spheres of this
+    /// many particle radii.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -125,24 +135,52 @@ impl Splat {
         count: u32,
         depth: &Image,
         back_img: &Image,
+        tiles: &Image,
         back: bool,
+        cull: bool,
         radius_scale: f32,
     ) {
-        let uses = [Use::Image(depth, Access::TransferDst, true), Use::Image(back_img, Access::TransferDst, true)];
+        let uses = [
+            Use::Image(depth, Access::TransferDst, true),
+            Use::Image(back_img, Access::TransferDst, true),
+            Use::Image(tiles, Access::TransferDst, true),
+        ];
         ctx.pass(NAME, &uses, |ctx| {
             clear(ctx, depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
             clear(ctx, back_img, vk::ClearColorValue { float32: [0.0; 4] });
-            ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(depth), Use::write(back_img)]);
-            let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits(), back as u32];
+            clear(ctx, tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
+            let cull = cull && !back;
+            if cull {
+                ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(tiles)]);
+                let push = [count, radius_scale.to_bits(), TILE, 0, depth.extent.width, depth.extent.height];
+                let binds = [Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::Storage(tiles)];
+                self.cull.dispatch(ctx, &binds, bytemuck::cast_slice(&push), groups);
+            }
+            ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(depth), Use::write(back_img), Use::read(tiles)]);
+            let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits(), back as u32, cull as u32, TILE];
             self.prog.dispatch(
                 ctx,
-                &[Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::StorageAlt(depth), Bind::StorageAlt(back_img)],
+                &[
+                    Bind::Uniform(frame),
+                    Bind::StorageBuf(particles),
+                    Bind::StorageAlt(depth),
+                    Bind::StorageAlt(back_img),
+                    Bind::Storage(tiles),
+                ],
                 bytemuck::cast_slice(&push),
                 groups,
             );
         });
     }
+}
+
+/// Whether the occlusion pre-pass pays: spheres of `radius_px` pixels (at the camera's target distance) reach
+/// half a tile. Measured on lavapipe, moritz preset, splat ms without → with the pre-pass: worst case (block
+/// filling the screen) 912 → 183 at 1920×1080 and 235 → 76 at 960×540; wave and crown 1 unchanged (their
+/// spheres stay below the threshold or barely hide each other).
+pub fn cull_pays(radius_px: f32) -> bool {
+    radius_px >= TILE as f32 * 0.5
 }
 
 /// Clear a whole image that is in TRANSFER_DST layout (the caller declared `Access::TransferDst`).
