@@ -63,9 +63,10 @@ impl Renderer {
             positions: vec![],
             spray: None,
             iso: None,
+            // Never read (node count 0): empty placeholders, no upload at start-up.
             mesh: crate::passes::background::MeshBuffers {
-                nodes: upload_buffer(gpu, "bvh_nodes", &[0; 32], None)?,
-                triangles: upload_buffer(gpu, "bvh_triangles", &[0; 48], None)?,
+                nodes: upload_buffer(gpu, "bvh_nodes", &[], None)?,
+                triangles: upload_buffer(gpu, "bvh_triangles", &[], None)?,
                 node_count: 0,
             },
             background_key: None,
@@ -103,8 +104,7 @@ impl Renderer {
                 [p[0], p[1], p[2], w]
             })
             .collect();
-        let reuse = self.particles.take().filter(|b| b.size >= bytes.max(16));
-        self.particles = Some(upload_buffer(&self.gpu, "particles", bytemuck::cast_slice(&data), reuse)?);
+        self.particles = Some(upload_buffer(&self.gpu, "particles", bytemuck::cast_slice(&data), self.particles.take())?);
         self.count = n as u32;
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
@@ -136,10 +136,6 @@ impl Renderer {
     /// Add a triangle mesh (world coordinates) to the background scene.
     pub fn set_background_mesh(&mut self, mesh: &crate::mesh::Mesh) -> Result<()> {
         let bvh = crate::mesh::GpuBvh::build(mesh);
-        let limit = self.gpu.info.max_storage_buffer_range;
-        if bvh.triangles.len() as u64 * 16 > limit {
-            return Err(Error::Limit(format!("a mesh of {} triangles exceeds the storage buffer limit of {limit} bytes", mesh.triangles.len())));
-        }
         self.mesh = crate::passes::background::MeshBuffers {
             nodes: upload_buffer(&self.gpu, "bvh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
             triangles: upload_buffer(&self.gpu, "bvh_triangles", bytemuck::cast_slice(&bvh.triangles), None)?,
@@ -230,10 +226,12 @@ impl Renderer {
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
         let cached = self.background_cached(view, s);
-        if s.surface == crate::settings::Surface::Iso {
+        let iso = if s.surface == crate::settings::Surface::Iso {
             self.ensure_iso(s.iso_support * s.radius)?;
-        }
-        let iso = if s.surface == crate::settings::Surface::Iso { self.iso.as_ref() } else { None };
+            self.iso.as_ref()
+        } else {
+            None
+        };
         let particles = self.particles.as_ref().ok_or_else(|| Error::Invalid("no particles uploaded".into()))?;
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
@@ -278,7 +276,7 @@ impl Renderer {
     /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`
     /// (world units), unless it is there already.
     fn ensure_iso(&mut self, support: f32) -> Result<()> {
-        if self.iso.as_ref().is_some_and(|b| b.grid.support == support) {
+        if self.iso.as_ref().is_some_and(|b| b.shape.support() == support) {
             return Ok(());
         }
         let pts: Vec<[f32; 3]> = match &self.spray {
@@ -286,10 +284,6 @@ impl Renderer {
             None => self.positions.clone(),
         };
         let grid = crate::iso::IsoGrid::build(&pts, support);
-        let limit = self.gpu.info.max_storage_buffer_range;
-        if (grid.points.len() as u64 * 16).max(grid.cells.len() as u64 * 8) > limit {
-            return Err(Error::Limit(format!("the iso grid of {} particles exceeds the storage buffer limit of {limit} bytes", grid.points.len())));
-        }
         self.iso = None;
         let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?;
         let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?;
@@ -300,7 +294,8 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
-        self.iso = Some(crate::passes::iso::IsoBuffers { points, cells, weights, grid });
+        let shape = crate::passes::iso::IsoPush::shape(&grid);
+        self.iso = Some(crate::passes::iso::IsoBuffers { points, cells, weights, shape });
         Ok(())
     }
 
@@ -330,9 +325,13 @@ impl Renderer {
     }
 }
 
-/// A GPU-local storage buffer holding `data` (via a staging copy); `reuse` is filled instead of allocating
-/// when it is given (it must be large enough).
+/// A GPU-local storage buffer holding `data` (via a staging copy; none for empty data); `reuse` is filled
+/// instead of allocating when it is large enough. More than the device's storage buffer range is an error.
 pub fn upload_buffer(gpu: &Arc<Gpu>, name: &str, data: &[u8], reuse: Option<Buffer>) -> Result<Buffer> {
+    let limit = gpu.info.max_storage_buffer_range;
+    if data.len() as u64 > limit {
+        return Err(Error::Limit(format!("{name}: {} bytes exceed this device's storage buffer limit of {limit} bytes", data.len())));
+    }
     let size = (data.len() as u64).max(16);
     let dst = match reuse {
         Some(b) if b.size >= size => b,

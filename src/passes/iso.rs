@@ -13,12 +13,13 @@ use crate::shaders;
 
 pub const NAME: &str = "iso";
 
-/// The grid on the device.
+/// The grid on the device, and its shape (origin, cell, dims, point count, support) as push constants; the
+/// CPU copy of the grid is not kept.
 pub struct IsoBuffers {
     pub points: Buffer,
     pub cells: Buffer,
     pub weights: Buffer,
-    pub grid: IsoGrid,
+    pub shape: IsoPush,
 }
 
 /// Push constants (IsoPush in iso_field.glsl).
@@ -32,13 +33,28 @@ pub struct IsoPush {
 }
 
 impl IsoPush {
-    pub fn new(g: &IsoGrid, p: &crate::iso::IsoParams) -> IsoPush {
+    /// The grid's shape; the march parameters are filled in by `with`.
+    pub fn shape(g: &IsoGrid) -> IsoPush {
         IsoPush {
             origin: [g.origin.x, g.origin.y, g.origin.z, g.cell],
             dims: [g.dims[0], g.dims[1], g.dims[2], g.points.len() as u32],
-            params: [g.support, p.threshold, p.step, p.bound],
-            steps: [p.max_steps, p.refine, 0, 0],
+            params: [g.support, 0.0, 0.0, 0.0],
+            steps: [0; 4],
         }
+    }
+
+    /// This shape with the march parameters `p`; `back`: the back image bounds the march.
+    pub fn with(self, p: &crate::iso::IsoParams, back: bool) -> IsoPush {
+        IsoPush {
+            params: [self.params[0], p.threshold, p.step, p.bound],
+            steps: [p.max_steps, p.refine, back as u32, 0],
+            ..self
+        }
+    }
+
+    /// Kernel support (world units).
+    pub fn support(&self) -> f32 {
+        self.params[0]
     }
 }
 
@@ -59,8 +75,7 @@ impl Iso {
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the
     /// spheres' farthest exit depth, where the march may stop (else it runs to the grid's box).
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, params: &crate::iso::IsoParams, depth: &Image, back: Option<&Image>) {
-        let mut push = IsoPush::new(&b.grid, params);
-        push.steps[2] = back.is_some() as u32;
+        let push = b.shape.with(params, back.is_some());
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
         let mut uses = vec![
@@ -75,7 +90,7 @@ impl Iso {
         }
         ctx.pass(NAME, &uses, |ctx| {
             let bufs = [Bind::Uniform(frame), Bind::StorageBuf(&b.points), Bind::StorageBuf(&b.cells), Bind::StorageBuf(&b.weights)];
-            let n = b.grid.points.len() as u32;
+            let n = b.shape.dims[3];
             self.density.dispatch(ctx, &bufs, bytemuck::bytes_of(&push), [n.div_ceil(super::LOCAL_1D), 1, 1]);
             ctx.barrier(&[Use::buf_read(&b.weights)]);
             let g = ComputeProgram::groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
