@@ -50,9 +50,6 @@ struct DemoArgs {
     height: u32,
     #[command(flatten)]
     set: SettingsArgs,
-    /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene.
-    #[arg(long, value_name = "FILE")]
-    background_obj: Option<PathBuf>,
     /// Playback rate of a sequence in frames per second (before the speed factor).
     #[arg(long, default_value_t = 25.0)]
     fps: f32,
@@ -196,6 +193,10 @@ struct SceneArgs {
     /// demo prints the current one).
     #[arg(long)]
     camera: Option<String>,
+    /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene: it is
+    /// reflected, refracted and casts shadows on the ground.
+    #[arg(long, value_name = "FILE")]
+    background_obj: Option<PathBuf>,
 }
 
 /// What `--skybox` and `--background-obj` add to the background, read (and checked) before the GPU starts.
@@ -208,7 +209,7 @@ impl BackgroundExtras {
     fn load(a: &RenderArgs) -> Result<Self> {
         Ok(BackgroundExtras {
             sky: a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?,
-            mesh: a.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?,
+            mesh: a.scene.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?,
         })
     }
 
@@ -296,10 +297,6 @@ struct RenderArgs {
     /// Sky cube map from six images DIR/{px,nx,py,ny,pz,nz}.png (default: procedural sky).
     #[arg(long, value_name = "DIR")]
     skybox: Option<PathBuf>,
-    /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene: it is
-    /// reflected, refracted and casts shadows on the ground.
-    #[arg(long, value_name = "FILE")]
-    background_obj: Option<PathBuf>,
     /// Print a per-pass GPU time table (median over the timed frames, after warm-up).
     #[arg(long)]
     timings: bool,
@@ -875,7 +872,7 @@ fn demo(a: &DemoArgs) -> Result<()> {
         frames: a.frames,
         screenshot: a.screenshot.clone(),
         fps: a.fps.max(0.1),
-        mesh: a.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?,
+        mesh: a.scene.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?,
     })?;
     Ok(())
 }
