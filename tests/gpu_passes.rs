@@ -686,48 +686,60 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     assert_clean(&gpu);
 }
 
+/// A procedural scene with the camera fitted to its `pct`…(1 − `pct`) percentile box, then moved to `closer` ×
+/// its distance from the target.
+fn splat_scene(name: &str, count: usize, w: u32, h: u32, pct: f64, closer: f32) -> (meniscus::scene::procedural::Generated, meniscus::frame::View) {
+    let g = meniscus::scene::procedural::generate(name, count).unwrap();
+    let b = meniscus::scene::percentile_bounds(&g.particles.positions, pct).unwrap();
+    let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
+    v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
+    v.camera.eye = v.camera.target + (v.camera.eye - v.camera.target) * closer;
+    (g, v)
+}
+
+/// The raw splat depth of `positions` with splat `mode` (no filter); None where the device lacks the mode.
+fn splat_depth(gpu: &std::sync::Arc<meniscus::gpu::Gpu>, positions: &[[f32; 3]], radius: f32, v: &meniscus::frame::View, mode: meniscus::settings::SplatMode) -> Option<Vec<f32>> {
+    let mut s = settings(radius);
+    s.filter = Filter::None;
+    s.splat = mode;
+    let mut r = Renderer::new(gpu).unwrap();
+    if !r.passes.splat.supports(mode) {
+        return None;
+    }
+    r.keep_raw_depth = true;
+    r.set_particles(positions, None).unwrap();
+    r.render(v, &s).unwrap();
+    Some(read_f32(gpu, &r.targets.as_ref().unwrap().depth).unwrap())
+}
+
+/// Two depth images agree pixel for pixel (equal, or within 1e-6).
+fn assert_same_depth(got: &[f32], want: &[f32], what: &str) {
+    for i in 0..got.len() {
+        assert!(got[i] == want[i] || (got[i] - want[i]).abs() < 1e-6, "{what}: pixel {i}: {} vs {}", got[i], want[i]);
+    }
+}
 /// Every rasterised splat variant produces exactly the compute splat's depth (same exact ray–sphere math).
 #[test]
 fn raster_splat_variants_equal_compute_splat() {
     use meniscus::settings::SplatMode;
     let gpu = gpu();
-    let g = meniscus::scene::procedural::generate("drop", 3000).unwrap();
-    let (w, h) = (96u32, 64u32);
-    let b = meniscus::scene::percentile_bounds(&g.particles.positions, 0.01).unwrap();
-    let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
-    v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
+    let (g, v) = splat_scene("drop", 3000, 96, 64, 0.01, 1.0);
     let mut depths = vec![];
     for mode in SplatMode::ALL {
-        let mut s = settings(g.radius);
-        s.filter = Filter::None;
-        s.splat = mode;
-        let mut r = Renderer::new(&gpu).unwrap();
-        if !r.passes.splat.supports(mode) {
-            eprintln!("{mode:?} unsupported on this device");
-            continue;
+        match splat_depth(&gpu, &g.particles.positions, g.radius, &v, mode) {
+            Some(d) => depths.push((mode, d)),
+            None => eprintln!("{mode:?} unsupported on this device"),
         }
-        r.keep_raw_depth = true;
-        r.set_particles(&g.particles.positions, None).unwrap();
-        r.render(&v, &s).unwrap();
-        depths.push((mode, read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap()));
     }
     let (_, reference) = &depths[0];
     assert!(reference.iter().filter(|d| d.is_finite()).count() > 500);
     for (mode, d) in &depths[1..] {
-        for i in 0..d.len() {
-            assert!(
-                d[i] == reference[i] || (d[i] - reference[i]).abs() < 1e-6,
-                "{mode:?}: pixel {i}: {} vs compute {}",
-                d[i],
-                reference[i]
-            );
-        }
+        assert_same_depth(d, reference, &format!("{mode:?} vs compute"));
     }
     assert!(depths.len() >= 4, "lavapipe supports all variants");
     assert_clean(&gpu);
 }
 
-/// A sky cube map from six PNG files: looking along +x shows the +x face, looking up the +y face.
 #[test]
 fn skybox_faces_from_files() {
     let gpu = gpu();
@@ -886,32 +898,14 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
 fn occlusion_culled_splat_equals_unculled_raster() {
     use meniscus::settings::SplatMode;
     let gpu = gpu();
-    let g = meniscus::scene::procedural::generate("block", 4000).unwrap();
-    let (w, h) = (320u32, 240u32);
-    let b = meniscus::scene::percentile_bounds(&g.particles.positions, 0.0).unwrap();
-    let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
-    v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
     // Close up: the block fills the view and its spheres span several tiles.
-    v.camera.eye = v.camera.target + (v.camera.eye - v.camera.target) * 0.45;
+    let (g, v) = splat_scene("block", 4000, 320, 240, 0.0, 0.45);
     let dist = (v.camera.eye - v.camera.target).length();
-    let mut out = vec![];
-    for mode in [SplatMode::Compute, SplatMode::QuadMin] {
-        let mut s = settings(g.radius);
-        s.filter = Filter::None;
-        s.splat = mode;
-        if mode == SplatMode::Compute {
-            let px = v.camera.focal_px(h) * s.radius * s.splat_scale() / dist;
-            assert!(meniscus::passes::splat::cull_pays(px), "spheres of {px} px must take the culled path");
-        }
-        let mut r = Renderer::new(&gpu).unwrap();
-        r.keep_raw_depth = true;
-        r.set_particles(&g.particles.positions, None).unwrap();
-        r.render(&v, &s).unwrap();
-        out.push(read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap());
-    }
-    assert!(out[0].iter().filter(|d| d.is_finite()).count() > 5000);
-    for i in 0..out[0].len() {
-        assert!(out[0][i] == out[1][i] || (out[0][i] - out[1][i]).abs() < 1e-6, "pixel {i}: {} vs {}", out[0][i], out[1][i]);
-    }
+    let px = v.camera.focal_px(v.height) * g.radius * settings(g.radius).splat_scale() / dist;
+    assert!(meniscus::passes::splat::cull_pays(px), "spheres of {px} px must take the culled path");
+    let culled = splat_depth(&gpu, &g.particles.positions, g.radius, &v, SplatMode::Compute).unwrap();
+    let raster = splat_depth(&gpu, &g.particles.positions, g.radius, &v, SplatMode::QuadMin).unwrap();
+    assert!(culled.iter().filter(|d| d.is_finite()).count() > 5000);
+    assert_same_depth(&culled, &raster, "culled compute vs quad-min");
     assert_clean(&gpu);
 }
