@@ -51,7 +51,7 @@ struct DemoArgs {
     #[command(flatten)]
     set: SettingsArgs,
     /// Playback rate of a sequence in frames per second (before the speed factor).
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 25.0)]
     fps: f32,
     /// Present without vsync (IMMEDIATE or MAILBOX when the driver has them).
     #[arg(long)]
@@ -92,10 +92,10 @@ struct BenchArgs {
     #[arg(long, default_value_t = 10)]
     frames: u32,
     /// Particle radius for file workloads (default: estimated from the spacing).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     radius: Option<f32>,
     /// Camera for file workloads, EYE:TARGET[:FOVY] (default: fitted).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     camera: Option<String>,
     /// Also measure design variants on the first workload and resolution (same run, so ratios compare):
     /// each splat mode (compute, quads/points with gl_FragDepth, conservative depth, MIN blending), each
@@ -150,7 +150,7 @@ struct LoadArgs {
     #[arg(long, value_parser = ["y", "z"], default_value = "y")]
     up: String,
     /// Multiply positions, radii and velocities by this (unit conversion).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
     scale: f32,
 }
 
@@ -191,7 +191,7 @@ struct SceneArgs {
     particles: Option<usize>,
     /// Camera as EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45 (default: fitted to the particles; C in the
     /// demo prints the current one).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     camera: Option<String>,
     /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene: it is
     /// reflected, refracted and casts shadows on the ground.
@@ -239,7 +239,7 @@ struct SettingsArgs {
     #[arg(long, value_enum)]
     filter: Option<Filter>,
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     fluid_scale: Option<f32>,
     /// Fluid depth: nearest particle spheres (fast), or the ray-cast SPH iso-surface (the surface splashsurf
     /// reconstructs; a filter only blurs it: use --filter none, or --preset quality).

@@ -58,3 +58,17 @@ pub fn ray_sphere(dir: [f64; 3], c: [f64; 3], r: f64) -> Option<(f64, f64)> {
     let h2 = r * r - (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
     (h2 >= 0.0).then(|| ((tc - h2.sqrt()) / len, (tc + h2.sqrt()) / len))
 }
+
+/// A folder or file of `../shared/data` (relative to it). Missing data FAILS under `CI=true` (the data is there in
+/// CI, so its absence means a broken set-up); outside CI it returns None and the test says it checked nothing.
+pub fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(rel);
+    if p.exists() {
+        return Some(p);
+    }
+    if std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "0" && v != "false") {
+        panic!("shared data {} is missing under CI=true: this test must not pass without it", p.display());
+    }
+    eprintln!("shared data {} not present: this test checked nothing (it fails under CI=true)", p.display());
+    None
+}
