@@ -10,7 +10,9 @@ use meniscus::scene::{bgeo, csv, parse_raw, ply, realflow, vtk, vtu, xyz, Format
 fn main() {
     let n = std::env::var("MENISCUS_BENCH_PARTICLES").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000usize);
     let p = Particles {
-        positions: (0..n).map(|i| [(i % 100) as f32 * 0.01, (i / 100 % 100) as f32 * 0.01, (i / 10000) as f32 * 0.01]).collect(),
+        positions: (0..n)
+            .map(|i| [(i % 100) as f32 * 0.01, (i / 100 % 100) as f32 * 0.01, (i / 10000) as f32 * 0.01])
+            .collect(),
         velocities: Some((0..n).map(|i| [1.0, (i % 7) as f32, -2.0]).collect()),
         densities: Some((0..n).map(|i| 1000.0 + (i % 13) as f32).collect()),
         ids: Some((0..n as i64).collect()),

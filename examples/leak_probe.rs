@@ -124,7 +124,10 @@ fn reuse(gpu: &Arc<Gpu>) -> meniscus::Result<impl FnMut() -> meniscus::Result<()
     let d = gpu.device.clone();
     let pi = vk::CommandPoolCreateInfo::default().queue_family_index(gpu.queue_family);
     let pool = unsafe { d.create_command_pool(&pi, None) }.vk("vkCreateCommandPool")?;
-    let ai = vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+    let ai = vk::CommandBufferAllocateInfo::default()
+        .command_pool(pool)
+        .level(vk::CommandBufferLevel::PRIMARY)
+        .command_buffer_count(1);
     let cmd = unsafe { d.allocate_command_buffers(&ai) }.vk("vkAllocateCommandBuffers")?[0];
     let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
     let queue = gpu.queue;

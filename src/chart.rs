@@ -99,7 +99,9 @@ pub fn write(path: &Path, title: &str, panels: &[Series]) -> Result<()> {
                     .map_err(draw_err)?
                     .label(name.as_str())
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3)));
-                chart.draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, color.filled()))).map_err(draw_err)?;
+                chart
+                    .draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, color.filled())))
+                    .map_err(draw_err)?;
             }
             chart
                 .configure_series_labels()

@@ -150,10 +150,13 @@ struct App {
 /// Run the demo until the window closes or `frames` are done.
 pub fn run(o: DemoOptions) -> Result<()> {
     let (src, radius_hint, first) = open_source(&o)?;
-    let radius = o.radius.or(radius_hint).or_else(|| scene::estimate_radius(&first.positions)).ok_or_else(|| {
-        Error::Invalid("cannot estimate the particle radius; pass --radius".into())
-    })?;
-    let bounds = scene::percentile_bounds(&first.positions, 0.01).ok_or_else(|| Error::Invalid("no finite particles".into()))?;
+    let radius = o
+        .radius
+        .or(radius_hint)
+        .or_else(|| scene::estimate_radius(&first.positions))
+        .ok_or_else(|| Error::Invalid("cannot estimate the particle radius; pass --radius".into()))?;
+    let bounds =
+        scene::percentile_bounds(&first.positions, 0.01).ok_or_else(|| Error::Invalid("no finite particles".into()))?;
     let fit = Camera::fit(&bounds, o.width as f32 / o.height as f32);
     let mut s = o.settings.clone();
     s.radius = radius;
@@ -301,15 +304,21 @@ impl App {
         let attrs = Window::default_attributes()
             .with_title("meniscus demo")
             .with_inner_size(winit::dpi::PhysicalSize::new(self.o.width, self.o.height));
-        let window = Arc::new(el.create_window(attrs).map_err(|e| Error::Invalid(format!("cannot create a window: {e}")))?);
+        let window =
+            Arc::new(el.create_window(attrs).map_err(|e| Error::Invalid(format!("cannot create a window: {e}")))?);
         let display = window.display_handle().map_err(|e| Error::Invalid(format!("no display handle: {e}")))?.as_raw();
         let wh = window.window_handle().map_err(|e| Error::Invalid(format!("no window handle: {e}")))?.as_raw();
         let exts = ash_window::enumerate_required_extensions(display).vk("enumerate surface extensions")?;
         // SAFETY: ash-window returns pointers to static NUL-terminated extension names.
         let surface_extensions = exts.iter().map(|&p| unsafe { std::ffi::CStr::from_ptr(p) }).collect();
-        let gpu = Gpu::new(&GpuOptions { validation: self.o.validation, device_filter: self.o.device.clone(), surface_extensions })?;
+        let gpu = Gpu::new(&GpuOptions {
+            validation: self.o.validation,
+            device_filter: self.o.device.clone(),
+            surface_extensions,
+        })?;
         // SAFETY: the handles come from a live window that outlives the surface (State drops the surface first).
-        let surface = unsafe { ash_window::create_surface(&gpu.entry, &gpu.instance, display, wh, None) }.vk("vkCreateSurfaceKHR")?;
+        let surface = unsafe { ash_window::create_surface(&gpu.entry, &gpu.instance, display, wh, None) }
+            .vk("vkCreateSurfaceKHR")?;
         let surface_loader = ash::khr::surface::Instance::new(&gpu.entry, &gpu.instance);
         let ok = unsafe { surface_loader.get_physical_device_surface_support(gpu.physical, gpu.queue_family, surface) }
             .vk("vkGetPhysicalDeviceSurfaceSupportKHR")?;
@@ -371,7 +380,10 @@ impl App {
         if caps.max_image_count > 0 {
             count = count.min(caps.max_image_count);
         }
-        let loader = old.as_ref().map(|o| o.loader.clone()).unwrap_or_else(|| ash::khr::swapchain::Device::new(&gpu.instance, &gpu.device));
+        let loader = old
+            .as_ref()
+            .map(|o| o.loader.clone())
+            .unwrap_or_else(|| ash::khr::swapchain::Device::new(&gpu.instance, &gpu.device));
         let ci = vk::SwapchainCreateInfoKHR::default()
             .surface(st.surface)
             .min_image_count(count)
@@ -422,14 +434,26 @@ impl App {
             KeyCode::KeyH => self.help = !self.help,
             KeyCode::KeyB => self.color_by = (self.color_by + 1) % 3,
             KeyCode::KeyF => {
-                const ORDER: [Filter; 6] =
-                    [Filter::NarrowRange, Filter::Bilateral, Filter::Bilateral2d, Filter::CurvatureFlow, Filter::Gaussian, Filter::None];
+                const ORDER: [Filter; 6] = [
+                    Filter::NarrowRange,
+                    Filter::Bilateral,
+                    Filter::Bilateral2d,
+                    Filter::CurvatureFlow,
+                    Filter::Gaussian,
+                    Filter::None,
+                ];
                 let k = ORDER.iter().position(|f| *f == self.o.settings.filter).unwrap_or(0);
                 self.o.settings.filter = ORDER[(k + 1) % ORDER.len()];
             }
             KeyCode::KeyG => {
                 let s = &mut self.o.settings.fluid_scale;
-                *s = if *s > 0.75 { 0.5 } else if *s > 0.375 { 0.25 } else { 1.0 };
+                *s = if *s > 0.75 {
+                    0.5
+                } else if *s > 0.375 {
+                    0.25
+                } else {
+                    1.0
+                };
             }
             KeyCode::KeyX => self.o.settings.ssr = !self.o.settings.ssr,
             KeyCode::KeyI => {
@@ -460,7 +484,15 @@ impl App {
                 }
             }
             c => {
-                let digits = [KeyCode::Digit1, KeyCode::Digit2, KeyCode::Digit3, KeyCode::Digit4, KeyCode::Digit5, KeyCode::Digit6, KeyCode::Digit7];
+                let digits = [
+                    KeyCode::Digit1,
+                    KeyCode::Digit2,
+                    KeyCode::Digit3,
+                    KeyCode::Digit4,
+                    KeyCode::Digit5,
+                    KeyCode::Digit6,
+                    KeyCode::Digit7,
+                ];
                 if let Some(k) = digits.iter().position(|d| *d == c) {
                     self.mode = ViewMode::ALL[k];
                 }
@@ -495,7 +527,14 @@ impl App {
         let right = f.cross(c.up).normalize();
         let v = (c.eye - c.target).length().max(1e-3) * 0.8 * dt;
         let mut m = Vec3::ZERO;
-        for (k, dir) in [(KeyCode::KeyW, f), (KeyCode::KeyS, -f), (KeyCode::KeyD, right), (KeyCode::KeyA, -right), (KeyCode::KeyE, c.up), (KeyCode::KeyQ, -c.up)] {
+        for (k, dir) in [
+            (KeyCode::KeyW, f),
+            (KeyCode::KeyS, -f),
+            (KeyCode::KeyD, right),
+            (KeyCode::KeyA, -right),
+            (KeyCode::KeyE, c.up),
+            (KeyCode::KeyQ, -c.up),
+        ] {
             if self.keys.contains(&k) {
                 m += dir;
             }
@@ -507,13 +546,23 @@ impl App {
     /// Per-particle values in [0, 1] for the particle view (speed, density or height), and the legend range.
     fn values(&self, p: &Particles) -> (Vec<f32>, String, f32, f32) {
         let (name, raw): (&str, Vec<f32>) = match self.color_by {
-            0 => ("speed", p.velocities.as_ref().map(|v| v.iter().map(|v| Vec3::from(*v).length()).collect()).unwrap_or_else(|| vec![0.0; p.len()])),
+            0 => (
+                "speed",
+                p.velocities
+                    .as_ref()
+                    .map(|v| v.iter().map(|v| Vec3::from(*v).length()).collect())
+                    .unwrap_or_else(|| vec![0.0; p.len()]),
+            ),
             1 => ("density", p.densities.clone().unwrap_or_else(|| vec![0.0; p.len()])),
             _ => ("height", p.positions.iter().map(|q| q[1]).collect()),
         };
         let mut sorted: Vec<f32> = raw.iter().copied().filter(|x| x.is_finite()).collect();
         sorted.sort_by(f32::total_cmp);
-        let (lo, hi) = if sorted.is_empty() { (0.0, 1.0) } else { (sorted[sorted.len() / 50], sorted[sorted.len() - 1 - sorted.len() / 50]) };
+        let (lo, hi) = if sorted.is_empty() {
+            (0.0, 1.0)
+        } else {
+            (sorted[sorted.len() / 50], sorted[sorted.len() - 1 - sorted.len() / 50])
+        };
         let span = (hi - lo).max(1e-9);
         (raw.iter().map(|x| (x - lo) / span).collect(), name.to_string(), lo, hi)
     }
@@ -540,7 +589,10 @@ impl App {
         self.last_frame = now;
         self.fly(dt);
         let n = self.src.len();
-        if self.playing && n > 1 && now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed) {
+        if self.playing
+            && n > 1
+            && now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed)
+        {
             self.last_advance = now;
             if self.frame + 1 < n {
                 self.frame += 1;
@@ -552,14 +604,21 @@ impl App {
         }
         let p = self.src.get(self.frame, &self.o.load)?.clone();
         let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
-        let spray = scene::spray_mask_with(&p, self.radius, self.o.settings.spray_density, self.o.settings.spray_by_neighbours);
+        let spray =
+            scene::spray_mask_with(&p, self.radius, self.o.settings.spray_density, self.o.settings.spray_by_neighbours);
         st.renderer.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))?;
         let legend = if self.mode == ViewMode::Particles {
             let (vals, name, lo, hi) = self.values(&p);
             let bytes: &[u8] = bytemuck::cast_slice(&vals);
             let reuse = st.values.as_ref().is_some_and(|b| b.size >= bytes.len() as u64);
             if !reuse {
-                st.values = Some(Buffer::new(&st.gpu, "values", bytes.len().max(16) as u64, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::CpuToGpu)?);
+                st.values = Some(Buffer::new(
+                    &st.gpu,
+                    "values",
+                    bytes.len().max(16) as u64,
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                    MemoryLocation::CpuToGpu,
+                )?);
             }
             st.values.as_mut().expect("set").write(0, bytes)?;
             Some((name, lo, hi))
@@ -572,7 +631,14 @@ impl App {
         let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
         let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
         if need_new {
-            st.overlay = Some(Image::new(&st.gpu, "overlay", vk::Extent2D { width: ow, height: oh }, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST, None)?);
+            st.overlay = Some(Image::new(
+                &st.gpu,
+                "overlay",
+                vk::Extent2D { width: ow, height: oh },
+                vk::Format::R8G8B8A8_UNORM,
+                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+                None,
+            )?);
         }
         let cropped = image::imageops::crop_imm(&ov, 0, 0, ow, oh).to_image();
         crate::renderer::upload_image(&st.gpu, st.overlay.as_ref().expect("set"), cropped.as_raw())?;
@@ -664,9 +730,21 @@ impl App {
         gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, None);
             ctx.barrier(&[Use::Image(src, Access::TransferSrc, false), Use::Image(target, Access::TransferDst, true)]);
-            let sub = vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 };
-            let corner = |e: vk::Extent2D| [vk::Offset3D { x: 0, y: 0, z: 0 }, vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 }];
-            let blit = vk::ImageBlit { src_subresource: sub, src_offsets: corner(src.extent), dst_subresource: sub, dst_offsets: corner(target.extent) };
+            let sub = vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            };
+            let corner = |e: vk::Extent2D| {
+                [vk::Offset3D { x: 0, y: 0, z: 0 }, vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 }]
+            };
+            let blit = vk::ImageBlit {
+                src_subresource: sub,
+                src_offsets: corner(src.extent),
+                dst_subresource: sub,
+                dst_offsets: corner(target.extent),
+            };
             unsafe {
                 gpu.device.cmd_blit_image(
                     cmd,
@@ -735,7 +813,8 @@ fn rasterize(lines: &[String], legend: bool, scale: u32) -> image::RgbaImage {
     for (row, line) in lines.iter().enumerate() {
         for (col, ch) in line.chars().enumerate() {
             let c = ch as usize;
-            let glyph = if c < 128 { font8x8::legacy::BASIC_LEGACY[c] } else { font8x8::legacy::BASIC_LEGACY[b'?' as usize] };
+            let glyph =
+                if c < 128 { font8x8::legacy::BASIC_LEGACY[c] } else { font8x8::legacy::BASIC_LEGACY[b'?' as usize] };
             for (gy, bits) in glyph.iter().enumerate() {
                 for gx in 0..8 {
                     if bits >> gx & 1 == 1 {

@@ -68,7 +68,10 @@ impl Environment {
                 boxes.push((Vec3::new(x, ground_y, z0 - w), Vec3::new(x + w, ground_y + h, z0)));
             }
             let x = b.hi.x + w * 1.5;
-            boxes.push((Vec3::new(x, ground_y, b.lo.z + ext.z * 0.3), Vec3::new(x + 2.0 * w, ground_y + 0.5 * h, b.lo.z + ext.z * 0.3 + 2.0 * w)));
+            boxes.push((
+                Vec3::new(x, ground_y, b.lo.z + ext.z * 0.3),
+                Vec3::new(x + 2.0 * w, ground_y + 0.5 * h, b.lo.z + ext.z * 0.3 + 2.0 * w),
+            ));
         }
         let tile = (size / 8.0).max(radius * 4.0);
         Environment { ground_y, tile, fog: size * 12.0, ground: s.ground, boxes, sky_cube: false }
@@ -162,7 +165,13 @@ impl Targets {
             height,
             scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
             scene_depth: img("scene_depth", full, vk::Format::R32_SFLOAT, storage, None)?,
-            depth: img("depth", fluid, vk::Format::R32_SFLOAT, storage | U::COLOR_ATTACHMENT, Some(vk::Format::R32_UINT))?,
+            depth: img(
+                "depth",
+                fluid,
+                vk::Format::R32_SFLOAT,
+                storage | U::COLOR_ATTACHMENT,
+                Some(vk::Format::R32_UINT),
+            )?,
             depth_back: img(
                 "depth_back",
                 if s.surface == Surface::Iso { fluid } else { tiny },
@@ -263,7 +272,10 @@ impl Passes {
 /// Size of the fluid images at `scale` of `width`×`height` (at least 1×1).
 pub fn fluid_extent(width: u32, height: u32, scale: f32) -> vk::Extent2D {
     let s = scale.clamp(0.05, 1.0);
-    vk::Extent2D { width: ((width as f32 * s).round() as u32).max(1), height: ((height as f32 * s).round() as u32).max(1) }
+    vk::Extent2D {
+        width: ((width as f32 * s).round() as u32).max(1),
+        height: ((height as f32 * s).round() as u32).max(1),
+    }
 }
 
 /// Which image holds the smoothed depth after a frame.
@@ -296,7 +308,18 @@ pub fn record_frame(
     match s.splat {
         SplatMode::Compute => {
             let back = s.surface == Surface::Iso && t.depth_back.extent == t.depth.extent;
-            p.splat.record(ctx, frame, particles, count, &t.depth, &t.depth_back, &t.depth_tiles, back, splat_cull, s.splat_scale())
+            p.splat.record(
+                ctx,
+                frame,
+                particles,
+                count,
+                &t.depth,
+                &t.depth_back,
+                &t.depth_tiles,
+                back,
+                splat_cull,
+                s.splat_scale(),
+            )
         }
         mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_scale(), mode)?,
     }
@@ -305,7 +328,16 @@ pub fn record_frame(
         let back = (s.splat == SplatMode::Compute).then_some(&t.depth_back);
         p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);
     }
-    p.thickness.record(ctx, frame, particles, count, &t.scene_depth, &t.thickness_accum, &t.thickness, s.thickness_blur_px);
+    p.thickness.record(
+        ctx,
+        frame,
+        particles,
+        count,
+        &t.scene_depth,
+        &t.thickness_accum,
+        &t.thickness,
+        s.thickness_blur_px,
+    );
     // Without a full-size smooth_b the raw depth is the second ping-pong image.
     let pong = if t.smooth_b.extent == t.smooth_a.extent { &t.smooth_b } else { &t.depth };
     let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, pong, s, cf_iterations);

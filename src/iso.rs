@@ -46,7 +46,13 @@ impl IsoGrid {
     pub fn build(positions: &[[f32; 3]], support: f32) -> IsoGrid {
         let pts: Vec<Vec3> = positions.iter().map(|p| Vec3::from(*p)).filter(|p| p.is_finite()).collect();
         if pts.is_empty() || !(support > 0.0 && support.is_finite()) {
-            return IsoGrid { cells: vec![[0, 0]], dims: [1, 1, 1], cell: support.max(1.0), support, ..Default::default() };
+            return IsoGrid {
+                cells: vec![[0, 0]],
+                dims: [1, 1, 1],
+                cell: support.max(1.0),
+                support,
+                ..Default::default()
+            };
         }
         let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
         let ext = (hi - lo).max(Vec3::splat(support * 1e-3));
@@ -93,10 +99,15 @@ impl IsoGrid {
             for dy in -1..=1 {
                 for dx in -1..=1 {
                     let q = c + glam::IVec3::new(dx, dy, dz);
-                    if q.min_element() < 0 || q.x >= self.dims[0] as i32 || q.y >= self.dims[1] as i32 || q.z >= self.dims[2] as i32 {
+                    if q.min_element() < 0
+                        || q.x >= self.dims[0] as i32
+                        || q.y >= self.dims[1] as i32
+                        || q.z >= self.dims[2] as i32
+                    {
                         continue;
                     }
-                    let [s, n] = self.cells[(q.x as u32 + self.dims[0] * (q.y as u32 + self.dims[1] * q.z as u32)) as usize];
+                    let [s, n] =
+                        self.cells[(q.x as u32 + self.dims[0] * (q.y as u32 + self.dims[1] * q.z as u32)) as usize];
                     for i in s..s + n {
                         let p = self.points[i as usize];
                         f(i as usize, Vec3::new(p[0], p[1], p[2]));
@@ -149,7 +160,9 @@ pub struct IsoParams {
 /// Depth at which the ray `origin + d·dir` leaves the grid's box grown by the support (as `iso.comp`).
 pub fn ray_end(grid: &IsoGrid, origin: Vec3, dir: Vec3) -> f32 {
     let lo = grid.origin - Vec3::splat(grid.support);
-    let hi = grid.origin + Vec3::new(grid.dims[0] as f32, grid.dims[1] as f32, grid.dims[2] as f32) * grid.cell + Vec3::splat(grid.support);
+    let hi = grid.origin
+        + Vec3::new(grid.dims[0] as f32, grid.dims[1] as f32, grid.dims[2] as f32) * grid.cell
+        + Vec3::splat(grid.support);
     let safe = Vec3::select(dir.abs().cmplt(Vec3::splat(1e-12)), Vec3::splat(1e-12), dir);
     let (t0, t1) = ((lo - origin) / safe, (hi - origin) / safe);
     t0.max(t1).min_element()
@@ -158,7 +171,15 @@ pub fn ray_end(grid: &IsoGrid, origin: Vec3, dir: Vec3) -> f32 {
 /// CPU reference of the march of `iso.comp` along `origin + d·dir` (d: linear depth, dir with unit forward
 /// component) from `d_start` (the bound spheres' depth) to `d_end`: the first depth where φ ≥ threshold,
 /// bracketed by the march, bisected `refine` times, then linearly interpolated.
-pub fn cast(grid: &IsoGrid, inv_n: &[f32], p: &IsoParams, origin: Vec3, dir: Vec3, d_start: f32, d_end: f32) -> Option<f32> {
+pub fn cast(
+    grid: &IsoGrid,
+    inv_n: &[f32],
+    p: &IsoParams,
+    origin: Vec3,
+    dir: Vec3,
+    d_start: f32,
+    d_end: f32,
+) -> Option<f32> {
     let len = dir.length();
     let (mut d, mut prev, mut phi_prev) = (d_start, d_start, 0.0);
     for k in 0..p.max_steps {

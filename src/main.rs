@@ -357,7 +357,9 @@ fn load_input(input: &str, count: Option<usize>, o: &scene::LoadOptions) -> Resu
 
 fn render(a: &RenderArgs) -> Result<()> {
     let opts = a.load.options()?;
-    if !procedural::SCENES.iter().any(|s| s.0 == a.scene.input) && meniscus::scene::sequence::is_sequence(&a.scene.input) {
+    if !procedural::SCENES.iter().any(|s| s.0 == a.scene.input)
+        && meniscus::scene::sequence::is_sequence(&a.scene.input)
+    {
         return render_sequence(a, &opts);
     }
     if a.frames_range.is_some() || a.shard.is_some() {
@@ -373,7 +375,8 @@ fn render(a: &RenderArgs) -> Result<()> {
     let mut view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
     check_dumps(a)?;
     let extras = BackgroundExtras::load(a)?;
-    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
+    let gpu =
+        Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
     view.env.sky_cube = extras.apply(&mut r)?;
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
@@ -471,14 +474,22 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
         }
     };
     let extras = BackgroundExtras::load(a)?;
-    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
+    let gpu =
+        Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     let mut r = Renderer::new(&gpu)?;
     let sky_cube = extras.apply(&mut r)?;
     let total = frames.len();
-    eprintln!("{}: {total} frames ({} … {}) on {}", a.scene.input, frames[0].number, frames[total - 1].number, gpu.info.name);
+    eprintln!(
+        "{}: {total} frames ({} … {}) on {}",
+        a.scene.input,
+        frames[0].number,
+        frames[total - 1].number,
+        gpu.info.name
+    );
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  [{elapsed} < {eta}]").expect("template"),
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  [{elapsed} < {eta}]")
+            .expect("template"),
     );
     let mut fixed: Option<(Settings, View)> = None;
     let t0 = std::time::Instant::now();
@@ -487,13 +498,15 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
         let particles = loaded?;
         if fixed.is_none() {
             let s = settings_for(a, &particles, None)?;
-            let bounds = scene::percentile_bounds(&particles.positions, 0.01).context("no finite particle positions")?;
+            let bounds =
+                scene::percentile_bounds(&particles.positions, 0.01).context("no finite particle positions")?;
             let camera = match &a.scene.camera {
                 Some(c) => Camera::parse(c)?,
                 None => Camera::fit(&bounds, a.width as f32 / a.height.max(1) as f32),
             };
             bar.println(format!("camera: --camera {}", camera.to_arg()));
-            let mut view = View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
+            let mut view =
+                View { camera, width: a.width, height: a.height, env: Environment::around(&bounds, s.radius, &s) };
             view.env.sky_cube = sky_cube;
             fixed = Some((s, view));
         }
@@ -502,7 +515,11 @@ fn render_sequence(a: &RenderArgs, opts: &scene::LoadOptions) -> Result<()> {
         gpu_ms += r.render(view, s)?.total();
         let path = out_name(frame.number);
         meniscus::output::write_png(&path, &r.read_final()?)?;
-        bar.set_message(format!("{} → {}", frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(), path.display()));
+        bar.set_message(format!(
+            "{} → {}",
+            frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
+            path.display()
+        ));
         bar.inc(1);
     }
     bar.finish();
@@ -549,7 +566,11 @@ fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
                 let png = image::RgbaImage::from_fn(view.width, view.height, |x, y| {
                     let i = 3 * (y * view.width + x) as usize;
                     let c = |k: usize| ((data[i + k] * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
-                    if data[i..i + 3] == [0.0; 3] { image::Rgba([0, 0, 0, 255]) } else { image::Rgba([c(0), c(1), c(2), 255]) }
+                    if data[i..i + 3] == [0.0; 3] {
+                        image::Rgba([0, 0, 0, 255])
+                    } else {
+                        image::Rgba([c(0), c(1), c(2), 255])
+                    }
                 });
                 let p = path(d, "png");
                 meniscus::output::write_png(&p, &png)?;
@@ -558,17 +579,23 @@ fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
             "ssr" => {
                 // The reflected scene colour where SSR hit, black elsewhere.
                 let hits: Vec<u32> = bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.ssr)?);
-                let scene: Vec<u16> = bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.scene_color)?);
+                let scene: Vec<u16> =
+                    bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.scene_color)?);
                 let (w, h) = (view.width, view.height);
-                let png = image::RgbaImage::from_fn(w, h, |x, y| match meniscus::passes::ssr::decode(hits[(y * w + x) as usize]) {
-                    Some([u, v]) => {
-                        let sx = ((u * w as f32) as u32).min(w - 1);
-                        let sy = ((v * h as f32) as u32).min(h - 1);
-                        let i = 4 * (sy * w + sx) as usize;
-                        let c = |k: usize| (meniscus::output::f16_to_f32(scene[i + k]).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
-                        image::Rgba([c(0), c(1), c(2), 255])
+                let png = image::RgbaImage::from_fn(w, h, |x, y| {
+                    match meniscus::passes::ssr::decode(hits[(y * w + x) as usize]) {
+                        Some([u, v]) => {
+                            let sx = ((u * w as f32) as u32).min(w - 1);
+                            let sy = ((v * h as f32) as u32).min(h - 1);
+                            let i = 4 * (sy * w + sx) as usize;
+                            let c = |k: usize| {
+                                (meniscus::output::f16_to_f32(scene[i + k]).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0)
+                                    .round() as u8
+                            };
+                            image::Rgba([c(0), c(1), c(2), 255])
+                        }
+                        None => image::Rgba([0, 0, 0, 255]),
                     }
-                    None => image::Rgba([0, 0, 0, 255]),
                 });
                 let p = path(d, "png");
                 meniscus::output::write_png(&p, &png)?;
@@ -585,7 +612,12 @@ fn info(spec: &str, load: &LoadArgs) -> Result<()> {
     let opts = load.options()?;
     let file = if sequence::is_sequence(spec) {
         let frames = sequence::resolve(spec, None, None)?;
-        println!("sequence:    {} frames, numbers {} … {}", frames.len(), frames[0].number, frames[frames.len() - 1].number);
+        println!(
+            "sequence:    {} frames, numbers {} … {}",
+            frames.len(),
+            frames[0].number,
+            frames[frames.len() - 1].number
+        );
         println!("first file:  {}", frames[0].path.display());
         frames[0].path.clone()
     } else {
@@ -607,7 +639,11 @@ fn info(spec: &str, load: &LoadArgs) -> Result<()> {
     let full = scene::percentile_bounds(&p.positions, 0.0).context("no finite positions")?;
     let pct = scene::percentile_bounds(&p.positions, 0.01).context("no finite positions")?;
     println!("bounds:      min {:?} max {:?}", full.lo.to_array(), full.hi.to_array());
-    println!("1–99 %:      min {:?} max {:?}  (a much smaller box than min/max means stray particles)", pct.lo.to_array(), pct.hi.to_array());
+    println!(
+        "1–99 %:      min {:?} max {:?}  (a much smaller box than min/max means stray particles)",
+        pct.lo.to_array(),
+        pct.hi.to_array()
+    );
     match scene::estimate_spacing(&p.positions) {
         Some(sp) => println!("spacing:     {sp:.5} (median nearest neighbour) → suggested --radius {:.5}", sp * 0.5),
         None => println!("spacing:     unknown (too few distinct particles)"),
@@ -637,7 +673,9 @@ fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench:
         "worst" => ("block", 143_944, 0.55, "worst case (block fills the screen)".to_string()),
         other => {
             let (n, c) = match other.split_once(':') {
-                Some((n, c)) => (n, Some(c.parse::<usize>().with_context(|| format!("bad particle count in {other:?}"))?)),
+                Some((n, c)) => {
+                    (n, Some(c.parse::<usize>().with_context(|| format!("bad particle count in {other:?}"))?))
+                }
                 None => (other, None),
             };
             if let Some((sn, def, _)) = procedural::SCENES.iter().find(|s| s.0 == n) {
@@ -646,7 +684,9 @@ fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench:
                 let (p, _, label) = load_input(other, None, &scene::LoadOptions::default())?;
                 let radius = match a.radius {
                     Some(r) => r,
-                    None => scene::estimate_radius(&p.positions).context("cannot estimate the radius; pass --radius")?,
+                    None => {
+                        scene::estimate_radius(&p.positions).context("cannot estimate the radius; pass --radius")?
+                    }
                 };
                 let camera = a.camera.as_deref().map(Camera::parse).transpose()?;
                 let label = Path::new(&label).file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or(label);
@@ -683,7 +723,8 @@ fn bench(a: &BenchArgs) -> Result<()> {
     } else {
         vec![(960, 540)]
     };
-    let gpu = Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
+    let gpu =
+        Gpu::new(&GpuOptions { validation: a.validation, device_filter: a.device.clone(), ..Default::default() })?;
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
     let mut r = Renderer::new(&gpu)?;
     r.always_render_background = !a.cache_background;
@@ -706,7 +747,12 @@ fn bench(a: &BenchArgs) -> Result<()> {
             if table43 {
                 // Moritz table 4.3: stride / refinement iterations / max steps.
                 for (stride, refine, steps) in [(1, 0, 280), (4, 0, 180), (4, 2, 180), (8, 0, 100), (8, 4, 100)] {
-                    let vs = Settings { ssr_stride: stride as f32, ssr_refine: refine, ssr_max_steps: steps, ..base.clone() };
+                    let vs = Settings {
+                        ssr_stride: stride as f32,
+                        ssr_refine: refine,
+                        ssr_max_steps: steps,
+                        ..base.clone()
+                    };
                     let label = format!("ssr stride {stride}, refine {refine}, steps {steps}");
                     entries.push(meniscus::bench::measure(&mut r, &w, wd, ht, &vs, &label, a.warmup, a.frames)?);
                 }
@@ -742,14 +788,30 @@ fn bench(a: &BenchArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     let table = meniscus::bench::markdown(&entries);
-    println!("{} — {} — preset {} — commit {}\n", gpu.info.name, gpu.info.driver, a.preset, meniscus::bench::git_commit());
+    println!(
+        "{} — {} — preset {} — commit {}\n",
+        gpu.info.name,
+        gpu.info.driver,
+        a.preset,
+        meniscus::bench::git_commit()
+    );
     println!("{table}");
     if a.variants {
-        let find = |v: &str| entries.iter().find(|e| e.variant == v).map(|e| e.passes.iter().find(|p| p.0 == "smooth").map(|p| p.1.median).unwrap_or(0.0));
+        let find = |v: &str| {
+            entries
+                .iter()
+                .find(|e| e.variant == v)
+                .map(|e| e.passes.iter().find(|p| p.0 == "smooth").map(|p| p.1.median).unwrap_or(0.0))
+        };
         if let (Some(k1), Some(k4)) = (find("curvature-flow 1 it/dispatch"), find("curvature-flow 4 it/dispatch")) {
             println!("ratio smooth (curvature flow) 1 it/dispatch ÷ 4 it/dispatch: {:.2} (> 1: several per dispatch is faster)", k1 / k4.max(1e-9));
         }
-        let splat = |v: &str| entries.iter().find(|e| e.variant == v).and_then(|e| e.passes.iter().find(|p| p.0 == "splat").map(|p| p.1.median));
+        let splat = |v: &str| {
+            entries
+                .iter()
+                .find(|e| e.variant == v)
+                .and_then(|e| e.passes.iter().find(|p| p.0 == "splat").map(|p| p.1.median))
+        };
         if let Some(fd) = splat("splat quad-frag-depth") {
             for m in ["compute", "quad-conservative", "quad-min", "point-frag-depth", "point-min"] {
                 if let Some(t) = splat(&format!("splat {m}")) {
@@ -766,7 +828,13 @@ fn bench(a: &BenchArgs) -> Result<()> {
 }
 
 /// Write the JSON report (`--json`) and the markdown table (`--markdown`) of a bench run.
-fn write_reports(a: &BenchArgs, gpu: &std::sync::Arc<Gpu>, settings: Settings, entries: Vec<meniscus::bench::Entry>, table: &str) -> Result<()> {
+fn write_reports(
+    a: &BenchArgs,
+    gpu: &std::sync::Arc<Gpu>,
+    settings: Settings,
+    entries: Vec<meniscus::bench::Entry>,
+    table: &str,
+) -> Result<()> {
     let report = meniscus::bench::Report {
         schema: meniscus::bench::SCHEMA,
         device: meniscus::bench::device_info(gpu),
@@ -793,7 +861,14 @@ fn chart_point(e: &meniscus::bench::Entry) -> Vec<(String, f64)> {
     v
 }
 
-fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Renderer, base: &Settings, res: (u32, u32)) -> Result<()> {
+fn run_sweep(
+    a: &BenchArgs,
+    sweep: &str,
+    gpu: &std::sync::Arc<Gpu>,
+    r: &mut Renderer,
+    base: &Settings,
+    res: (u32, u32),
+) -> Result<()> {
     use meniscus::bench::{measure, Workload};
     let counts: Vec<usize> = if a.sweep_particles.is_empty() {
         vec![10_000, 40_000, 160_000, 640_000, 2_560_000, 4_000_000]
@@ -814,7 +889,13 @@ fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Rend
             bar.set_message(format!("{n} particles"));
             // The same pool at every count: the camera fit keeps the screen coverage fixed.
             let g = procedural::generate("wave", n)?;
-            let w = Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
+            let w = Workload {
+                label: "wave".into(),
+                particles: g.particles,
+                radius: g.radius,
+                distance: 1.0,
+                camera: None,
+            };
             let e = measure(r, &w, res.0, res.1, base, "sweep particles", a.warmup, a.frames)?;
             pts.push((e.particles as f64, chart_point(&e)));
             entries.push(e);
@@ -824,7 +905,8 @@ fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Rend
     }
     if do_pixels {
         let g = procedural::generate("wave", 143_944)?;
-        let w = Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
+        let w =
+            Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
         let mut pts = vec![];
         for &(wd, ht) in &sizes {
             bar.set_message(format!("{wd}×{ht}"));
@@ -841,7 +923,10 @@ fn run_sweep(a: &BenchArgs, sweep: &str, gpu: &std::sync::Arc<Gpu>, r: &mut Rend
     if let Some(p) = &a.chart {
         let series: Vec<meniscus::chart::Series> = panels
             .into_iter()
-            .map(|(x, points)| meniscus::chart::Series { x_label: if x == "particles" { "particles" } else { "pixels" }, points })
+            .map(|(x, points)| meniscus::chart::Series {
+                x_label: if x == "particles" { "particles" } else { "pixels" },
+                points,
+            })
             .collect();
         meniscus::chart::write(p, &format!("meniscus bench --sweep {sweep} — {}", gpu.info.name), &series)?;
         eprintln!("wrote {}", p.display());

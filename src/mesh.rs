@@ -138,7 +138,14 @@ impl GpuBvh {
         let mut order: Vec<usize> = (0..mesh.triangles.len()).collect();
         let centroid = |i: usize| (mesh.triangles[i][0] + mesh.triangles[i][1] + mesh.triangles[i][2]) / 3.0;
         let mut out = GpuBvh::default();
-        fn node(mesh: &Mesh, order: &mut [usize], first: usize, depth: usize, out: &mut GpuBvh, centroid: &dyn Fn(usize) -> Vec3) {
+        fn node(
+            mesh: &Mesh,
+            order: &mut [usize],
+            first: usize,
+            depth: usize,
+            out: &mut GpuBvh,
+            centroid: &dyn Fn(usize) -> Vec3,
+        ) {
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
             for &i in order.iter() {
                 for v in mesh.triangles[i] {
@@ -160,7 +167,13 @@ impl GpuBvh {
                 chi = chi.max(centroid(i));
             }
             let ext = chi - clo;
-            let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
             let mid = order.len() / 2;
             order.select_nth_unstable_by(mid, |a, b| centroid(*a)[axis].total_cmp(&centroid(*b)[axis]));
             let (left, right) = order.split_at_mut(mid);
@@ -211,7 +224,13 @@ impl GpuBvh {
             if count > 0 {
                 let first = a[3].to_bits() as usize;
                 for k in first..first + count {
-                    let v = |j: usize| Vec3::new(self.triangles[3 * k + j][0], self.triangles[3 * k + j][1], self.triangles[3 * k + j][2]);
+                    let v = |j: usize| {
+                        Vec3::new(
+                            self.triangles[3 * k + j][0],
+                            self.triangles[3 * k + j][1],
+                            self.triangles[3 * k + j][2],
+                        )
+                    };
                     if let Some(t) = ray_triangle(o, d, &[v(0), v(1), v(2)]) {
                         best = best.min(t);
                     }
@@ -231,7 +250,10 @@ mod tests {
 
     #[test]
     fn obj_faces_quads_negative_indices_and_errors() {
-        let m = Mesh::parse_obj(b"# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\nf -4 -3 -2\n").unwrap();
+        let m = Mesh::parse_obj(
+            b"# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\nf -4 -3 -2\n",
+        )
+        .unwrap();
         assert_eq!(m.triangles.len(), 3);
         assert_eq!(m.triangles[2], [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)]);
         let e = Mesh::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap_err();

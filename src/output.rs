@@ -6,7 +6,10 @@ use std::path::Path;
 use crate::error::{Error, Result};
 
 /// Write `bytes` to `path` atomically (via `path.partial`).
-pub fn write_atomic(path: &Path, write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>) -> Result<()> {
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<()> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".partial");
     let tmp = std::path::PathBuf::from(tmp);
@@ -29,9 +32,7 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut std::io::BufWriter<std:
 
 /// Write an RGBA image as PNG.
 pub fn write_png(path: &Path, img: &image::RgbaImage) -> Result<()> {
-    write_atomic(path, |w| {
-        img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other)
-    })
+    write_atomic(path, |w| img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other))
 }
 
 /// Write a float32 array as NumPy `.npy` (C order, little-endian) with the given shape.

@@ -74,7 +74,13 @@ impl Renderer {
             keep_raw_depth: false,
             views: crate::passes::view::View::new(gpu)?,
             sky: {
-                let sky = Image::new_cube(gpu, "sky", 1, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)?;
+                let sky = Image::new_cube(
+                    gpu,
+                    "sky",
+                    1,
+                    vk::Format::R8G8B8A8_UNORM,
+                    vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                )?;
                 upload_image(gpu, &sky, &[150, 190, 235, 255].repeat(6))?;
                 sky
             },
@@ -83,7 +89,12 @@ impl Renderer {
 
     /// Upload particles: 16 bytes each (world xyz + w), GPU-local. w = the particle's radius from `radii`, else 0
     /// (the frame's radius); negated for particles marked in `spray` (kept out of the surface).
-    pub fn set_particles_with(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>, spray: Option<&[bool]>) -> Result<()> {
+    pub fn set_particles_with(
+        &mut self,
+        positions: &[[f32; 3]],
+        radii: Option<&[f32]>,
+        spray: Option<&[bool]>,
+    ) -> Result<()> {
         let n = positions.len();
         let bytes = n as u64 * 16;
         if bytes > self.gpu.info.max_storage_buffer_range {
@@ -100,11 +111,20 @@ impl Renderer {
                 let r = radii.map(|r| r[i]).unwrap_or(0.0);
                 let spray = spray.is_some_and(|s| s[i]);
                 // Spray without its own radius: −1 means "frame radius" for the thickness pass.
-                let w = if spray { if r > 0.0 { -r } else { -f32::MIN_POSITIVE } } else { r };
+                let w = if spray {
+                    if r > 0.0 {
+                        -r
+                    } else {
+                        -f32::MIN_POSITIVE
+                    }
+                } else {
+                    r
+                };
                 [p[0], p[1], p[2], w]
             })
             .collect();
-        self.particles = Some(upload_buffer(&self.gpu, "particles", bytemuck::cast_slice(&data), self.particles.take())?);
+        self.particles =
+            Some(upload_buffer(&self.gpu, "particles", bytemuck::cast_slice(&data), self.particles.take())?);
         self.count = n as u32;
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
@@ -148,7 +168,13 @@ impl Renderer {
     /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::sky`). Set
     /// `Environment::sky_cube` to use it.
     pub fn set_skybox(&mut self, size: u32, faces: &[u8]) -> Result<()> {
-        let sky = Image::new_cube(&self.gpu, "sky", size, vk::Format::R8G8B8A8_UNORM, vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)?;
+        let sky = Image::new_cube(
+            &self.gpu,
+            "sky",
+            size,
+            vk::Format::R8G8B8A8_UNORM,
+            vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+        )?;
         upload_image(&self.gpu, &sky, faces)?;
         self.sky = sky;
         self.background_key = None;
@@ -221,7 +247,11 @@ impl Renderer {
         use crate::passes::view::ViewMode;
         s.validate()?;
         if !self.passes.splat.supports(s.splat) {
-            return Err(Error::Invalid(format!("splat mode {} is not supported on {}", s.splat.name(), self.gpu.info.name)));
+            return Err(Error::Invalid(format!(
+                "splat mode {} is not supported on {}",
+                s.splat.name(),
+                self.gpu.info.name
+            )));
         }
         self.ensure_targets(view.width, view.height, s)?;
         self.write_uniforms(view, s)?;
@@ -240,12 +270,15 @@ impl Renderer {
         // Sphere size in fluid pixels at the camera's target distance decides the splat's occlusion pre-pass.
         let fluid_h = t.depth.extent.height;
         let typical = (view.camera.eye - view.camera.target).length().max(view.camera.near);
-        let cull = crate::passes::splat::cull_pays(view.camera.focal_px(fluid_h) * s.radius * s.splat_scale() / typical);
-        let (passes, uniforms, gpu, views, sky, mesh) = (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky, &self.mesh);
+        let cull =
+            crate::passes::splat::cull_pays(view.camera.focal_px(fluid_h) * s.radius * s.splat_scale() / typical);
+        let (passes, uniforms, gpu, views, sky, mesh) =
+            (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky, &self.mesh);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, (cf, cull), (sky, mesh), cached)?;
+            let sm =
+                record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, (cf, cull), (sky, mesh), cached)?;
             if let Some((mode, values, overlay)) = demo {
                 let smoothed_img = t.smoothed(sm);
                 let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
@@ -330,7 +363,10 @@ impl Renderer {
 pub fn upload_buffer(gpu: &Arc<Gpu>, name: &str, data: &[u8], reuse: Option<Buffer>) -> Result<Buffer> {
     let limit = gpu.info.max_storage_buffer_range;
     if data.len() as u64 > limit {
-        return Err(Error::Limit(format!("{name}: {} bytes exceed this device's storage buffer limit of {limit} bytes", data.len())));
+        return Err(Error::Limit(format!(
+            "{name}: {} bytes exceed this device's storage buffer limit of {limit} bytes",
+            data.len()
+        )));
     }
     let size = (data.len() as u64).max(16);
     let dst = match reuse {
@@ -388,7 +424,12 @@ pub fn read_f32(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<f32>> {
 /// Fill a whole image from host memory (tightly packed texels); leaves it ready for compute reads.
 pub fn upload_image(gpu: &Arc<Gpu>, img: &Image, data: &[u8]) -> Result<()> {
     if data.len() as u64 != img.bytes() {
-        return Err(Error::Invalid(format!("upload of {} bytes into {} ({} bytes)", data.len(), img.name, img.bytes())));
+        return Err(Error::Invalid(format!(
+            "upload of {} bytes into {} ({} bytes)",
+            data.len(),
+            img.name,
+            img.bytes()
+        )));
     }
     let staging = Buffer::with_data(gpu, "upload", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
     gpu.one_shot(|cmd| {
@@ -403,7 +444,13 @@ pub fn upload_image(gpu: &Arc<Gpu>, img: &Image, data: &[u8]) -> Result<()> {
             })
             .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
         unsafe {
-            gpu.device.cmd_copy_buffer_to_image(cmd, staging.raw, img.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region])
+            gpu.device.cmd_copy_buffer_to_image(
+                cmd,
+                staging.raw,
+                img.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
         };
         Ok(())
     })

@@ -299,7 +299,9 @@ impl Settings {
                 ssr_refine: 4,
                 ..d
             }),
-            _ => Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast, quality, moritz)"))),
+            _ => {
+                Err(Error::Invalid(format!("unknown settings preset {name:?} (known: default, fast, quality, moritz)")))
+            }
         }
     }
 

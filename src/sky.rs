@@ -19,21 +19,34 @@ pub fn load_faces(dir: &Path) -> Result<(u32, Vec<u8>)> {
     let mut size = None;
     let mut data = vec![];
     for names in NAMES {
-        let path = names
-            .iter()
-            .map(|n| dir.join(format!("{n}.png")))
-            .find(|p| p.exists())
-            .ok_or_else(|| Error::Invalid(format!("{}: no {}.png (or {}.png / {}.png) cube face", dir.display(), names[0], names[1], names[2])))?;
+        let path = names.iter().map(|n| dir.join(format!("{n}.png"))).find(|p| p.exists()).ok_or_else(|| {
+            Error::Invalid(format!(
+                "{}: no {}.png (or {}.png / {}.png) cube face",
+                dir.display(),
+                names[0],
+                names[1],
+                names[2]
+            ))
+        })?;
         let img = image::open(&path)
             .map_err(|e| Error::Parse { path: path.clone(), offset: 0, reason: format!("cannot read the image: {e}") })?
             .to_rgba8();
         if img.width() != img.height() {
-            return Err(Error::Invalid(format!("{}: cube faces must be square, this one is {}×{}", path.display(), img.width(), img.height())));
+            return Err(Error::Invalid(format!(
+                "{}: cube faces must be square, this one is {}×{}",
+                path.display(),
+                img.width(),
+                img.height()
+            )));
         }
         match size {
             None => size = Some(img.width()),
             Some(s) if s != img.width() => {
-                return Err(Error::Invalid(format!("{}: face size {} differs from the others ({s})", path.display(), img.width())))
+                return Err(Error::Invalid(format!(
+                    "{}: face size {} differs from the others ({s})",
+                    path.display(),
+                    img.width()
+                )))
             }
             _ => {}
         }

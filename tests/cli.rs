@@ -40,7 +40,19 @@ fn render_builtin_scene_writes_png_and_timings() {
     }
     // Reduced resolution runs the upsample pass; the iso-surface runs the iso pass (here at half resolution).
     let o = meniscus()
-        .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--fluid-scale", "0.5"])
+        .args([
+            "render",
+            "drop",
+            "--particles",
+            "3000",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--timings",
+            "--fluid-scale",
+            "0.5",
+        ])
         .args(["--surface", "iso", "--validation"])
         .arg("--out")
         .arg(d.join("half.png"))
@@ -115,7 +127,18 @@ fn tiny_bench_writes_valid_json() {
     let d = tmpdir("bench");
     let json = d.join("b.json");
     let o = meniscus()
-        .args(["bench", "--scenes", "block:2000", "--resolutions", "64x64", "--warmup", "1", "--frames", "3", "--validation"])
+        .args([
+            "bench",
+            "--scenes",
+            "block:2000",
+            "--resolutions",
+            "64x64",
+            "--warmup",
+            "1",
+            "--frames",
+            "3",
+            "--validation",
+        ])
         .arg("--json")
         .arg(&json)
         .output()
@@ -128,7 +151,8 @@ fn tiny_bench_writes_valid_json() {
     assert_eq!(e["width"], 64);
     assert_eq!(e["frames"], 3);
     let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
-    let want: Vec<&str> = meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso"].contains(p)).collect();
+    let want: Vec<&str> =
+        meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso"].contains(p)).collect();
     assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
@@ -143,7 +167,13 @@ fn bgeo_and_vtk_of_one_frame_render_identically() {
     let mut outs = vec![];
     for f in ["partio/ParticleData_Fluid_20.bgeo", "vtk/ParticleData_Fluid_20.vtk"] {
         let out = d.join(format!("{}.png", f.replace('/', "_")));
-        let o = meniscus().arg("render").arg(root.join(f)).args(["--width", "160", "--height", "90", "--out"]).arg(&out).output().unwrap();
+        let o = meniscus()
+            .arg("render")
+            .arg(root.join(f))
+            .args(["--width", "160", "--height", "90", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         outs.push(std::fs::read(&out).unwrap());
     }
@@ -167,7 +197,8 @@ fn sequence_renders_numbered_pngs() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mut names: Vec<String> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     names.sort();
     // Frames 2, 3, 10, 11 → shard 1/2 keeps 2 and 10.
     assert_eq!(names, vec!["img_0002.png", "img_0010.png"]);

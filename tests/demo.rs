@@ -12,7 +12,19 @@ fn demo_runs_under_x_and_screenshot_shows_fluid() {
     std::fs::create_dir_all(&dir).unwrap();
     let shot = dir.join("demo.png");
     let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
-        .args(["demo", "drop", "--particles", "4000", "--width", "320", "--height", "200", "--frames", "6", "--validation"])
+        .args([
+            "demo",
+            "drop",
+            "--particles",
+            "4000",
+            "--width",
+            "320",
+            "--height",
+            "200",
+            "--frames",
+            "6",
+            "--validation",
+        ])
         .arg("--screenshot")
         .arg(&shot)
         .env("XDG_RUNTIME_DIR", &dir)

@@ -17,7 +17,12 @@ fn golden_wave_frame() {
     s.radius = g.radius;
     let b = scene::percentile_bounds(&g.particles.positions, 0.01).unwrap();
     let (w, h) = (160u32, 96u32);
-    let v = View { camera: Camera::fit(&b, w as f32 / h as f32), width: w, height: h, env: Environment::around(&b, g.radius, &s) };
+    let v = View {
+        camera: Camera::fit(&b, w as f32 / h as f32),
+        width: w,
+        height: h,
+        env: Environment::around(&b, g.radius, &s),
+    };
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_particles(&g.particles.positions, None).unwrap();
     r.render(&v, &s).unwrap();
@@ -32,7 +37,9 @@ fn golden_wave_frame() {
         return;
     }
     let want = image::open(&golden)
-        .unwrap_or_else(|e| panic!("golden {} missing or unreadable ({e}); bless it with tools/bless-golden", golden.display()))
+        .unwrap_or_else(|e| {
+            panic!("golden {} missing or unreadable ({e}); bless it with tools/bless-golden", golden.display())
+        })
         .to_rgba8();
     assert_eq!(want.dimensions(), img.dimensions());
     let mut diff = image::RgbaImage::new(w, h);

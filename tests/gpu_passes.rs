@@ -1,5 +1,8 @@
 //! GPU tests on lavapipe: each pass against an analytic or CPU reference, with validation and
 //! synchronization validation on (any message fails the test).
+// The CPU references mirror the shaders: `!(d < 1e30)` is true for +inf AND NaN (empty pixel), which is the point,
+// and the filter references take the same parameter lists as the shaders' push constants.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::too_many_arguments)]
 
 mod common;
 
@@ -182,7 +185,13 @@ fn bumpy_depth(w: usize, h: usize) -> Vec<f32> {
 }
 
 /// Run only the `smooth` pass on `src` (a depth image of the view's size) and read the result back.
-fn smooth_once(gpu: &std::sync::Arc<meniscus::gpu::Gpu>, v: &meniscus::frame::View, s: &meniscus::settings::Settings, src: &[f32], its: u32) -> Vec<f32> {
+fn smooth_once(
+    gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
+    v: &meniscus::frame::View,
+    s: &meniscus::settings::Settings,
+    src: &[f32],
+    its: u32,
+) -> Vec<f32> {
     let mut r = Renderer::new(gpu).unwrap();
     r.keep_raw_depth = true;
     r.ensure_targets(v.width, v.height, s).unwrap();
@@ -355,7 +364,8 @@ fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
         }
         (s / n as f64).sqrt()
     };
-    for filter in [Filter::Gaussian, Filter::Bilateral, Filter::Bilateral2d, Filter::CurvatureFlow, Filter::NarrowRange] {
+    for filter in [Filter::Gaussian, Filter::Bilateral, Filter::Bilateral2d, Filter::CurvatureFlow, Filter::NarrowRange]
+    {
         for bumpy in [true, false] {
             let mut s = settings(r);
             s.filter = filter;
@@ -425,7 +435,8 @@ fn ssr_hits_match_cpu_ray_tracer() {
     })
     .unwrap();
     let raw = read_image(&gpu, &t.ssr).unwrap();
-    let hits: Vec<Option<[f32; 2]>> = bytemuck::pod_collect_to_vec::<u8, u32>(&raw).into_iter().map(meniscus::passes::ssr::decode).collect();
+    let hits: Vec<Option<[f32; 2]>> =
+        bytemuck::pod_collect_to_vec::<u8, u32>(&raw).into_iter().map(meniscus::passes::ssr::decode).collect();
     let (mut checked, mut misses, mut bad) = (0, 0, vec![]);
     for y in 0..h {
         for x in 0..w {
@@ -477,10 +488,14 @@ fn ssr_hits_match_cpu_ray_tracer() {
     }
     assert!(checked > 200, "only {checked} pixels see the box in the mirror");
     assert!(misses * 50 < checked, "{misses} box reflections missed of {checked}");
-    assert!(bad.len() * 100 < checked, "{} of {checked} hits off by > 2 px, e.g. {:?}", bad.len(), &bad[..bad.len().min(5)]);
+    assert!(
+        bad.len() * 100 < checked,
+        "{} of {checked} hits off by > 2 px, e.g. {:?}",
+        bad.len(),
+        &bad[..bad.len().min(5)]
+    );
     assert_clean(&gpu);
 }
-
 
 /// Upsampling never invents a depth between two separated surfaces, keeps background as background, and
 /// interpolates inside a surface.
@@ -543,8 +558,26 @@ fn upsample_never_lands_between_surfaces() {
 
 /// CPU reference of smooth_narrow.comp (one dispatch).
 #[allow(clippy::too_many_arguments)]
-fn narrow_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32, thr: f32, mu: f32, max_px: i32, r2d: i32, skip_bg: bool) -> Vec<f32> {
-    let at = |x: i32, y: i32| if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 { f32::INFINITY } else { src[y as usize * w + x as usize] };
+fn narrow_cpu(
+    src: &[f32],
+    w: usize,
+    h: usize,
+    f: f32,
+    dir: (i32, i32),
+    rho: f32,
+    thr: f32,
+    mu: f32,
+    max_px: i32,
+    r2d: i32,
+    skip_bg: bool,
+) -> Vec<f32> {
+    let at = |x: i32, y: i32| {
+        if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 {
+            f32::INFINITY
+        } else {
+            src[y as usize * w + x as usize]
+        }
+    };
     let mut out = src.to_vec();
     for y in 0..h as i32 {
         for x in 0..w as i32 {
@@ -570,7 +603,11 @@ fn narrow_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32
                 true
             };
             let mut pair = |i: i32, j: i32, dist2: f32, lo: &mut f32, hi: &mut f32| {
-                let (mut za, mut zb) = if dir != (0, 0) { (at(x - i, y - j), at(x + i, y + j)) } else { (at(x + i, y + j), at(x - i, y - j)) };
+                let (mut za, mut zb) = if dir != (0, 0) {
+                    (at(x - i, y - j), at(x + i, y + j))
+                } else {
+                    (at(x + i, y + j), at(x - i, y - j))
+                };
                 let ka = judge(&mut za, lo, hi);
                 let kb = judge(&mut zb, lo, hi);
                 if ka && kb {
@@ -610,7 +647,11 @@ fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscu
             return z;
         }
         let v = src[y as usize * w + x as usize];
-        if v < 1e30 && (v - z).abs() < edge { v } else { z }
+        if v < 1e30 && (v - z).abs() < edge {
+            v
+        } else {
+            z
+        }
     };
     let mut out = src.to_vec();
     for y in 0..h as i32 {
@@ -688,7 +729,14 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
 
 /// A procedural scene with the camera fitted to its `pct`…(1 − `pct`) percentile box, then moved to `closer` ×
 /// its distance from the target.
-fn splat_scene(name: &str, count: usize, w: u32, h: u32, pct: f64, closer: f32) -> (meniscus::scene::procedural::Generated, meniscus::frame::View) {
+fn splat_scene(
+    name: &str,
+    count: usize,
+    w: u32,
+    h: u32,
+    pct: f64,
+    closer: f32,
+) -> (meniscus::scene::procedural::Generated, meniscus::frame::View) {
     let g = meniscus::scene::procedural::generate(name, count).unwrap();
     let b = meniscus::scene::percentile_bounds(&g.particles.positions, pct).unwrap();
     let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
@@ -698,7 +746,13 @@ fn splat_scene(name: &str, count: usize, w: u32, h: u32, pct: f64, closer: f32) 
 }
 
 /// The raw splat depth of `positions` with splat `mode` (no filter); None where the device lacks the mode.
-fn splat_depth(gpu: &std::sync::Arc<meniscus::gpu::Gpu>, positions: &[[f32; 3]], radius: f32, v: &meniscus::frame::View, mode: meniscus::settings::SplatMode) -> Option<Vec<f32>> {
+fn splat_depth(
+    gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
+    positions: &[[f32; 3]],
+    radius: f32,
+    v: &meniscus::frame::View,
+    mode: meniscus::settings::SplatMode,
+) -> Option<Vec<f32>> {
     let mut s = settings(radius);
     s.filter = Filter::None;
     s.splat = mode;
@@ -747,7 +801,9 @@ fn skybox_faces_from_files() {
     std::fs::create_dir_all(&dir).unwrap();
     let colours = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0], [0, 255, 255], [255, 0, 255]];
     for (name, c) in ["px", "nx", "py", "ny", "pz", "nz"].iter().zip(colours) {
-        image::RgbaImage::from_pixel(4, 4, image::Rgba([c[0], c[1], c[2], 255])).save(dir.join(format!("{name}.png"))).unwrap();
+        image::RgbaImage::from_pixel(4, 4, image::Rgba([c[0], c[1], c[2], 255]))
+            .save(dir.join(format!("{name}.png")))
+            .unwrap();
     }
     let (size, faces) = meniscus::sky::load_faces(&dir).unwrap();
     assert_eq!(size, 4);
@@ -816,17 +872,23 @@ fn iso_surface_matches_cpu_ray_cast() {
     let view_m = v.camera.view();
     let inv_view = view_m.inverse();
     let f = v.camera.focal_px(h as u32) as f64;
-    let centres: Vec<[f64; 3]> = pts.iter().map(|q| view_m.transform_point3(Vec3::from(*q)).as_dvec3().to_array()).collect();
+    let centres: Vec<[f64; 3]> =
+        pts.iter().map(|q| view_m.transform_point3(Vec3::from(*q)).as_dvec3().to_array()).collect();
     let (mut both, mut mismatch, mut close, mut max_err) = (0, 0, 0, 0f32);
     for y in 0..h {
         for x in 0..w {
             let dv = pixel_dir(x, y, w, h, f);
-            let hits: Vec<(f64, f64)> = centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso_bound * r) as f64)).collect();
+            let hits: Vec<(f64, f64)> =
+                centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso_bound * r) as f64)).collect();
             let start = hits.iter().map(|h| h.0).fold(f64::INFINITY, f64::min);
             let back = hits.iter().map(|h| h.1).fold(0.0, f64::max) as f32;
             let dir = inv_view.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
             let eye = v.camera.eye;
-            let want = if start.is_finite() { cast(&grid, &inv, &p, eye, dir, start as f32, ray_end(&grid, eye, dir).min(back)) } else { None };
+            let want = if start.is_finite() {
+                cast(&grid, &inv, &p, eye, dir, start as f32, ray_end(&grid, eye, dir).min(back))
+            } else {
+                None
+            };
             let g = got[y * w + x];
             match want {
                 Some(d) if g.is_finite() => {

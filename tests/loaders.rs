@@ -144,7 +144,9 @@ fn shared_splishsplash_bgeo_equals_vtk() {
 /// (half the nearest-neighbour distance was 12–15 % small once the fluid moves).
 #[test]
 fn radius_estimate_within_2_percent_on_shared_sequences() {
-    for (dir, r_true, frames) in [("splishsplash/dambreak_59k", 0.0125f32, [1, 20, 50]), ("splishsplash/dambreak_6859", 0.025, [1, 40, 51])] {
+    for (dir, r_true, frames) in
+        [("splishsplash/dambreak_59k", 0.0125f32, [1, 20, 50]), ("splishsplash/dambreak_6859", 0.025, [1, 40, 51])]
+    {
         let Some(root) = common::shared_data(dir) else { return };
         for n in frames {
             let p = scene::load(&root.join(format!("partio/ParticleData_Fluid_{n}.bgeo"))).unwrap();
@@ -261,7 +263,8 @@ fn sequences_sort_numerically_with_ranges_and_shards() {
     assert!(resolve(&pattern, Some(FrameRange::parse("30..40").unwrap()), None).is_err());
     // Prefetch delivers every frame in order, loaded.
     let frames = resolve(&pattern, None, None).unwrap();
-    let got: Vec<f32> = Prefetch::start(frames, Default::default(), 2).map(|(_, p)| p.unwrap().positions[0][0]).collect();
+    let got: Vec<f32> =
+        Prefetch::start(frames, Default::default(), 2).map(|(_, p)| p.unwrap().positions[0][0]).collect();
     assert_eq!(got, vec![1.0, 2.0, 10.0, 11.0, 20.0]);
 }
 
@@ -280,7 +283,15 @@ fn malformed_corpus_gives_errors_not_panics() {
         }
         // Every parser on every file: no panic whatever the format.
         let bytes = std::fs::read(&path).unwrap();
-        for f in [scene::Format::Bgeo, scene::Format::Vtk, scene::Format::Vtu, scene::Format::Ply, scene::Format::Xyz, scene::Format::Csv, scene::Format::RealFlow] {
+        for f in [
+            scene::Format::Bgeo,
+            scene::Format::Vtk,
+            scene::Format::Vtu,
+            scene::Format::Ply,
+            scene::Format::Xyz,
+            scene::Format::Csv,
+            scene::Format::RealFlow,
+        ] {
             let r = std::panic::catch_unwind(|| scene::parse_raw(f, &path, &bytes));
             assert!(r.is_ok(), "{}: the {f:?} parser panicked", path.display());
         }

@@ -48,8 +48,12 @@ impl Access {
     pub const fn info(self) -> AccessInfo {
         use vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
         let (stage, access, layout, writes) = match self {
-            Access::ComputeRead => (S::COMPUTE_SHADER, A::SHADER_STORAGE_READ.as_raw() | A::UNIFORM_READ.as_raw(), L::GENERAL, false),
-            Access::ComputeSampled => (S::COMPUTE_SHADER, A::SHADER_SAMPLED_READ.as_raw(), L::SHADER_READ_ONLY_OPTIMAL, false),
+            Access::ComputeRead => {
+                (S::COMPUTE_SHADER, A::SHADER_STORAGE_READ.as_raw() | A::UNIFORM_READ.as_raw(), L::GENERAL, false)
+            }
+            Access::ComputeSampled => {
+                (S::COMPUTE_SHADER, A::SHADER_SAMPLED_READ.as_raw(), L::SHADER_READ_ONLY_OPTIMAL, false)
+            }
             Access::ComputeWrite => (
                 S::COMPUTE_SHADER,
                 A::SHADER_STORAGE_READ.as_raw() | A::SHADER_STORAGE_WRITE.as_raw(),

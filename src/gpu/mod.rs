@@ -148,8 +148,8 @@ fn cstr_of(raw: &[std::ffi::c_char]) -> String {
 impl Gpu {
     /// Create the instance and device. Errors (never panics) when no loader or device is found.
     pub fn new(opts: &GpuOptions) -> Result<Arc<Gpu>> {
-        let validation_wanted = opts.validation
-            || std::env::var("MENISCUS_VALIDATION").map(|v| v != "0" && !v.is_empty()).unwrap_or(false);
+        let validation_wanted =
+            opts.validation || std::env::var("MENISCUS_VALIDATION").map(|v| v != "0" && !v.is_empty()).unwrap_or(false);
         // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?;
 
@@ -174,7 +174,10 @@ impl Gpu {
         let mut ext_names: Vec<*const std::ffi::c_char> = opts.surface_extensions.iter().map(|e| e.as_ptr()).collect();
         for e in &opts.surface_extensions {
             if !exts.iter().any(|x| cstr_of(&x.extension_name) == e.to_string_lossy()) {
-                return Err(Error::NoDevice(format!("the Vulkan loader lacks the window extension {}", e.to_string_lossy())));
+                return Err(Error::NoDevice(format!(
+                    "the Vulkan loader lacks the window extension {}",
+                    e.to_string_lossy()
+                )));
             }
         }
         if has_debug_utils {
@@ -332,7 +335,9 @@ impl Gpu {
         candidates.sort_by_key(|c| std::cmp::Reverse(c.0));
         let Some(&(_, pd, qf, valid_bits)) = candidates.first() else {
             return Err(Error::NoDevice(match filter {
-                Some(f) => format!("no Vulkan 1.3 device with push descriptors matches MENISCUS_DEVICE={f:?} (devices: {names:?})"),
+                Some(f) => format!(
+                    "no Vulkan 1.3 device with push descriptors matches MENISCUS_DEVICE={f:?} (devices: {names:?})"
+                ),
                 None => format!("no Vulkan 1.3 device with push descriptors and timestamps (devices: {names:?})"),
             }));
         };
@@ -346,7 +351,12 @@ impl Gpu {
         let info = DeviceInfo {
             name: cstr_of(&props.device_name),
             driver: format!("{} {}", cstr_of(&driver.driver_name), cstr_of(&driver.driver_info)),
-            api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+            api_version: format!(
+                "{}.{}.{}",
+                vk::api_version_major(v),
+                vk::api_version_minor(v),
+                vk::api_version_patch(v)
+            ),
             device_type: format!("{:?}", props.device_type),
             timestamp_period: props.limits.timestamp_period,
             timestamp_valid_bits: valid_bits,
@@ -375,7 +385,8 @@ impl Gpu {
             .vertex_pipeline_stores_and_atomics(base.vertex_pipeline_stores_and_atomics == vk::TRUE)
             .shader_storage_image_extended_formats(base.shader_storage_image_extended_formats == vk::TRUE)
             .large_points(base.large_points == vk::TRUE);
-        let mut enable2 = vk::PhysicalDeviceFeatures2::default().features(base_enable).push_next(&mut e13).push_next(&mut e12);
+        let mut enable2 =
+            vk::PhysicalDeviceFeatures2::default().features(base_enable).push_next(&mut e13).push_next(&mut e12);
         let prio = [1.0f32];
         let qci = [vk::DeviceQueueCreateInfo::default().queue_family_index(qf).queue_priorities(&prio)];
         let mut dev_exts = vec![ash::khr::push_descriptor::NAME.as_ptr()];

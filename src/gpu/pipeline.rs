@@ -34,7 +34,11 @@ pub fn shader_module(gpu: &Gpu, spirv: &[u8]) -> Result<vk::ShaderModule> {
 }
 
 /// Push-descriptor set layout for a binding table, visible to `stages`.
-pub fn set_layout(gpu: &Gpu, bindings: &[vk::DescriptorType], stages: vk::ShaderStageFlags) -> Result<vk::DescriptorSetLayout> {
+pub fn set_layout(
+    gpu: &Gpu,
+    bindings: &[vk::DescriptorType],
+    stages: vk::ShaderStageFlags,
+) -> Result<vk::DescriptorSetLayout> {
     let b: Vec<_> = bindings
         .iter()
         .enumerate()
@@ -129,7 +133,15 @@ impl ComputeProgram {
             .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0];
         unsafe { d.destroy_shader_module(module, None) };
         Ok(ComputeProgram {
-            core: ProgramCore { gpu: gpu.clone(), name, pipeline, layout, set_layout, bindings: bindings.to_vec(), push_size },
+            core: ProgramCore {
+                gpu: gpu.clone(),
+                name,
+                pipeline,
+                layout,
+                set_layout,
+                bindings: bindings.to_vec(),
+                push_size,
+            },
         })
     }
 
@@ -211,7 +223,6 @@ pub fn push_descriptors(
         .collect();
     unsafe { gpu.push_descriptor.cmd_push_descriptor_set(cmd, bind_point, layout, 0, &writes) };
 }
-
 
 /// What a graphics program draws into (dynamic rendering, no render pass objects).
 #[derive(Clone, Copy, Debug)]
@@ -296,14 +307,31 @@ impl GraphicsProgram {
             d.destroy_shader_module(fm, None);
         }
         Ok(GraphicsProgram {
-            core: ProgramCore { gpu: gpu.clone(), name, pipeline: pipeline?[0], layout, set_layout, bindings: bindings.to_vec(), push_size },
+            core: ProgramCore {
+                gpu: gpu.clone(),
+                name,
+                pipeline: pipeline?[0],
+                layout,
+                set_layout,
+                bindings: bindings.to_vec(),
+                push_size,
+            },
         })
     }
 
     /// Draw `vertices` non-indexed into `color` (cleared to `clear`) and `depth` (cleared to 0, reversed Z).
     /// Barriers are the caller's `begin_pass` (ColorAttachment / DepthAttachment accesses).
     #[allow(clippy::too_many_arguments)]
-    pub fn draw(&self, ctx: &FrameCtx, res: &[Bind], push: &[u8], color: &Image, clear: f32, depth: Option<&Image>, vertices: u32) {
+    pub fn draw(
+        &self,
+        ctx: &FrameCtx,
+        res: &[Bind],
+        push: &[u8],
+        color: &Image,
+        clear: f32,
+        depth: Option<&Image>,
+        vertices: u32,
+    ) {
         let c = &self.core;
         let d = &c.gpu.device;
         let cmd = ctx.cmd;
@@ -350,4 +378,3 @@ impl GraphicsProgram {
         }
     }
 }
-

@@ -31,7 +31,13 @@ pub struct Image {
 }
 
 /// Allocate memory for a resource through the GPU's allocator.
-fn allocate(gpu: &Gpu, name: &str, requirements: vk::MemoryRequirements, location: MemoryLocation, linear: bool) -> Result<Allocation> {
+fn allocate(
+    gpu: &Gpu,
+    name: &str,
+    requirements: vk::MemoryRequirements,
+    location: MemoryLocation,
+    linear: bool,
+) -> Result<Allocation> {
     gpu.allocator
         .lock()
         .map_err(|_| Error::Invalid("the GPU allocator lock was poisoned by an earlier panic".into()))?
@@ -71,7 +77,13 @@ impl Image {
     }
 
     /// A cube map: six square layers, viewed as a cube (`samplerCube`).
-    pub fn new_cube(gpu: &Arc<Gpu>, name: &str, size: u32, format: vk::Format, usage: vk::ImageUsageFlags) -> Result<Image> {
+    pub fn new_cube(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        size: u32,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+    ) -> Result<Image> {
         Self::create(gpu, name, vk::Extent2D { width: size, height: size }, format, usage, None, 6)
     }
 
@@ -85,7 +97,8 @@ impl Image {
         layers: u32,
     ) -> Result<Image> {
         let d = &gpu.device;
-        let mut flags = if alt_format.is_some() { vk::ImageCreateFlags::MUTABLE_FORMAT } else { vk::ImageCreateFlags::empty() };
+        let mut flags =
+            if alt_format.is_some() { vk::ImageCreateFlags::MUTABLE_FORMAT } else { vk::ImageCreateFlags::empty() };
         if layers == 6 {
             flags |= vk::ImageCreateFlags::CUBE_COMPATIBLE;
         }
@@ -103,7 +116,8 @@ impl Image {
             .initial_layout(vk::ImageLayout::UNDEFINED);
         let raw = unsafe { d.create_image(&ci, None) }.vk("vkCreateImage")?;
         let req = unsafe { d.get_image_memory_requirements(raw) };
-        let alloc = allocate(gpu, name, req, MemoryLocation::GpuOnly, false).inspect_err(|_| unsafe { d.destroy_image(raw, None) })?;
+        let alloc = allocate(gpu, name, req, MemoryLocation::GpuOnly, false)
+            .inspect_err(|_| unsafe { d.destroy_image(raw, None) })?;
         let mut img = Image::bare(gpu, raw, format, extent, name, layers, true);
         unsafe { d.bind_image_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindImageMemory")?;
         img.alloc = Some(alloc);
@@ -127,7 +141,15 @@ impl Image {
     }
 
     /// The struct around a raw image, before memory and views (no access yet: layout UNDEFINED).
-    fn bare(gpu: &Arc<Gpu>, raw: vk::Image, format: vk::Format, extent: vk::Extent2D, name: &str, layers: u32, owned: bool) -> Image {
+    fn bare(
+        gpu: &Arc<Gpu>,
+        raw: vk::Image,
+        format: vk::Format,
+        extent: vk::Extent2D,
+        name: &str,
+        layers: u32,
+        owned: bool,
+    ) -> Image {
         Image {
             gpu: gpu.clone(),
             raw,
@@ -136,7 +158,11 @@ impl Image {
             format,
             extent,
             name: name.to_string(),
-            aspect: if format == vk::Format::D32_SFLOAT { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR },
+            aspect: if format == vk::Format::D32_SFLOAT {
+                vk::ImageAspectFlags::DEPTH
+            } else {
+                vk::ImageAspectFlags::COLOR
+            },
             layers,
             state: Cell::new(AccessState::default()),
             alloc: None,
@@ -215,7 +241,8 @@ impl Buffer {
         location: MemoryLocation,
     ) -> Result<Buffer> {
         let d = &gpu.device;
-        let ci = vk::BufferCreateInfo::default().size(size.max(16)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let ci =
+            vk::BufferCreateInfo::default().size(size.max(16)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { d.create_buffer(&ci, None) }.vk("vkCreateBuffer")?;
         let req = unsafe { d.get_buffer_memory_requirements(raw) };
         let alloc = allocate(gpu, name, req, location, true).inspect_err(|_| unsafe { d.destroy_buffer(raw, None) })?;

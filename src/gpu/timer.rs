@@ -60,7 +60,9 @@ impl Timer {
 
     /// Write the end timestamp of scope `i` (after all earlier work finished).
     pub fn end(&mut self, cmd: vk::CommandBuffer, i: u32) {
-        unsafe { self.gpu.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 2 * i + 1) };
+        unsafe {
+            self.gpu.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 2 * i + 1)
+        };
     }
 
     /// Read the results of the last frame (waits for them). Same-named scopes are summed.
@@ -129,5 +131,9 @@ pub fn percentile(v: &mut [f64], p: f64) -> f64 {
     v.sort_by(f64::total_cmp);
     let x = p.clamp(0.0, 1.0) * (v.len() - 1) as f64;
     let (i, f) = (x.floor() as usize, x.fract());
-    if i + 1 < v.len() { v[i] * (1.0 - f) + v[i + 1] * f } else { v[i] }
+    if i + 1 < v.len() {
+        v[i] * (1.0 - f) + v[i + 1] * f
+    } else {
+        v[i]
+    }
 }

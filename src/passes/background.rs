@@ -15,13 +15,23 @@ pub struct Background {
 
 impl Background {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Background { prog: ComputeProgram::new(gpu, NAME, shaders::BACKGROUND, &[UBO, IMG, IMG, TEX, SSBO, SSBO], 4)? })
+        Ok(Background {
+            prog: ComputeProgram::new(gpu, NAME, shaders::BACKGROUND, &[UBO, IMG, IMG, TEX, SSBO, SSBO], 4)?,
+        })
     }
 
     /// Writes all of `color` and `depth`; `sky` is the cube map (a placeholder when procedural); `mesh`: the
     /// BVH nodes and triangles of the background mesh and its node count (0 = none; the buffers are then
     /// placeholders).
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, sky: &Image, mesh: &MeshBuffers, color: &Image, depth: &Image) {
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        sky: &Image,
+        mesh: &MeshBuffers,
+        color: &Image,
+        depth: &Image,
+    ) {
         let uses = [
             Use::buf_read(frame),
             Use::sampled(sky),

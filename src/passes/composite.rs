@@ -27,7 +27,15 @@ pub struct CompositeInputs<'a> {
 
 impl Composite {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Composite { prog: ComputeProgram::new(gpu, NAME, shaders::COMPOSITE, &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, IMG, TEX], 0)? })
+        Ok(Composite {
+            prog: ComputeProgram::new(
+                gpu,
+                NAME,
+                shaders::COMPOSITE,
+                &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, IMG, TEX],
+                0,
+            )?,
+        })
     }
 
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {

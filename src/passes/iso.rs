@@ -74,7 +74,15 @@ impl Iso {
 
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the
     /// spheres' farthest exit depth, where the march may stop (else it runs to the grid's box).
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, params: &crate::iso::IsoParams, depth: &Image, back: Option<&Image>) {
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        b: &IsoBuffers,
+        params: &crate::iso::IsoParams,
+        depth: &Image,
+        back: Option<&Image>,
+    ) {
         let push = b.shape.with(params, back.is_some());
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
@@ -89,7 +97,12 @@ impl Iso {
             uses.push(Use::read(bk));
         }
         ctx.pass(NAME, &uses, |ctx| {
-            let bufs = [Bind::Uniform(frame), Bind::StorageBuf(&b.points), Bind::StorageBuf(&b.cells), Bind::StorageBuf(&b.weights)];
+            let bufs = [
+                Bind::Uniform(frame),
+                Bind::StorageBuf(&b.points),
+                Bind::StorageBuf(&b.cells),
+                Bind::StorageBuf(&b.weights),
+            ];
             let n = b.shape.dims[3];
             self.density.dispatch(ctx, &bufs, bytemuck::bytes_of(&push), [n.div_ceil(super::LOCAL_1D), 1, 1]);
             ctx.barrier(&[Use::buf_read(&b.weights)]);

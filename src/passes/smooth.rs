@@ -82,13 +82,14 @@ impl Smooth {
         let r = s.radius;
         // One dispatch: read `src`, write the next ping-pong image, return it.
         let mut targets = [a, b].into_iter().cycle();
-        let mut step = |ctx: &mut FrameCtx, prog: &ComputeProgram, src: &'a Image, push: &[u8], local: u32| -> &'a Image {
-            let dst = targets.next().expect("cycle");
-            ctx.barrier(&[Use::buf_read(frame), Use::read(src), Use::overwrite(dst)]);
-            let g = ComputeProgram::groups_2d(dst.extent.width, dst.extent.height, local);
-            prog.dispatch(ctx, &[Bind::Uniform(frame), Bind::Storage(src), Bind::Storage(dst)], push, g);
-            dst
-        };
+        let mut step =
+            |ctx: &mut FrameCtx, prog: &ComputeProgram, src: &'a Image, push: &[u8], local: u32| -> &'a Image {
+                let dst = targets.next().expect("cycle");
+                ctx.barrier(&[Use::buf_read(frame), Use::read(src), Use::overwrite(dst)]);
+                let g = ComputeProgram::groups_2d(dst.extent.width, dst.extent.height, local);
+                prog.dispatch(ctx, &[Bind::Uniform(frame), Bind::Storage(src), Bind::Storage(dst)], push, g);
+                dst
+            };
         if s.filter == Filter::None {
             return depth;
         }

@@ -56,7 +56,11 @@ impl Splat {
                 min_blend: min,
                 topology: if point { vk::PrimitiveTopology::POINT_LIST } else { vk::PrimitiveTopology::TRIANGLE_LIST },
             };
-            let prog = if min && !can_blend { None } else { Some(GraphicsProgram::new(gpu, NAME, vert, frag, &[UBO, SSBO], 16, t)?) };
+            let prog = if min && !can_blend {
+                None
+            } else {
+                Some(GraphicsProgram::new(gpu, NAME, vert, frag, &[UBO, SSBO], 16, t)?)
+            };
             raster.push((mode, prog));
         }
         Ok(Splat {
@@ -101,11 +105,8 @@ impl Splat {
             uses.push(Use::Image(zbuffer, Access::DepthAttachment, true));
         }
         ctx.pass(NAME, &uses, |ctx| {
-            let push = RasterPush {
-                count,
-                radius_scale,
-                size: [depth.extent.width as f32, depth.extent.height as f32],
-            };
+            let push =
+                RasterPush { count, radius_scale, size: [depth.extent.width as f32, depth.extent.height as f32] };
             let vertices = if point { count } else { count * 6 };
             let z = (!min).then_some(zbuffer);
             prog.draw(
@@ -157,7 +158,13 @@ impl Splat {
                 let binds = [Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::Storage(tiles)];
                 self.cull.dispatch(ctx, &binds, bytemuck::cast_slice(&push), groups);
             }
-            ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(depth), Use::write(back_img), Use::read(tiles)]);
+            ctx.barrier(&[
+                Use::buf_read(frame),
+                Use::buf_read(particles),
+                Use::write(depth),
+                Use::write(back_img),
+                Use::read(tiles),
+            ]);
             let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits(), back as u32, cull as u32, TILE];
             self.prog.dispatch(
                 ctx,

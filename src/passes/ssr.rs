@@ -41,13 +41,8 @@ impl Ssr {
         out: &Image,
         s: &Settings,
     ) {
-        let uses = [
-            Use::buf_read(frame),
-            Use::read(depth),
-            Use::read(normals),
-            Use::read(scene_depth),
-            Use::overwrite(out),
-        ];
+        let uses =
+            [Use::buf_read(frame), Use::read(depth), Use::read(normals), Use::read(scene_depth), Use::overwrite(out)];
         ctx.pass(NAME, &uses, |ctx| {
             let push = Push {
                 stride: s.ssr_stride.max(1.0),

@@ -22,7 +22,12 @@ impl Upsample {
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, low: &Image, full: &Image, edge: f32) {
         ctx.pass(NAME, &[Use::buf_read(frame), Use::read(low), Use::overwrite(full)], |ctx| {
             let g = ComputeProgram::groups_2d(full.extent.width, full.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(ctx, &[Bind::Uniform(frame), Bind::Storage(low), Bind::Storage(full)], bytemuck::bytes_of(&edge), g);
+            self.prog.dispatch(
+                ctx,
+                &[Bind::Uniform(frame), Bind::Storage(low), Bind::Storage(full)],
+                bytemuck::bytes_of(&edge),
+                g,
+            );
         });
     }
 }

@@ -89,7 +89,16 @@ impl View {
 
     /// Map `mode`'s buffer into `t.final_color` (mode 6 = scene colour only). `smoothed`: the smoothed depth.
     #[allow(clippy::too_many_arguments)]
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, t: &Targets, smoothed: &Image, mode: i32, depth_range: (f32, f32), t_max: f32) {
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        t: &Targets,
+        smoothed: &Image,
+        mode: i32,
+        depth_range: (f32, f32),
+        t_max: f32,
+    ) {
         let uses = [
             Use::buf_read(frame),
             Use::read(&t.depth),
@@ -123,8 +132,23 @@ impl View {
 
     /// Draw the particles over the final image (after a mode-6 `record`).
     #[allow(clippy::too_many_arguments)]
-    pub fn record_particles(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: &Buffer, values: &Buffer, count: u32, t: &Targets, radius_scale: f32) {
-        let uses = [Use::buf_read(frame), Use::buf_read(particles), Use::buf_read(values), Use::read(&t.depth), Use::write(&t.final_color)];
+    pub fn record_particles(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        particles: &Buffer,
+        values: &Buffer,
+        count: u32,
+        t: &Targets,
+        radius_scale: f32,
+    ) {
+        let uses = [
+            Use::buf_read(frame),
+            Use::buf_read(particles),
+            Use::buf_read(values),
+            Use::read(&t.depth),
+            Use::write(&t.final_color),
+        ];
         ctx.pass(PARTICLES, &uses, |ctx| {
             // Princisgh's two-colour ramp: blue (slow / light / low) to red, interpolated in hue.
             let push = ParticlePush { count, radius_scale, hue: [0.62, 0.0] };

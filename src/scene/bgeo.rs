@@ -34,7 +34,10 @@ impl<'a> Reader<'a> {
     }
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
         if self.data.len() - self.pos < n {
-            return Err(self.err(self.pos, format!("file truncated: {what} needs {n} bytes, {} remain", self.data.len() - self.pos)));
+            return Err(self.err(
+                self.pos,
+                format!("file truncated: {what} needs {n} bytes, {} remain", self.data.len() - self.pos),
+            ));
         }
         let s = &self.data[self.pos..self.pos + n];
         self.pos += n;
@@ -76,7 +79,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut r = Reader { data, pos: 0, path, compressed };
     let magic = r.take(4, "magic")?;
     if magic != b"Bgeo" {
-        return Err(r.err(0, format!("wrong magic {:?}: not a classic BGEO file (expected \"Bgeo\")", String::from_utf8_lossy(magic))));
+        return Err(r.err(
+            0,
+            format!("wrong magic {:?}: not a classic BGEO file (expected \"Bgeo\")", String::from_utf8_lossy(magic)),
+        ));
     }
     let v = r.take(1, "version marker")?[0];
     if v != b'V' {
@@ -87,7 +93,14 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         return Err(r.err(5, format!("unsupported BGEO version {version} (only classic version 5 is read)")));
     }
     let names = [
-        "nPoints", "nPrims", "nPointGroups", "nPrimGroups", "nPointAttrib", "nVertexAttrib", "nPrimAttrib", "nDetailAttrib",
+        "nPoints",
+        "nPrims",
+        "nPointGroups",
+        "nPrimGroups",
+        "nPointAttrib",
+        "nVertexAttrib",
+        "nPrimAttrib",
+        "nDetailAttrib",
     ];
     let mut h = [0i32; 8];
     for (k, n) in names.iter().enumerate() {
@@ -159,7 +172,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             for rec in body.chunks_exact(record) {
                 for c in 0..a.size {
                     let b: [u8; 4] = rec[off + 4 * c..off + 4 * c + 4].try_into().unwrap();
-                    v.push(if a.ty == T_FLOAT || a.ty == T_VECTOR { f32::from_be_bytes(b) as f64 } else { i32::from_be_bytes(b) as f64 });
+                    v.push(if a.ty == T_FLOAT || a.ty == T_VECTOR {
+                        f32::from_be_bytes(b) as f64
+                    } else {
+                        i32::from_be_bytes(b) as f64
+                    });
                 }
             }
             Attribute { name: a.name.clone(), components: a.size, data: v }

@@ -29,17 +29,15 @@ impl Camera {
 
     /// Parse `ex,ey,ez:tx,ty,tz[:fovy]`.
     pub fn parse(s: &str) -> Result<Camera> {
-        let err = || {
-            Error::Invalid(format!(
-                "bad --camera {s:?}: expected EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45"
-            ))
-        };
+        let err =
+            || Error::Invalid(format!("bad --camera {s:?}: expected EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45"));
         let parts: Vec<&str> = s.split(':').collect();
         if parts.len() < 2 || parts.len() > 3 {
             return Err(err());
         }
         let v = |p: &str| -> Result<Vec3> {
-            let n: Vec<f32> = p.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|_| err())?;
+            let n: Vec<f32> =
+                p.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|_| err())?;
             if n.len() != 3 || n.iter().any(|x| !x.is_finite()) {
                 return Err(err());
             }
@@ -81,7 +79,11 @@ impl Camera {
 fn fmt(x: f32) -> String {
     let s = format!("{x:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.to_string() }
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
 }
 
 #[cfg(test)]

@@ -38,7 +38,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         headers.iter().map(|h| split_vector(h).unwrap_or_else(|| (h.trim().to_string(), 0))).collect();
     let pos_col = |k: usize| cols.iter().position(|(n, c)| n == "position" && *c == k);
     let (Some(px), Some(py), Some(pz)) = (pos_col(0), pos_col(1), pos_col(2)) else {
-        return Err(err(0, format!("the header must name x, y and z columns; found {:?}", headers.iter().collect::<Vec<_>>())));
+        return Err(err(
+            0,
+            format!("the header must name x, y and z columns; found {:?}", headers.iter().collect::<Vec<_>>()),
+        ));
     };
     let mut names: Vec<(String, usize)> = vec![]; // attribute name, components
     for (n, c) in &cols {
@@ -75,7 +78,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             }
         }
     }
-    let arrays = names.into_iter().zip(data).map(|((name, components), data)| Attribute { name, components, data }).collect();
+    let arrays =
+        names.into_iter().zip(data).map(|((name, components), data)| Attribute { name, components, data }).collect();
     Ok(Raw { positions, arrays })
 }
 

@@ -20,9 +20,9 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 
+pub(crate) use self::csv::split_vector as csv_split;
 pub use camera::Camera;
 pub use grid::UniformGrid;
-pub(crate) use self::csv::split_vector as csv_split;
 
 /// Particle data as loaded: positions always, the mapped attributes when the file has them, and every other
 /// per-particle array by name.
@@ -111,7 +111,13 @@ impl Raw {
                 if a.components == 0 || n.checked_mul(a.components) != Some(a.data.len()) {
                     return a;
                 }
-                let data = a.data.chunks_exact(a.components).zip(&keep).filter(|(_, k)| **k).flat_map(|(c, _)| c.iter().copied()).collect();
+                let data = a
+                    .data
+                    .chunks_exact(a.components)
+                    .zip(&keep)
+                    .filter(|(_, k)| **k)
+                    .flat_map(|(c, _)| c.iter().copied())
+                    .collect();
                 Attribute { data, ..a }
             })
             .collect();
@@ -123,7 +129,11 @@ impl Raw {
         let mut arrays = self.arrays;
         let mut take = |names: &[String], comps: usize| -> Option<Vec<f64>> {
             let k = names.iter().find_map(|want| {
-                arrays.iter().position(|a| a.name.eq_ignore_ascii_case(want) && a.components == comps && n.checked_mul(comps) == Some(a.data.len()))
+                arrays.iter().position(|a| {
+                    a.name.eq_ignore_ascii_case(want)
+                        && a.components == comps
+                        && n.checked_mul(comps) == Some(a.data.len())
+                })
             })?;
             Some(arrays.remove(k).data)
         };
@@ -182,13 +192,25 @@ impl Particles {
             arrays.push(Attribute { name: "id".into(), components: 1, data: ids.iter().map(|&x| x as f64).collect() });
         }
         if let Some(v) = &self.velocities {
-            arrays.push(Attribute { name: "velocity".into(), components: 3, data: v.iter().flatten().map(|&x| x as f64).collect() });
+            arrays.push(Attribute {
+                name: "velocity".into(),
+                components: 3,
+                data: v.iter().flatten().map(|&x| x as f64).collect(),
+            });
         }
         if let Some(d) = &self.densities {
-            arrays.push(Attribute { name: "density".into(), components: 1, data: d.iter().map(|&x| x as f64).collect() });
+            arrays.push(Attribute {
+                name: "density".into(),
+                components: 1,
+                data: d.iter().map(|&x| x as f64).collect(),
+            });
         }
         if let Some(r) = &self.radii {
-            arrays.push(Attribute { name: "radius".into(), components: 1, data: r.iter().map(|&x| x as f64).collect() });
+            arrays.push(Attribute {
+                name: "radius".into(),
+                components: 1,
+                data: r.iter().map(|&x| x as f64).collect(),
+            });
         }
         arrays.extend(self.extra.iter().cloned());
         Raw { positions: self.positions.clone(), arrays }
@@ -411,7 +433,8 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<Format> {
         _ => {}
     }
     let first = text.lines().next().unwrap_or("").to_ascii_lowercase();
-    if first.contains(',') && ["x", "y", "z"].iter().all(|c| first.split(',').any(|f| f.trim().trim_matches('"') == *c)) {
+    if first.contains(',') && ["x", "y", "z"].iter().all(|c| first.split(',').any(|f| f.trim().trim_matches('"') == *c))
+    {
         return Some(Format::Csv);
     }
     None
@@ -458,7 +481,11 @@ pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
         );
     }
     if p.is_empty() {
-        return Err(Error::Parse { path: path.to_path_buf(), offset: 0, reason: "no particle has a finite position".into() });
+        return Err(Error::Parse {
+            path: path.to_path_buf(),
+            offset: 0,
+            reason: "no particle has a finite position".into(),
+        });
     }
     Ok(p)
 }
@@ -497,7 +524,11 @@ mod tests {
         let m = spray_mask(&p, 0.01, 0.5);
         assert!(m[512] && !m[100] && m.iter().filter(|x| **x).count() < 20);
         // With densities from the file.
-        let p2 = Particles { densities: Some(vec![1000.0, 990.0, 300.0, 1010.0]), positions: vec![[0.0; 3]; 4], ..Default::default() };
+        let p2 = Particles {
+            densities: Some(vec![1000.0, 990.0, 300.0, 1010.0]),
+            positions: vec![[0.0; 3]; 4],
+            ..Default::default()
+        };
         assert_eq!(spray_mask(&p2, 0.01, 0.6), vec![false, false, true, false]);
         assert_eq!(spray_mask(&p2, 0.01, 0.0), vec![false; 4]);
     }
@@ -536,7 +567,11 @@ mod tests {
             for y in 0..24 {
                 for x in 0..24 {
                     let j = 0.3 * 0.025;
-                    pos.push([(x as f32 + 0.0) * 0.025 + j * rnd(), y as f32 * 0.025 + j * rnd(), z as f32 * 0.025 + j * rnd()]);
+                    pos.push([
+                        (x as f32 + 0.0) * 0.025 + j * rnd(),
+                        y as f32 * 0.025 + j * rnd(),
+                        z as f32 * 0.025 + j * rnd(),
+                    ]);
                 }
             }
         }

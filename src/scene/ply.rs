@@ -72,7 +72,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut enc = None;
     let mut elements: Vec<Element> = vec![];
     loop {
-        let end = bytes[pos..].iter().position(|&b| b == b'\n').ok_or_else(|| err(pos, "header has no end_header line".into()))?;
+        let end = bytes[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or_else(|| err(pos, "header has no end_header line".into()))?;
         let line = String::from_utf8_lossy(&bytes[pos..pos + end]).trim().to_string();
         let at = pos;
         pos += end + 1;
@@ -88,19 +91,25 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 })
             }
             Some("element") => {
-                let count: usize =
-                    w.get(2).and_then(|c| c.parse().ok()).ok_or_else(|| err(at, format!("bad element line {line:?}")))?;
+                let count: usize = w
+                    .get(2)
+                    .and_then(|c| c.parse().ok())
+                    .ok_or_else(|| err(at, format!("bad element line {line:?}")))?;
                 elements.push(Element { name: w.get(1).unwrap_or(&"").to_string(), count, props: vec![] });
             }
             Some("property") => {
                 let el = elements.last_mut().ok_or_else(|| err(at, "property before any element".into()))?;
                 if w.get(1) == Some(&"list") {
-                    let (Some(c), Some(i)) = (w.get(2).and_then(|t| type_code(t)), w.get(3).and_then(|t| type_code(t))) else {
+                    let (Some(c), Some(i)) = (w.get(2).and_then(|t| type_code(t)), w.get(3).and_then(|t| type_code(t)))
+                    else {
                         return Err(err(at, format!("bad list property {line:?}")));
                     };
                     el.props.push(Prop::List { count_ty: c, item_ty: i });
                 } else {
-                    let ty = w.get(1).and_then(|t| type_code(t)).ok_or_else(|| err(at, format!("unknown property type in {line:?}")))?;
+                    let ty = w
+                        .get(1)
+                        .and_then(|t| type_code(t))
+                        .ok_or_else(|| err(at, format!("unknown property type in {line:?}")))?;
                     let name = w.get(2).ok_or_else(|| err(at, format!("property without a name: {line:?}")))?;
                     el.props.push(Prop::Scalar { name: name.to_string(), ty });
                 }
@@ -115,7 +124,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let v = &elements[vi];
     let min_bytes = v.props.len().max(1) * if enc == Enc::Ascii { 2 } else { 1 };
     if v.count > (bytes.len() - pos) / min_bytes + 1 {
-        return Err(err(pos, format!("header claims {} vertices, more than the {} bytes of data can hold", v.count, bytes.len() - pos)));
+        return Err(err(
+            pos,
+            format!("header claims {} vertices, more than the {} bytes of data can hold", v.count, bytes.len() - pos),
+        ));
     }
     let mut tokens = if enc == Enc::Ascii { Some(AsciiTokens { b: bytes, pos }) } else { None };
     let mut values: Vec<Vec<f64>> = vec![];
@@ -203,10 +215,15 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 // Append a component: interleave.
                 let old = std::mem::take(&mut a.data);
                 let k = a.components;
-                a.data = (0..v.count).flat_map(|i| old[i * k..i * k + k].iter().copied().chain([values[j][i]])).collect();
+                a.data =
+                    (0..v.count).flat_map(|i| old[i * k..i * k + k].iter().copied().chain([values[j][i]])).collect();
                 a.components += 1;
             }
-            _ => arrays.push(Attribute { name: if comp == 0 { base } else { n.to_string() }, components: 1, data: values[j].clone() }),
+            _ => arrays.push(Attribute {
+                name: if comp == 0 { base } else { n.to_string() },
+                components: 1,
+                data: values[j].clone(),
+            }),
         }
     }
     Ok(Raw { positions, arrays })

@@ -32,10 +32,17 @@ fn jitter(i: u32, k: u32) -> f32 {
 }
 
 /// Fill the region `inside(x, y, z)` within the box [lo, hi] on a lattice of spacing `s`.
-fn fill(lo: [f32; 3], hi: [f32; 3], s: f32, inside: &dyn Fn(f32, f32, f32) -> bool, vel: &dyn Fn(f32, f32, f32) -> [f32; 3]) -> Particles {
+fn fill(
+    lo: [f32; 3],
+    hi: [f32; 3],
+    s: f32,
+    inside: &dyn Fn(f32, f32, f32) -> bool,
+    vel: &dyn Fn(f32, f32, f32) -> [f32; 3],
+) -> Particles {
     let n = |a: usize| ((hi[a] - lo[a]) / s).floor().max(0.0) as u32 + 1;
     let (nx, ny, nz) = (n(0), n(1), n(2));
-    let mut p = Particles { velocities: Some(vec![]), densities: Some(vec![]), ids: Some(vec![]), ..Default::default() };
+    let mut p =
+        Particles { velocities: Some(vec![]), densities: Some(vec![]), ids: Some(vec![]), ..Default::default() };
     let mut id = 0i64;
     for k in 0..nz {
         for j in 0..ny {
@@ -74,17 +81,11 @@ pub fn generate(name: &str, count: usize) -> Result<Generated> {
     let build = |s: f32| -> Result<Particles> {
         Ok(match name {
             "block" => fill([0.0; 3], [1.0; 3], s, &|_, _, _| true, &|_, _, _| [0.0; 3]),
-            "wave" => fill(
-                [0.0, 0.0, 0.0],
-                [4.0, 0.9, 1.5],
-                s,
-                &|x, y, z| y < wave_height(x, z),
-                &|x, y, _| {
-                    let u = x - 2.6;
-                    let push = (-(u / 0.6).powi(2)).exp();
-                    [2.5 * push * (0.5 + y), 0.8 * push * (-u).signum().max(0.0), 0.0]
-                },
-            ),
+            "wave" => fill([0.0, 0.0, 0.0], [4.0, 0.9, 1.5], s, &|x, y, z| y < wave_height(x, z), &|x, y, _| {
+                let u = x - 2.6;
+                let push = (-(u / 0.6).powi(2)).exp();
+                [2.5 * push * (0.5 + y), 0.8 * push * (-u).signum().max(0.0), 0.0]
+            }),
             "drop" => fill(
                 [0.0, 0.0, 0.0],
                 [2.0, 1.3, 2.0],
@@ -97,7 +98,13 @@ pub fn generate(name: &str, count: usize) -> Result<Generated> {
                     let drop = dx * dx + (y - 0.95).powi(2) + dz * dz < 0.15 * 0.15;
                     pool || crown || drop
                 },
-                &|x, y, z| if y > 0.7 { [0.0, -3.0, 0.0] } else { [(x - 1.0) * 2.0, 1.5 * (y > 0.25) as i32 as f32, (z - 1.0) * 2.0] },
+                &|x, y, z| {
+                    if y > 0.7 {
+                        [0.0, -3.0, 0.0]
+                    } else {
+                        [(x - 1.0) * 2.0, 1.5 * (y > 0.25) as i32 as f32, (z - 1.0) * 2.0]
+                    }
+                },
             ),
             "crown" => fill(
                 [0.0, 0.0, 0.0],
@@ -111,7 +118,9 @@ pub fn generate(name: &str, count: usize) -> Result<Generated> {
                     let top = 0.12 + 0.45 * (1.0 + 0.25 * (12.0 * a).cos());
                     let wall = (rr - 0.3 - 0.15 * (y - 0.12)).abs() < 0.025 && y < top;
                     // Droplets at the rim's spikes.
-                    let spike = (12.0 * a).cos() > 0.97 && (rr - 0.3 - 0.15 * (top - 0.12)).abs() < 0.03 && (y - top - 0.06).abs() < 0.03;
+                    let spike = (12.0 * a).cos() > 0.97
+                        && (rr - 0.3 - 0.15 * (top - 0.12)).abs() < 0.03
+                        && (y - top - 0.06).abs() < 0.03;
                     pool || wall || spike
                 },
                 &|x, y, z| [(x - 1.0) * 1.5, 2.0 * (y > 0.12) as i32 as f32, (z - 1.0) * 1.5],

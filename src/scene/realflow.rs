@@ -62,7 +62,13 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Raw> {
     let rl = record_len(version);
     let need = n.checked_mul(rl).ok_or_else(|| err(276, "particle count overflows".into()))?;
     if need > b.len() - hl {
-        return Err(err(hl, format!("header claims {n} particles ({need} bytes of {rl}-byte records) but only {} bytes remain", b.len() - hl)));
+        return Err(err(
+            hl,
+            format!(
+                "header claims {n} particles ({need} bytes of {rl}-byte records) but only {} bytes remain",
+                b.len() - hl
+            ),
+        ));
     }
     let mut positions = Vec::with_capacity(n);
     let mut vel = Vec::with_capacity(3 * n);
@@ -76,7 +82,11 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Raw> {
         age.push(f(tail) as f64);
         dens.push(f(tail + 12) as f64);
         let io = o + rl - if version >= 12 { 8 } else { 4 };
-        ids.push(if version >= 12 { i64::from_le_bytes(b[io..io + 8].try_into().unwrap()) as f64 } else { i32::from_le_bytes(b[io..io + 4].try_into().unwrap()) as f64 });
+        ids.push(if version >= 12 {
+            i64::from_le_bytes(b[io..io + 8].try_into().unwrap()) as f64
+        } else {
+            i32::from_le_bytes(b[io..io + 4].try_into().unwrap()) as f64
+        });
     }
     let arrays = vec![
         Attribute { name: "velocity".into(), components: 3, data: vel },
@@ -92,7 +102,9 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Raw> {
 pub fn write(p: &Raw) -> Vec<u8> {
     let version: i16 = 11;
     let n = p.positions.len();
-    let get = |name: &str, i: usize, c: usize, k: usize| p.arrays.iter().find(|a| a.name == name && a.components == k).map(|a| a.data[i * k + c]).unwrap_or(0.0);
+    let get = |name: &str, i: usize, c: usize, k: usize| {
+        p.arrays.iter().find(|a| a.name == name && a.components == k).map(|a| a.data[i * k + c]).unwrap_or(0.0)
+    };
     let mut o = vec![];
     o.extend_from_slice(&MAGIC.to_le_bytes());
     let mut name = [0u8; 250];

@@ -39,7 +39,11 @@ impl FrameRange {
         let (first, last) = match range.split_once("..") {
             Some((a, b)) => (
                 if a.trim().is_empty() { 0 } else { a.trim().parse().map_err(|_| bad())? },
-                if b.trim().is_empty() { u64::MAX } else { b.trim().trim_start_matches('=').parse().map_err(|_| bad())? },
+                if b.trim().is_empty() {
+                    u64::MAX
+                } else {
+                    b.trim().trim_start_matches('=').parse().map_err(|_| bad())?
+                },
             ),
             None => {
                 let a = range.trim().parse().map_err(|_| bad())?;
@@ -91,7 +95,11 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
             (pre_path.to_path_buf(), String::new())
         } else {
             (
-                pre_path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }).unwrap_or(Path::new(".")).to_path_buf(),
+                pre_path
+                    .parent()
+                    .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+                    .unwrap_or(Path::new("."))
+                    .to_path_buf(),
                 pre_path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
             )
         };
@@ -110,7 +118,12 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
         let rd = std::fs::read_dir(spec).map_err(|e| Error::io(spec, e))?;
         let mut files: Vec<PathBuf> = rd
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_file() && p.extension().and_then(|e| e.to_str()).is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str())))
+            .filter(|p| {
+                p.is_file()
+                    && p.extension()
+                        .and_then(|e| e.to_str())
+                        .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+            })
             .collect();
         files.sort();
         numbered(files)
@@ -143,7 +156,11 @@ fn numbered(files: Vec<PathBuf>) -> Vec<Frame> {
         .into_iter()
         .enumerate()
         .map(|(i, path)| {
-            let number = if all_numbered { frame_number(&path.file_name().unwrap().to_string_lossy()).unwrap() } else { i as u64 };
+            let number = if all_numbered {
+                frame_number(&path.file_name().unwrap().to_string_lossy()).unwrap()
+            } else {
+                i as u64
+            };
             Frame { number, path }
         })
         .collect()
@@ -200,7 +217,11 @@ mod tests {
         let r = FrameRange::parse("10..40:2").unwrap();
         assert!(r.contains(10) && r.contains(40) && !r.contains(11) && !r.contains(42));
         assert_eq!(FrameRange::parse("5").unwrap(), FrameRange { first: 5, last: 5, step: 1 });
-        assert!(FrameRange::parse("4..2").is_err() && FrameRange::parse("1..5:0").is_err() && FrameRange::parse("x").is_err());
+        assert!(
+            FrameRange::parse("4..2").is_err()
+                && FrameRange::parse("1..5:0").is_err()
+                && FrameRange::parse("x").is_err()
+        );
         assert_eq!(parse_shard("2/8").unwrap(), (2, 8));
         assert!(parse_shard("0/8").is_err() && parse_shard("9/8").is_err() && parse_shard("3").is_err());
     }

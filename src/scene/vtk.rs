@@ -78,7 +78,10 @@ impl<'a> Cur<'a> {
             if need > self.d.len() - start {
                 return Err(self.err(
                     start,
-                    format!("{what}: {count} values of {ty} need {need} bytes but only {} remain", self.d.len() - start),
+                    format!(
+                        "{what}: {count} values of {ty} need {need} bytes but only {} remain",
+                        self.d.len() - start
+                    ),
                 ));
             }
             let b = &self.d[start..start + need];
@@ -103,7 +106,10 @@ impl<'a> Cur<'a> {
         } else {
             // Each ASCII value takes at least two bytes (digit + separator).
             if count > (self.d.len() - self.pos) / 2 + 1 {
-                return Err(self.err(at, format!("{what}: {count} values cannot fit in the {} bytes that remain", self.d.len() - self.pos)));
+                return Err(self.err(
+                    at,
+                    format!("{what}: {count} values cannot fit in the {} bytes that remain", self.d.len() - self.pos),
+                ));
             }
             let mut v = Vec::with_capacity(count);
             for _ in 0..count {
@@ -296,7 +302,8 @@ pub fn write(p: &Raw, binary: bool) -> Vec<u8> {
     o.extend_from_slice(format!("CELL_TYPES {n}\n").as_bytes());
     put_i(&mut o, &mut (0..n).map(|_| 1));
     o.extend_from_slice(format!("POINT_DATA {n}\n").as_bytes());
-    let (ids, fields): (Vec<&Attribute>, Vec<&Attribute>) = p.arrays.iter().partition(|a| a.name == "id" && a.components == 1);
+    let (ids, fields): (Vec<&Attribute>, Vec<&Attribute>) =
+        p.arrays.iter().partition(|a| a.name == "id" && a.components == 1);
     for a in ids {
         o.extend_from_slice(b"SCALARS id int 1\nLOOKUP_TABLE id_table\n");
         put_i(&mut o, &mut a.data.iter().map(|&x| x as i64));

@@ -83,9 +83,13 @@ impl Ctx<'_> {
         }
         let head = take(3 * h).ok_or_else(short)?;
         let (nb, bs, last) = (self.uint(&head[..h]), self.uint(&head[h..2 * h]), self.uint(&head[2 * h..]));
-        let total = if nb == 0 { 0 } else { (nb - 1).saturating_mul(bs).saturating_add(if last == 0 { bs } else { last }) };
+        let total =
+            if nb == 0 { 0 } else { (nb - 1).saturating_mul(bs).saturating_add(if last == 0 { bs } else { last }) };
         if (total as usize) < want || nb > (want as u64 / bs.max(1)) + 2 {
-            return Err(self.err(at, format!("compressed header claims {nb} blocks of {bs} bytes ({total} bytes); the array needs {want}")));
+            return Err(self.err(
+                at,
+                format!("compressed header claims {nb} blocks of {bs} bytes ({total} bytes); the array needs {want}"),
+            ));
         }
         let sizes = take(nb as usize * h).ok_or_else(short)?;
         let mut out = Vec::with_capacity(want);
@@ -116,7 +120,13 @@ struct B64<'a> {
 
 impl B64<'_> {
     fn new(text: &str) -> Self {
-        B64 { text: text.bytes().filter(|b| !b.is_ascii_whitespace()).collect(), pos: 0, joined: None, jpos: 0, _p: Default::default() }
+        B64 {
+            text: text.bytes().filter(|b| !b.is_ascii_whitespace()).collect(),
+            pos: 0,
+            joined: None,
+            jpos: 0,
+            _p: Default::default(),
+        }
     }
     fn take(&mut self, n: usize) -> Option<Vec<u8>> {
         if let Some(j) = &self.joined {
@@ -146,9 +156,17 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     // Appended data is not XML: cut it off, remember where it starts.
     let (xml, appended, app_b64) = match find(bytes, b"<AppendedData") {
         Some(i) => {
-            let tag_end = bytes[i..].iter().position(|&b| b == b'>').map(|k| i + k).ok_or_else(|| perr(i, "unterminated <AppendedData>".into()))?;
+            let tag_end = bytes[i..]
+                .iter()
+                .position(|&b| b == b'>')
+                .map(|k| i + k)
+                .ok_or_else(|| perr(i, "unterminated <AppendedData>".into()))?;
             let tag = String::from_utf8_lossy(&bytes[i..tag_end]);
-            let us = bytes[tag_end..].iter().position(|&b| b == b'_').map(|k| tag_end + k + 1).ok_or_else(|| perr(tag_end, "appended data lacks the '_' marker".into()))?;
+            let us = bytes[tag_end..]
+                .iter()
+                .position(|&b| b == b'_')
+                .map(|k| tag_end + k + 1)
+                .ok_or_else(|| perr(tag_end, "appended data lacks the '_' marker".into()))?;
             (&bytes[..i], Some(us), tag.contains("base64"))
         }
         None => (bytes, None, false),
@@ -172,7 +190,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             Event::Start(ref e) | Event::Empty(ref e) => {
                 let empty = matches!(ev, Event::Empty(_));
                 let get = |k: &str| -> Option<String> {
-                    e.attributes().flatten().find(|a| a.key.as_ref() == k.as_bytes()).map(|a| String::from_utf8_lossy(&a.value).into_owned())
+                    e.attributes()
+                        .flatten()
+                        .find(|a| a.key.as_ref() == k.as_bytes())
+                        .map(|a| String::from_utf8_lossy(&a.value).into_owned())
                 };
                 match e.name().as_ref() {
                     b"VTKFile" => {
@@ -181,7 +202,12 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                         zlib = match get("compressor").as_deref() {
                             None | Some("") => false,
                             Some("vtkZLibDataCompressor") => true,
-                            Some(c) => return Err(perr(at, format!("unsupported compressor {c} (only vtkZLibDataCompressor)"))),
+                            Some(c) => {
+                                return Err(perr(
+                                    at,
+                                    format!("unsupported compressor {c} (only vtkZLibDataCompressor)"),
+                                ))
+                            }
                         };
                     }
                     b"Piece" => {
@@ -237,23 +263,40 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut positions = None;
     let mut out = vec![];
     for a in arrays {
-        let size = type_size(&a.ty).ok_or_else(|| perr(a.at, format!("DataArray {:?}: unsupported type {:?}", a.name, a.ty)))?;
+        let size = type_size(&a.ty)
+            .ok_or_else(|| perr(a.at, format!("DataArray {:?}: unsupported type {:?}", a.name, a.ty)))?;
         let count = n.checked_mul(a.comps).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
         let want = count.checked_mul(size).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
         // Bytes that can hold this array: the inline text or the appended section (zlib inflates ≤ 1032×).
         let avail = if a.format == "appended" { appended.map(|s| bytes.len() - s).unwrap_or(0) } else { a.text.len() };
         let limit = avail.saturating_mul(if zlib { 1100 } else { 1 }).saturating_add(64);
         if a.format != "ascii" && want > limit {
-            return Err(perr(a.at, format!("DataArray {:?}: {n} points × {} components need {want} bytes, more than the file holds", a.name, a.comps)));
+            return Err(perr(
+                a.at,
+                format!(
+                    "DataArray {:?}: {n} points × {} components need {want} bytes, more than the file holds",
+                    a.name, a.comps
+                ),
+            ));
         }
         let vals: Vec<f64> = match a.format.as_str() {
             "ascii" => {
-                let v: Vec<f64> = a.text.split_ascii_whitespace().take(count).map(|t| t.parse::<f64>()).collect::<std::result::Result<_, _>>()
+                let v: Vec<f64> = a
+                    .text
+                    .split_ascii_whitespace()
+                    .take(count)
+                    .map(|t| t.parse::<f64>())
+                    .collect::<std::result::Result<_, _>>()
                     .map_err(|_| perr(a.at, format!("DataArray {:?}: not a number in ascii data", a.name)))?;
                 if v.len() < count {
                     return Err(perr(
                         a.at,
-                        format!("DataArray {:?}: {n} points × {} components need {count} values, the file has {}", a.name, a.comps, v.len()),
+                        format!(
+                            "DataArray {:?}: {n} points × {} components need {count} values, the file has {}",
+                            a.name,
+                            a.comps,
+                            v.len()
+                        ),
                     ));
                 }
                 v
@@ -270,10 +313,15 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                     let end = find(&bytes[start..], b"<").map(|k| start + k).unwrap_or(bytes.len());
                     let text = String::from_utf8_lossy(&bytes[start..end]).into_owned();
                     let text: String = text.chars().filter(|c| !c.is_whitespace()).collect();
-                    let mut b = B64::new(text.get(off..).ok_or_else(|| perr(a.at, format!("offset {off} past the appended data")))?);
+                    let mut b = B64::new(
+                        text.get(off..).ok_or_else(|| perr(a.at, format!("offset {off} past the appended data")))?,
+                    );
                     ctx.block(start + off, want, &mut |k| b.take(k))?
                 } else {
-                    let mut p = start.checked_add(off).filter(|&p| p <= bytes.len()).ok_or_else(|| perr(a.at, format!("offset {off} past the end of the file")))?;
+                    let mut p = start
+                        .checked_add(off)
+                        .filter(|&p| p <= bytes.len())
+                        .ok_or_else(|| perr(a.at, format!("offset {off} past the end of the file")))?;
                     ctx.block(p, want, &mut |k| {
                         let r = bytes.get(p..p.checked_add(k)?)?.to_vec();
                         p += k;

@@ -36,7 +36,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     if !bytes.len().is_multiple_of(12) {
         return Err(err(
             bytes.len() - bytes.len() % 12,
-            format!("binary XYZ must be a multiple of 12 bytes (3 × f32 per particle); {} bytes left over", bytes.len() % 12),
+            format!(
+                "binary XYZ must be a multiple of 12 bytes (3 × f32 per particle); {} bytes left over",
+                bytes.len() % 12
+            ),
         ));
     }
     let positions = bytes

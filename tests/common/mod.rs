@@ -30,13 +30,16 @@ pub fn assert_clean(gpu: &Gpu) {
 
 /// A camera at `eye` looking at the origin, with nothing else in the scene.
 pub fn view(eye: [f32; 3], target: [f32; 3], w: u32, h: u32, fovy: f32) -> View {
-    let mut camera = Camera::parse(&format!(
-        "{},{},{}:{},{},{}:{fovy}",
-        eye[0], eye[1], eye[2], target[0], target[1], target[2]
-    ))
-    .unwrap();
+    let mut camera =
+        Camera::parse(&format!("{},{},{}:{},{},{}:{fovy}", eye[0], eye[1], eye[2], target[0], target[1], target[2]))
+            .unwrap();
     camera.near = 0.05;
-    View { camera, width: w, height: h, env: Environment { ground_y: -100.0, tile: 1.0, fog: 1e6, ground: false, boxes: vec![], sky_cube: false } }
+    View {
+        camera,
+        width: w,
+        height: h,
+        env: Environment { ground_y: -100.0, tile: 1.0, fog: 1e6, ground: false, boxes: vec![], sky_cube: false },
+    }
 }
 
 /// Settings with the given radius and nothing extra.
