@@ -7,7 +7,10 @@
 //! - `timestamps` `empty` + reset of a query pool and two timestamps, results read back
 //! - `labels`     `empty` + a debug-utils label
 //! - `dispatch`   `empty` + one push-descriptor compute dispatch (the upsample pass on a 64×64 image)
-//! - `frame`      a whole frame of the renderer (wave scene, 160×90), as `render --timings` runs it
+//! - `clear`      `empty` + vkCmdClearColorImage of a 64×64 image
+//! - `composite`  only the composite pass (after one frame); `composite-sampledonly`: its 2D sampled slots bound
+//!   to a SAMPLED-only image
+//! - `frame`      a whole frame of the renderer (wave scene, 160×90), as `render --timings` runs it; `frame-cachedbg`, `frame-nofilter` vary it
 use std::sync::Arc;
 
 use ash::vk;
@@ -75,7 +78,32 @@ fn main() -> meniscus::Result<()> {
                 })
             })
         }
-        "frame" => {
+        "clear" => {
+            // vkCmdClearColorImage on a 64×64 R32F image (the splat and thickness passes clear this way).
+            let g = gpu.clone();
+            let ext = vk::Extent2D { width: 64, height: 64 };
+            let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+            let a = Image::new(&gpu, "a", ext, vk::Format::R32_SFLOAT, usage, None)?;
+            Box::new(move || {
+                g.one_shot(|cmd| {
+                    let mut ctx = FrameCtx::new(&g, cmd, None);
+                    ctx.barrier(&[meniscus::gpu::Use::Image(&a, meniscus::gpu::Access::TransferDst, true)]);
+                    unsafe {
+                        g.device.cmd_clear_color_image(
+                            cmd,
+                            a.raw,
+                            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                            &vk::ClearColorValue { float32: [0.0; 4] },
+                            &[Image::color_range()],
+                        )
+                    };
+                    Ok(())
+                })
+            })
+        }
+        m if m.starts_with("composite") => {
+            // Only the composite pass, after one whole frame: `composite` as the frame binds it;
+            //
             let gen = procedural::generate("wave", 20_000)?;
             let s = Settings { radius: gen.radius, ..Settings::default() };
             let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
@@ -87,7 +115,54 @@ fn main() -> meniscus::Result<()> {
             };
             let mut r = Renderer::new(&gpu)?;
             r.set_particles_with(&gen.particles.positions, None, None)?;
-            r.always_render_background = true;
+            r.render(&view, &s)?;
+            let g = gpu.clone();
+            // `composite-sampledonly`: the two 2D sampled slots bound to an image made with SAMPLED usage only.
+            let sampled_only = m.contains("sampledonly");
+            let tex = Image::new(
+                &gpu,
+                "tex",
+                vk::Extent2D { width: 160, height: 90 },
+                vk::Format::R16G16B16A16_SFLOAT,
+                vk::ImageUsageFlags::SAMPLED,
+                None,
+            )?;
+            Box::new(move || {
+                let t = r.targets.as_ref().expect("rendered");
+                let inputs = meniscus::passes::composite::CompositeInputs {
+                    scene_color: if sampled_only { &tex } else { &t.scene_color },
+                    scene_depth: &t.scene_depth,
+                    depth: &t.smooth_a,
+                    normals: &t.normals,
+                    thickness: if sampled_only { &tex } else { &t.thickness },
+                    ssr: &t.ssr,
+                    sky: &r.sky,
+                };
+                g.one_shot(|cmd| {
+                    let mut ctx = FrameCtx::new(&g, cmd, None);
+                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &t.final_color);
+                    Ok(())
+                })
+            })
+        }
+        m if m.starts_with("frame") => {
+            // frame, frame-cachedbg (static background reused), frame-nofilter, frame-splat (splat only: no filter,
+            // no thickness, no ssr)
+            let gen = procedural::generate("wave", 20_000)?;
+            let mut s = Settings { radius: gen.radius, ..Settings::default() };
+            if m.contains("nofilter") || m.contains("splat") {
+                s.filter = meniscus::settings::Filter::None;
+            }
+            let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
+            let view = View {
+                camera: Camera::fit(&bounds, 16.0 / 9.0),
+                width: 160,
+                height: 90,
+                env: Environment::around(&bounds, s.radius, &s),
+            };
+            let mut r = Renderer::new(&gpu)?;
+            r.set_particles_with(&gen.particles.positions, None, None)?;
+            r.always_render_background = !m.contains("cachedbg");
             Box::new(move || r.render(&view, &s).map(|_| ()))
         }
         m => panic!("unknown mode {m}"),
