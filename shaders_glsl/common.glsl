@@ -64,14 +64,6 @@ layout(set = 0, binding = SKY_BINDING) uniform samplerCube sky_cube;
 /// horizon-to-zenith gradient, a darker ground hemisphere — plus a sun disc with a glow either way.
 vec3 sky(vec3 dir) {
     dir = normalize(dir);
-#ifdef SKY_BINDING
-    if (frame.shading2.w > 0.5) {
-        // Right-handed world, cube maps are left-handed: mirror z.
-        vec3 c = pow(texture(sky_cube, vec3(dir.x, dir.y, -dir.z)).rgb, vec3(2.2));
-        float s = max(dot(dir, frame.sun.xyz), 0.0);
-        return c + vec3(1.0, 0.92, 0.8) * pow(s, 900.0) * 12.0 * frame.sun.w;
-    }
-#endif
     vec3 zenith = vec3(0.18, 0.36, 0.78);
     vec3 horizon = vec3(0.72, 0.82, 0.94);
     vec3 c;
@@ -81,7 +73,15 @@ vec3 sky(vec3 dir) {
         c = mix(horizon, vec3(0.32, 0.30, 0.28), clamp(-dir.y * 3.0, 0.0, 1.0));
     }
     float s = max(dot(dir, frame.sun.xyz), 0.0);
-    c += vec3(1.0, 0.92, 0.8) * (pow(s, 900.0) * 12.0 + pow(s, 12.0) * 0.25) * frame.sun.w;
+    vec3 sun = vec3(1.0, 0.92, 0.8) * pow(s, 900.0) * 12.0 * frame.sun.w;
+    c += sun + vec3(1.0, 0.92, 0.8) * pow(s, 12.0) * 0.25 * frame.sun.w;
+#ifdef SKY_BINDING
+    // Branch-free choice of the cube map (mix with 0 or 1 is exact): a branch on this uniform makes lavapipe 22.3
+    // inline it and recompile the shader at every dispatch, keeping ~300 kB of host memory each time (issue #17).
+    // Right-handed world, cube maps are left-handed: mirror z.
+    vec3 cube = pow(texture(sky_cube, vec3(dir.x, dir.y, -dir.z)).rgb, vec3(2.2)) + sun;
+    c = mix(c, cube, step(0.5, frame.shading2.w));
+#endif
     return c;
 }
 

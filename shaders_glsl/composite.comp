@@ -52,7 +52,9 @@ void main() {
     float F0 = frame.shading2.y;
     float fres = F0 + (1.0 - F0) * pow(1.0 - ndv, 5.0);
     vec3 R = mat3(frame.inv_view) * reflect(-V, n);
-    vec3 c_reflect = frame.shading2.z > 0.5 ? sky(R) : vec3(0.0);
+    // Branch-free on purpose (see common.glsl, sky()): a uniform-dependent branch here makes lavapipe 22.3 inline
+    // the uniform and recompile the shader at every dispatch, leaking host memory (issue #17).
+    vec3 c_reflect = sky(R) * step(0.5, frame.shading2.z);
     uint hit = imageLoad(ssr, p).x;
     if (hit != SSR_MISS) {
         vec2 huv = unpackUnorm2x16(hit);

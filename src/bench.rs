@@ -85,6 +85,30 @@ pub struct Report {
     pub preset: String,
     pub settings: Settings,
     pub entries: Vec<Entry>,
+    /// Resident set size of the process when the run started ([`note_start_rss`]) and when the report was
+    /// made, in bytes (Linux; absent elsewhere): long runs show host-memory growth here (issue #17).
+    pub rss_start_bytes: Option<u64>,
+    /// See `rss_start_bytes`.
+    pub rss_end_bytes: Option<u64>,
+}
+
+static START_RSS: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+
+/// The process's resident set size in bytes, from `/proc/self/statm` (None where that does not exist).
+pub fn rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: u64 = s.split_whitespace().nth(1)?.parse().ok()?;
+    Some(pages * 4096)
+}
+
+/// Remember the RSS at the start of a bench run (the first call wins); returned by [`start_rss`].
+pub fn note_start_rss() {
+    START_RSS.get_or_init(rss_bytes);
+}
+
+/// The RSS noted by [`note_start_rss`].
+pub fn start_rss() -> Option<u64> {
+    START_RSS.get().copied().flatten()
 }
 
 /// Run one workload at one size with settings `s`.

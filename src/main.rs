@@ -699,6 +699,7 @@ fn workload(name: &str, a: &BenchArgs, quarter: bool) -> Result<meniscus::bench:
 }
 
 fn bench(a: &BenchArgs) -> Result<()> {
+    meniscus::bench::note_start_rss();
     let table43 = a.preset == "table43";
     let moritz = a.preset == "moritz" || table43;
     let mut base = Settings::preset(if table43 { "moritz" } else { &a.preset })?;
@@ -842,6 +843,8 @@ fn write_reports(
         preset: a.preset.clone(),
         settings,
         entries,
+        rss_start_bytes: meniscus::bench::start_rss(),
+        rss_end_bytes: meniscus::bench::rss_bytes(),
     };
     if let Some(p) = &a.json {
         let text = serde_json::to_string_pretty(&report)?;

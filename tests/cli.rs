@@ -155,6 +155,17 @@ fn tiny_bench_writes_valid_json() {
         meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso"].contains(p)).collect();
     assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
+    // Timing sanity: one entry per pass, none negative, and every frame's total is at least the sum of the passes'
+    // minima (the total is the per-frame sum of the passes).
+    let stat = |p: &serde_json::Value, k: &str| p[k].as_f64().unwrap();
+    let mut sum_min = 0.0;
+    for p in e["passes"].as_array().unwrap() {
+        assert!(stat(&p[1], "min") >= 0.0 && stat(&p[1], "median") >= stat(&p[1], "min"), "{p}");
+        sum_min += stat(&p[1], "min");
+    }
+    assert!(stat(&e["gpu_total"], "min") + 1e-9 >= sum_min, "total {} < sum of minima {sum_min}", e["gpu_total"]);
+    // Host memory at the start and end of the run (issue #17).
+    assert!(v["rss_start_bytes"].as_u64().unwrap() > 0 && v["rss_end_bytes"].as_u64().unwrap() > 0);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
 }
 

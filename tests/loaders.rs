@@ -227,7 +227,7 @@ fn malformed_new_formats_are_clear_errors() {
     let cut = |b: Vec<u8>, n: usize| b[..b.len() - n].to_vec();
     for (name, bytes, want) in [
         ("t1.vtu", cut(vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: false }), 80), "truncated"),
-        ("t2.vtu", cut(vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: true }), 60), ""),
+        ("t2.vtu", cut(vtu::write(&raw, vtu::Encoding::AppendedRaw { zlib: true }), 60), "data block truncated"),
         ("t3.ply", cut(ply::write(&raw, "binary_little_endian"), 100), "truncated"),
         ("t4.bin", cut(realflow::write(&raw), 30), "remain"),
         ("t5.xyz", vec![0u8; 13], "multiple of 12"),
