@@ -102,19 +102,8 @@ fn main() -> meniscus::Result<()> {
             })
         }
         m if m.starts_with("composite") => {
-            // Only the composite pass, after one whole frame: `composite` as the frame binds it;
-            //
-            let gen = procedural::generate("wave", 20_000)?;
-            let s = Settings { radius: gen.radius, ..Settings::default() };
-            let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
-            let view = View {
-                camera: Camera::fit(&bounds, 16.0 / 9.0),
-                width: 160,
-                height: 90,
-                env: Environment::around(&bounds, s.radius, &s),
-            };
-            let mut r = Renderer::new(&gpu)?;
-            r.set_particles_with(&gen.particles.positions, None, None)?;
+            // Only the composite pass, after one whole frame, bound as the frame binds it.
+            let (mut r, view, s) = wave_frame(&gpu, false)?;
             r.render(&view, &s)?;
             let g = gpu.clone();
             // `composite-sampledonly`: the two 2D sampled slots bound to an image made with SAMPLED usage only.
@@ -146,26 +135,12 @@ fn main() -> meniscus::Result<()> {
             })
         }
         m if m.starts_with("frame") => {
-            // frame, frame-cachedbg (static background reused), frame-nofilter, frame-splat (splat only: no filter,
-            // no thickness, no ssr)
-            let gen = procedural::generate("wave", 20_000)?;
-            let mut s = Settings { radius: gen.radius, ..Settings::default() };
-            if m.contains("nofilter") || m.contains("splat") {
-                s.filter = meniscus::settings::Filter::None;
-            }
-            let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
-            let view = View {
-                camera: Camera::fit(&bounds, 16.0 / 9.0),
-                width: 160,
-                height: 90,
-                env: Environment::around(&bounds, s.radius, &s),
-            };
-            let mut r = Renderer::new(&gpu)?;
-            r.set_particles_with(&gen.particles.positions, None, None)?;
+            // frame, frame-cachedbg (static background reused), frame-nofilter (filter none)
+            let (mut r, view, s) = wave_frame(&gpu, m.contains("nofilter"))?;
             r.always_render_background = !m.contains("cachedbg");
             Box::new(move || r.render(&view, &s).map(|_| ()))
         }
-        m => panic!("unknown mode {m}"),
+        m => return Err(meniscus::Error::Invalid(format!("unknown mode {m}"))),
     };
     let warm = (n / 10).max(20);
     for _ in 0..warm {
@@ -183,6 +158,25 @@ fn main() -> meniscus::Result<()> {
         t.elapsed().as_secs_f64() * 1e3 / n as f64
     );
     Ok(())
+}
+
+/// A renderer with the wave scene (20k particles) uploaded, its 160×90 view and settings (filter none if asked).
+fn wave_frame(gpu: &Arc<Gpu>, no_filter: bool) -> meniscus::Result<(Renderer, View, Settings)> {
+    let gen = procedural::generate("wave", 20_000)?;
+    let mut s = Settings { radius: gen.radius, ..Settings::default() };
+    if no_filter {
+        s.filter = meniscus::settings::Filter::None;
+    }
+    let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
+    let view = View {
+        camera: Camera::fit(&bounds, 16.0 / 9.0),
+        width: 160,
+        height: 90,
+        env: Environment::around(&bounds, s.radius, &s),
+    };
+    let mut r = Renderer::new(gpu)?;
+    r.set_particles_with(&gen.particles.positions, None, None)?;
+    Ok((r, view, s))
 }
 
 trait Vk<T> {
