@@ -37,7 +37,8 @@ pub enum Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 /// Turn an `ash` result into ours, naming the call that failed.
-pub(crate) trait VkContext<T> {
+pub trait VkContext<T> {
+    /// Map the `vk::Result` error to [`Error::Vulkan`] naming `call`.
     fn vk(self, call: &'static str) -> Result<T>;
 }
 

@@ -5,9 +5,6 @@
 //! [`frame`] (the frame's table of contents), [`renderer`] (frame driver and readback), [`scene`]
 //! (particles, loaders, camera, procedural scenes), [`settings`], [`output`] (PNG/NPY writers).
 
-pub mod bench;
-pub mod chart;
-pub mod demo;
 pub mod error;
 pub mod frame;
 pub mod gpu;

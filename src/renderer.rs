@@ -132,6 +132,14 @@ impl Renderer {
         Ok(())
     }
 
+    /// Upload a frame of particles the way every application does: spray flags from `s` (`spray_density`,
+    /// `spray_by_neighbours`) and the per-particle radii the file carries (`pscale`/`radius`, when mapped).
+    /// The one place `render`, `bench` and `demo` upload through, so they see the same particles.
+    pub fn set_scene_particles(&mut self, p: &crate::scene::Particles, s: &Settings) -> Result<()> {
+        let spray = crate::scene::spray_mask_with(p, s.radius, s.spray_density, s.spray_by_neighbours);
+        self.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))
+    }
+
     /// Upload particles (no per-particle radius, no spray); see [`Renderer::set_particles_with`].
     pub fn set_particles(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>) -> Result<()> {
         self.set_particles_with(positions, radii, None)

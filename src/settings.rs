@@ -5,96 +5,111 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
-/// Depth smoothing filter (`--filter`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum Filter {
-    /// No smoothing: the raw spheres.
-    None,
-    /// Separable Gaussian (a baseline: merges silhouettes).
-    Gaussian,
-    /// Separable bilateral.
-    Bilateral,
-    /// Exact 2D bilateral.
-    Bilateral2d,
-    /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
-    CurvatureFlow,
-    /// Narrow-range filter (Truong & Yuksel 2018); the default: smoothest surface at bilateral cost.
-    NarrowRange,
+/// Defines a settings enum whose variants have one kebab-case name each, used everywhere: TOML (serde), the
+/// command line (`FromStr` + [`Named::NAMES`], so the library needs no CLI crate), JSON and tables.
+macro_rules! named_enum {
+    ($(#[$m:meta])* pub enum $T:ident { $($(#[$vm:meta])* $V:ident = $n:literal,)* }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum $T { $($(#[$vm])* $V,)* }
+        impl Named for $T {
+            const ALL: &'static [$T] = &[$($T::$V),*];
+            const NAMES: &'static [&'static str] = &[$($n),*];
+            fn name(self) -> &'static str { match self { $($T::$V => $n),* } }
+        }
+        impl $T {
+            /// Every variant, in declaration order.
+            pub const ALL: &'static [$T] = &[$($T::$V),*];
+            /// The variant's name (as in TOML and on the command line).
+            pub fn name(self) -> &'static str { Named::name(self) }
+        }
+        impl std::str::FromStr for $T {
+            type Err = Error;
+            fn from_str(s: &str) -> Result<Self> { from_name(s) }
+        }
+        impl std::fmt::Display for $T {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result { f.write_str(self.name()) }
+        }
+        impl Serialize for $T {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+                s.serialize_str(self.name())
+            }
+        }
+        impl<'de> Deserialize<'de> for $T {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                from_name(&s).map_err(serde::de::Error::custom)
+            }
+        }
+    };
 }
 
-impl Filter {
-    pub fn name(self) -> &'static str {
-        match self {
-            Filter::None => "none",
-            Filter::Gaussian => "gaussian",
-            Filter::Bilateral => "bilateral",
-            Filter::Bilateral2d => "bilateral2d",
-            Filter::CurvatureFlow => "curvature-flow",
-            Filter::NarrowRange => "narrow-range",
-        }
+/// An enum whose variants have one name each (settings enums, the demo's view modes).
+pub trait Named: Copy + Sized + 'static {
+    /// Every variant, in declaration order.
+    const ALL: &'static [Self];
+    /// Every name, in the same order.
+    const NAMES: &'static [&'static str];
+    /// This variant's name.
+    fn name(self) -> &'static str;
+}
+
+/// The variant of `T` called `s`, or an error that lists the names.
+pub fn from_name<T: Named>(s: &str) -> Result<T> {
+    T::NAMES.iter().position(|n| *n == s).map(|i| T::ALL[i]).ok_or_else(|| {
+        let kind = std::any::type_name::<T>().rsplit("::").next().unwrap_or("value");
+        Error::Invalid(format!("unknown {kind} {s:?} (expected one of: {})", T::NAMES.join(", ")))
+    })
+}
+
+named_enum! {
+    /// Depth smoothing filter (`--filter`).
+    pub enum Filter {
+        /// No smoothing: the raw spheres.
+        None = "none",
+        /// Separable Gaussian (a baseline: merges silhouettes).
+        Gaussian = "gaussian",
+        /// Separable bilateral.
+        Bilateral = "bilateral",
+        /// Exact 2D bilateral.
+        Bilateral2d = "bilateral2d",
+        /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
+        CurvatureFlow = "curvature-flow",
+        /// Narrow-range filter (Truong & Yuksel 2018); the default: smoothest surface at bilateral cost.
+        NarrowRange = "narrow-range",
     }
 }
 
-/// What the fluid's depth is (`--surface`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum Surface {
-    /// The nearest particle sphere (van der Laan et al. 2009), smoothed by the filter.
-    Spheres,
-    /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass), then
-    /// filtered like the spheres.
-    Iso,
-}
-
-impl Surface {
-    pub fn name(self) -> &'static str {
-        match self {
-            Surface::Spheres => "spheres",
-            Surface::Iso => "iso",
-        }
+named_enum! {
+    /// What the fluid's depth is (`--surface`).
+    pub enum Surface {
+        /// The nearest particle sphere (van der Laan et al. 2009), smoothed by the filter.
+        Spheres = "spheres",
+        /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass), then
+        /// filtered like the spheres.
+        Iso = "iso",
     }
 }
 
-/// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum SplatMode {
-    /// One thread per particle, atomicMin on the depth bits (default).
-    Compute,
-    /// Instanced quads, exact depth through gl_FragDepth (no early depth test).
-    QuadFragDepth,
-    /// Quads with conservative depth (depth_less + GREATER test keeps early depth test valid).
-    QuadConservative,
-    /// Quads, no depth buffer, MIN blending of linear depth into R32F.
-    QuadMin,
-    /// Point sprites with gl_FragDepth (sizes above the device's point size limit are clipped).
-    PointFragDepth,
-    /// Point sprites with MIN blending.
-    PointMin,
+named_enum! {
+    /// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
+    pub enum SplatMode {
+        /// One thread per particle, atomicMin on the depth bits (default).
+        Compute = "compute",
+        /// Instanced quads, exact depth through gl_FragDepth (no early depth test).
+        QuadFragDepth = "quad-frag-depth",
+        /// Quads with conservative depth (depth_less + GREATER test keeps early depth test valid).
+        QuadConservative = "quad-conservative",
+        /// Quads, no depth buffer, MIN blending of linear depth into R32F.
+        QuadMin = "quad-min",
+        /// Point sprites with gl_FragDepth (sizes above the device's point size limit are clipped).
+        PointFragDepth = "point-frag-depth",
+        /// Point sprites with MIN blending.
+        PointMin = "point-min",
+    }
 }
 
 impl SplatMode {
-    /// Every mode, compute first.
-    pub const ALL: [SplatMode; 6] = [
-        SplatMode::Compute,
-        SplatMode::QuadFragDepth,
-        SplatMode::QuadConservative,
-        SplatMode::QuadMin,
-        SplatMode::PointFragDepth,
-        SplatMode::PointMin,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            SplatMode::Compute => "compute",
-            SplatMode::QuadFragDepth => "quad-frag-depth",
-            SplatMode::QuadConservative => "quad-conservative",
-            SplatMode::QuadMin => "quad-min",
-            SplatMode::PointFragDepth => "point-frag-depth",
-            SplatMode::PointMin => "point-min",
-        }
-    }
     /// Needs a D32 depth buffer.
     pub fn depth_tested(self) -> bool {
         matches!(self, SplatMode::QuadFragDepth | SplatMode::QuadConservative | SplatMode::PointFragDepth)
@@ -396,6 +411,25 @@ impl Settings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every enum name parses back to its variant, in TOML and through `FromStr`; a bad name lists the good ones.
+    #[test]
+    fn enum_names_round_trip() {
+        fn check<T: Named + std::fmt::Debug + PartialEq + std::str::FromStr<Err = Error> + Serialize>() {
+            for (&v, &n) in T::ALL.iter().zip(T::NAMES) {
+                assert_eq!(v.name(), n);
+                assert_eq!(n.parse::<T>().unwrap(), v);
+                assert_eq!(serde_json::to_string(&v).unwrap(), format!("{n:?}"));
+            }
+            let e = "nope".parse::<T>().unwrap_err().to_string();
+            assert!(e.contains("nope") && e.contains(T::NAMES[0]), "{e}");
+        }
+        check::<Filter>();
+        check::<Surface>();
+        check::<SplatMode>();
+        let s: Settings = toml::from_str("filter = \"curvature-flow\"\nsplat = \"quad-min\"").unwrap();
+        assert_eq!((s.filter, s.splat), (Filter::CurvatureFlow, SplatMode::QuadMin));
+    }
 
     #[test]
     fn toml_overrides_the_preset_and_rejects_unknown_keys() {

@@ -54,3 +54,47 @@ fn demo_without_a_display_is_a_clear_error() {
     assert!(err.contains("X server") || err.contains("DISPLAY"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// Issue #11: `render`, `bench`, `demo` and `info` of the same file and flags start from the same job — the same
+/// particles and per-particle radii (a file with a `radius`/pscale attribute: `bench` used to drop it), the same
+/// radius and the same camera. Each prints one `job:` line; they must agree (info's has no camera).
+#[test]
+fn render_bench_demo_and_info_see_the_same_job() {
+    let display = std::env::var("DISPLAY").unwrap_or_default();
+    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
+    let dir = std::env::temp_dir().join(format!("meniscus-job-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut positions = vec![];
+    let mut radii = vec![];
+    for i in 0..12 {
+        for j in 0..6 {
+            for k in 0..8 {
+                let jit = ((i * 7 + j * 13 + k * 29) % 11) as f32 * 0.001;
+                positions.push([i as f32 * 0.05 + jit, j as f32 * 0.05, k as f32 * 0.05 - jit]);
+                radii.push(0.02 + 0.01 * ((i + k) % 3) as f32);
+            }
+        }
+    }
+    let p = meniscus::scene::Particles { positions, radii: Some(radii), ..Default::default() };
+    let file = dir.join("pscale.bgeo");
+    std::fs::write(&file, meniscus::scene::bgeo::write(&p.to_raw(), false)).unwrap();
+    let f = file.to_str().unwrap();
+    let job_line = |args: &[&str]| -> String {
+        let o = Command::new(env!("CARGO_BIN_EXE_meniscus")).args(args).env("XDG_RUNTIME_DIR", &dir).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{args:?} failed: {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("job: ")).collect();
+        assert_eq!(lines.len(), 1, "{args:?}: expected one job line in: {err}");
+        lines[0].to_string()
+    };
+    let out = dir.join("r.png");
+    let render = job_line(&["render", f, "--width", "96", "--height", "64", "--out", out.to_str().unwrap()]);
+    let bench = job_line(&["bench", "--scenes", f, "--resolutions", "96x64", "--warmup", "0", "--frames", "1"]);
+    let demo = job_line(&["demo", f, "--width", "96", "--height", "64", "--frames", "1"]);
+    let info = job_line(&["info", f]);
+    assert!(render.contains("576 particles") && render.contains("per-particle radii yes"), "{render}");
+    assert!(render.contains("(Estimated)") && render.contains("camera --camera"), "{render}");
+    assert_eq!(render, bench, "render and bench disagree");
+    assert_eq!(render, demo, "render and demo disagree");
+    assert!(render.starts_with(&info), "info's job line is not the start of render's:\n{info}\n{render}");
+}

@@ -779,7 +779,7 @@ fn raster_splat_variants_equal_compute_splat() {
     let gpu = gpu();
     let (g, v) = splat_scene("drop", 3000, 96, 64, 0.01, 1.0);
     let mut depths = vec![];
-    for mode in SplatMode::ALL {
+    for &mode in SplatMode::ALL {
         match splat_depth(&gpu, &g.particles.positions, g.radius, &v, mode) {
             Some(d) => depths.push((mode, d)),
             None => eprintln!("{mode:?} unsupported on this device"),

@@ -3,13 +3,15 @@
 //! branch it tried to inline), so 400 frames grew RSS by ~120 MB; the bound here is 6 MB. Alone in its own test
 //! binary so no other test's allocations land in the measurement.
 
+mod common;
+
 use meniscus::frame::{Environment, View};
 use meniscus::renderer::Renderer;
 use meniscus::scene::{self, procedural, Camera};
 use meniscus::settings::{Settings, Surface};
 
 fn rss_mb() -> f64 {
-    meniscus::bench::rss_bytes().expect("/proc/self/statm (Linux)") as f64 / 1e6
+    common::rss_bytes() as f64 / 1e6
 }
 
 #[test]

@@ -41,7 +41,7 @@ impl Splat {
         let props = unsafe { gpu.instance.get_physical_device_format_properties(gpu.physical, vk::Format::R32_SFLOAT) };
         let can_blend = props.optimal_tiling_features.contains(vk::FormatFeatureFlags::COLOR_ATTACHMENT_BLEND);
         let mut raster = vec![];
-        for mode in SplatMode::ALL.into_iter().filter(|m| *m != SplatMode::Compute) {
+        for mode in SplatMode::ALL.iter().copied().filter(|m| *m != SplatMode::Compute) {
             let point = matches!(mode, SplatMode::PointFragDepth | SplatMode::PointMin);
             let min = matches!(mode, SplatMode::QuadMin | SplatMode::PointMin);
             let frag = match mode {

@@ -14,7 +14,7 @@ pub const PARTICLES: &str = "particles";
 pub const OVERLAY: &str = "overlay";
 
 /// What the demo shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ViewMode {
     /// The shaded fluid.
     Final,

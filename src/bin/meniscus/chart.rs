@@ -5,7 +5,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use crate::error::{Error, Result};
+use meniscus::error::{Error, Result};
 
 /// One sweep: its x label and points (x, [(pass, ms)]).
 pub struct Series<'a> {
@@ -114,7 +114,7 @@ pub fn write(path: &Path, title: &str, panels: &[Series]) -> Result<()> {
         root.present().map_err(draw_err)?;
     }
     let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| Error::Invalid("chart buffer size".into()))?;
-    crate::output::write_atomic(path, |wr| {
+    meniscus::output::write_atomic(path, |wr| {
         image::DynamicImage::ImageRgb8(img).write_to(wr, image::ImageFormat::Png).map_err(std::io::Error::other)
     })
 }

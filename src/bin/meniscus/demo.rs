@@ -21,13 +21,17 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, ModifiersState, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use crate::error::{Error, Result, VkContext};
-use crate::frame::{Environment, View};
-use crate::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Use};
-use crate::passes::view::ViewMode;
-use crate::renderer::Renderer;
-use crate::scene::{self, Camera, LoadOptions, Particles};
-use crate::settings::{Filter, Settings, Surface};
+use meniscus::error::{Error, Result, VkContext};
+use meniscus::frame::{Environment, View};
+use meniscus::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Use};
+use meniscus::passes::view::ViewMode;
+use meniscus::renderer::Renderer;
+use meniscus::scene::{self, Camera, LoadOptions, Particles};
+use meniscus::settings::{Filter, Settings, Surface};
+
+use crate::args::{GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
+use crate::job::{Job, Select};
+use clap::Args;
 
 /// Every key, for `--help` and the on-screen help (H).
 pub const HELP: &str = "\
@@ -40,17 +44,64 @@ B: particle colour by speed / density / height
 F: next filter | I: spheres / iso-surface | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
 V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit";
 
-/// Demo options (from the CLI).
+/// `meniscus demo`.
+#[derive(Args, Clone, Debug)]
+pub struct DemoArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[arg(long, default_value_t = 1280)]
+    width: u32,
+    #[arg(long, default_value_t = 720)]
+    height: u32,
+    #[command(flatten)]
+    set: SettingsArgs,
+    /// Playback rate of a sequence in frames per second (before the speed factor).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 25.0)]
+    fps: f32,
+    /// Present without vsync (IMMEDIATE or MAILBOX when the driver has them).
+    #[arg(long)]
+    no_vsync: bool,
+    /// Scripted run: draw this many frames, then exit.
+    #[arg(long)]
+    frames: Option<u64>,
+    /// With --frames: write the last frame here (PNG).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    #[command(flatten)]
+    load: LoadArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// `meniscus demo`: the shared [`Job`], then the window.
+pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
+    if a.screenshot.is_some() && a.frames.is_none() {
+        anyhow::bail!("--screenshot needs --frames N (or press P in the window)");
+    }
+    crate::args::check_size(a.width, a.height)?;
+    let job = Job::open(&a.scene, &a.load, a.set.resolve()?, Select::default())?;
+    eprintln!("{}", job.summary(Some((a.width, a.height))));
+    run(
+        job,
+        DemoOptions {
+            width: a.width,
+            height: a.height,
+            vsync: !a.no_vsync,
+            validation: a.gpu.validation,
+            device: a.gpu.device.clone(),
+            frames: a.frames,
+            screenshot: a.screenshot.clone(),
+            fps: a.fps.max(0.1),
+        },
+    )?;
+    Ok(())
+}
+
+/// Window and playback options (the particles, settings and camera come from the [`Job`]).
 #[derive(Clone, Debug)]
 pub struct DemoOptions {
-    pub input: String,
-    pub particles: Option<usize>,
-    pub radius: Option<f32>,
-    pub camera: Option<Camera>,
     pub width: u32,
     pub height: u32,
-    pub settings: Settings,
-    pub load: LoadOptions,
     pub vsync: bool,
     pub validation: bool,
     pub device: Option<String>,
@@ -58,8 +109,6 @@ pub struct DemoOptions {
     pub frames: Option<u64>,
     pub screenshot: Option<PathBuf>,
     pub fps: f32,
-    /// Background mesh (`--background-obj`).
-    pub mesh: Option<crate::mesh::Mesh>,
 }
 
 /// Where frames come from.
@@ -116,6 +165,13 @@ struct State {
 
 struct App {
     o: DemoOptions,
+    /// The job's settings (keys change the filter, surface, SSR, preset).
+    settings: Settings,
+    load: LoadOptions,
+    /// Background mesh (`--background-obj`).
+    mesh: Option<meniscus::mesh::Mesh>,
+    /// The sequence frame whose particles are on the GPU (uploads happen only when it changes).
+    uploaded: Option<usize>,
     src: Source,
     radius: f32,
     fit: Camera,
@@ -148,19 +204,20 @@ struct App {
 }
 
 /// Run the demo until the window closes or `frames` are done.
-pub fn run(o: DemoOptions) -> Result<()> {
-    let (src, radius_hint, first) = open_source(&o)?;
-    let radius = o
-        .radius
-        .or(radius_hint)
-        .or_else(|| scene::estimate_radius(&first.positions))
-        .ok_or_else(|| Error::Invalid("cannot estimate the particle radius; pass --radius".into()))?;
-    let bounds =
-        scene::percentile_bounds(&first.positions, 0.01).ok_or_else(|| Error::Invalid("no finite particles".into()))?;
-    let fit = Camera::fit(&bounds, o.width as f32 / o.height as f32);
-    let mut s = o.settings.clone();
-    s.radius = radius;
-    let env = Environment::around(&bounds, radius, &s);
+pub fn run(job: Job, o: DemoOptions) -> Result<()> {
+    let fit = Camera::fit(&job.bounds, o.width as f32 / o.height as f32);
+    let camera = job.camera_for(o.width, o.height);
+    let env = job.view(o.width, o.height).env;
+    let radius = job.settings.radius;
+    let src = match job.frames {
+        Some(frames) => {
+            let mut cache = HashMap::new();
+            cache.insert(0, job.first);
+            Source::Sequence { frames, cache, order: vec![0] }
+        }
+        None => Source::Static(job.first),
+    };
+    let (s, load, mesh) = (job.settings, job.load, job.mesh);
     let event_loop = EventLoop::new().map_err(|e| {
         Error::Invalid(format!(
             "cannot open a window ({e}); the demo needs an X server: set DISPLAY, or run it under Xvfb (`Xvfb :99 & DISPLAY=:99 meniscus demo`)"
@@ -168,7 +225,7 @@ pub fn run(o: DemoOptions) -> Result<()> {
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App {
-        camera: o.camera.unwrap_or(fit),
+        camera,
         fit,
         env,
         src,
@@ -195,7 +252,11 @@ pub fn run(o: DemoOptions) -> Result<()> {
         last_times: PassTimes::default(),
         screenshot_count: 0,
         resized: false,
-        o: DemoOptions { settings: s, ..o },
+        o,
+        settings: s,
+        load,
+        mesh,
+        uploaded: None,
     };
     event_loop.run_app(&mut app).map_err(|e| Error::Invalid(format!("window event loop failed: {e}")))?;
     if let Some(e) = app.error.take() {
@@ -210,23 +271,6 @@ pub fn run(o: DemoOptions) -> Result<()> {
         }
     }
     Ok(())
-}
-
-fn open_source(o: &DemoOptions) -> Result<(Source, Option<f32>, Particles)> {
-    if let Some((name, n, _)) = scene::procedural::SCENES.iter().find(|s| s.0 == o.input) {
-        let g = scene::procedural::generate(name, o.particles.unwrap_or(*n))?;
-        let p = g.particles.clone();
-        return Ok((Source::Static(g.particles), Some(g.radius), p));
-    }
-    if scene::sequence::is_sequence(&o.input) {
-        let frames = scene::sequence::resolve(&o.input, None, None)?;
-        let first = scene::load_with(&frames[0].path, &o.load)?;
-        let mut cache = HashMap::new();
-        cache.insert(0, first.clone());
-        return Ok((Source::Sequence { frames, cache, order: vec![0] }, None, first));
-    }
-    let p = scene::load_with(std::path::Path::new(&o.input), &o.load)?;
-    Ok((Source::Static(p.clone()), None, p))
 }
 
 impl ApplicationHandler for App {
@@ -326,7 +370,7 @@ impl App {
             return Err(Error::NoDevice(format!("{} cannot present to this window", gpu.info.name)));
         }
         let mut renderer = Renderer::new(&gpu)?;
-        if let Some(m) = &self.o.mesh {
+        if let Some(m) = &self.mesh {
             renderer.set_background_mesh(m)?;
         }
         eprintln!("demo on {} ({}); keys:\n{HELP}", gpu.info.name, gpu.info.driver);
@@ -442,11 +486,11 @@ impl App {
                     Filter::Gaussian,
                     Filter::None,
                 ];
-                let k = ORDER.iter().position(|f| *f == self.o.settings.filter).unwrap_or(0);
-                self.o.settings.filter = ORDER[(k + 1) % ORDER.len()];
+                let k = ORDER.iter().position(|f| *f == self.settings.filter).unwrap_or(0);
+                self.settings.filter = ORDER[(k + 1) % ORDER.len()];
             }
             KeyCode::KeyG => {
-                let s = &mut self.o.settings.fluid_scale;
+                let s = &mut self.settings.fluid_scale;
                 *s = if *s > 0.75 {
                     0.5
                 } else if *s > 0.375 {
@@ -455,9 +499,9 @@ impl App {
                     1.0
                 };
             }
-            KeyCode::KeyX => self.o.settings.ssr = !self.o.settings.ssr,
+            KeyCode::KeyX => self.settings.ssr = !self.settings.ssr,
             KeyCode::KeyI => {
-                self.o.settings.surface = match self.o.settings.surface {
+                self.settings.surface = match self.settings.surface {
                     Surface::Spheres => Surface::Iso,
                     Surface::Iso => Surface::Spheres,
                 }
@@ -467,7 +511,8 @@ impl App {
                 self.presets = (self.presets + 1) % NAMES.len();
                 if let Ok(mut s) = Settings::preset(NAMES[self.presets]) {
                     s.radius = self.radius;
-                    self.o.settings = s;
+                    self.settings = s;
+                    self.uploaded = None;
                 }
             }
             KeyCode::KeyV => {
@@ -602,12 +647,16 @@ impl App {
                 self.playing = false;
             }
         }
-        let p = self.src.get(self.frame, &self.o.load)?.clone();
         let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
-        let spray =
-            scene::spray_mask_with(&p, self.radius, self.o.settings.spray_density, self.o.settings.spray_by_neighbours);
-        st.renderer.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))?;
+        // Upload only when the frame changed (or a preset changed the spray settings): re-uploading also
+        // dropped the iso grid, which was then rebuilt every frame of a static scene.
+        if self.uploaded != Some(self.frame) {
+            let p = self.src.get(self.frame, &self.load)?;
+            st.renderer.set_scene_particles(p, &self.settings)?;
+            self.uploaded = Some(self.frame);
+        }
         let legend = if self.mode == ViewMode::Particles {
+            let p = self.src.get(self.frame, &self.load)?.clone();
             let (vals, name, lo, hi) = self.values(&p);
             let bytes: &[u8] = bytemuck::cast_slice(&vals);
             let reuse = st.values.as_ref().is_some_and(|b| b.size >= bytes.len() as u64);
@@ -641,9 +690,9 @@ impl App {
             )?);
         }
         let cropped = image::imageops::crop_imm(&ov, 0, 0, ow, oh).to_image();
-        crate::renderer::upload_image(&st.gpu, st.overlay.as_ref().expect("set"), cropped.as_raw())?;
+        meniscus::renderer::upload_image(&st.gpu, st.overlay.as_ref().expect("set"), cropped.as_raw())?;
         let values = if self.mode == ViewMode::Particles { st.values.as_ref() } else { None };
-        self.last_times = st.renderer.render_view(&view, &self.o.settings, self.mode, values, st.overlay.as_ref())?;
+        self.last_times = st.renderer.render_view(&view, &self.settings, self.mode, values, st.overlay.as_ref())?;
         self.present(st)?;
         self.frames_drawn += 1;
         self.fps_window.1 += 1;
@@ -664,7 +713,7 @@ impl App {
     }
 
     fn overlay_text(&self, st: &State, n: usize, legend: Option<&(String, f32, f32)>) -> Vec<String> {
-        let s = &self.o.settings;
+        let s = &self.settings;
         let mut t = vec![
             format!("meniscus demo  {}", st.gpu.info.name),
             format!(
@@ -777,7 +826,7 @@ impl App {
 
     fn save_screenshot_of(&self, st: &State, p: &std::path::Path) -> Result<()> {
         let img = st.renderer.read_final()?;
-        crate::output::write_png(p, &img)
+        meniscus::output::write_png(p, &img)
     }
 }
 

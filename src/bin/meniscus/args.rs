@@ -1,0 +1,186 @@
+//! Argument groups shared by the subcommands, each declared once and flattened where it applies: what to
+//! render ([`SceneArgs`]), how to read files ([`LoadArgs`]), settings ([`SettingsArgs`]) and the GPU
+//! ([`GpuArgs`]).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::{bail, Result};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::Args;
+
+use meniscus::gpu::{Gpu, GpuOptions};
+use meniscus::scene;
+use meniscus::settings::{from_name, Filter, Named, Settings, SplatMode, Surface};
+
+/// A clap value parser for a library enum: its names are the possible values (listed in `--help`).
+pub fn named<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(T::NAMES).map(|s| from_name::<T>(&s).expect("clap checked the possible values"))
+}
+
+/// How to read particle files: attribute names, up axis, unit scale.
+#[derive(Args, Clone, Debug)]
+pub struct LoadArgs {
+    /// Attribute holding the velocity (default: velocity, v, vel).
+    #[arg(long, value_name = "NAME")]
+    pub velocity_attr: Option<String>,
+    /// Attribute holding the density (default: density, rho).
+    #[arg(long, value_name = "NAME")]
+    pub density_attr: Option<String>,
+    /// Attribute holding the particle id (default: id).
+    #[arg(long, value_name = "NAME")]
+    pub id_attr: Option<String>,
+    /// Attribute holding a per-particle radius (default: radius, pscale); used for splatting when present.
+    #[arg(long, value_name = "NAME")]
+    pub radius_attr: Option<String>,
+    /// The file's up axis (z-up data, e.g. from Blender, is turned to y-up).
+    #[arg(long, value_parser = ["y", "z"], default_value = "y")]
+    pub up: String,
+    /// Multiply positions, radii and velocities by this (unit conversion).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
+    pub scale: f32,
+}
+
+impl LoadArgs {
+    /// The library's load options.
+    pub fn options(&self) -> Result<scene::LoadOptions> {
+        let mut o = scene::LoadOptions::default();
+        let set = |v: &mut Vec<String>, name: &Option<String>| {
+            if let Some(n) = name {
+                *v = vec![n.clone()];
+            }
+        };
+        set(&mut o.velocity, &self.velocity_attr);
+        set(&mut o.density, &self.density_attr);
+        set(&mut o.id, &self.id_attr);
+        set(&mut o.radius, &self.radius_attr);
+        o.z_up = self.up == "z";
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            bail!("--scale must be a positive number");
+        }
+        o.scale = self.scale;
+        Ok(o)
+    }
+}
+
+/// What to render and from where it is seen.
+#[derive(Args, Clone, Debug)]
+pub struct SceneArgs {
+    /// A built-in scene (block, wave, drop, crown, waterfall), a particle file (.bgeo, .vtk, .vtu/.vtp, .ply,
+    /// .xyz, .csv, RealFlow .bin; detected from the content), or a sequence: a pattern with {} for the frame
+    /// number (ParticleData_Fluid_{}.bgeo), a folder, or a glob ('frames/*.vtk').
+    #[arg(default_value = "wave")]
+    pub input: String,
+    /// Particle radius in world units (default: from the scene, or estimated from the particles' density).
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius: Option<f32>,
+    /// Particle count of a built-in scene (default: the scene's own).
+    #[arg(long)]
+    pub particles: Option<usize>,
+    /// Camera as EYE:TARGET[:FOVY_DEG], e.g. 0,2.5,6:0,0.3,0:45 (default: fitted to the particles; C in the
+    /// demo prints the current one).
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera: Option<String>,
+    /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene: it is
+    /// reflected, refracted and casts shadows on the ground.
+    #[arg(long, value_name = "FILE")]
+    pub background_obj: Option<PathBuf>,
+}
+
+/// Settings: a preset, a TOML file over it, and the most used fields as flags.
+#[derive(Args, Clone, Debug)]
+pub struct SettingsArgs {
+    /// Settings preset: default (spheres + narrow-range), fast, quality (ray-cast SPH iso-surface, unfiltered),
+    /// moritz (the thesis' curvature flow).
+    #[arg(long, default_value = "default")]
+    pub preset: String,
+    /// TOML file of settings applied over the preset (any field of src/settings.rs, e.g. `nrf_radius = 8.0`).
+    #[arg(long)]
+    pub settings: Option<PathBuf>,
+    /// Depth smoothing filter.
+    #[arg(long, value_parser = named::<Filter>())]
+    pub filter: Option<Filter>,
+    /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
+    #[arg(long, allow_negative_numbers = true)]
+    pub fluid_scale: Option<f32>,
+    /// Fluid depth: nearest particle spheres (fast), or the ray-cast SPH iso-surface (the surface splashsurf
+    /// reconstructs; a filter only blurs it: use --filter none, or --preset quality).
+    #[arg(long, value_parser = named::<Surface>())]
+    pub surface: Option<Surface>,
+    /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
+    #[arg(long, value_parser = named::<SplatMode>())]
+    pub splat: Option<SplatMode>,
+}
+
+impl SettingsArgs {
+    /// Preset, then the TOML file, then the flags (the radius is the job's to set).
+    pub fn resolve(&self) -> Result<Settings> {
+        let mut s = Settings::preset(&self.preset)?;
+        if let Some(f) = &self.settings {
+            s = s.with_toml(f)?;
+        }
+        if let Some(f) = self.filter {
+            s.filter = f;
+        }
+        if let Some(fs) = self.fluid_scale {
+            s.fluid_scale = fs;
+        }
+        if let Some(m) = self.splat {
+            s.splat = m;
+        }
+        if let Some(m) = self.surface {
+            s.surface = m;
+        }
+        Ok(s)
+    }
+}
+
+/// Which GPU, and whether the validation layer watches it.
+#[derive(Args, Clone, Debug)]
+pub struct GpuArgs {
+    /// Enable the Vulkan validation layer with synchronization validation (also MENISCUS_VALIDATION=1); any
+    /// validation error or warning fails the run at its end.
+    #[arg(long)]
+    pub validation: bool,
+    /// Use the first device whose name contains this (also MENISCUS_DEVICE).
+    #[arg(long)]
+    pub device: Option<String>,
+}
+
+impl GpuArgs {
+    /// Open the device.
+    pub fn open(&self) -> Result<Arc<Gpu>> {
+        Ok(Gpu::new(&GpuOptions {
+            validation: self.validation,
+            device_filter: self.device.clone(),
+            ..Default::default()
+        })?)
+    }
+}
+
+/// The end-of-run check of every subcommand: validation errors or warnings fail the run.
+pub fn finish(gpu: &Gpu) -> Result<()> {
+    let v = gpu.validation();
+    if v.errors() + v.warnings() > 0 {
+        bail!("{} Vulkan validation errors, {} warnings", v.errors(), v.warnings());
+    }
+    Ok(())
+}
+
+/// `WIDTHxHEIGHT`, each 1 … 16384.
+pub fn parse_resolution(r: &str) -> Result<(u32, u32)> {
+    use anyhow::Context;
+    let (w, h) = r.split_once(['x', 'X']).with_context(|| format!("bad resolution {r:?}: expected WIDTHxHEIGHT"))?;
+    let w: u32 = w.trim().parse().with_context(|| format!("bad width in {r:?}"))?;
+    let h: u32 = h.trim().parse().with_context(|| format!("bad height in {r:?}"))?;
+    check_size(w, h)?;
+    Ok((w, h))
+}
+
+/// An output or window size in range.
+pub fn check_size(w: u32, h: u32) -> Result<()> {
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        bail!("size {w}×{h} is out of range (1 … 16384 each)");
+    }
+    Ok(())
+}

@@ -1,0 +1,575 @@
+//! `meniscus bench`: scenes × resolutions under one settings preset, headless. Warm-up frames, then N measured
+//! frames; per pass the GPU median, p95 and min (timestamps), the GPU frame total, the CPU frame time
+//! (submit → fence), and the bytes of every image and buffer. Prints a markdown table shaped like Moritz
+//! tables 4.1–4.4 and returns a JSON-serialisable report (schema: benches/README.md). File workloads start
+//! from the same [`Job`] as `render` and `demo`.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+
+use meniscus::scene::procedural;
+use meniscus::settings::{Filter, SplatMode};
+
+use crate::args::{finish, GpuArgs, LoadArgs, SceneArgs};
+use crate::job::{Job, Select};
+use meniscus::frame::{Environment, View};
+use meniscus::gpu::timer::percentile;
+use meniscus::gpu::{DeviceInfo, Gpu};
+use meniscus::renderer::Renderer;
+use meniscus::scene::{self, Camera, Particles};
+use meniscus::settings::Settings;
+
+/// JSON schema version of [`Report`].
+pub const SCHEMA: u32 = 1;
+
+/// One workload: particles, how much of the screen they cover, a label.
+pub struct Workload {
+    pub label: String,
+    pub particles: Particles,
+    pub radius: f32,
+    /// Camera distance factor relative to the automatic fit (2 ≈ a quarter of the screen, < 1 fills it).
+    pub distance: f32,
+    /// An explicit camera (overrides `distance`).
+    pub camera: Option<Camera>,
+}
+
+/// Statistics of one series of milliseconds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Stat {
+    pub median: f64,
+    pub p95: f64,
+    pub min: f64,
+}
+
+impl Stat {
+    pub fn of(v: &[f64]) -> Stat {
+        let mut v = v.to_vec();
+        Stat { median: percentile(&mut v, 0.5), p95: percentile(&mut v, 0.95), min: percentile(&mut v, 0.0) }
+    }
+}
+
+/// Bytes of one GPU allocation.
+#[derive(Clone, Debug, Serialize)]
+pub struct Mem {
+    pub name: String,
+    pub bytes: u64,
+}
+
+/// One measured configuration.
+#[derive(Clone, Debug, Serialize)]
+pub struct Entry {
+    pub scene: String,
+    pub particles: usize,
+    pub radius: f32,
+    pub width: u32,
+    pub height: u32,
+    pub variant: String,
+    pub filter: String,
+    pub camera: String,
+    pub frames: u32,
+    pub warmup: u32,
+    /// Pass name → statistics, in frame order.
+    pub passes: Vec<(String, Stat)>,
+    pub gpu_total: Stat,
+    pub cpu_frame: Stat,
+    pub memory: Vec<Mem>,
+    pub memory_images_bytes: u64,
+    /// The fluid's own screen-sized images (all but the background's colour/depth and the 8-bit output).
+    pub memory_fluid_images_bytes: u64,
+    pub memory_particles_bytes: u64,
+}
+
+/// The whole benchmark run.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub schema: u32,
+    pub device: DeviceInfo,
+    pub git_commit: String,
+    pub preset: String,
+    pub settings: Settings,
+    pub entries: Vec<Entry>,
+    /// Resident set size of the process when the run started ([`note_start_rss`]) and when the report was
+    /// made, in bytes (Linux; absent elsewhere): long runs show host-memory growth here (issue #17).
+    pub rss_start_bytes: Option<u64>,
+    /// See `rss_start_bytes`.
+    pub rss_end_bytes: Option<u64>,
+}
+
+static START_RSS: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+
+/// The process's resident set size in bytes, from `/proc/self/statm` (None where that does not exist).
+pub fn rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: u64 = s.split_whitespace().nth(1)?.parse().ok()?;
+    Some(pages * 4096)
+}
+
+/// Remember the RSS at the start of a bench run (the first call wins); returned by [`start_rss`].
+pub fn note_start_rss() {
+    START_RSS.get_or_init(rss_bytes);
+}
+
+/// The RSS noted by [`note_start_rss`].
+pub fn start_rss() -> Option<u64> {
+    START_RSS.get().copied().flatten()
+}
+
+/// Run one workload at one size with settings `s`.
+#[allow(clippy::too_many_arguments)]
+pub fn measure(
+    r: &mut Renderer,
+    w: &Workload,
+    width: u32,
+    height: u32,
+    s: &Settings,
+    variant: &str,
+    warmup: u32,
+    frames: u32,
+) -> Result<Entry> {
+    let mut s = s.clone();
+    s.radius = w.radius;
+    let bounds = scene::percentile_bounds(&w.particles.positions, 0.01)
+        .ok_or_else(|| meniscus::Error::Invalid(format!("{}: no finite particles", w.label)))?;
+    let camera = w.camera.unwrap_or_else(|| {
+        let mut c = Camera::fit(&bounds, width as f32 / height as f32);
+        c.eye = c.target + (c.eye - c.target) * w.distance;
+        c
+    });
+    let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
+    // The one upload path of every subcommand: spray flags and per-particle radii (pscale) included.
+    r.set_scene_particles(&w.particles, &s)?;
+    let mut per_pass: Vec<(String, Vec<f64>)> = vec![];
+    let (mut totals, mut cpu) = (vec![], vec![]);
+    for k in 0..warmup + frames.max(1) {
+        let t0 = Instant::now();
+        let times = r.render(&view, &s)?;
+        let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
+        if k < warmup {
+            continue;
+        }
+        for (name, ms) in &times.0 {
+            match per_pass.iter_mut().find(|(n, _)| n == name) {
+                Some(e) => e.1.push(*ms),
+                None => per_pass.push((name.clone(), vec![*ms])),
+            }
+        }
+        totals.push(times.total());
+        cpu.push(cpu_ms);
+    }
+    let t = r.targets.as_ref().expect("rendered");
+    let memory: Vec<Mem> = t.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
+    Ok(Entry {
+        scene: w.label.clone(),
+        particles: w.particles.len(),
+        radius: s.radius,
+        width,
+        height,
+        variant: variant.to_string(),
+        filter: s.filter.name().to_string(),
+        camera: camera.to_arg(),
+        frames: frames.max(1),
+        warmup,
+        passes: per_pass.into_iter().map(|(n, v)| (n, Stat::of(&v))).collect(),
+        gpu_total: Stat::of(&totals),
+        cpu_frame: Stat::of(&cpu),
+        memory_images_bytes: memory.iter().map(|m| m.bytes).sum(),
+        memory_fluid_images_bytes: memory
+            .iter()
+            .filter(|m| !matches!(m.name.as_str(), "scene_color" | "scene_depth" | "final"))
+            .map(|m| m.bytes)
+            .sum(),
+        memory,
+        memory_particles_bytes: 16 * w.particles.len() as u64,
+    })
+}
+
+/// Markdown table of entries, one row each, columns = passes (medians, ms), like Moritz tables 4.1–4.4.
+pub fn markdown(entries: &[Entry]) -> String {
+    let names: Vec<&str> = meniscus::passes::PASS_NAMES.to_vec();
+    let mut s = String::from("| scene | particles | resolution | variant |");
+    for n in &names {
+        s.push_str(&format!(" {n} |"));
+    }
+    s.push_str(" GPU total (median / p95) | CPU frame | fluid images MB |\n|---|---:|---|---|");
+    for _ in &names {
+        s.push_str("---:|");
+    }
+    s.push_str("---:|---:|---:|\n");
+    for e in entries {
+        s.push_str(&format!("| {} | {} | {}×{} | {} |", e.scene, e.particles, e.width, e.height, e.variant));
+        for n in &names {
+            match e.passes.iter().find(|(p, _)| p == n) {
+                Some((_, st)) => s.push_str(&format!(" {:.3} |", st.median)),
+                None => s.push_str(" – |"),
+            }
+        }
+        s.push_str(&format!(
+            " {:.3} / {:.3} | {:.3} | {:.1} |\n",
+            e.gpu_total.median,
+            e.gpu_total.p95,
+            e.cpu_frame.median,
+            e.memory_fluid_images_bytes as f64 / 1e6
+        ));
+    }
+    s
+}
+
+/// Device information for the report.
+pub fn device_info(gpu: &Arc<Gpu>) -> DeviceInfo {
+    gpu.info.clone()
+}
+
+/// The commit the binary was built from.
+pub fn git_commit() -> String {
+    env!("MENISCUS_GIT_COMMIT").to_string()
+}
+
+/// `meniscus bench`.
+#[derive(Args, Clone, Debug)]
+pub struct BenchArgs {
+    /// Settings preset: default, fast, moritz (curvature flow ≤ 60 iterations, SSR stride 8 / 100 steps /
+    /// 4 refinements, fluid ≈ ¼ of the screen, Moritz's five workloads at 1920×1080 and 960×540 unless
+    /// --scenes/--resolutions say otherwise), table43 (the moritz settings with the five SSR settings of
+    /// Moritz table 4.3, wave scene, 1920×1080).
+    #[arg(long, default_value = "default")]
+    preset: String,
+    /// Comma-separated workloads: wave, crown1 (38,146), crown2 (157,944), waterfall (819,417), worst (a block
+    /// filling the screen), any built-in scene as NAME or NAME:COUNT, or a particle file.
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Comma-separated WIDTHxHEIGHT list.
+    #[arg(long, value_delimiter = ',')]
+    resolutions: Vec<String>,
+    /// Frames rendered before measuring (lavapipe compiles pipelines at first use).
+    #[arg(long, default_value_t = 3)]
+    warmup: u32,
+    /// Measured frames.
+    #[arg(long, default_value_t = 10)]
+    frames: u32,
+    /// Particle radius for file workloads (default: estimated from the spacing).
+    #[arg(long, allow_negative_numbers = true)]
+    radius: Option<f32>,
+    /// Camera for file workloads, EYE:TARGET[:FOVY] (default: fitted).
+    #[arg(long, allow_hyphen_values = true)]
+    camera: Option<String>,
+    /// Also measure design variants on the first workload and resolution (same run, so ratios compare):
+    /// each splat mode (compute, quads/points with gl_FragDepth, conservative depth, MIN blending), each
+    /// smoothing filter, curvature flow 1 vs 4 iterations per dispatch.
+    #[arg(long)]
+    variants: bool,
+    /// Write the JSON report here (schema: benches/README.md).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Reuse the static background while the camera stays (as `render` of a sequence does) instead of
+    /// re-rendering it every measured frame.
+    #[arg(long)]
+    cache_background: bool,
+    /// Write the markdown table here too.
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+    /// Scaling sweeps instead of the scene list: `particles` (wave scene, 10k → 4M particles at fixed screen
+    /// coverage, first resolution), `pixels` (wave scene, 480p → 4K), or `both`.
+    #[arg(long, value_parser = ["particles", "pixels", "both"])]
+    sweep: Option<String>,
+    /// With --sweep: particle counts (comma-separated) instead of 10k, 40k, 160k, 640k, 2.56M, 4M.
+    #[arg(long, value_delimiter = ',')]
+    sweep_particles: Vec<usize>,
+    /// With --sweep: write the chart (per-pass ms against particles and pixels) as PNG here.
+    #[arg(long)]
+    chart: Option<PathBuf>,
+    /// TOML settings over the preset.
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    #[command(flatten)]
+    load: LoadArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// A workload from its command-line name.
+fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result<(Workload, Option<Job>)> {
+    let dist = if quarter { 2.0 } else { 1.0 };
+    let (scene, count, distance, label) = match name {
+        "wave" => ("wave", 143_944, dist, "wave".to_string()),
+        "crown1" => ("crown", 38_146, dist, "crown 1".to_string()),
+        "crown2" => ("crown", 157_944, dist, "crown 2".to_string()),
+        "waterfall" => ("waterfall", 819_417, dist, "waterfall".to_string()),
+        "worst" => ("block", 143_944, 0.55, "worst case (block fills the screen)".to_string()),
+        other => {
+            let (n, c) = match other.split_once(':') {
+                Some((n, c)) => {
+                    (n, Some(c.parse::<usize>().with_context(|| format!("bad particle count in {other:?}"))?))
+                }
+                None => (other, None),
+            };
+            if let Some((sn, def, _)) = procedural::SCENES.iter().find(|s| s.0 == n) {
+                (*sn, c.unwrap_or(*def), dist, n.to_string())
+            } else {
+                // A file or sequence: the same Job as `render` and `demo` (radii, camera, load flags).
+                let scene_args = SceneArgs {
+                    input: other.to_string(),
+                    radius: a.radius,
+                    particles: None,
+                    camera: a.camera.clone(),
+                    background_obj: None,
+                };
+                let job = Job::open(&scene_args, &a.load, base.clone(), Select::default())?;
+                let label = Path::new(&job.label)
+                    .file_name()
+                    .map(|f| f.to_string_lossy().into_owned())
+                    .unwrap_or(job.label.clone());
+                return Ok((
+                    Workload {
+                        label,
+                        particles: job.first.clone(),
+                        radius: job.settings.radius,
+                        distance: 1.0,
+                        camera: job.camera,
+                    },
+                    Some(job),
+                ));
+            }
+        }
+    };
+    let g = procedural::generate(scene, count)?;
+    Ok((Workload { label, particles: g.particles, radius: g.radius, distance, camera: None }, None))
+}
+
+/// Run the benchmark.
+pub fn run(a: &BenchArgs) -> Result<()> {
+    note_start_rss();
+    let table43 = a.preset == "table43";
+    let moritz = a.preset == "moritz" || table43;
+    let mut base = Settings::preset(if table43 { "moritz" } else { &a.preset })?;
+    if let Some(f) = &a.settings {
+        base = base.with_toml(f)?;
+    }
+    let scenes: Vec<String> = if !a.scenes.is_empty() {
+        a.scenes.clone()
+    } else if table43 {
+        vec!["wave".into()]
+    } else if moritz {
+        ["wave", "crown1", "crown2", "waterfall", "worst"].map(String::from).to_vec()
+    } else {
+        vec!["wave".into()]
+    };
+    let resolutions: Vec<(u32, u32)> = if !a.resolutions.is_empty() {
+        a.resolutions.iter().map(|r| crate::args::parse_resolution(r)).collect::<Result<_>>()?
+    } else if table43 {
+        vec![(1920, 1080)]
+    } else if moritz {
+        vec![(1920, 1080), (960, 540)]
+    } else {
+        vec![(960, 540)]
+    };
+    let gpu = a.gpu.open()?;
+    eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
+    let mut r = Renderer::new(&gpu)?;
+    r.always_render_background = !a.cache_background;
+    let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
+    let n_var = if a.variants { 12 } else { 0 };
+    let bar = indicatif::ProgressBar::new((scenes.len() * resolutions.len() + n_var) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("valid template"),
+    );
+    let mut entries = vec![];
+    if let Some(sweep) = &a.sweep {
+        bar.finish_and_clear();
+        return run_sweep(a, sweep, &gpu, &mut r, &base, resolutions[0]);
+    }
+    for (k, name) in scenes.iter().enumerate() {
+        bar.set_message(format!("generating {name}"));
+        let (w, job) = workload(name, a, &base, moritz)?;
+        if let Some(job) = &job {
+            eprintln!("{}", job.summary(Some(resolutions[0])));
+        }
+        for (j, &(wd, ht)) in resolutions.iter().enumerate() {
+            bar.set_message(format!("{} {}×{}", w.label, wd, ht));
+            if table43 {
+                // Moritz table 4.3: stride / refinement iterations / max steps.
+                for (stride, refine, steps) in [(1, 0, 280), (4, 0, 180), (4, 2, 180), (8, 0, 100), (8, 4, 100)] {
+                    let vs = Settings {
+                        ssr_stride: stride as f32,
+                        ssr_refine: refine,
+                        ssr_max_steps: steps,
+                        ..base.clone()
+                    };
+                    let label = format!("ssr stride {stride}, refine {refine}, steps {steps}");
+                    entries.push(measure(&mut r, &w, wd, ht, &vs, &label, a.warmup, a.frames)?);
+                }
+                bar.inc(1);
+                continue;
+            }
+            entries.push(measure(&mut r, &w, wd, ht, &base, &a.preset, a.warmup, a.frames)?);
+            bar.inc(1);
+            if a.variants && k == 0 && j == 0 {
+                variants.clear();
+                for f in [Filter::Bilateral, Filter::NarrowRange, Filter::CurvatureFlow] {
+                    variants.push((format!("filter {}", f.name()), Settings { filter: f, ..base.clone() }));
+                }
+                for kk in [1, 4] {
+                    variants.push((
+                        format!("curvature-flow {kk} it/dispatch"),
+                        Settings { filter: Filter::CurvatureFlow, cf_iters_per_dispatch: kk, ..base.clone() },
+                    ));
+                }
+                variants.push(("no smoothing".into(), Settings { filter: Filter::None, ..base.clone() }));
+                for &m in SplatMode::ALL {
+                    if r.passes.splat.supports(m) {
+                        variants.push((format!("splat {}", m.name()), Settings { splat: m, ..base.clone() }));
+                    }
+                }
+                for (label, vs) in &variants {
+                    bar.set_message(format!("variant {label}"));
+                    entries.push(measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+                    bar.inc(1);
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let table = markdown(&entries);
+    println!("{} — {} — preset {} — commit {}\n", gpu.info.name, gpu.info.driver, a.preset, git_commit());
+    println!("{table}");
+    if a.variants {
+        let find = |v: &str| {
+            entries
+                .iter()
+                .find(|e| e.variant == v)
+                .map(|e| e.passes.iter().find(|p| p.0 == "smooth").map(|p| p.1.median).unwrap_or(0.0))
+        };
+        if let (Some(k1), Some(k4)) = (find("curvature-flow 1 it/dispatch"), find("curvature-flow 4 it/dispatch")) {
+            println!("ratio smooth (curvature flow) 1 it/dispatch ÷ 4 it/dispatch: {:.2} (> 1: several per dispatch is faster)", k1 / k4.max(1e-9));
+        }
+        let splat = |v: &str| {
+            entries
+                .iter()
+                .find(|e| e.variant == v)
+                .and_then(|e| e.passes.iter().find(|p| p.0 == "splat").map(|p| p.1.median))
+        };
+        if let Some(fd) = splat("splat quad-frag-depth") {
+            for m in ["compute", "quad-conservative", "quad-min", "point-frag-depth", "point-min"] {
+                if let Some(t) = splat(&format!("splat {m}")) {
+                    println!("ratio splat quad-frag-depth ÷ {m}: {:.2} (> 1: {m} is faster)", fd / t.max(1e-9));
+                }
+            }
+        }
+    }
+    write_reports(a, &gpu, base, entries, &table)?;
+    finish(&gpu)
+}
+
+/// Write the JSON report (`--json`) and the markdown table (`--markdown`) of a bench run.
+fn write_reports(
+    a: &BenchArgs,
+    gpu: &std::sync::Arc<Gpu>,
+    settings: Settings,
+    entries: Vec<Entry>,
+    table: &str,
+) -> Result<()> {
+    let report = Report {
+        schema: SCHEMA,
+        device: device_info(gpu),
+        git_commit: git_commit(),
+        preset: a.preset.clone(),
+        settings,
+        entries,
+        rss_start_bytes: start_rss(),
+        rss_end_bytes: rss_bytes(),
+    };
+    if let Some(p) = &a.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.markdown {
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
+    }
+    Ok(())
+}
+
+/// Per-pass medians plus the total of an entry, for the chart.
+fn chart_point(e: &Entry) -> Vec<(String, f64)> {
+    let mut v: Vec<(String, f64)> = e.passes.iter().map(|(n, s)| (n.clone(), s.median)).collect();
+    v.push(("total".into(), e.gpu_total.median));
+    v
+}
+
+fn run_sweep(
+    a: &BenchArgs,
+    sweep: &str,
+    gpu: &std::sync::Arc<Gpu>,
+    r: &mut Renderer,
+    base: &Settings,
+    res: (u32, u32),
+) -> Result<()> {
+    let counts: Vec<usize> = if a.sweep_particles.is_empty() {
+        vec![10_000, 40_000, 160_000, 640_000, 2_560_000, 4_000_000]
+    } else {
+        a.sweep_particles.clone()
+    };
+    let sizes = [(854u32, 480u32), (1280, 720), (1920, 1080), (2560, 1440), (3840, 2160)];
+    let do_particles = sweep == "particles" || sweep == "both";
+    let do_pixels = sweep == "pixels" || sweep == "both";
+    let total = if do_particles { counts.len() } else { 0 } + if do_pixels { sizes.len() } else { 0 };
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("template"));
+    let mut entries = vec![];
+    let mut panels = vec![];
+    if do_particles {
+        let mut pts = vec![];
+        for &n in &counts {
+            bar.set_message(format!("{n} particles"));
+            // The same pool at every count: the camera fit keeps the screen coverage fixed.
+            let g = procedural::generate("wave", n)?;
+            let w = Workload {
+                label: "wave".into(),
+                particles: g.particles,
+                radius: g.radius,
+                distance: 1.0,
+                camera: None,
+            };
+            let e = measure(r, &w, res.0, res.1, base, "sweep particles", a.warmup, a.frames)?;
+            pts.push((e.particles as f64, chart_point(&e)));
+            entries.push(e);
+            bar.inc(1);
+        }
+        panels.push(("particles", pts));
+    }
+    if do_pixels {
+        let g = procedural::generate("wave", 143_944)?;
+        let w =
+            Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
+        let mut pts = vec![];
+        for &(wd, ht) in &sizes {
+            bar.set_message(format!("{wd}×{ht}"));
+            let e = measure(r, &w, wd, ht, base, "sweep pixels", a.warmup, a.frames)?;
+            pts.push(((wd * ht) as f64, chart_point(&e)));
+            entries.push(e);
+            bar.inc(1);
+        }
+        panels.push(("pixels", pts));
+    }
+    bar.finish_and_clear();
+    let table = markdown(&entries);
+    println!("{} — {} — preset {} — sweep {sweep}\n\n{table}", gpu.info.name, gpu.info.driver, a.preset);
+    if let Some(p) = &a.chart {
+        let series: Vec<crate::chart::Series> = panels
+            .into_iter()
+            .map(|(x, points)| crate::chart::Series {
+                x_label: if x == "particles" { "particles" } else { "pixels" },
+                points,
+            })
+            .collect();
+        crate::chart::write(p, &format!("meniscus bench --sweep {sweep} — {}", gpu.info.name), &series)?;
+        eprintln!("wrote {}", p.display());
+    }
+    write_reports(a, gpu, base.clone(), entries, &table)
+}

@@ -1,0 +1,75 @@
+//! `meniscus info`: what a particle file (or the first frame of a sequence) holds — format, count, attributes,
+//! bounds, spacing — and the job line every other subcommand would start from (radius estimate included).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+
+use meniscus::scene;
+
+use crate::args::{LoadArgs, SceneArgs};
+use crate::job::{Job, Select};
+
+/// `meniscus info`.
+#[derive(Args, Clone, Debug)]
+pub struct InfoArgs {
+    /// A particle file, or a sequence (pattern with {}, folder, glob): then its frames are listed and the
+    /// first one described.
+    pub file: String,
+    /// Particle radius to report instead of the estimate.
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius: Option<f32>,
+    #[command(flatten)]
+    pub load: LoadArgs,
+}
+
+/// Describe the file.
+pub fn run(a: &InfoArgs) -> Result<()> {
+    let scene_args =
+        SceneArgs { input: a.file.clone(), radius: a.radius, particles: None, camera: None, background_obj: None };
+    let t0 = std::time::Instant::now();
+    let job = Job::open(&scene_args, &a.load, meniscus::settings::Settings::default(), Select::default())?;
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    let file = match &job.frames {
+        Some(frames) => {
+            println!(
+                "sequence:    {} frames, numbers {} … {}",
+                frames.len(),
+                frames[0].number,
+                frames[frames.len() - 1].number
+            );
+            println!("first file:  {}", frames[0].path.display());
+            frames[0].path.clone()
+        }
+        None => PathBuf::from(&a.file),
+    };
+    let p = &job.first;
+    if file.exists() {
+        let bytes = std::fs::read(&file).with_context(|| format!("{}", file.display()))?;
+        let format = scene::detect_format(&file, &bytes);
+        println!("file:        {} ({} bytes, loaded and analysed in {ms:.1} ms)", file.display(), bytes.len());
+        println!(
+            "format:      {}{}",
+            format.map(|f| f.name()).unwrap_or("?"),
+            if bytes.starts_with(&[0x1f, 0x8b]) { " (gzip)" } else { "" }
+        );
+    }
+    println!("particles:   {}", p.len());
+    println!("attributes:  position{}", p.attribute_names().iter().map(|a| format!(", {a}")).collect::<String>());
+    let full = scene::percentile_bounds(&p.positions, 0.0).context("no finite positions")?;
+    let pct = &job.bounds;
+    println!("bounds:      min {:?} max {:?}", full.lo.to_array(), full.hi.to_array());
+    println!(
+        "1–99 %:      min {:?} max {:?}  (a much smaller box than min/max means stray particles)",
+        pct.lo.to_array(),
+        pct.hi.to_array()
+    );
+    match scene::estimate_spacing(&p.positions) {
+        Some(sp) => println!("spacing:     {sp:.5} (median nearest neighbour)"),
+        None => println!("spacing:     unknown (too few distinct particles)"),
+    }
+    println!("radius:      {:.5} ({:?}) → --radius {:.5}", job.settings.radius, job.radius_from, job.settings.radius);
+    eprintln!("{}", job.summary(None));
+    Ok(())
+}

@@ -1,0 +1,165 @@
+//! The one set-up every subcommand shares: load (a built-in scene, a file or the first frame of a sequence) →
+//! radius (flag, scene, or estimated from the particles' number density) → settings validated → bounds →
+//! camera (flag, or fitted for the output's aspect) → background extras → upload (spray flags and per-particle
+//! radii, through [`Renderer::set_scene_particles`]) → the end-of-run validation check ([`crate::args::finish`]).
+//! `render`, `bench`, `demo` and `info` all start from a [`Job`], so the same file and flags give the same
+//! particles, radii and camera everywhere; each prints the same `job:` line, which a CLI test compares.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+
+use meniscus::frame::{Environment, View};
+use meniscus::mesh::Mesh;
+use meniscus::renderer::Renderer;
+use meniscus::scene::sequence::{self, Frame, FrameRange};
+use meniscus::scene::{self, procedural, Bounds, Camera, LoadOptions, Particles};
+use meniscus::settings::Settings;
+
+use crate::args::{LoadArgs, SceneArgs};
+
+/// Which frames of a sequence (render's `--frames` and `--shard`).
+#[derive(Default)]
+pub struct Select {
+    pub range: Option<FrameRange>,
+    pub shard: Option<(usize, usize)>,
+}
+
+/// Where the radius came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RadiusFrom {
+    Flag,
+    Scene,
+    Estimated,
+}
+
+/// Particles, settings and camera of one run.
+pub struct Job {
+    /// "scene wave", a file path, or the sequence pattern.
+    pub label: String,
+    /// The particles of a single input, or the first frame of a sequence.
+    pub first: Particles,
+    /// The frames of a sequence (`None` for a single file or scene).
+    pub frames: Option<Vec<Frame>>,
+    pub load: LoadOptions,
+    /// Settings with the radius resolved; validated.
+    pub settings: Settings,
+    pub radius_from: RadiusFrom,
+    /// 1st–99th percentile bounds of the first frame (camera fit and background scene).
+    pub bounds: Bounds,
+    /// The `--camera` flag, if given.
+    pub camera: Option<Camera>,
+    /// `--background-obj`, read and checked before any GPU work.
+    pub mesh: Option<Mesh>,
+}
+
+impl Job {
+    /// Load and resolve everything that does not need the GPU.
+    pub fn open(scene_args: &SceneArgs, load: &LoadArgs, settings: Settings, select: Select) -> Result<Job> {
+        let load = load.options()?;
+        let input = scene_args.input.as_str();
+        let builtin = procedural::SCENES.iter().find(|s| s.0 == input);
+        let (first, scene_radius, frames, label) = if let Some((name, n, _)) = builtin {
+            let g = procedural::generate(name, scene_args.particles.unwrap_or(*n))?;
+            (g.particles, Some(g.radius), None, format!("scene {name}"))
+        } else {
+            if scene_args.particles.is_some() {
+                bail!("--particles applies to built-in scenes only");
+            }
+            if sequence::is_sequence(input) {
+                let frames = sequence::resolve(input, select.range, select.shard)?;
+                let first = scene::load_with(&frames[0].path, &load)?;
+                (first, None, Some(frames), input.to_string())
+            } else {
+                if select.range.is_some() || select.shard.is_some() {
+                    bail!("--frames and --shard apply to sequences (a pattern with {{}}, a folder or a glob)");
+                }
+                let path = Path::new(input);
+                if !path.exists() {
+                    let known: Vec<&str> = procedural::SCENES.iter().map(|s| s.0).collect();
+                    bail!("{input}: no such file, and not a built-in scene ({})", known.join(", "));
+                }
+                (scene::load_with(path, &load)?, None, None, input.to_string())
+            }
+        };
+        let mut settings = settings;
+        let (radius, radius_from) = match (scene_args.radius, scene_radius) {
+            (Some(r), _) => (r, RadiusFrom::Flag),
+            (None, Some(r)) => (r, RadiusFrom::Scene),
+            (None, None) => {
+                let r = scene::estimate_radius(&first.positions)
+                    .context("cannot estimate the particle radius (too few distinct particles); pass --radius")?;
+                (r, RadiusFrom::Estimated)
+            }
+        };
+        settings.radius = radius;
+        settings.validate()?;
+        let bounds = scene::percentile_bounds(&first.positions, 0.01).context("no finite particle positions")?;
+        let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
+        let mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
+        if radius_from == RadiusFrom::Estimated {
+            eprintln!("radius {radius:.5} estimated from the particles' number density (pass --radius to override)");
+        }
+        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh })
+    }
+
+    /// The camera for a `width`×`height` output: the flag's, or fitted to the first frame.
+    pub fn camera_for(&self, width: u32, height: u32) -> Camera {
+        self.camera.unwrap_or_else(|| Camera::fit(&self.bounds, width as f32 / height.max(1) as f32))
+    }
+
+    /// The view of a `width`×`height` output (camera and background scene).
+    pub fn view(&self, width: u32, height: u32) -> View {
+        View {
+            camera: self.camera_for(width, height),
+            width,
+            height,
+            env: Environment::around(&self.bounds, self.settings.radius, &self.settings),
+        }
+    }
+
+    /// Upload one frame's particles (spray flags, per-particle radii) with this job's settings.
+    pub fn upload(&self, r: &mut Renderer, p: &Particles) -> Result<()> {
+        Ok(r.set_scene_particles(p, &self.settings)?)
+    }
+
+    /// Add the background mesh, if any, to a renderer.
+    pub fn apply_background(&self, r: &mut Renderer) -> Result<()> {
+        if let Some(m) = &self.mesh {
+            r.set_background_mesh(m)?;
+        }
+        Ok(())
+    }
+
+    /// One line that identifies what a run sees: the label, the particle count, a hash of the positions and
+    /// per-particle radii, the radius and where it came from, and (for an output size) the camera.
+    pub fn summary(&self, size: Option<(u32, u32)>) -> String {
+        let p = &self.first;
+        let mut line = format!(
+            "job: {}: {} particles (hash {:016x}), per-particle radii {}, radius {} ({:?})",
+            self.label,
+            p.len(),
+            hash(p),
+            if p.radii.is_some() { "yes" } else { "no" },
+            self.settings.radius,
+            self.radius_from
+        );
+        if let Some((w, h)) = size {
+            line += &format!(", camera --camera {}", self.camera_for(w, h).to_arg());
+        }
+        line
+    }
+}
+
+/// FNV-1a over the positions' and radii's bits (enough to tell two loads apart).
+fn hash(p: &Particles) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |x: f32| {
+        for b in x.to_bits().to_le_bytes() {
+            h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
+        }
+    };
+    p.positions.iter().flatten().for_each(|&x| eat(x));
+    p.radii.iter().flatten().for_each(|&x| eat(x));
+    h
+}

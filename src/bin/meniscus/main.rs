@@ -1,0 +1,57 @@
+//! `meniscus` — the command line: `render` (headless to PNG, one frame or a sequence), `info` (what a particle
+//! file holds), `scenes` (the built-in scenes), `bench` (per-pass GPU timings, JSON), `demo` (the window).
+//! Every subcommand that reads particles starts from the one [`job::Job`] set-up.
+
+mod args;
+mod bench;
+mod chart;
+mod demo;
+mod info;
+mod job;
+mod render;
+
+use clap::{Parser, Subcommand};
+
+use meniscus::scene::procedural;
+
+#[derive(Parser)]
+#[command(name = "meniscus", version, about = "Screen-space fluid rendering of SPH particles on Vulkan")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Render one frame headless to a PNG, or a sequence to numbered PNGs.
+    Render(render::RenderArgs),
+    /// Describe a particle file: format, count, attributes, bounds, spacing and the radius a job would use.
+    Info(info::InfoArgs),
+    /// List the built-in procedural scenes.
+    Scenes,
+    /// Benchmark: scenes × resolutions, per-pass GPU medians/p95/min, memory; markdown table + JSON.
+    Bench(bench::BenchArgs),
+    /// Interactive window: play a sequence, fly the camera, look inside every pass.
+    #[command(after_help = demo::HELP)]
+    Demo(demo::DemoArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let r = match cli.cmd {
+        Cmd::Render(a) => render::run(&a),
+        Cmd::Info(a) => info::run(&a),
+        Cmd::Bench(a) => bench::run(&a),
+        Cmd::Demo(a) => demo::main(&a),
+        Cmd::Scenes => {
+            for (name, n, what) in procedural::SCENES {
+                println!("{name:8} {n:>9} particles  {what}");
+            }
+            Ok(())
+        }
+    };
+    if let Err(e) = r {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}

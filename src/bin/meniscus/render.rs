@@ -1,0 +1,267 @@
+//! `meniscus render`: one frame headless to a PNG (with `--timings` and `--dump`), or a sequence to numbered
+//! PNGs with a progress bar. Everything before the GPU is the shared [`Job`].
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use clap::Args;
+
+use meniscus::frame::View;
+use meniscus::renderer::{read_f32, Renderer};
+use meniscus::scene::sequence::{self, FrameRange, Prefetch};
+
+use crate::args::{check_size, finish, GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
+use crate::job::{Job, Select};
+
+/// `meniscus render`.
+#[derive(Args, Clone, Debug)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Output PNG (written atomically: no half-written file on failure). For a sequence, {} in the name is the
+    /// frame number (4 digits), else _NNNN is added before the extension.
+    #[arg(short, long, default_value = "frame.png")]
+    out: PathBuf,
+    /// Sequence: frames FIRST..LAST[:STEP] (inclusive, by the numbers in the file names), e.g. 10..40:2.
+    #[arg(long = "frames", value_name = "RANGE")]
+    frames_range: Option<String>,
+    /// Sequence: render only shard K of N (every Nth frame starting with the Kth), e.g. 2/8.
+    #[arg(long)]
+    shard: Option<String>,
+    #[command(flatten)]
+    load: LoadArgs,
+    #[arg(long, default_value_t = 960)]
+    width: u32,
+    #[arg(long, default_value_t = 540)]
+    height: u32,
+    #[command(flatten)]
+    set: SettingsArgs,
+    /// Sky cube map from six images DIR/{px,nx,py,ny,pz,nz}.png (default: procedural sky).
+    #[arg(long, value_name = "DIR")]
+    skybox: Option<PathBuf>,
+    /// Print a per-pass GPU time table (median over the timed frames, after warm-up).
+    #[arg(long)]
+    timings: bool,
+    /// With --timings: frames rendered first and not timed (lavapipe compiles pipelines at first use).
+    #[arg(long, default_value_t = 2)]
+    warmup: u32,
+    /// With --timings: frames timed; the table shows per-pass medians.
+    #[arg(long = "timed-frames", default_value_t = 5)]
+    frames: u32,
+    /// Write buffers next to the PNG: depth, smoothed, thickness as OUT.NAME.npy (float32, H×W, +inf = none),
+    /// normals as OUT.normals.npy (H×W×3, view space) and OUT.normals.png, ssr as OUT.ssr.png, final = the PNG.
+    #[arg(long, value_delimiter = ',')]
+    dump: Vec<String>,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+/// `meniscus render`: one frame, or every frame of a sequence.
+pub fn run(a: &RenderArgs) -> Result<()> {
+    check_size(a.width, a.height)?;
+    check_dumps(a)?;
+    let select = Select {
+        range: a.frames_range.as_deref().map(FrameRange::parse).transpose()?,
+        shard: a.shard.as_deref().map(sequence::parse_shard).transpose()?,
+    };
+    let job = Job::open(&a.scene, &a.load, a.set.resolve()?, select)?;
+    if job.frames.is_some() {
+        return render_sequence(a, &job);
+    }
+    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
+    let s = &job.settings;
+    let mut view = job.view(a.width, a.height);
+    let gpu = a.gpu.open()?;
+    let mut r = Renderer::new(&gpu)?;
+    job.apply_background(&mut r)?;
+    if let Some((size, faces)) = &sky {
+        r.set_skybox(*size, faces)?;
+        view.env.sky_cube = true;
+    }
+    r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
+    job.upload(&mut r, &job.first)?;
+    eprintln!("{}", job.summary(Some((a.width, a.height))));
+    // Timed frames re-render the static background too, so the table shows every pass.
+    r.always_render_background = a.timings;
+    let mut times = r.render(&view, s)?;
+    if a.timings {
+        let mut runs = vec![];
+        for k in 0..a.warmup + a.frames.max(1) {
+            let t = r.render(&view, s)?;
+            if k >= a.warmup {
+                runs.push(t);
+            }
+        }
+        times = meniscus::gpu::timer::median_times(&runs);
+    }
+    let img = r.read_final()?;
+    meniscus::output::write_png(&a.out, &img)?;
+    eprintln!(
+        "{}: {} particles, radius {}, {}×{} on {} → {}",
+        job.label,
+        job.first.len(),
+        s.radius,
+        a.width,
+        a.height,
+        gpu.info.name,
+        a.out.display()
+    );
+    eprintln!("camera: --camera {}", view.camera.to_arg());
+    if a.timings {
+        println!("median of {} frames after {} warm-up frames", a.frames.max(1), a.warmup);
+        println!("| pass | GPU ms |\n|---|---:|");
+        for (name, ms) in &times.0 {
+            println!("| {name} | {ms:.3} |");
+        }
+        println!("| **total** | **{:.3}** |", times.total());
+    }
+    dump(&r, a, &view)?;
+    finish(&gpu)
+}
+
+fn check_dumps(a: &RenderArgs) -> Result<()> {
+    for d in &a.dump {
+        if !["depth", "smoothed", "thickness", "normals", "ssr", "final"].contains(&d.as_str()) {
+            bail!("--dump {d:?}: expected some of depth, smoothed, thickness, normals, ssr, final");
+        }
+    }
+    Ok(())
+}
+
+/// Render a sequence to numbered PNGs: background prefetch, progress bar, camera fitted once on the first frame.
+fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
+    let frames = job.frames.clone().expect("a sequence");
+    if !a.dump.is_empty() {
+        bail!("--dump applies to single frames");
+    }
+    let out_name = |n: u64| -> PathBuf {
+        let s = a.out.to_string_lossy();
+        if s.contains("{}") {
+            PathBuf::from(s.replace("{}", &format!("{n:04}")))
+        } else {
+            let stem = a.out.with_extension("");
+            let ext = a.out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "png".into());
+            PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
+        }
+    };
+    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
+    let gpu = a.gpu.open()?;
+    let mut r = Renderer::new(&gpu)?;
+    job.apply_background(&mut r)?;
+    let s = &job.settings;
+    let mut view = job.view(a.width, a.height);
+    if let Some((size, faces)) = &sky {
+        r.set_skybox(*size, faces)?;
+        view.env.sky_cube = true;
+    }
+    eprintln!("{}", job.summary(Some((a.width, a.height))));
+    let total = frames.len();
+    eprintln!(
+        "{}: {total} frames ({} … {}) on {}",
+        a.scene.input,
+        frames[0].number,
+        frames[total - 1].number,
+        gpu.info.name
+    );
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  [{elapsed} < {eta}]")
+            .expect("template"),
+    );
+    let t0 = std::time::Instant::now();
+    let mut gpu_ms = 0.0;
+    // The camera was fitted once, to the first frame; later frames load on a worker thread meanwhile.
+    for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
+        let particles = loaded?;
+        job.upload(&mut r, &particles)?;
+        gpu_ms += r.render(&view, s)?.total();
+        let path = out_name(frame.number);
+        meniscus::output::write_png(&path, &r.read_final()?)?;
+        bar.set_message(format!(
+            "{} → {}",
+            frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
+            path.display()
+        ));
+        bar.inc(1);
+    }
+    bar.finish();
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "{total} frames in {secs:.1} s ({:.2} frames/s, mean GPU frame {:.1} ms)",
+        total as f64 / secs,
+        gpu_ms / total as f64
+    );
+    finish(&gpu)
+}
+
+fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
+    let Some(t) = r.targets.as_ref() else { return Ok(()) };
+    let stem = a.out.with_extension("");
+    let path = |n: &str, ext: &str| PathBuf::from(format!("{}.{n}.{ext}", stem.display()));
+    for d in &a.dump {
+        match d.as_str() {
+            "depth" | "smoothed" | "thickness" => {
+                let img = match d.as_str() {
+                    "depth" => &t.depth,
+                    "smoothed" => r.smoothed_depth().expect("rendered"),
+                    _ => &t.thickness,
+                };
+                let data = read_f32(&r.gpu, img)?;
+                let p = path(d, "npy");
+                meniscus::output::write_npy(&p, &[img.extent.height as usize, img.extent.width as usize], &data)?;
+                eprintln!("wrote {}", p.display());
+            }
+            "normals" => {
+                let raw = meniscus::renderer::read_image(&r.gpu, &t.normals)?;
+                let words: Vec<u32> = bytemuck::pod_collect_to_vec(&raw);
+                let mut data = Vec::with_capacity(words.len() * 3);
+                for w in words {
+                    let n = if w == 0 { [0.0; 3] } else { meniscus::passes::normals::unpack(w) };
+                    data.extend_from_slice(&n);
+                }
+                let p = path(d, "npy");
+                meniscus::output::write_npy(&p, &[view.height as usize, view.width as usize, 3], &data)?;
+                eprintln!("wrote {}", p.display());
+                let png = image::RgbaImage::from_fn(view.width, view.height, |x, y| {
+                    let i = 3 * (y * view.width + x) as usize;
+                    let c = |k: usize| ((data[i + k] * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
+                    if data[i..i + 3] == [0.0; 3] {
+                        image::Rgba([0, 0, 0, 255])
+                    } else {
+                        image::Rgba([c(0), c(1), c(2), 255])
+                    }
+                });
+                let p = path(d, "png");
+                meniscus::output::write_png(&p, &png)?;
+                eprintln!("wrote {}", p.display());
+            }
+            "ssr" => {
+                // The reflected scene colour where SSR hit, black elsewhere.
+                let hits: Vec<u32> = bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.ssr)?);
+                let scene: Vec<u16> =
+                    bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.scene_color)?);
+                let (w, h) = (view.width, view.height);
+                let png = image::RgbaImage::from_fn(w, h, |x, y| {
+                    match meniscus::passes::ssr::decode(hits[(y * w + x) as usize]) {
+                        Some([u, v]) => {
+                            let sx = ((u * w as f32) as u32).min(w - 1);
+                            let sy = ((v * h as f32) as u32).min(h - 1);
+                            let i = 4 * (sy * w + sx) as usize;
+                            let c = |k: usize| {
+                                (meniscus::output::f16_to_f32(scene[i + k]).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0)
+                                    .round() as u8
+                            };
+                            image::Rgba([c(0), c(1), c(2), 255])
+                        }
+                        None => image::Rgba([0, 0, 0, 255]),
+                    }
+                });
+                let p = path(d, "png");
+                meniscus::output::write_png(&p, &png)?;
+                eprintln!("wrote {}", p.display());
+            }
+            _ => {} // "final" is the PNG itself
+        }
+    }
+    Ok(())
+}
