@@ -2,14 +2,26 @@
 //! generates `$OUT_DIR/shaders.rs`: one `pub const NAME: &[u8]` per file (stem upper-cased, `_VERT`/`_FRAG`
 //! suffixes for graphics stages). `#include "x.glsl"` resolves inside `shaders_glsl/`. A GLSL error fails the
 //! build with file:line.
+//!
+//! Each module is also reflected (rspirv-reflect): the generated constant is a `crate::gpu::Shader` with the
+//! SPIR-V, its set-0 bindings (binding, descriptor type), push-constant size and work-group size, which every
+//! pass's `declare_program!` checks its slot list against at compile time. The constants shared with Rust
+//! (`src/shader_constants.rs`) are passed to every shader as macro definitions.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+
+// The constants shared by Rust and GLSL (SHADER_CONSTANTS), defined once.
+#[allow(dead_code)]
+mod shader_constants {
+    include!("src/shader_constants.rs");
+}
 
 fn main() {
     let src = Path::new("shaders_glsl");
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
     println!("cargo:rerun-if-changed=shaders_glsl");
+    println!("cargo:rerun-if-changed=src/shader_constants.rs");
     // The commit the binary was built from, for benchmark JSON ("unknown" outside a git checkout).
     let commit = std::process::Command::new("git")
         .args(["rev-parse", "--short=12", "HEAD"])
@@ -27,6 +39,8 @@ fn main() {
     println!("cargo:rerun-if-changed=.git/HEAD");
     println!("cargo:rerun-if-changed=.git/index");
     let compiler = shaderc::Compiler::new().expect("shaderc: cannot create a compiler");
+    // Reflection failures are reported with the shader's name below, not as a panic message.
+    std::panic::set_hook(Box::new(|_| {}));
     let mut entries: Vec<_> =
         std::fs::read_dir(src).expect("shaders_glsl/ is missing").filter_map(|e| e.ok().map(|e| e.path())).collect();
     entries.sort();
@@ -48,6 +62,11 @@ fn main() {
         opts.set_target_spirv(shaderc::SpirvVersion::V1_6);
         opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
         opts.set_generate_debug_info();
+        for (name, value) in shader_constants::SHADER_CONSTANTS {
+            // Unsigned literal only where an int cannot hold the value (SSR_MISS).
+            let text = if *value > i32::MAX as u32 { format!("{value:#x}u") } else { value.to_string() };
+            opts.add_macro_definition(name, Some(&text));
+        }
         opts.set_include_callback(|name, _ty, _from, _depth| {
             let p = src.join(name);
             std::fs::read_to_string(&p)
@@ -59,12 +78,23 @@ fn main() {
             Ok(art) => {
                 let spv = out.join(format!("{stem}.{ext}.spv"));
                 std::fs::write(&spv, art.as_binary_u8()).expect("write spv");
+                let file = format!("{stem}.{ext}");
+                let r = match reflect(art.as_binary_u8()) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        failures.push(format!("{file}: SPIR-V reflection failed: {e}"));
+                        continue;
+                    }
+                };
                 let _ = writeln!(
                     generated,
-                    "pub const {}{}: &[u8] = include_bytes!({:?});",
+                    "pub const {}{}: crate::gpu::Shader = crate::gpu::Shader {{ file: {file:?}, spirv: include_bytes!({:?}), bindings: &{:?}, push: {}, local: {:?} }};",
                     stem.to_uppercase().replace('-', "_"),
                     suffix,
-                    spv.display().to_string()
+                    spv.display().to_string(),
+                    r.0,
+                    r.1,
+                    r.2,
                 );
             }
             Err(e) => failures.push(e.to_string()),
@@ -79,4 +109,22 @@ fn main() {
         panic!("GLSL compilation failed:\n{}", failures.join("\n"));
     }
     std::fs::write(out.join("shaders.rs"), generated).expect("write shaders.rs");
+}
+
+/// Set-0 bindings (binding, VkDescriptorType raw value), push-constant bytes and work-group size of a module.
+type Reflected = (Vec<(u32, i32)>, u32, [u32; 3]);
+
+fn reflect(spirv: &[u8]) -> Result<Reflected, String> {
+    let r = rspirv_reflect::Reflection::new_from_spirv(spirv).map_err(|e| format!("{e:?}"))?;
+    // rspirv-reflect asserts (panics) when two variables share a binding: report that as a shader error.
+    let sets = std::panic::catch_unwind(|| r.get_descriptor_sets())
+        .map_err(|_| "two variables share one binding number".to_string())?
+        .map_err(|e| format!("{e:?}"))?;
+    if sets.keys().any(|&s| s != 0) {
+        return Err("only descriptor set 0 is used (push descriptors)".into());
+    }
+    let bindings = sets.get(&0).map(|b| b.iter().map(|(n, info)| (*n, info.ty.0 as i32)).collect()).unwrap_or_default();
+    let push = r.get_push_constant_range().map_err(|e| format!("{e:?}"))?.map(|p| p.offset + p.size).unwrap_or(0);
+    let local = r.get_compute_group_size().map(|(x, y, z)| [x, y, z]).unwrap_or([0; 3]);
+    Ok((bindings, push, local))
 }

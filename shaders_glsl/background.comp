@@ -7,7 +7,7 @@
 //! Composite and thickness read the depth to hide fluid behind geometry.
 #define SKY_BINDING 3
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D color_out;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D depth_out;
 layout(std430, set = 0, binding = 4) readonly buffer BvhNodes { vec4 nodes[]; };

@@ -21,16 +21,16 @@ layout(std140, set = 0, binding = 0) uniform Frame {
     vec4 shading;       // x: refraction alpha (px per world unit), y: beta (max px), z: gamma (transparency), w: k_s
     vec4 shading2;      // x: shininess c, y: F0, z: sky reflection on/off, w: 1 = sky cube map loaded
     vec4 box_count;     // x: number of boxes
-    vec4 box_min[8];    // axis-aligned boxes of the background scene (world)
-    vec4 box_max[8];
+    vec4 box_min[MAX_BOXES];    // axis-aligned boxes of the background scene (world)
+    vec4 box_max[MAX_BOXES];
 } frame;
 
 #define INF uintBitsToFloat(0x7f800000u)
 
 bool is_fluid(float d) { return d < 1e30; }
 
-/// `ssr` output where the reflected ray hits nothing on screen.
-#define SSR_MISS 0xffffffffu
+// SSR_MISS (the `ssr` output where the reflected ray hits nothing on screen), LOCAL_2D, LOCAL_1D, MAX_BOXES, MAX_PIXELS_PER_PARTICLE, … are defined by build.rs from
+// src/shader_constants.rs (one definition, shared with the Rust side).
 
 /// View-space ray direction through pixel centre p of an image of `size`, focal `F` (pixels), with z = −1:
 /// the point at linear depth d is d * dir.

@@ -9,7 +9,7 @@
 //! Out: rgba8, gamma 2.2.
 #define SKY_BINDING 8
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1) uniform sampler2D scene_color;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D scene_depth;
 layout(set = 0, binding = 3, r32f) uniform readonly image2D fluid_depth;

@@ -9,7 +9,7 @@
 //! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F).
 #include "common.glsl"
 #include "iso_field.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 4, r32f) uniform image2D depth;
 layout(set = 0, binding = 5, r32f) uniform readonly image2D back;
 

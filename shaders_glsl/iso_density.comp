@@ -5,7 +5,7 @@
 //! In: sorted points, cells. Out: weights (one float per point).
 #include "common.glsl"
 #include "iso_field.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_1D) in;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

@@ -5,7 +5,7 @@
 //! occlusion edges do not bend the normal. Normals face the camera.
 //! In: smoothed depth (r32f). Out: normals (r32ui, octahedral 2×snorm16; 0 where there is no fluid).
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D depth;
 layout(set = 0, binding = 2, r32ui) uniform writeonly uimage2D normals;
 layout(push_constant) uniform Push { float edge; } pc; // world depth jump that marks a discontinuity

@@ -3,7 +3,7 @@
 //! rgba8 image) over the final image at the top-left corner: alpha blending, straight alpha.
 //! In: overlay (rgba8, sampled 1:1). Out: final (rgba8, read-modify-write).
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, rgba8) uniform readonly image2D overlay;
 layout(set = 0, binding = 2, rgba8) uniform image2D out_color;
 

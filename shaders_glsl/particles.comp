@@ -6,7 +6,7 @@
 //! In: particles, per-particle value in [0, 1], raw depth (r32ui view). Out: final (rgba8), covered pixels only.
 #include "common.glsl"
 #include "sphere.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Values { float values[]; };
 layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D depth_bits;
@@ -31,7 +31,7 @@ void main() {
     float near = frame.proj.w;
     ivec2 lo, hi;
     if (!sphere_bounds(c, r, size, F, near, lo, hi)) return;
-    if (uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1) > (1u << 20)) return;
+    if (uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1) > MAX_PIXELS_PER_PARTICLE) return;
     vec3 col = hsv2rgb(vec3(mix(pc.hue.x, pc.hue.y, clamp(values[i], 0.0, 1.0)), 0.85, 0.95));
     vec3 L = normalize(mat3(frame.view) * frame.sun.xyz);
     for (int y = lo.y; y <= hi.y; ++y) {

@@ -5,7 +5,7 @@
 //! Modes: separable (one axis per dispatch, `dir`), exact 2D (`dir` = 0), Gaussian (σ_r = 0: no range term).
 //! In: depth (r32f). Out: smoothed depth (r32f).
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D src;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst;
 layout(push_constant) uniform Push {

@@ -13,7 +13,7 @@
 //! In: depth (r32f). Out: smoothed depth (r32f).
 #include "common.glsl"
 #include "curvature.glsl"
-#define LOCAL 8
+#define LOCAL CURVATURE_LOCAL
 #define MAX_K 4
 #define TILE (LOCAL + 2 * MAX_K)
 layout(local_size_x = LOCAL, local_size_y = LOCAL) in;

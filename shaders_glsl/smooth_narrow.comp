@@ -7,7 +7,7 @@
 //! Separable dispatches (`dir`), then one 2D dispatch over a small window (`dir` = 0, radius ≤ 2D radius).
 //! In: depth (r32f). Out: filtered depth (r32f). Background stays background.
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D src;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst;
 layout(push_constant) uniform Push {

@@ -11,7 +11,7 @@
 //!      the `iso` march can stop (the iso-surface lies inside the spheres).
 #include "common.glsl"
 #include "sphere.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D depth_bits;
 layout(set = 0, binding = 3, r32ui) uniform coherent uimage2D back_bits;

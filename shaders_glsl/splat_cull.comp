@@ -8,7 +8,7 @@
 //! In: particles. Out: tiles (r32ui, float bits, cleared to +inf).
 #include "common.glsl"
 #include "sphere.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D tiles;
 layout(push_constant) uniform Push { uint count; float radius_scale; uint tile; uint pad; uvec2 size; } pc;

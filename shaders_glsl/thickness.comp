@@ -6,7 +6,7 @@
 //! In: particles, scene depth (full-res r32f). Out: thickness accumulator (r32ui), cleared to 0.
 #include "common.glsl"
 #include "sphere.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32f) uniform readonly image2D scene_depth;
 layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;

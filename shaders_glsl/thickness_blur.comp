@@ -3,7 +3,7 @@
 //! accumulator, converted to world units (Moritz §3.2.2: thickness is blurred, its detail does not matter).
 //! In: accumulator (r32ui). Out: thickness (r32f, world units). radius 0 = plain conversion.
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D thickness;
 layout(push_constant) uniform Push { int radius; float sigma; } pc;

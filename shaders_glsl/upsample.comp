@@ -6,7 +6,7 @@
 //! nearest low-resolution sample is taken, so no output depth ever lies between two separated surfaces.
 //! In: low-resolution depth (r32f). Out: full-resolution depth (r32f, +inf = no fluid).
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D low;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D full;
 layout(push_constant) uniform Push { float edge; } pc; // world depth jump that separates surfaces

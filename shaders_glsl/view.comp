@@ -5,7 +5,7 @@
 //! scene colour, black on a miss), 6 scene colour only (the backdrop of the particle view).
 //! In: the frame's images (any resolution: sampled by scaled pixel coordinates). Out: final (rgba8).
 #include "common.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D raw_depth;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D smoothed;
 layout(set = 0, binding = 3) uniform sampler2D thickness;

@@ -15,6 +15,10 @@ pub mod passes;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
+/// Constants shared by Rust and GLSL, defined once (build.rs passes them to every shader as macros).
+pub mod shader_constants {
+    include!("shader_constants.rs");
+}
 pub mod sky;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.

@@ -26,8 +26,8 @@ pub struct Renderer {
     pub keep_raw_depth: bool,
     /// Sky cube map (a 1×1 placeholder until `set_skybox`).
     pub sky: Image,
-    /// Debug views, particle view and overlay (demo).
-    views: crate::passes::view::View,
+    /// The demo's passes: debug views, the particle view and the text overlay.
+    demo_passes: DemoPasses,
     /// What the background images show (camera, size, scene); the `background` pass is skipped while it holds.
     background_key: Option<String>,
     /// Re-render the background every frame even when nothing changed (for measuring the pass).
@@ -40,6 +40,13 @@ pub struct Renderer {
     mesh: crate::passes::background::MeshBuffers,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
+}
+
+/// The demo's passes (built with the renderer; recorded only by `render_view`).
+struct DemoPasses {
+    view: crate::passes::view::View,
+    particles: crate::passes::particles::Particles,
+    overlay: crate::passes::overlay::Overlay,
 }
 
 impl Renderer {
@@ -72,7 +79,11 @@ impl Renderer {
             background_key: None,
             always_render_background: false,
             keep_raw_depth: false,
-            views: crate::passes::view::View::new(gpu)?,
+            demo_passes: DemoPasses {
+                view: crate::passes::view::View::new(gpu)?,
+                particles: crate::passes::particles::Particles::new(gpu)?,
+                overlay: crate::passes::overlay::Overlay::new(gpu)?,
+            },
             sky: {
                 let sky = Image::new_cube(
                     gpu,
@@ -281,7 +292,7 @@ impl Renderer {
         let cull =
             crate::passes::splat::cull_pays(view.camera.focal_px(fluid_h) * s.radius * s.splat_scale() / typical);
         let (passes, uniforms, gpu, views, sky, mesh) =
-            (&self.passes, &self.uniforms, self.gpu.clone(), &self.views, &self.sky, &self.mesh);
+            (&self.passes, &self.uniforms, self.gpu.clone(), &self.demo_passes, &self.sky, &self.mesh);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
@@ -294,18 +305,18 @@ impl Renderer {
                 match mode {
                     ViewMode::Final => {}
                     ViewMode::Particles => {
-                        views.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
+                        views.view.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
                         if let Some(v) = values {
-                            views.record_particles(&mut ctx, uniforms, particles, v, count, t, s.splat_radius_scale);
+                            views.particles.record(&mut ctx, uniforms, particles, v, count, t, s.splat_radius_scale);
                         }
                     }
                     m => {
                         let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
-                        views.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
+                        views.view.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
                     }
                 }
                 if let Some(o) = overlay {
-                    views.record_overlay(&mut ctx, uniforms, o, &t.final_color);
+                    views.overlay.record(&mut ctx, uniforms, o, &t.final_color);
                 }
             }
             Ok(sm)

@@ -97,9 +97,25 @@ impl<'t> FrameCtx<'t> {
         self.barrier_batches += 1;
     }
 
-    /// Open pass `name`: barriers for `uses`, then a debug label and a timestamp scope.
-    pub fn begin_pass(&mut self, name: &str, uses: &[Use]) {
-        self.barrier(uses);
+    /// Clear all of `img` to `value` (its barrier derived like any other use: a transfer write that drops the
+    /// old contents).
+    pub fn clear(&mut self, img: &Image, value: vk::ClearColorValue) {
+        self.barrier(&[Use::Image(img, Access::TransferDst, true)]);
+        unsafe {
+            self.gpu.device.cmd_clear_color_image(
+                self.cmd,
+                img.raw,
+                Access::TransferDst.info().layout,
+                &value,
+                &[Image::color_range()],
+            )
+        };
+    }
+
+    /// Open pass `name`: a debug label and a timestamp scope. The pass's barriers come with its dispatches
+    /// (derived from each program's slot list), so nothing is declared here; the begin timestamp is written at
+    /// ALL_COMMANDS, i.e. after every earlier command finished, wherever the first barrier lands.
+    pub fn begin_pass(&mut self, name: &str) {
         self.gpu.begin_label(self.cmd, name);
         let q = self.timer.as_deref_mut().and_then(|t| t.begin(self.cmd, name));
         self.open.push(q);
@@ -116,8 +132,8 @@ impl<'t> FrameCtx<'t> {
     }
 
     /// `begin_pass`, `f`, `end_pass`.
-    pub fn pass<R>(&mut self, name: &str, uses: &[Use], f: impl FnOnce(&mut Self) -> R) -> R {
-        self.begin_pass(name, uses);
+    pub fn pass<R>(&mut self, name: &str, f: impl FnOnce(&mut Self) -> R) -> R {
+        self.begin_pass(name);
         let r = f(self);
         self.end_pass();
         r

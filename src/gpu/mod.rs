@@ -23,7 +23,7 @@ use crate::error::{Error, Result, VkContext};
 
 pub use access::{Access, AccessState};
 pub use context::{FrameCtx, Use};
-pub use pipeline::{Bind, ComputeProgram};
+pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, Res, Shader, Slot};
 pub use resource::{Buffer, Image};
 pub use timer::{PassTimes, Timer};
 
@@ -444,6 +444,17 @@ impl Gpu {
             let c = CString::new(name).unwrap_or_default();
             let label = vk::DebugUtilsLabelEXT::default().label_name(&c);
             unsafe { dd.cmd_begin_debug_utils_label(cmd, &label) };
+        }
+    }
+
+    /// Give a Vulkan object a debug name (no-op without VK_EXT_debug_utils).
+    pub fn name_object<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(dd) = &self.debug_device {
+            let c = CString::new(name).unwrap_or_default();
+            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&c);
+            unsafe {
+                let _ = dd.set_debug_utils_object_name(&info);
+            }
         }
     }
 

@@ -5,24 +5,219 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{Buffer, FrameCtx, Gpu, Image};
+use super::{Access, Buffer, FrameCtx, Gpu, Image, Use};
 use crate::error::{Error, Result, VkContext};
 
-/// A resource bound at the binding with the same index in the program's table.
-#[derive(Clone, Copy)]
-pub enum Bind<'a> {
-    /// Storage image through its main view.
-    Storage(&'a Image),
-    /// Storage image through its second view (e.g. R32_UINT for atomics).
-    StorageAlt(&'a Image),
+/// A compiled shader as build.rs generates it (`crate::shaders::X`): file name, SPIR-V and what reflection of
+/// the SPIR-V found in it (rspirv-reflect, at build time).
+pub struct Shader {
+    /// `ssr.comp`, `splat_quad.vert`, …
+    pub file: &'static str,
+    pub spirv: &'static [u8],
+    /// Descriptor bindings of set 0 as (binding, `VkDescriptorType` raw value), sorted by binding. Bindings the
+    /// optimizer removed because the shader never reads them are absent.
+    pub bindings: &'static [(u32, i32)],
+    /// Bytes of the push-constant block (0: none).
+    pub push: u32,
+    /// Work-group size (compute shaders; 0 otherwise).
+    pub local: [u32; 3],
+}
+
+/// One binding of a program, declared once per pass: its descriptor type AND how the pass accesses the
+/// resource. The slot list drives the set layout, the barrier (from the resource's last access) and the
+/// descriptor write; binding number = position in the list, checked against the shader's reflection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    /// Uniform buffer, read (binding 0 is always the frame's uniform block, common.glsl).
+    Uniform,
+    /// Storage buffer, read.
+    BufRead,
+    /// Storage buffer, read and written.
+    BufWrite,
+    /// Storage image, read.
+    ImgRead,
+    /// Storage image, read and written (keeps what was there).
+    ImgWrite,
+    /// Storage image, all of it written: its old contents are dropped.
+    ImgOverwrite,
+    /// Storage image through its second view (R32_UINT over R32_SFLOAT, for atomics), read and written.
+    ImgAltWrite,
+    /// Storage image through its second view, read.
+    ImgAltRead,
     /// Sampled image with the GPU's linear sampler.
-    Linear(&'a Image),
+    Sampled,
     /// Sampled image with the GPU's nearest sampler.
-    Nearest(&'a Image),
-    /// Uniform buffer.
-    Uniform(&'a Buffer),
-    /// Storage buffer.
-    StorageBuf(&'a Buffer),
+    SampledNearest,
+}
+
+impl Slot {
+    /// The descriptor type of the binding.
+    pub const fn descriptor_type(self) -> vk::DescriptorType {
+        match self {
+            Slot::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+            Slot::BufRead | Slot::BufWrite => vk::DescriptorType::STORAGE_BUFFER,
+            Slot::ImgRead | Slot::ImgWrite | Slot::ImgOverwrite | Slot::ImgAltWrite | Slot::ImgAltRead => {
+                vk::DescriptorType::STORAGE_IMAGE
+            }
+            Slot::Sampled | Slot::SampledNearest => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+        }
+    }
+
+    /// Whether the slot takes a buffer (else an image).
+    pub const fn is_buffer(self) -> bool {
+        matches!(self, Slot::Uniform | Slot::BufRead | Slot::BufWrite)
+    }
+
+    /// The access (and whether old contents are dropped) for a compute or a graphics program.
+    pub fn access(self, graphics: bool) -> (Access, bool) {
+        match self {
+            Slot::Uniform | Slot::BufRead | Slot::ImgRead | Slot::ImgAltRead if graphics => {
+                (Access::GraphicsRead, false)
+            }
+            Slot::Uniform | Slot::BufRead | Slot::ImgRead | Slot::ImgAltRead => (Access::ComputeRead, false),
+            Slot::BufWrite | Slot::ImgWrite | Slot::ImgAltWrite => (Access::ComputeWrite, false),
+            Slot::ImgOverwrite => (Access::ComputeWrite, true),
+            Slot::Sampled | Slot::SampledNearest => (Access::ComputeSampled, false),
+        }
+    }
+}
+
+/// A resource given for a slot.
+#[derive(Clone, Copy)]
+pub enum Res<'a> {
+    Img(&'a Image),
+    Buf(&'a Buffer),
+}
+
+impl<'a> From<&'a Image> for Res<'a> {
+    fn from(i: &'a Image) -> Self {
+        Res::Img(i)
+    }
+}
+
+impl<'a> From<&'a Buffer> for Res<'a> {
+    fn from(b: &'a Buffer) -> Self {
+        Res::Buf(b)
+    }
+}
+
+/// A program declared once: its shader(s), its slot list and its push-constant type `P` (size derived).
+pub struct ProgramDecl<P> {
+    /// Compute: the shader; graphics: the vertex shader.
+    pub shader: &'static Shader,
+    /// Graphics: the fragment shader.
+    pub fragment: Option<&'static Shader>,
+    pub slots: &'static [Slot],
+    _push: std::marker::PhantomData<P>,
+}
+
+impl<P: bytemuck::Pod> ProgramDecl<P> {
+    /// A compute program.
+    pub const fn compute(shader: &'static Shader, slots: &'static [Slot]) -> Self {
+        ProgramDecl { shader, fragment: None, slots, _push: std::marker::PhantomData }
+    }
+
+    /// A graphics program (vertex + fragment share the slot list and the push constants).
+    pub const fn graphics(vert: &'static Shader, frag: &'static Shader, slots: &'static [Slot]) -> Self {
+        ProgramDecl { shader: vert, fragment: Some(frag), slots, _push: std::marker::PhantomData }
+    }
+
+    /// Push-constant bytes: the size of `P`, never a literal.
+    pub const fn push_size(&self) -> u32 {
+        std::mem::size_of::<P>() as u32
+    }
+
+    /// `None` when the slot list, the push type and the shader(s) agree; else what disagrees. A `const`
+    /// evaluation of this in each pass module turns a mismatch into a build error (see [`declare_program!`]).
+    pub const fn mismatch(&self) -> Option<&'static str> {
+        if let Some(e) = shader_mismatch(self.shader, self.slots, self.push_size()) {
+            return Some(e);
+        }
+        if let Some(f) = self.fragment {
+            if let Some(e) = shader_mismatch(f, self.slots, self.push_size()) {
+                return Some(e);
+            }
+        }
+        // Every declared slot is in some stage (binding 0, the frame's uniform block, may be in none).
+        let mut i = 1;
+        while i < self.slots.len() {
+            if !has_binding(self.shader, i) && !matches!(self.fragment, Some(f) if has_binding(f, i)) {
+                return Some("the pass declares a binding the shader does not have");
+            }
+            i += 1;
+        }
+        None
+    }
+
+    /// The same check with the binding numbers and types spelled out (runtime and tests).
+    pub fn check(&self) -> Result<()> {
+        for sh in std::iter::once(self.shader).chain(self.fragment) {
+            if let Some(e) = shader_mismatch(sh, self.slots, self.push_size()).or(self.mismatch()) {
+                let declared: Vec<String> =
+                    self.slots.iter().enumerate().map(|(i, s)| format!("{i}={:?}", s.descriptor_type())).collect();
+                let reflected: Vec<String> =
+                    sh.bindings.iter().map(|(b, t)| format!("{b}={:?}", vk::DescriptorType::from_raw(*t))).collect();
+                return Err(Error::Invalid(format!(
+                    "shaders_glsl/{}: {e}: the pass declares [{}] and {} push bytes, the SPIR-V has [{}] and {} push bytes",
+                    sh.file,
+                    declared.join(", "),
+                    self.push_size(),
+                    reflected.join(", "),
+                    sh.push
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Every reflected binding of `sh` must be the declared slot at that index, with the same descriptor type; the
+/// push block must be `P`'s size (absent when `P` is `()`). (That every slot is in some stage is checked by
+/// [`ProgramDecl::mismatch`].)
+const fn shader_mismatch(sh: &Shader, slots: &[Slot], push: u32) -> Option<&'static str> {
+    let mut k = 0;
+    while k < sh.bindings.len() {
+        let (b, t) = sh.bindings[k];
+        if b as usize >= slots.len() {
+            return Some("the shader has a binding the pass does not declare");
+        }
+        if slots[b as usize].descriptor_type().as_raw() != t {
+            return Some("a binding's descriptor type differs");
+        }
+        k += 1;
+    }
+    if sh.push != push {
+        return Some("the push-constant size differs");
+    }
+    None
+}
+
+/// Whether the shader has binding `i`.
+const fn has_binding(sh: &Shader, i: usize) -> bool {
+    let mut k = 0;
+    while k < sh.bindings.len() {
+        if sh.bindings[k].0 as usize == i {
+            return true;
+        }
+        k += 1;
+    }
+    false
+}
+
+/// Declare a pass's program as a `const` and check it against the shader's reflection at build time:
+/// `declare_program!(PROGRAM: Push = compute(shaders::SSR, [Uniform, ImgRead, ImgOverwrite]));`
+#[macro_export]
+macro_rules! declare_program {
+    ($vis:vis $name:ident : $push:ty = compute($shader:expr, [$($slot:ident),* $(,)?])) => {
+        $vis const $name: $crate::gpu::pipeline::ProgramDecl<$push> =
+            $crate::gpu::pipeline::ProgramDecl::compute(&$shader, &[$($crate::gpu::pipeline::Slot::$slot),*]);
+        const _: () = if let Some(e) = $name.mismatch() { panic!("{}", e) };
+    };
+    ($vis:vis $name:ident : $push:ty = graphics($vert:expr, $frag:expr, [$($slot:ident),* $(,)?])) => {
+        $vis const $name: $crate::gpu::pipeline::ProgramDecl<$push> =
+            $crate::gpu::pipeline::ProgramDecl::graphics(&$vert, &$frag, &[$($crate::gpu::pipeline::Slot::$slot),*]);
+        const _: () = if let Some(e) = $name.mismatch() { panic!("{}", e) };
+    };
 }
 
 /// Create a shader module from SPIR-V bytes (re-aligned to u32 by `read_spv`).
@@ -33,19 +228,15 @@ pub fn shader_module(gpu: &Gpu, spirv: &[u8]) -> Result<vk::ShaderModule> {
     unsafe { gpu.device.create_shader_module(&ci, None) }.vk("vkCreateShaderModule")
 }
 
-/// Push-descriptor set layout for a binding table, visible to `stages`.
-pub fn set_layout(
-    gpu: &Gpu,
-    bindings: &[vk::DescriptorType],
-    stages: vk::ShaderStageFlags,
-) -> Result<vk::DescriptorSetLayout> {
-    let b: Vec<_> = bindings
+/// Push-descriptor set layout for a slot list, visible to `stages`.
+pub fn set_layout(gpu: &Gpu, slots: &[Slot], stages: vk::ShaderStageFlags) -> Result<vk::DescriptorSetLayout> {
+    let b: Vec<_> = slots
         .iter()
         .enumerate()
         .map(|(i, t)| {
             vk::DescriptorSetLayoutBinding::default()
                 .binding(i as u32)
-                .descriptor_type(*t)
+                .descriptor_type(t.descriptor_type())
                 .descriptor_count(1)
                 .stage_flags(stages)
         })
@@ -56,15 +247,15 @@ pub fn set_layout(
     unsafe { gpu.device.create_descriptor_set_layout(&ci, None) }.vk("vkCreateDescriptorSetLayout")
 }
 
-/// The push-descriptor set layout of a binding table and a pipeline layout with `push_size` bytes of push
+/// The push-descriptor set layout of a slot list and a pipeline layout with `push_size` bytes of push
 /// constants for `stages`.
 fn layouts(
     gpu: &Gpu,
-    bindings: &[vk::DescriptorType],
+    slots: &[Slot],
     stages: vk::ShaderStageFlags,
     push_size: u32,
 ) -> Result<(vk::DescriptorSetLayout, vk::PipelineLayout)> {
-    let set = set_layout(gpu, bindings, stages)?;
+    let set = set_layout(gpu, slots, stages)?;
     let ranges = [vk::PushConstantRange { stage_flags: stages, offset: 0, size: push_size }];
     let sets = [set];
     let mut lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&sets);
@@ -75,15 +266,16 @@ fn layouts(
     Ok((set, layout))
 }
 
-/// What every program owns: the pipeline, its layouts and its binding table (destroyed on drop).
+/// What every program owns: the pipeline, its layouts and its slot list (destroyed on drop).
 pub struct ProgramCore {
     gpu: Arc<Gpu>,
-    pub name: &'static str,
+    /// The shader file (debug names and messages).
+    pub file: &'static str,
     pub pipeline: vk::Pipeline,
     pub layout: vk::PipelineLayout,
     pub set_layout: vk::DescriptorSetLayout,
-    pub bindings: Vec<vk::DescriptorType>,
-    pub push_size: u32,
+    pub slots: &'static [Slot],
+    stages: vk::ShaderStageFlags,
 }
 
 impl Drop for ProgramCore {
@@ -97,127 +289,145 @@ impl Drop for ProgramCore {
     }
 }
 
-/// A compute pipeline with its binding table.
-pub struct ComputeProgram {
+impl ProgramCore {
+    /// Derive the barriers for `res` from the slots (one batch), then push the descriptors.
+    fn bind(&self, ctx: &mut FrameCtx, bind_point: vk::PipelineBindPoint, res: &[Res]) {
+        assert_eq!(
+            res.len(),
+            self.slots.len(),
+            "{}: {} resources for {} slots",
+            self.file,
+            res.len(),
+            self.slots.len()
+        );
+        let graphics = bind_point == vk::PipelineBindPoint::GRAPHICS;
+        let mut uses: Vec<Use> = Vec::with_capacity(res.len());
+        for (i, (slot, r)) in self.slots.iter().zip(res).enumerate() {
+            let (access, discard) = slot.access(graphics);
+            match (*r, slot.is_buffer()) {
+                (Res::Buf(b), true) => uses.push(Use::Buffer(b, access)),
+                (Res::Img(img), false) => {
+                    // An image bound twice (e.g. a stand-in for an unused optional input) is one use: a write
+                    // if either slot writes, and never a discard then.
+                    let twin = uses.iter_mut().find(|u| matches!(u, Use::Image(o, ..) if std::ptr::eq(*o, img)));
+                    match twin {
+                        Some(Use::Image(_, a, d)) => {
+                            if access.info().writes {
+                                *a = access;
+                            }
+                            *d = false;
+                        }
+                        _ => uses.push(Use::Image(img, access, discard)),
+                    }
+                }
+                _ => panic!("{}: binding {i} is a {slot:?} slot, given the other kind of resource", self.file),
+            }
+        }
+        ctx.barrier(&uses);
+        push_descriptors(&self.gpu, ctx.cmd, bind_point, self.layout, self.slots, res);
+    }
+
+    fn push<P: bytemuck::Pod>(&self, cmd: vk::CommandBuffer, push: &P) {
+        let bytes = bytemuck::bytes_of(push);
+        if !bytes.is_empty() {
+            unsafe { self.gpu.device.cmd_push_constants(cmd, self.layout, self.stages, 0, bytes) };
+        }
+    }
+}
+
+/// A compute pipeline built from its [`ProgramDecl`]; `P` is its push-constant type.
+pub struct ComputeProgram<P = ()> {
     pub core: ProgramCore,
+    _push: std::marker::PhantomData<P>,
 }
 
-/// Shorthands for binding tables.
-pub mod bt {
-    use ash::vk::DescriptorType as D;
-    pub const UBO: D = D::UNIFORM_BUFFER;
-    pub const SSBO: D = D::STORAGE_BUFFER;
-    pub const IMG: D = D::STORAGE_IMAGE;
-    pub const TEX: D = D::COMBINED_IMAGE_SAMPLER;
-}
-
-impl ComputeProgram {
-    /// Build from SPIR-V. `push_size` bytes of push constants (≤ 128: lavapipe's limit).
-    pub fn new(
-        gpu: &Arc<Gpu>,
-        name: &'static str,
-        spirv: &[u8],
-        bindings: &[vk::DescriptorType],
-        push_size: u32,
-    ) -> Result<ComputeProgram> {
-        assert!(push_size <= 128, "push constants of {name} exceed 128 bytes");
+impl<P: bytemuck::Pod> ComputeProgram<P> {
+    /// Build from the declaration (checked against the shader's reflection again, with the details).
+    pub fn new(gpu: &Arc<Gpu>, decl: &ProgramDecl<P>) -> Result<Self> {
+        decl.check()?;
+        let push_size = decl.push_size();
+        let file = decl.shader.file;
+        if push_size > 128 {
+            return Err(Error::Invalid(format!("push constants of {file} exceed 128 bytes (lavapipe's limit)")));
+        }
         let d = &gpu.device;
-        let module = shader_module(gpu, spirv)?;
-        let (set_layout, layout) = layouts(gpu, bindings, vk::ShaderStageFlags::COMPUTE, push_size)?;
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module)
-            .name(c"main");
+        let module = shader_module(gpu, decl.shader.spirv)?;
+        let stages = vk::ShaderStageFlags::COMPUTE;
+        let (set_layout, layout) = layouts(gpu, decl.slots, stages, push_size)?;
+        let stage = vk::PipelineShaderStageCreateInfo::default().stage(stages).module(module).name(c"main");
         let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
         let pipeline = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) }
             .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0];
         unsafe { d.destroy_shader_module(module, None) };
+        gpu.name_object(pipeline, file);
         Ok(ComputeProgram {
-            core: ProgramCore {
-                gpu: gpu.clone(),
-                name,
-                pipeline,
-                layout,
-                set_layout,
-                bindings: bindings.to_vec(),
-                push_size,
-            },
+            core: ProgramCore { gpu: gpu.clone(), file, pipeline, layout, set_layout, slots: decl.slots, stages },
+            _push: std::marker::PhantomData,
         })
     }
 
-    /// Bind `res` (in binding order), push `push`, dispatch `groups`. Barriers are the caller's `begin_pass`.
-    pub fn dispatch(&self, ctx: &FrameCtx, res: &[Bind], push: &[u8], groups: [u32; 3]) {
+    /// Barriers for `res` (derived from each resource's last access and its slot), bind `res` (in slot order),
+    /// push `push`, dispatch `groups`.
+    pub fn dispatch(&self, ctx: &mut FrameCtx, res: &[Res], push: &P, groups: [u32; 3]) {
         let c = &self.core;
-        debug_assert_eq!(res.len(), c.bindings.len(), "{}: binding count", c.name);
-        debug_assert_eq!(push.len() as u32, c.push_size, "{}: push constant size", c.name);
-        let d = &c.gpu.device;
-        let cmd = ctx.cmd;
-        push_descriptors(&c.gpu, cmd, vk::PipelineBindPoint::COMPUTE, c.layout, &c.bindings, res);
-        unsafe {
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline);
-            if !push.is_empty() {
-                d.cmd_push_constants(cmd, c.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
-            }
-            if groups.iter().all(|&g| g > 0) {
-                d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
-            }
+        c.bind(ctx, vk::PipelineBindPoint::COMPUTE, res);
+        unsafe { c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline) };
+        c.push(ctx.cmd, push);
+        if groups.iter().all(|&g| g > 0) {
+            unsafe { c.gpu.device.cmd_dispatch(ctx.cmd, groups[0], groups[1], groups[2]) };
         }
-    }
-
-    /// Workgroups of `local`×`local` covering a `w`×`h` image.
-    pub fn groups_2d(w: u32, h: u32, local: u32) -> [u32; 3] {
-        [w.div_ceil(local), h.div_ceil(local), 1]
     }
 }
 
-/// Record push-descriptor writes for `res` against the binding table `types`.
+/// Workgroups of `local`×`local` covering a `w`×`h` image.
+pub fn groups_2d(w: u32, h: u32, local: u32) -> [u32; 3] {
+    [w.div_ceil(local), h.div_ceil(local), 1]
+}
+
+/// Record push-descriptor writes for `res` against the slot list.
 pub fn push_descriptors(
     gpu: &Gpu,
     cmd: vk::CommandBuffer,
     bind_point: vk::PipelineBindPoint,
     layout: vk::PipelineLayout,
-    types: &[vk::DescriptorType],
-    res: &[Bind],
+    slots: &[Slot],
+    res: &[Res],
 ) {
     let mut images = Vec::with_capacity(res.len());
     let mut buffers = Vec::with_capacity(res.len());
-    for r in res {
-        match *r {
-            Bind::Storage(i) => images.push(vk::DescriptorImageInfo {
-                sampler: vk::Sampler::null(),
-                image_view: i.view,
-                image_layout: vk::ImageLayout::GENERAL,
-            }),
-            Bind::StorageAlt(i) => images.push(vk::DescriptorImageInfo {
-                sampler: vk::Sampler::null(),
-                image_view: i.alt_view.unwrap_or(i.view),
-                image_layout: vk::ImageLayout::GENERAL,
-            }),
-            Bind::Linear(i) | Bind::Nearest(i) => images.push(vk::DescriptorImageInfo {
-                sampler: if matches!(r, Bind::Linear(_)) { gpu.linear_sampler } else { gpu.nearest_sampler },
+    for (slot, r) in slots.iter().zip(res) {
+        match (*slot, *r) {
+            (_, Res::Buf(b)) => {
+                buffers.push(vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE })
+            }
+            (Slot::Sampled | Slot::SampledNearest, Res::Img(i)) => images.push(vk::DescriptorImageInfo {
+                sampler: if *slot == Slot::Sampled { gpu.linear_sampler } else { gpu.nearest_sampler },
                 image_view: i.view,
                 image_layout: i.state.get().layout,
             }),
-            Bind::Uniform(b) | Bind::StorageBuf(b) => {
-                buffers.push(vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE })
-            }
+            (_, Res::Img(i)) => images.push(vk::DescriptorImageInfo {
+                sampler: vk::Sampler::null(),
+                image_view: if matches!(slot, Slot::ImgAltWrite | Slot::ImgAltRead) {
+                    i.alt_view.unwrap_or(i.view)
+                } else {
+                    i.view
+                },
+                image_layout: i.state.get().layout,
+            }),
         }
     }
     let (mut ii, mut bi) = (0, 0);
-    let writes: Vec<_> = res
+    let writes: Vec<_> = slots
         .iter()
         .enumerate()
-        .map(|(k, r)| {
-            let w = vk::WriteDescriptorSet::default().dst_binding(k as u32).descriptor_type(types[k]);
-            match r {
-                Bind::Uniform(_) | Bind::StorageBuf(_) => {
-                    bi += 1;
-                    w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
-                }
-                _ => {
-                    ii += 1;
-                    w.image_info(std::slice::from_ref(&images[ii - 1]))
-                }
+        .map(|(k, slot)| {
+            let w = vk::WriteDescriptorSet::default().dst_binding(k as u32).descriptor_type(slot.descriptor_type());
+            if slot.is_buffer() {
+                bi += 1;
+                w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
+            } else {
+                ii += 1;
+                w.image_info(std::slice::from_ref(&images[ii - 1]))
             }
         })
         .collect();
@@ -235,27 +445,23 @@ pub struct RasterTargets {
     pub topology: vk::PrimitiveTopology,
 }
 
-/// A graphics pipeline (vertex + fragment) with its binding table, for the rasterised splat variants.
-pub struct GraphicsProgram {
+/// A graphics pipeline (vertex + fragment) built from its [`ProgramDecl`], for the rasterised splat variants:
+/// reversed-Z depth (GREATER, cleared to 0) when a depth format is given, MIN blending or plain writes of one
+/// red channel (`RasterTargets`).
+pub struct GraphicsProgram<P> {
     pub core: ProgramCore,
+    _push: std::marker::PhantomData<P>,
 }
 
-impl GraphicsProgram {
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        gpu: &Arc<Gpu>,
-        name: &'static str,
-        vert: &[u8],
-        frag: &[u8],
-        bindings: &[vk::DescriptorType],
-        push_size: u32,
-        t: RasterTargets,
-    ) -> Result<GraphicsProgram> {
+impl<P: bytemuck::Pod> GraphicsProgram<P> {
+    pub fn new(gpu: &Arc<Gpu>, decl: &ProgramDecl<P>, t: RasterTargets) -> Result<Self> {
+        decl.check()?;
+        let frag = decl.fragment.ok_or_else(|| Error::Invalid(format!("{}: no fragment shader", decl.shader.file)))?;
         let d = &gpu.device;
         let stages_flags = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let (set_layout, layout) = layouts(gpu, bindings, stages_flags, push_size)?;
-        let vm = shader_module(gpu, vert)?;
-        let fm = shader_module(gpu, frag)?;
+        let (set_layout, layout) = layouts(gpu, decl.slots, stages_flags, decl.push_size())?;
+        let vm = shader_module(gpu, decl.shader.spirv)?;
+        let fm = shader_module(gpu, frag.spirv)?;
         let stages = [
             vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::VERTEX).module(vm).name(c"main"),
             vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::FRAGMENT).module(fm).name(c"main"),
@@ -306,33 +512,43 @@ impl GraphicsProgram {
             d.destroy_shader_module(vm, None);
             d.destroy_shader_module(fm, None);
         }
+        let pipeline = pipeline?[0];
+        let file = decl.shader.file;
+        gpu.name_object(pipeline, file);
         Ok(GraphicsProgram {
             core: ProgramCore {
                 gpu: gpu.clone(),
-                name,
-                pipeline: pipeline?[0],
+                file,
+                pipeline,
                 layout,
                 set_layout,
-                bindings: bindings.to_vec(),
-                push_size,
+                slots: decl.slots,
+                stages: stages_flags,
             },
+            _push: std::marker::PhantomData,
         })
     }
 
     /// Draw `vertices` non-indexed into `color` (cleared to `clear`) and `depth` (cleared to 0, reversed Z).
-    /// Barriers are the caller's `begin_pass` (ColorAttachment / DepthAttachment accesses).
+    /// The barriers (slots, colour and depth attachments, both overwritten) are derived here.
     #[allow(clippy::too_many_arguments)]
     pub fn draw(
         &self,
-        ctx: &FrameCtx,
-        res: &[Bind],
-        push: &[u8],
+        ctx: &mut FrameCtx,
+        res: &[Res],
+        push: &P,
         color: &Image,
         clear: f32,
         depth: Option<&Image>,
         vertices: u32,
     ) {
         let c = &self.core;
+        let mut attachments = vec![Use::Image(color, Access::ColorAttachment, true)];
+        if let Some(z) = depth {
+            attachments.push(Use::Image(z, Access::DepthAttachment, true));
+        }
+        ctx.barrier(&attachments);
+        c.bind(ctx, vk::PipelineBindPoint::GRAPHICS, res);
         let d = &c.gpu.device;
         let cmd = ctx.cmd;
         let area = vk::Rect2D { offset: vk::Offset2D { x: 0, y: 0 }, extent: color.extent };
@@ -368,13 +584,60 @@ impl GraphicsProgram {
             d.cmd_set_viewport(cmd, 0, &[viewport]);
             d.cmd_set_scissor(cmd, 0, &[area]);
         }
-        push_descriptors(&c.gpu, cmd, vk::PipelineBindPoint::GRAPHICS, c.layout, &c.bindings, res);
+        c.push(cmd, push);
         unsafe {
-            d.cmd_push_constants(cmd, c.layout, vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT, 0, push);
             if vertices > 0 {
                 d.cmd_draw(cmd, vertices, 1, 0, 0);
             }
             d.cmd_end_rendering(cmd);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const UBO: i32 = vk::DescriptorType::UNIFORM_BUFFER.as_raw();
+    const IMG: i32 = vk::DescriptorType::STORAGE_IMAGE.as_raw();
+    const SSBO: i32 = vk::DescriptorType::STORAGE_BUFFER.as_raw();
+
+    fn shader(bindings: &'static [(u32, i32)], push: u32) -> &'static Shader {
+        Box::leak(Box::new(Shader { file: "test.comp", spirv: &[], bindings, push, local: [8, 8, 1] }))
+    }
+
+    fn decl<P: bytemuck::Pod>(sh: &'static Shader, slots: &'static [Slot]) -> ProgramDecl<P> {
+        ProgramDecl::compute(sh, slots)
+    }
+
+    /// The checker behind `declare_program!`: agreement passes; a moved binding, a wrong type, a missing or an
+    /// extra binding and a wrong push size are each caught; binding 0 (the frame block) may be optimised away.
+    #[test]
+    fn slot_lists_are_checked_against_the_reflection() {
+        use Slot::*;
+        let slots: &'static [Slot] = &[Uniform, ImgRead, ImgOverwrite];
+        assert_eq!(decl::<f32>(shader(&[(0, UBO), (1, IMG), (2, IMG)], 4), slots).mismatch(), None);
+        assert_eq!(decl::<f32>(shader(&[(1, IMG), (2, IMG)], 4), slots).mismatch(), None, "unused frame block");
+        let moved = decl::<f32>(shader(&[(0, UBO), (1, IMG), (3, IMG)], 4), slots);
+        assert_eq!(moved.mismatch(), Some("the shader has a binding the pass does not declare"));
+        let missing = decl::<f32>(shader(&[(0, UBO), (2, IMG)], 4), slots);
+        assert_eq!(missing.mismatch(), Some("the pass declares a binding the shader does not have"));
+        let typed = decl::<f32>(shader(&[(0, UBO), (1, SSBO), (2, IMG)], 4), slots);
+        assert_eq!(typed.mismatch(), Some("a binding's descriptor type differs"));
+        let push = decl::<[f32; 2]>(shader(&[(0, UBO), (1, IMG), (2, IMG)], 4), slots);
+        assert_eq!(push.mismatch(), Some("the push-constant size differs"));
+        let e = push.check().unwrap_err().to_string();
+        assert!(e.contains("test.comp") && e.contains("8 push bytes") && e.contains("4 push bytes"), "{e}");
+    }
+
+    /// Buffers and images map to the accesses of the one table; a full write drops old contents.
+    #[test]
+    fn slots_map_to_accesses() {
+        assert_eq!(Slot::ImgOverwrite.access(false), (Access::ComputeWrite, true));
+        assert_eq!(Slot::ImgWrite.access(false), (Access::ComputeWrite, false));
+        assert_eq!(Slot::Sampled.access(false), (Access::ComputeSampled, false));
+        assert_eq!(Slot::BufRead.access(true), (Access::GraphicsRead, false));
+        assert_eq!(Slot::ImgAltRead.descriptor_type(), vk::DescriptorType::STORAGE_IMAGE);
+        assert!(Slot::Uniform.is_buffer() && !Slot::Sampled.is_buffer());
     }
 }

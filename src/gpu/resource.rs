@@ -125,11 +125,7 @@ impl Image {
         if let Some(f) = alt_format {
             img.alt_view = Some(img.make_view(f)?);
         }
-        if let Some(dd) = &gpu.debug_device {
-            let n = std::ffi::CString::new(name).unwrap_or_default();
-            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(raw).object_name(&n);
-            let _ = unsafe { dd.set_debug_utils_object_name(&info) };
-        }
+        gpu.name_object(raw, name);
         Ok(img)
     }
 

@@ -2,22 +2,26 @@
 //! BVH, src/mesh.rs), sky — into colour + linear depth. Shader: shaders_glsl/background.comp.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
 pub const NAME: &str = "background";
 
 pub struct Background {
-    prog: ComputeProgram,
+    prog: ComputeProgram<u32>,
 }
+
+// Slots: frame, colour out, depth out, sky, BVH nodes, triangles. Push: the BVH's node count.
+declare_program!(pub PROGRAM: u32 = compute(
+    shaders::BACKGROUND,
+    [Uniform, ImgOverwrite, ImgOverwrite, Sampled, BufRead, BufRead]
+));
 
 impl Background {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Background {
-            prog: ComputeProgram::new(gpu, NAME, shaders::BACKGROUND, &[UBO, IMG, IMG, TEX, SSBO, SSBO], 4)?,
-        })
+        Ok(Background { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// Writes all of `color` and `depth`; `sky` is the cube map (a placeholder when procedural); `mesh`: the
@@ -32,29 +36,11 @@ impl Background {
         color: &Image,
         depth: &Image,
     ) {
-        let uses = [
-            Use::buf_read(frame),
-            Use::sampled(sky),
-            Use::buf_read(&mesh.nodes),
-            Use::buf_read(&mesh.triangles),
-            Use::overwrite(color),
-            Use::overwrite(depth),
-        ];
-        ctx.pass(NAME, &uses, |ctx| {
-            let g = ComputeProgram::groups_2d(color.extent.width, color.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(
-                ctx,
-                &[
-                    Bind::Uniform(frame),
-                    Bind::Storage(color),
-                    Bind::Storage(depth),
-                    Bind::Linear(sky),
-                    Bind::StorageBuf(&mesh.nodes),
-                    Bind::StorageBuf(&mesh.triangles),
-                ],
-                bytemuck::bytes_of(&mesh.node_count),
-                g,
-            );
+        ctx.pass(NAME, |ctx| {
+            let g = groups_2d(color.extent.width, color.extent.height, super::LOCAL_2D);
+            let res =
+                [frame.into(), color.into(), depth.into(), sky.into(), (&mesh.nodes).into(), (&mesh.triangles).into()];
+            self.prog.dispatch(ctx, &res, &mesh.node_count, g);
         });
     }
 }

@@ -2,9 +2,9 @@
 //! reflection, Blinn–Phong) into the 8-bit output. Shader: shaders_glsl/composite.comp.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
 pub const NAME: &str = "composite";
@@ -25,49 +25,32 @@ pub struct CompositeInputs<'a> {
     pub sky: &'a Image,
 }
 
+// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky. No push constants.
+declare_program!(pub PROGRAM: () = compute(
+    shaders::COMPOSITE,
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled]
+));
+
 impl Composite {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Composite {
-            prog: ComputeProgram::new(
-                gpu,
-                NAME,
-                shaders::COMPOSITE,
-                &[UBO, TEX, IMG, IMG, IMG, TEX, IMG, IMG, TEX],
-                0,
-            )?,
-        })
+        Ok(Composite { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {
-        let uses = [
-            Use::buf_read(frame),
-            Use::sampled(i.scene_color),
-            Use::read(i.scene_depth),
-            Use::read(i.depth),
-            Use::read(i.normals),
-            Use::sampled(i.thickness),
-            Use::overwrite(out),
-            Use::read(i.ssr),
-            Use::sampled(i.sky),
-        ];
-        ctx.pass(NAME, &uses, |ctx| {
-            let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(
-                ctx,
-                &[
-                    Bind::Uniform(frame),
-                    Bind::Linear(i.scene_color),
-                    Bind::Storage(i.scene_depth),
-                    Bind::Storage(i.depth),
-                    Bind::Storage(i.normals),
-                    Bind::Linear(i.thickness),
-                    Bind::Storage(out),
-                    Bind::Storage(i.ssr),
-                    Bind::Linear(i.sky),
-                ],
-                &[],
-                g,
-            );
+        ctx.pass(NAME, |ctx| {
+            let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
+            let res = [
+                frame.into(),
+                i.scene_color.into(),
+                i.scene_depth.into(),
+                i.depth.into(),
+                i.normals.into(),
+                i.thickness.into(),
+                out.into(),
+                i.ssr.into(),
+                i.sky.into(),
+            ];
+            self.prog.dispatch(ctx, &res, &(), g);
         });
     }
 }

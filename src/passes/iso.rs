@@ -5,9 +5,9 @@
 //! particles.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Access, Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::iso::IsoGrid;
 use crate::shaders;
 
@@ -59,17 +59,18 @@ impl IsoPush {
 }
 
 pub struct Iso {
-    density: ComputeProgram,
-    cast: ComputeProgram,
+    density: ComputeProgram<IsoPush>,
+    cast: ComputeProgram<IsoPush>,
 }
+
+// Density: frame, grid points, cell table → per-point weights 1/n_j.
+declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, BufRead, BufRead, BufWrite]));
+// Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth.
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead]));
 
 impl Iso {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        let push = std::mem::size_of::<IsoPush>() as u32;
-        Ok(Iso {
-            density: ComputeProgram::new(gpu, NAME, shaders::ISO_DENSITY, &[UBO, SSBO, SSBO, SSBO], push)?,
-            cast: ComputeProgram::new(gpu, NAME, shaders::ISO, &[UBO, SSBO, SSBO, SSBO, IMG, IMG], push)?,
-        })
+        Ok(Iso { density: ComputeProgram::new(gpu, &DENSITY)?, cast: ComputeProgram::new(gpu, &CAST)? })
     }
 
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the
@@ -86,29 +87,13 @@ impl Iso {
         let push = b.shape.with(params, back.is_some());
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
-        let mut uses = vec![
-            Use::buf_read(frame),
-            Use::buf_read(&b.points),
-            Use::buf_read(&b.cells),
-            Use::Buffer(&b.weights, Access::ComputeWrite),
-            Use::write(depth),
-        ];
-        if let Some(bk) = back {
-            uses.push(Use::read(bk));
-        }
-        ctx.pass(NAME, &uses, |ctx| {
-            let bufs = [
-                Bind::Uniform(frame),
-                Bind::StorageBuf(&b.points),
-                Bind::StorageBuf(&b.cells),
-                Bind::StorageBuf(&b.weights),
-            ];
+        ctx.pass(NAME, |ctx| {
+            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weights).into()];
             let n = b.shape.dims[3];
-            self.density.dispatch(ctx, &bufs, bytemuck::bytes_of(&push), [n.div_ceil(super::LOCAL_1D), 1, 1]);
-            ctx.barrier(&[Use::buf_read(&b.weights)]);
-            let g = ComputeProgram::groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
-            let all = [bufs[0], bufs[1], bufs[2], bufs[3], Bind::Storage(depth), Bind::Storage(back_img)];
-            self.cast.dispatch(ctx, &all, bytemuck::bytes_of(&push), g);
+            self.density.dispatch(ctx, &bufs, &push, [n.div_ceil(super::LOCAL_1D), 1, 1]);
+            let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
+            let all = [bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into()];
+            self.cast.dispatch(ctx, &all, &push, g);
         });
     }
 }

@@ -5,6 +5,8 @@ pub mod background;
 pub mod composite;
 pub mod iso;
 pub mod normals;
+pub mod overlay;
+pub mod particles;
 pub mod smooth;
 pub mod splat;
 pub mod ssr;
@@ -36,7 +38,4 @@ pub const PASS_NAMES: &[&str] = &[
     upsample::NAME,
 ];
 
-/// 8×8 work groups for image passes.
-pub(crate) const LOCAL_2D: u32 = 8;
-/// 64-thread work groups for per-particle passes.
-pub(crate) const LOCAL_1D: u32 = 64;
+pub(crate) use crate::shader_constants::{LOCAL_1D, LOCAL_2D};

@@ -2,32 +2,30 @@
 //! Shader: shaders_glsl/normals.comp.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
 pub const NAME: &str = "normals";
 
 pub struct Normals {
-    prog: ComputeProgram,
+    prog: ComputeProgram<f32>,
 }
+
+// Push: the silhouette edge threshold (world units).
+declare_program!(pub PROGRAM: f32 = compute(shaders::NORMALS, [Uniform, ImgRead, ImgOverwrite]));
 
 impl Normals {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Normals { prog: ComputeProgram::new(gpu, NAME, shaders::NORMALS, &[UBO, IMG, IMG], 4)? })
+        Ok(Normals { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// `edge`: depth jump (world units) above which a neighbour is on another surface.
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, depth: &Image, normals: &Image, edge: f32) {
-        ctx.pass(NAME, &[Use::buf_read(frame), Use::read(depth), Use::overwrite(normals)], |ctx| {
-            let g = ComputeProgram::groups_2d(normals.extent.width, normals.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(
-                ctx,
-                &[Bind::Uniform(frame), Bind::Storage(depth), Bind::Storage(normals)],
-                bytemuck::bytes_of(&edge),
-                g,
-            );
+        ctx.pass(NAME, |ctx| {
+            let g = groups_2d(normals.extent.width, normals.extent.height, super::LOCAL_2D);
+            self.prog.dispatch(ctx, &[frame.into(), depth.into(), normals.into()], &edge, g);
         });
     }
 }

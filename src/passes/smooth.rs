@@ -3,24 +3,24 @@
 //! Shaders: shaders_glsl/smooth_*.comp.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::{Filter, Settings};
 use crate::shaders;
 
 pub const NAME: &str = "smooth";
 
 pub struct Smooth {
-    bilateral: ComputeProgram,
-    narrow: ComputeProgram,
-    curvature: ComputeProgram,
-    curvature1: ComputeProgram,
+    bilateral: ComputeProgram<BilateralPush>,
+    narrow: ComputeProgram<NarrowPush>,
+    curvature: ComputeProgram<CurvaturePush>,
+    curvature1: ComputeProgram<CurvaturePush>,
 }
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct NarrowPush {
+pub struct NarrowPush {
     dir: [i32; 2],
     world_radius: f32,
     threshold: f32,
@@ -32,7 +32,7 @@ struct NarrowPush {
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct CurvaturePush {
+pub struct CurvaturePush {
     iters: i32,
     first_iter: i32,
     it_max: i32,
@@ -43,24 +43,43 @@ struct CurvaturePush {
 }
 
 /// Work-group edge of smooth_curvature.comp.
-const CURVATURE_LOCAL: u32 = 8;
+use crate::shader_constants::CURVATURE_LOCAL;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct BilateralPush {
+pub struct BilateralPush {
     dir: [i32; 2],
     world_radius: f32,
     sigma_range: f32,
     max_px: i32,
 }
 
+// Every smoothing program reads one depth image and writes the next ping-pong image in full.
+declare_program!(pub BILATERAL: BilateralPush = compute(shaders::SMOOTH_BILATERAL, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub NARROW: NarrowPush = compute(shaders::SMOOTH_NARROW, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub CURVATURE: CurvaturePush = compute(shaders::SMOOTH_CURVATURE, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub CURVATURE1: CurvaturePush = compute(shaders::SMOOTH_CURVATURE1, [Uniform, ImgRead, ImgOverwrite]));
+
+/// One dispatch of `prog`: read `src`, write `dst`.
+fn step<P: bytemuck::Pod>(
+    ctx: &mut FrameCtx,
+    prog: &ComputeProgram<P>,
+    frame: &Buffer,
+    (src, dst): (&Image, &Image),
+    push: &P,
+    local: u32,
+) {
+    let g = groups_2d(dst.extent.width, dst.extent.height, local);
+    prog.dispatch(ctx, &[frame.into(), src.into(), dst.into()], push, g);
+}
+
 impl Smooth {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Smooth {
-            bilateral: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_BILATERAL, &[UBO, IMG, IMG], 20)?,
-            narrow: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_NARROW, &[UBO, IMG, IMG], 32)?,
-            curvature: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_CURVATURE, &[UBO, IMG, IMG], 28)?,
-            curvature1: ComputeProgram::new(gpu, NAME, shaders::SMOOTH_CURVATURE1, &[UBO, IMG, IMG], 28)?,
+            bilateral: ComputeProgram::new(gpu, &BILATERAL)?,
+            narrow: ComputeProgram::new(gpu, &NARROW)?,
+            curvature: ComputeProgram::new(gpu, &CURVATURE)?,
+            curvature1: ComputeProgram::new(gpu, &CURVATURE1)?,
         })
     }
 
@@ -80,21 +99,19 @@ impl Smooth {
         cf_iterations_needed: u32,
     ) -> &'a Image {
         let r = s.radius;
-        // One dispatch: read `src`, write the next ping-pong image, return it.
+        // Each dispatch reads `src` and writes the next ping-pong image, which becomes `src`.
         let mut targets = [a, b].into_iter().cycle();
-        let mut step =
-            |ctx: &mut FrameCtx, prog: &ComputeProgram, src: &'a Image, push: &[u8], local: u32| -> &'a Image {
-                let dst = targets.next().expect("cycle");
-                ctx.barrier(&[Use::buf_read(frame), Use::read(src), Use::overwrite(dst)]);
-                let g = ComputeProgram::groups_2d(dst.extent.width, dst.extent.height, local);
-                prog.dispatch(ctx, &[Bind::Uniform(frame), Bind::Storage(src), Bind::Storage(dst)], push, g);
-                dst
-            };
+        let mut next = |src: &mut &'a Image| -> (&'a Image, &'a Image) {
+            let dst = targets.next().expect("cycle");
+            let pair = (*src, dst);
+            *src = dst;
+            pair
+        };
         if s.filter == Filter::None {
             return depth;
         }
         let mut src = depth;
-        ctx.pass(NAME, &[], |ctx| match s.filter {
+        ctx.pass(NAME, |ctx| match s.filter {
             Filter::None => {}
             Filter::Gaussian | Filter::Bilateral | Filter::Bilateral2d => {
                 let sigma_range = if s.filter == Filter::Gaussian { 0.0 } else { s.bilateral_sigma_range * r };
@@ -107,7 +124,7 @@ impl Smooth {
                             sigma_range,
                             max_px: s.smooth_max_px as i32,
                         };
-                        src = step(ctx, &self.bilateral, src, bytemuck::bytes_of(&push), super::LOCAL_2D);
+                        step(ctx, &self.bilateral, frame, next(&mut src), &push, super::LOCAL_2D);
                     }
                 }
             }
@@ -123,7 +140,7 @@ impl Smooth {
                             radius_2d: s.nrf_2d_px as i32,
                             skip_background: s.nrf_skip_background as i32,
                         };
-                        src = step(ctx, &self.narrow, src, bytemuck::bytes_of(&push), super::LOCAL_2D);
+                        step(ctx, &self.narrow, frame, next(&mut src), &push, super::LOCAL_2D);
                     }
                 }
             }
@@ -144,11 +161,11 @@ impl Smooth {
                         edge: s.cf_edge * r,
                     };
                     // K = 1: the untiled shader (no shared memory, no halo recomputation).
-                    src = if iters == 1 {
-                        step(ctx, &self.curvature1, src, bytemuck::bytes_of(&push), super::LOCAL_2D)
+                    if iters == 1 {
+                        step(ctx, &self.curvature1, frame, next(&mut src), &push, super::LOCAL_2D)
                     } else {
-                        step(ctx, &self.curvature, src, bytemuck::bytes_of(&push), CURVATURE_LOCAL)
-                    };
+                        step(ctx, &self.curvature, frame, next(&mut src), &push, CURVATURE_LOCAL)
+                    }
                     first += iters;
                 }
             }

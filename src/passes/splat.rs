@@ -6,34 +6,77 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::declare_program;
 use crate::error::{Error, Result};
-use crate::gpu::pipeline::{bt::*, GraphicsProgram, RasterTargets};
-use crate::gpu::{Access, Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::pipeline::{GraphicsProgram, ProgramDecl, RasterTargets};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::SplatMode;
 use crate::shaders;
 
 pub const NAME: &str = "splat";
 
-/// Per-thread pixel budget: a sphere covering more (it swallowed the camera) is skipped.
-pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
-
-/// Tile size of the occlusion bound (`splat_cull`).
-pub const TILE: u32 = 8;
+pub use crate::shader_constants::{MAX_PIXELS_PER_PARTICLE, SPLAT_TILE as TILE};
 
 pub struct Splat {
-    prog: ComputeProgram,
-    cull: ComputeProgram,
+    prog: ComputeProgram<SplatPush>,
+    cull: ComputeProgram<CullPush>,
     /// Rasterised variants, by mode; None where the device lacks what the variant needs.
-    raster: Vec<(SplatMode, Option<GraphicsProgram>)>,
+    raster: Vec<(SplatMode, Option<GraphicsProgram<RasterPush>>)>,
+}
+
+/// Push constants of splat.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SplatPush {
+    pub count: u32,
+    pub max_pixels: u32,
+    pub radius_scale: f32,
+    pub back: u32,
+    pub cull: u32,
+    pub tile: u32,
+}
+
+/// Push constants of splat_cull.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct CullPush {
+    pub count: u32,
+    pub radius_scale: f32,
+    pub tile: u32,
+    pub pad: u32,
+    pub size: [u32; 2],
 }
 
 /// Push constants of the rasterised variants (splat_raster.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct RasterPush {
-    count: u32,
-    radius_scale: f32,
-    size: [f32; 2],
+pub struct RasterPush {
+    pub count: u32,
+    pub radius_scale: f32,
+    pub size: [f32; 2],
+}
+
+// The compute splat: frame, particles, depth and back depth (R32_UINT views, atomicMin/Max), the tile bounds.
+declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgAltWrite, ImgRead]));
+// The occlusion pre-pass: frame, particles → per-tile depth bound (atomicMin).
+declare_program!(pub CULL: CullPush = compute(shaders::SPLAT_CULL, [Uniform, BufRead, ImgWrite]));
+// The rasterised variants: frame and particles, read by the vertex and fragment shaders.
+declare_program!(pub QUAD_FRAG_DEPTH: RasterPush = graphics(shaders::SPLAT_QUAD_VERT, shaders::SPLAT_FRAGDEPTH_FRAG, [Uniform, BufRead]));
+declare_program!(pub QUAD_CONSERVATIVE: RasterPush = graphics(shaders::SPLAT_QUAD_VERT, shaders::SPLAT_CONSERVATIVE_FRAG, [Uniform, BufRead]));
+declare_program!(pub QUAD_MIN: RasterPush = graphics(shaders::SPLAT_QUAD_VERT, shaders::SPLAT_MIN_FRAG, [Uniform, BufRead]));
+declare_program!(pub POINT_FRAG_DEPTH: RasterPush = graphics(shaders::SPLAT_POINT_VERT, shaders::SPLAT_FRAGDEPTH_FRAG, [Uniform, BufRead]));
+declare_program!(pub POINT_MIN: RasterPush = graphics(shaders::SPLAT_POINT_VERT, shaders::SPLAT_MIN_FRAG, [Uniform, BufRead]));
+
+/// The program of a rasterised mode (None for the compute splat).
+pub fn raster_program(mode: SplatMode) -> Option<&'static ProgramDecl<RasterPush>> {
+    match mode {
+        SplatMode::Compute => None,
+        SplatMode::QuadFragDepth => Some(&QUAD_FRAG_DEPTH),
+        SplatMode::QuadConservative => Some(&QUAD_CONSERVATIVE),
+        SplatMode::QuadMin => Some(&QUAD_MIN),
+        SplatMode::PointFragDepth => Some(&POINT_FRAG_DEPTH),
+        SplatMode::PointMin => Some(&POINT_MIN),
+    }
 }
 
 impl Splat {
@@ -44,30 +87,19 @@ impl Splat {
         for mode in SplatMode::ALL.iter().copied().filter(|m| *m != SplatMode::Compute) {
             let point = matches!(mode, SplatMode::PointFragDepth | SplatMode::PointMin);
             let min = matches!(mode, SplatMode::QuadMin | SplatMode::PointMin);
-            let frag = match mode {
-                SplatMode::QuadConservative => shaders::SPLAT_CONSERVATIVE_FRAG,
-                _ if min => shaders::SPLAT_MIN_FRAG,
-                _ => shaders::SPLAT_FRAGDEPTH_FRAG,
-            };
-            let vert = if point { shaders::SPLAT_POINT_VERT } else { shaders::SPLAT_QUAD_VERT };
             let t = RasterTargets {
                 color_format: vk::Format::R32_SFLOAT,
                 depth_format: (!min).then_some(vk::Format::D32_SFLOAT),
                 min_blend: min,
                 topology: if point { vk::PrimitiveTopology::POINT_LIST } else { vk::PrimitiveTopology::TRIANGLE_LIST },
             };
-            let prog = if min && !can_blend {
-                None
-            } else {
-                Some(GraphicsProgram::new(gpu, NAME, vert, frag, &[UBO, SSBO], 16, t)?)
+            let prog = match raster_program(mode) {
+                Some(decl) if can_blend || !min => Some(GraphicsProgram::new(gpu, decl, t)?),
+                _ => None,
             };
             raster.push((mode, prog));
         }
-        Ok(Splat {
-            prog: ComputeProgram::new(gpu, NAME, shaders::SPLAT, &[UBO, SSBO, IMG, IMG, IMG], 24)?,
-            cull: ComputeProgram::new(gpu, NAME, shaders::SPLAT_CULL, &[UBO, SSBO, IMG], 24)?,
-            raster,
-        })
+        Ok(Splat { prog: ComputeProgram::new(gpu, &SPLAT)?, cull: ComputeProgram::new(gpu, &CULL)?, raster })
     }
 
     /// Whether `mode` can run on this device.
@@ -96,28 +128,12 @@ impl Splat {
             .ok_or_else(|| Error::Invalid(format!("splat mode {mode:?} is not supported on this device")))?;
         let min = matches!(mode, SplatMode::QuadMin | SplatMode::PointMin);
         let point = matches!(mode, SplatMode::PointFragDepth | SplatMode::PointMin);
-        let mut uses = vec![
-            Use::Buffer(frame, Access::GraphicsRead),
-            Use::Buffer(particles, Access::GraphicsRead),
-            Use::Image(depth, Access::ColorAttachment, true),
-        ];
-        if !min {
-            uses.push(Use::Image(zbuffer, Access::DepthAttachment, true));
-        }
-        ctx.pass(NAME, &uses, |ctx| {
+        ctx.pass(NAME, |ctx| {
             let push =
                 RasterPush { count, radius_scale, size: [depth.extent.width as f32, depth.extent.height as f32] };
             let vertices = if point { count } else { count * 6 };
             let z = (!min).then_some(zbuffer);
-            prog.draw(
-                ctx,
-                &[Bind::Uniform(frame), Bind::StorageBuf(particles)],
-                bytemuck::bytes_of(&push),
-                depth,
-                f32::INFINITY,
-                z,
-                vertices,
-            );
+            prog.draw(ctx, &[frame.into(), particles.into()], &push, depth, f32::INFINITY, z, vertices);
         });
         Ok(())
     }
@@ -141,43 +157,32 @@ impl Splat {
         cull: bool,
         radius_scale: f32,
     ) {
-        let uses = [
-            Use::Image(depth, Access::TransferDst, true),
-            Use::Image(back_img, Access::TransferDst, true),
-            Use::Image(tiles, Access::TransferDst, true),
-        ];
-        ctx.pass(NAME, &uses, |ctx| {
-            clear(ctx, depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
-            clear(ctx, back_img, vk::ClearColorValue { float32: [0.0; 4] });
-            clear(ctx, tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
+        ctx.pass(NAME, |ctx| {
+            ctx.clear(depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
+            ctx.clear(back_img, vk::ClearColorValue { float32: [0.0; 4] });
+            ctx.clear(tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             let cull = cull && !back;
             if cull {
-                ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::write(tiles)]);
-                let push = [count, radius_scale.to_bits(), TILE, 0, depth.extent.width, depth.extent.height];
-                let binds = [Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::Storage(tiles)];
-                self.cull.dispatch(ctx, &binds, bytemuck::cast_slice(&push), groups);
+                let push = CullPush {
+                    count,
+                    radius_scale,
+                    tile: TILE,
+                    pad: 0,
+                    size: [depth.extent.width, depth.extent.height],
+                };
+                self.cull.dispatch(ctx, &[frame.into(), particles.into(), tiles.into()], &push, groups);
             }
-            ctx.barrier(&[
-                Use::buf_read(frame),
-                Use::buf_read(particles),
-                Use::write(depth),
-                Use::write(back_img),
-                Use::read(tiles),
-            ]);
-            let push = [count, MAX_PIXELS_PER_PARTICLE, radius_scale.to_bits(), back as u32, cull as u32, TILE];
-            self.prog.dispatch(
-                ctx,
-                &[
-                    Bind::Uniform(frame),
-                    Bind::StorageBuf(particles),
-                    Bind::StorageAlt(depth),
-                    Bind::StorageAlt(back_img),
-                    Bind::Storage(tiles),
-                ],
-                bytemuck::cast_slice(&push),
-                groups,
-            );
+            let push = SplatPush {
+                count,
+                max_pixels: MAX_PIXELS_PER_PARTICLE,
+                radius_scale,
+                back: back as u32,
+                cull: cull as u32,
+                tile: TILE,
+            };
+            let res = [frame.into(), particles.into(), depth.into(), back_img.into(), tiles.into()];
+            self.prog.dispatch(ctx, &res, &push, groups);
         });
     }
 }
@@ -188,17 +193,4 @@ impl Splat {
 /// spheres stay below the threshold or barely hide each other).
 pub fn cull_pays(radius_px: f32) -> bool {
     radius_px >= TILE as f32 * 0.5
-}
-
-/// Clear a whole image that is in TRANSFER_DST layout (the caller declared `Access::TransferDst`).
-pub(crate) fn clear(ctx: &FrameCtx, img: &Image, value: vk::ClearColorValue) {
-    unsafe {
-        ctx.gpu.device.cmd_clear_color_image(
-            ctx.cmd,
-            img.raw,
-            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            &value,
-            &[Image::color_range()],
-        )
-    };
 }

@@ -2,21 +2,21 @@
 //! binary refinement; sky fallback in the composite). Shader: shaders_glsl/ssr.comp.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::Settings;
 use crate::shaders;
 
 pub const NAME: &str = "ssr";
 
 pub struct Ssr {
-    prog: ComputeProgram,
+    prog: ComputeProgram<Push>,
 }
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
+pub struct Push {
     stride: f32,
     max_steps: i32,
     refine: i32,
@@ -24,9 +24,11 @@ struct Push {
     thickness: f32,
 }
 
+declare_program!(pub PROGRAM: Push = compute(shaders::SSR, [Uniform, ImgRead, ImgRead, ImgRead, ImgOverwrite]));
+
 impl Ssr {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Ssr { prog: ComputeProgram::new(gpu, NAME, shaders::SSR, &[UBO, IMG, IMG, IMG, IMG], 20)? })
+        Ok(Ssr { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// Writes all of `out` (alpha 0 where nothing is hit, everywhere when SSR is off).
@@ -41,9 +43,7 @@ impl Ssr {
         out: &Image,
         s: &Settings,
     ) {
-        let uses =
-            [Use::buf_read(frame), Use::read(depth), Use::read(normals), Use::read(scene_depth), Use::overwrite(out)];
-        ctx.pass(NAME, &uses, |ctx| {
+        ctx.pass(NAME, |ctx| {
             let push = Push {
                 stride: s.ssr_stride.max(1.0),
                 max_steps: if s.ssr { s.ssr_max_steps as i32 } else { 0 },
@@ -51,25 +51,19 @@ impl Ssr {
                 max_distance: s.ssr_max_distance * s.radius,
                 thickness: s.ssr_thickness * s.radius,
             };
-            let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
+            let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             self.prog.dispatch(
                 ctx,
-                &[
-                    Bind::Uniform(frame),
-                    Bind::Storage(depth),
-                    Bind::Storage(normals),
-                    Bind::Storage(scene_depth),
-                    Bind::Storage(out),
-                ],
-                bytemuck::bytes_of(&push),
+                &[frame.into(), depth.into(), normals.into(), scene_depth.into(), out.into()],
+                &push,
                 g,
             );
         });
     }
 }
 
-/// Value of an `ssr` pixel whose ray hits nothing (mirrors SSR_MISS in common.glsl).
-pub const MISS: u32 = 0xffff_ffff;
+/// Value of an `ssr` pixel whose ray hits nothing (`SSR_MISS` in the shaders).
+pub const MISS: u32 = crate::shader_constants::SSR_MISS;
 
 /// Decode an `ssr` pixel: the hit's uv, or None.
 pub fn decode(v: u32) -> Option<[f32; 2]> {

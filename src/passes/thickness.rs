@@ -4,24 +4,43 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Access, Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
+use crate::shader_constants::MAX_PIXELS_PER_PARTICLE;
 use crate::shaders;
 
 pub const NAME: &str = "thickness";
 
 pub struct Thickness {
-    accumulate: ComputeProgram,
-    blur: ComputeProgram,
+    accumulate: ComputeProgram<AccumulatePush>,
+    blur: ComputeProgram<BlurPush>,
 }
+
+/// Push constants of thickness.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct AccumulatePush {
+    pub count: u32,
+    pub max_pixels: u32,
+}
+
+/// Push constants of thickness_blur.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BlurPush {
+    pub radius: u32,
+    pub sigma: f32,
+}
+
+// Accumulate: frame, particles, scene depth → accum (atomic adds into the cleared image).
+declare_program!(pub ACCUMULATE: AccumulatePush = compute(shaders::THICKNESS, [Uniform, BufRead, ImgRead, ImgWrite]));
+// Blur: frame, accum → out.
+declare_program!(pub BLUR: BlurPush = compute(shaders::THICKNESS_BLUR, [Uniform, ImgRead, ImgOverwrite]));
 
 impl Thickness {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Thickness {
-            accumulate: ComputeProgram::new(gpu, NAME, shaders::THICKNESS, &[UBO, SSBO, IMG, IMG], 8)?,
-            blur: ComputeProgram::new(gpu, NAME, shaders::THICKNESS_BLUR, &[UBO, IMG, IMG], 8)?,
-        })
+        Ok(Thickness { accumulate: ComputeProgram::new(gpu, &ACCUMULATE)?, blur: ComputeProgram::new(gpu, &BLUR)? })
     }
 
     /// `accum` (R32_UINT) is cleared and filled; `out` (R32_SFLOAT, world units) receives the blurred result.
@@ -37,26 +56,14 @@ impl Thickness {
         out: &Image,
         blur_radius: u32,
     ) {
-        ctx.pass(NAME, &[Use::Image(accum, Access::TransferDst, true)], |ctx| {
-            super::splat::clear(ctx, accum, vk::ClearColorValue { uint32: [0; 4] });
-            ctx.barrier(&[Use::buf_read(frame), Use::buf_read(particles), Use::read(scene_depth), Use::write(accum)]);
-            let push = [count, super::splat::MAX_PIXELS_PER_PARTICLE];
-            self.accumulate.dispatch(
-                ctx,
-                &[Bind::Uniform(frame), Bind::StorageBuf(particles), Bind::Storage(scene_depth), Bind::Storage(accum)],
-                bytemuck::cast_slice(&push),
-                [count.div_ceil(super::LOCAL_1D), 1, 1],
-            );
-            ctx.barrier(&[Use::read(accum), Use::overwrite(out)]);
-            let sigma = (blur_radius as f32 * 0.5).max(0.5);
-            let push: [u32; 2] = [blur_radius, sigma.to_bits()];
-            let g = ComputeProgram::groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
-            self.blur.dispatch(
-                ctx,
-                &[Bind::Uniform(frame), Bind::Storage(accum), Bind::Storage(out)],
-                bytemuck::cast_slice(&push),
-                g,
-            );
+        ctx.pass(NAME, |ctx| {
+            ctx.clear(accum, vk::ClearColorValue { uint32: [0; 4] });
+            let push = AccumulatePush { count, max_pixels: MAX_PIXELS_PER_PARTICLE };
+            let res = [frame.into(), particles.into(), scene_depth.into(), accum.into()];
+            self.accumulate.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
+            let push = BlurPush { radius: blur_radius, sigma: (blur_radius as f32 * 0.5).max(0.5) };
+            let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
+            self.blur.dispatch(ctx, &[frame.into(), accum.into(), out.into()], &push, g);
         });
     }
 }

@@ -2,32 +2,30 @@
 //! silhouettes and depth jumps. Runs only when `fluid_scale` < 1. Shader: shaders_glsl/upsample.comp.
 use std::sync::Arc;
 
+use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::bt::*;
-use crate::gpu::{Bind, Buffer, ComputeProgram, FrameCtx, Gpu, Image, Use};
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
 pub const NAME: &str = "upsample";
 
 pub struct Upsample {
-    prog: ComputeProgram,
+    prog: ComputeProgram<f32>,
 }
+
+// Push: the silhouette edge threshold (world units).
+declare_program!(pub PROGRAM: f32 = compute(shaders::UPSAMPLE, [Uniform, ImgRead, ImgOverwrite]));
 
 impl Upsample {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Upsample { prog: ComputeProgram::new(gpu, NAME, shaders::UPSAMPLE, &[UBO, IMG, IMG], 4)? })
+        Ok(Upsample { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// `edge`: depth jump (world) above which neighbours belong to different surfaces.
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, low: &Image, full: &Image, edge: f32) {
-        ctx.pass(NAME, &[Use::buf_read(frame), Use::read(low), Use::overwrite(full)], |ctx| {
-            let g = ComputeProgram::groups_2d(full.extent.width, full.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(
-                ctx,
-                &[Bind::Uniform(frame), Bind::Storage(low), Bind::Storage(full)],
-                bytemuck::bytes_of(&edge),
-                g,
-            );
+        ctx.pass(NAME, |ctx| {
+            let g = groups_2d(full.extent.width, full.extent.height, super::LOCAL_2D);
+            self.prog.dispatch(ctx, &[frame.into(), low.into(), full.into()], &edge, g);
         });
     }
 }

@@ -1,0 +1,56 @@
+//! `particles` pass (demo only): the particles as lit spheres coloured by an attribute, over the scene colour
+//! the `view` pass put in the final image. Shader: shaders_glsl/particles.comp.
+use std::sync::Arc;
+
+use crate::declare_program;
+use crate::error::Result;
+use crate::frame::Targets;
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
+use crate::shaders;
+
+pub const NAME: &str = "particles";
+
+/// Push constants of particles.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ParticlePush {
+    pub count: u32,
+    pub radius_scale: f32,
+    pub hue: [f32; 2],
+}
+
+// Slots: frame, particles, per-particle values, raw depth (its R32_UINT view), out (covered pixels only).
+declare_program!(pub PROGRAM: ParticlePush = compute(
+    shaders::PARTICLES,
+    [Uniform, BufRead, BufRead, ImgAltRead, ImgWrite]
+));
+
+pub struct Particles {
+    prog: ComputeProgram<ParticlePush>,
+}
+
+impl Particles {
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
+        Ok(Particles { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+    }
+
+    /// Draw the particles over the final image (after a mode-6 `view`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        particles: &Buffer,
+        values: &Buffer,
+        count: u32,
+        t: &Targets,
+        radius_scale: f32,
+    ) {
+        ctx.pass(NAME, |ctx| {
+            // Princisgh's two-colour ramp: blue (slow / light / low) to red, interpolated in hue.
+            let push = ParticlePush { count, radius_scale, hue: [0.62, 0.0] };
+            let res = [frame.into(), particles.into(), values.into(), (&t.depth).into(), (&t.final_color).into()];
+            self.prog.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
+        });
+    }
+}

@@ -1,0 +1,30 @@
+// Constants shared by Rust and GLSL, defined once here. build.rs `include!`s this file and passes every entry of
+// `SHADER_CONSTANTS` to shaderc as a macro definition (`#define LOCAL_2D 8u`), so the shaders never spell them;
+// the library uses the same `pub const`s (as `meniscus::shader_constants::*`). Plain `//` comments only: the file
+// is also included into build.rs, where inner doc comments are not allowed.
+
+/// 8×8 work groups for image passes.
+pub const LOCAL_2D: u32 = 8;
+/// 64-thread work groups for per-particle passes.
+pub const LOCAL_1D: u32 = 64;
+/// Work-group edge of the tiled curvature-flow shader (smooth_curvature.comp).
+pub const CURVATURE_LOCAL: u32 = 8;
+/// Boxes of the background scene in the frame's uniform block.
+pub const MAX_BOXES: u32 = 8;
+/// Value of an `ssr` pixel whose ray hits nothing.
+pub const SSR_MISS: u32 = 0xffff_ffff;
+/// Per-thread pixel budget of the particle passes: a sphere covering more (it swallowed the camera) is skipped.
+pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
+/// Tile size of the splat's occlusion bound (`splat_cull`).
+pub const SPLAT_TILE: u32 = 8;
+
+/// Every constant above, by its GLSL name.
+pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
+    ("LOCAL_2D", LOCAL_2D),
+    ("LOCAL_1D", LOCAL_1D),
+    ("CURVATURE_LOCAL", CURVATURE_LOCAL),
+    ("MAX_BOXES", MAX_BOXES),
+    ("SSR_MISS", SSR_MISS),
+    ("MAX_PIXELS_PER_PARTICLE", MAX_PIXELS_PER_PARTICLE),
+    ("SPLAT_TILE", SPLAT_TILE),
+];
