@@ -3,7 +3,6 @@
 
 use std::sync::Arc;
 
-use ash::vk;
 use glam::{Mat4, Vec3};
 
 use crate::error::Result;
@@ -13,6 +12,7 @@ use crate::passes::iso::IsoBuffers;
 use crate::passes::{Background, Composite, Iso, Normals, Smooth, Splat, Ssr, Thickness, Upsample};
 use crate::scene::{Bounds, Camera};
 use crate::settings::{Settings, SplatMode, Surface};
+use crate::targets::Targets;
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
 pub const MAX_BOXES: usize = 8;
@@ -119,127 +119,6 @@ impl FrameUniforms {
     }
 }
 
-/// The images of one frame size.
-pub struct Targets {
-    pub width: u32,
-    pub height: u32,
-    pub scene_color: Image,
-    pub scene_depth: Image,
-    /// Raw splatted depth: R32_SFLOAT with an R32_UINT view for atomics.
-    pub depth: Image,
-    pub smooth_a: Image,
-    pub smooth_b: Image,
-    /// Farthest exit depth of the splatted spheres (`surface = "iso"` only; 1×1 otherwise), R32F + R32_UINT view.
-    pub depth_back: Image,
-    /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
-    pub depth_tiles: Image,
-    /// D32 depth buffer of the rasterised splat variants (1×1 when the compute splat runs).
-    pub zbuffer: Image,
-    /// Full-resolution depth upsampled from the fluid resolution (unused at fluid scale 1).
-    pub depth_full: Image,
-    pub thickness_accum: Image,
-    pub thickness: Image,
-    pub normals: Image,
-    pub ssr: Image,
-    pub final_color: Image,
-}
-
-impl Targets {
-    /// `keep_raw`: keep the splatted depth intact through smoothing (for dumps); otherwise it doubles as a
-    /// ping-pong image and `smooth_b` is a 1×1 placeholder (saves one screen-sized image).
-    pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32, s: &Settings, keep_raw: bool) -> Result<Targets> {
-        use vk::ImageUsageFlags as U;
-        let full = vk::Extent2D { width, height };
-        let ts = s.thickness_scale.clamp(0.05, 1.0);
-        let thick = vk::Extent2D {
-            width: ((width as f32 * ts).round() as u32).max(1),
-            height: ((height as f32 * ts).round() as u32).max(1),
-        };
-        let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
-        let fluid = fluid_extent(width, height, s.fluid_scale);
-        let tiny = vk::Extent2D { width: 1, height: 1 };
-        let upsampled = if fluid == full { tiny } else { full };
-        let img = |name, ext, fmt, usage, alt| Image::new(gpu, name, ext, fmt, usage, alt);
-        Ok(Targets {
-            width,
-            height,
-            scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
-            scene_depth: img("scene_depth", full, vk::Format::R32_SFLOAT, storage, None)?,
-            depth: img(
-                "depth",
-                fluid,
-                vk::Format::R32_SFLOAT,
-                storage | U::COLOR_ATTACHMENT,
-                Some(vk::Format::R32_UINT),
-            )?,
-            depth_back: img(
-                "depth_back",
-                if s.surface == Surface::Iso { fluid } else { tiny },
-                vk::Format::R32_SFLOAT,
-                storage,
-                Some(vk::Format::R32_UINT),
-            )?,
-            depth_tiles: img(
-                "depth_tiles",
-                vk::Extent2D {
-                    width: fluid.width.div_ceil(crate::passes::splat::TILE),
-                    height: fluid.height.div_ceil(crate::passes::splat::TILE),
-                },
-                vk::Format::R32_UINT,
-                storage,
-                None,
-            )?,
-            zbuffer: img(
-                "zbuffer",
-                if s.splat.depth_tested() { fluid } else { tiny },
-                vk::Format::D32_SFLOAT,
-                U::DEPTH_STENCIL_ATTACHMENT,
-                None,
-            )?,
-            smooth_a: img("smooth_a", fluid, vk::Format::R32_SFLOAT, storage, None)?,
-            smooth_b: img("smooth_b", if keep_raw { fluid } else { tiny }, vk::Format::R32_SFLOAT, storage, None)?,
-            depth_full: img("depth_full", upsampled, vk::Format::R32_SFLOAT, storage, None)?,
-            thickness_accum: img("thickness_accum", thick, vk::Format::R32_UINT, storage, None)?,
-            thickness: img("thickness", thick, vk::Format::R32_SFLOAT, storage | U::SAMPLED, None)?,
-            normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
-            ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
-            final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
-        })
-    }
-
-    /// The image that `Smoothed` names.
-    pub fn smoothed(&self, which: Smoothed) -> &Image {
-        match which {
-            Smoothed::Raw => &self.depth,
-            Smoothed::A => &self.smooth_a,
-            Smoothed::B => &self.smooth_b,
-        }
-    }
-
-    /// (name, bytes) of every image.
-    pub fn memory(&self) -> Vec<(&str, u64)> {
-        [
-            &self.scene_color,
-            &self.scene_depth,
-            &self.depth,
-            &self.smooth_a,
-            &self.smooth_b,
-            &self.depth_full,
-            &self.zbuffer,
-            &self.depth_back,
-            &self.depth_tiles,
-            &self.thickness_accum,
-            &self.thickness,
-            &self.normals,
-            &self.ssr,
-            &self.final_color,
-        ]
-        .iter()
-        .map(|i| (i.name.as_str(), i.bytes()))
-        .collect()
-    }
-}
-
 /// The passes, created once per device.
 pub struct Passes {
     pub background: Background,
@@ -269,24 +148,30 @@ impl Passes {
     }
 }
 
-/// Size of the fluid images at `scale` of `width`×`height` (at least 1×1).
-pub fn fluid_extent(width: u32, height: u32, scale: f32) -> vk::Extent2D {
-    let s = scale.clamp(0.05, 1.0);
-    vk::Extent2D {
-        width: ((width as f32 * s).round() as u32).max(1),
-        height: ((height as f32 * s).round() as u32).max(1),
-    }
+/// Facts about this frame's camera that passes base their own per-frame decisions on (the smoothing's
+/// dispatch count, the splat's occlusion pre-pass).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameInfo {
+    /// Focal length in output pixels.
+    pub focal_px: f32,
+    /// Focal length in fluid pixels (`fluid_scale` < 1 makes it smaller).
+    pub focal_px_fluid: f32,
+    /// Nearest eye depth of any particle (bounded below by the near plane).
+    pub d_near: f32,
+    /// Distance from the eye to the camera's target.
+    pub target_distance: f32,
 }
 
-/// Which image holds the smoothed depth after a frame.
+/// What `record_frame` produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Smoothed {
-    Raw,
-    A,
-    B,
+pub struct Frame {
+    /// Which image holds the smoothed depth (at fluid resolution).
+    pub smoothed: crate::passes::smooth::Output,
 }
 
-/// THE FRAME: every pass in order. (Resources are passed explicitly: each pass declares what it touches.)
+/// THE FRAME: every pass in order, each given the images it reads and writes; each pass derives its own
+/// barriers from its slots, so nothing here synchronises. Optional steps: `background` (skipped while the
+/// view and scene stand), `iso` (`surface = "iso"`), `upsample` (`fluid_scale` < 1).
 #[allow(clippy::too_many_arguments)]
 pub fn record_frame(
     ctx: &mut FrameCtx,
@@ -297,35 +182,24 @@ pub fn record_frame(
     count: u32,
     iso: Option<&IsoBuffers>,
     s: &Settings,
-    (cf_iterations, splat_cull): (u32, bool),
+    info: &FrameInfo,
     (sky, mesh): (&Image, &crate::passes::background::MeshBuffers),
     background_cached: bool,
-) -> Result<Smoothed> {
-    // The background is static: when neither the view nor the scene changed, last frame's images stand.
+) -> Result<Frame> {
     if !background_cached {
         p.background.record(ctx, frame, sky, mesh, &t.scene_color, &t.scene_depth);
     }
     match s.splat {
         SplatMode::Compute => {
-            let back = s.surface == Surface::Iso && t.depth_back.extent == t.depth.extent;
-            p.splat.record(
-                ctx,
-                frame,
-                particles,
-                count,
-                &t.depth,
-                &t.depth_back,
-                &t.depth_tiles,
-                back,
-                splat_cull,
-                s.splat_scale(),
-            )
+            p.splat.record(ctx, frame, particles, count, &t.depth, t.depth_back.as_ref(), &t.depth_tiles, s, info)
         }
-        mode => p.splat.record_raster(ctx, frame, particles, count, &t.depth, &t.zbuffer, s.splat_scale(), mode)?,
+        mode => {
+            p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)?
+        }
     }
     if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
         // The rasterised splats do not write the far exit: the march then runs to the grid's box.
-        let back = (s.splat == SplatMode::Compute).then_some(&t.depth_back);
+        let back = t.depth_back.as_ref().filter(|_| s.splat == SplatMode::Compute);
         p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);
     }
     p.thickness.record(
@@ -338,14 +212,14 @@ pub fn record_frame(
         &t.thickness,
         s.thickness_blur_px,
     );
-    // Without a full-size smooth_b the raw depth is the second ping-pong image.
-    let pong = if t.smooth_b.extent == t.smooth_a.extent { &t.smooth_b } else { &t.depth };
-    let smoothed = p.smooth.record(ctx, frame, &t.depth, &t.smooth_a, pong, s, cf_iterations);
-    let surface = if smoothed.extent == t.normals.extent {
-        smoothed
-    } else {
-        p.upsample.record(ctx, frame, smoothed, &t.depth_full, s.normal_edge * s.radius);
-        &t.depth_full
+    let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), s, info);
+    let fluid_depth = t.smoothed(smoothed);
+    let surface = match &t.depth_full {
+        Some(full) => {
+            p.upsample.record(ctx, frame, fluid_depth, full, s.normal_edge * s.radius);
+            full
+        }
+        None => fluid_depth,
     };
     p.normals.record(ctx, frame, surface, &t.normals, s.normal_edge * s.radius);
     p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.ssr, s);
@@ -359,11 +233,5 @@ pub fn record_frame(
         sky,
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
-    Ok(if std::ptr::eq(smoothed, &t.smooth_a) {
-        Smoothed::A
-    } else if std::ptr::eq(smoothed, &t.smooth_b) {
-        Smoothed::B
-    } else {
-        Smoothed::Raw
-    })
+    Ok(Frame { smoothed })
 }

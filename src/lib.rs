@@ -20,6 +20,7 @@ pub mod shader_constants {
     include!("shader_constants.rs");
 }
 pub mod sky;
+pub mod targets;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.
 pub mod shaders {

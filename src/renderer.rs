@@ -7,9 +7,11 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
-use crate::frame::{record_frame, FrameUniforms, Passes, Smoothed, Targets, View};
+use crate::frame::{record_frame, FrameInfo, FrameUniforms, Passes, View};
 use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Timer, Use};
+use crate::passes::smooth::Output as Smoothed;
 use crate::settings::Settings;
+use crate::targets::{Targets, TargetsDesc};
 
 /// Renders frames on one device.
 pub struct Renderer {
@@ -66,7 +68,7 @@ impl Renderer {
             particles: None,
             count: 0,
             timer: Timer::new(gpu)?,
-            smoothed: Smoothed::Raw,
+            smoothed: Smoothed::Input,
             positions: vec![],
             spray: None,
             iso: None,
@@ -210,21 +212,11 @@ impl Renderer {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(Error::Invalid(format!("image size {width}×{height} is out of range (1 … 16384)")));
         }
-        let want_thick = crate::frame::fluid_extent(width, height, s.thickness_scale);
-        let want_fluid = crate::frame::fluid_extent(width, height, s.fluid_scale);
-        let ok = self.targets.as_ref().is_some_and(|t| {
-            t.width == width
-                && t.height == height
-                && t.thickness.extent == want_thick
-                && t.depth.extent == want_fluid
-                && (t.smooth_b.extent == t.depth.extent) == self.keep_raw_depth
-                && (t.zbuffer.extent == t.depth.extent) == s.splat.depth_tested()
-                && (t.depth_back.extent == t.depth.extent) == (s.surface == crate::settings::Surface::Iso)
-        });
-        if !ok {
+        let want = TargetsDesc::new(width, height, s, self.keep_raw_depth);
+        if self.targets.as_ref().map(|t| t.desc) != Some(want) {
             self.targets = None;
             self.background_key = None;
-            self.targets = Some(Targets::new(&self.gpu, width, height, s, self.keep_raw_depth)?);
+            self.targets = Some(Targets::new(&self.gpu, want)?);
         }
         Ok(())
     }
@@ -285,19 +277,19 @@ impl Renderer {
         let t = self.targets.as_ref().expect("ensured");
         let count = self.count;
         let d_near = self.nearest_depth(view, s);
-        let cf = crate::passes::smooth::iterations_needed(s, view.camera.focal_px(view.height), d_near);
-        // Sphere size in fluid pixels at the camera's target distance decides the splat's occlusion pre-pass.
-        let fluid_h = t.depth.extent.height;
-        let typical = (view.camera.eye - view.camera.target).length().max(view.camera.near);
-        let cull =
-            crate::passes::splat::cull_pays(view.camera.focal_px(fluid_h) * s.radius * s.splat_scale() / typical);
+        let info = FrameInfo {
+            focal_px: view.camera.focal_px(view.height),
+            focal_px_fluid: view.camera.focal_px(t.depth.extent.height),
+            d_near,
+            target_distance: (view.camera.eye - view.camera.target).length().max(view.camera.near),
+        };
         let (passes, uniforms, gpu, views, sky, mesh) =
             (&self.passes, &self.uniforms, self.gpu.clone(), &self.demo_passes, &self.sky, &self.mesh);
         let timer = &mut self.timer;
         let smoothed = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm =
-                record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, (cf, cull), (sky, mesh), cached)?;
+            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached)?
+                .smoothed;
             if let Some((mode, values, overlay)) = demo {
                 let smoothed_img = t.smoothed(sm);
                 let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);

@@ -32,10 +32,10 @@ pub const PASS_NAMES: &[&str] = &[
     iso::NAME,
     thickness::NAME,
     smooth::NAME,
+    upsample::NAME,
     normals::NAME,
     ssr::NAME,
     composite::NAME,
-    upsample::NAME,
 ];
 
 pub(crate) use crate::shader_constants::{LOCAL_1D, LOCAL_2D};

@@ -4,9 +4,9 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
-use crate::frame::Targets;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
 use crate::shaders;
+use crate::targets::Targets;
 
 pub const NAME: &str = "particles";
 

@@ -5,11 +5,21 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
+use crate::frame::FrameInfo;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::{Filter, Settings};
 use crate::shaders;
 
 pub const NAME: &str = "smooth";
+
+/// Which image holds the smoothed depth after the pass: its input (no filter), or the first or the second
+/// ping-pong image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    Input,
+    First,
+    Second,
+}
 
 pub struct Smooth {
     bilateral: ComputeProgram<BilateralPush>,
@@ -87,30 +97,47 @@ impl Smooth {
     /// (`depth` itself when the filter is `None`). `depth` is only read. `cf_iterations_needed`: the largest
     /// adaptive iteration count any pixel can have this frame (F·ρ/d of the nearest particle), see
     /// [`iterations_needed`].
-    #[allow(clippy::too_many_arguments)]
+    /// Smooth `depth` with `s.filter`, ping-ponging between `pong.0` and `pong.1` (the second may be `depth`
+    /// itself when the raw depth need not survive); returns which image holds the result. The pass decides its
+    /// own dispatch count: curvature flow stops where no pixel iterates any more (`iterations_needed` from the
+    /// frame's focal length and nearest fluid depth).
     pub fn record<'a>(
         &self,
         ctx: &mut FrameCtx,
         frame: &Buffer,
         depth: &'a Image,
-        a: &'a Image,
-        b: &'a Image,
+        pong: (&'a Image, &'a Image),
+        s: &Settings,
+        info: &FrameInfo,
+    ) -> Output {
+        self.record_iterations(ctx, frame, depth, pong, s, iterations_needed(s, info.focal_px, info.d_near))
+    }
+
+    /// [`Smooth::record`] with the curvature-flow iteration count given (tests drive it directly).
+    pub fn record_iterations<'a>(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        depth: &'a Image,
+        pong: (&'a Image, &'a Image),
         s: &Settings,
         cf_iterations_needed: u32,
-    ) -> &'a Image {
+    ) -> Output {
+        let (a, b) = pong;
         let r = s.radius;
-        // Each dispatch reads `src` and writes the next ping-pong image, which becomes `src`.
-        let mut targets = [a, b].into_iter().cycle();
+        // Each dispatch reads `src` and writes the next ping-pong image, which becomes `src`; `out` counts.
+        let mut out = Output::Input;
+        let mut src = depth;
         let mut next = |src: &mut &'a Image| -> (&'a Image, &'a Image) {
-            let dst = targets.next().expect("cycle");
+            let (dst, o) = if out == Output::First { (b, Output::Second) } else { (a, Output::First) };
+            out = o;
             let pair = (*src, dst);
             *src = dst;
             pair
         };
         if s.filter == Filter::None {
-            return depth;
+            return Output::Input;
         }
-        let mut src = depth;
         ctx.pass(NAME, |ctx| match s.filter {
             Filter::None => {}
             Filter::Gaussian | Filter::Bilateral | Filter::Bilateral2d => {
@@ -170,7 +197,7 @@ impl Smooth {
                 }
             }
         });
-        src
+        out
     }
 }
 

@@ -8,9 +8,10 @@ use ash::vk;
 
 use crate::declare_program;
 use crate::error::{Error, Result};
+use crate::frame::FrameInfo;
 use crate::gpu::pipeline::{GraphicsProgram, ProgramDecl, RasterTargets};
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::settings::SplatMode;
+use crate::settings::{Settings, SplatMode};
 use crate::shaders;
 
 pub const NAME: &str = "splat";
@@ -116,7 +117,7 @@ impl Splat {
         particles: &Buffer,
         count: u32,
         depth: &Image,
-        zbuffer: &Image,
+        zbuffer: Option<&Image>,
         radius_scale: f32,
         mode: SplatMode,
     ) -> Result<()> {
@@ -127,22 +128,25 @@ impl Splat {
             .and_then(|(_, p)| p.as_ref())
             .ok_or_else(|| Error::Invalid(format!("splat mode {mode:?} is not supported on this device")))?;
         let min = matches!(mode, SplatMode::QuadMin | SplatMode::PointMin);
+        if !min && zbuffer.is_none() {
+            return Err(Error::Invalid(format!("splat mode {} needs a depth buffer", mode.name())));
+        }
         let point = matches!(mode, SplatMode::PointFragDepth | SplatMode::PointMin);
         ctx.pass(NAME, |ctx| {
             let push =
                 RasterPush { count, radius_scale, size: [depth.extent.width as f32, depth.extent.height as f32] };
             let vertices = if point { count } else { count * 6 };
-            let z = (!min).then_some(zbuffer);
+            let z = if min { None } else { zbuffer };
             prog.draw(ctx, &[frame.into(), particles.into()], &push, depth, f32::INFINITY, z, vertices);
         });
         Ok(())
     }
 
-    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it; with `back`, also the
-    /// farthest sphere exit per pixel into `back_img` (cleared to 0). With `cull` (and without `back`, which
-    /// needs every sphere), `splat_cull` first bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip
-    /// the tile; worth it when spheres span tiles (see `cull_pays`). `radius_scale`: spheres of this
-    /// many particle radii.
+    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it; with `back_img`, also the
+    /// farthest sphere exit per pixel into it (cleared to 0). The pass decides whether `splat_cull` first
+    /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile: when spheres span tiles
+    /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance), and never with
+    /// `back_img`, which needs every sphere. Spheres are `s.splat_scale()` particle radii.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -151,18 +155,23 @@ impl Splat {
         particles: &Buffer,
         count: u32,
         depth: &Image,
-        back_img: &Image,
+        back_img: Option<&Image>,
         tiles: &Image,
-        back: bool,
-        cull: bool,
-        radius_scale: f32,
+        s: &Settings,
+        info: &FrameInfo,
     ) {
+        let radius_scale = s.splat_scale();
+        let back = back_img.is_some();
+        let cull = !back && cull_pays(info.focal_px_fluid * s.radius * radius_scale / info.target_distance);
+        // Without a back image the binding still needs one: the depth itself (never written through it then).
+        let back_img = back_img.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
             ctx.clear(depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
-            ctx.clear(back_img, vk::ClearColorValue { float32: [0.0; 4] });
+            if back {
+                ctx.clear(back_img, vk::ClearColorValue { float32: [0.0; 4] });
+            }
             ctx.clear(tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
-            let cull = cull && !back;
             if cull {
                 let push = CullPush {
                     count,

@@ -5,9 +5,9 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
-use crate::frame::Targets;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
+use crate::targets::Targets;
 
 pub const NAME: &str = "view";
 

@@ -1,0 +1,188 @@
+//! The frame's images, built from a [`TargetsDesc`]: the one place that decides which images exist and how
+//! big they are (output size, fluid and thickness scales, and the optional images: the raw depth kept for
+//! dumps, the far depth the iso march needs, the rasterised splats' depth buffer, the full-size depth the
+//! upsample pass writes). An image that is not needed is `None`, never a 1×1 stand-in.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::error::Result;
+use crate::gpu::{Gpu, Image};
+use crate::settings::{Settings, Surface};
+
+/// What the frame's images must be; two equal descriptions give the same images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TargetsDesc {
+    pub width: u32,
+    pub height: u32,
+    /// Size of the fluid images (`fluid_scale` of the output).
+    pub fluid: vk::Extent2D,
+    /// Size of the thickness images (`thickness_scale` of the output).
+    pub thickness: vk::Extent2D,
+    /// Keep the splatted depth intact through smoothing (a second ping-pong image): dumps, the demo's views.
+    pub keep_raw: bool,
+    /// The iso march's far bound (`surface = "iso"`).
+    pub back: bool,
+    /// The D32 depth buffer of the depth-tested rasterised splats.
+    pub zbuffer: bool,
+}
+
+impl TargetsDesc {
+    /// The images a `width`×`height` frame with settings `s` needs.
+    pub fn new(width: u32, height: u32, s: &Settings, keep_raw: bool) -> TargetsDesc {
+        TargetsDesc {
+            width,
+            height,
+            fluid: scaled(width, height, s.fluid_scale),
+            thickness: scaled(width, height, s.thickness_scale),
+            keep_raw,
+            back: s.surface == Surface::Iso,
+            zbuffer: s.splat.depth_tested(),
+        }
+    }
+
+    /// The output size.
+    pub fn full(&self) -> vk::Extent2D {
+        vk::Extent2D { width: self.width, height: self.height }
+    }
+
+    /// Whether the fluid runs at reduced resolution (then `upsample` brings its depth to full size).
+    pub fn upsampled(&self) -> bool {
+        self.fluid != self.full()
+    }
+}
+
+/// `scale` of `width`×`height` (clamped to [0.05, 1]; at least 1×1).
+pub fn scaled(width: u32, height: u32, scale: f32) -> vk::Extent2D {
+    let s = scale.clamp(0.05, 1.0);
+    vk::Extent2D {
+        width: ((width as f32 * s).round() as u32).max(1),
+        height: ((height as f32 * s).round() as u32).max(1),
+    }
+}
+
+/// The images of one frame description.
+pub struct Targets {
+    pub desc: TargetsDesc,
+    pub width: u32,
+    pub height: u32,
+    pub scene_color: Image,
+    pub scene_depth: Image,
+    /// Raw splatted depth: R32_SFLOAT with an R32_UINT view for atomics.
+    pub depth: Image,
+    pub smooth_a: Image,
+    /// The second ping-pong image when the raw depth is kept (else the raw depth itself is the second one).
+    pub smooth_b: Option<Image>,
+    /// Farthest exit depth of the splatted spheres (`surface = "iso"`), R32F + R32_UINT view.
+    pub depth_back: Option<Image>,
+    /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
+    pub depth_tiles: Image,
+    /// D32 depth buffer of the depth-tested rasterised splat variants.
+    pub zbuffer: Option<Image>,
+    /// Full-resolution depth upsampled from the fluid resolution (`fluid_scale` < 1).
+    pub depth_full: Option<Image>,
+    pub thickness_accum: Image,
+    pub thickness: Image,
+    pub normals: Image,
+    pub ssr: Image,
+    /// The `composite` pass's output (RGBA8).
+    pub final_color: Image,
+}
+
+impl Targets {
+    /// Allocate the images `d` describes.
+    pub fn new(gpu: &Arc<Gpu>, d: TargetsDesc) -> Result<Targets> {
+        use vk::ImageUsageFlags as U;
+        let full = d.full();
+        let fluid = d.fluid;
+        let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
+        let img = |name, ext, fmt, usage, alt| Image::new(gpu, name, ext, fmt, usage, alt);
+        let r32 = vk::Format::R32_SFLOAT;
+        let bits = Some(vk::Format::R32_UINT);
+        let tiles = vk::Extent2D {
+            width: fluid.width.div_ceil(crate::passes::splat::TILE),
+            height: fluid.height.div_ceil(crate::passes::splat::TILE),
+        };
+        Ok(Targets {
+            desc: d,
+            width: d.width,
+            height: d.height,
+            scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
+            scene_depth: img("scene_depth", full, r32, storage, None)?,
+            depth: img("depth", fluid, r32, storage | U::COLOR_ATTACHMENT, bits)?,
+            depth_back: d.back.then(|| img("depth_back", fluid, r32, storage, bits)).transpose()?,
+            depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
+            zbuffer: d
+                .zbuffer
+                .then(|| img("zbuffer", fluid, vk::Format::D32_SFLOAT, U::DEPTH_STENCIL_ATTACHMENT, None))
+                .transpose()?,
+            smooth_a: img("smooth_a", fluid, r32, storage, None)?,
+            smooth_b: d.keep_raw.then(|| img("smooth_b", fluid, r32, storage, None)).transpose()?,
+            depth_full: d.upsampled().then(|| img("depth_full", full, r32, storage, None)).transpose()?,
+            thickness_accum: img("thickness_accum", d.thickness, vk::Format::R32_UINT, storage, None)?,
+            thickness: img("thickness", d.thickness, r32, storage | U::SAMPLED, None)?,
+            normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
+            ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
+            final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
+        })
+    }
+
+    /// The smoothing ping-pong pair: `smooth_a`, then `smooth_b` or (without it) the raw depth.
+    pub fn ping_pong(&self) -> (&Image, &Image) {
+        (&self.smooth_a, self.smooth_b.as_ref().unwrap_or(&self.depth))
+    }
+
+    /// The image that holds the smoothed depth ([`crate::passes::smooth::Output`]).
+    pub fn smoothed(&self, which: crate::passes::smooth::Output) -> &Image {
+        use crate::passes::smooth::Output;
+        match which {
+            Output::Input => &self.depth,
+            Output::First => self.ping_pong().0,
+            Output::Second => self.ping_pong().1,
+        }
+    }
+
+    /// (name, bytes) of every image that exists.
+    pub fn memory(&self) -> Vec<(&str, u64)> {
+        let always = [
+            &self.scene_color,
+            &self.scene_depth,
+            &self.depth,
+            &self.smooth_a,
+            &self.depth_tiles,
+            &self.thickness_accum,
+            &self.thickness,
+            &self.normals,
+            &self.ssr,
+            &self.final_color,
+        ];
+        let optional = [&self.smooth_b, &self.depth_full, &self.zbuffer, &self.depth_back];
+        always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes())).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The description alone decides which optional images exist; equal settings give equal descriptions.
+    #[test]
+    fn optional_images_follow_the_settings() {
+        let s = Settings::default();
+        let d = TargetsDesc::new(640, 360, &s, false);
+        assert!(!d.back && !d.zbuffer && !d.keep_raw && !d.upsampled());
+        assert_eq!(d, TargetsDesc::new(640, 360, &s.clone(), false));
+        let iso = Settings { surface: Surface::Iso, ..s.clone() };
+        assert!(TargetsDesc::new(640, 360, &iso, false).back);
+        let half = Settings { fluid_scale: 0.5, ..s.clone() };
+        let d = TargetsDesc::new(640, 360, &half, true);
+        assert!(d.upsampled() && d.keep_raw);
+        assert_eq!(d.fluid, vk::Extent2D { width: 320, height: 180 });
+        let quad = Settings { splat: crate::settings::SplatMode::QuadFragDepth, ..s.clone() };
+        assert!(TargetsDesc::new(640, 360, &quad, false).zbuffer);
+        assert!(
+            !TargetsDesc::new(640, 360, &Settings { splat: crate::settings::SplatMode::QuadMin, ..s }, false).zbuffer
+        );
+    }
+}
