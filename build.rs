@@ -108,6 +108,13 @@ fn main() {
         }
         panic!("GLSL compilation failed:\n{}", failures.join("\n"));
     }
+    // The frame uniform block's member offsets as the compiler laid them out (std140), for the test that checks
+    // the Rust mirror `FrameUniforms` field by field.
+    let composite = std::fs::read(out.join("composite.comp.spv")).expect("composite.comp.spv");
+    let members = frame_block_offsets(&composite).expect("the Frame block of composite.comp");
+    let _ =
+        writeln!(generated, "/// (member, byte offset) of the `Frame` uniform block (common.glsl), from the SPIR-V.");
+    let _ = writeln!(generated, "pub const FRAME_BLOCK: &[(&str, u32)] = &{members:?};");
     std::fs::write(out.join("shaders.rs"), generated).expect("write shaders.rs");
 }
 
@@ -127,4 +134,40 @@ fn reflect(spirv: &[u8]) -> Result<Reflected, String> {
     let push = r.get_push_constant_range().map_err(|e| format!("{e:?}"))?.map(|p| p.offset + p.size).unwrap_or(0);
     let local = r.get_compute_group_size().map(|(x, y, z)| [x, y, z]).unwrap_or([0; 3]);
     Ok((bindings, push, local))
+}
+
+/// (member name, Offset decoration) of the struct named `Frame` in a SPIR-V module (debug names are on).
+fn frame_block_offsets(spirv: &[u8]) -> Option<Vec<(String, u32)>> {
+    use rspirv::dr::Operand;
+    use rspirv::spirv::{Decoration, Op};
+    let m = rspirv::dr::load_bytes(spirv).ok()?;
+    let id = m.debug_names.iter().find_map(|i| match (i.class.opcode, i.operands.as_slice()) {
+        (Op::Name, [Operand::IdRef(id), Operand::LiteralString(n)]) if n == "Frame" => Some(*id),
+        _ => None,
+    })?;
+    let mut members: Vec<(u32, String, u32)> = m
+        .debug_names
+        .iter()
+        .filter_map(|i| match (i.class.opcode, i.operands.as_slice()) {
+            (Op::MemberName, [Operand::IdRef(s), Operand::LiteralBit32(k), Operand::LiteralString(n)]) if *s == id => {
+                Some((*k, n.clone(), 0))
+            }
+            _ => None,
+        })
+        .collect();
+    for i in &m.annotations {
+        if let (
+            Op::MemberDecorate,
+            [Operand::IdRef(s), Operand::LiteralBit32(k), Operand::Decoration(Decoration::Offset), Operand::LiteralBit32(off)],
+        ) = (i.class.opcode, i.operands.as_slice())
+        {
+            if *s == id {
+                if let Some(e) = members.iter_mut().find(|e| e.0 == *k) {
+                    e.2 = *off;
+                }
+            }
+        }
+    }
+    members.sort();
+    Some(members.into_iter().map(|(_, n, o)| (n, o)).collect())
 }

@@ -15,7 +15,7 @@ use crate::settings::{Settings, SplatMode, Surface};
 use crate::targets::Targets;
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
-pub const MAX_BOXES: usize = 8;
+pub const MAX_BOXES: usize = crate::shader_constants::MAX_BOXES as usize;
 
 /// Mirror of `Frame` in shaders_glsl/common.glsl (std140: only vec4/mat4 members).
 #[repr(C)]
@@ -234,4 +234,39 @@ pub fn record_frame(
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
     Ok(Frame { smoothed })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every field of the Rust mirror sits at the offset the GLSL compiler gave the same member of `Frame`
+    /// (read from the compiled SPIR-V by build.rs), and the two have the same members in the same order.
+    #[test]
+    fn uniform_block_offsets_match_the_shader() {
+        macro_rules! offsets {
+            ($($f:ident),*) => { vec![$((stringify!($f), std::mem::offset_of!(FrameUniforms, $f) as u32)),*] };
+        }
+        let rust = offsets!(
+            view,
+            inv_view,
+            eye,
+            proj,
+            fluid,
+            sun,
+            ground,
+            extinction,
+            fluid_color,
+            shading,
+            shading2,
+            box_count,
+            box_min,
+            box_max
+        );
+        let glsl: Vec<(&str, u32)> = crate::shaders::FRAME_BLOCK.to_vec();
+        assert_eq!(rust, glsl);
+        let (last, off) = glsl[glsl.len() - 1];
+        assert_eq!(last, "box_max");
+        assert_eq!(std::mem::size_of::<FrameUniforms>() as u32, off + 16 * crate::shader_constants::MAX_BOXES);
+    }
 }
