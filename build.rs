@@ -17,6 +17,11 @@ mod shader_constants {
     include!("src/shader_constants.rs");
 }
 
+/// Sources compiled more than once: (file, [(constant suffix, macro defined for that variant)]).
+/// `splat.frag` gives SPLAT_FRAGDEPTH_FRAG, SPLAT_CONSERVATIVE_FRAG and SPLAT_MIN_FRAG.
+const VARIANTS: &[(&str, &[(&str, &str)])] =
+    &[("splat.frag", &[("FRAGDEPTH", "FRAG_DEPTH"), ("CONSERVATIVE", "CONSERVATIVE_DEPTH"), ("MIN", "MIN_BLEND")])];
+
 fn main() {
     let src = Path::new("shaders_glsl");
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
@@ -57,47 +62,57 @@ fn main() {
         };
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
         let text = std::fs::read_to_string(&path).expect("read shader");
-        let mut opts = shaderc::CompileOptions::new().expect("shaderc options");
-        opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_3 as u32);
-        opts.set_target_spirv(shaderc::SpirvVersion::V1_6);
-        opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
-        opts.set_generate_debug_info();
-        for (name, value) in shader_constants::SHADER_CONSTANTS {
-            // Unsigned literal only where an int cannot hold the value (SSR_MISS).
-            let text = if *value > i32::MAX as u32 { format!("{value:#x}u") } else { value.to_string() };
-            opts.add_macro_definition(name, Some(&text));
-        }
-        opts.set_include_callback(|name, _ty, _from, _depth| {
-            let p = src.join(name);
-            std::fs::read_to_string(&p)
-                .map(|content| shaderc::ResolvedInclude { resolved_name: p.display().to_string(), content })
-                .map_err(|e| format!("{}: {e}", p.display()))
-        });
-        let file_name = path.display().to_string();
-        match compiler.compile_into_spirv(&text, kind, &file_name, "main", Some(&opts)) {
-            Ok(art) => {
-                let spv = out.join(format!("{stem}.{ext}.spv"));
-                std::fs::write(&spv, art.as_binary_u8()).expect("write spv");
-                let file = format!("{stem}.{ext}");
-                let r = match reflect(art.as_binary_u8()) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        failures.push(format!("{file}: SPIR-V reflection failed: {e}"));
-                        continue;
-                    }
-                };
-                let _ = writeln!(
-                    generated,
-                    "pub const {}{}: crate::gpu::Shader = crate::gpu::Shader {{ file: {file:?}, spirv: include_bytes!({:?}), bindings: &{:?}, push: {}, local: {:?} }};",
-                    stem.to_uppercase().replace('-', "_"),
-                    suffix,
-                    spv.display().to_string(),
-                    r.0,
-                    r.1,
-                    r.2,
-                );
+        let file = format!("{stem}.{ext}");
+        // One source, several programs: each variant is compiled with its own macro defined.
+        let variants: &[(&str, &str)] = VARIANTS.iter().find(|v| v.0 == file).map(|v| v.1).unwrap_or(&[("", "")]);
+        for (variant, define) in variants {
+            let mut opts = shaderc::CompileOptions::new().expect("shaderc options");
+            opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_3 as u32);
+            opts.set_target_spirv(shaderc::SpirvVersion::V1_6);
+            opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
+            opts.set_generate_debug_info();
+            for (name, value) in shader_constants::SHADER_CONSTANTS {
+                // Unsigned literal only where an int cannot hold the value (SSR_MISS).
+                let text = if *value > i32::MAX as u32 { format!("{value:#x}u") } else { value.to_string() };
+                opts.add_macro_definition(name, Some(&text));
             }
-            Err(e) => failures.push(e.to_string()),
+            if !define.is_empty() {
+                opts.add_macro_definition(define, Some("1"));
+            }
+            opts.set_include_callback(|name, _ty, _from, _depth| {
+                let p = src.join(name);
+                std::fs::read_to_string(&p)
+                    .map(|content| shaderc::ResolvedInclude { resolved_name: p.display().to_string(), content })
+                    .map_err(|e| format!("{}: {e}", p.display()))
+            });
+            let file_name = path.display().to_string();
+            let (label, const_stem) = if variant.is_empty() {
+                (file.clone(), stem.to_uppercase().replace('-', "_"))
+            } else {
+                (format!("{file} ({define})"), format!("{}_{variant}", stem.to_uppercase()))
+            };
+            match compiler.compile_into_spirv(&text, kind, &file_name, "main", Some(&opts)) {
+                Ok(art) => {
+                    let spv = out.join(format!("{stem}{}.{ext}.spv", variant.to_lowercase()));
+                    std::fs::write(&spv, art.as_binary_u8()).expect("write spv");
+                    let r = match reflect(art.as_binary_u8()) {
+                        Ok(r) => r,
+                        Err(e) => {
+                            failures.push(format!("{label}: SPIR-V reflection failed: {e}"));
+                            continue;
+                        }
+                    };
+                    let _ = writeln!(
+                        generated,
+                        "pub const {const_stem}{suffix}: crate::gpu::Shader = crate::gpu::Shader {{ file: {label:?}, spirv: include_bytes!({:?}), bindings: &{:?}, push: {}, local: {:?} }};",
+                        spv.display().to_string(),
+                        r.0,
+                        r.1,
+                        r.2,
+                    );
+                }
+                Err(e) => failures.push(format!("{label}: {e}")),
+            }
         }
     }
     if !failures.is_empty() {

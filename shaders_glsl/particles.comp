@@ -21,17 +21,17 @@ vec3 hsv2rgb(vec3 c) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    vec4 pr = particles[i];
-    if (pr.w < 0.0) return;
-    float r = (pr.w > 0.0 ? pr.w : frame.fluid.x) * pc.radius_scale;
-    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    Particle pt = load_particle(particles[i], pc.radius_scale);
+    if (pt.spray) return;
+    vec3 c = pt.c;
+    float r = pt.r;
     vec2 size = vec2(imageSize(depth_bits));
     vec2 osize = vec2(imageSize(out_color));
     float F = focal_for(size.y);
     float near = frame.proj.w;
     ivec2 lo, hi;
     if (!sphere_bounds(c, r, size, F, near, lo, hi)) return;
-    if (uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1) > MAX_PIXELS_PER_PARTICLE) return;
+    if (over_budget(lo, hi)) return;
     vec3 col = hsv2rgb(vec3(mix(pc.hue.x, pc.hue.y, clamp(values[i], 0.0, 1.0)), 0.85, 0.95));
     vec3 L = normalize(mat3(frame.view) * frame.sun.xyz);
     for (int y = lo.y; y <= hi.y; ++y) {

@@ -39,3 +39,26 @@ bool ray_sphere(vec3 dir, vec3 c, float r, out float d_in, out float d_out) {
     d_out = (tc + h) / len;
     return true;
 }
+
+/// One particle as every per-particle shader reads it: the `w` encoding Renderer::set_particles_with writes
+/// (w > 0: its own radius; w = 0: the frame's; w < 0: spray, |w| its radius, or about 0 for the frame's).
+struct Particle {
+    vec3 c;      // view-space centre
+    float r;     // radius × radius_scale
+    bool spray;  // left out of the surface (NVIDIA patent US 8,947,430), still adds thickness
+};
+
+Particle load_particle(vec4 pr, float radius_scale) {
+    Particle p;
+    float own = abs(pr.w);
+    p.r = (own > 1e-30 ? own : frame.fluid.x) * radius_scale;
+    p.c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    p.spray = pr.w < 0.0;
+    return p;
+}
+
+/// The per-thread pixel budget (MAX_PIXELS_PER_PARTICLE, src/shader_constants.rs): a sphere covering more
+/// pixels (it swallowed the camera) is skipped.
+bool over_budget(ivec2 lo, ivec2 hi) {
+    return uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1) > uint(MAX_PIXELS_PER_PARTICLE);
+}

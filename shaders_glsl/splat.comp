@@ -18,7 +18,7 @@ layout(set = 0, binding = 3, r32ui) uniform coherent uimage2D back_bits;
 // Occlusion bound per tile from `splat_cull` (float bits); used when pc.cull = 1 (not with `back`, which
 // needs every sphere's exit).
 layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D tiles;
-layout(push_constant) uniform Push { uint count; uint max_pixels; float radius_scale; uint back; uint cull; uint tile; } pc;
+layout(push_constant) uniform Push { uint count; float radius_scale; uint back; uint cull; uint tile; } pc;
 
 /// Nearest entry (atomicMin) and, with pc.back, farthest exit (atomicMax) of the sphere at pixel q.
 void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
@@ -32,21 +32,19 @@ void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    vec4 pr = particles[i];
-    // Spray (w < 0) is left out of the surface (NVIDIA patent US 8,947,430).
-    if (pr.w < 0.0) return;
     // The depth splat may use a larger sphere than the particle (radius_scale): SPH surfaces lie about half a
     // radius outside the particle centres' spheres, and the larger spheres close gaps between particles.
-    float r = (pr.w > 0.0 ? pr.w : frame.fluid.x) * pc.radius_scale;
-    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    Particle pt = load_particle(particles[i], pc.radius_scale);
+    if (pt.spray) return;
+    vec3 c = pt.c;
+    float r = pt.r;
     vec2 size = vec2(imageSize(depth_bits));
     float F = focal_for(size.y);
     float near = frame.proj.w;
     ivec2 lo, hi;
     if (!sphere_bounds(c, r, size, F, near, lo, hi)) return;
     // Bound the work of one thread (a sphere swallowing the camera); such a sphere is clipped, not dropped.
-    uint area = uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1);
-    if (area > pc.max_pixels) return;
+    if (over_budget(lo, hi)) return;
     if (pc.cull == 0u) {
         for (int y = lo.y; y <= hi.y; ++y) {
             for (int x = lo.x; x <= hi.x; ++x) splat_pixel(ivec2(x, y), c, r, size, F, near);

@@ -22,10 +22,10 @@ bool inside(ivec2 px, vec3 c, float r, vec2 size, float F) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    vec4 pr = particles[i];
-    if (pr.w < 0.0) return;
-    float r = (pr.w > 0.0 ? pr.w : frame.fluid.x) * pc.radius_scale;
-    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    Particle pt = load_particle(particles[i], pc.radius_scale);
+    if (pt.spray) return;
+    vec3 c = pt.c;
+    float r = pt.r;
     float near = frame.proj.w;
     if (-c.z - r <= near) return; // crosses the near plane: no bound
     vec2 size = vec2(pc.size);

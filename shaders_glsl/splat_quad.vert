@@ -12,9 +12,10 @@ void main() {
     vec4 pr = particles[i];
     gl_Position = vec4(2.0, 2.0, 0.5, 1.0); // culled unless set below
     v_sphere = vec4(0.0);
-    if (pr.w < 0.0) return; // spray
-    float r = (pr.w > 0.0 ? pr.w : frame.fluid.x) * pc.radius_scale;
-    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    Particle pt = load_particle(pr, pc.radius_scale);
+    if (pt.spray) return;
+    vec3 c = pt.c;
+    float r = pt.r;
     float near = frame.proj.w;
     ivec2 lo, hi;
     if (!sphere_bounds(c, r, pc.size, focal_for(pc.size.y), near, lo, hi)) return;

@@ -10,23 +10,22 @@ layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32f) uniform readonly image2D scene_depth;
 layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;
-layout(push_constant) uniform Push { uint count; uint max_pixels; } pc;
+layout(push_constant) uniform Push { uint count; } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    vec4 pr = particles[i];
-    // Spray (w < 0) still adds thickness; |w| ≈ 0 means the frame's radius.
-    float r = abs(pr.w) > 1e-30 ? abs(pr.w) : frame.fluid.x;
-    vec3 c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
+    // Spray still adds thickness.
+    Particle pt = load_particle(particles[i], 1.0);
+    vec3 c = pt.c;
+    float r = pt.r;
     vec2 size = vec2(imageSize(accum));
     vec2 scene_size = vec2(imageSize(scene_depth));
     float F = focal_for(size.y);
     float near = frame.proj.w;
     ivec2 lo, hi;
     if (!sphere_bounds(c, r, size, F, near, lo, hi)) return;
-    uint area = uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1);
-    if (area > pc.max_pixels) return;
+    if (over_budget(lo, hi)) return;
     vec2 to_scene = scene_size / size;
     for (int y = lo.y; y <= hi.y; ++y) {
         for (int x = lo.x; x <= hi.x; ++x) {

@@ -1,7 +1,7 @@
 //! `splat` pass: nearest linear eye depth of every particle sphere. Default: the compute splat with
 //! atomicMin (shaders_glsl/splat.comp; the depth image is R32_SFLOAT with an R32_UINT view for the atomics).
 //! Rasterised variants for measurement (`SplatMode`): quads or point sprites with gl_FragDepth, conservative
-//! depth, or MIN blending (shaders_glsl/splat_{quad,point}.vert + splat_{fragdepth,conservative,min}.frag).
+//! depth, or MIN blending (shaders_glsl/splat_{quad,point}.vert + splat.frag, compiled once per variant).
 use std::sync::Arc;
 
 use ash::vk;
@@ -16,7 +16,7 @@ use crate::shaders;
 
 pub const NAME: &str = "splat";
 
-pub use crate::shader_constants::{MAX_PIXELS_PER_PARTICLE, SPLAT_TILE as TILE};
+pub use crate::shader_constants::SPLAT_TILE as TILE;
 
 pub struct Splat {
     prog: ComputeProgram<SplatPush>,
@@ -30,7 +30,6 @@ pub struct Splat {
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SplatPush {
     pub count: u32,
-    pub max_pixels: u32,
     pub radius_scale: f32,
     pub back: u32,
     pub cull: u32,
@@ -182,14 +181,7 @@ impl Splat {
                 };
                 self.cull.dispatch(ctx, &[frame.into(), particles.into(), tiles.into()], &push, groups);
             }
-            let push = SplatPush {
-                count,
-                max_pixels: MAX_PIXELS_PER_PARTICLE,
-                radius_scale,
-                back: back as u32,
-                cull: cull as u32,
-                tile: TILE,
-            };
+            let push = SplatPush { count, radius_scale, back: back as u32, cull: cull as u32, tile: TILE };
             let res = [frame.into(), particles.into(), depth.into(), back_img.into(), tiles.into()];
             self.prog.dispatch(ctx, &res, &push, groups);
         });

@@ -7,7 +7,6 @@ use ash::vk;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::shader_constants::MAX_PIXELS_PER_PARTICLE;
 use crate::shaders;
 
 pub const NAME: &str = "thickness";
@@ -22,7 +21,6 @@ pub struct Thickness {
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct AccumulatePush {
     pub count: u32,
-    pub max_pixels: u32,
 }
 
 /// Push constants of thickness_blur.comp.
@@ -58,7 +56,7 @@ impl Thickness {
     ) {
         ctx.pass(NAME, |ctx| {
             ctx.clear(accum, vk::ClearColorValue { uint32: [0; 4] });
-            let push = AccumulatePush { count, max_pixels: MAX_PIXELS_PER_PARTICLE };
+            let push = AccumulatePush { count };
             let res = [frame.into(), particles.into(), scene_depth.into(), accum.into()];
             self.accumulate.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
             let push = BlurPush { radius: blur_radius, sigma: (blur_radius as f32 * 0.5).max(0.5) };
