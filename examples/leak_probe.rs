@@ -165,7 +165,7 @@ fn wave_frame(gpu: &Arc<Gpu>, no_filter: bool) -> meniscus::Result<(Renderer, Vi
     let gen = procedural::generate("wave", 20_000)?;
     let mut s = Settings { radius: gen.radius, ..Settings::default() };
     if no_filter {
-        s.filter = meniscus::settings::Filter::None;
+        s.smooth.filter = meniscus::settings::Filter::None;
     }
     let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
     let view = View {

@@ -59,7 +59,7 @@ impl Environment {
         let size = ext.max_element();
         let ground_y = b.lo.y - radius;
         let mut boxes = vec![];
-        if s.scene_boxes {
+        if s.background.boxes {
             let w = size * 0.06;
             let h = size * 0.3;
             let z0 = b.lo.z - size * 0.15;
@@ -74,7 +74,7 @@ impl Environment {
             ));
         }
         let tile = (size / 8.0).max(radius * 4.0);
-        Environment { ground_y, tile, fog: size * 12.0, ground: s.ground, boxes, sky_cube: false }
+        Environment { ground_y, tile, fog: size * 12.0, ground: s.background.ground, boxes, sky_cube: false }
     }
 }
 
@@ -92,8 +92,8 @@ impl FrameUniforms {
     pub fn new(v: &View, s: &Settings, count: u32) -> FrameUniforms {
         let view: Mat4 = v.camera.view();
         let inv = view.inverse();
-        let sun = Vec3::from(s.sun_dir).normalize_or(Vec3::Y);
-        let ext = Vec3::from(s.extinction) * s.extinction_scale;
+        let sun = Vec3::from(s.background.sun_dir).normalize_or(Vec3::Y);
+        let ext = Vec3::from(s.composite.extinction) * s.composite.extinction_scale;
         let mut u = FrameUniforms {
             view: view.to_cols_array(),
             inv_view: inv.to_cols_array(),
@@ -101,12 +101,27 @@ impl FrameUniforms {
             proj: [v.camera.focal_px(v.height), v.width as f32, v.height as f32, v.camera.near],
             // Thickness fixed point: 1024 units per particle radius.
             fluid: [s.radius, s.fluid_scale, 1024.0 / s.radius, count as f32],
-            sun: sun.extend(s.sun_intensity).to_array(),
+            sun: sun.extend(s.background.sun_intensity).to_array(),
             ground: [v.env.ground_y, v.env.tile, v.env.ground as u32 as f32, v.env.fog],
             extinction: ext.extend(0.0).to_array(),
-            fluid_color: [s.fluid_color[0], s.fluid_color[1], s.fluid_color[2], s.ambient],
-            shading: [s.refraction_alpha, s.refraction_beta, s.transparency_gamma, s.specular],
-            shading2: [s.shininess, s.f0, s.reflect_sky as u32 as f32, v.env.sky_cube as u32 as f32],
+            fluid_color: [
+                s.composite.fluid_color[0],
+                s.composite.fluid_color[1],
+                s.composite.fluid_color[2],
+                s.composite.ambient,
+            ],
+            shading: [
+                s.composite.refraction_alpha,
+                s.composite.refraction_beta,
+                s.composite.transparency_gamma,
+                s.composite.specular,
+            ],
+            shading2: [
+                s.composite.shininess,
+                s.composite.f0,
+                s.composite.reflect_sky as u32 as f32,
+                v.env.sky_cube as u32 as f32,
+            ],
             box_count: [v.env.boxes.len().min(MAX_BOXES) as f32, 0.0, 0.0, 0.0],
             box_min: [[0.0; 4]; MAX_BOXES],
             box_max: [[0.0; 4]; MAX_BOXES],
@@ -189,9 +204,10 @@ pub fn record_frame(
     if !background_cached {
         p.background.record(ctx, frame, sky, mesh, &t.scene_color, &t.scene_depth);
     }
-    match s.splat {
+    match s.splat.mode {
         SplatMode::Compute => {
-            p.splat.record(ctx, frame, particles, count, &t.depth, t.depth_back.as_ref(), &t.depth_tiles, s, info)
+            let spheres = (s.radius, s.splat_scale());
+            p.splat.record(ctx, frame, particles, count, &t.depth, t.depth_back.as_ref(), &t.depth_tiles, spheres, info)
         }
         mode => {
             p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)?
@@ -199,7 +215,7 @@ pub fn record_frame(
     }
     if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
         // The rasterised splats do not write the far exit: the march then runs to the grid's box.
-        let back = t.depth_back.as_ref().filter(|_| s.splat == SplatMode::Compute);
+        let back = t.depth_back.as_ref().filter(|_| s.splat.mode == SplatMode::Compute);
         p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);
     }
     p.thickness.record(
@@ -210,19 +226,19 @@ pub fn record_frame(
         &t.scene_depth,
         &t.thickness_accum,
         &t.thickness,
-        s.thickness_blur_px,
+        s.thickness.blur_px,
     );
-    let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), s, info);
+    let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, info);
     let fluid_depth = t.smoothed(smoothed);
     let surface = match &t.depth_full {
         Some(full) => {
-            p.upsample.record(ctx, frame, fluid_depth, full, s.normal_edge * s.radius);
+            p.upsample.record(ctx, frame, fluid_depth, full, s.normals.edge * s.radius);
             full
         }
         None => fluid_depth,
     };
-    p.normals.record(ctx, frame, surface, &t.normals, s.normal_edge * s.radius);
-    p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.ssr, s);
+    p.normals.record(ctx, frame, surface, &t.normals, s.normals.edge * s.radius);
+    p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,
         scene_depth: &t.scene_depth,

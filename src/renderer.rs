@@ -149,7 +149,7 @@ impl Renderer {
     /// `spray_by_neighbours`) and the per-particle radii the file carries (`pscale`/`radius`, when mapped).
     /// The one place `render`, `bench` and `demo` upload through, so they see the same particles.
     pub fn set_scene_particles(&mut self, p: &crate::scene::Particles, s: &Settings) -> Result<()> {
-        let spray = crate::scene::spray_mask_with(p, s.radius, s.spray_density, s.spray_by_neighbours);
+        let spray = crate::scene::spray_mask_with(p, s.radius, s.spray.density, s.spray.by_neighbours);
         self.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))
     }
 
@@ -162,7 +162,13 @@ impl Renderer {
     fn background_cached(&mut self, view: &View, s: &Settings) -> bool {
         let key = format!(
             "{:?}|{}x{}|{:?}|{:?}|{:?}|{}",
-            view.camera, view.width, view.height, view.env, s.sun_dir, s.sun_intensity, s.ambient
+            view.camera,
+            view.width,
+            view.height,
+            view.env,
+            s.background.sun_dir,
+            s.background.sun_intensity,
+            s.composite.ambient
         );
         let hit = !self.always_render_background && self.background_key.as_deref() == Some(key.as_str());
         self.background_key = Some(key);
@@ -257,10 +263,10 @@ impl Renderer {
     ) -> Result<PassTimes> {
         use crate::passes::view::ViewMode;
         s.validate()?;
-        if !self.passes.splat.supports(s.splat) {
+        if !self.passes.splat.supports(s.splat.mode) {
             return Err(Error::Invalid(format!(
                 "splat mode {} is not supported on {}",
-                s.splat.name(),
+                s.splat.mode.name(),
                 self.gpu.info.name
             )));
         }
@@ -268,7 +274,7 @@ impl Renderer {
         self.write_uniforms(view, s)?;
         let cached = self.background_cached(view, s);
         let iso = if s.surface == crate::settings::Surface::Iso {
-            self.ensure_iso(s.iso_support * s.radius)?;
+            self.ensure_iso(s.iso.support * s.radius)?;
             self.iso.as_ref()
         } else {
             None
@@ -299,7 +305,7 @@ impl Renderer {
                     ViewMode::Particles => {
                         views.view.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
                         if let Some(v) = values {
-                            views.particles.record(&mut ctx, uniforms, particles, v, count, t, s.splat_radius_scale);
+                            views.particles.record(&mut ctx, uniforms, particles, v, count, t, s.splat.radius_scale);
                         }
                     }
                     m => {

@@ -35,10 +35,10 @@ impl TargetsDesc {
             width,
             height,
             fluid: scaled(width, height, s.fluid_scale),
-            thickness: scaled(width, height, s.thickness_scale),
+            thickness: scaled(width, height, s.thickness.scale),
             keep_raw,
             back: s.surface == Surface::Iso,
-            zbuffer: s.splat.depth_tested(),
+            zbuffer: s.splat.mode.depth_tested(),
         }
     }
 
@@ -179,10 +179,10 @@ mod tests {
         let d = TargetsDesc::new(640, 360, &half, true);
         assert!(d.upsampled() && d.keep_raw);
         assert_eq!(d.fluid, vk::Extent2D { width: 320, height: 180 });
-        let quad = Settings { splat: crate::settings::SplatMode::QuadFragDepth, ..s.clone() };
+        let quad = s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadFragDepth);
         assert!(TargetsDesc::new(640, 360, &quad, false).zbuffer);
         assert!(
-            !TargetsDesc::new(640, 360, &Settings { splat: crate::settings::SplatMode::QuadMin, ..s }, false).zbuffer
+            !TargetsDesc::new(640, 360, &s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadMin), false).zbuffer
         );
     }
 }

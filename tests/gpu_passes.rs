@@ -18,7 +18,7 @@ fn splat_depth_matches_analytic_sphere() {
     let (w, h) = (96usize, 64usize);
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(0.5);
-    s.filter = Filter::None;
+    s.smooth.filter = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
     r.keep_raw_depth = true;
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
@@ -50,7 +50,7 @@ fn splat_clamps_to_near_plane() {
     let gpu = gpu();
     let v = view([0.0, 0.0, 0.3], [0.0, 0.0, 0.0], 32, 32, 60.0);
     let mut s = settings(0.5);
-    s.filter = Filter::None;
+    s.smooth.filter = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
     r.keep_raw_depth = true;
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
@@ -68,8 +68,8 @@ fn thickness_of_one_sphere_is_its_chord() {
     let (w, h) = (64usize, 64usize);
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(0.5);
-    s.thickness_scale = 1.0;
-    s.thickness_blur_px = 0;
+    s.thickness.scale = 1.0;
+    s.thickness.blur_px = 0;
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
     r.render(&v, &s).unwrap();
@@ -100,8 +100,8 @@ fn thickness_is_zero_behind_scene_geometry() {
     // A box covering the left half of the screen in front of the sphere.
     v.env.boxes = vec![(glam::Vec3::new(-5.0, -5.0, 0.8), glam::Vec3::new(0.0, 5.0, 1.0))];
     let mut s = settings(0.5);
-    s.thickness_scale = 1.0;
-    s.thickness_blur_px = 0;
+    s.thickness.scale = 1.0;
+    s.thickness.blur_px = 0;
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
     r.render(&v, &s).unwrap();
@@ -201,7 +201,15 @@ fn smooth_once(
     let out = gpu
         .one_shot(|cmd| {
             let mut ctx = FrameCtx::new(gpu, cmd, None);
-            Ok(r.passes.smooth.record_iterations(&mut ctx, &r.uniforms, &t.depth, t.ping_pong(), s, its))
+            Ok(r.passes.smooth.record_iterations(
+                &mut ctx,
+                &r.uniforms,
+                &t.depth,
+                t.ping_pong(),
+                &s.smooth,
+                s.radius,
+                its,
+            ))
         })
         .unwrap();
     read_f32(gpu, t.smoothed(out)).unwrap()
@@ -215,13 +223,13 @@ fn bilateral_separable_and_2d_match_cpu_reference() {
     let f = v.camera.focal_px(h as u32);
     for filter in [Filter::Bilateral, Filter::Bilateral2d, Filter::Gaussian] {
         let mut s = settings(0.05);
-        s.filter = filter;
-        s.bilateral_iterations = 1;
+        s.smooth.filter = filter;
+        s.smooth.bilateral.iterations = 1;
         let src = bumpy_depth(w, h);
         let got = smooth_once(&gpu, &v, &s, &src, 0);
-        let sr = if filter == Filter::Gaussian { 0.0 } else { s.bilateral_sigma_range * s.radius };
-        let rho = s.smooth_radius * s.radius;
-        let max_px = s.smooth_max_px as i32;
+        let sr = if filter == Filter::Gaussian { 0.0 } else { s.smooth.bilateral.sigma_range * s.radius };
+        let rho = s.smooth.radius * s.radius;
+        let max_px = s.smooth.max_px as i32;
         let want = match filter {
             Filter::Bilateral2d => bilateral_cpu(&src, w, h, f, (0, 0), rho, sr, max_px),
             _ => {
@@ -367,9 +375,9 @@ fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
     {
         for bumpy in [true, false] {
             let mut s = settings(r);
-            s.filter = filter;
+            s.smooth.filter = filter;
             let src = make(bumpy);
-            let its = meniscus::passes::smooth::iterations_needed(&s, f as f32, 2.5);
+            let its = meniscus::passes::smooth::iterations_needed(&s.smooth, s.radius, f as f32, 2.5);
             let got = smooth_once(&gpu, &v, &s, &src, its);
             for i in 0..w * h {
                 assert_eq!(src[i].is_infinite(), got[i].is_infinite(), "{filter:?}: coverage changed at {i}");
@@ -397,11 +405,11 @@ fn ssr_hits_match_cpu_ray_tracer() {
     let (bmin, bmax) = (Vec3::new(-0.8, 0.0, -1.5), Vec3::new(0.8, 1.0, -1.0));
     v.env.boxes = vec![(bmin, bmax)];
     let mut s = settings(0.01);
-    s.ssr_stride = 2.0;
-    s.ssr_max_steps = 400;
-    s.ssr_refine = 4;
-    s.ssr_max_distance = 800.0;
-    s.ssr_thickness = 5.0;
+    s.ssr.stride = 2.0;
+    s.ssr.max_steps = 400;
+    s.ssr.refine = 4;
+    s.ssr.max_distance = 800.0;
+    s.ssr.thickness = 5.0;
     let mut r = Renderer::new(&gpu).unwrap();
     r.ensure_targets(w as u32, h as u32, &s).unwrap();
     r.write_uniforms(&v, &s).unwrap();
@@ -429,7 +437,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
         r.passes.background.record(&mut ctx, &r.uniforms, &r.sky, r.background_mesh(), &t.scene_color, &t.scene_depth);
         r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
-        r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s);
+        r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
         Ok(())
     })
     .unwrap();
@@ -640,7 +648,7 @@ fn narrow_cpu(
 
 /// CPU reference of one curvature-flow iteration (curvature.glsl, untiled).
 fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscus::settings::Settings) -> Vec<f32> {
-    let edge = s.cf_edge * s.radius;
+    let edge = s.smooth.curvature.edge * s.radius;
     let at = |x: i32, y: i32, z: f32| {
         if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 {
             return z;
@@ -656,7 +664,8 @@ fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscu
     for y in 0..h as i32 {
         for x in 0..w as i32 {
             let z = src[y as usize * w + x as usize];
-            let its = (s.cf_it_max as i32).min((f * s.cf_radius * s.radius / z.max(1e-6)) as i32);
+            let its =
+                (s.smooth.curvature.it_max as i32).min((f * s.smooth.curvature.radius * s.radius / z.max(1e-6)) as i32);
             if !(z < 1e30) || iter >= its {
                 continue;
             }
@@ -666,14 +675,14 @@ fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscu
             let zyy = n(0, 1) - 2.0 * z + n(0, -1);
             let zxy = 0.25 * (n(1, 1) - n(-1, 1) - n(1, -1) + n(-1, -1));
             let c = 1.0 / f;
-            let zk = z + s.cf_kappa;
+            let zk = z + s.smooth.curvature.kappa;
             let c2 = c * c;
             let dd = c2 * zx * zx + c2 * zy * zy + c2 * c2 * zk * zk;
             let dx = 2.0 * c2 * zx * zxx + 2.0 * c2 * zy * zxy + 2.0 * c2 * c2 * zk * zx;
             let dy = 2.0 * c2 * zx * zxy + 2.0 * c2 * zy * zyy + 2.0 * c2 * c2 * zk * zy;
             let hh = (c * (0.5 * zx * dx - zxx * dd) + c * (0.5 * zy * dy - zyy * dd)) / (2.0 * dd.powf(1.5));
             let stable = 0.2 * 2.0 * zk / f;
-            let dt = if s.cf_dt > 0.0 { s.cf_dt.min(stable) } else { stable };
+            let dt = if s.smooth.curvature.dt > 0.0 { s.smooth.curvature.dt.min(stable) } else { stable };
             out[y as usize * w + x as usize] = z - dt * hh;
         }
     }
@@ -700,28 +709,29 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     };
     // Narrow range: two separable passes then one 2D pass.
     let mut s = settings(0.05);
-    s.filter = Filter::NarrowRange;
-    let (rho, thr, mu) = (s.nrf_radius * s.radius, s.nrf_threshold * s.radius, s.nrf_mu * s.radius);
-    let mp = s.smooth_max_px as i32;
+    s.smooth.filter = Filter::NarrowRange;
+    let (rho, thr, mu) =
+        (s.smooth.narrow.radius * s.radius, s.smooth.narrow.threshold * s.radius, s.smooth.narrow.mu * s.radius);
+    let mp = s.smooth.max_px as i32;
     for skip in [false, true] {
-        s.nrf_skip_background = skip;
+        s.smooth.narrow.skip_background = skip;
         let a = narrow_cpu(&src, w, h, f, (1, 0), rho, thr, mu, mp, 0, skip);
         let b = narrow_cpu(&a, w, h, f, (0, 1), rho, thr, mu, mp, 0, skip);
-        let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.nrf_2d_px as i32, skip);
+        let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.smooth.narrow.px_2d as i32, skip);
         close(&run(&s, 0), &want, &format!("narrow-range, skip background {skip}"), 1e-4);
     }
     // Curvature flow: 8 iterations, CPU vs GPU untiled vs GPU tiled (4 per dispatch).
     let mut s = settings(0.05);
-    s.filter = Filter::CurvatureFlow;
-    s.cf_it_max = 8;
-    s.cf_radius = 40.0;
+    s.smooth.filter = Filter::CurvatureFlow;
+    s.smooth.curvature.it_max = 8;
+    s.smooth.curvature.radius = 40.0;
     let mut want = src.clone();
     for it in 0..8 {
         want = curvature_cpu(&want, w, h, f, it, &s);
     }
-    s.cf_iters_per_dispatch = 1;
+    s.smooth.curvature.iters_per_dispatch = 1;
     close(&run(&s, 8), &want, "curvature flow, 1 it/dispatch", 2e-4);
-    s.cf_iters_per_dispatch = 4;
+    s.smooth.curvature.iters_per_dispatch = 4;
     close(&run(&s, 8), &want, "curvature flow, 4 it/dispatch", 2e-4);
     assert_clean(&gpu);
 }
@@ -753,8 +763,8 @@ fn splat_depth(
     mode: meniscus::settings::SplatMode,
 ) -> Option<Vec<f32>> {
     let mut s = settings(radius);
-    s.filter = Filter::None;
-    s.splat = mode;
+    s.smooth.filter = Filter::None;
+    s.splat.mode = mode;
     let mut r = Renderer::new(gpu).unwrap();
     if !r.passes.splat.supports(mode) {
         return None;
@@ -809,8 +819,8 @@ fn skybox_faces_from_files() {
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_skybox(size, &faces).unwrap();
     let mut s = settings(0.05);
-    s.sun_intensity = 0.0;
-    s.filter = Filter::None;
+    s.background.sun_intensity = 0.0;
+    s.smooth.filter = Filter::None;
     r.set_particles(&[[100.0, 100.0, 100.0]], None).unwrap();
     for (target, want) in [([1.0f32, 0.0, 0.0], [255u8, 0, 0]), ([0.0, 1.0, 0.001], [0, 0, 255])] {
         let mut v = view([0.0, 0.0, 0.0], target, 16, 16, 30.0);
@@ -857,7 +867,7 @@ fn iso_surface_matches_cpu_ray_cast() {
     pts.push([0.4 + 2.2 * r, 0.35, 0.1]);
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut s = settings(r);
-    s.filter = Filter::None;
+    s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
@@ -865,7 +875,7 @@ fn iso_surface_matches_cpu_ray_cast() {
     rd.render(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
 
-    let grid = IsoGrid::build(&pts, s.iso_support * r);
+    let grid = IsoGrid::build(&pts, s.iso.support * r);
     let inv = grid.inv_density();
     let p = s.iso_params();
     let view_m = v.camera.view();
@@ -878,7 +888,7 @@ fn iso_surface_matches_cpu_ray_cast() {
         for x in 0..w {
             let dv = pixel_dir(x, y, w, h, f);
             let hits: Vec<(f64, f64)> =
-                centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso_bound * r) as f64)).collect();
+                centres.iter().filter_map(|c| ray_sphere(dv, *c, (s.iso.bound * r) as f64)).collect();
             let start = hits.iter().map(|h| h.0).fold(f64::INFINITY, f64::min);
             let back = hits.iter().map(|h| h.1).fold(0.0, f64::max) as f32;
             let dir = inv_view.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
@@ -922,7 +932,7 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
     let mesh = meniscus::mesh::Mesh::parse_obj(obj).unwrap();
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut s = settings(0.05);
-    s.filter = Filter::None;
+    s.smooth.filter = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_particles(&[[10.0, 10.0, 10.0]], None).unwrap();
     r.set_background_mesh(&mesh).unwrap();
@@ -996,11 +1006,11 @@ fn composite_matches_cpu_reference() {
     let (w, h) = (64usize, 32usize);
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(0.05);
-    s.reflect_sky = false;
-    s.specular = 0.0;
-    s.thickness_scale = 1.0;
-    s.refraction_alpha = 40.0;
-    s.refraction_beta = 6.0;
+    s.composite.reflect_sky = false;
+    s.composite.specular = 0.0;
+    s.thickness.scale = 1.0;
+    s.composite.refraction_alpha = 40.0;
+    s.composite.refraction_beta = 6.0;
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
     r.ensure_targets(w as u32, h as u32, &s).unwrap();
@@ -1048,22 +1058,23 @@ fn composite_matches_cpu_reference() {
     let out = read_image(&gpu, &t.final_color).unwrap();
     let n = meniscus::passes::normals::unpack(n_bits);
     let f = v.camera.focal_px(h as u32) as f64;
-    let eta: Vec<f64> = s.extinction.iter().map(|e| (*e * s.extinction_scale) as f64).collect();
+    let eta: Vec<f64> = s.composite.extinction.iter().map(|e| (*e * s.composite.extinction_scale) as f64).collect();
     let mut worst = 0f64;
     for y in 0..h {
         for x in 0..w {
             let tt = thick[y * w + x] as f64;
             let atten: Vec<f64> = eta.iter().map(|e| (-e * tt).exp()).collect();
-            let off = n[0] as f64 * (tt * s.refraction_alpha as f64).min(s.refraction_beta as f64);
+            let off = n[0] as f64 * (tt * s.composite.refraction_alpha as f64).min(s.composite.refraction_beta as f64);
             let rx = ((x as f64 + off) as i64).clamp(0, w as i64 - 1) as usize;
             let c_refract: Vec<f64> = (0..3).map(|k| bg(rx)[k] as f64 * atten[k]).collect();
-            let c_fluid: Vec<f64> = (0..3).map(|k| (s.fluid_color[k] * s.ambient) as f64 * atten[k]).collect();
-            let tau = (-(s.transparency_gamma as f64) * tt).exp();
+            let c_fluid: Vec<f64> =
+                (0..3).map(|k| (s.composite.fluid_color[k] * s.composite.ambient) as f64 * atten[k]).collect();
+            let tau = (-(s.composite.transparency_gamma as f64) * tt).exp();
             let dir = pixel_dir(x, y, w, h, f);
             let len = (dir[0] * dir[0] + dir[1] * dir[1] + 1.0).sqrt();
             let vdir = [-dir[0] / len, -dir[1] / len, -dir[2] / len];
             let ndv = (n[0] as f64 * vdir[0] + n[1] as f64 * vdir[1] + n[2] as f64 * vdir[2]).max(0.0);
-            let f0 = s.f0 as f64;
+            let f0 = s.composite.f0 as f64;
             let fres = f0 + (1.0 - f0) * (1.0 - ndv).powi(5);
             for k in 0..3 {
                 let c = c_fluid[k] * (1.0 - tau) + c_refract[k] * (1.0 - fres) * tau;
@@ -1085,11 +1096,11 @@ fn thickness_blur_matches_cpu_gaussian() {
     let (w, h) = (48usize, 40usize);
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(0.3);
-    s.thickness_scale = 1.0;
+    s.thickness.scale = 1.0;
     let particles = [[0.0, 0.0, 0.0], [0.5, 0.2, -0.3], [-0.4, -0.3, 0.2]];
     let render = |blur: u32| {
         let mut s = s.clone();
-        s.thickness_blur_px = blur;
+        s.thickness.blur_px = blur;
         let mut r = Renderer::new(&gpu).unwrap();
         r.set_particles(&particles, None).unwrap();
         r.render(&v, &s).unwrap();

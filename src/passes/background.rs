@@ -9,6 +9,26 @@ use crate::shaders;
 
 pub const NAME: &str = "background";
 
+/// Settings of the `background` pass: the `[background]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Put a few boxes beside the fluid.
+    pub boxes: bool,
+    /// Draw the ground plane.
+    pub ground: bool,
+    /// Direction towards the sun (world), normalised on use.
+    pub sun_dir: [f32; 3],
+    /// Sun intensity.
+    pub sun_intensity: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { boxes: true, ground: true, sun_dir: [0.45, 0.8, 0.35], sun_intensity: 1.0 }
+    }
+}
+
 pub struct Background {
     prog: ComputeProgram<u32>,
 }

@@ -9,6 +9,52 @@ use crate::shaders;
 
 pub const NAME: &str = "composite";
 
+/// Settings of the `composite` pass: the `[composite]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Beer–Lambert extinction of water per metre (Moritz table 3.1) …
+    pub extinction: [f32; 3],
+    /// … times this scale (scenes are rarely metres thick).
+    pub extinction_scale: f32,
+    /// Colour I0 of the light scattered out of the fluid.
+    pub fluid_color: [f32; 3],
+    /// Ambient light on the fluid and the scene.
+    pub ambient: f32,
+    /// Refraction offset: pixels per world unit of thickness (α) …
+    pub refraction_alpha: f32,
+    /// … clamped to this many pixels (β).
+    pub refraction_beta: f32,
+    /// Transparency τ = exp(−γ·T), γ per world unit.
+    pub transparency_gamma: f32,
+    /// Specular strength k_s.
+    pub specular: f32,
+    /// Blinn–Phong exponent c.
+    pub shininess: f32,
+    /// Fresnel reflectance at normal incidence (water ≈ 0.02).
+    pub f0: f32,
+    /// Reflect the sky.
+    pub reflect_sky: bool,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            extinction: [0.555, 0.041, 0.0208],
+            extinction_scale: 20.0,
+            fluid_color: [0.10, 0.36, 0.52],
+            ambient: 0.55,
+            refraction_alpha: 60.0,
+            refraction_beta: 24.0,
+            transparency_gamma: 4.0,
+            specular: 0.6,
+            shininess: 300.0,
+            f0: 0.02,
+            reflect_sky: true,
+        }
+    }
+}
+
 pub struct Composite {
     prog: ComputeProgram,
 }

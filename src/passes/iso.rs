@@ -13,6 +13,30 @@ use crate::shaders;
 
 pub const NAME: &str = "iso";
 
+/// Settings of the `iso` pass: the `[iso]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Iso-surface: kernel support in particle radii (splashsurf: 2 × smoothing length 2.0 = 4).
+    pub support: f32,
+    /// Iso-surface: threshold of the normalised field (splashsurf: 0.6).
+    pub threshold: f32,
+    /// Iso-surface: smallest march step, particle radii.
+    pub step: f32,
+    /// Iso-surface: radius of the spheres the march starts from, particle radii (the surface lies inside).
+    pub bound: f32,
+    /// Iso-surface: most march steps per pixel.
+    pub max_steps: u32,
+    /// Iso-surface: bisection iterations after the first step past the threshold.
+    pub refine: u32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { support: 4.0, threshold: 0.6, step: 0.5, bound: 2.0, max_steps: 512, refine: 4 }
+    }
+}
+
 /// The grid on the device, and its shape (origin, cell, dims, point count, support) as push constants; the
 /// CPU copy of the grid is not kept.
 pub struct IsoBuffers {

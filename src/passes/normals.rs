@@ -9,6 +9,20 @@ use crate::shaders;
 
 pub const NAME: &str = "normals";
 
+/// Settings of the `normals` pass: the `[normals]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Depth jump, in particle radii, that the normals pass treats as a discontinuity.
+    pub edge: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { edge: 2.0 }
+    }
+}
+
 pub struct Normals {
     prog: ComputeProgram<f32>,
 }

@@ -7,10 +7,108 @@ use crate::declare_program;
 use crate::error::Result;
 use crate::frame::FrameInfo;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::settings::{Filter, Settings};
+use crate::settings::Filter;
 use crate::shaders;
 
 pub const NAME: &str = "smooth";
+
+/// Settings of the `smooth` pass: the `[smooth]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Depth smoothing filter.
+    pub filter: Filter,
+    /// World radius ρ of the smoothing kernel, in particle radii.
+    pub radius: f32,
+    /// Cap of the kernel radius in pixels.
+    pub max_px: u32,
+    /// `[smooth.bilateral]`: Gaussian and bilateral filters.
+    pub bilateral: BilateralParams,
+    /// `[smooth.narrow]`: the narrow-range filter.
+    pub narrow: NarrowParams,
+    /// `[smooth.curvature]`: curvature flow.
+    pub curvature: CurvatureParams,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            filter: Filter::NarrowRange,
+            radius: 4.0,
+            max_px: 24,
+            bilateral: BilateralParams::default(),
+            narrow: NarrowParams::default(),
+            curvature: CurvatureParams::default(),
+        }
+    }
+}
+
+/// Settings of the `smooth` pass: the `[smooth.bilateral]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BilateralParams {
+    /// Range σ_r of the bilateral filter, in particle radii.
+    pub sigma_range: f32,
+    /// How many times the (separable) filter runs.
+    pub iterations: u32,
+}
+
+impl Default for BilateralParams {
+    fn default() -> Self {
+        BilateralParams { sigma_range: 2.0, iterations: 2 }
+    }
+}
+
+/// Settings of the `smooth` pass: the `[smooth.narrow]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NarrowParams {
+    /// Narrow-range filter: world radius ρ of the kernel, in particle radii.
+    pub radius: f32,
+    /// Narrow-range filter: accepted range half-width, in particle radii (paper: 10–10.5).
+    pub threshold: f32,
+    /// Narrow-range filter: clamp offset μ behind the centre, in particle radii (paper: 1).
+    pub mu: f32,
+    /// Narrow-range filter: window radius of the final 2D pass, pixels.
+    pub px_2d: u32,
+    /// Narrow-range filter: how many times the separable + 2D passes run.
+    pub iterations: u32,
+    /// Narrow-range filter: background samples are skipped (true) or clamped to centre + μ like any far
+    /// sample (false, the paper).
+    pub skip_background: bool,
+}
+
+impl Default for NarrowParams {
+    fn default() -> Self {
+        NarrowParams { radius: 6.0, threshold: 10.0, mu: 1.0, px_2d: 2, iterations: 1, skip_background: true }
+    }
+}
+
+/// Settings of the `smooth` pass: the `[smooth.curvature]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CurvatureParams {
+    /// Curvature flow: time step Δt (Moritz: 0.005); 0 = the largest stable step at each pixel
+    /// (λ = Δt·F/(2(d+κ)) = 0.2), which carries over between resolutions and scene scales.
+    pub dt: f32,
+    /// Curvature flow: iteration cap it_max (Moritz: 60).
+    pub it_max: u32,
+    /// Curvature flow: world radius ρ in particle radii; a pixel iterates F·ρ/d times (Moritz eq. 3.8).
+    pub radius: f32,
+    /// Curvature flow: κ stabiliser near the camera, world units (Moritz: 3).
+    pub kappa: f32,
+    /// Curvature flow: iterations per dispatch (2–4: shared-memory tile; 1: one untiled dispatch per iteration,
+    /// the faster on lavapipe, see README's measurements).
+    pub iters_per_dispatch: u32,
+    /// Depth jump in particle radii that separates surfaces (curvature flow).
+    pub edge: f32,
+}
+
+impl Default for CurvatureParams {
+    fn default() -> Self {
+        CurvatureParams { dt: 0.0, it_max: 60, radius: 12.0, kappa: 3.0, iters_per_dispatch: 1, edge: 6.0 }
+    }
+}
 
 /// Which image holds the smoothed depth after the pass: its input (no filter), or the first or the second
 /// ping-pong image.
@@ -97,7 +195,7 @@ impl Smooth {
     /// (`depth` itself when the filter is `None`). `depth` is only read. `cf_iterations_needed`: the largest
     /// adaptive iteration count any pixel can have this frame (F·ρ/d of the nearest particle), see
     /// [`iterations_needed`].
-    /// Smooth `depth` with `s.filter`, ping-ponging between `pong.0` and `pong.1` (the second may be `depth`
+    /// Smooth `depth` with `p.filter`, ping-ponging between `pong.0` and `pong.1` (the second may be `depth`
     /// itself when the raw depth need not survive); returns which image holds the result. The pass decides its
     /// own dispatch count: curvature flow stops where no pixel iterates any more (`iterations_needed` from the
     /// frame's focal length and nearest fluid depth).
@@ -107,10 +205,12 @@ impl Smooth {
         frame: &Buffer,
         depth: &'a Image,
         pong: (&'a Image, &'a Image),
-        s: &Settings,
+        p: &Params,
+        radius: f32,
         info: &FrameInfo,
     ) -> Output {
-        self.record_iterations(ctx, frame, depth, pong, s, iterations_needed(s, info.focal_px, info.d_near))
+        let its = iterations_needed(p, radius, info.focal_px, info.d_near);
+        self.record_iterations(ctx, frame, depth, pong, p, radius, its)
     }
 
     /// [`Smooth::record`] with the curvature-flow iteration count given (tests drive it directly).
@@ -120,11 +220,12 @@ impl Smooth {
         frame: &Buffer,
         depth: &'a Image,
         pong: (&'a Image, &'a Image),
-        s: &Settings,
+        p: &Params,
+        radius: f32,
         cf_iterations_needed: u32,
     ) -> Output {
         let (a, b) = pong;
-        let r = s.radius;
+        let r = radius;
         // Each dispatch reads `src` and writes the next ping-pong image, which becomes `src`; `out` counts.
         let mut out = Output::Input;
         let mut src = depth;
@@ -135,57 +236,57 @@ impl Smooth {
             *src = dst;
             pair
         };
-        if s.filter == Filter::None {
+        if p.filter == Filter::None {
             return Output::Input;
         }
-        ctx.pass(NAME, |ctx| match s.filter {
+        ctx.pass(NAME, |ctx| match p.filter {
             Filter::None => {}
             Filter::Gaussian | Filter::Bilateral | Filter::Bilateral2d => {
-                let sigma_range = if s.filter == Filter::Gaussian { 0.0 } else { s.bilateral_sigma_range * r };
-                let dirs: &[[i32; 2]] = if s.filter == Filter::Bilateral2d { &[[0, 0]] } else { &[[1, 0], [0, 1]] };
-                for _ in 0..s.bilateral_iterations.max(1) {
+                let sigma_range = if p.filter == Filter::Gaussian { 0.0 } else { p.bilateral.sigma_range * r };
+                let dirs: &[[i32; 2]] = if p.filter == Filter::Bilateral2d { &[[0, 0]] } else { &[[1, 0], [0, 1]] };
+                for _ in 0..p.bilateral.iterations.max(1) {
                     for dir in dirs {
                         let push = BilateralPush {
                             dir: *dir,
-                            world_radius: s.smooth_radius * r,
+                            world_radius: p.radius * r,
                             sigma_range,
-                            max_px: s.smooth_max_px as i32,
+                            max_px: p.max_px as i32,
                         };
                         step(ctx, &self.bilateral, frame, next(&mut src), &push, super::LOCAL_2D);
                     }
                 }
             }
             Filter::NarrowRange => {
-                for _ in 0..s.nrf_iterations.max(1) {
+                for _ in 0..p.narrow.iterations.max(1) {
                     for dir in [[1, 0], [0, 1], [0, 0]] {
                         let push = NarrowPush {
                             dir,
-                            world_radius: s.nrf_radius * r,
-                            threshold: s.nrf_threshold * r,
-                            mu: s.nrf_mu * r,
-                            max_px: s.smooth_max_px as i32,
-                            radius_2d: s.nrf_2d_px as i32,
-                            skip_background: s.nrf_skip_background as i32,
+                            world_radius: p.narrow.radius * r,
+                            threshold: p.narrow.threshold * r,
+                            mu: p.narrow.mu * r,
+                            max_px: p.max_px as i32,
+                            radius_2d: p.narrow.px_2d as i32,
+                            skip_background: p.narrow.skip_background as i32,
                         };
                         step(ctx, &self.narrow, frame, next(&mut src), &push, super::LOCAL_2D);
                     }
                 }
             }
             Filter::CurvatureFlow => {
-                let k = s.cf_iters_per_dispatch.clamp(1, 4);
+                let k = p.curvature.iters_per_dispatch.clamp(1, 4);
                 // No pixel iterates more than F·ρ/d_near times: stop dispatching there.
-                let total = s.cf_it_max.min(cf_iterations_needed);
+                let total = p.curvature.it_max.min(cf_iterations_needed);
                 let mut first = 0;
                 while first < total {
                     let iters = k.min(total - first);
                     let push = CurvaturePush {
                         iters: iters as i32,
                         first_iter: first as i32,
-                        it_max: s.cf_it_max as i32,
-                        dt: s.cf_dt,
-                        world_radius: s.cf_radius * r,
-                        kappa: s.cf_kappa,
-                        edge: s.cf_edge * r,
+                        it_max: p.curvature.it_max as i32,
+                        dt: p.curvature.dt,
+                        world_radius: p.curvature.radius * r,
+                        kappa: p.curvature.kappa,
+                        edge: p.curvature.edge * r,
                     };
                     // K = 1: the untiled shader (no shared memory, no halo recomputation).
                     if iters == 1 {
@@ -202,7 +303,7 @@ impl Smooth {
 }
 
 /// Largest adaptive curvature-flow iteration count of a frame: F·ρ/d for the nearest particle depth `d_near`.
-pub fn iterations_needed(s: &Settings, focal_px: f32, d_near: f32) -> u32 {
-    let its = focal_px * s.cf_radius * s.radius / d_near.max(1e-6);
-    (its.ceil().max(0.0) as u32).min(s.cf_it_max)
+pub fn iterations_needed(p: &Params, radius: f32, focal_px: f32, d_near: f32) -> u32 {
+    let its = focal_px * p.curvature.radius * radius / d_near.max(1e-6);
+    (its.ceil().max(0.0) as u32).min(p.curvature.it_max)
 }

@@ -11,10 +11,26 @@ use crate::error::{Error, Result};
 use crate::frame::FrameInfo;
 use crate::gpu::pipeline::{GraphicsProgram, ProgramDecl, RasterTargets};
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::settings::{Settings, SplatMode};
+use crate::settings::SplatMode;
 use crate::shaders;
 
 pub const NAME: &str = "splat";
+
+/// Settings of the `splat` pass: the `[splat]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// How the depth splat draws.
+    pub mode: SplatMode,
+    /// The depth splat draws spheres of this many particle radii (1 = the particles themselves).
+    pub radius_scale: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { mode: SplatMode::Compute, radius_scale: 1.3 }
+    }
+}
 
 pub use crate::shader_constants::SPLAT_TILE as TILE;
 
@@ -145,7 +161,8 @@ impl Splat {
     /// farthest sphere exit per pixel into it (cleared to 0). The pass decides whether `splat_cull` first
     /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile: when spheres span tiles
     /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance), and never with
-    /// `back_img`, which needs every sphere. Spheres are `s.splat_scale()` particle radii.
+    /// `back_img`, which needs every sphere. Spheres are `radius_scale` particle radii of `radius` (the
+    /// frame's; particles may carry their own).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -156,12 +173,11 @@ impl Splat {
         depth: &Image,
         back_img: Option<&Image>,
         tiles: &Image,
-        s: &Settings,
+        (radius, radius_scale): (f32, f32),
         info: &FrameInfo,
     ) {
-        let radius_scale = s.splat_scale();
         let back = back_img.is_some();
-        let cull = !back && cull_pays(info.focal_px_fluid * s.radius * radius_scale / info.target_distance);
+        let cull = !back && cull_pays(info.focal_px_fluid * radius * radius_scale / info.target_distance);
         // Without a back image the binding still needs one: the depth itself (never written through it then).
         let back_img = back_img.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {

@@ -5,10 +5,33 @@ use std::sync::Arc;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::settings::Settings;
 use crate::shaders;
 
 pub const NAME: &str = "ssr";
+
+/// Settings of the `ssr` pass: the `[ssr]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Screen-space reflections of the scene (McGuire & Mara DDA).
+    pub enabled: bool,
+    /// SSR: pixels per step.
+    pub stride: f32,
+    /// SSR: most steps.
+    pub max_steps: u32,
+    /// SSR: binary refinement iterations after a hit.
+    pub refine: u32,
+    /// SSR: longest reflected ray, in particle radii.
+    pub max_distance: f32,
+    /// SSR: depth tolerance of a hit, in particle radii.
+    pub thickness: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { enabled: true, stride: 8.0, max_steps: 100, refine: 4, max_distance: 400.0, thickness: 40.0 }
+    }
+}
 
 pub struct Ssr {
     prog: ComputeProgram<Push>,
@@ -41,15 +64,16 @@ impl Ssr {
         normals: &Image,
         scene_depth: &Image,
         out: &Image,
-        s: &Settings,
+        p: &Params,
+        radius: f32,
     ) {
         ctx.pass(NAME, |ctx| {
             let push = Push {
-                stride: s.ssr_stride.max(1.0),
-                max_steps: if s.ssr { s.ssr_max_steps as i32 } else { 0 },
-                refine: s.ssr_refine as i32,
-                max_distance: s.ssr_max_distance * s.radius,
-                thickness: s.ssr_thickness * s.radius,
+                stride: p.stride.max(1.0),
+                max_steps: if p.enabled { p.max_steps as i32 } else { 0 },
+                refine: p.refine as i32,
+                max_distance: p.max_distance * radius,
+                thickness: p.thickness * radius,
             };
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             self.prog.dispatch(

@@ -11,6 +11,22 @@ use crate::shaders;
 
 pub const NAME: &str = "thickness";
 
+/// Settings of the `thickness` pass: the `[thickness]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Thickness resolution relative to the output (0.5 = half).
+    pub scale: f32,
+    /// Thickness blur radius in thickness pixels (0 = none).
+    pub blur_px: u32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { scale: 0.5, blur_px: 3 }
+    }
+}
+
 pub struct Thickness {
     accumulate: ComputeProgram<AccumulatePush>,
     blur: ComputeProgram<BlurPush>,

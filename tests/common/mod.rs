@@ -44,7 +44,12 @@ pub fn view(eye: [f32; 3], target: [f32; 3], w: u32, h: u32, fovy: f32) -> View 
 
 /// Settings with the given radius and nothing extra.
 pub fn settings(radius: f32) -> Settings {
-    Settings { radius, scene_boxes: false, ground: false, splat_radius_scale: 1.0, ..Settings::default() }
+    Settings::default().with(|s| {
+        s.radius = radius;
+        s.background.boxes = false;
+        s.background.ground = false;
+        s.splat.radius_scale = 1.0;
+    })
 }
 
 /// View-space ray direction through pixel (x, y) (z = −1), mirroring `pixel_dir` in common.glsl, in f64.

@@ -94,7 +94,8 @@ pub struct SettingsArgs {
     /// moritz (the thesis' curvature flow).
     #[arg(long, default_value = "default")]
     pub preset: String,
-    /// TOML file of settings applied over the preset (any field of src/settings.rs, e.g. `nrf_radius = 8.0`).
+    /// TOML file of settings applied over the preset, one section per pass, e.g. `[smooth.narrow]` then
+    /// `radius = 8.0` (README: Settings).
     #[arg(long)]
     pub settings: Option<PathBuf>,
     /// Depth smoothing filter.
@@ -120,13 +121,13 @@ impl SettingsArgs {
             s = s.with_toml(f)?;
         }
         if let Some(f) = self.filter {
-            s.filter = f;
+            s.smooth.filter = f;
         }
         if let Some(fs) = self.fluid_scale {
             s.fluid_scale = fs;
         }
         if let Some(m) = self.splat {
-            s.splat = m;
+            s.splat.mode = m;
         }
         if let Some(m) = self.surface {
             s.surface = m;

@@ -172,7 +172,7 @@ pub fn measure(
         width,
         height,
         variant: variant.to_string(),
-        filter: s.filter.name().to_string(),
+        filter: s.smooth.filter.name().to_string(),
         camera: camera.to_arg(),
         frames: frames.max(1),
         warmup,
@@ -395,12 +395,11 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             if table43 {
                 // Moritz table 4.3: stride / refinement iterations / max steps.
                 for (stride, refine, steps) in [(1, 0, 280), (4, 0, 180), (4, 2, 180), (8, 0, 100), (8, 4, 100)] {
-                    let vs = Settings {
-                        ssr_stride: stride as f32,
-                        ssr_refine: refine,
-                        ssr_max_steps: steps,
-                        ..base.clone()
-                    };
+                    let vs = base.with(|s| {
+                        s.ssr.stride = stride as f32;
+                        s.ssr.refine = refine;
+                        s.ssr.max_steps = steps;
+                    });
                     let label = format!("ssr stride {stride}, refine {refine}, steps {steps}");
                     entries.push(measure(&mut r, &w, wd, ht, &vs, &label, a.warmup, a.frames)?);
                 }
@@ -412,18 +411,21 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             if a.variants && k == 0 && j == 0 {
                 variants.clear();
                 for f in [Filter::Bilateral, Filter::NarrowRange, Filter::CurvatureFlow] {
-                    variants.push((format!("filter {}", f.name()), Settings { filter: f, ..base.clone() }));
+                    variants.push((format!("filter {}", f.name()), base.with(|s| s.smooth.filter = f)));
                 }
                 for kk in [1, 4] {
                     variants.push((
                         format!("curvature-flow {kk} it/dispatch"),
-                        Settings { filter: Filter::CurvatureFlow, cf_iters_per_dispatch: kk, ..base.clone() },
+                        base.with(|s| {
+                            s.smooth.filter = Filter::CurvatureFlow;
+                            s.smooth.curvature.iters_per_dispatch = kk;
+                        }),
                     ));
                 }
-                variants.push(("no smoothing".into(), Settings { filter: Filter::None, ..base.clone() }));
+                variants.push(("no smoothing".into(), base.with(|s| s.smooth.filter = Filter::None)));
                 for &m in SplatMode::ALL {
                     if r.passes.splat.supports(m) {
-                        variants.push((format!("splat {}", m.name()), Settings { splat: m, ..base.clone() }));
+                        variants.push((format!("splat {}", m.name()), base.with(|s| s.splat.mode = m)));
                     }
                 }
                 for (label, vs) in &variants {

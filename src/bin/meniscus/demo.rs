@@ -486,8 +486,8 @@ impl App {
                     Filter::Gaussian,
                     Filter::None,
                 ];
-                let k = ORDER.iter().position(|f| *f == self.settings.filter).unwrap_or(0);
-                self.settings.filter = ORDER[(k + 1) % ORDER.len()];
+                let k = ORDER.iter().position(|f| *f == self.settings.smooth.filter).unwrap_or(0);
+                self.settings.smooth.filter = ORDER[(k + 1) % ORDER.len()];
             }
             KeyCode::KeyG => {
                 let s = &mut self.settings.fluid_scale;
@@ -499,7 +499,7 @@ impl App {
                     1.0
                 };
             }
-            KeyCode::KeyX => self.settings.ssr = !self.settings.ssr,
+            KeyCode::KeyX => self.settings.ssr.enabled = !self.settings.ssr.enabled,
             KeyCode::KeyI => {
                 self.settings.surface = match self.settings.surface {
                     Surface::Spheres => Surface::Iso,
@@ -730,9 +730,9 @@ impl App {
                 "view {}  surface {}  filter {}  fluid scale {}  ssr {}  vsync {}",
                 self.mode.name(),
                 s.surface.name(),
-                s.filter.name(),
+                s.smooth.filter.name(),
                 s.fluid_scale,
-                if s.ssr { "on" } else { "off" },
+                if s.ssr.enabled { "on" } else { "off" },
                 if self.o.vsync { "on" } else { "off" }
             ),
         ];
