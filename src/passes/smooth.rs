@@ -199,6 +199,7 @@ impl Smooth {
     /// itself when the raw depth need not survive); returns which image holds the result. The pass decides its
     /// own dispatch count: curvature flow stops where no pixel iterates any more (`iterations_needed` from the
     /// frame's focal length and nearest fluid depth).
+    #[allow(clippy::too_many_arguments)]
     pub fn record<'a>(
         &self,
         ctx: &mut FrameCtx,
@@ -214,6 +215,7 @@ impl Smooth {
     }
 
     /// [`Smooth::record`] with the curvature-flow iteration count given (tests drive it directly).
+    #[allow(clippy::too_many_arguments)]
     pub fn record_iterations<'a>(
         &self,
         ctx: &mut FrameCtx,
