@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use meniscus::scene::{bgeo, csv, parse_raw, ply, realflow, vtk, vtu, xyz, Format, Particles};
+use meniscus::scene::{ParticleFormat, Particles, FORMATS};
 
 fn main() {
     let n = std::env::var("MENISCUS_BENCH_PARTICLES").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000usize);
@@ -19,28 +19,23 @@ fn main() {
         ..Default::default()
     }
     .to_raw();
-    let cases: Vec<(&str, Format, Vec<u8>)> = vec![
-        ("BGEO (gzip)", Format::Bgeo, bgeo::write(&p, true)),
-        ("BGEO (plain)", Format::Bgeo, bgeo::write(&p, false)),
-        ("VTK legacy binary", Format::Vtk, vtk::write(&p, true)),
-        ("VTK legacy ASCII", Format::Vtk, vtk::write(&p, false)),
-        ("VTU appended raw", Format::Vtu, vtu::write(&p, vtu::Encoding::AppendedRaw { zlib: false })),
-        ("VTU appended raw + zlib", Format::Vtu, vtu::write(&p, vtu::Encoding::AppendedRaw { zlib: true })),
-        ("VTU inline base64", Format::Vtu, vtu::write(&p, vtu::Encoding::Binary { zlib: false })),
-        ("VTU ASCII", Format::Vtu, vtu::write(&p, vtu::Encoding::Ascii)),
-        ("PLY binary LE", Format::Ply, ply::write(&p, "binary_little_endian")),
-        ("PLY ASCII", Format::Ply, ply::write(&p, "ascii")),
-        ("XYZ raw f32", Format::Xyz, xyz::write(&p)),
-        ("CSV", Format::Csv, csv::write(&p)),
-        ("RealFlow .bin v11", Format::RealFlow, realflow::write(&p)),
-    ];
+    // Every writer variant of every registered format.
+    let cases: Vec<(String, &dyn ParticleFormat, Vec<u8>)> = FORMATS
+        .iter()
+        .flat_map(|f| {
+            f.samples(&p)
+                .into_iter()
+                .filter(|(l, _)| *l != "text")
+                .map(move |(l, b)| (format!("{} {l}", f.name()), *f, b))
+        })
+        .collect();
     println!("{n} particles (position + velocity + density + id; XYZ positions only), median of 5 parses\n");
     println!("| format | file MB | ms | MB/s | M particles/s |\n|---|---:|---:|---:|---:|");
     for (name, f, bytes) in cases {
         let mut t = vec![];
         for _ in 0..5 {
             let t0 = Instant::now();
-            let r = parse_raw(f, Path::new("bench"), &bytes).expect("parse");
+            let r = f.parse(Path::new("bench"), &bytes).expect("parse");
             t.push(t0.elapsed().as_secs_f64());
             assert_eq!(r.positions.len(), n);
         }

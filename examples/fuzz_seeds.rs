@@ -1,5 +1,7 @@
-//! Writes small valid files of every format (the fuzzers' seed corpus): `cargo run --example fuzz_seeds -- DIR`.
-use meniscus::scene::{bgeo, csv, ply, realflow, vtk, vtu, xyz, Particles};
+//! Writes small valid files of every registered format (the fuzzer's seed corpus):
+//! `cargo run --example fuzz_seeds -- DIR`. The one fuzz target (`tools/fuzz/fuzz_targets/parse.rs`) picks the
+//! parser from the first byte of its input, so every seed is the format's index byte followed by the file.
+use meniscus::scene::{Particles, FORMATS};
 
 fn main() {
     let dir = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "tools/fuzz/corpus".into()));
@@ -11,28 +13,13 @@ fn main() {
         ..Default::default()
     }
     .to_raw();
-    let files: Vec<(&str, &str, Vec<u8>)> = vec![
-        ("bgeo", "plain.bgeo", bgeo::write(&p, false)),
-        ("bgeo", "gz.bgeo", bgeo::write(&p, true)),
-        ("vtk", "ascii.vtk", vtk::write(&p, false)),
-        ("vtk", "binary.vtk", vtk::write(&p, true)),
-        ("vtu", "ascii.vtu", vtu::write(&p, vtu::Encoding::Ascii)),
-        ("vtu", "binary.vtu", vtu::write(&p, vtu::Encoding::Binary { zlib: false })),
-        ("vtu", "binary_z.vtu", vtu::write(&p, vtu::Encoding::Binary { zlib: true })),
-        ("vtu", "raw.vtu", vtu::write(&p, vtu::Encoding::AppendedRaw { zlib: false })),
-        ("vtu", "raw_z.vtu", vtu::write(&p, vtu::Encoding::AppendedRaw { zlib: true })),
-        ("vtu", "b64.vtu", vtu::write(&p, vtu::Encoding::AppendedBase64)),
-        ("ply", "ascii.ply", ply::write(&p, "ascii")),
-        ("ply", "le.ply", ply::write(&p, "binary_little_endian")),
-        ("ply", "be.ply", ply::write(&p, "binary_big_endian")),
-        ("xyz", "bin.xyz", xyz::write(&p)),
-        ("xyz", "ascii.xyz", b"0 1 2\n3 4 5\n".to_vec()),
-        ("csv", "a.csv", csv::write(&p)),
-        ("realflow", "v11.bin", realflow::write(&p)),
-    ];
-    for (sub, name, bytes) in files {
-        let d = dir.join(sub);
-        std::fs::create_dir_all(&d).expect("create corpus dir");
-        std::fs::write(d.join(name), bytes).expect("write seed");
+    let d = dir.join("parse");
+    std::fs::create_dir_all(&d).expect("create corpus dir");
+    for (k, f) in FORMATS.iter().enumerate() {
+        for (label, bytes) in f.samples(&p) {
+            let mut seed = vec![k as u8];
+            seed.extend_from_slice(&bytes);
+            std::fs::write(d.join(format!("{}_{label}", f.key())), seed).expect("write seed");
+        }
     }
 }

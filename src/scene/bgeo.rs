@@ -30,7 +30,7 @@ impl<'a> Reader<'a> {
         if self.compressed {
             reason.push_str(" (offset in the gzip-decompressed data)");
         }
-        Error::Parse { path: self.path.to_path_buf(), offset: at as u64, reason }
+        super::bytes::err_at(self.path, at, reason)
     }
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
         if self.data.len() - self.pos < n {
@@ -234,5 +234,29 @@ pub fn write(p: &Raw, gzip: bool) -> Vec<u8> {
         e.finish().expect("gzip to memory")
     } else {
         out
+    }
+}
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct Bgeo;
+
+impl super::format::ParticleFormat for Bgeo {
+    fn key(&self) -> &'static str {
+        "bgeo"
+    }
+    fn name(&self) -> &'static str {
+        "Houdini classic BGEO"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["bgeo", "gz"]
+    }
+    fn sniff(&self, head: &[u8]) -> bool {
+        head.starts_with(b"Bgeo")
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![("plain", write(raw, false)), ("gzip", write(raw, true))]
     }
 }

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::scene::{Attribute, Raw};
 
 /// `vx` → (velocity, 0), `n_y` → (n, 1), `x` → (position, 0); None for a plain name.
@@ -30,7 +30,7 @@ pub fn split_vector(name: &str) -> Option<(String, usize)> {
 
 /// Parse CSV bytes.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
-    let err = |offset: u64, reason: String| Error::Parse { path: path.to_path_buf(), offset, reason };
+    let err = |offset: u64, reason: String| super::bytes::err_at(path, offset as usize, reason);
     let mut rd = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).flexible(false).from_reader(bytes);
     let headers = rd.headers().map_err(|e| err(0, format!("bad CSV header: {e}")))?.clone();
     // Column → (attribute name, component).
@@ -107,4 +107,30 @@ pub fn write(p: &Raw) -> Vec<u8> {
         w.write_record(&row).expect("write to memory");
     }
     w.into_inner().expect("flush to memory")
+}
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct Csv;
+
+impl super::format::ParticleFormat for Csv {
+    fn key(&self) -> &'static str {
+        "csv"
+    }
+    fn name(&self) -> &'static str {
+        "CSV"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["csv"]
+    }
+    fn sniff_header(&self, first_line: &str) -> bool {
+        let first = first_line.to_ascii_lowercase();
+        first.contains(',')
+            && ["x", "y", "z"].iter().all(|c| first.split(',').any(|f| f.trim().trim_matches('"') == *c))
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![("header", write(raw))]
+    }
 }

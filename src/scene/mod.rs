@@ -3,8 +3,10 @@
 //! spacing, from which the radius is estimated when `--radius` is not given.
 
 pub mod bgeo;
+pub mod bytes;
 pub mod camera;
 pub mod csv;
+pub mod format;
 pub mod grid;
 pub mod ply;
 pub mod procedural;
@@ -22,6 +24,7 @@ use crate::error::{Error, Result};
 
 pub(crate) use self::csv::split_vector as csv_split;
 pub use camera::Camera;
+pub use format::{ParticleFormat, FORMATS};
 pub use grid::UniformGrid;
 
 /// Particle data as loaded: positions always, the mapped attributes when the file has them, and every other
@@ -368,89 +371,14 @@ pub fn neighbour_counts(pos: &[[f32; 3]], h: f32) -> Vec<u32> {
         .collect()
 }
 
-/// Known particle file formats.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Format {
-    Bgeo,
-    Vtk,
-    Vtu,
-    Ply,
-    Xyz,
-    Csv,
-    RealFlow,
-}
-
-impl Format {
-    pub fn name(self) -> &'static str {
-        match self {
-            Format::Bgeo => "Houdini classic BGEO",
-            Format::Vtk => "legacy VTK",
-            Format::Vtu => "VTK XML (VTU/VTP)",
-            Format::Ply => "PLY",
-            Format::Xyz => "raw XYZ (f32 triplets)",
-            Format::Csv => "CSV",
-            Format::RealFlow => "RealFlow particle .bin",
-        }
-    }
-}
-
-/// Detect the format from the content (gzip is looked through); raw XYZ and CSV, which have no signature,
-/// by extension (and, for CSV, a header line naming x, y and z).
-pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<Format> {
-    let head = if bytes.starts_with(&[0x1f, 0x8b]) {
-        let mut d = flate2::read::GzDecoder::new(bytes);
-        let mut buf = [0u8; 64];
-        let n = std::io::Read::read(&mut d, &mut buf).unwrap_or(0);
-        buf[..n].to_vec()
-    } else {
-        bytes[..bytes.len().min(256)].to_vec()
-    };
-    if head.starts_with(b"Bgeo") {
-        return Some(Format::Bgeo);
-    }
-    if head.starts_with(b"# vtk DataFile") {
-        return Some(Format::Vtk);
-    }
-    if head.starts_with(b"ply") && head.get(3).is_some_and(|c| *c == b'\n' || *c == b'\r') {
-        return Some(Format::Ply);
-    }
-    if head.len() >= 4 && i32::from_le_bytes([head[0], head[1], head[2], head[3]]) == realflow::MAGIC {
-        return Some(Format::RealFlow);
-    }
-    let text = String::from_utf8_lossy(&head);
-    let trimmed = text.trim_start_matches('\u{feff}').trim_start();
-    if trimmed.starts_with("<?xml") || trimmed.starts_with("<VTKFile") {
-        return Some(Format::Vtu);
-    }
-    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("csv") => return Some(Format::Csv),
-        Some("xyz") | Some("raw") | Some("f32") => return Some(Format::Xyz),
-        Some("bgeo") | Some("gz") => return Some(Format::Bgeo),
-        Some("vtk") => return Some(Format::Vtk),
-        Some("vtu") | Some("vtp") => return Some(Format::Vtu),
-        Some("ply") => return Some(Format::Ply),
-        _ => {}
-    }
-    let first = text.lines().next().unwrap_or("").to_ascii_lowercase();
-    if first.contains(',') && ["x", "y", "z"].iter().all(|c| first.split(',').any(|f| f.trim().trim_matches('"') == *c))
-    {
-        return Some(Format::Csv);
-    }
-    None
+/// Detect the format of a file's bytes (see [`format::detect`]).
+pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<&'static dyn ParticleFormat> {
+    format::detect(path, bytes)
 }
 
 /// Parse bytes of a known format into named arrays.
-pub fn parse_raw(format: Format, path: &Path, bytes: &[u8]) -> Result<Raw> {
-    match format {
-        Format::Bgeo => bgeo::parse(path, bytes),
-        Format::Vtk => vtk::parse(path, bytes),
-        Format::Vtu => vtu::parse(path, bytes),
-        Format::Ply => ply::parse(path, bytes),
-        Format::Xyz => xyz::parse(path, bytes),
-        Format::Csv => csv::parse(path, bytes),
-        Format::RealFlow => realflow::parse(path, bytes),
-    }
+pub fn parse_raw(format: &dyn ParticleFormat, path: &Path, bytes: &[u8]) -> Result<Raw> {
+    format.parse(path, bytes)
 }
 
 /// Load a particle file with the default attribute mapping.
@@ -464,7 +392,7 @@ pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
     let format = detect_format(path, &bytes).ok_or_else(|| Error::Parse {
         path: path.to_path_buf(),
         offset: 0,
-        reason: "unknown particle format (expected BGEO, legacy VTK, VTU/VTP, PLY, RealFlow .bin, or .xyz/.csv by extension)".into(),
+        reason: format!("unknown particle format (expected one of: {})", format::describe()),
     })?;
     let raw = parse_raw(format, path, &bytes)?;
     if raw.positions.is_empty() {

@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use super::bytes::Scalar;
+use crate::error::Result;
 use crate::scene::{Attribute, Raw};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -17,8 +18,8 @@ enum Enc {
 
 #[derive(Clone, Debug)]
 enum Prop {
-    Scalar { name: String, ty: usize },
-    List { count_ty: usize, item_ty: usize },
+    Scalar { name: String, ty: Scalar },
+    List { count_ty: Scalar, item_ty: Scalar },
 }
 
 struct Element {
@@ -27,46 +28,9 @@ struct Element {
     props: Vec<Prop>,
 }
 
-fn type_size(t: &str) -> Option<usize> {
-    Some(match t {
-        "char" | "uchar" | "int8" | "uint8" => 1,
-        "short" | "ushort" | "int16" | "uint16" => 2,
-        "int" | "uint" | "int32" | "uint32" | "float" | "float32" => 4,
-        "double" | "float64" => 8,
-        _ => return None,
-    })
-}
-
-/// Type code: size in the low bits, signed/float flags.
-fn type_code(t: &str) -> Option<usize> {
-    let size = type_size(t)?;
-    let float = matches!(t, "float" | "float32" | "double" | "float64");
-    let signed = matches!(t, "char" | "int8" | "short" | "int16" | "int" | "int32");
-    Some(size | if float { 0x100 } else { 0 } | if signed { 0x200 } else { 0 })
-}
-
-fn read_bin(b: &[u8], code: usize, enc: Enc) -> f64 {
-    let size = code & 0xff;
-    let mut a = [0u8; 8];
-    a[..size].copy_from_slice(&b[..size]);
-    if enc == Enc::Be {
-        a[..size].reverse();
-    }
-    match (size, code & 0x100 != 0, code & 0x200 != 0) {
-        (4, true, _) => f32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
-        (8, true, _) => f64::from_le_bytes(a),
-        (1, _, true) => a[0] as i8 as f64,
-        (1, _, false) => a[0] as f64,
-        (2, _, true) => i16::from_le_bytes([a[0], a[1]]) as f64,
-        (2, _, false) => u16::from_le_bytes([a[0], a[1]]) as f64,
-        (4, _, true) => i32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
-        _ => u32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
-    }
-}
-
 /// Parse PLY bytes.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
-    let err = |offset: usize, reason: String| Error::Parse { path: path.to_path_buf(), offset: offset as u64, reason };
+    let err = |offset: usize, reason: String| super::bytes::err_at(path, offset, reason);
     // Header: lines up to "end_header".
     let mut pos = 0;
     let mut enc = None;
@@ -100,7 +64,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             Some("property") => {
                 let el = elements.last_mut().ok_or_else(|| err(at, "property before any element".into()))?;
                 if w.get(1) == Some(&"list") {
-                    let (Some(c), Some(i)) = (w.get(2).and_then(|t| type_code(t)), w.get(3).and_then(|t| type_code(t)))
+                    let (Some(c), Some(i)) =
+                        (w.get(2).and_then(|t| Scalar::parse(t)), w.get(3).and_then(|t| Scalar::parse(t)))
                     else {
                         return Err(err(at, format!("bad list property {line:?}")));
                     };
@@ -108,7 +73,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 } else {
                     let ty = w
                         .get(1)
-                        .and_then(|t| type_code(t))
+                        .and_then(|t| Scalar::parse(t))
                         .ok_or_else(|| err(at, format!("unknown property type in {line:?}")))?;
                     let name = w.get(2).ok_or_else(|| err(at, format!("property without a name: {line:?}")))?;
                     el.props.push(Prop::Scalar { name: name.to_string(), ty });
@@ -146,11 +111,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                         let x = match tokens.as_mut() {
                             Some(t) => t.next_num().map_err(|(o, r)| err(o, r))?,
                             None => {
-                                let s = ty & 0xff;
+                                let s = ty.size();
                                 if bytes.len() - pos < s {
                                     return Err(err(pos, format!("file truncated in element {:?}", el.name)));
                                 }
-                                let x = read_bin(&bytes[pos..], *ty, enc);
+                                let x = ty.read(&bytes[pos..], enc == Enc::Be);
                                 pos += s;
                                 x
                             }
@@ -163,11 +128,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                         let n = match tokens.as_mut() {
                             Some(t) => t.next_num().map_err(|(o, r)| err(o, r))?,
                             None => {
-                                let s = count_ty & 0xff;
+                                let s = count_ty.size();
                                 if bytes.len() - pos < s {
                                     return Err(err(pos, format!("file truncated in element {:?}", el.name)));
                                 }
-                                let x = read_bin(&bytes[pos..], *count_ty, enc);
+                                let x = count_ty.read(&bytes[pos..], enc == Enc::Be);
                                 pos += s;
                                 x
                             }
@@ -181,7 +146,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                                     t.next_num().map_err(|(o, r)| err(o, r))?;
                                 }
                                 None => {
-                                    let s = item_ty & 0xff;
+                                    let s = item_ty.size();
                                     if bytes.len() - pos < s {
                                         return Err(err(pos, "file truncated in a list".into()));
                                     }
@@ -297,4 +262,32 @@ pub fn write(p: &Raw, enc: &str) -> Vec<u8> {
         }
     }
     o
+}
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct Ply;
+
+impl super::format::ParticleFormat for Ply {
+    fn key(&self) -> &'static str {
+        "ply"
+    }
+    fn name(&self) -> &'static str {
+        "PLY"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["ply"]
+    }
+    fn sniff(&self, head: &[u8]) -> bool {
+        head.starts_with(b"ply") && head.get(3).is_some_and(|c| *c == b'\n' || *c == b'\r')
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![
+            ("ascii", write(raw, "ascii")),
+            ("binary-le", write(raw, "binary_little_endian")),
+            ("binary-be", write(raw, "binary_big_endian")),
+        ]
+    }
 }

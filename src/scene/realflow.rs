@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::scene::{Attribute, Raw};
 
 /// The file signature.
@@ -37,7 +37,7 @@ fn record_len(version: i16) -> usize {
 
 /// Parse RealFlow .bin bytes.
 pub fn parse(path: &Path, b: &[u8]) -> Result<Raw> {
-    let err = |at: usize, r: String| Error::Parse { path: path.to_path_buf(), offset: at as u64, reason: r };
+    let err = |at: usize, r: String| super::bytes::err_at(path, at, r);
     if b.len() < 4 || i32::from_le_bytes(b[..4].try_into().unwrap()) != MAGIC {
         return Err(err(0, "wrong magic: not a RealFlow .bin particle file (expected 0xFABADA)".into()));
     }
@@ -127,4 +127,28 @@ pub fn write(p: &Raw) -> Vec<u8> {
         o.extend_from_slice(&(get("id", i, 0, 1) as i32).to_le_bytes());
     }
     o
+}
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct RealFlow;
+
+impl super::format::ParticleFormat for RealFlow {
+    fn key(&self) -> &'static str {
+        "realflow"
+    }
+    fn name(&self) -> &'static str {
+        "RealFlow particle .bin"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["bin"]
+    }
+    fn sniff(&self, head: &[u8]) -> bool {
+        head.len() >= 4 && i32::from_le_bytes([head[0], head[1], head[2], head[3]]) == MAGIC
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![("v11", write(raw))]
+    }
 }

@@ -80,8 +80,6 @@ fn frame_number(name: &str) -> Option<u64> {
     stem[start..end].parse().ok()
 }
 
-const EXTENSIONS: &[&str] = &["bgeo", "gz", "vtk", "vtu", "vtp", "ply", "xyz", "raw", "csv", "bin"];
-
 /// True when `spec` names a sequence rather than one file.
 pub fn is_sequence(spec: &str) -> bool {
     spec.contains("{}") || spec.contains('*') || spec.contains('?') || Path::new(spec).is_dir()
@@ -122,7 +120,7 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
                 p.is_file()
                     && p.extension()
                         .and_then(|e| e.to_str())
-                        .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+                        .is_some_and(|e| super::format::extensions().any(|x| x == e.to_ascii_lowercase()))
             })
             .collect();
         files.sort();

@@ -6,6 +6,7 @@
 
 use std::path::Path;
 
+use super::bytes::Scalar;
 use crate::error::{Error, Result};
 use crate::scene::{Attribute, Raw};
 
@@ -16,20 +17,9 @@ struct Cur<'a> {
     binary: bool,
 }
 
-fn type_size(t: &str) -> Option<usize> {
-    Some(match t.to_ascii_lowercase().as_str() {
-        "bit" => return None,
-        "unsigned_char" | "char" => 1,
-        "unsigned_short" | "short" => 2,
-        "unsigned_int" | "int" | "float" => 4,
-        "unsigned_long" | "long" | "double" | "vtktypeint64" | "vtktypeuint64" => 8,
-        _ => return None,
-    })
-}
-
 impl<'a> Cur<'a> {
     fn err(&self, at: usize, reason: impl Into<String>) -> Error {
-        Error::Parse { path: self.path.to_path_buf(), offset: at as u64, reason: reason.into() }
+        super::bytes::err_at(self.path, at, reason)
     }
     fn skip_ws(&mut self) {
         while self.pos < self.d.len() && self.d[self.pos].is_ascii_whitespace() {
@@ -69,7 +59,8 @@ impl<'a> Cur<'a> {
     /// `count` values of VTK type `ty`, as f64.
     fn values(&mut self, count: usize, ty: &str, what: &str) -> Result<Vec<f64>> {
         let at = self.pos;
-        let size = type_size(ty).ok_or_else(|| self.err(at, format!("{what}: unsupported data type {ty:?}")))?;
+        let scalar = Scalar::parse(ty).ok_or_else(|| self.err(at, format!("{what}: unsupported data type {ty:?}")))?;
+        let size = scalar.size();
         if self.binary {
             // The binary block starts after the newline that ends the header line.
             self.line();
@@ -85,22 +76,8 @@ impl<'a> Cur<'a> {
                 ));
             }
             let b = &self.d[start..start + need];
-            let lt = ty.to_ascii_lowercase();
-            let v: Vec<f64> = b
-                .chunks_exact(size)
-                .map(|c| match (lt.as_str(), size) {
-                    ("float", _) => f32::from_be_bytes(c.try_into().unwrap()) as f64,
-                    ("double", _) => f64::from_be_bytes(c.try_into().unwrap()),
-                    ("char", _) => c[0] as i8 as f64,
-                    (_, 1) => c[0] as f64,
-                    ("short", _) => i16::from_be_bytes(c.try_into().unwrap()) as f64,
-                    (_, 2) => u16::from_be_bytes(c.try_into().unwrap()) as f64,
-                    ("int", _) => i32::from_be_bytes(c.try_into().unwrap()) as f64,
-                    (_, 4) => u32::from_be_bytes(c.try_into().unwrap()) as f64,
-                    ("unsigned_long" | "vtktypeuint64", _) => u64::from_be_bytes(c.try_into().unwrap()) as f64,
-                    _ => i64::from_be_bytes(c.try_into().unwrap()) as f64,
-                })
-                .collect();
+            // Legacy VTK binary data is big-endian.
+            let v: Vec<f64> = b.chunks_exact(size).map(|c| scalar.read(c, true)).collect();
             self.pos = start + need;
             Ok(v)
         } else {
@@ -316,4 +293,28 @@ pub fn write(p: &Raw, binary: bool) -> Vec<u8> {
         }
     }
     o
+}
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct Vtk;
+
+impl super::format::ParticleFormat for Vtk {
+    fn key(&self) -> &'static str {
+        "vtk"
+    }
+    fn name(&self) -> &'static str {
+        "legacy VTK"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["vtk"]
+    }
+    fn sniff(&self, head: &[u8]) -> bool {
+        head.starts_with(b"# vtk DataFile")
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![("ascii", write(raw, false)), ("binary", write(raw, true))]
+    }
 }

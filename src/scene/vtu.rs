@@ -10,6 +10,7 @@ use std::path::Path;
 use base64::Engine;
 use quick_xml::events::Event;
 
+use super::bytes::Scalar;
 use crate::error::{Error, Result};
 use crate::scene::{Attribute, Raw};
 
@@ -25,37 +26,6 @@ struct ArrayDesc {
     at: usize,
 }
 
-fn type_size(t: &str) -> Option<usize> {
-    Some(match t {
-        "Int8" | "UInt8" => 1,
-        "Int16" | "UInt16" => 2,
-        "Int32" | "UInt32" | "Float32" => 4,
-        "Int64" | "UInt64" | "Float64" => 8,
-        _ => return None,
-    })
-}
-
-fn value(b: &[u8], ty: &str, big: bool) -> f64 {
-    let mut a = [0u8; 8];
-    let s = b.len();
-    a[..s].copy_from_slice(b);
-    if big {
-        a[..s].reverse();
-    }
-    match ty {
-        "Int8" => a[0] as i8 as f64,
-        "UInt8" => a[0] as f64,
-        "Int16" => i16::from_le_bytes([a[0], a[1]]) as f64,
-        "UInt16" => u16::from_le_bytes([a[0], a[1]]) as f64,
-        "Int32" => i32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
-        "UInt32" => u32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
-        "Float32" => f32::from_le_bytes(a[..4].try_into().unwrap()) as f64,
-        "Int64" => i64::from_le_bytes(a) as f64,
-        "UInt64" => u64::from_le_bytes(a) as f64,
-        _ => f64::from_le_bytes(a),
-    }
-}
-
 struct Ctx<'a> {
     path: &'a Path,
     big: bool,
@@ -65,10 +35,10 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn err(&self, at: usize, reason: impl Into<String>) -> Error {
-        Error::Parse { path: self.path.to_path_buf(), offset: at as u64, reason: reason.into() }
+        super::bytes::err_at(self.path, at, reason)
     }
     fn uint(&self, b: &[u8]) -> u64 {
-        value(b, if self.header == 8 { "UInt64" } else { "UInt32" }, self.big) as u64
+        (if self.header == 8 { Scalar::U64 } else { Scalar::U32 }).read(b, self.big) as u64
     }
     /// Decode one array's bytes from a header-prefixed block; `take(n)` yields the next n bytes of the block.
     fn block(&self, at: usize, want: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>) -> Result<Vec<u8>> {
@@ -152,7 +122,7 @@ impl B64<'_> {
 
 /// Parse VTU/VTP bytes.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
-    let perr = |at: usize, r: String| Error::Parse { path: path.to_path_buf(), offset: at as u64, reason: r };
+    let perr = |at: usize, r: String| super::bytes::err_at(path, at, r);
     // Appended data is not XML: cut it off, remember where it starts.
     let (xml, appended, app_b64) = match find(bytes, b"<AppendedData") {
         Some(i) => {
@@ -263,8 +233,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut positions = None;
     let mut out = vec![];
     for a in arrays {
-        let size = type_size(&a.ty)
+        let scalar = Scalar::parse(&a.ty)
             .ok_or_else(|| perr(a.at, format!("DataArray {:?}: unsupported type {:?}", a.name, a.ty)))?;
+        let size = scalar.size();
         let count = n.checked_mul(a.comps).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
         let want = count.checked_mul(size).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
         // Bytes that can hold this array: the inline text or the appended section (zlib inflates ≤ 1032×).
@@ -304,7 +275,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             "binary" => {
                 let mut b = B64::new(&a.text);
                 let raw = ctx.block(a.at, want, &mut |k| b.take(k))?;
-                raw.chunks_exact(size).map(|c| value(c, &a.ty, big)).collect()
+                raw.chunks_exact(size).map(|c| scalar.read(c, big)).collect()
             }
             "appended" => {
                 let start = appended.ok_or_else(|| perr(a.at, "format=\"appended\" but no <AppendedData>".into()))?;
@@ -328,7 +299,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                         Some(r)
                     })?
                 };
-                raw.chunks_exact(size).map(|c| value(c, &a.ty, big)).collect()
+                raw.chunks_exact(size).map(|c| scalar.read(c, big)).collect()
             }
             f => return Err(perr(a.at, format!("DataArray {:?}: unknown format {f:?}", a.name))),
         };
@@ -430,4 +401,39 @@ pub fn write(p: &Raw, enc: Encoding) -> Vec<u8> {
     }
     out.extend_from_slice(b"</VTKFile>\n");
     out
+}
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct Vtu;
+
+impl super::format::ParticleFormat for Vtu {
+    fn key(&self) -> &'static str {
+        "vtu"
+    }
+    fn name(&self) -> &'static str {
+        "VTK XML (VTU/VTP)"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["vtu", "vtp"]
+    }
+    fn sniff(&self, head: &[u8]) -> bool {
+        {
+            let text = String::from_utf8_lossy(head);
+            let t = text.trim_start_matches('\u{feff}').trim_start();
+            t.starts_with("<?xml") || t.starts_with("<VTKFile")
+        }
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![
+            ("ascii", write(raw, Encoding::Ascii)),
+            ("binary", write(raw, Encoding::Binary { zlib: false })),
+            ("binary-zlib", write(raw, Encoding::Binary { zlib: true })),
+            ("appended-raw", write(raw, Encoding::AppendedRaw { zlib: false })),
+            ("appended-raw-zlib", write(raw, Encoding::AppendedRaw { zlib: true })),
+            ("appended-base64", write(raw, Encoding::AppendedBase64)),
+        ]
+    }
 }

@@ -56,3 +56,27 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
 pub fn write(p: &Raw) -> Vec<u8> {
     p.positions.iter().flatten().flat_map(|x| x.to_le_bytes()).collect()
 }
+
+/// This format in the registry ([`super::format::FORMATS`]).
+pub struct Xyz;
+
+impl super::format::ParticleFormat for Xyz {
+    fn key(&self) -> &'static str {
+        "xyz"
+    }
+    fn name(&self) -> &'static str {
+        "raw XYZ (f32 triplets or text)"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["xyz", "raw", "f32"]
+    }
+    fn positions_only(&self) -> bool {
+        true
+    }
+    fn parse(&self, path: &Path, bytes: &[u8]) -> Result<Raw> {
+        parse(path, bytes)
+    }
+    fn samples(&self, raw: &Raw) -> Vec<(&'static str, Vec<u8>)> {
+        vec![("f32", write(raw)), ("text", b"0 1 2\n3.5 4 5\n".to_vec())]
+    }
+}

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzz every particle parser: tools/fuzz/run.sh [SECONDS_PER_TARGET] [TARGET…]  (default 600 s, all targets).
+# Fuzz every particle parser: tools/fuzz/run.sh [SECONDS]  (default 600 s). One target, `parse`, covers every
+# format of the registry (meniscus::scene::FORMATS): the first input byte picks the parser.
 # Needs cargo-fuzz (`cargo install cargo-fuzz`); runs on the stable toolchain through RUSTC_BOOTSTRAP=1.
 # Seeds come from `cargo run --example fuzz_seeds` plus the shared SPlisHSPlasH frames when present.
 # Crashes land in tools/fuzz/artifacts/TARGET/; the summary (runs, crashes) is printed per target.
@@ -7,11 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 secs=${1:-600}
 shift || true
-targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(bgeo vtk vtu ply xyz csv realflow)
+targets=(parse)
 cargo run --quiet --release --example fuzz_seeds -- tools/fuzz/corpus
-for f in ../shared/data/splishsplash/dambreak_6859/partio/ParticleData_Fluid_1.bgeo; do [ -f "$f" ] && cp "$f" tools/fuzz/corpus/bgeo/; done
-for f in ../shared/data/splishsplash/dambreak_6859/vtk/ParticleData_Fluid_1.vtk; do [ -f "$f" ] && cp "$f" tools/fuzz/corpus/vtk/; done
+# Real frames as seeds too, behind their format's index byte (bgeo = 0, vtk = 1: the registry's order).
+f=../shared/data/splishsplash/dambreak_6859/partio/ParticleData_Fluid_1.bgeo
+[ -f "$f" ] && { printf '\x00'; cat "$f"; } > tools/fuzz/corpus/parse/shared_bgeo
+f=../shared/data/splishsplash/dambreak_6859/vtk/ParticleData_Fluid_1.vtk
+[ -f "$f" ] && { printf '\x01'; cat "$f"; } > tools/fuzz/corpus/parse/shared_vtk
 export RUSTC_BOOTSTRAP=1
 for t in "${targets[@]}"; do
     mkdir -p "tools/fuzz/artifacts/$t"

@@ -66,10 +66,8 @@ impl LoadArgs {
 /// What to render and from where it is seen.
 #[derive(Args, Clone, Debug)]
 pub struct SceneArgs {
-    /// A built-in scene (block, wave, drop, crown, waterfall), a particle file (.bgeo, .vtk, .vtu/.vtp, .ply,
-    /// .xyz, .csv, RealFlow .bin; detected from the content), or a sequence: a pattern with {} for the frame
-    /// number (ParticleData_Fluid_{}.bgeo), a folder, or a glob ('frames/*.vtk').
-    #[arg(default_value = "wave")]
+    /// A built-in scene, a particle file (format detected from the content), or a sequence.
+    #[arg(default_value = "wave", long_help = input_help())]
     pub input: String,
     /// Particle radius in world units (default: from the scene, or estimated from the particles' density).
     #[arg(long, allow_negative_numbers = true)]
@@ -85,6 +83,17 @@ pub struct SceneArgs {
     /// reflected, refracted and casts shadows on the ground.
     #[arg(long, value_name = "FILE")]
     pub background_obj: Option<PathBuf>,
+}
+
+/// The long help of the input argument, from the scene list and the format registry.
+fn input_help() -> String {
+    let scenes: Vec<&str> = meniscus::scene::procedural::SCENES.iter().map(|s| s.0).collect();
+    format!(
+        "A built-in scene ({}), a particle file — {}; detected from the content — or a sequence: a pattern with {{}} \
+         for the frame number (ParticleData_Fluid_{{}}.bgeo), a folder, or a glob ('frames/*.vtk').",
+        scenes.join(", "),
+        meniscus::scene::format::describe()
+    )
 }
 
 /// Settings: a preset, a TOML file over it, and the most used fields as flags.

@@ -1,0 +1,99 @@
+//! What every binary particle parser shares: ONE table of scalar types (the names PLY, legacy VTK and VTK XML
+//! use for them, their sizes, and decoding either byte order to f64), and the positioned parse error.
+
+use std::path::Path;
+
+use crate::error::Error;
+
+/// A scalar type of a binary array.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    /// The type a format's name stands for, case-insensitively: PLY (`char`, `uchar`, `int8` … `float32`,
+    /// `double`), legacy VTK (`unsigned_char`, `short`, `long`, `vtktypeint64` …) and VTK XML (`Int8` …
+    /// `Float64`). `None` for anything else (VTK's `bit`, unknown names).
+    pub fn parse(name: &str) -> Option<Scalar> {
+        Some(match name.to_ascii_lowercase().as_str() {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "unsigned_char" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "unsigned_short" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "unsigned_int" | "uint32" => Scalar::U32,
+            "long" | "int64" | "vtktypeint64" => Scalar::I64,
+            "unsigned_long" | "uint64" | "vtktypeuint64" => Scalar::U64,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    /// Bytes per value.
+    pub fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::I64 | Scalar::U64 | Scalar::F64 => 8,
+        }
+    }
+
+    /// Decode the first `size()` bytes of `b` (the caller checked the length).
+    pub fn read(self, b: &[u8], big_endian: bool) -> f64 {
+        let s = self.size();
+        let mut a = [0u8; 8];
+        a[..s].copy_from_slice(&b[..s]);
+        if big_endian {
+            a[..s].reverse();
+        }
+        let four = [a[0], a[1], a[2], a[3]];
+        match self {
+            Scalar::I8 => a[0] as i8 as f64,
+            Scalar::U8 => a[0] as f64,
+            Scalar::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::I32 => i32::from_le_bytes(four) as f64,
+            Scalar::U32 => u32::from_le_bytes(four) as f64,
+            Scalar::F32 => f32::from_le_bytes(four) as f64,
+            Scalar::I64 => i64::from_le_bytes(a) as f64,
+            Scalar::U64 => u64::from_le_bytes(a) as f64,
+            Scalar::F64 => f64::from_le_bytes(a),
+        }
+    }
+}
+
+/// A parse error at byte `at` of `path`.
+pub fn err_at(path: &Path, at: usize, reason: impl Into<String>) -> Error {
+    Error::Parse { path: path.to_path_buf(), offset: at as u64, reason: reason.into() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Names from all three vocabularies map to one type; both byte orders decode.
+    #[test]
+    fn scalar_names_and_byte_orders() {
+        assert_eq!(Scalar::parse("Float32"), Some(Scalar::F32));
+        assert_eq!(Scalar::parse("float"), Some(Scalar::F32));
+        assert_eq!(Scalar::parse("unsigned_char"), Some(Scalar::U8));
+        assert_eq!(Scalar::parse("uchar"), Some(Scalar::U8));
+        assert_eq!(Scalar::parse("vtktypeint64"), Some(Scalar::I64));
+        assert_eq!(Scalar::parse("bit"), None);
+        assert_eq!(Scalar::F32.read(&1.5f32.to_be_bytes(), true), 1.5);
+        assert_eq!(Scalar::I16.read(&(-7i16).to_le_bytes(), false), -7.0);
+        assert_eq!(Scalar::U64.read(&(1u64 << 40).to_be_bytes(), true), (1u64 << 40) as f64);
+    }
+}
