@@ -12,6 +12,8 @@
 
 use glam::Vec3;
 
+use crate::scene::grid::UniformGrid;
+
 /// Cubic spline kernel, without its normalisation constant (it cancels in φ): q = distance / support.
 pub fn kernel(q: f32) -> f32 {
     if q <= 0.5 {
@@ -24,97 +26,26 @@ pub fn kernel(q: f32) -> f32 {
     }
 }
 
-/// Most grid cells, as a multiple of the particle count (the cells grow past h for sparse, wide scenes).
-const CELLS_PER_PARTICLE: u64 = 8;
-
-/// A dense uniform grid of cells at least `support` wide over the particles' bounding box; points sorted by
-/// cell, `cells[c] = (first point, count)`. Every particle within `support` of a point lies in the 3×3×3
-/// cells around the point's cell.
+/// The iso surface's grid: THE neighbour grid (`scene::UniformGrid`, cells at least the kernel support wide,
+/// so every particle within `support` of a point lies in the 3×3×3 cells around the point's cell) and the
+/// support. The GPU walks its sorted points and cell table.
 #[derive(Clone, Debug, Default)]
 pub struct IsoGrid {
-    /// Sorted positions (w = 0; the GPU writes 1/n_j into a separate buffer).
-    pub points: Vec<[f32; 4]>,
-    pub cells: Vec<[u32; 2]>,
-    pub origin: Vec3,
-    pub cell: f32,
-    pub dims: [u32; 3],
+    pub grid: UniformGrid,
     pub support: f32,
+}
+
+impl std::ops::Deref for IsoGrid {
+    type Target = UniformGrid;
+    fn deref(&self) -> &UniformGrid {
+        &self.grid
+    }
 }
 
 impl IsoGrid {
     /// Build over `positions` (non-finite positions are dropped) for kernel support `support`.
     pub fn build(positions: &[[f32; 3]], support: f32) -> IsoGrid {
-        let pts: Vec<Vec3> = positions.iter().map(|p| Vec3::from(*p)).filter(|p| p.is_finite()).collect();
-        if pts.is_empty() || !(support > 0.0 && support.is_finite()) {
-            return IsoGrid {
-                cells: vec![[0, 0]],
-                dims: [1, 1, 1],
-                cell: support.max(1.0),
-                support,
-                ..Default::default()
-            };
-        }
-        let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
-        let ext = (hi - lo).max(Vec3::splat(support * 1e-3));
-        let max_cells = (pts.len() as u64 * CELLS_PER_PARTICLE).max(4096) as f64;
-        let mut cell = support;
-        let count = |c: f32| ((ext / c).floor() + Vec3::ONE).as_dvec3();
-        while {
-            let n = count(cell);
-            n.x * n.y * n.z > max_cells
-        } {
-            cell *= 1.25;
-        }
-        let n = (ext / cell).floor() + Vec3::ONE;
-        let dims = [n.x as u32, n.y as u32, n.z as u32];
-        let index = |p: Vec3| -> usize {
-            let c = ((p - lo) / cell).floor().as_uvec3().min(glam::UVec3::new(dims[0] - 1, dims[1] - 1, dims[2] - 1));
-            (c.x + dims[0] * (c.y + dims[1] * c.z)) as usize
-        };
-        // Counting sort by cell.
-        let total = dims.iter().map(|&d| d as usize).product::<usize>();
-        let mut cells = vec![[0u32, 0u32]; total];
-        let keys: Vec<usize> = pts.iter().map(|p| index(*p)).collect();
-        for &k in &keys {
-            cells[k][1] += 1;
-        }
-        let mut start = 0u32;
-        for c in cells.iter_mut() {
-            c[0] = start;
-            start += c[1];
-        }
-        let mut fill: Vec<u32> = cells.iter().map(|c| c[0]).collect();
-        let mut points = vec![[0f32; 4]; pts.len()];
-        for (p, &k) in pts.iter().zip(&keys) {
-            points[fill[k] as usize] = [p.x, p.y, p.z, 0.0];
-            fill[k] += 1;
-        }
-        IsoGrid { points, cells, origin: lo, cell, dims, support }
-    }
-
-    /// Visit every point in the 3×3×3 cells around `x` (a superset of the points within `support`).
-    fn for_near(&self, x: Vec3, mut f: impl FnMut(usize, Vec3)) {
-        let c = ((x - self.origin) / self.cell).floor().as_ivec3();
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let q = c + glam::IVec3::new(dx, dy, dz);
-                    if q.min_element() < 0
-                        || q.x >= self.dims[0] as i32
-                        || q.y >= self.dims[1] as i32
-                        || q.z >= self.dims[2] as i32
-                    {
-                        continue;
-                    }
-                    let [s, n] =
-                        self.cells[(q.x as u32 + self.dims[0] * (q.y as u32 + self.dims[1] * q.z as u32)) as usize];
-                    for i in s..s + n {
-                        let p = self.points[i as usize];
-                        f(i as usize, Vec3::new(p[0], p[1], p[2]));
-                    }
-                }
-            }
-        }
+        IsoGrid { grid: UniformGrid::new(positions, support), support }
     }
 
     /// 1 / n_j for every sorted point (the GPU's `iso` pass computes the same on the device).
@@ -125,7 +56,7 @@ impl IsoGrid {
             .map(|p| {
                 let x = Vec3::new(p[0], p[1], p[2]);
                 let mut s = 0.0;
-                self.for_near(x, |_, y| s += kernel(x.distance(y) / self.support));
+                self.for_each_near(x, |_, y| s += kernel(x.distance(y) / self.support));
                 1.0 / s
             })
             .collect()
@@ -135,7 +66,7 @@ impl IsoGrid {
     pub fn field(&self, x: Vec3, inv_n: &[f32]) -> (f32, f32) {
         let mut s = 0.0;
         let mut dmin = self.cell;
-        self.for_near(x, |i, y| {
+        self.for_each_near(x, |i, y| {
             let d = x.distance(y);
             dmin = dmin.min(d);
             s += kernel(d / self.support) * inv_n[i];
@@ -213,6 +144,7 @@ pub fn cast(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::grid::CELLS_PER_PARTICLE;
 
     #[test]
     fn isolated_particle_is_a_sphere_of_the_threshold_radius() {

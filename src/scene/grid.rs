@@ -1,63 +1,151 @@
-//! One uniform neighbour grid for the CPU-side statistics (spacing, number-density radius estimate, spray
-//! neighbour counts): particles hashed into cubic cells of a chosen size, queried by the 27 cells around a point.
-//! Positions that are not finite are left out of the grid (and find no neighbours).
+//! THE neighbour grid: particles counting-sorted into a dense uniform grid of cubic cells (`cells[c]` =
+//! first sorted point, count), queried through the 27 cells around a point. One structure serves the CPU
+//! statistics (spacing, the number-density radius estimate, spray neighbour counts) and the iso surface (the
+//! GPU walks the same sorted points and cell table, see `crate::iso::IsoGrid`). Positions that are not finite
+//! are left out (and find no neighbours).
 
-use std::collections::HashMap;
+use glam::{IVec3, UVec3, Vec3};
 
-use glam::Vec3;
+/// Most grid cells, as a multiple of the particle count (cells grow past the requested size for sparse, wide
+/// scenes, which keeps memory bounded; queries stay correct since a cell is never smaller than asked for).
+pub const CELLS_PER_PARTICLE: u64 = 8;
 
-/// Particles sorted into cubic cells of side `cell`.
-pub struct UniformGrid<'a> {
-    pos: &'a [[f32; 3]],
-    cell: f32,
-    cells: HashMap<[i64; 3], Vec<u32>>,
+/// Particles sorted by cell.
+#[derive(Clone, Debug, Default)]
+pub struct UniformGrid {
+    /// Sorted positions (w = 0; the GPU writes 1/n_j into a separate buffer).
+    pub points: Vec<[f32; 4]>,
+    /// Index into the input of every sorted point.
+    pub order: Vec<u32>,
+    /// Per cell: (first sorted point, count), x fastest.
+    pub cells: Vec<[u32; 2]>,
+    /// Corner of cell (0, 0, 0).
+    pub origin: Vec3,
+    /// Cell side (at least the size asked for).
+    pub cell: f32,
+    pub dims: [u32; 3],
 }
 
-impl<'a> UniformGrid<'a> {
-    /// Hash every finite position into cells of side `cell` (clamped to a tiny positive size).
-    pub fn new(pos: &'a [[f32; 3]], cell: f32) -> Self {
-        let cell = if cell.is_finite() { cell.max(1e-9) } else { 1.0 };
-        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-        for (i, p) in pos.iter().enumerate() {
-            if p.iter().all(|c| c.is_finite()) {
-                cells.entry(Self::key_of(p, cell)).or_default().push(i as u32);
-            }
+impl UniformGrid {
+    /// Sort every finite position of `pos` into cells at least `min_cell` wide.
+    pub fn new(pos: &[[f32; 3]], min_cell: f32) -> UniformGrid {
+        let min_cell = if min_cell.is_finite() && min_cell > 0.0 { min_cell } else { 1.0 };
+        let (idx, pts): (Vec<u32>, Vec<Vec3>) =
+            pos.iter().enumerate().map(|(i, p)| (i as u32, Vec3::from(*p))).filter(|(_, p)| p.is_finite()).unzip();
+        if pts.is_empty() {
+            return UniformGrid { cells: vec![[0, 0]], dims: [1, 1, 1], cell: min_cell, ..Default::default() };
         }
-        UniformGrid { pos, cell, cells }
+        let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
+        let ext = (hi - lo).max(Vec3::splat(min_cell * 1e-3));
+        let max_cells = (pts.len() as u64 * CELLS_PER_PARTICLE).max(4096) as f64;
+        let mut cell = min_cell;
+        let count = |c: f32| ((ext / c).floor() + Vec3::ONE).as_dvec3();
+        while {
+            let n = count(cell);
+            n.x * n.y * n.z > max_cells
+        } {
+            cell *= 1.25;
+        }
+        let n = (ext / cell).floor() + Vec3::ONE;
+        let dims = [n.x as u32, n.y as u32, n.z as u32];
+        let last = UVec3::new(dims[0] - 1, dims[1] - 1, dims[2] - 1);
+        let index = |p: Vec3| -> usize {
+            let c = ((p - lo) / cell).floor().as_uvec3().min(last);
+            (c.x + dims[0] * (c.y + dims[1] * c.z)) as usize
+        };
+        // Counting sort by cell.
+        let total = dims.iter().map(|&d| d as usize).product::<usize>();
+        let mut cells = vec![[0u32, 0u32]; total];
+        let keys: Vec<usize> = pts.iter().map(|p| index(*p)).collect();
+        for &k in &keys {
+            cells[k][1] += 1;
+        }
+        let mut start = 0u32;
+        for c in cells.iter_mut() {
+            c[0] = start;
+            start += c[1];
+        }
+        let mut fill: Vec<u32> = cells.iter().map(|c| c[0]).collect();
+        let mut points = vec![[0f32; 4]; pts.len()];
+        let mut order = vec![0u32; pts.len()];
+        for ((p, &k), &i) in pts.iter().zip(&keys).zip(&idx) {
+            points[fill[k] as usize] = [p.x, p.y, p.z, 0.0];
+            order[fill[k] as usize] = i;
+            fill[k] += 1;
+        }
+        UniformGrid { points, order, cells, origin: lo, cell, dims }
     }
 
-    fn key_of(p: &[f32; 3], cell: f32) -> [i64; 3] {
-        [(p[0] / cell).floor() as i64, (p[1] / cell).floor() as i64, (p[2] / cell).floor() as i64]
-    }
-
-    /// Calls `f(j, distance)` for every particle `j` within `h` of `p` (`h` ≤ the cell size), `p` itself included
-    /// when it is one of the particles.
-    pub fn for_each_within(&self, p: [f32; 3], h: f32, mut f: impl FnMut(usize, f32)) {
-        if !p.iter().all(|c| c.is_finite()) {
+    /// Visit every sorted point in the 3×3×3 cells around `x` (a superset of the points within one cell
+    /// size): `f(sorted index, position)`.
+    pub fn for_each_near(&self, x: Vec3, mut f: impl FnMut(usize, Vec3)) {
+        if !x.is_finite() || self.points.is_empty() {
             return;
         }
-        debug_assert!(h <= self.cell * 1.0001, "query radius {h} exceeds the cell size {}", self.cell);
-        let k = Self::key_of(&p, self.cell);
-        let q = Vec3::from(p);
-        let h2 = h * h;
+        let c = ((x - self.origin) / self.cell).floor().as_ivec3();
+        let dims = IVec3::new(self.dims[0] as i32, self.dims[1] as i32, self.dims[2] as i32);
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
-                    if let Some(v) = self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
-                        for &j in v {
-                            let d2 = (Vec3::from(self.pos[j as usize]) - q).length_squared();
-                            if d2 <= h2 {
-                                f(j as usize, d2.sqrt());
-                            }
-                        }
+                    let q = c + IVec3::new(dx, dy, dz);
+                    if q.min_element() < 0 || q.cmpge(dims).any() {
+                        continue;
+                    }
+                    let [s, n] =
+                        self.cells[(q.x as u32 + self.dims[0] * (q.y as u32 + self.dims[1] * q.z as u32)) as usize];
+                    for i in s..s + n {
+                        let p = self.points[i as usize];
+                        f(i as usize, Vec3::new(p[0], p[1], p[2]));
                     }
                 }
             }
         }
+    }
+
+    /// Calls `f(j, distance)` for every input particle `j` within `h` of `p` (`h` ≤ the cell size), `p` itself
+    /// included when it is one of the particles.
+    pub fn for_each_within(&self, p: [f32; 3], h: f32, mut f: impl FnMut(usize, f32)) {
+        debug_assert!(h <= self.cell * 1.0001, "query radius {h} exceeds the cell size {}", self.cell);
+        let q = Vec3::from(p);
+        let h2 = h * h;
+        self.for_each_near(q, |i, y| {
+            let d2 = (y - q).length_squared();
+            if d2 <= h2 {
+                f(self.order[i] as usize, d2.sqrt());
+            }
+        });
     }
 }
 
 /// Indices of up to `max` particles spread evenly over the set (every k-th).
 pub fn sample_indices(n: usize, max: usize) -> impl Iterator<Item = usize> {
     (0..n).step_by((n / max.max(1)).max(1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Brute force agrees with the grid, cells never shrink below the request, non-finite points are out.
+    #[test]
+    fn grid_queries_match_brute_force() {
+        let mut pos: Vec<[f32; 3]> = (0..500)
+            .map(|i| [(i * 37 % 101) as f32 * 0.01, (i * 59 % 97) as f32 * 0.01, (i % 13) as f32 * 0.02])
+            .collect();
+        pos.push([f32::NAN, 0.0, 0.0]);
+        let h = 0.05;
+        let g = UniformGrid::new(&pos, h);
+        assert!(g.cell >= h && g.points.len() == 500);
+        for (i, p) in pos.iter().enumerate().step_by(7) {
+            let mut got = vec![];
+            g.for_each_within(*p, h, |j, _| got.push(j));
+            got.sort();
+            let want: Vec<usize> = (0..500).filter(|&j| (Vec3::from(pos[j]) - Vec3::from(*p)).length() <= h).collect();
+            if i < 500 {
+                assert_eq!(got, want, "point {i}");
+            } else {
+                assert!(got.is_empty());
+            }
+        }
+    }
 }
