@@ -4,7 +4,13 @@
 //!
 //! Frame loop: render (submit + wait), read that frame's timestamps (already complete: no query wait), acquire,
 //! blit, present. CPU and GPU do not overlap — simple and exact on lavapipe; a real GPU would want two frames in
-//! flight (not done yet).
+//! flight (the queues issue). Parts: `controller` (camera control, pure functions), `playback` (frame source
+//! and stepping), `overlay` (text), `present` (swapchain); this module holds the window loop and the keys.
+
+mod controller;
+mod overlay;
+mod playback;
+mod present;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -23,10 +29,10 @@ use winit::window::{Window, WindowId};
 
 use meniscus::error::{Error, Result, VkContext};
 use meniscus::frame::{Environment, View};
-use meniscus::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Use};
+use meniscus::gpu::{Buffer, Gpu, GpuOptions, Image, PassTimes};
 use meniscus::passes::view::ViewMode;
 use meniscus::renderer::Renderer;
-use meniscus::scene::{self, Camera, LoadOptions, Particles};
+use meniscus::scene::{Camera, LoadOptions, Particles};
 use meniscus::settings::{Filter, Settings, Surface};
 
 use crate::args::{GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
@@ -111,53 +117,12 @@ pub struct DemoOptions {
     pub fps: f32,
 }
 
-/// Where frames come from.
-enum Source {
-    Static(Particles),
-    Sequence { frames: Vec<scene::sequence::Frame>, cache: HashMap<usize, Particles>, order: Vec<usize> },
-}
-
-impl Source {
-    fn len(&self) -> usize {
-        match self {
-            Source::Static(_) => 1,
-            Source::Sequence { frames, .. } => frames.len(),
-        }
-    }
-    /// Frame `i`, loading it (and keeping the last 8) on demand.
-    fn get(&mut self, i: usize, o: &LoadOptions) -> Result<&Particles> {
-        match self {
-            Source::Static(p) => Ok(p),
-            Source::Sequence { frames, cache, order } => {
-                if let std::collections::hash_map::Entry::Vacant(e) = cache.entry(i) {
-                    let p = scene::load_with(&frames[i].path, o)?;
-                    e.insert(p);
-                    order.push(i);
-                    if order.len() > 8 {
-                        let old = order.remove(0);
-                        cache.remove(&old);
-                    }
-                }
-                Ok(&cache[&i])
-            }
-        }
-    }
-}
-
-struct Swapchain {
-    loader: ash::khr::swapchain::Device,
-    raw: vk::SwapchainKHR,
-    images: Vec<Image>,
-    extent: vk::Extent2D,
-    fence: vk::Fence,
-}
-
 struct State {
     window: Arc<Window>,
     gpu: Arc<Gpu>,
     surface_loader: ash::khr::surface::Instance,
     surface: vk::SurfaceKHR,
-    swap: Option<Swapchain>,
+    swap: Option<present::Swapchain>,
     renderer: Renderer,
     overlay: Option<Image>,
     values: Option<Buffer>,
@@ -172,7 +137,7 @@ struct App {
     mesh: Option<meniscus::mesh::Mesh>,
     /// The sequence frame whose particles are on the GPU (uploads happen only when it changes).
     uploaded: Option<usize>,
-    src: Source,
+    src: playback::Source,
     radius: f32,
     fit: Camera,
     camera: Camera,
@@ -213,9 +178,9 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         Some(frames) => {
             let mut cache = HashMap::new();
             cache.insert(0, job.first);
-            Source::Sequence { frames, cache, order: vec![0] }
+            playback::Source::Sequence { frames, cache, order: vec![0] }
         }
-        None => Source::Static(job.first),
+        None => playback::Source::Static(job.first),
     };
     let (s, load, mesh) = (job.settings, job.load, job.mesh);
     let event_loop = EventLoop::new().map_err(|e| {
@@ -311,9 +276,9 @@ impl ApplicationHandler for App {
                 if let (Some((x0, y0)), Some(b)) = (self.cursor, self.dragging) {
                     let (dx, dy) = ((position.x - x0) as f32, (position.y - y0) as f32);
                     if b == MouseButton::Right || (b == MouseButton::Left && self.mods.shift_key()) {
-                        self.pan(dx, dy);
+                        controller::pan(&mut self.camera, dx, dy);
                     } else if b == MouseButton::Left {
-                        self.orbit(dx, dy);
+                        controller::orbit(&mut self.camera, dx, dy);
                     }
                 }
                 self.cursor = Some((position.x, position.y));
@@ -323,8 +288,7 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::LineDelta(_, y) => y,
                     MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
                 };
-                let d = self.camera.eye - self.camera.target;
-                self.camera.eye = self.camera.target + d * 0.9f32.powf(steps);
+                controller::zoom(&mut self.camera, steps);
             }
             WindowEvent::RedrawRequested => {
                 if let Err(e) = self.draw(el) {
@@ -377,84 +341,6 @@ impl App {
         let mut st = State { window, gpu, surface_loader, surface, swap: None, renderer, overlay: None, values: None };
         self.recreate_swapchain(&mut st)?;
         Ok(st)
-    }
-
-    fn recreate_swapchain(&self, st: &mut State) -> Result<()> {
-        let gpu = st.gpu.clone();
-        unsafe { gpu.device.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
-        let caps = unsafe { st.surface_loader.get_physical_device_surface_capabilities(gpu.physical, st.surface) }
-            .vk("vkGetPhysicalDeviceSurfaceCapabilitiesKHR")?;
-        let size = st.window.inner_size();
-        let extent = if caps.current_extent.width != u32::MAX {
-            caps.current_extent
-        } else {
-            vk::Extent2D {
-                width: size.width.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
-                height: size.height.clamp(caps.min_image_extent.height, caps.max_image_extent.height),
-            }
-        };
-        let old = st.swap.take();
-        if extent.width == 0 || extent.height == 0 {
-            // Minimised: keep no swapchain until restored.
-            if let Some(o) = old {
-                destroy_swapchain(&gpu, o);
-            }
-            return Ok(());
-        }
-        let formats = unsafe { st.surface_loader.get_physical_device_surface_formats(gpu.physical, st.surface) }
-            .vk("vkGetPhysicalDeviceSurfaceFormatsKHR")?;
-        let format = formats
-            .iter()
-            .find(|f| f.format == vk::Format::B8G8R8A8_UNORM || f.format == vk::Format::R8G8B8A8_UNORM)
-            .or(formats.first())
-            .copied()
-            .ok_or_else(|| Error::NoDevice("the surface offers no formats".into()))?;
-        let modes = unsafe { st.surface_loader.get_physical_device_surface_present_modes(gpu.physical, st.surface) }
-            .vk("vkGetPhysicalDeviceSurfacePresentModesKHR")?;
-        let mode = if self.o.vsync {
-            vk::PresentModeKHR::FIFO
-        } else if modes.contains(&vk::PresentModeKHR::IMMEDIATE) {
-            vk::PresentModeKHR::IMMEDIATE
-        } else if modes.contains(&vk::PresentModeKHR::MAILBOX) {
-            vk::PresentModeKHR::MAILBOX
-        } else {
-            vk::PresentModeKHR::FIFO
-        };
-        let mut count = caps.min_image_count + 1;
-        if caps.max_image_count > 0 {
-            count = count.min(caps.max_image_count);
-        }
-        let loader = old
-            .as_ref()
-            .map(|o| o.loader.clone())
-            .unwrap_or_else(|| ash::khr::swapchain::Device::new(&gpu.instance, &gpu.device));
-        let ci = vk::SwapchainCreateInfoKHR::default()
-            .surface(st.surface)
-            .min_image_count(count)
-            .image_format(format.format)
-            .image_color_space(format.color_space)
-            .image_extent(extent)
-            .image_array_layers(1)
-            .image_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::COLOR_ATTACHMENT)
-            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .pre_transform(caps.current_transform)
-            .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
-            .present_mode(mode)
-            .clipped(true)
-            .old_swapchain(old.as_ref().map(|o| o.raw).unwrap_or_default());
-        let raw = unsafe { loader.create_swapchain(&ci, None) }.vk("vkCreateSwapchainKHR")?;
-        if let Some(o) = old {
-            destroy_swapchain(&gpu, o);
-        }
-        let images = unsafe { loader.get_swapchain_images(raw) }
-            .vk("vkGetSwapchainImagesKHR")?
-            .into_iter()
-            .enumerate()
-            .map(|(k, i)| Image::wrap(&gpu, i, format.format, extent, &format!("swapchain{k}")))
-            .collect::<Result<Vec<_>>>()?;
-        let fence = unsafe { gpu.device.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
-        st.swap = Some(Swapchain { loader, raw, images, extent, fence });
-        Ok(())
     }
 
     fn key(&mut self, code: KeyCode, el: &ActiveEventLoop) {
@@ -545,47 +431,28 @@ impl App {
         }
     }
 
-    fn orbit(&mut self, dx: f32, dy: f32) {
-        let c = &mut self.camera;
-        let d = c.eye - c.target;
-        let r = d.length();
-        let yaw = d.z.atan2(d.x) + dx * 0.008;
-        let pitch = (d.y / r).clamp(-1.0, 1.0).asin() + dy * 0.008;
-        let pitch = pitch.clamp(-1.5, 1.5);
-        c.eye = c.target + r * Vec3::new(pitch.cos() * yaw.cos(), pitch.sin(), pitch.cos() * yaw.sin());
+    fn recreate_swapchain(&self, st: &mut State) -> Result<()> {
+        let size = st.window.inner_size();
+        let surface = present::Surface { loader: &st.surface_loader, raw: st.surface, size: (size.width, size.height) };
+        st.swap = present::recreate(&st.gpu, surface, self.o.vsync, st.swap.take())?;
+        Ok(())
     }
 
-    fn pan(&mut self, dx: f32, dy: f32) {
-        let c = &mut self.camera;
-        let f = (c.target - c.eye).normalize();
-        let right = f.cross(c.up).normalize();
-        let up = right.cross(f);
-        let k = (c.eye - c.target).length() * 0.0015;
-        let m = (-right * dx + up * dy) * k;
-        c.eye += m;
-        c.target += m;
-    }
-
-    fn fly(&mut self, dt: f32) {
-        let c = &mut self.camera;
-        let f = (c.target - c.eye).normalize();
-        let right = f.cross(c.up).normalize();
-        let v = (c.eye - c.target).length().max(1e-3) * 0.8 * dt;
-        let mut m = Vec3::ZERO;
-        for (k, dir) in [
-            (KeyCode::KeyW, f),
-            (KeyCode::KeyS, -f),
-            (KeyCode::KeyD, right),
-            (KeyCode::KeyA, -right),
-            (KeyCode::KeyE, c.up),
-            (KeyCode::KeyQ, -c.up),
-        ] {
-            if self.keys.contains(&k) {
-                m += dir;
-            }
+    fn present(&mut self, st: &mut State) -> Result<()> {
+        let Some(swap) = st.swap.as_ref() else { return Ok(()) };
+        let src = &st.renderer.targets.as_ref().expect("rendered").final_color;
+        if present::present(&st.gpu, swap, src)? {
+            self.resized = true;
         }
-        c.eye += m * v;
-        c.target += m * v;
+        Ok(())
+    }
+
+    /// The fly keys held now, as (forward, right, up) in {-1, 0, 1}.
+    fn fly_keys(&self) -> (f32, f32, f32) {
+        let axis = |plus: KeyCode, minus: KeyCode| {
+            self.keys.contains(&plus) as i32 as f32 - self.keys.contains(&minus) as i32 as f32
+        };
+        (axis(KeyCode::KeyW, KeyCode::KeyS), axis(KeyCode::KeyD, KeyCode::KeyA), axis(KeyCode::KeyE, KeyCode::KeyQ))
     }
 
     /// Per-particle values in [0, 1] for the particle view (speed, density or height), and the legend range.
@@ -632,19 +499,17 @@ impl App {
         let now = Instant::now();
         let dt = now.duration_since(self.last_frame).as_secs_f32().min(0.1);
         self.last_frame = now;
-        self.fly(dt);
+        let keys = self.fly_keys();
+        controller::fly(&mut self.camera, keys, dt);
         let n = self.src.len();
         if self.playing
             && n > 1
             && now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed)
         {
             self.last_advance = now;
-            if self.frame + 1 < n {
-                self.frame += 1;
-            } else if self.looping {
-                self.frame = 0;
-            } else {
-                self.playing = false;
+            match playback::next_frame(self.frame, n, self.looping) {
+                Some(f) => self.frame = f,
+                None => self.playing = false,
             }
         }
         let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
@@ -676,7 +541,7 @@ impl App {
         };
         // Overlay text (last frame's GPU times: this frame's are read after it completes).
         let text = self.overlay_text(st, n, legend.as_ref());
-        let ov = rasterize(&text, legend.is_some(), if extent.width >= 1000 { 2 } else { 1 });
+        let ov = overlay::rasterize(&text, legend.is_some(), if extent.width >= 1000 { 2 } else { 1 });
         let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
         let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
         if need_new {
@@ -753,72 +618,6 @@ impl App {
         t
     }
 
-    fn present(&mut self, st: &mut State) -> Result<()> {
-        let gpu = st.gpu.clone();
-        let Some(swap) = st.swap.as_ref() else { return Ok(()) };
-        let acquired = unsafe { swap.loader.acquire_next_image(swap.raw, u64::MAX, vk::Semaphore::null(), swap.fence) };
-        let index = match acquired {
-            Ok((i, suboptimal)) => {
-                if suboptimal {
-                    self.resized = true;
-                }
-                i
-            }
-            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
-                self.resized = true;
-                return Ok(());
-            }
-            Err(e) => return Err(Error::Vulkan { call: "vkAcquireNextImageKHR", result: e }),
-        };
-        unsafe {
-            gpu.device.wait_for_fences(&[swap.fence], true, u64::MAX).vk("vkWaitForFences")?;
-            gpu.device.reset_fences(&[swap.fence]).vk("vkResetFences")?;
-        }
-        let target = &swap.images[index as usize];
-        let src = &st.renderer.targets.as_ref().expect("rendered").final_color;
-        gpu.one_shot(|cmd| {
-            let mut ctx = FrameCtx::new(&gpu, cmd, None);
-            ctx.barrier(&[Use::Image(src, Access::TransferSrc, false), Use::Image(target, Access::TransferDst, true)]);
-            let sub = vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            };
-            let corner = |e: vk::Extent2D| {
-                [vk::Offset3D { x: 0, y: 0, z: 0 }, vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 }]
-            };
-            let blit = vk::ImageBlit {
-                src_subresource: sub,
-                src_offsets: corner(src.extent),
-                dst_subresource: sub,
-                dst_offsets: corner(target.extent),
-            };
-            unsafe {
-                gpu.device.cmd_blit_image(
-                    cmd,
-                    src.raw,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    target.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[blit],
-                    vk::Filter::NEAREST,
-                )
-            };
-            ctx.barrier(&[Use::Image(target, Access::Present, false)]);
-            Ok(())
-        })?;
-        let swapchains = [swap.raw];
-        let indices = [index];
-        let pi = vk::PresentInfoKHR::default().swapchains(&swapchains).image_indices(&indices);
-        match unsafe { swap.loader.queue_present(gpu.queue, &pi) } {
-            Ok(false) => {}
-            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => self.resized = true,
-            Err(e) => return Err(Error::Vulkan { call: "vkQueuePresentKHR", result: e }),
-        }
-        Ok(())
-    }
-
     fn save_screenshot(&mut self, p: &std::path::Path) -> Result<()> {
         let st = self.state.as_ref().ok_or_else(|| Error::Invalid("no window yet".into()))?;
         self.save_screenshot_of(st, p)
@@ -830,75 +629,11 @@ impl App {
     }
 }
 
-fn destroy_swapchain(gpu: &Gpu, s: Swapchain) {
-    unsafe {
-        let _ = gpu.device.device_wait_idle();
-        gpu.device.destroy_fence(s.fence, None);
-    }
-    drop(s.images); // views only
-    unsafe { s.loader.destroy_swapchain(s.raw, None) };
-}
-
 impl Drop for State {
     fn drop(&mut self) {
         if let Some(s) = self.swap.take() {
-            destroy_swapchain(&self.gpu, s);
+            present::destroy(&self.gpu, s);
         }
         unsafe { self.surface_loader.destroy_surface(self.surface, None) };
     }
-}
-
-/// Rasterise the overlay lines with the font8x8 glyphs (public domain, 8×8, scaled ×2) on a translucent panel;
-/// with a legend, a blue→red hue bar under the text. CPU text + a one-dispatch blend pass is all the demo needs:
-/// no font atlas, no extra pipeline state, identical on every driver.
-fn rasterize(lines: &[String], legend: bool, scale: u32) -> image::RgbaImage {
-    let s_ = scale.max(1);
-    #[allow(non_snake_case)]
-    let S = s_;
-    let cols = lines.iter().map(|l| l.chars().count()).max().unwrap_or(1) as u32;
-    let w = (cols * 8 * S + 16).min(2048);
-    let h = lines.len() as u32 * 10 * S + 16 + if legend { 24 } else { 0 };
-    let mut img = image::RgbaImage::from_pixel(w, h, image::Rgba([10, 14, 24, 150]));
-    for (row, line) in lines.iter().enumerate() {
-        for (col, ch) in line.chars().enumerate() {
-            let c = ch as usize;
-            let glyph =
-                if c < 128 { font8x8::legacy::BASIC_LEGACY[c] } else { font8x8::legacy::BASIC_LEGACY[b'?' as usize] };
-            for (gy, bits) in glyph.iter().enumerate() {
-                for gx in 0..8 {
-                    if bits >> gx & 1 == 1 {
-                        for sy in 0..S {
-                            for sx in 0..S {
-                                let x = 8 + (col as u32 * 8 + gx) * S + sx;
-                                let y = 8 + (row as u32 * 10 + gy as u32) * S + sy;
-                                if x < w && y < h {
-                                    img.put_pixel(x, y, image::Rgba([235, 240, 245, 255]));
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-    if legend {
-        let y0 = h - 22;
-        for x in 8..w.min(408) {
-            let t = (x - 8) as f32 / 400.0;
-            let hue = 0.62 * (1.0 - t);
-            let rgb = hsv(hue, 0.85, 0.95);
-            for y in y0..y0 + 14 {
-                img.put_pixel(x, y, image::Rgba([rgb[0], rgb[1], rgb[2], 255]));
-            }
-        }
-    }
-    img
-}
-
-fn hsv(h: f32, s: f32, v: f32) -> [u8; 3] {
-    let f = |n: f32| {
-        let k = (n + h * 6.0) % 6.0;
-        v - v * s * (k.min(4.0 - k).clamp(0.0, 1.0))
-    };
-    [(f(5.0) * 255.0) as u8, (f(3.0) * 255.0) as u8, (f(1.0) * 255.0) as u8]
 }
