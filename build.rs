@@ -104,7 +104,7 @@ fn main() {
                     };
                     let _ = writeln!(
                         generated,
-                        "pub const {const_stem}{suffix}: crate::gpu::Shader = crate::gpu::Shader {{ file: {label:?}, spirv: include_bytes!({:?}), bindings: &{:?}, push: {}, local: {:?} }};",
+                        "/// shaders_glsl/{label}: SPIR-V and its reflection.\npub const {const_stem}{suffix}: crate::gpu::Shader = crate::gpu::Shader {{ file: {label:?}, spirv: include_bytes!({:?}), bindings: &{:?}, push: {}, local: {:?} }};",
                         spv.display().to_string(),
                         r.0,
                         r.1,

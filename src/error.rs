@@ -15,16 +15,38 @@ pub enum Error {
     NoDevice(String),
     /// A Vulkan call failed.
     #[error("Vulkan call {call} failed: {result}")]
-    Vulkan { call: &'static str, result: ash::vk::Result },
+    Vulkan {
+        /// The Vulkan function.
+        call: &'static str,
+        /// What it returned.
+        result: ash::vk::Result,
+    },
     /// GPU memory could not be allocated.
     #[error("GPU memory allocation for {what} failed: {source}")]
-    Alloc { what: String, source: gpu_allocator::AllocationError },
+    Alloc {
+        /// The resource being allocated.
+        what: String,
+        /// The allocator's error.
+        source: gpu_allocator::AllocationError,
+    },
     /// A file could not be read or written.
     #[error("{}: {err}", path.display())]
-    Io { path: PathBuf, err: std::io::Error },
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        err: std::io::Error,
+    },
     /// A particle or settings file is malformed.
     #[error("{}: byte {offset}: {reason}", path.display())]
-    Parse { path: PathBuf, offset: u64, reason: String },
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Byte offset where it goes wrong (0 when the whole file is at fault).
+        offset: u64,
+        /// What is wrong.
+        reason: String,
+    },
     /// A value the user gave (flag, scene name, settings) is not acceptable.
     #[error("{0}")]
     Invalid(String),

@@ -21,19 +21,33 @@ pub const MAX_BOXES: usize = crate::shader_constants::MAX_BOXES as usize;
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameUniforms {
+    /// World → view matrix (column-major).
     pub view: [f32; 16],
+    /// View → world matrix.
     pub inv_view: [f32; 16],
+    /// Camera position (world), w = 1.
     pub eye: [f32; 4],
+    /// x: focal length in output pixels, y: width, z: height, w: near plane distance.
     pub proj: [f32; 4],
+    /// x: particle radius, y: fluid scale, z: thickness fixed-point units per world unit, w: particle count.
     pub fluid: [f32; 4],
+    /// xyz: direction towards the sun (world, unit), w: intensity.
     pub sun: [f32; 4],
+    /// x: ground height, y: checker tile size, z: 1 if the ground exists, w: fog distance.
     pub ground: [f32; 4],
+    /// rgb: Beer–Lambert extinction per world unit.
     pub extinction: [f32; 4],
+    /// rgb: colour I0 scattered out of the fluid, w: ambient light.
     pub fluid_color: [f32; 4],
+    /// x: refraction α (px per world unit), y: β (max px), z: transparency γ, w: specular k_s.
     pub shading: [f32; 4],
+    /// x: shininess, y: F0, z: sky reflection on/off, w: 1 when a sky cube map is loaded.
     pub shading2: [f32; 4],
+    /// x: number of background boxes.
     pub box_count: [f32; 4],
+    /// Minimum corners of the background boxes (world).
     pub box_min: [[f32; 4]; MAX_BOXES],
+    /// Maximum corners of the background boxes (world).
     pub box_max: [[f32; 4]; MAX_BOXES],
 }
 
@@ -42,10 +56,15 @@ const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 2 * 64 + 10 * 16 +
 /// The static scene around the fluid: a ground plane and a few boxes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Environment {
+    /// Height (y) of the ground plane.
     pub ground_y: f32,
+    /// Side of a ground checker tile.
     pub tile: f32,
+    /// Distance at which the fog hides the scene.
     pub fog: f32,
+    /// Whether the ground plane is drawn.
     pub ground: bool,
+    /// Axis-aligned boxes beside the fluid, as (min, max) corners.
     pub boxes: Vec<(Vec3, Vec3)>,
     /// A sky cube map is loaded in the renderer (see `Renderer::set_skybox`).
     pub sky_cube: bool,
@@ -81,9 +100,13 @@ impl Environment {
 /// Everything that defines one frame's view.
 #[derive(Clone, Debug)]
 pub struct View {
+    /// The camera.
     pub camera: Camera,
+    /// Output width in pixels.
     pub width: u32,
+    /// Output height in pixels.
     pub height: u32,
+    /// The static scene around the fluid.
     pub env: Environment,
 }
 
@@ -136,18 +159,28 @@ impl FrameUniforms {
 
 /// The passes, created once per device.
 pub struct Passes {
+    /// The `background` pass.
     pub background: Background,
+    /// The `splat` pass.
     pub splat: Splat,
+    /// The `iso` pass.
     pub iso: Iso,
+    /// The `thickness` pass.
     pub thickness: Thickness,
+    /// The `smooth` pass.
     pub smooth: Smooth,
+    /// The `normals` pass.
     pub normals: Normals,
+    /// The `ssr` pass.
     pub ssr: Ssr,
+    /// The `composite` pass.
     pub composite: Composite,
+    /// The `upsample` pass.
     pub upsample: Upsample,
 }
 
 impl Passes {
+    /// Build every pass's pipelines.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Passes> {
         Ok(Passes {
             background: Background::new(gpu)?,

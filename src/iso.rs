@@ -31,7 +31,9 @@ pub fn kernel(q: f32) -> f32 {
 /// support. The GPU walks its sorted points and cell table.
 #[derive(Clone, Debug, Default)]
 pub struct IsoGrid {
+    /// The sorted points and cell table.
     pub grid: UniformGrid,
+    /// Kernel support h (world units).
     pub support: f32,
 }
 
@@ -78,11 +80,13 @@ impl IsoGrid {
 /// Parameters of the ray cast (all lengths in world units), shared with the shader's push constants.
 #[derive(Clone, Copy, Debug)]
 pub struct IsoParams {
+    /// Field value of the surface (splashsurf: 0.6).
     pub threshold: f32,
     /// Smallest step along the ray.
     pub step: f32,
     /// Radius of the spheres whose splatted depth starts the march (the iso-surface lies inside them).
     pub bound: f32,
+    /// Most march steps per pixel.
     pub max_steps: u32,
     /// Bisection iterations after the first step past the threshold.
     pub refine: u32,

@@ -5,6 +5,8 @@
 //! [`frame`] (the frame's table of contents), [`renderer`] (frame driver and readback), [`scene`]
 //! (particles, loaders, camera, procedural scenes), [`settings`], [`output`] (PNG/NPY writers).
 
+#![warn(missing_docs)]
+
 pub mod error;
 pub mod frame;
 pub mod gpu;

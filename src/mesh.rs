@@ -21,6 +21,7 @@ pub const MAX_DEPTH: usize = 32;
 /// Triangles in world space.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
+    /// The triangles, as three corners each (world).
     pub triangles: Vec<[Vec3; 3]>,
 }
 
@@ -129,11 +130,14 @@ pub fn ray_triangle(o: Vec3, d: Vec3, t: &[Vec3; 3]) -> Option<f32> {
 /// three vec4 each, in leaf order.
 #[derive(Clone, Debug, Default)]
 pub struct GpuBvh {
+    /// BVH nodes, two vec4 each (bounds, then child or triangle range), for the `background` pass.
     pub nodes: Vec<[f32; 4]>,
+    /// Triangles, three vec4 corners each, in BVH leaf order.
     pub triangles: Vec<[f32; 4]>,
 }
 
 impl GpuBvh {
+    /// Build the BVH of `mesh` and flatten it for the GPU.
     pub fn build(mesh: &Mesh) -> GpuBvh {
         let mut order: Vec<usize> = (0..mesh.triangles.len()).collect();
         let centroid = |i: usize| (mesh.triangles[i][0] + mesh.triangles[i][1] + mesh.triangles[i][2]) / 3.0;
@@ -198,6 +202,7 @@ impl GpuBvh {
         self.nodes.len() / 2
     }
 
+    /// Whether the mesh has no triangles.
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
     }

@@ -15,9 +15,13 @@ use crate::targets::{Targets, TargetsDesc};
 
 /// Renders frames on one device.
 pub struct Renderer {
+    /// The device.
     pub gpu: Arc<Gpu>,
+    /// Every pass of the frame.
     pub passes: Passes,
+    /// The frame's images (after the first render).
     pub targets: Option<Targets>,
+    /// The frame uniform block.
     pub uniforms: Buffer,
     particles: Option<Buffer>,
     count: u32,
@@ -52,6 +56,7 @@ struct DemoPasses {
 }
 
 impl Renderer {
+    /// Build the passes on `gpu`; upload particles before rendering.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Renderer> {
         let uniforms = Buffer::new(
             gpu,

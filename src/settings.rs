@@ -145,14 +145,23 @@ pub struct Settings {
     /// Fluid resolution (splat, smooth) relative to the output: 1, 0.5 (half) or 0.25 (quarter); upsampled
     /// to full resolution by the `upsample` pass.
     pub fluid_scale: f32,
+    /// `[background]`: the scene behind the fluid and the sun.
     pub background: crate::passes::background::Params,
+    /// `[splat]`: how the depth splat draws.
     pub splat: crate::passes::splat::Params,
+    /// `[spray]`: spray classification.
     pub spray: SprayParams,
+    /// `[iso]`: the iso-surface ray cast.
     pub iso: crate::passes::iso::Params,
+    /// `[thickness]`: resolution and blur.
     pub thickness: crate::passes::thickness::Params,
+    /// `[smooth]`: the depth filter.
     pub smooth: crate::passes::smooth::Params,
+    /// `[normals]`: discontinuities.
     pub normals: crate::passes::normals::Params,
+    /// `[ssr]`: screen-space reflections.
     pub ssr: crate::passes::ssr::Params,
+    /// `[composite]`: shading.
     pub composite: crate::passes::composite::Params,
 }
 

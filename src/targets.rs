@@ -14,7 +14,9 @@ use crate::settings::{Settings, Surface};
 /// What the frame's images must be; two equal descriptions give the same images.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TargetsDesc {
+    /// Output width.
     pub width: u32,
+    /// Output height.
     pub height: u32,
     /// Size of the fluid images (`fluid_scale` of the output).
     pub fluid: vk::Extent2D,
@@ -64,13 +66,19 @@ pub fn scaled(width: u32, height: u32, scale: f32) -> vk::Extent2D {
 
 /// The images of one frame description.
 pub struct Targets {
+    /// What these images were made for.
     pub desc: TargetsDesc,
+    /// Output width.
     pub width: u32,
+    /// Output height.
     pub height: u32,
+    /// Background colour (RGBA16F).
     pub scene_color: Image,
+    /// Background linear depth (R32F).
     pub scene_depth: Image,
     /// Raw splatted depth: R32_SFLOAT with an R32_UINT view for atomics.
     pub depth: Image,
+    /// First smoothing ping-pong image.
     pub smooth_a: Image,
     /// The second ping-pong image when the raw depth is kept (else the raw depth itself is the second one).
     pub smooth_b: Option<Image>,
@@ -82,9 +90,13 @@ pub struct Targets {
     pub zbuffer: Option<Image>,
     /// Full-resolution depth upsampled from the fluid resolution (`fluid_scale` < 1).
     pub depth_full: Option<Image>,
+    /// Fixed-point thickness accumulator (R32_UINT).
     pub thickness_accum: Image,
+    /// Thickness in world units (R32F, sampled).
     pub thickness: Image,
+    /// Packed view-space normals (octahedral, R32_UINT).
     pub normals: Image,
+    /// SSR hit uv per pixel (R32_UINT).
     pub ssr: Image,
     /// The `composite` pass's output (RGBA8).
     pub final_color: Image,

@@ -37,9 +37,13 @@ pub enum Access {
 /// The Vulkan view of an [`Access`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AccessInfo {
+    /// Pipeline stages of the access.
     pub stage: vk::PipelineStageFlags2,
+    /// Access mask.
     pub access: vk::AccessFlags2,
+    /// Image layout the access needs.
     pub layout: vk::ImageLayout,
+    /// Whether the access writes.
     pub writes: bool,
 }
 
@@ -91,12 +95,15 @@ impl Access {
 /// What a resource remembers about its past: the last write and who has read it since.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AccessState {
+    /// Current image layout (UNDEFINED for buffers).
     pub layout: vk::ImageLayout,
     /// Stage and access of the last write not yet followed by a full barrier to every later reader.
     pub write_stage: vk::PipelineStageFlags2,
+    /// Stages and access of the last write not yet made visible (none when the resource was only read).
     pub write_access: vk::AccessFlags2,
     /// Stages and accesses that read since the last write (and already waited for it).
     pub read_stage: vk::PipelineStageFlags2,
+    /// Accesses that read since the last write (a later write must wait for them).
     pub read_access: vk::AccessFlags2,
 }
 
@@ -115,11 +122,17 @@ impl Default for AccessState {
 /// One derived dependency (image or buffer; `old_layout == new_layout` for buffers).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Dependency {
+    /// Stages to wait for.
     pub src_stage: vk::PipelineStageFlags2,
+    /// Accesses to make available.
     pub src_access: vk::AccessFlags2,
+    /// Stages that wait.
     pub dst_stage: vk::PipelineStageFlags2,
+    /// Accesses to make visible.
     pub dst_access: vk::AccessFlags2,
+    /// Layout before.
     pub old_layout: vk::ImageLayout,
+    /// Layout after.
     pub new_layout: vk::ImageLayout,
 }
 

@@ -21,9 +21,11 @@ impl<'a> Use<'a> {
     pub fn read(img: &'a Image) -> Self {
         Use::Image(img, Access::ComputeRead, false)
     }
+    /// Sampled in a compute shader.
     pub fn sampled(img: &'a Image) -> Self {
         Use::Image(img, Access::ComputeSampled, false)
     }
+    /// Written in a compute shader, old contents kept.
     pub fn write(img: &'a Image) -> Self {
         Use::Image(img, Access::ComputeWrite, false)
     }
@@ -31,6 +33,7 @@ impl<'a> Use<'a> {
     pub fn overwrite(img: &'a Image) -> Self {
         Use::Image(img, Access::ComputeWrite, true)
     }
+    /// Buffer read in a compute shader.
     pub fn buf_read(b: &'a Buffer) -> Self {
         Use::Buffer(b, Access::ComputeRead)
     }
@@ -38,8 +41,11 @@ impl<'a> Use<'a> {
 
 /// A frame (or one-shot) being recorded.
 pub struct FrameCtx<'t> {
+    /// The device.
     pub gpu: Arc<Gpu>,
+    /// The command buffer being recorded.
     pub cmd: vk::CommandBuffer,
+    /// Timestamps per pass, when measured.
     pub timer: Option<&'t mut Timer>,
     open: Vec<Option<u32>>,
     /// Barrier batches flushed (for tests and the bench).

@@ -65,28 +65,45 @@ impl ValidationLog {
 /// What the user and the benchmark want to know about the device.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct DeviceInfo {
+    /// Device name.
     pub name: String,
+    /// Driver name and version.
     pub driver: String,
+    /// Vulkan API version, as "1.3.x".
     pub api_version: String,
+    /// Discrete, integrated, virtual or CPU.
     pub device_type: String,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period: f32,
+    /// Valid bits of a timestamp on the queue used.
     pub timestamp_valid_bits: u32,
+    /// Subgroup size.
     pub subgroup_size: u32,
+    /// Largest storage buffer range in bytes.
     pub max_storage_buffer_range: u64,
 }
 
 /// The device and everything that lives as long as it.
 pub struct Gpu {
+    /// The Vulkan loader.
     pub entry: ash::Entry,
+    /// The instance.
     pub instance: ash::Instance,
+    /// The physical device chosen.
     pub physical: vk::PhysicalDevice,
+    /// The logical device.
     pub device: ash::Device,
+    /// The one queue (graphics + compute + transfer).
     pub queue: vk::Queue,
+    /// Its family.
     pub queue_family: u32,
+    /// VK_KHR_push_descriptor entry points.
     pub push_descriptor: ash::khr::push_descriptor::Device,
+    /// VK_EXT_debug_utils entry points (labels, object names), when present.
     pub debug_device: Option<ash::ext::debug_utils::Device>,
+    /// The memory allocator (dropped before the device).
     pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    /// What the device is (for reports).
     pub info: DeviceInfo,
     /// Linear-filtering, clamp-to-edge sampler.
     pub linear_sampler: vk::Sampler,

@@ -13,6 +13,7 @@ use crate::error::{Error, Result, VkContext};
 pub struct Shader {
     /// `ssr.comp`, `splat_quad.vert`, …
     pub file: &'static str,
+    /// The compiled SPIR-V.
     pub spirv: &'static [u8],
     /// Descriptor bindings of set 0 as (binding, `VkDescriptorType` raw value), sorted by binding. Bindings the
     /// optimizer removed because the shader never reads them are absent.
@@ -85,7 +86,9 @@ impl Slot {
 /// A resource given for a slot.
 #[derive(Clone, Copy)]
 pub enum Res<'a> {
+    /// An image.
     Img(&'a Image),
+    /// A buffer.
     Buf(&'a Buffer),
 }
 
@@ -107,6 +110,7 @@ pub struct ProgramDecl<P> {
     pub shader: &'static Shader,
     /// Graphics: the fragment shader.
     pub fragment: Option<&'static Shader>,
+    /// The slot list: binding i is slot i.
     pub slots: &'static [Slot],
     _push: std::marker::PhantomData<P>,
 }
@@ -209,11 +213,13 @@ const fn has_binding(sh: &Shader, i: usize) -> bool {
 #[macro_export]
 macro_rules! declare_program {
     ($vis:vis $name:ident : $push:ty = compute($shader:expr, [$($slot:ident),* $(,)?])) => {
+        #[doc = concat!("The program of `", stringify!($shader), "`: slots [", stringify!($($slot),*), "], push `", stringify!($push), "` (checked against the SPIR-V at compile time).")]
         $vis const $name: $crate::gpu::pipeline::ProgramDecl<$push> =
             $crate::gpu::pipeline::ProgramDecl::compute(&$shader, &[$($crate::gpu::pipeline::Slot::$slot),*]);
         const _: () = if let Some(e) = $name.mismatch() { panic!("{}", e) };
     };
     ($vis:vis $name:ident : $push:ty = graphics($vert:expr, $frag:expr, [$($slot:ident),* $(,)?])) => {
+        #[doc = concat!("The program of `", stringify!($vert), "` + `", stringify!($frag), "`: slots [", stringify!($($slot),*), "], push `", stringify!($push), "` (checked against the SPIR-V at compile time).")]
         $vis const $name: $crate::gpu::pipeline::ProgramDecl<$push> =
             $crate::gpu::pipeline::ProgramDecl::graphics(&$vert, &$frag, &[$($crate::gpu::pipeline::Slot::$slot),*]);
         const _: () = if let Some(e) = $name.mismatch() { panic!("{}", e) };
@@ -271,9 +277,13 @@ pub struct ProgramCore {
     gpu: Arc<Gpu>,
     /// The shader file (debug names and messages).
     pub file: &'static str,
+    /// The pipeline.
     pub pipeline: vk::Pipeline,
+    /// Its layout (push constants + the push-descriptor set).
     pub layout: vk::PipelineLayout,
+    /// The push-descriptor set layout.
     pub set_layout: vk::DescriptorSetLayout,
+    /// The slot list the layout was built from.
     pub slots: &'static [Slot],
     stages: vk::ShaderStageFlags,
 }
@@ -337,6 +347,7 @@ impl ProgramCore {
 
 /// A compute pipeline built from its [`ProgramDecl`]; `P` is its push-constant type.
 pub struct ComputeProgram<P = ()> {
+    /// Pipeline, layouts and slots.
     pub core: ProgramCore,
     _push: std::marker::PhantomData<P>,
 }
@@ -437,11 +448,13 @@ pub fn push_descriptors(
 /// What a graphics program draws into (dynamic rendering, no render pass objects).
 #[derive(Clone, Copy, Debug)]
 pub struct RasterTargets {
+    /// Format of the colour attachment.
     pub color_format: vk::Format,
     /// `None`: no depth buffer.
     pub depth_format: Option<vk::Format>,
     /// MIN-blend the colour output (with no depth test).
     pub min_blend: bool,
+    /// Points or triangles.
     pub topology: vk::PrimitiveTopology,
 }
 
@@ -449,11 +462,13 @@ pub struct RasterTargets {
 /// reversed-Z depth (GREATER, cleared to 0) when a depth format is given, MIN blending or plain writes of one
 /// red channel (`RasterTargets`).
 pub struct GraphicsProgram<P> {
+    /// Pipeline, layouts and slots.
     pub core: ProgramCore,
     _push: std::marker::PhantomData<P>,
 }
 
 impl<P: bytemuck::Pod> GraphicsProgram<P> {
+    /// Build from the declaration (checked against both shaders' reflection) for the attachments `t`.
     pub fn new(gpu: &Arc<Gpu>, decl: &ProgramDecl<P>, t: RasterTargets) -> Result<Self> {
         decl.check()?;
         let frag = decl.fragment.ok_or_else(|| Error::Invalid(format!("{}: no fragment shader", decl.shader.file)))?;

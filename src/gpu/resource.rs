@@ -15,12 +15,19 @@ use crate::error::{Error, Result, VkContext};
 /// an R32_UINT view of an R32_SFLOAT image for atomics).
 pub struct Image {
     gpu: Arc<Gpu>,
+    /// The image.
     pub raw: vk::Image,
+    /// Its main view.
     pub view: vk::ImageView,
+    /// A second view in another format (R32_UINT over R32_SFLOAT, for atomics).
     pub alt_view: Option<vk::ImageView>,
+    /// Format.
     pub format: vk::Format,
+    /// Size in pixels.
     pub extent: vk::Extent2D,
+    /// Debug name (also the memory report's).
     pub name: String,
+    /// Colour or depth.
     pub aspect: vk::ImageAspectFlags,
     /// Array layers (6 for a cube map).
     pub layers: u32,
@@ -220,8 +227,11 @@ impl Drop for Image {
 /// A buffer; host-visible ones are persistently mapped.
 pub struct Buffer {
     gpu: Arc<Gpu>,
+    /// The buffer.
     pub raw: vk::Buffer,
+    /// Size in bytes.
     pub size: u64,
+    /// Debug name (also the memory report's).
     pub name: String,
     pub(crate) state: Cell<AccessState>,
     alloc: Option<Allocation>,

@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `background`.
 pub const NAME: &str = "background";
 
 /// Settings of the `background` pass: the `[background]` section of a settings file.
@@ -29,6 +30,7 @@ impl Default for Params {
     }
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Background {
     prog: ComputeProgram<u32>,
 }
@@ -40,6 +42,7 @@ declare_program!(pub PROGRAM: u32 = compute(
 ));
 
 impl Background {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Background { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
@@ -67,7 +70,10 @@ impl Background {
 
 /// The background mesh on the device.
 pub struct MeshBuffers {
+    /// BVH nodes.
     pub nodes: Buffer,
+    /// Triangles in BVH order.
     pub triangles: Buffer,
+    /// Node count (0: no mesh).
     pub node_count: u32,
 }

@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `composite`.
 pub const NAME: &str = "composite";
 
 /// Settings of the `composite` pass: the `[composite]` section of a settings file.
@@ -55,17 +56,24 @@ impl Default for Params {
     }
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Composite {
     prog: ComputeProgram,
 }
 
 /// The images the composite reads.
 pub struct CompositeInputs<'a> {
+    /// Background colour (sampled).
     pub scene_color: &'a Image,
+    /// Background depth.
     pub scene_depth: &'a Image,
+    /// Fluid depth at full resolution.
     pub depth: &'a Image,
+    /// Packed normals.
     pub normals: &'a Image,
+    /// Thickness (sampled).
     pub thickness: &'a Image,
+    /// SSR hits.
     pub ssr: &'a Image,
     /// The sky cube map (placeholder when procedural).
     pub sky: &'a Image,
@@ -78,10 +86,12 @@ declare_program!(pub PROGRAM: () = compute(
 ));
 
 impl Composite {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Composite { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
+    /// Shade the fluid over the background into `out`.
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {
         ctx.pass(NAME, |ctx| {
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);

@@ -11,6 +11,7 @@ use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::iso::IsoGrid;
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `iso`.
 pub const NAME: &str = "iso";
 
 /// Settings of the `iso` pass: the `[iso]` section of a settings file.
@@ -40,9 +41,13 @@ impl Default for Params {
 /// The grid on the device, and its shape (origin, cell, dims, point count, support) as push constants; the
 /// CPU copy of the grid is not kept.
 pub struct IsoBuffers {
+    /// Grid points sorted by cell.
     pub points: Buffer,
+    /// Cell table (first point, count).
     pub cells: Buffer,
+    /// 1 / n_j per point, written by `iso_density`.
     pub weights: Buffer,
+    /// Grid shape as push constants.
     pub shape: IsoPush,
 }
 
@@ -50,9 +55,13 @@ pub struct IsoBuffers {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct IsoPush {
+    /// Grid origin xyz, w: cell size.
     pub origin: [f32; 4],
+    /// Grid dimensions xyz, w: point count.
     pub dims: [u32; 4],
+    /// x: support, y: threshold, z: smallest step, w: bound sphere radius (world units).
     pub params: [f32; 4],
+    /// x: most steps, y: bisection iterations, z: 1 when the back depth bounds the march.
     pub steps: [u32; 4],
 }
 
@@ -82,6 +91,7 @@ impl IsoPush {
     }
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Iso {
     density: ComputeProgram<IsoPush>,
     cast: ComputeProgram<IsoPush>,
@@ -93,6 +103,7 @@ declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, 
 declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead]));
 
 impl Iso {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Iso { density: ComputeProgram::new(gpu, &DENSITY)?, cast: ComputeProgram::new(gpu, &CAST)? })
     }

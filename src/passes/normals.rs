@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `normals`.
 pub const NAME: &str = "normals";
 
 /// Settings of the `normals` pass: the `[normals]` section of a settings file.
@@ -23,6 +24,7 @@ impl Default for Params {
     }
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Normals {
     prog: ComputeProgram<f32>,
 }
@@ -31,6 +33,7 @@ pub struct Normals {
 declare_program!(pub PROGRAM: f32 = compute(shaders::NORMALS, [Uniform, ImgRead, ImgOverwrite]));
 
 impl Normals {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Normals { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }

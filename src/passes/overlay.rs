@@ -7,16 +7,19 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `overlay`.
 pub const NAME: &str = "overlay";
 
 // Slots: frame (unused by the shader), overlay, out (blended in place).
 declare_program!(pub PROGRAM: () = compute(shaders::OVERLAY, [Uniform, ImgRead, ImgWrite]));
 
+/// The pass: its compute program(s), built once per device.
 pub struct Overlay {
     prog: ComputeProgram<()>,
 }
 
 impl Overlay {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Overlay { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }

@@ -8,14 +8,18 @@ use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
 use crate::shaders;
 use crate::targets::Targets;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `particles`.
 pub const NAME: &str = "particles";
 
 /// Push constants of particles.comp.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ParticlePush {
+    /// Particles.
     pub count: u32,
+    /// Sphere radius in particle radii.
     pub radius_scale: f32,
+    /// Hue at value 0 and at value 1 (turns).
     pub hue: [f32; 2],
 }
 
@@ -25,11 +29,13 @@ declare_program!(pub PROGRAM: ParticlePush = compute(
     [Uniform, BufRead, BufRead, ImgAltRead, ImgWrite]
 ));
 
+/// The pass: its compute program(s), built once per device.
 pub struct Particles {
     prog: ComputeProgram<ParticlePush>,
 }
 
 impl Particles {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Particles { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }

@@ -10,6 +10,7 @@ use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::Filter;
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `smooth`.
 pub const NAME: &str = "smooth";
 
 /// Settings of the `smooth` pass: the `[smooth]` section of a settings file.
@@ -114,11 +115,15 @@ impl Default for CurvatureParams {
 /// ping-pong image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Output {
+    /// The input itself (no filter).
     Input,
+    /// The first ping-pong image.
     First,
+    /// The second ping-pong image.
     Second,
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Smooth {
     bilateral: ComputeProgram<BilateralPush>,
     narrow: ComputeProgram<NarrowPush>,
@@ -128,6 +133,7 @@ pub struct Smooth {
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+/// Push constants of smooth_narrow.comp.
 pub struct NarrowPush {
     dir: [i32; 2],
     world_radius: f32,
@@ -140,6 +146,7 @@ pub struct NarrowPush {
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+/// Push constants of smooth_curvature(1).comp.
 pub struct CurvaturePush {
     iters: i32,
     first_iter: i32,
@@ -155,6 +162,7 @@ use crate::shader_constants::CURVATURE_LOCAL;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+/// Push constants of smooth_bilateral.comp.
 pub struct BilateralPush {
     dir: [i32; 2],
     world_radius: f32,
@@ -182,6 +190,7 @@ fn step<P: bytemuck::Pod>(
 }
 
 impl Smooth {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Smooth {
             bilateral: ComputeProgram::new(gpu, &BILATERAL)?,

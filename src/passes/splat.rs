@@ -14,6 +14,7 @@ use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::SplatMode;
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `splat`.
 pub const NAME: &str = "splat";
 
 /// Settings of the `splat` pass: the `[splat]` section of a settings file.
@@ -34,6 +35,7 @@ impl Default for Params {
 
 pub use crate::shader_constants::SPLAT_TILE as TILE;
 
+/// The pass: its compute program(s), built once per device.
 pub struct Splat {
     prog: ComputeProgram<SplatPush>,
     cull: ComputeProgram<CullPush>,
@@ -45,10 +47,15 @@ pub struct Splat {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SplatPush {
+    /// Particles.
     pub count: u32,
+    /// Sphere radius in particle radii.
     pub radius_scale: f32,
+    /// 1: also write the farthest exit depth.
     pub back: u32,
+    /// 1: skip spheres hidden in a whole tile.
     pub cull: u32,
+    /// Tile size of the occlusion bound.
     pub tile: u32,
 }
 
@@ -56,10 +63,15 @@ pub struct SplatPush {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct CullPush {
+    /// Particles.
     pub count: u32,
+    /// Sphere radius in particle radii.
     pub radius_scale: f32,
+    /// Tile size.
     pub tile: u32,
+    /// Padding.
     pub pad: u32,
+    /// Depth image size in pixels.
     pub size: [u32; 2],
 }
 
@@ -67,8 +79,11 @@ pub struct CullPush {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct RasterPush {
+    /// Particles.
     pub count: u32,
+    /// Sphere radius in particle radii.
     pub radius_scale: f32,
+    /// Fluid image size in pixels.
     pub size: [f32; 2],
 }
 
@@ -96,6 +111,7 @@ pub fn raster_program(mode: SplatMode) -> Option<&'static ProgramDecl<RasterPush
 }
 
 impl Splat {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         let props = unsafe { gpu.instance.get_physical_device_format_properties(gpu.physical, vk::Format::R32_SFLOAT) };
         let can_blend = props.optimal_tiling_features.contains(vk::FormatFeatureFlags::COLOR_ATTACHMENT_BLEND);

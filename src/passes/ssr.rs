@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `ssr`.
 pub const NAME: &str = "ssr";
 
 /// Settings of the `ssr` pass: the `[ssr]` section of a settings file.
@@ -33,12 +34,14 @@ impl Default for Params {
     }
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Ssr {
     prog: ComputeProgram<Push>,
 }
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+/// Push constants of ssr.comp.
 pub struct Push {
     stride: f32,
     max_steps: i32,
@@ -50,6 +53,7 @@ pub struct Push {
 declare_program!(pub PROGRAM: Push = compute(shaders::SSR, [Uniform, ImgRead, ImgRead, ImgRead, ImgOverwrite]));
 
 impl Ssr {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Ssr { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }

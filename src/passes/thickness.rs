@@ -9,6 +9,7 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `thickness`.
 pub const NAME: &str = "thickness";
 
 /// Settings of the `thickness` pass: the `[thickness]` section of a settings file.
@@ -27,6 +28,7 @@ impl Default for Params {
     }
 }
 
+/// The pass: its compute program(s), built once per device.
 pub struct Thickness {
     accumulate: ComputeProgram<AccumulatePush>,
     blur: ComputeProgram<BlurPush>,
@@ -36,6 +38,7 @@ pub struct Thickness {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct AccumulatePush {
+    /// Particles.
     pub count: u32,
 }
 
@@ -43,7 +46,9 @@ pub struct AccumulatePush {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct BlurPush {
+    /// Blur radius in pixels (0: conversion only).
     pub radius: u32,
+    /// Gaussian σ in pixels.
     pub sigma: f32,
 }
 
@@ -53,6 +58,7 @@ declare_program!(pub ACCUMULATE: AccumulatePush = compute(shaders::THICKNESS, [U
 declare_program!(pub BLUR: BlurPush = compute(shaders::THICKNESS_BLUR, [Uniform, ImgRead, ImgOverwrite]));
 
 impl Thickness {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Thickness { accumulate: ComputeProgram::new(gpu, &ACCUMULATE)?, blur: ComputeProgram::new(gpu, &BLUR)? })
     }

@@ -7,8 +7,10 @@ use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `upsample`.
 pub const NAME: &str = "upsample";
 
+/// The pass: its compute program(s), built once per device.
 pub struct Upsample {
     prog: ComputeProgram<f32>,
 }
@@ -17,6 +19,7 @@ pub struct Upsample {
 declare_program!(pub PROGRAM: f32 = compute(shaders::UPSAMPLE, [Uniform, ImgRead, ImgOverwrite]));
 
 impl Upsample {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Upsample { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }

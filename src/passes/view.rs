@@ -9,6 +9,7 @@ use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 use crate::targets::Targets;
 
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `view`.
 pub const NAME: &str = "view";
 
 /// What the demo shows.
@@ -31,6 +32,7 @@ pub enum ViewMode {
 }
 
 impl ViewMode {
+    /// Every mode, in key order.
     pub const ALL: [ViewMode; 7] = [
         ViewMode::Final,
         ViewMode::Depth,
@@ -40,6 +42,7 @@ impl ViewMode {
         ViewMode::Ssr,
         ViewMode::Particles,
     ];
+    /// The mode's name in the overlay.
     pub fn name(self) -> &'static str {
         match self {
             ViewMode::Final => "final",
@@ -57,9 +60,13 @@ impl ViewMode {
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ViewPush {
+    /// Which buffer (ViewMode index).
     pub mode: i32,
+    /// Depth mapped to white …
     pub d_min: f32,
+    /// … and to black.
     pub d_max: f32,
+    /// Thickness mapped to full red.
     pub t_max: f32,
 }
 
@@ -69,11 +76,13 @@ declare_program!(pub PROGRAM: ViewPush = compute(
     [Uniform, ImgRead, ImgRead, Sampled, ImgRead, ImgRead, Sampled, ImgOverwrite]
 ));
 
+/// The pass: its compute program(s), built once per device.
 pub struct View {
     prog: ComputeProgram<ViewPush>,
 }
 
 impl View {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(View { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }

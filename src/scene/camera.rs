@@ -8,9 +8,13 @@ use crate::error::{Error, Result};
 /// A pinhole camera in world space (right-handed, y up by default).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Eye position (world).
     pub eye: Vec3,
+    /// Point looked at (world).
     pub target: Vec3,
+    /// Up direction.
     pub up: Vec3,
+    /// Vertical field of view in degrees.
     pub fovy_deg: f32,
     /// Near plane distance (> 0).
     pub near: f32,

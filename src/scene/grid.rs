@@ -23,6 +23,7 @@ pub struct UniformGrid {
     pub origin: Vec3,
     /// Cell side (at least the size asked for).
     pub cell: f32,
+    /// Cells along x, y, z.
     pub dims: [u32; 3],
 }
 

@@ -31,9 +31,13 @@ pub use grid::UniformGrid;
 /// per-particle array by name.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Particles {
+    /// Positions (world, y up after loading).
     pub positions: Vec<[f32; 3]>,
+    /// Velocities, when the file has them.
     pub velocities: Option<Vec<[f32; 3]>>,
+    /// Densities, when the file has them.
     pub densities: Option<Vec<f32>>,
+    /// Particle ids, when the file has them.
     pub ids: Option<Vec<i64>>,
     /// Per-particle radius (e.g. Houdini `pscale`), when mapped.
     pub radii: Option<Vec<f32>>,
@@ -46,24 +50,33 @@ pub struct Particles {
 /// One named per-particle array as read from a file (`components` values per particle).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Attribute {
+    /// The array's name in the file.
     pub name: String,
+    /// Values per particle (1 or 3).
     pub components: usize,
+    /// All values, particle-major.
     pub data: Vec<f64>,
 }
 
 /// What a loader returns: positions and every per-particle array it found.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Raw {
+    /// Positions as stored.
     pub positions: Vec<[f32; 3]>,
+    /// Every other per-particle array.
     pub arrays: Vec<Attribute>,
 }
 
 /// Which file attribute is what, the up axis and a unit scale (`--velocity-attr`, `--up z`, `--scale`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadOptions {
+    /// Names tried for the velocity, first match wins.
     pub velocity: Vec<String>,
+    /// Names tried for the density.
     pub density: Vec<String>,
+    /// Names tried for the id.
     pub id: Vec<String>,
+    /// Names tried for a per-particle radius.
     pub radius: Vec<String>,
     /// The file's up axis: positions (and vectors) are rotated so that it becomes +y.
     pub z_up: bool,
@@ -161,9 +174,11 @@ impl Raw {
 }
 
 impl Particles {
+    /// Number of particles.
     pub fn len(&self) -> usize {
         self.positions.len()
     }
+    /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }
@@ -223,7 +238,9 @@ impl Particles {
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds {
+    /// Minimum corner.
     pub lo: Vec3,
+    /// Maximum corner.
     pub hi: Vec3,
 }
 

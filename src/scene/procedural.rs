@@ -18,7 +18,9 @@ pub const SCENES: &[(&str, usize, &str)] = &[
 
 /// A generated scene and the radius it was generated with.
 pub struct Generated {
+    /// The particles.
     pub particles: Particles,
+    /// The radius they were made for.
     pub radius: f32,
 }
 

@@ -13,15 +13,20 @@ use crate::scene::{LoadOptions, Particles};
 /// One frame of a sequence.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Frame {
+    /// The frame number taken from the file name.
     pub number: u64,
+    /// The file.
     pub path: PathBuf,
 }
 
 /// `first..last[:step]`, inclusive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FrameRange {
+    /// First frame number.
     pub first: u64,
+    /// Last frame number (inclusive).
     pub last: u64,
+    /// Step between frames.
     pub step: u64,
 }
 
@@ -56,6 +61,7 @@ impl FrameRange {
         Ok(FrameRange { first, last, step })
     }
 
+    /// Whether frame `n` is in the range.
     pub fn contains(&self, n: u64) -> bool {
         n >= self.first && n <= self.last && (n - self.first).is_multiple_of(self.step)
     }
@@ -171,6 +177,7 @@ pub struct Prefetch {
 }
 
 impl Prefetch {
+    /// Start loading `frames` on a worker thread, at most `depth` frames ahead of the consumer.
     pub fn start(frames: Vec<Frame>, opts: LoadOptions, depth: usize) -> Prefetch {
         let (tx, rx) = mpsc::sync_channel(depth.max(1));
         let handle = std::thread::Builder::new()

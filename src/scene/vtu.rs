@@ -323,9 +323,19 @@ fn find(h: &[u8], needle: &[u8]) -> Option<usize> {
 /// How [`write`] encodes the arrays.
 #[derive(Clone, Copy, Debug)]
 pub enum Encoding {
+    /// Inline ASCII values.
     Ascii,
-    Binary { zlib: bool },
-    AppendedRaw { zlib: bool },
+    /// Inline base64 binary, optionally zlib-compressed.
+    Binary {
+        /// Compress each block with zlib.
+        zlib: bool,
+    },
+    /// Raw appended data, optionally zlib-compressed.
+    AppendedRaw {
+        /// Compress each block with zlib.
+        zlib: bool,
+    },
+    /// Appended base64.
     AppendedBase64,
 }
 
