@@ -1,15 +1,13 @@
-//! The frame: its uniform block, its images, and `record_frame` — the table of contents of Meniscus.
+//! The frame: its uniform block, its view, and `record_frame` — the table of contents of Meniscus (the images
+//! are in `targets`, the passes in `passes`).
 //! Each pass derives its own barriers from the resources' last accesses; nothing here synchronises by hand.
-
-use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
 
 use crate::error::Result;
-use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
+use crate::gpu::{Buffer, FrameCtx, Image};
 use crate::passes::composite::CompositeInputs;
 use crate::passes::iso::IsoBuffers;
-use crate::passes::{Background, Composite, Iso, Normals, Smooth, Splat, Ssr, Thickness, Upsample};
 use crate::scene::{Bounds, Camera};
 use crate::settings::{Settings, SplatMode, Surface};
 use crate::targets::Targets;
@@ -157,44 +155,7 @@ impl FrameUniforms {
     }
 }
 
-/// The passes, created once per device.
-pub struct Passes {
-    /// The `background` pass.
-    pub background: Background,
-    /// The `splat` pass.
-    pub splat: Splat,
-    /// The `iso` pass.
-    pub iso: Iso,
-    /// The `thickness` pass.
-    pub thickness: Thickness,
-    /// The `smooth` pass.
-    pub smooth: Smooth,
-    /// The `normals` pass.
-    pub normals: Normals,
-    /// The `ssr` pass.
-    pub ssr: Ssr,
-    /// The `composite` pass.
-    pub composite: Composite,
-    /// The `upsample` pass.
-    pub upsample: Upsample,
-}
-
-impl Passes {
-    /// Build every pass's pipelines.
-    pub fn new(gpu: &Arc<Gpu>) -> Result<Passes> {
-        Ok(Passes {
-            background: Background::new(gpu)?,
-            splat: Splat::new(gpu)?,
-            iso: Iso::new(gpu)?,
-            thickness: Thickness::new(gpu)?,
-            smooth: Smooth::new(gpu)?,
-            normals: Normals::new(gpu)?,
-            ssr: Ssr::new(gpu)?,
-            upsample: Upsample::new(gpu)?,
-            composite: Composite::new(gpu)?,
-        })
-    }
-}
+pub use crate::passes::Passes;
 
 /// Facts about this frame's camera that passes base their own per-frame decisions on (the smoothing's
 /// dispatch count, the splat's occlusion pre-pass).

@@ -1,41 +1,55 @@
 //! The passes, in frame order. Each is a plain struct that owns its compute program(s) and binding table and
 //! has one `record`; the name is the same everywhere: module, shader stem, debug label, timestamp key, JSON key.
 
-pub mod background;
-pub mod composite;
-pub mod iso;
-pub mod normals;
+/// Declares the frame's passes from ONE list, in frame order: each entry is the module (its name is the pass
+/// name) and the pass type. It generates the `pub mod`, the re-export, the [`Passes`] struct (one field per
+/// pass, named like the module), its constructor, and [`PASS_NAMES`]. Adding a pass is one line here.
+macro_rules! frame_passes {
+    ($($(#[$doc:meta])* $module:ident: $ty:ident,)*) => {
+        $(pub mod $module; pub use $module::$ty;)*
+
+        /// The frame's passes, created once per device (field = module = pass name).
+        pub struct Passes {
+            $($(#[$doc])* pub $module: $ty,)*
+        }
+
+        impl Passes {
+            /// Build every pass's pipelines.
+            pub fn new(gpu: &std::sync::Arc<crate::gpu::Gpu>) -> crate::error::Result<Passes> {
+                Ok(Passes { $($module: $ty::new(gpu)?,)* })
+            }
+        }
+
+        /// Every frame pass name, in frame order (timestamp keys, JSON keys, `--timings` rows). `iso` runs only
+        /// with `surface = "iso"`, `upsample` only when the fluid is rendered at reduced resolution.
+        pub const PASS_NAMES: &[&str] = &[$($module::NAME,)*];
+    };
+}
+
+frame_passes! {
+    /// Ground, boxes, mesh and sky behind the fluid.
+    background: Background,
+    /// Nearest sphere depth of every particle.
+    splat: Splat,
+    /// The SPH iso-surface, ray-cast from the splatted depth.
+    iso: Iso,
+    /// Additive chord length, blurred.
+    thickness: Thickness,
+    /// Depth smoothing.
+    smooth: Smooth,
+    /// Reduced-resolution depth back to full size.
+    upsample: Upsample,
+    /// View-space normals.
+    normals: Normals,
+    /// Screen-space reflections.
+    ssr: Ssr,
+    /// Shading over the background.
+    composite: Composite,
+}
+
+// The demo's passes (not part of the frame function).
 pub mod overlay;
 pub mod particles;
-pub mod smooth;
-pub mod splat;
-pub mod ssr;
-pub mod thickness;
-pub mod upsample;
 pub mod view;
-
-pub use background::Background;
-pub use composite::Composite;
-pub use iso::Iso;
-pub use normals::Normals;
-pub use smooth::Smooth;
-pub use splat::Splat;
-pub use ssr::Ssr;
-pub use thickness::Thickness;
-pub use upsample::Upsample;
-
-/// Every pass name (timestamp keys, JSON keys, `--timings` rows); `iso` runs only with `surface = "iso"`,
-/// `upsample` between `smooth` and `normals` only when the fluid is rendered at reduced resolution.
-pub const PASS_NAMES: &[&str] = &[
-    background::NAME,
-    splat::NAME,
-    iso::NAME,
-    thickness::NAME,
-    smooth::NAME,
-    upsample::NAME,
-    normals::NAME,
-    ssr::NAME,
-    composite::NAME,
-];
 
 pub(crate) use crate::shader_constants::{LOCAL_1D, LOCAL_2D};
