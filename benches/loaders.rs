@@ -29,6 +29,22 @@ fn main() {
                 .map(move |(l, b)| (format!("{} {l}", f.name()), *f, b))
         })
         .collect();
+    // Also files written by other tools (e.g. VTK's writers with each compressor): MENISCUS_BENCH_FILES=DIR.
+    let mut cases = cases;
+    if let Ok(dir) = std::env::var("MENISCUS_BENCH_FILES") {
+        let mut files: Vec<_> =
+            std::fs::read_dir(&dir).expect("MENISCUS_BENCH_FILES").flatten().map(|e| e.path()).collect();
+        files.sort();
+        for f in files {
+            let bytes = std::fs::read(&f).expect("read");
+            if let Some(fmt) = meniscus::scene::detect_format(&f, &bytes) {
+                let n_file = fmt.parse(&f, &bytes).map(|r| r.positions.len()).unwrap_or(0);
+                if n_file == n {
+                    cases.push((f.file_name().unwrap().to_string_lossy().into_owned(), fmt, bytes));
+                }
+            }
+        }
+    }
     println!("{n} particles (position + velocity + density + id; XYZ positions only), median of 5 parses\n");
     println!("| format | file MB | ms | MB/s | M particles/s |\n|---|---:|---:|---:|---:|");
     for (name, f, bytes) in cases {

@@ -234,3 +234,27 @@ fn negative_numbers_in_flag_values() {
     assert!(!o.status.success() && !err.contains("unexpected argument"), "{err}");
     assert!(!d.join("bad.png").exists());
 }
+
+/// Issue #16: a ParaView `.pvd` collection renders as a sequence (frames in timestep order, progress bar), and
+/// `info` lists it.
+#[test]
+fn pvd_series_renders_as_a_sequence() {
+    let d = tmpdir("pvd");
+    let pvd = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/vtk/series.pvd");
+    let o = meniscus()
+        .arg("render")
+        .arg(&pvd)
+        .args(["--width", "40", "--height", "30", "--radius", "0.05", "--out"])
+        .arg(d.join("s_{}.png"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("3 frames"), "{err}");
+    for k in 0..3 {
+        assert!(d.join(format!("s_{k:04}.png")).exists(), "frame {k} missing: {err}");
+    }
+    let o = meniscus().arg("info").arg(&pvd).output().unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && out.contains("sequence:    3 frames") && out.contains("step_0.vtu"), "{out}");
+}

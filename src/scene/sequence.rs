@@ -86,14 +86,77 @@ fn frame_number(name: &str) -> Option<u64> {
     stem[start..end].parse().ok()
 }
 
-/// True when `spec` names a sequence rather than one file.
+/// True when `spec` names a sequence rather than one file: a pattern with {}, a glob, a folder, or a ParaView
+/// `.pvd` collection.
 pub fn is_sequence(spec: &str) -> bool {
-    spec.contains("{}") || spec.contains('*') || spec.contains('?') || Path::new(spec).is_dir()
+    spec.contains("{}") || spec.contains('*') || spec.contains('?') || Path::new(spec).is_dir() || is_pvd(spec)
+}
+
+fn is_pvd(spec: &str) -> bool {
+    Path::new(spec).extension().is_some_and(|e| e.eq_ignore_ascii_case("pvd"))
+}
+
+/// The frames of a ParaView `.pvd` collection (`<DataSet timestep=… file=…/>`, paths relative to the .pvd), in
+/// timestep order; frame numbers are the positions in that order (0, 1, …). Several parts per timestep are
+/// not supported (an error says so).
+pub fn read_pvd(path: &Path) -> Result<Vec<Frame>> {
+    use quick_xml::events::Event;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let err = |at: usize, r: String| super::bytes::err_at(path, at, r);
+    let dir =
+        path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }).unwrap_or(Path::new("."));
+    let mut rd = quick_xml::Reader::from_reader(&bytes[..]);
+    let mut buf = vec![];
+    let mut sets: Vec<(f64, usize, PathBuf)> = vec![];
+    let mut collection = false;
+    loop {
+        let at = rd.buffer_position() as usize;
+        match rd.read_event_into(&mut buf) {
+            Err(e) => return Err(err(at, format!("malformed XML: {e}"))),
+            Ok(Event::Eof) => break,
+            Ok(Event::Start(e)) | Ok(Event::Empty(e)) => {
+                let get = |k: &str| {
+                    e.attributes()
+                        .flatten()
+                        .find(|a| a.key.as_ref() == k.as_bytes())
+                        .map(|a| String::from_utf8_lossy(&a.value).into_owned())
+                };
+                match e.name().as_ref() {
+                    b"VTKFile" => collection = get("type").as_deref() == Some("Collection"),
+                    b"DataSet" => {
+                        let file = get("file").ok_or_else(|| err(at, "<DataSet> lacks file=".into()))?;
+                        let t = match get("timestep") {
+                            Some(t) => t.trim().parse().map_err(|_| err(at, format!("bad timestep {t:?}")))?,
+                            None => sets.len() as f64,
+                        };
+                        let part: usize = get("part").and_then(|p| p.trim().parse().ok()).unwrap_or(0);
+                        if !t.is_finite() {
+                            return Err(err(at, format!("timestep {t} is not finite")));
+                        }
+                        sets.push((t, part, dir.join(file)));
+                    }
+                    _ => {}
+                }
+            }
+            Ok(_) => {}
+        }
+        buf.clear();
+    }
+    if !collection {
+        return Err(err(0, "not a ParaView collection (expected <VTKFile type=\"Collection\">)".into()));
+    }
+    if sets.iter().any(|s| s.1 != 0) {
+        return Err(err(0, "collections with several parts per timestep are not supported".into()));
+    }
+    sets.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(sets.into_iter().enumerate().map(|(k, (_, _, p))| Frame { number: k as u64, path: p }).collect())
 }
 
 /// Resolve a pattern, folder or glob to frames sorted by number, filtered by `range` and `shard`.
 pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usize)>) -> Result<Vec<Frame>> {
-    let mut frames: Vec<Frame> = if let Some((pre, post)) = spec.split_once("{}") {
+    let mut frames: Vec<Frame> = if is_pvd(spec) {
+        read_pvd(Path::new(spec))?
+    } else if let Some((pre, post)) = spec.split_once("{}") {
         let pre_path = Path::new(pre);
         let (dir, prefix) = if pre.ends_with('/') {
             (pre_path.to_path_buf(), String::new())

@@ -1,8 +1,12 @@
 //! VTK XML (`.vtu` UnstructuredGrid, `.vtp` PolyData): the `<Points>` array and every `<PointData>` array, in
-//! each of the encodings VTK writes — `ascii`, inline `binary` (base64), and `appended` data (raw or base64) —
-//! optionally zlib-compressed (`compressor="vtkZLibDataCompressor"`), UInt32 or UInt64 headers, either byte
-//! order. XML by quick-xml, base64 by `base64`, zlib by flate2. Sizes claimed in headers are checked against the
-//! bytes present and the point count before anything is allocated or inflated.
+//! every layout VTK's XML writers produce — `ascii`, inline `binary` (base64), `appended` raw or base64 (offsets
+//! count characters of the encoded section) — with the block header and the data in one base64 run (VTK without
+//! compression) or in separate runs (compressed), compressed by `vtkZLibDataCompressor`,
+//! `vtkLZ4DataCompressor` or `vtkLZMADataCompressor`, UInt32 or UInt64 headers, either byte order. Elements VTK
+//! nests inside a DataArray (`<InformationKey>` ranges) are skipped. XML by quick-xml, base64 by `base64`,
+//! zlib by flate2, LZ4 by lz4_flex, LZMA (.xz) by lzma-rs. Sizes claimed in headers are checked against the
+//! bytes present and the point count before anything is allocated or inflated. Fixtures written by VTK itself
+//! and by meshio: tests/fixtures/vtk (tools/vtk-fixtures/make_fixtures.py).
 
 use std::io::Read;
 use std::path::Path;
@@ -26,11 +30,69 @@ struct ArrayDesc {
     at: usize,
 }
 
+/// The block compressors VTK's XML writers use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Compressor {
+    None,
+    Zlib,
+    Lz4,
+    Lzma,
+}
+
+impl Compressor {
+    fn from_attr(name: Option<&str>) -> std::result::Result<Compressor, String> {
+        Ok(match name {
+            None | Some("") => Compressor::None,
+            Some("vtkZLibDataCompressor") => Compressor::Zlib,
+            Some("vtkLZ4DataCompressor") => Compressor::Lz4,
+            Some("vtkLZMADataCompressor") => Compressor::Lzma,
+            Some(c) => return Err(format!("unsupported compressor {c} (known: vtkZLibDataCompressor, vtkLZ4DataCompressor, vtkLZMADataCompressor)")),
+        })
+    }
+
+    /// Decompress one block into `out`, at most `limit` bytes (the block's uncompressed size).
+    fn inflate(self, comp: &[u8], limit: usize, out: &mut Vec<u8>) -> std::result::Result<(), String> {
+        match self {
+            Compressor::None => out.extend_from_slice(&comp[..comp.len().min(limit)]),
+            Compressor::Zlib => {
+                flate2::read::ZlibDecoder::new(comp).take(limit as u64).read_to_end(out).map_err(|e| e.to_string())?;
+            }
+            Compressor::Lz4 => out.extend(lz4_flex::block::decompress(comp, limit).map_err(|e| e.to_string())?),
+            Compressor::Lzma => {
+                // Into a writer that refuses more than the block holds: no decompression bomb gets far.
+                let mut w = Limited { out, left: limit };
+                lzma_rs::xz_decompress(&mut std::io::BufReader::new(comp), &mut w).map_err(|e| e.to_string())?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A writer that takes at most `left` more bytes.
+struct Limited<'a> {
+    out: &'a mut Vec<u8>,
+    left: usize,
+}
+
+impl std::io::Write for Limited<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if buf.len() > self.left {
+            return Err(std::io::Error::other("the block inflates past its stated size"));
+        }
+        self.out.extend_from_slice(buf);
+        self.left -= buf.len();
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 struct Ctx<'a> {
     path: &'a Path,
     big: bool,
     header: usize,
-    zlib: bool,
+    compressor: Compressor,
 }
 
 impl Ctx<'_> {
@@ -44,7 +106,7 @@ impl Ctx<'_> {
     fn block(&self, at: usize, want: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>) -> Result<Vec<u8>> {
         let h = self.header;
         let short = || self.err(at, "data block truncated");
-        if !self.zlib {
+        if self.compressor == Compressor::None {
             let n = self.uint(&take(h).ok_or_else(short)?) as usize;
             if n < want {
                 return Err(self.err(at, format!("data block holds {n} bytes, the array needs {want}")));
@@ -67,8 +129,14 @@ impl Ctx<'_> {
             let cs = self.uint(&sizes[k * h..(k + 1) * h]) as usize;
             let comp = take(cs).ok_or_else(short)?;
             let limit = if k + 1 == nb as usize && last != 0 { last } else { bs };
-            let mut d = flate2::read::ZlibDecoder::new(&comp[..]).take(limit);
-            d.read_to_end(&mut out).map_err(|e| self.err(at, format!("zlib block {k} is corrupt: {e}")))?;
+            let before = out.len();
+            self.compressor
+                .inflate(&comp, limit as usize, &mut out)
+                .map_err(|e| self.err(at, format!("{:?} block {k} is corrupt: {e}", self.compressor)))?;
+            if out.len() - before != limit as usize && (k + 1 < nb as usize) {
+                return Err(self
+                    .err(at, format!("block {k} inflates to {} bytes, the header says {limit}", out.len() - before)));
+            }
         }
         if out.len() < want {
             return Err(self.err(at, format!("inflated {} bytes, the array needs {want}", out.len())));
@@ -78,45 +146,61 @@ impl Ctx<'_> {
     }
 }
 
-/// Decode base64 from `text` in independently padded pieces of `n` raw bytes each (VTK encodes the header and
-/// the data as separate base64 runs when compressed, and sometimes when not).
+/// The bytes of base64 text, decoded lazily in order. VTK writes one base64 run per block header and per data
+/// (compressed) or one run for header and data together (uncompressed); either way the logical byte sequence is
+/// the same. A run ends at a 4-character group that holds '=' padding; runs of a multiple of 3 bytes have none,
+/// and then the next run simply continues the group sequence, so decoding group-aligned chunks that end at the
+/// next padded group (or earlier) yields exactly the concatenated bytes.
 struct B64<'a> {
-    text: Vec<u8>,
+    text: std::borrow::Cow<'a, [u8]>,
     pos: usize,
-    joined: Option<Vec<u8>>,
-    jpos: usize,
-    _p: std::marker::PhantomData<&'a ()>,
+    buf: Vec<u8>,
+    bpos: usize,
+    /// End (exclusive, absolute) of the next 4-character group holding '=' at or after `pos`; found once per run.
+    pad_end: Option<usize>,
 }
 
-impl B64<'_> {
-    fn new(text: &str) -> Self {
-        B64 {
-            text: text.bytes().filter(|b| !b.is_ascii_whitespace()).collect(),
-            pos: 0,
-            joined: None,
-            jpos: 0,
-            _p: Default::default(),
-        }
+impl<'a> B64<'a> {
+    /// Base64 text with whitespace anywhere (inline arrays).
+    fn new(text: &str) -> B64<'static> {
+        let t: Vec<u8> = text.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
+        B64 { text: std::borrow::Cow::Owned(t), pos: 0, buf: vec![], bpos: 0, pad_end: None }
     }
+
+    /// Base64 text already free of whitespace (the appended section, filtered once).
+    fn clean(text: &'a [u8]) -> B64<'a> {
+        B64 { text: std::borrow::Cow::Borrowed(text), pos: 0, buf: vec![], bpos: 0, pad_end: None }
+    }
+
+    /// The next `n` bytes, or None when the text ends first or is not base64.
     fn take(&mut self, n: usize) -> Option<Vec<u8>> {
-        if let Some(j) = &self.joined {
-            let r = j.get(self.jpos..self.jpos.checked_add(n)?)?.to_vec();
-            self.jpos += n;
-            return Some(r);
+        let end = self.bpos.checked_add(n)?;
+        while self.buf.len() < end {
+            if self.pos >= self.text.len() {
+                return None;
+            }
+            let missing = end - self.buf.len();
+            // Whole groups up to the next padded group, and no more than the bytes still missing need.
+            if self.pad_end.is_none_or(|p| p <= self.pos) {
+                let rest = &self.text[self.pos..];
+                let rel = rest.iter().position(|&c| c == b'=').map(|k| (k / 4 + 1) * 4).unwrap_or(rest.len());
+                self.pad_end = Some(self.pos + rel.min(rest.len()));
+            }
+            let limit = self.pad_end.unwrap_or(self.text.len());
+            let want = missing.div_ceil(3).checked_mul(4)?;
+            let stop = limit.min(self.pos.checked_add(want.max(4))?).min(self.text.len());
+            let chunk = &self.text[self.pos..stop];
+            base64::engine::general_purpose::STANDARD.decode_vec(chunk, &mut self.buf).ok()?;
+            self.pos = stop;
         }
-        // Sizes come from the file: checked arithmetic, a huge claim is simply "not there".
-        let chars = n.div_ceil(3).checked_mul(4)?;
-        let piece = self.text.get(self.pos..self.pos.checked_add(chars)?)?;
-        if !n.is_multiple_of(3) && !piece.ends_with(b"=") {
-            // One continuous run (header and data encoded together): decode the rest at once.
-            let all = base64::engine::general_purpose::STANDARD.decode(&self.text[self.pos..]).ok()?;
-            self.joined = Some(all);
-            self.jpos = 0;
-            return self.take(n);
+        let r = self.buf[self.bpos..end].to_vec();
+        self.bpos = end;
+        // Keep the buffer small: drop what was handed out.
+        if self.bpos > 1 << 20 {
+            self.buf.drain(..self.bpos);
+            self.bpos = 0;
         }
-        let d = base64::engine::general_purpose::STANDARD.decode(piece).ok()?;
-        self.pos += chars;
-        (d.len() >= n).then(|| d[..n].to_vec())
+        Some(r)
     }
 }
 
@@ -144,7 +228,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut rd = quick_xml::Reader::from_reader(xml);
     rd.config_mut().check_end_names = false;
     let mut buf = vec![];
-    let (mut big, mut header, mut zlib) = (false, 4, false);
+    let (mut big, mut header, mut compressor) = (false, 4, Compressor::None);
+    // Depth of elements nested inside the current DataArray (VTK's <InformationKey> ranges): their text is
+    // not array data.
+    let mut nested = 0usize;
     let mut n_points: Option<usize> = None;
     let (mut in_points, mut in_point_data) = (false, false);
     let mut arrays: Vec<ArrayDesc> = vec![];
@@ -165,20 +252,18 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                         .find(|a| a.key.as_ref() == k.as_bytes())
                         .map(|a| String::from_utf8_lossy(&a.value).into_owned())
                 };
+                if current.is_some() {
+                    if !empty {
+                        nested += 1;
+                    }
+                    buf.clear();
+                    continue;
+                }
                 match e.name().as_ref() {
                     b"VTKFile" => {
                         big = get("byte_order").as_deref() == Some("BigEndian");
                         header = if get("header_type").as_deref() == Some("UInt64") { 8 } else { 4 };
-                        zlib = match get("compressor").as_deref() {
-                            None | Some("") => false,
-                            Some("vtkZLibDataCompressor") => true,
-                            Some(c) => {
-                                return Err(perr(
-                                    at,
-                                    format!("unsupported compressor {c} (only vtkZLibDataCompressor)"),
-                                ))
-                            }
-                        };
+                        compressor = Compressor::from_attr(get("compressor").as_deref()).map_err(|e| perr(at, e))?;
                     }
                     b"Piece" => {
                         if n_points.is_some() {
@@ -210,10 +295,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 }
             }
             Event::Text(t) => {
-                if let Some(c) = current.as_mut() {
+                if let (Some(c), 0) = (current.as_mut(), nested) {
                     c.text.push_str(&String::from_utf8_lossy(&t));
                 }
             }
+            Event::End(_) if nested > 0 => nested -= 1,
             Event::End(ref e) => match e.name().as_ref() {
                 b"DataArray" => {
                     if let Some(c) = current.take() {
@@ -229,7 +315,15 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         buf.clear();
     }
     let n = n_points.ok_or_else(|| perr(0, "no <Piece NumberOfPoints=…>".into()))?;
-    let ctx = Ctx { path, big, header, zlib };
+    let ctx = Ctx { path, big, header, compressor };
+    // The encoded appended section, whitespace removed once (offsets count its characters).
+    let app_text: Option<Vec<u8>> = match (appended, app_b64) {
+        (Some(start), true) => {
+            let end = find(&bytes[start..], b"<").map(|k| start + k).unwrap_or(bytes.len());
+            Some(bytes[start..end].iter().copied().filter(|b| !b.is_ascii_whitespace()).collect())
+        }
+        _ => None,
+    };
     let mut positions = None;
     let mut out = vec![];
     for a in arrays {
@@ -240,7 +334,13 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         let want = count.checked_mul(size).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
         // Bytes that can hold this array: the inline text or the appended section (zlib inflates ≤ 1032×).
         let avail = if a.format == "appended" { appended.map(|s| bytes.len() - s).unwrap_or(0) } else { a.text.len() };
-        let limit = avail.saturating_mul(if zlib { 1100 } else { 1 }).saturating_add(64);
+        // zlib inflates ≤ 1032×, LZ4 ≤ 255×; LZMA can exceed that on degenerate data, so it gets a wide bound.
+        let ratio = match compressor {
+            Compressor::None => 1,
+            Compressor::Zlib | Compressor::Lz4 => 1100,
+            Compressor::Lzma => 100_000,
+        };
+        let limit = avail.saturating_mul(ratio).saturating_add(64);
         if a.format != "ascii" && want > limit {
             return Err(perr(
                 a.at,
@@ -281,10 +381,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 let start = appended.ok_or_else(|| perr(a.at, "format=\"appended\" but no <AppendedData>".into()))?;
                 let off = a.offset.ok_or_else(|| perr(a.at, format!("DataArray {:?} lacks offset", a.name)))?;
                 let raw = if app_b64 {
-                    let end = find(&bytes[start..], b"<").map(|k| start + k).unwrap_or(bytes.len());
-                    let text = String::from_utf8_lossy(&bytes[start..end]).into_owned();
-                    let text: String = text.chars().filter(|c| !c.is_whitespace()).collect();
-                    let mut b = B64::new(
+                    let text = app_text.as_deref().unwrap_or(&[]);
+                    let mut b = B64::clean(
                         text.get(off..).ok_or_else(|| perr(a.at, format!("offset {off} past the appended data")))?,
                     );
                     ctx.block(start + off, want, &mut |k| b.take(k))?

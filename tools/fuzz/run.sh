@@ -13,6 +13,8 @@ cargo run --quiet --release --example fuzz_seeds -- tools/fuzz/corpus
 # Real frames as seeds too, behind their format's index byte (bgeo = 0, vtk = 1: the registry's order).
 f=../shared/data/splishsplash/dambreak_6859/partio/ParticleData_Fluid_1.bgeo
 [ -f "$f" ] && { printf '\x00'; cat "$f"; } > tools/fuzz/corpus/parse/shared_bgeo
+# Files written by VTK itself and meshio (every VTU/VTP layout and compressor), behind the VTU index byte 2.
+for f in tests/fixtures/vtk/*.vt[up]; do { printf '\x02'; cat "$f"; } > "tools/fuzz/corpus/parse/vtk_$(basename "$f")"; done
 f=../shared/data/splishsplash/dambreak_6859/vtk/ParticleData_Fluid_1.vtk
 [ -f "$f" ] && { printf '\x01'; cat "$f"; } > tools/fuzz/corpus/parse/shared_vtk
 export RUSTC_BOOTSTRAP=1
