@@ -62,6 +62,66 @@ impl ValidationLog {
     }
 }
 
+/// How the async compute queue relates to the main one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AsyncQueue {
+    /// A queue of a compute-only family (true async compute).
+    ComputeFamily,
+    /// A second queue of the main (graphics + compute) family.
+    SecondQueue,
+    /// The main queue itself (lavapipe: one family, one queue): async work is ordered after the frame's.
+    SameQueue,
+}
+
+/// One queue the device was created with.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct QueueRef {
+    /// Queue family index.
+    pub family: u32,
+    /// Queue index within the family.
+    pub index: u32,
+    /// The queue.
+    #[serde(skip)]
+    pub queue: vk::Queue,
+}
+
+/// The queues chosen at device creation: the frame's graphics + compute queue and the async compute queue
+/// (a compute-only family when the device has one, else a second queue of the main family, else the main
+/// queue itself).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Queues {
+    /// Graphics + compute + transfer: the frame.
+    pub main: QueueRef,
+    /// Async compute.
+    pub compute: QueueRef,
+    /// Which of the three choices `compute` is.
+    pub kind: AsyncQueue,
+}
+
+impl Queues {
+    /// One line for `meniscus info --device` and reports.
+    pub fn describe(&self) -> String {
+        let q = |r: &QueueRef| format!("family {} queue {}", r.family, r.index);
+        format!("main: {}; async compute: {} ({:?})", q(&self.main), q(&self.compute), self.kind)
+    }
+}
+
+/// The async compute queue for main family `main`: (family, index, kind) — a compute-only family with
+/// timestamps, else a second queue of the main family, else the main queue.
+pub fn choose_async_queue(families: &[vk::QueueFamilyProperties], main: u32) -> (u32, u32, AsyncQueue) {
+    let compute_family = families.iter().position(|f| {
+        f.queue_flags.contains(vk::QueueFlags::COMPUTE)
+            && !f.queue_flags.contains(vk::QueueFlags::GRAPHICS)
+            && f.timestamp_valid_bits > 0
+    });
+    match compute_family {
+        Some(cf) => (cf as u32, 0, AsyncQueue::ComputeFamily),
+        None if families[main as usize].queue_count >= 2 => (main, 1, AsyncQueue::SecondQueue),
+        None => (main, 0, AsyncQueue::SameQueue),
+    }
+}
+
 /// What the user and the benchmark want to know about the device.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct DeviceInfo {
@@ -77,6 +137,8 @@ pub struct DeviceInfo {
     pub timestamp_period: f32,
     /// Valid bits of a timestamp on the queue used.
     pub timestamp_valid_bits: u32,
+    /// The queues chosen (families and indices).
+    pub queues: Option<Queues>,
     /// Subgroup size.
     pub subgroup_size: u32,
     /// Largest storage buffer range in bytes.
@@ -93,10 +155,12 @@ pub struct Gpu {
     pub physical: vk::PhysicalDevice,
     /// The logical device.
     pub device: ash::Device,
-    /// The one queue (graphics + compute + transfer).
+    /// The main queue (graphics + compute + transfer): `queues.main.queue`.
     pub queue: vk::Queue,
     /// Its family.
     pub queue_family: u32,
+    /// Main and async compute queues.
+    pub queues: Queues,
     /// VK_KHR_push_descriptor entry points.
     pub push_descriptor: ash::khr::push_descriptor::Device,
     /// VK_EXT_debug_utils entry points (labels, object names), when present.
@@ -242,7 +306,7 @@ impl Gpu {
         };
 
         let result = Self::pick_device(&entry, &instance, opts, !opts.surface_extensions.is_empty());
-        let (physical, device, queue_family, info) = match result {
+        let (physical, device, queue_family, compute_choice, mut info) = match result {
             Ok(v) => v,
             Err(e) => {
                 unsafe {
@@ -255,6 +319,17 @@ impl Gpu {
             }
         };
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let (compute_family, compute_index, kind) = compute_choice;
+        let queues = Queues {
+            main: QueueRef { family: queue_family, index: 0, queue },
+            compute: QueueRef {
+                family: compute_family,
+                index: compute_index,
+                queue: unsafe { device.get_device_queue(compute_family, compute_index) },
+            },
+            kind,
+        };
+        info.queues = Some(queues);
         let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
         let debug_device = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -290,6 +365,7 @@ impl Gpu {
             device,
             queue,
             queue_family,
+            queues,
             push_descriptor,
             debug_device,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
@@ -308,7 +384,7 @@ impl Gpu {
         instance: &ash::Instance,
         opts: &GpuOptions,
         swapchain: bool,
-    ) -> Result<(vk::PhysicalDevice, ash::Device, u32, DeviceInfo)> {
+    ) -> Result<(vk::PhysicalDevice, ash::Device, u32, (u32, u32, AsyncQueue), DeviceInfo)> {
         let _ = entry;
         let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
         if physicals.is_empty() {
@@ -377,6 +453,7 @@ impl Gpu {
             device_type: format!("{:?}", props.device_type),
             timestamp_period: props.limits.timestamp_period,
             timestamp_valid_bits: valid_bits,
+            queues: None,
             subgroup_size: subgroup.subgroup_size,
             max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
         };
@@ -396,7 +473,12 @@ impl Gpu {
             .dynamic_rendering(f13.dynamic_rendering == vk::TRUE)
             .shader_demote_to_helper_invocation(f13.shader_demote_to_helper_invocation == vk::TRUE)
             .maintenance4(f13.maintenance4 == vk::TRUE);
-        let mut e12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(f12.host_query_reset == vk::TRUE);
+        if f12.timeline_semaphore == vk::FALSE {
+            return Err(Error::NoDevice(format!("{} lacks timeline semaphores", info.name)));
+        }
+        let mut e12 = vk::PhysicalDeviceVulkan12Features::default()
+            .host_query_reset(f12.host_query_reset == vk::TRUE)
+            .timeline_semaphore(true);
         let base_enable = vk::PhysicalDeviceFeatures::default()
             .fragment_stores_and_atomics(base.fragment_stores_and_atomics == vk::TRUE)
             .vertex_pipeline_stores_and_atomics(base.vertex_pipeline_stores_and_atomics == vk::TRUE)
@@ -404,8 +486,17 @@ impl Gpu {
             .large_points(base.large_points == vk::TRUE);
         let mut enable2 =
             vk::PhysicalDeviceFeatures2::default().features(base_enable).push_next(&mut e13).push_next(&mut e12);
-        let prio = [1.0f32];
-        let qci = [vk::DeviceQueueCreateInfo::default().queue_family_index(qf).queue_priorities(&prio)];
+        // The async compute queue: a compute-only family with timestamps, else a second queue of the main
+        // family, else the main queue itself.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let compute = choose_async_queue(&families, qf);
+        let prio = [1.0f32, 1.0];
+        let mut qci = vec![vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(qf)
+            .queue_priorities(if compute.2 == AsyncQueue::SecondQueue { &prio[..2] } else { &prio[..1] })];
+        if compute.2 == AsyncQueue::ComputeFamily {
+            qci.push(vk::DeviceQueueCreateInfo::default().queue_family_index(compute.0).queue_priorities(&prio[..1]));
+        }
         let mut dev_exts = vec![ash::khr::push_descriptor::NAME.as_ptr()];
         if swapchain {
             dev_exts.push(ash::khr::swapchain::NAME.as_ptr());
@@ -415,7 +506,7 @@ impl Gpu {
             .enabled_extension_names(&dev_exts)
             .push_next(&mut enable2);
         let device = unsafe { instance.create_device(pd, &dci, None) }.vk("vkCreateDevice")?;
-        Ok((pd, device, qf, info))
+        Ok((pd, device, qf, compute, info))
     }
 
     /// Validation counters (all zero when validation is off).
@@ -499,5 +590,33 @@ impl Drop for Gpu {
             }
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn family(flags: vk::QueueFlags, count: u32, ts: u32) -> vk::QueueFamilyProperties {
+        vk::QueueFamilyProperties {
+            queue_flags: flags,
+            queue_count: count,
+            timestamp_valid_bits: ts,
+            ..Default::default()
+        }
+    }
+
+    /// A compute-only family wins (and needs timestamps); else a second queue of the main family; else the
+    /// main queue itself (lavapipe).
+    #[test]
+    fn async_queue_choice() {
+        use vk::QueueFlags as F;
+        let gfx = F::GRAPHICS | F::COMPUTE | F::TRANSFER;
+        let nvidia = [family(gfx, 16, 64), family(F::TRANSFER, 2, 64), family(F::COMPUTE | F::TRANSFER, 8, 64)];
+        assert_eq!(choose_async_queue(&nvidia, 0), (2, 0, AsyncQueue::ComputeFamily));
+        let no_ts = [family(gfx, 4, 64), family(F::COMPUTE, 2, 0)];
+        assert_eq!(choose_async_queue(&no_ts, 0), (0, 1, AsyncQueue::SecondQueue));
+        let lavapipe = [family(gfx, 1, 64)];
+        assert_eq!(choose_async_queue(&lavapipe, 0), (0, 0, AsyncQueue::SameQueue));
     }
 }

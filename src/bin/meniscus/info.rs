@@ -14,9 +14,14 @@ use crate::job::{Job, Select};
 /// `meniscus info`.
 #[derive(Args, Clone, Debug)]
 pub struct InfoArgs {
-    /// A particle file, or a sequence (pattern with {}, folder, glob): then its frames are listed and the
+    /// A particle file, or a sequence (pattern with {}, folder, glob, .pvd): then its frames are listed and the
     /// first one described.
-    pub file: String,
+    #[arg(required_unless_present = "device")]
+    pub file: Option<String>,
+    /// Describe the Vulkan device instead (or the first whose name contains NAME): driver, limits, queue
+    /// families and the queues Meniscus chose (main, async compute).
+    #[arg(long, num_args = 0..=1, value_name = "NAME")]
+    pub device: Option<Option<String>>,
     /// Particle radius to report instead of the estimate.
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f32>,
@@ -26,8 +31,12 @@ pub struct InfoArgs {
 
 /// Describe the file.
 pub fn run(a: &InfoArgs) -> Result<()> {
+    if let Some(filter) = &a.device {
+        return device(filter.clone());
+    }
+    let input = a.file.clone().unwrap_or_default();
     let scene_args =
-        SceneArgs { input: a.file.clone(), radius: a.radius, particles: None, camera: None, background_obj: None };
+        SceneArgs { input: input.clone(), radius: a.radius, particles: None, camera: None, background_obj: None };
     let t0 = std::time::Instant::now();
     let job = Job::open(&scene_args, &a.load, meniscus::settings::Settings::default(), Select::default())?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -42,7 +51,7 @@ pub fn run(a: &InfoArgs) -> Result<()> {
             println!("first file:  {}", frames[0].path.display());
             frames[0].path.clone()
         }
-        None => PathBuf::from(&a.file),
+        None => PathBuf::from(&input),
     };
     let p = &job.first;
     if file.exists() {
@@ -71,5 +80,25 @@ pub fn run(a: &InfoArgs) -> Result<()> {
     }
     println!("radius:      {:.5} ({:?}) → --radius {:.5}", job.settings.radius, job.radius_from, job.settings.radius);
     eprintln!("{}", job.summary(None));
+    Ok(())
+}
+
+/// `meniscus info --device [NAME]`.
+fn device(filter: Option<String>) -> Result<()> {
+    let gpu = crate::args::GpuArgs { validation: false, device: filter }.open()?;
+    let i = &gpu.info;
+    println!("device:      {} ({})", i.name, i.device_type);
+    println!("driver:      {}", i.driver);
+    println!("vulkan:      {}", i.api_version);
+    println!("subgroup:    {}", i.subgroup_size);
+    println!("timestamps:  {} valid bits, {} ns per tick", i.timestamp_valid_bits, i.timestamp_period);
+    let families = unsafe { gpu.instance.get_physical_device_queue_family_properties(gpu.physical) };
+    for (k, f) in families.iter().enumerate() {
+        println!(
+            "family {k}:    {} queue(s), {:?}, timestamps {} bits",
+            f.queue_count, f.queue_flags, f.timestamp_valid_bits
+        );
+    }
+    println!("queues:      {}", gpu.queues.describe());
     Ok(())
 }
