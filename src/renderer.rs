@@ -1,5 +1,8 @@
-//! The renderer: owns the passes, the frame's images, the particle buffer and the timer; renders a frame
-//! and reads results back (final colour as PNG-ready RGBA, any float image for dumps and tests).
+//! The renderer: owns the passes, the frame's images, the particle buffer and the frame executor (N frames
+//! in flight, default 2); renders a frame synchronously (`render`) or submits it and returns
+//! (`submit`), reads results back (final colour as PNG-ready RGBA, any float image for dumps and tests).
+//! Per-frame host-written memory (uniforms, the particle staging buffer, the readback buffer) is per slot;
+//! particle uploads are recorded into the next frame's own command buffer.
 
 use std::sync::Arc;
 
@@ -8,7 +11,8 @@ use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
 use crate::frame::{record_frame, FrameInfo, FrameUniforms, Passes, View};
-use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Timer, Use};
+use crate::gpu::executor::{Executor, Submitted};
+use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Use};
 use crate::passes::smooth::Output as Smoothed;
 use crate::settings::Settings;
 use crate::targets::{Targets, TargetsDesc};
@@ -25,7 +29,11 @@ pub struct Renderer {
     pub uniforms: Buffer,
     particles: Option<Buffer>,
     count: u32,
-    timer: Timer,
+    /// Particles set but not yet copied to the GPU: the next frame's command buffer records the copy.
+    staged: Option<Vec<[f32; 4]>>,
+    executor: Executor,
+    /// Per slot: the frame uniform block, the particle staging buffer, the final-colour readback buffer.
+    slots: Vec<SlotMemory>,
     smoothed: Smoothed,
     /// Keep the raw splatted depth through smoothing (costs one more screen-sized image); set before rendering
     /// when the raw depth will be read back.
@@ -48,6 +56,17 @@ pub struct Renderer {
     iso: Option<crate::passes::iso::IsoBuffers>,
 }
 
+/// Host-written memory of one frame slot.
+#[derive(Default)]
+struct SlotMemory {
+    uniforms: Option<Buffer>,
+    staging: Option<Buffer>,
+    readback: Option<Buffer>,
+}
+
+/// Frames in flight of a new renderer.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
 /// The demo's passes (built with the renderer; recorded only by `render_view`).
 struct DemoPasses {
     view: crate::passes::view::View,
@@ -58,6 +77,13 @@ struct DemoPasses {
 impl Renderer {
     /// Build the passes on `gpu`; upload particles before rendering.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Renderer> {
+        Renderer::with_frames(gpu, FRAMES_IN_FLIGHT)
+    }
+
+    /// A renderer with `frames` frames in flight (1: every frame waits for the previous one).
+    pub fn with_frames(gpu: &Arc<Gpu>, frames: usize) -> Result<Renderer> {
+        let executor = Executor::new(gpu, frames)?;
+        let slots = (0..executor.frames()).map(|_| SlotMemory::default()).collect();
         let uniforms = Buffer::new(
             gpu,
             "frame",
@@ -72,7 +98,9 @@ impl Renderer {
             uniforms,
             particles: None,
             count: 0,
-            timer: Timer::new(gpu)?,
+            staged: None,
+            executor,
+            slots,
             smoothed: Smoothed::Input,
             positions: vec![],
             spray: None,
@@ -141,8 +169,20 @@ impl Renderer {
                 [p[0], p[1], p[2], w]
             })
             .collect();
-        self.particles =
-            Some(upload_buffer(&self.gpu, "particles", bytemuck::cast_slice(&data), self.particles.take())?);
+        // The copy is recorded into the next frame's command buffer; the buffer itself is replaced only when it
+        // is too small, after the frames that may still read it.
+        let size = (bytes).max(16);
+        if self.particles.as_ref().is_none_or(|b| b.size < size) {
+            self.executor.wait_idle()?;
+            self.particles = Some(Buffer::new(
+                &self.gpu,
+                "particles",
+                size,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )?);
+        }
+        self.staged = Some(data);
         self.count = n as u32;
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
@@ -187,6 +227,7 @@ impl Renderer {
 
     /// Add a triangle mesh (world coordinates) to the background scene.
     pub fn set_background_mesh(&mut self, mesh: &crate::mesh::Mesh) -> Result<()> {
+        self.executor.wait_idle()?;
         let bvh = crate::mesh::GpuBvh::build(mesh);
         self.mesh = crate::passes::background::MeshBuffers {
             nodes: upload_buffer(&self.gpu, "bvh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
@@ -200,6 +241,7 @@ impl Renderer {
     /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::sky`). Set
     /// `Environment::sky_cube` to use it.
     pub fn set_skybox(&mut self, size: u32, faces: &[u8]) -> Result<()> {
+        self.executor.wait_idle()?;
         let sky = Image::new_cube(
             &self.gpu,
             "sky",
@@ -225,6 +267,7 @@ impl Renderer {
         }
         let want = TargetsDesc::new(width, height, s, self.keep_raw_depth);
         if self.targets.as_ref().map(|t| t.desc) != Some(want) {
+            self.executor.wait_idle()?;
             self.targets = None;
             self.background_key = None;
             self.targets = Some(Targets::new(&self.gpu, want)?);
@@ -240,7 +283,42 @@ impl Renderer {
 
     /// Render one frame and wait for it; returns the GPU time of each pass.
     pub fn render(&mut self, view: &View, s: &Settings) -> Result<PassTimes> {
-        self.render_frame(view, s, None)
+        let sub = self.record_and_submit(view, s, None, false)?;
+        self.finish(sub)
+    }
+
+    /// Submit one frame and return without waiting for it (N frames may be in flight: starting the frame
+    /// after waits only for the frame N back). With `readback`, the frame also copies its final image into
+    /// host memory; take it with [`Renderer::read_submitted`] before N more frames are submitted.
+    pub fn submit(&mut self, view: &View, s: &Settings, readback: bool) -> Result<Submitted> {
+        self.record_and_submit(view, s, None, readback)
+    }
+
+    /// Wait for a submitted frame and return its GPU times.
+    pub fn finish(&mut self, sub: Submitted) -> Result<PassTimes> {
+        self.executor.wait(sub.value)?;
+        self.executor.slot(sub.slot).timer.read()
+    }
+
+    /// The final image of a frame submitted with `readback` (waits for it).
+    pub fn read_submitted(&mut self, sub: Submitted) -> Result<image::RgbaImage> {
+        self.executor.wait(sub.value)?;
+        let t = self.targets.as_ref().ok_or_else(|| Error::Invalid("nothing rendered yet".into()))?;
+        let buf =
+            self.slots[sub.slot].readback.as_ref().ok_or_else(|| Error::Invalid("frame had no readback".into()))?;
+        let n = t.final_color.bytes() as usize;
+        image::RgbaImage::from_raw(t.width, t.height, buf.read()?[..n].to_vec())
+            .ok_or_else(|| Error::Invalid("readback size mismatch".into()))
+    }
+
+    /// Wait for every frame in flight.
+    pub fn wait_idle(&self) -> Result<()> {
+        self.executor.wait_idle()
+    }
+
+    /// Frames in flight.
+    pub fn frames_in_flight(&self) -> usize {
+        self.executor.frames()
     }
 
     /// Render one frame for the demo: the full pipeline, then the chosen view, then the text `overlay`.
@@ -255,17 +333,19 @@ impl Renderer {
     ) -> Result<PassTimes> {
         // The raw depth view and the particle view read the splatted depth after smoothing.
         self.keep_raw_depth = true;
-        self.render_frame(view, s, Some((mode, values, overlay)))
+        let sub = self.record_and_submit(view, s, Some((mode, values, overlay)), false)?;
+        self.finish(sub)
     }
 
-    /// The frame driver behind `render` and `render_view`: checks, uniforms, record_frame, then (demo only)
-    /// the view and overlay passes; waits and reads the timestamps.
-    fn render_frame(
+    /// The frame driver: checks, the slot's uniforms, the staged particle copy, record_frame, then (demo only)
+    /// the view and overlay passes, then (with `readback`) the copy of the final image; submits.
+    fn record_and_submit(
         &mut self,
         view: &View,
         s: &Settings,
         demo: Option<(crate::passes::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
-    ) -> Result<PassTimes> {
+        readback: bool,
+    ) -> Result<Submitted> {
         use crate::passes::view::ViewMode;
         s.validate()?;
         if !self.passes.splat.supports(s.splat.mode) {
@@ -276,56 +356,108 @@ impl Renderer {
             )));
         }
         self.ensure_targets(view.width, view.height, s)?;
-        self.write_uniforms(view, s)?;
         let cached = self.background_cached(view, s);
         let iso = if s.surface == crate::settings::Surface::Iso {
             self.ensure_iso(s.iso.support * s.radius)?;
-            self.iso.as_ref()
+            true
         } else {
-            None
+            false
         };
-        let particles = self.particles.as_ref().ok_or_else(|| Error::Invalid("no particles uploaded".into()))?;
-        let t = self.targets.as_ref().expect("ensured");
-        let count = self.count;
+        if self.particles.is_none() {
+            return Err(Error::Invalid("no particles uploaded".into()));
+        }
         let d_near = self.nearest_depth(view, s);
+        // The slot: its previous frame is complete from here on, so its host memory may be rewritten.
+        let (k, _late) = self.executor.begin()?;
+        let gpu = self.gpu.clone();
+        let mem = &mut self.slots[k];
+        let u = FrameUniforms::new(view, s, self.count);
+        if mem.uniforms.is_none() {
+            mem.uniforms = Some(Buffer::new(
+                &gpu,
+                "frame",
+                std::mem::size_of::<FrameUniforms>() as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
+        let staged = self.staged.take();
+        if let Some(data) = &staged {
+            let bytes: &[u8] = bytemuck::cast_slice(data);
+            if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
+                mem.staging = Some(Buffer::new(
+                    &gpu,
+                    "particles staging",
+                    (bytes.len() as u64).max(16),
+                    vk::BufferUsageFlags::TRANSFER_SRC,
+                    MemoryLocation::CpuToGpu,
+                )?);
+            }
+            mem.staging.as_mut().expect("set").write(0, bytes)?;
+        }
+        let need = self.targets.as_ref().expect("ensured").final_color.bytes();
+        if readback && mem.readback.as_ref().is_none_or(|b| b.size < need) {
+            mem.readback = Some(Buffer::new(
+                &gpu,
+                "readback",
+                need,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?);
+        }
+        let t = self.targets.as_ref().expect("ensured");
         let info = FrameInfo {
             focal_px: view.camera.focal_px(view.height),
             focal_px_fluid: view.camera.focal_px(t.depth.extent.height),
             d_near,
             target_distance: (view.camera.eye - view.camera.target).length().max(view.camera.near),
         };
-        let (passes, uniforms, gpu, views, sky, mesh) =
-            (&self.passes, &self.uniforms, self.gpu.clone(), &self.demo_passes, &self.sky, &self.mesh);
-        let timer = &mut self.timer;
-        let smoothed = gpu.one_shot(|cmd| {
-            let mut ctx = FrameCtx::new(&gpu, cmd, Some(timer));
-            let sm = record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached)?
-                .smoothed;
-            if let Some((mode, values, overlay)) = demo {
-                let smoothed_img = t.smoothed(sm);
-                let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
-                let t_max = 60.0 * s.radius;
-                match mode {
-                    ViewMode::Final => {}
-                    ViewMode::Particles => {
-                        views.view.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
-                        if let Some(v) = values {
-                            views.particles.record(&mut ctx, uniforms, particles, v, count, t, s.splat.radius_scale);
-                        }
-                    }
-                    m => {
-                        let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
-                        views.view.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
+        let particles = self.particles.as_ref().expect("checked");
+        let iso = if iso { self.iso.as_ref() } else { None };
+        let (passes, views, sky, mesh, count) = (&self.passes, &self.demo_passes, &self.sky, &self.mesh, self.count);
+        let uniforms = mem.uniforms.as_ref().expect("set");
+        let slot = self.executor.slot(k);
+        let cmd = slot.cmd;
+        let mut ctx = FrameCtx::new(&gpu, cmd, Some(&mut slot.timer));
+        if let (Some(data), Some(staging)) = (&staged, mem.staging.as_ref()) {
+            // The next frame's particles: a copy in this frame's own command buffer (no separate submit).
+            ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
+            let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: (data.len() * 16) as u64 };
+            if region.size > 0 {
+                unsafe { gpu.device.cmd_copy_buffer(cmd, staging.raw, particles.raw, &[region]) };
+            }
+        }
+        let sm =
+            record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached)?.smoothed;
+        if let Some((mode, values, overlay)) = demo {
+            let smoothed_img = t.smoothed(sm);
+            let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
+            let t_max = 60.0 * s.radius;
+            match mode {
+                ViewMode::Final => {}
+                ViewMode::Particles => {
+                    views.view.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
+                    if let Some(v) = values {
+                        views.particles.record(&mut ctx, uniforms, particles, v, count, t, s.splat.radius_scale);
                     }
                 }
-                if let Some(o) = overlay {
-                    views.overlay.record(&mut ctx, uniforms, o, &t.final_color);
+                m => {
+                    let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
+                    views.view.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
                 }
             }
-            Ok(sm)
-        })?;
-        self.smoothed = smoothed;
-        self.timer.read()
+            if let Some(o) = overlay {
+                views.overlay.record(&mut ctx, uniforms, o, &t.final_color);
+            }
+        }
+        if readback {
+            let buf = mem.readback.as_ref().expect("set");
+            record_image_copy(&mut ctx, &t.final_color, buf);
+        }
+        drop(ctx);
+        self.smoothed = sm;
+        self.executor.submit(k)
     }
 
     /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`
@@ -339,6 +471,7 @@ impl Renderer {
             None => self.positions.clone(),
         };
         let grid = crate::iso::IsoGrid::build(&pts, support);
+        self.executor.wait_idle()?;
         self.iso = None;
         let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?;
         let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?;
@@ -377,6 +510,13 @@ impl Renderer {
         let bytes = read_image(&self.gpu, &t.final_color)?;
         image::RgbaImage::from_raw(t.width, t.height, bytes)
             .ok_or_else(|| Error::Invalid("readback size mismatch".into()))
+    }
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        // Frames in flight still use the images and buffers dropped next.
+        let _ = self.executor.wait_idle();
     }
 }
 
@@ -420,22 +560,27 @@ pub fn read_image(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<u8>> {
     let buf = Buffer::new(gpu, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(gpu, cmd, None);
-        ctx.barrier(&[Use::Image(img, Access::TransferSrc, false), Use::Buffer(&buf, Access::TransferDst)]);
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
-        unsafe {
-            gpu.device.cmd_copy_image_to_buffer(cmd, img.raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buf.raw, &[region])
-        };
-        ctx.barrier(&[Use::Buffer(&buf, Access::HostRead)]);
+        record_image_copy(&mut ctx, img, &buf);
         Ok(())
     })?;
     Ok(buf.read()?.to_vec())
+}
+
+/// Record a copy of all of `img` into the host-visible `buf` (tightly packed), made visible to the host.
+fn record_image_copy(ctx: &mut FrameCtx, img: &Image, buf: &Buffer) {
+    ctx.barrier(&[Use::Image(img, Access::TransferSrc, false), Use::Buffer(buf, Access::TransferDst)]);
+    let region = vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
+    unsafe {
+        ctx.gpu.device.cmd_copy_image_to_buffer(ctx.cmd, img.raw, Access::TransferSrc.info().layout, buf.raw, &[region])
+    };
+    ctx.barrier(&[Use::Buffer(buf, Access::HostRead)]);
 }
 
 /// Read a 32-bit float image.

@@ -7,6 +7,7 @@
 
 pub mod access;
 pub mod context;
+pub mod executor;
 pub mod pipeline;
 pub mod resource;
 pub mod timer;
@@ -61,6 +62,10 @@ impl ValidationLog {
         self.messages.lock().map(|m| m.clone()).unwrap_or_default()
     }
 }
+
+/// What `pick_device` found: the physical and logical device, the main family, the async queue choice and the
+/// device description.
+type PickedDevice = (vk::PhysicalDevice, ash::Device, u32, (u32, u32, AsyncQueue), DeviceInfo);
 
 /// How the async compute queue relates to the main one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -384,7 +389,7 @@ impl Gpu {
         instance: &ash::Instance,
         opts: &GpuOptions,
         swapchain: bool,
-    ) -> Result<(vk::PhysicalDevice, ash::Device, u32, (u32, u32, AsyncQueue), DeviceInfo)> {
+    ) -> Result<PickedDevice> {
         let _ = entry;
         let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
         if physicals.is_empty() {

@@ -52,6 +52,10 @@ pub struct RenderArgs {
     /// normals as OUT.normals.npy (H×W×3, view space) and OUT.normals.png, ssr as OUT.ssr.png, final = the PNG.
     #[arg(long, value_delimiter = ',')]
     dump: Vec<String>,
+    /// Sequence: frames on the GPU at once (1: each frame waits for the one before; 2 overlaps the next
+    /// frame's upload and recording with the GPU work).
+    #[arg(long, default_value_t = meniscus::renderer::FRAMES_IN_FLIGHT as u64, value_parser = clap::value_parser!(u64).range(1..=4))]
+    frames_in_flight: u64,
     #[command(flatten)]
     gpu: GpuArgs,
 }
@@ -146,7 +150,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     };
     let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
     let gpu = a.gpu.open()?;
-    let mut r = Renderer::new(&gpu)?;
+    let mut r = Renderer::with_frames(&gpu, a.frames_in_flight as usize)?;
     job.apply_background(&mut r)?;
     let s = &job.settings;
     let mut view = job.view(a.width, a.height);
@@ -165,25 +169,54 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     );
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  [{elapsed} < {eta}]")
-            .expect("template"),
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} frames  {per_sec:.2}  {msg}  [{elapsed} < {eta}]",
+        )
+        .expect("template"),
     );
     let t0 = std::time::Instant::now();
     let mut gpu_ms = 0.0;
-    // The camera was fitted once, to the first frame; later frames load on a worker thread meanwhile.
-    for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
-        let particles = loaded?;
-        job.upload(&mut r, &particles)?;
-        gpu_ms += r.render(&view, s)?.total();
-        let path = out_name(frame.number);
-        meniscus::output::write_png(&path, &r.read_final()?)?;
-        bar.set_message(format!(
-            "{} → {}",
-            frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
-            path.display()
-        ));
-        bar.inc(1);
-    }
+    // The overlap: frame n+1 loads on the prefetch thread and frame n−1's PNG encodes on the writer thread
+    // while frame n renders; up to `frames_in_flight` frames are on the GPU at once (each copies its image
+    // into its slot's readback buffer, taken before the slot is reused). The camera was fitted once.
+    let (tx, rx) = std::sync::mpsc::sync_channel::<(PathBuf, image::RgbaImage)>(2);
+    let writer = std::thread::spawn(move || -> meniscus::Result<()> {
+        for (path, img) in rx {
+            meniscus::output::write_png(&path, &img)?;
+        }
+        Ok(())
+    });
+    let mut pending = std::collections::VecDeque::new();
+    let mut take =
+        |r: &mut Renderer, (sub, path, name): (meniscus::gpu::executor::Submitted, PathBuf, String)| -> Result<()> {
+            let img = r.read_submitted(sub)?;
+            gpu_ms += r.finish(sub)?.total();
+            bar.set_message(format!("{name} → {}", path.display()));
+            tx.send((path, img)).map_err(|_| anyhow::anyhow!("the PNG writer stopped"))?;
+            bar.inc(1);
+            Ok(())
+        };
+    let run = (|| -> Result<()> {
+        for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
+            let particles = loaded?;
+            job.upload(&mut r, &particles)?;
+            let sub = r.submit(&view, s, true)?;
+            let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+            pending.push_back((sub, out_name(frame.number), name));
+            if pending.len() >= r.frames_in_flight() {
+                take(&mut r, pending.pop_front().expect("non-empty"))?;
+            }
+        }
+        while let Some(p) = pending.pop_front() {
+            take(&mut r, p)?;
+        }
+        Ok(())
+    })();
+    drop(take);
+    drop(tx);
+    let written = writer.join().map_err(|_| anyhow::anyhow!("the PNG writer panicked"))?;
+    run?;
+    written?;
     bar.finish();
     let secs = t0.elapsed().as_secs_f64();
     eprintln!(
