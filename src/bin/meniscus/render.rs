@@ -212,7 +212,6 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
         }
         Ok(())
     })();
-    drop(take);
     drop(tx);
     let written = writer.join().map_err(|_| anyhow::anyhow!("the PNG writer panicked"))?;
     run?;
