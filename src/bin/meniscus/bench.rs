@@ -84,6 +84,10 @@ pub struct Entry {
     /// The fluid's own screen-sized images (all but the background's colour/depth and the 8-bit output).
     pub memory_fluid_images_bytes: u64,
     pub memory_particles_bytes: u64,
+    /// Resident memory of the process after the warm-up frames and after the last measured frame (Linux;
+    /// issue #17: the difference is what measured frames cost in host memory).
+    pub rss_after_warmup_bytes: Option<u64>,
+    pub rss_after_frames_bytes: Option<u64>,
 }
 
 /// The whole benchmark run.
@@ -147,10 +151,14 @@ pub fn measure(
     r.set_scene_particles(&w.particles, &s)?;
     let mut per_pass: Vec<(String, Vec<f64>)> = vec![];
     let (mut totals, mut cpu) = (vec![], vec![]);
+    let mut rss_after_warmup = rss_bytes();
     for k in 0..warmup + frames.max(1) {
         let t0 = Instant::now();
         let times = r.render(&view, &s)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
+        if k + 1 == warmup {
+            rss_after_warmup = rss_bytes();
+        }
         if k < warmup {
             continue;
         }
@@ -187,6 +195,8 @@ pub fn measure(
             .sum(),
         memory,
         memory_particles_bytes: 16 * w.particles.len() as u64,
+        rss_after_warmup_bytes: rss_after_warmup,
+        rss_after_frames_bytes: rss_bytes(),
     })
 }
 
