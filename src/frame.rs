@@ -178,12 +178,55 @@ pub struct Frame {
     pub smoothed: crate::passes::smooth::Output,
 }
 
-/// THE FRAME: every pass in order, each given the images it reads and writes; each pass derives its own
-/// barriers from its slots, so nothing here synchronises. Optional steps: `background` (skipped while the
-/// view and scene stand), `iso` (`surface = "iso"`), `upsample` (`fluid_scale` < 1).
+/// Which part of the frame a pass belongs to: the async compute part (the static background and the
+/// thickness: they depend on nothing the fluid passes write), the fluid part, and the shading part (it reads
+/// both). In a one-queue frame all three are one command buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// Async compute queue (when split).
+    Async,
+    /// Main queue: the fluid's depth, smoothing and normals.
+    Fluid,
+    /// Main queue, after the async part: reflections and shading.
+    Shade,
+}
+
+/// Where `record_frame` records: one context, or one per part (a split, two-queue frame).
+pub enum Recording<'a, 't> {
+    /// Everything in one command buffer.
+    One(&'a mut FrameCtx<'t>),
+    /// One command buffer per part.
+    Split {
+        /// [`Part::Async`].
+        async_part: &'a mut FrameCtx<'t>,
+        /// [`Part::Fluid`].
+        fluid: &'a mut FrameCtx<'t>,
+        /// [`Part::Shade`].
+        shade: &'a mut FrameCtx<'t>,
+    },
+}
+
+impl<'t> Recording<'_, 't> {
+    /// The context of part `p`.
+    pub fn part(&mut self, p: Part) -> &mut FrameCtx<'t> {
+        match self {
+            Recording::One(c) => c,
+            Recording::Split { async_part, fluid, shade } => match p {
+                Part::Async => async_part,
+                Part::Fluid => fluid,
+                Part::Shade => shade,
+            },
+        }
+    }
+}
+
+/// THE FRAME: every pass in order, with the part (queue) beside it, each given the images it reads and writes;
+/// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
+/// from what each part touched (`gpu::schedule`), so nothing here synchronises. Optional steps: `background`
+/// (skipped while the view and scene stand), `iso` (`surface = "iso"`), `upsample` (`fluid_scale` < 1).
 #[allow(clippy::too_many_arguments)]
 pub fn record_frame(
-    ctx: &mut FrameCtx,
+    rec: &mut Recording,
     p: &Passes,
     t: &Targets,
     frame: &Buffer,
@@ -195,9 +238,22 @@ pub fn record_frame(
     (sky, mesh): (&Image, &crate::passes::background::MeshBuffers),
     background_cached: bool,
 ) -> Result<Frame> {
+    use Part::*;
     if !background_cached {
-        p.background.record(ctx, frame, sky, mesh, &t.scene_color, &t.scene_depth);
+        p.background.record(rec.part(Async), frame, sky, mesh, &t.scene_color, &t.scene_depth);
     }
+    let blur = s.thickness.blur_px;
+    p.thickness.record(
+        rec.part(Async),
+        frame,
+        particles,
+        count,
+        &t.scene_depth,
+        &t.thickness_accum,
+        &t.thickness,
+        blur,
+    );
+    let ctx = rec.part(Fluid);
     match s.splat.mode {
         SplatMode::Compute => {
             let spheres = (s.radius, s.splat_scale());
@@ -212,16 +268,6 @@ pub fn record_frame(
         let back = t.depth_back.as_ref().filter(|_| s.splat.mode == SplatMode::Compute);
         p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);
     }
-    p.thickness.record(
-        ctx,
-        frame,
-        particles,
-        count,
-        &t.scene_depth,
-        &t.thickness_accum,
-        &t.thickness,
-        s.thickness.blur_px,
-    );
     let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, info);
     let fluid_depth = t.smoothed(smoothed);
     let surface = match &t.depth_full {
@@ -232,6 +278,7 @@ pub fn record_frame(
         None => fluid_depth,
     };
     p.normals.record(ctx, frame, surface, &t.normals, s.normals.edge * s.radius);
+    let ctx = rec.part(Shade);
     p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,
@@ -244,39 +291,4 @@ pub fn record_frame(
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
     Ok(Frame { smoothed })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Every field of the Rust mirror sits at the offset the GLSL compiler gave the same member of `Frame`
-    /// (read from the compiled SPIR-V by build.rs), and the two have the same members in the same order.
-    #[test]
-    fn uniform_block_offsets_match_the_shader() {
-        macro_rules! offsets {
-            ($($f:ident),*) => { vec![$((stringify!($f), std::mem::offset_of!(FrameUniforms, $f) as u32)),*] };
-        }
-        let rust = offsets!(
-            view,
-            inv_view,
-            eye,
-            proj,
-            fluid,
-            sun,
-            ground,
-            extinction,
-            fluid_color,
-            shading,
-            shading2,
-            box_count,
-            box_min,
-            box_max
-        );
-        let glsl: Vec<(&str, u32)> = crate::shaders::FRAME_BLOCK.to_vec();
-        assert_eq!(rust, glsl);
-        let (last, off) = glsl[glsl.len() - 1];
-        assert_eq!(last, "box_max");
-        assert_eq!(std::mem::size_of::<FrameUniforms>() as u32, off + 16 * crate::shader_constants::MAX_BOXES);
-    }
 }

@@ -10,7 +10,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
-use crate::frame::{record_frame, FrameInfo, FrameUniforms, Passes, View};
+use crate::frame::{record_frame, FrameInfo, FrameUniforms, Passes, Recording, View};
 use crate::gpu::executor::{Executor, Submitted};
 use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Use};
 use crate::passes::smooth::Output as Smoothed;
@@ -46,6 +46,9 @@ pub struct Renderer {
     background_key: Option<String>,
     /// Re-render the background every frame even when nothing changed (for measuring the pass).
     pub always_render_background: bool,
+    /// Split each frame over two queues: the background and the thickness on the async compute queue, beside
+    /// the fluid passes on the main queue (on a device with one queue both parts go to it, in order).
+    pub async_compute: bool,
     /// CPU copy of the positions (for per-frame bounds such as the nearest depth, and the iso grid).
     positions: Vec<[f32; 3]>,
     /// Particles marked as spray (left out of the surface), if any.
@@ -54,6 +57,25 @@ pub struct Renderer {
     mesh: crate::passes::background::MeshBuffers,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
+}
+
+/// The arguments of `record_frame` after the recording.
+type FrameArgs<'a> = (
+    &'a Passes,
+    &'a Targets,
+    &'a Buffer,
+    &'a Buffer,
+    u32,
+    Option<&'a crate::passes::iso::IsoBuffers>,
+    &'a Settings,
+    &'a FrameInfo,
+    (&'a Image, &'a crate::passes::background::MeshBuffers),
+    bool,
+);
+
+/// `record_frame` with its arguments in one tuple (the one-queue and the split path share them).
+fn record_one(rec: &mut Recording, (p, t, u, parts, n, iso, s, info, bg, cached): FrameArgs) -> Result<Smoothed> {
+    Ok(record_frame(rec, p, t, u, parts, n, iso, s, info, bg, cached)?.smoothed)
 }
 
 /// Host-written memory of one frame slot.
@@ -113,6 +135,7 @@ impl Renderer {
             },
             background_key: None,
             always_render_background: false,
+            async_compute: false,
             keep_raw_depth: false,
             demo_passes: DemoPasses {
                 view: crate::passes::view::View::new(gpu)?,
@@ -287,6 +310,14 @@ impl Renderer {
         self.finish(sub)
     }
 
+    /// Render one frame, wait, and return every timed scope with its queue and device-clock begin and end (for
+    /// per-queue times and the overlap of a split frame).
+    pub fn render_spans(&mut self, view: &View, s: &Settings) -> Result<Vec<crate::gpu::executor::Span>> {
+        let sub = self.record_and_submit(view, s, None, false)?;
+        self.executor.wait_slot(sub.slot)?;
+        self.executor.spans(sub.slot)
+    }
+
     /// Submit one frame and return without waiting for it (N frames may be in flight: starting the frame
     /// after waits only for the frame N back). With `readback`, the frame also copies its final image into
     /// host memory; take it with [`Renderer::read_submitted`] before N more frames are submitted.
@@ -296,13 +327,13 @@ impl Renderer {
 
     /// Wait for a submitted frame and return its GPU times.
     pub fn finish(&mut self, sub: Submitted) -> Result<PassTimes> {
-        self.executor.wait(sub.value)?;
-        self.executor.slot(sub.slot).timer.read()
+        self.executor.wait_slot(sub.slot)?;
+        self.executor.times(sub.slot)
     }
 
     /// The final image of a frame submitted with `readback` (waits for it).
     pub fn read_submitted(&mut self, sub: Submitted) -> Result<image::RgbaImage> {
-        self.executor.wait(sub.value)?;
+        self.executor.wait_slot(sub.slot)?;
         let t = self.targets.as_ref().ok_or_else(|| Error::Invalid("nothing rendered yet".into()))?;
         let buf =
             self.slots[sub.slot].readback.as_ref().ok_or_else(|| Error::Invalid("frame had no readback".into()))?;
@@ -417,47 +448,87 @@ impl Renderer {
         let iso = if iso { self.iso.as_ref() } else { None };
         let (passes, views, sky, mesh, count) = (&self.passes, &self.demo_passes, &self.sky, &self.mesh, self.count);
         let uniforms = mem.uniforms.as_ref().expect("set");
-        let slot = self.executor.slot(k);
-        let cmd = slot.cmd;
-        let mut ctx = FrameCtx::new(&gpu, cmd, Some(&mut slot.timer));
-        if let (Some(data), Some(staging)) = (&staged, mem.staging.as_ref()) {
-            // The next frame's particles: a copy in this frame's own command buffer (no separate submit).
-            ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
-            let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: (data.len() * 16) as u64 };
-            if region.size > 0 {
-                unsafe { gpu.device.cmd_copy_buffer(cmd, staging.raw, particles.raw, &[region]) };
-            }
+        let split = self.async_compute;
+        if split {
+            self.executor.begin_split(k)?;
         }
-        let sm =
-            record_frame(&mut ctx, passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached)?.smoothed;
-        if let Some((mode, values, overlay)) = demo {
-            let smoothed_img = t.smoothed(sm);
-            let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
-            let t_max = 60.0 * s.radius;
-            match mode {
-                ViewMode::Final => {}
-                ViewMode::Particles => {
-                    views.view.record(&mut ctx, uniforms, t, smoothed_img, 6, range, t_max);
-                    if let Some(v) = values {
-                        views.particles.record(&mut ctx, uniforms, particles, v, count, t, s.splat.radius_scale);
+        let slot = self.executor.slot(k);
+        slot.split = split;
+        // The particles of this frame: a copy at the start of its own (first) command buffer, made visible to
+        // compute reads there, before any other queue's part waits for it.
+        let upload = |ctx: &mut FrameCtx| {
+            if let (Some(data), Some(staging)) = (&staged, mem.staging.as_ref()) {
+                ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
+                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: (data.len() * 16) as u64 };
+                if region.size > 0 {
+                    unsafe { gpu.device.cmd_copy_buffer(ctx.cmd, staging.raw, particles.raw, &[region]) };
+                }
+                ctx.barrier(&[Use::buf_read(particles)]);
+            }
+        };
+        // The demo's views and overlay, then the readback: after the shading, in its command buffer.
+        let finish_frame = |ctx: &mut FrameCtx, sm: Smoothed| {
+            if let Some((mode, values, overlay)) = demo {
+                let smoothed_img = t.smoothed(sm);
+                let range = (d_near, d_near + (view.camera.eye - view.camera.target).length() * 1.5);
+                let t_max = 60.0 * s.radius;
+                match mode {
+                    ViewMode::Final => {}
+                    ViewMode::Particles => {
+                        views.view.record(ctx, uniforms, t, smoothed_img, 6, range, t_max);
+                        if let Some(v) = values {
+                            views.particles.record(ctx, uniforms, particles, v, count, t, s.splat.radius_scale);
+                        }
+                    }
+                    m => {
+                        let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
+                        views.view.record(ctx, uniforms, t, smoothed_img, k, range, t_max);
                     }
                 }
-                m => {
-                    let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
-                    views.view.record(&mut ctx, uniforms, t, smoothed_img, k, range, t_max);
+                if let Some(o) = overlay {
+                    views.overlay.record(ctx, uniforms, o, &t.final_color);
                 }
             }
-            if let Some(o) = overlay {
-                views.overlay.record(&mut ctx, uniforms, o, &t.final_color);
+            if readback {
+                record_image_copy(ctx, &t.final_color, mem.readback.as_ref().expect("set"));
             }
+        };
+        let frame_args = (passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached);
+        if !split {
+            let mut ctx = FrameCtx::new(&gpu, slot.cmd, Some(&mut slot.timer));
+            upload(&mut ctx);
+            let sm = record_one(&mut Recording::One(&mut ctx), frame_args)?;
+            finish_frame(&mut ctx, sm);
+            drop(ctx);
+            self.smoothed = sm;
+            return self.executor.submit(k);
         }
-        if readback {
-            let buf = mem.readback.as_ref().expect("set");
-            record_image_copy(&mut ctx, &t.final_color, buf);
-        }
-        drop(ctx);
+        // A split frame: upload (main) → background + thickness (async compute) ‖ fluid (main) → shading
+        // (main); the waits between the queues come from what each part touched.
+        use crate::gpu::executor::Segment;
+        use crate::gpu::schedule::{derive_waits, QueueId};
+        let cmds = (slot.main_cmds, slot.compute_cmd);
+        let [ta, tf, tsh] = &mut slot.segment_timers;
+        let mut up = FrameCtx::new(&gpu, cmds.0[0], Some(&mut slot.timer));
+        upload(&mut up);
+        let mut a = FrameCtx::new(&gpu, cmds.1, Some(ta));
+        let mut f = FrameCtx::new(&gpu, cmds.0[1], Some(tf));
+        let mut sh = FrameCtx::new(&gpu, cmds.0[2], Some(tsh));
+        let sm = record_one(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, frame_args)?;
+        finish_frame(&mut sh, sm);
+        let parts = [
+            (QueueId::Main, std::mem::take(&mut up.touches), cmds.0[0]),
+            (QueueId::Compute, std::mem::take(&mut a.touches), cmds.1),
+            (QueueId::Main, std::mem::take(&mut f.touches), cmds.0[1]),
+            (QueueId::Main, std::mem::take(&mut sh.touches), cmds.0[2]),
+        ];
+        drop((up, a, f, sh));
+        let touches: Vec<_> = parts.iter().map(|(q, t, _)| (*q, t.clone())).collect();
+        let waits = derive_waits(&touches);
+        let segments: Vec<Segment> =
+            parts.iter().zip(waits).map(|((q, _, c), w)| Segment { queue: *q, cmd: *c, waits: w }).collect();
         self.smoothed = sm;
-        self.executor.submit(k)
+        self.executor.submit_segments(k, &segments)
     }
 
     /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`

@@ -50,6 +50,9 @@ pub struct FrameCtx<'t> {
     open: Vec<Option<u32>>,
     /// Barrier batches flushed (for tests and the bench).
     pub barrier_batches: u32,
+    /// Every resource this context declared a use of, and whether it wrote it (for the cross-queue waits of
+    /// `schedule::derive_waits`).
+    pub touches: Vec<super::schedule::Touch>,
 }
 
 impl<'t> FrameCtx<'t> {
@@ -58,7 +61,13 @@ impl<'t> FrameCtx<'t> {
         if let Some(t) = timer.as_deref_mut() {
             t.reset(cmd);
         }
-        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0 }
+        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![] }
+    }
+
+    /// Continue a frame in another command buffer: the timer keeps its scopes (it was reset by the frame's
+    /// first context, whose command buffer runs earlier on the same queue).
+    pub fn continuing(gpu: &Arc<Gpu>, cmd: vk::CommandBuffer, timer: Option<&'t mut Timer>) -> Self {
+        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![] }
     }
 
     /// Derive the barriers for `uses` from each resource's last access, record them in ONE
@@ -67,8 +76,12 @@ impl<'t> FrameCtx<'t> {
         let mut images = vec![];
         let mut buffers = vec![];
         for u in uses {
+            let touch = |handle: u64, write: bool| super::schedule::Touch { resource: handle, write };
             match *u {
                 Use::Image(img, access, discard) => {
+                    use ash::vk::Handle;
+                    let changes_layout = img.state.get().layout != access.info().layout;
+                    self.touches.push(touch(img.raw.as_raw(), access.info().writes || discard || changes_layout));
                     let (dep, next) = img.state.get().transition(access, discard);
                     img.state.set(next);
                     if let Some(d) = dep {
@@ -76,6 +89,8 @@ impl<'t> FrameCtx<'t> {
                     }
                 }
                 Use::Buffer(buf, access) => {
+                    use ash::vk::Handle;
+                    self.touches.push(touch(buf.raw.as_raw(), access.info().writes));
                     let (dep, next) = buf.state.get().transition(access, false);
                     buf.state.set(crate::gpu::AccessState { layout: vk::ImageLayout::UNDEFINED, ..next });
                     if let Some(d) = dep {

@@ -15,24 +15,64 @@ use ash::vk;
 use super::{Gpu, PassTimes, Timer};
 use crate::error::{Result, VkContext};
 
+/// Command buffers of one slot on the main queue (a one-queue frame uses the first; a split frame uses
+/// three: upload, fluid, shade) and on the async compute queue (one).
+pub const MAIN_SEGMENTS: usize = 3;
+
 /// One frame slot.
 pub struct Slot {
     pool: vk::CommandPool,
-    /// The slot's command buffer (reset when the slot starts a frame).
+    compute_pool: vk::CommandPool,
+    /// The slot's command buffer (reset when the slot starts a frame): the first main segment.
     pub cmd: vk::CommandBuffer,
-    /// The slot's timestamp pool.
+    /// Further main-queue segments of a split frame.
+    pub main_cmds: [vk::CommandBuffer; MAIN_SEGMENTS],
+    /// The async compute segment of a split frame.
+    pub compute_cmd: vk::CommandBuffer,
+    /// The slot's timestamp pool (the first main segment).
     pub timer: Timer,
-    /// Timeline value the slot's last submission signals (0: never submitted).
+    /// Timestamp pools of the other segments of a split frame: [async, fluid, shade].
+    pub segment_timers: [Timer; 3],
+    /// Whether the slot's last frame was split over two queues (its times are in `segment_timers` too).
+    pub split: bool,
+    /// Timeline values the slot's last frame signals on the main and the compute timeline (0: none).
     pub value: u64,
+    compute_value: u64,
 }
 
-/// N frames in flight on the main queue.
+/// N frames in flight on the main queue (and, for split frames, on the async compute queue).
 pub struct Executor {
     gpu: Arc<Gpu>,
     timeline: vk::Semaphore,
+    compute_timeline: vk::Semaphore,
     submitted: u64,
+    compute_submitted: u64,
     slots: Vec<Slot>,
     next: usize,
+}
+
+/// One timed scope of a frame.
+#[derive(Clone, Debug)]
+pub struct Span {
+    /// Pass name.
+    pub name: String,
+    /// The queue it ran on.
+    pub queue: super::schedule::QueueId,
+    /// Begin, device clock, ns.
+    pub begin_ns: f64,
+    /// End, device clock, ns.
+    pub end_ns: f64,
+}
+
+/// One segment of a split frame, in recording (= valid serial) order.
+#[derive(Clone, Debug)]
+pub struct Segment {
+    /// Its queue.
+    pub queue: super::schedule::QueueId,
+    /// Its command buffer (recorded, not yet ended).
+    pub cmd: vk::CommandBuffer,
+    /// Earlier segments of this frame (indices) on the other queue it waits for.
+    pub waits: Vec<usize>,
 }
 
 /// A frame handed to the GPU.
@@ -51,27 +91,96 @@ impl Executor {
         let mut type_ci = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE);
         let ci = vk::SemaphoreCreateInfo::default().push_next(&mut type_ci);
         let timeline = unsafe { d.create_semaphore(&ci, None) }.vk("vkCreateSemaphore")?;
-        gpu.name_object(timeline, "frame timeline");
-        let mut ex = Executor { gpu: gpu.clone(), timeline, submitted: 0, slots: vec![], next: 0 };
-        for _ in 0..frames.max(1) {
-            let pool_ci = vk::CommandPoolCreateInfo::default()
-                .queue_family_index(gpu.queues.main.family)
+        let compute_timeline = match unsafe { d.create_semaphore(&ci, None) }.vk("vkCreateSemaphore") {
+            Ok(t) => t,
+            Err(e) => {
+                unsafe { d.destroy_semaphore(timeline, None) };
+                return Err(e);
+            }
+        };
+        gpu.name_object(timeline, "main timeline");
+        gpu.name_object(compute_timeline, "compute timeline");
+        let mut ex = Executor {
+            gpu: gpu.clone(),
+            timeline,
+            compute_timeline,
+            submitted: 0,
+            compute_submitted: 0,
+            slots: vec![],
+            next: 0,
+        };
+        let pool = |family: u32| -> Result<vk::CommandPool> {
+            let ci = vk::CommandPoolCreateInfo::default()
+                .queue_family_index(family)
                 .flags(vk::CommandPoolCreateFlags::TRANSIENT);
-            let pool = unsafe { d.create_command_pool(&pool_ci, None) }.vk("vkCreateCommandPool")?;
+            unsafe { d.create_command_pool(&ci, None) }.vk("vkCreateCommandPool")
+        };
+        let alloc = |pool: vk::CommandPool, n: u32| -> Result<Vec<vk::CommandBuffer>> {
             let ai = vk::CommandBufferAllocateInfo::default()
                 .command_pool(pool)
                 .level(vk::CommandBufferLevel::PRIMARY)
-                .command_buffer_count(1);
-            let cmd = match unsafe { d.allocate_command_buffers(&ai) }.vk("vkAllocateCommandBuffers") {
-                Ok(c) => c[0],
+                .command_buffer_count(n);
+            unsafe { d.allocate_command_buffers(&ai) }.vk("vkAllocateCommandBuffers")
+        };
+        for _ in 0..frames.max(1) {
+            let main_pool = pool(gpu.queues.main.family)?;
+            let compute_pool = match pool(gpu.queues.compute.family) {
+                Ok(p) => p,
                 Err(e) => {
-                    unsafe { d.destroy_command_pool(pool, None) };
+                    unsafe { d.destroy_command_pool(main_pool, None) };
                     return Err(e);
                 }
             };
-            ex.slots.push(Slot { pool, cmd, timer: Timer::new(gpu)?, value: 0 });
+            // From here the slot owns both pools (destroyed with the executor, even on an error below).
+            ex.slots.push(Slot {
+                pool: main_pool,
+                compute_pool,
+                cmd: vk::CommandBuffer::null(),
+                main_cmds: [vk::CommandBuffer::null(); MAIN_SEGMENTS],
+                compute_cmd: vk::CommandBuffer::null(),
+                timer: Timer::new(gpu)?,
+                segment_timers: [Timer::new(gpu)?, Timer::new(gpu)?, Timer::new(gpu)?],
+                split: false,
+                value: 0,
+                compute_value: 0,
+            });
+            let s = ex.slots.last_mut().expect("pushed");
+            let main = alloc(main_pool, MAIN_SEGMENTS as u32)?;
+            s.cmd = main[0];
+            s.main_cmds.copy_from_slice(&main);
+            s.compute_cmd = alloc(compute_pool, 1)?[0];
         }
         Ok(ex)
+    }
+
+    /// The GPU times of slot `k`'s last frame (every part of a split frame), in recording order.
+    pub fn times(&mut self, k: usize) -> Result<PassTimes> {
+        let s = &self.slots[k];
+        let mut all = s.timer.read()?.0;
+        if s.split {
+            for t in &s.segment_timers {
+                all.extend(t.read()?.0);
+            }
+        }
+        Ok(PassTimes(all))
+    }
+
+    /// Every timed scope of slot `k`'s last frame with its queue, begin and end (ns, device clock).
+    pub fn spans(&mut self, k: usize) -> Result<Vec<Span>> {
+        use super::schedule::QueueId;
+        let s = &self.slots[k];
+        let mut out: Vec<Span> = s
+            .timer
+            .spans()?
+            .into_iter()
+            .map(|(name, b, e)| Span { name, queue: QueueId::Main, begin_ns: b, end_ns: e })
+            .collect();
+        if s.split {
+            for (t, q) in s.segment_timers.iter().zip([QueueId::Compute, QueueId::Main, QueueId::Main]) {
+                out.extend(t.spans()?.into_iter().map(|(name, b, e)| Span { name, queue: q, begin_ns: b, end_ns: e }));
+            }
+        }
+        Ok(out)
     }
 
     /// Frames in flight.
@@ -85,18 +194,101 @@ impl Executor {
         let k = self.next;
         self.next = (self.next + 1) % self.slots.len();
         let previous = self.slots[k].value;
+        if self.slots[k].compute_value > 0 {
+            self.wait_compute(self.slots[k].compute_value)?;
+        }
         let times = if previous > 0 {
             self.wait(previous)?;
-            Some(self.slots[k].timer.read()?)
+            Some(self.times(k)?)
         } else {
             None
         };
         let d = &self.gpu.device;
-        let s = &self.slots[k];
-        unsafe { d.reset_command_pool(s.pool, vk::CommandPoolResetFlags::empty()) }.vk("vkResetCommandPool")?;
+        let s = &mut self.slots[k];
+        s.compute_value = 0;
+        unsafe {
+            d.reset_command_pool(s.pool, vk::CommandPoolResetFlags::empty()).vk("vkResetCommandPool")?;
+            d.reset_command_pool(s.compute_pool, vk::CommandPoolResetFlags::empty()).vk("vkResetCommandPool")?;
+        }
         let bi = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         unsafe { d.begin_command_buffer(s.cmd, &bi) }.vk("vkBeginCommandBuffer")?;
         Ok((k, times))
+    }
+
+    /// Begin the other command buffers of slot `k` for a split frame (the first main one began in `begin`).
+    pub fn begin_split(&mut self, k: usize) -> Result<()> {
+        let d = &self.gpu.device;
+        let s = &self.slots[k];
+        let bi = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        for &c in s.main_cmds[1..].iter().chain(std::iter::once(&s.compute_cmd)) {
+            unsafe { d.begin_command_buffer(c, &bi) }.vk("vkBeginCommandBuffer")?;
+        }
+        Ok(())
+    }
+
+    /// End and submit the segments of a split frame in slot `k`: each signals its queue's timeline, waits for
+    /// the segments `waits` names (on the other queue's timeline) and — the async segments — for the previous
+    /// frame on the main queue (its shading read what they overwrite).
+    pub fn submit_segments(&mut self, k: usize, segments: &[Segment]) -> Result<Submitted> {
+        use super::schedule::QueueId;
+        let d = &self.gpu.device;
+        let previous_main = self.submitted;
+        let mut values = vec![0u64; segments.len()];
+        for (j, seg) in segments.iter().enumerate() {
+            unsafe { d.end_command_buffer(seg.cmd) }.vk("vkEndCommandBuffer")?;
+            let (queue, sem, value) = match seg.queue {
+                QueueId::Main => {
+                    self.submitted += 1;
+                    (self.gpu.queues.main.queue, self.timeline, self.submitted)
+                }
+                QueueId::Compute => {
+                    self.compute_submitted += 1;
+                    (self.gpu.queues.compute.queue, self.compute_timeline, self.compute_submitted)
+                }
+            };
+            values[j] = value;
+            let mut waits: Vec<vk::SemaphoreSubmitInfo> = seg
+                .waits
+                .iter()
+                .map(|&i| {
+                    let s = if segments[i].queue == QueueId::Main { self.timeline } else { self.compute_timeline };
+                    vk::SemaphoreSubmitInfo::default()
+                        .semaphore(s)
+                        .value(values[i])
+                        .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                })
+                .collect();
+            if seg.queue == QueueId::Compute && previous_main > 0 {
+                waits.push(
+                    vk::SemaphoreSubmitInfo::default()
+                        .semaphore(self.timeline)
+                        .value(previous_main)
+                        .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+                );
+            }
+            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(seg.cmd)];
+            let signal = [vk::SemaphoreSubmitInfo::default()
+                .semaphore(sem)
+                .value(value)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+            let submit = [vk::SubmitInfo2::default()
+                .wait_semaphore_infos(&waits)
+                .command_buffer_infos(&cmds)
+                .signal_semaphore_infos(&signal)];
+            unsafe { d.queue_submit2(queue, &submit, vk::Fence::null()) }.vk("vkQueueSubmit2")?;
+        }
+        let s = &mut self.slots[k];
+        s.value = self.submitted;
+        s.compute_value = self.compute_submitted;
+        Ok(Submitted { slot: k, value: self.submitted })
+    }
+
+    /// Wait on the host until the compute timeline reaches `value`.
+    fn wait_compute(&self, value: u64) -> Result<()> {
+        let sems = [self.compute_timeline];
+        let values = [value];
+        let wi = vk::SemaphoreWaitInfo::default().semaphores(&sems).values(&values);
+        unsafe { self.gpu.device.wait_semaphores(&wi, u64::MAX) }.vk("vkWaitSemaphores")
     }
 
     /// The slot `k`.
@@ -130,10 +322,25 @@ impl Executor {
         unsafe { self.gpu.device.wait_semaphores(&wi, u64::MAX) }.vk("vkWaitSemaphores")
     }
 
-    /// Wait for every frame submitted so far.
+    /// Wait for every frame submitted so far, on both queues.
     pub fn wait_idle(&self) -> Result<()> {
         if self.submitted > 0 {
             self.wait(self.submitted)?;
+        }
+        if self.compute_submitted > 0 {
+            self.wait_compute(self.compute_submitted)?;
+        }
+        Ok(())
+    }
+
+    /// Wait for everything slot `k`'s last frame submitted (both queues).
+    pub fn wait_slot(&self, k: usize) -> Result<()> {
+        let s = &self.slots[k];
+        if s.compute_value > 0 {
+            self.wait_compute(s.compute_value)?;
+        }
+        if s.value > 0 {
+            self.wait(s.value)?;
         }
         Ok(())
     }
@@ -153,8 +360,10 @@ impl Drop for Executor {
         unsafe {
             for s in &self.slots {
                 d.destroy_command_pool(s.pool, None);
+                d.destroy_command_pool(s.compute_pool, None);
             }
             d.destroy_semaphore(self.timeline, None);
+            d.destroy_semaphore(self.compute_timeline, None);
         }
     }
 }

@@ -10,6 +10,7 @@ pub mod context;
 pub mod executor;
 pub mod pipeline;
 pub mod resource;
+pub mod schedule;
 pub mod timer;
 
 use std::ffi::{c_void, CStr, CString};
@@ -512,6 +513,17 @@ impl Gpu {
             .push_next(&mut enable2);
         let device = unsafe { instance.create_device(pd, &dci, None) }.vk("vkCreateDevice")?;
         Ok((pd, device, qf, compute, info))
+    }
+
+    /// The queue families resources are shared between concurrently: both, when the async compute queue is of
+    /// another family than the main one (then no ownership transfers are needed: the frame's semaphores are
+    /// the whole cross-queue dependency); empty (exclusive sharing) otherwise.
+    pub fn concurrent_families(&self) -> Vec<u32> {
+        if self.queues.compute.family != self.queues.main.family {
+            vec![self.queues.main.family, self.queues.compute.family]
+        } else {
+            vec![]
+        }
     }
 
     /// Validation counters (all zero when validation is off).

@@ -119,8 +119,13 @@ impl Image {
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
+        let families = gpu.concurrent_families();
+        let ci = if families.is_empty() {
+            ci.sharing_mode(vk::SharingMode::EXCLUSIVE)
+        } else {
+            ci.sharing_mode(vk::SharingMode::CONCURRENT).queue_family_indices(&families)
+        };
         let raw = unsafe { d.create_image(&ci, None) }.vk("vkCreateImage")?;
         let req = unsafe { d.get_image_memory_requirements(raw) };
         let alloc = allocate(gpu, name, req, MemoryLocation::GpuOnly, false)
@@ -247,8 +252,13 @@ impl Buffer {
         location: MemoryLocation,
     ) -> Result<Buffer> {
         let d = &gpu.device;
-        let ci =
-            vk::BufferCreateInfo::default().size(size.max(16)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let families = gpu.concurrent_families();
+        let ci = vk::BufferCreateInfo::default().size(size.max(16)).usage(usage);
+        let ci = if families.is_empty() {
+            ci.sharing_mode(vk::SharingMode::EXCLUSIVE)
+        } else {
+            ci.sharing_mode(vk::SharingMode::CONCURRENT).queue_family_indices(&families)
+        };
         let raw = unsafe { d.create_buffer(&ci, None) }.vk("vkCreateBuffer")?;
         let req = unsafe { d.get_buffer_memory_requirements(raw) };
         let alloc = allocate(gpu, name, req, location, true).inspect_err(|_| unsafe { d.destroy_buffer(raw, None) })?;

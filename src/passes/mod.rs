@@ -27,14 +27,14 @@ macro_rules! frame_passes {
 }
 
 frame_passes! {
-    /// Ground, boxes, mesh and sky behind the fluid.
+    /// Ground, boxes, mesh and sky behind the fluid (async compute part).
     background: Background,
+    /// Additive chord length, blurred (async compute part).
+    thickness: Thickness,
     /// Nearest sphere depth of every particle.
     splat: Splat,
     /// The SPH iso-surface, ray-cast from the splatted depth.
     iso: Iso,
-    /// Additive chord length, blurred.
-    thickness: Thickness,
     /// Depth smoothing.
     smooth: Smooth,
     /// Reduced-resolution depth back to full size.

@@ -87,6 +87,17 @@ pub struct Entry {
     /// Resident memory of the process after the warm-up frames and after the last measured frame (Linux;
     /// issue #17: the difference is what measured frames cost in host memory).
     pub rss_after_warmup_bytes: Option<u64>,
+    /// Whether the frame was split over the main and the async compute queue (issue #12).
+    pub async_compute: bool,
+    /// Busy time of the main queue's passes per frame.
+    pub queue_main_ms: Stat,
+    /// Busy time of the async compute queue's passes per frame (0 when not split).
+    pub queue_compute_ms: Stat,
+    /// First begin to last end over both queues per frame; (union with async off) − (union with async on) is
+    /// the work the overlap hid.
+    pub union_ms: Stat,
+    /// The queue every pass ran on ("main" or "compute").
+    pub pass_queues: Vec<(String, String)>,
     pub rss_after_frames_bytes: Option<u64>,
 }
 
@@ -151,11 +162,26 @@ pub fn measure(
     r.set_scene_particles(&w.particles, &s)?;
     let mut per_pass: Vec<(String, Vec<f64>)> = vec![];
     let (mut totals, mut cpu) = (vec![], vec![]);
+    let (mut main_ms, mut compute_ms, mut union_ms) = (vec![], vec![], vec![]);
+    let mut pass_queues: Vec<(String, String)> = vec![];
     let mut rss_after_warmup = rss_bytes();
     for k in 0..warmup + frames.max(1) {
         let t0 = Instant::now();
-        let times = r.render(&view, &s)?;
+        let spans = r.render_spans(&view, &s)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
+        // Same-named scopes summed, in recording order.
+        let mut times: Vec<(String, f64)> = vec![];
+        for sp in &spans {
+            let ms = (sp.end_ns - sp.begin_ns) * 1e-6;
+            match times.iter_mut().find(|(n, _)| *n == sp.name) {
+                Some(e) => e.1 += ms,
+                None => times.push((sp.name.clone(), ms)),
+            }
+            if !pass_queues.iter().any(|(n, _)| *n == sp.name) {
+                pass_queues.push((sp.name.clone(), format!("{:?}", sp.queue).to_lowercase()));
+            }
+        }
+        let times = meniscus::gpu::PassTimes(times);
         if k + 1 == warmup {
             rss_after_warmup = rss_bytes();
         }
@@ -170,6 +196,16 @@ pub fn measure(
         }
         totals.push(times.total());
         cpu.push(cpu_ms);
+        // Per queue: the time its passes were busy; the union: first begin to last end over both queues
+        // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
+        use meniscus::gpu::schedule::QueueId;
+        let busy =
+            |q: QueueId| spans.iter().filter(|x| x.queue == q).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum::<f64>();
+        main_ms.push(busy(QueueId::Main));
+        compute_ms.push(busy(QueueId::Compute));
+        let first = spans.iter().map(|x| x.begin_ns).fold(f64::INFINITY, f64::min);
+        let last = spans.iter().map(|x| x.end_ns).fold(f64::NEG_INFINITY, f64::max);
+        union_ms.push(if spans.is_empty() { 0.0 } else { (last - first) * 1e-6 });
     }
     let t = r.targets.as_ref().expect("rendered");
     let memory: Vec<Mem> = t.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
@@ -196,6 +232,11 @@ pub fn measure(
         memory,
         memory_particles_bytes: 16 * w.particles.len() as u64,
         rss_after_warmup_bytes: rss_after_warmup,
+        async_compute: r.async_compute,
+        queue_main_ms: Stat::of(&main_ms),
+        queue_compute_ms: Stat::of(&compute_ms),
+        union_ms: Stat::of(&union_ms),
+        pass_queues,
         rss_after_frames_bytes: rss_bytes(),
     })
 }
@@ -281,6 +322,10 @@ pub struct BenchArgs {
     /// re-rendering it every measured frame.
     #[arg(long)]
     cache_background: bool,
+    /// Split each frame over the main and the async compute queue (background and thickness beside the fluid
+    /// passes): off, on, or both (every configuration measured twice in one run, hidden time reported).
+    #[arg(long = "async", value_parser = ["off", "on", "both"], default_value = "off")]
+    async_mode: String,
     /// Write the markdown table here too.
     #[arg(long)]
     markdown: Option<PathBuf>,
@@ -352,6 +397,43 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
     Ok((Workload { label, particles: g.particles, radius: g.radius, distance, camera: None }, None))
 }
 
+/// The async settings `--async` asks for: [false], [true] or both.
+fn async_modes(mode: &str) -> Vec<bool> {
+    match mode {
+        "on" => vec![true],
+        "both" => vec![false, true],
+        _ => vec![false],
+    }
+}
+
+/// Per-queue times and the hidden time of `--async both` pairs (same scene, size, preset).
+fn overlap_report(entries: &[Entry]) -> String {
+    let mut out = String::new();
+    for on in entries.iter().filter(|e| e.async_compute) {
+        let off = entries.iter().find(|e| {
+            !e.async_compute
+                && e.scene == on.scene
+                && e.width == on.width
+                && e.height == on.height
+                && e.variant.trim_end_matches(" async off") == on.variant.trim_end_matches(" async on")
+        });
+        if let Some(off) = off {
+            out += &format!(
+                "{} {}×{}: union {:.2} ms (async off) → {:.2} ms (on); main queue {:.2} ms, compute queue {:.2} ms; hidden {:.2} ms\n",
+                on.scene,
+                on.width,
+                on.height,
+                off.union_ms.median,
+                on.union_ms.median,
+                on.queue_main_ms.median,
+                on.queue_compute_ms.median,
+                off.union_ms.median - on.union_ms.median
+            );
+        }
+    }
+    out
+}
+
 /// Run the benchmark.
 pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
@@ -416,7 +498,16 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 bar.inc(1);
                 continue;
             }
-            entries.push(measure(&mut r, &w, wd, ht, &base, &a.preset, a.warmup, a.frames)?);
+            for split in async_modes(&a.async_mode) {
+                r.async_compute = split;
+                let label = if a.async_mode == "both" {
+                    format!("{} async {}", a.preset, if split { "on" } else { "off" })
+                } else {
+                    a.preset.clone()
+                };
+                entries.push(measure(&mut r, &w, wd, ht, &base, &label, a.warmup, a.frames)?);
+            }
+            r.async_compute = a.async_mode == "on";
             bar.inc(1);
             if a.variants && k == 0 && j == 0 {
                 variants.clear();
@@ -473,6 +564,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 }
             }
         }
+    }
+    let overlap = overlap_report(&entries);
+    if !overlap.is_empty() {
+        println!("\n{overlap}");
     }
     write_reports(a, &gpu, base, entries, &table)?;
     finish(&gpu)
