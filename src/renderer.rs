@@ -46,6 +46,8 @@ pub struct Renderer {
     background_key: Option<String>,
     /// Re-render the background every frame even when nothing changed (for measuring the pass).
     pub always_render_background: bool,
+    /// GPU times of the frame a slot ran before the latest submission (read when the slot was reused).
+    late_times: Option<PassTimes>,
     /// Split each frame over two queues: the background and the thickness on the async compute queue, beside
     /// the fluid passes on the main queue (on a device with one queue both parts go to it, in order).
     pub async_compute: bool,
@@ -76,6 +78,19 @@ type FrameArgs<'a> = (
 /// `record_frame` with its arguments in one tuple (the one-queue and the split path share them).
 fn record_one(rec: &mut Recording, (p, t, u, parts, n, iso, s, info, bg, cached): FrameArgs) -> Result<Smoothed> {
     Ok(record_frame(rec, p, t, u, parts, n, iso, s, info, bg, cached)?.smoothed)
+}
+
+/// Recording work given the frame context and the frame's final image.
+pub type AfterHook<'h> = &'h dyn Fn(&mut FrameCtx, &Image);
+
+/// Work a caller records into a frame's command buffer: `before` the passes (after the particle upload) and
+/// `after` them (given the final image).
+#[derive(Default, Clone, Copy)]
+pub struct Hooks<'h> {
+    /// Recorded before the frame's passes.
+    pub before: Option<&'h dyn Fn(&mut FrameCtx)>,
+    /// Recorded after the frame's passes, with the final image.
+    pub after: Option<AfterHook<'h>>,
 }
 
 /// Host-written memory of one frame slot.
@@ -136,6 +151,7 @@ impl Renderer {
             background_key: None,
             always_render_background: false,
             async_compute: false,
+            late_times: None,
             keep_raw_depth: false,
             demo_passes: DemoPasses {
                 view: crate::passes::view::View::new(gpu)?,
@@ -352,6 +368,36 @@ impl Renderer {
         self.executor.frames()
     }
 
+    /// Submit one frame for a window without waiting: the full pipeline, the chosen view, the text `overlay`,
+    /// with `hooks` recorded before the frame's passes (after the particle upload: e.g. the overlay's upload)
+    /// and after them (e.g. the blit into a swapchain image), and the binary semaphores of `binary` (acquire /
+    /// render-finished). Returns the frame and the GPU times of the frame this slot ran before (a frame late).
+    #[allow(clippy::too_many_arguments)]
+    pub fn submit_view(
+        &mut self,
+        view: &View,
+        s: &Settings,
+        mode: crate::passes::view::ViewMode,
+        values: Option<&Buffer>,
+        overlay: Option<&Image>,
+        hooks: Hooks,
+        binary: crate::gpu::executor::Binary,
+    ) -> Result<(Submitted, Option<PassTimes>)> {
+        self.keep_raw_depth = true;
+        let sub = self.record_and_submit_with(view, s, Some((mode, values, overlay)), false, hooks, binary)?;
+        Ok((sub, self.late_times.take()))
+    }
+
+    /// The slot the next frame will use (per-slot host memory of a caller, e.g. the demo's overlay staging).
+    pub fn next_slot(&self) -> usize {
+        self.executor.next_slot()
+    }
+
+    /// Wait until slot `k`'s last frame is done (before reusing what the caller keeps per slot).
+    pub fn wait_slot(&self, k: usize) -> Result<()> {
+        self.executor.wait_slot(k)
+    }
+
     /// Render one frame for the demo: the full pipeline, then the chosen view, then the text `overlay`.
     /// `values`: per-particle attribute in [0, 1] for the particle view.
     pub fn render_view(
@@ -377,6 +423,19 @@ impl Renderer {
         demo: Option<(crate::passes::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
         readback: bool,
     ) -> Result<Submitted> {
+        self.record_and_submit_with(view, s, demo, readback, Hooks::default(), Default::default())
+    }
+
+    /// [`Renderer::record_and_submit`] with caller hooks and binary semaphores.
+    fn record_and_submit_with(
+        &mut self,
+        view: &View,
+        s: &Settings,
+        demo: Option<(crate::passes::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
+        readback: bool,
+        hooks: Hooks,
+        binary: crate::gpu::executor::Binary,
+    ) -> Result<Submitted> {
         use crate::passes::view::ViewMode;
         s.validate()?;
         if !self.passes.splat.supports(s.splat.mode) {
@@ -399,7 +458,8 @@ impl Renderer {
         }
         let d_near = self.nearest_depth(view, s);
         // The slot: its previous frame is complete from here on, so its host memory may be rewritten.
-        let (k, _late) = self.executor.begin()?;
+        let (k, late) = self.executor.begin()?;
+        self.late_times = late;
         let gpu = self.gpu.clone();
         let mem = &mut self.slots[k];
         let u = FrameUniforms::new(view, s, self.count);
@@ -492,16 +552,22 @@ impl Renderer {
             if readback {
                 record_image_copy(ctx, &t.final_color, mem.readback.as_ref().expect("set"));
             }
+            if let Some(h) = hooks.after {
+                h(ctx, &t.final_color);
+            }
         };
         let frame_args = (passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached);
         if !split {
             let mut ctx = FrameCtx::new(&gpu, slot.cmd, Some(&mut slot.timer));
             upload(&mut ctx);
+            if let Some(h) = hooks.before {
+                h(&mut ctx);
+            }
             let sm = record_one(&mut Recording::One(&mut ctx), frame_args)?;
             finish_frame(&mut ctx, sm);
             drop(ctx);
             self.smoothed = sm;
-            return self.executor.submit(k);
+            return self.executor.submit_with(k, &binary);
         }
         // A split frame: upload (main) → background + thickness (async compute) ‖ fluid (main) → shading
         // (main); the waits between the queues come from what each part touched.
@@ -509,8 +575,14 @@ impl Renderer {
         use crate::gpu::schedule::{derive_waits, QueueId};
         let cmds = (slot.main_cmds, slot.compute_cmd);
         let [ta, tf, tsh] = &mut slot.segment_timers;
+        if binary.wait.is_some() || binary.signal.is_some() {
+            return Err(Error::Invalid("a split (async) frame does not present; turn async compute off".into()));
+        }
         let mut up = FrameCtx::new(&gpu, cmds.0[0], Some(&mut slot.timer));
         upload(&mut up);
+        if let Some(h) = hooks.before {
+            h(&mut up);
+        }
         let mut a = FrameCtx::new(&gpu, cmds.1, Some(ta));
         let mut f = FrameCtx::new(&gpu, cmds.0[1], Some(tf));
         let mut sh = FrameCtx::new(&gpu, cmds.0[2], Some(tsh));

@@ -51,6 +51,15 @@ pub struct Executor {
     next: usize,
 }
 
+/// Binary semaphores a frame's submission waits for (with the stage that waits) and signals.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Binary {
+    /// Wait for this semaphore before `stage`.
+    pub wait: Option<(vk::Semaphore, vk::PipelineStageFlags2)>,
+    /// Signal this semaphore when the frame is done.
+    pub signal: Option<vk::Semaphore>,
+}
+
 /// One timed scope of a frame.
 #[derive(Clone, Debug)]
 pub struct Span {
@@ -183,6 +192,11 @@ impl Executor {
         Ok(out)
     }
 
+    /// The slot the next frame will use.
+    pub fn next_slot(&self) -> usize {
+        self.next
+    }
+
     /// Frames in flight.
     pub fn frames(&self) -> usize {
         self.slots.len()
@@ -298,16 +312,35 @@ impl Executor {
 
     /// End slot `k`'s command buffer and submit it on the main queue, signalling the next timeline value.
     pub fn submit(&mut self, k: usize) -> Result<Submitted> {
+        self.submit_with(k, &Binary::default())
+    }
+
+    /// [`Executor::submit`] that also waits for and signals binary semaphores (a swapchain's acquire and
+    /// render-finished semaphores: the frame and its present in one submit).
+    pub fn submit_with(&mut self, k: usize, binary: &Binary) -> Result<Submitted> {
         let d = &self.gpu.device;
         let s = &mut self.slots[k];
         unsafe { d.end_command_buffer(s.cmd) }.vk("vkEndCommandBuffer")?;
         let value = self.submitted + 1;
         let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(s.cmd)];
-        let signal = [vk::SemaphoreSubmitInfo::default()
+        let mut signal = vec![vk::SemaphoreSubmitInfo::default()
             .semaphore(self.timeline)
             .value(value)
             .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
-        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds).signal_semaphore_infos(&signal)];
+        if let Some(sem) = binary.signal {
+            signal.push(
+                vk::SemaphoreSubmitInfo::default().semaphore(sem).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+            );
+        }
+        let waits: Vec<vk::SemaphoreSubmitInfo> = binary
+            .wait
+            .iter()
+            .map(|&(sem, stage)| vk::SemaphoreSubmitInfo::default().semaphore(sem).stage_mask(stage))
+            .collect();
+        let submit = [vk::SubmitInfo2::default()
+            .wait_semaphore_infos(&waits)
+            .command_buffer_infos(&cmds)
+            .signal_semaphore_infos(&signal)];
         unsafe { d.queue_submit2(self.gpu.queues.main.queue, &submit, vk::Fence::null()) }.vk("vkQueueSubmit2")?;
         self.submitted = value;
         s.value = value;

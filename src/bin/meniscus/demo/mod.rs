@@ -2,10 +2,13 @@
 //! file through the renderer. The renderer draws offscreen exactly as `render` does; the demo only blits the
 //! result (plus a text overlay) into the swapchain image. Keys and mouse: see [`HELP`].
 //!
-//! Frame loop: render (submit + wait), read that frame's timestamps (already complete: no query wait), acquire,
-//! blit, present. CPU and GPU do not overlap — simple and exact on lavapipe; a real GPU would want two frames in
-//! flight (the queues issue). Parts: `controller` (camera control, pure functions), `playback` (frame source
-//! and stepping), `overlay` (text), `present` (swapchain); this module holds the window loop and the keys.
+//! Frame loop, with the renderer's frames in flight (2): wait for the frame two back (the only host wait),
+//! write this slot's overlay staging and values, acquire (a semaphore, no fence), submit ONE command buffer —
+//! overlay upload, every pass, the view and overlay passes, the blit into the swapchain image — that waits for
+//! the acquire and signals the image's render-finished semaphore, then present. GPU times shown are those of
+//! the frame the slot ran before (read a frame late, without a query wait). Parts: `controller` (camera control,
+//! pure functions), `playback` (frame source and stepping), `overlay` (text), `present` (swapchain); this module
+//! holds the window loop and the keys.
 
 mod controller;
 mod overlay;
@@ -29,9 +32,10 @@ use winit::window::{Window, WindowId};
 
 use meniscus::error::{Error, Result, VkContext};
 use meniscus::frame::{Environment, View};
-use meniscus::gpu::{Buffer, Gpu, GpuOptions, Image, PassTimes};
+use meniscus::gpu::executor::Binary;
+use meniscus::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Use};
 use meniscus::passes::view::ViewMode;
-use meniscus::renderer::Renderer;
+use meniscus::renderer::{Hooks, Renderer};
 use meniscus::scene::{Camera, LoadOptions, Particles};
 use meniscus::settings::{Filter, Settings, Surface};
 
@@ -125,7 +129,11 @@ struct State {
     swap: Option<present::Swapchain>,
     renderer: Renderer,
     overlay: Option<Image>,
-    values: Option<Buffer>,
+    /// Per frame slot (frames in flight): the overlay's staging buffer, the particle values, and the
+    /// semaphore the swapchain's acquire signals.
+    overlay_staging: Vec<Option<Buffer>>,
+    values: Vec<Option<Buffer>>,
+    acquired: Vec<vk::Semaphore>,
 }
 
 struct App {
@@ -338,7 +346,20 @@ impl App {
             renderer.set_background_mesh(m)?;
         }
         eprintln!("demo on {} ({}); keys:\n{HELP}", gpu.info.name, gpu.info.driver);
-        let mut st = State { window, gpu, surface_loader, surface, swap: None, renderer, overlay: None, values: None };
+        let n = renderer.frames_in_flight();
+        let acquired = (0..n).map(|_| present::semaphore(&gpu)).collect::<Result<Vec<_>>>()?;
+        let mut st = State {
+            window,
+            gpu,
+            surface_loader,
+            surface,
+            swap: None,
+            renderer,
+            overlay: None,
+            overlay_staging: (0..n).map(|_| None).collect(),
+            values: (0..n).map(|_| None).collect(),
+            acquired,
+        };
         self.recreate_swapchain(&mut st)?;
         Ok(st)
     }
@@ -438,15 +459,6 @@ impl App {
         Ok(())
     }
 
-    fn present(&mut self, st: &mut State) -> Result<()> {
-        let Some(swap) = st.swap.as_ref() else { return Ok(()) };
-        let src = &st.renderer.targets.as_ref().expect("rendered").final_color;
-        if present::present(&st.gpu, swap, src)? {
-            self.resized = true;
-        }
-        Ok(())
-    }
-
     /// The fly keys held now, as (forward, right, up) in {-1, 0, 1}.
     fn fly_keys(&self) -> (f32, f32, f32) {
         let axis = |plus: KeyCode, minus: KeyCode| {
@@ -520,13 +532,16 @@ impl App {
             st.renderer.set_scene_particles(p, &self.settings)?;
             self.uploaded = Some(self.frame);
         }
+        // Frames in flight: the slot this frame takes is free once the frame N back is done (the only host wait).
+        let k = st.renderer.next_slot();
+        st.renderer.wait_slot(k)?;
         let legend = if self.mode == ViewMode::Particles {
             let p = self.src.get(self.frame, &self.load)?.clone();
             let (vals, name, lo, hi) = self.values(&p);
             let bytes: &[u8] = bytemuck::cast_slice(&vals);
-            let reuse = st.values.as_ref().is_some_and(|b| b.size >= bytes.len() as u64);
+            let reuse = st.values[k].as_ref().is_some_and(|b| b.size >= bytes.len() as u64);
             if !reuse {
-                st.values = Some(Buffer::new(
+                st.values[k] = Some(Buffer::new(
                     &st.gpu,
                     "values",
                     bytes.len().max(16) as u64,
@@ -534,17 +549,18 @@ impl App {
                     MemoryLocation::CpuToGpu,
                 )?);
             }
-            st.values.as_mut().expect("set").write(0, bytes)?;
+            st.values[k].as_mut().expect("set").write(0, bytes)?;
             Some((name, lo, hi))
         } else {
             None
         };
-        // Overlay text (last frame's GPU times: this frame's are read after it completes).
+        // Overlay text (the GPU times of an earlier frame: a frame's are read when its slot comes round again).
         let text = self.overlay_text(st, n, legend.as_ref());
         let ov = overlay::rasterize(&text, legend.is_some(), if extent.width >= 1000 { 2 } else { 1 });
         let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
         let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
         if need_new {
+            st.renderer.wait_idle()?; // frames in flight still read the old overlay image
             st.overlay = Some(Image::new(
                 &st.gpu,
                 "overlay",
@@ -555,10 +571,61 @@ impl App {
             )?);
         }
         let cropped = image::imageops::crop_imm(&ov, 0, 0, ow, oh).to_image();
-        meniscus::renderer::upload_image(&st.gpu, st.overlay.as_ref().expect("set"), cropped.as_raw())?;
-        let values = if self.mode == ViewMode::Particles { st.values.as_ref() } else { None };
-        self.last_times = st.renderer.render_view(&view, &self.settings, self.mode, values, st.overlay.as_ref())?;
-        self.present(st)?;
+        let bytes = cropped.as_raw();
+        if st.overlay_staging[k].as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
+            st.overlay_staging[k] = Some(Buffer::new(
+                &st.gpu,
+                "overlay staging",
+                bytes.len().max(16) as u64,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        st.overlay_staging[k].as_mut().expect("set").write(0, bytes)?;
+        // Acquire the swapchain image (signals the slot's semaphore; no fence, no host wait).
+        let swap = st.swap.as_ref().expect("checked above");
+        let Some((index, suboptimal)) = present::acquire(swap, st.acquired[k])? else {
+            self.resized = true;
+            return Ok(());
+        };
+        self.resized |= suboptimal;
+        let overlay_img = st.overlay.as_ref().expect("set");
+        let staging = st.overlay_staging[k].as_ref().expect("set");
+        let upload_overlay = |ctx: &mut FrameCtx| {
+            ctx.barrier(&[Use::Image(overlay_img, Access::TransferDst, true)]);
+            let region = vk::BufferImageCopy::default()
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                })
+                .image_extent(vk::Extent3D { width: ow, height: oh, depth: 1 });
+            unsafe {
+                ctx.gpu.device.cmd_copy_buffer_to_image(
+                    ctx.cmd,
+                    staging.raw,
+                    overlay_img.raw,
+                    Access::TransferDst.info().layout,
+                    &[region],
+                )
+            };
+        };
+        let blit = |ctx: &mut FrameCtx, final_img: &Image| present::record_blit(ctx, swap, index, final_img);
+        let hooks = Hooks { before: Some(&upload_overlay), after: Some(&blit) };
+        let binary = Binary {
+            wait: Some((st.acquired[k], vk::PipelineStageFlags2::ALL_COMMANDS)),
+            signal: Some(present::rendered(swap, index)),
+        };
+        let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
+        let (_, late) =
+            st.renderer.submit_view(&view, &self.settings, self.mode, values, st.overlay.as_ref(), hooks, binary)?;
+        if let Some(t) = late {
+            self.last_times = t;
+        }
+        if present::queue_present(&st.gpu, swap, index)? {
+            self.resized = true;
+        }
         self.frames_drawn += 1;
         self.fps_window.1 += 1;
         let el_s = now.duration_since(self.fps_window.0).as_secs_f32();
@@ -633,6 +700,12 @@ impl Drop for State {
     fn drop(&mut self) {
         if let Some(s) = self.swap.take() {
             present::destroy(&self.gpu, s);
+        }
+        unsafe {
+            let _ = self.gpu.device.device_wait_idle();
+            for &sem in &self.acquired {
+                self.gpu.device.destroy_semaphore(sem, None);
+            }
         }
         unsafe { self.surface_loader.destroy_surface(self.surface, None) };
     }

@@ -1,5 +1,8 @@
 //! Presentation: the swapchain (created for the window's size, recreated on resize, none while minimised),
-//! and presenting a frame: acquire, blit the renderer's final image into the swapchain image, present.
+//! and presenting a frame with frames in flight: acquire (signals a per-slot semaphore, no fence), the blit of
+//! the renderer's final image into the swapchain image recorded INTO the frame's own command buffer (its
+//! submit waits for the acquire and signals the image's render-finished semaphore), present (waits for it).
+//! One submit per frame plus present; no host wait but the frames-in-flight throttle.
 
 use ash::vk;
 
@@ -12,7 +15,8 @@ pub struct Swapchain {
     raw: vk::SwapchainKHR,
     images: Vec<Image>,
     pub extent: vk::Extent2D,
-    fence: vk::Fence,
+    /// Per swapchain image: signalled when the frame that draws into it is done; the present waits for it.
+    rendered: Vec<vk::Semaphore>,
 }
 
 /// The surface a swapchain is made for.
@@ -99,76 +103,84 @@ pub fn recreate(
         .enumerate()
         .map(|(k, i)| Image::wrap(gpu, i, format.format, extent, &format!("swapchain{k}")))
         .collect::<Result<Vec<_>>>()?;
-    let fence = unsafe { gpu.device.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
-    Ok(Some(Swapchain { loader, raw, images, extent, fence }))
+    let rendered = (0..images.len()).map(|_| semaphore(gpu)).collect::<Result<Vec<_>>>()?;
+    Ok(Some(Swapchain { loader, raw, images, extent, rendered }))
 }
 
-/// Show `src` in the window: acquire an image, blit, present. Returns true when the swapchain is out of date
-/// or suboptimal (recreate it before the next frame).
-pub fn present(gpu: &std::sync::Arc<Gpu>, swap: &Swapchain, src: &Image) -> Result<bool> {
-    let mut stale = false;
-    let acquired = unsafe { swap.loader.acquire_next_image(swap.raw, u64::MAX, vk::Semaphore::null(), swap.fence) };
-    let index = match acquired {
-        Ok((i, suboptimal)) => {
-            stale |= suboptimal;
-            i
-        }
-        Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(true),
-        Err(e) => return Err(Error::Vulkan { call: "vkAcquireNextImageKHR", result: e }),
+/// A binary semaphore.
+pub fn semaphore(gpu: &Gpu) -> Result<vk::Semaphore> {
+    unsafe { gpu.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.vk("vkCreateSemaphore")
+}
+
+/// The next swapchain image, signalling `acquired` when it may be written; `None` when the swapchain is out of
+/// date (recreate it). The bool: suboptimal (recreate after this frame).
+pub fn acquire(swap: &Swapchain, acquired: vk::Semaphore) -> Result<Option<(u32, bool)>> {
+    match unsafe { swap.loader.acquire_next_image(swap.raw, u64::MAX, acquired, vk::Fence::null()) } {
+        Ok(r) => Ok(Some(r)),
+        Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(None),
+        Err(e) => Err(Error::Vulkan { call: "vkAcquireNextImageKHR", result: e }),
+    }
+}
+
+/// The semaphore the frame drawing into image `index` signals (and the present waits for).
+pub fn rendered(swap: &Swapchain, index: u32) -> vk::Semaphore {
+    swap.rendered[index as usize]
+}
+
+/// Record the blit of `src` into swapchain image `index` and its transition for presenting.
+pub fn record_blit(ctx: &mut FrameCtx, swap: &Swapchain, index: u32, src: &Image) {
+    let target = &swap.images[index as usize];
+    ctx.barrier(&[Use::Image(src, Access::TransferSrc, false), Use::Image(target, Access::TransferDst, true)]);
+    let sub = vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        mip_level: 0,
+        base_array_layer: 0,
+        layer_count: 1,
+    };
+    let corner = |e: vk::Extent2D| {
+        [vk::Offset3D { x: 0, y: 0, z: 0 }, vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 }]
+    };
+    let blit = vk::ImageBlit {
+        src_subresource: sub,
+        src_offsets: corner(src.extent),
+        dst_subresource: sub,
+        dst_offsets: corner(target.extent),
     };
     unsafe {
-        gpu.device.wait_for_fences(&[swap.fence], true, u64::MAX).vk("vkWaitForFences")?;
-        gpu.device.reset_fences(&[swap.fence]).vk("vkResetFences")?;
-    }
-    let target = &swap.images[index as usize];
-    gpu.one_shot(|cmd| {
-        let mut ctx = FrameCtx::new(gpu, cmd, None);
-        ctx.barrier(&[Use::Image(src, Access::TransferSrc, false), Use::Image(target, Access::TransferDst, true)]);
-        let sub = vk::ImageSubresourceLayers {
-            aspect_mask: vk::ImageAspectFlags::COLOR,
-            mip_level: 0,
-            base_array_layer: 0,
-            layer_count: 1,
-        };
-        let corner = |e: vk::Extent2D| {
-            [vk::Offset3D { x: 0, y: 0, z: 0 }, vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 }]
-        };
-        let blit = vk::ImageBlit {
-            src_subresource: sub,
-            src_offsets: corner(src.extent),
-            dst_subresource: sub,
-            dst_offsets: corner(target.extent),
-        };
-        unsafe {
-            gpu.device.cmd_blit_image(
-                cmd,
-                src.raw,
-                Access::TransferSrc.info().layout,
-                target.raw,
-                Access::TransferDst.info().layout,
-                &[blit],
-                vk::Filter::NEAREST,
-            )
-        };
-        ctx.barrier(&[Use::Image(target, Access::Present, false)]);
-        Ok(())
-    })?;
+        ctx.gpu.device.cmd_blit_image(
+            ctx.cmd,
+            src.raw,
+            Access::TransferSrc.info().layout,
+            target.raw,
+            Access::TransferDst.info().layout,
+            &[blit],
+            vk::Filter::NEAREST,
+        )
+    };
+    ctx.barrier(&[Use::Image(target, Access::Present, false)]);
+}
+
+/// Present image `index` once its frame signalled its render-finished semaphore. True: the swapchain is out of
+/// date or suboptimal (recreate it before the next frame).
+pub fn queue_present(gpu: &Gpu, swap: &Swapchain, index: u32) -> Result<bool> {
     let swapchains = [swap.raw];
     let indices = [index];
-    let pi = vk::PresentInfoKHR::default().swapchains(&swapchains).image_indices(&indices);
-    match unsafe { swap.loader.queue_present(gpu.queue, &pi) } {
-        Ok(false) => {}
-        Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => stale = true,
-        Err(e) => return Err(Error::Vulkan { call: "vkQueuePresentKHR", result: e }),
+    let waits = [swap.rendered[index as usize]];
+    let pi = vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
+    match unsafe { swap.loader.queue_present(gpu.queues.main.queue, &pi) } {
+        Ok(stale) => Ok(stale),
+        Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(true),
+        Err(e) => Err(Error::Vulkan { call: "vkQueuePresentKHR", result: e }),
     }
-    Ok(stale)
 }
 
 /// Destroy a swapchain (after the device is idle).
 pub fn destroy(gpu: &Gpu, s: Swapchain) {
     unsafe {
         let _ = gpu.device.device_wait_idle();
-        gpu.device.destroy_fence(s.fence, None);
+        for &sem in &s.rendered {
+            gpu.device.destroy_semaphore(sem, None);
+        }
     }
     drop(s.images); // views only
     unsafe { s.loader.destroy_swapchain(s.raw, None) };
