@@ -17,42 +17,7 @@ const T_INT: i32 = 1;
 const T_INDEX: i32 = 4;
 const T_VECTOR: i32 = 5;
 
-struct Reader<'a> {
-    data: &'a [u8],
-    pos: usize,
-    path: &'a Path,
-    compressed: bool,
-}
-
-impl<'a> Reader<'a> {
-    fn err(&self, at: usize, reason: impl Into<String>) -> Error {
-        let mut reason = reason.into();
-        if self.compressed {
-            reason.push_str(" (offset in the gzip-decompressed data)");
-        }
-        super::bytes::err_at(self.path, at, reason)
-    }
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
-        if self.data.len() - self.pos < n {
-            return Err(self.err(
-                self.pos,
-                format!("file truncated: {what} needs {n} bytes, {} remain", self.data.len() - self.pos),
-            ));
-        }
-        let s = &self.data[self.pos..self.pos + n];
-        self.pos += n;
-        Ok(s)
-    }
-    fn i32(&mut self, what: &str) -> Result<i32> {
-        Ok(i32::from_be_bytes(self.take(4, what)?.try_into().unwrap()))
-    }
-    fn u16(&mut self, what: &str) -> Result<u16> {
-        Ok(u16::from_be_bytes(self.take(2, what)?.try_into().unwrap()))
-    }
-    fn remaining(&self) -> usize {
-        self.data.len() - self.pos
-    }
-}
+use super::bytes::Cursor as Reader;
 
 struct Attr {
     name: String,
@@ -76,7 +41,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     } else {
         bytes
     };
-    let mut r = Reader { data, pos: 0, path, compressed };
+    let mut r =
+        Reader::new(path, data).with_note(if compressed { " (offset in the gzip-decompressed data)" } else { "" });
     let magic = r.take(4, "magic")?;
     if magic != b"Bgeo" {
         return Err(r.err(
@@ -88,7 +54,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     if v != b'V' {
         return Err(r.err(4, format!("expected 'V' after the magic, found byte 0x{v:02x}")));
     }
-    let version = r.i32("version")?;
+    let version = r.i32_be("version")?;
     if version != 5 {
         return Err(r.err(5, format!("unsupported BGEO version {version} (only classic version 5 is read)")));
     }
@@ -105,7 +71,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut h = [0i32; 8];
     for (k, n) in names.iter().enumerate() {
         let at = r.pos;
-        h[k] = r.i32(n)?;
+        h[k] = r.i32_be(n)?;
         if h[k] < 0 {
             return Err(r.err(at, format!("{n} is negative ({})", h[k])));
         }
@@ -119,21 +85,21 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut attrs = Vec::with_capacity(n_attr);
     for _ in 0..n_attr {
         let at = r.pos;
-        let len = r.u16("attribute name length")? as usize;
+        let len = r.u16_be("attribute name length")? as usize;
         let name = String::from_utf8_lossy(r.take(len, "attribute name")?).into_owned();
-        let size = r.u16("attribute size")? as usize;
-        let ty = r.i32("attribute type")?;
+        let size = r.u16_be("attribute size")? as usize;
+        let ty = r.i32_be("attribute type")?;
         match ty {
             T_FLOAT | T_INT | T_VECTOR => {
                 r.take(4 * size, "attribute defaults")?;
             }
             T_INDEX => {
-                let count = r.i32("string count")?;
+                let count = r.i32_be("string count")?;
                 if count < 0 || count as usize > r.remaining() / 2 {
                     return Err(r.err(at, format!("attribute {name:?}: bad string count {count}")));
                 }
                 for _ in 0..count {
-                    let l = r.u16("string length")? as usize;
+                    let l = r.u16_be("string length")? as usize;
                     r.take(l, "string")?;
                 }
             }

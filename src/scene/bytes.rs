@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::error::Error;
+use crate::error::{Error, Result};
 
 /// A scalar type of a binary array.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,6 +81,109 @@ impl Scalar {
             Scalar::U64 => u64::from_le_bytes(a) as f64,
             Scalar::F64 => f64::from_le_bytes(a),
         }
+    }
+}
+
+/// THE byte cursor of the parsers: a position in a file's bytes, positioned errors, binary reads (big-endian
+/// fields of BGEO) and text tokens and lines (legacy VTK headers and ASCII data).
+pub struct Cursor<'a> {
+    /// The bytes.
+    pub d: &'a [u8],
+    /// Current position.
+    pub pos: usize,
+    path: &'a Path,
+    note: &'static str,
+}
+
+impl<'a> Cursor<'a> {
+    /// At the start of `d`, the bytes of `path`.
+    pub fn new(path: &'a Path, d: &'a [u8]) -> Self {
+        Cursor { d, pos: 0, path, note: "" }
+    }
+
+    /// Append `note` to every error reason (e.g. that offsets count decompressed bytes).
+    pub fn with_note(mut self, note: &'static str) -> Self {
+        self.note = note;
+        self
+    }
+
+    /// A parse error at byte `at`.
+    pub fn err(&self, at: usize, reason: impl Into<String>) -> Error {
+        let mut reason = reason.into();
+        reason.push_str(self.note);
+        err_at(self.path, at, reason)
+    }
+
+    /// Bytes left.
+    pub fn remaining(&self) -> usize {
+        self.d.len() - self.pos
+    }
+
+    /// The next `n` bytes, or an error naming `what` and the bytes that remain.
+    pub fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+        if self.remaining() < n {
+            return Err(
+                self.err(self.pos, format!("file truncated: {what} needs {n} bytes, {} remain", self.remaining()))
+            );
+        }
+        let s = &self.d[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+
+    /// A big-endian i32.
+    pub fn i32_be(&mut self, what: &str) -> Result<i32> {
+        let b = self.take(4, what)?;
+        Ok(i32::from_be_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    /// A big-endian u16.
+    pub fn u16_be(&mut self, what: &str) -> Result<u16> {
+        let b = self.take(2, what)?;
+        Ok(u16::from_be_bytes([b[0], b[1]]))
+    }
+
+    /// Skip ASCII whitespace.
+    pub fn skip_ws(&mut self) {
+        while self.pos < self.d.len() && self.d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+    }
+
+    /// Next whitespace-separated token, or None at the end.
+    pub fn token(&mut self) -> Option<&'a str> {
+        self.skip_ws();
+        let s = self.pos;
+        while self.pos < self.d.len() && !self.d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        (self.pos > s).then(|| std::str::from_utf8(&self.d[s..self.pos]).unwrap_or("?"))
+    }
+
+    /// Next token, or an error naming `what`.
+    pub fn expect_token(&mut self, what: &str) -> Result<&'a str> {
+        let at = self.pos;
+        self.token().ok_or_else(|| self.err(at, format!("file truncated: expected {what}")))
+    }
+
+    /// Next token parsed as `T`, or an error naming `what` and the token.
+    pub fn number<T: std::str::FromStr>(&mut self, what: &str) -> Result<T> {
+        let at = self.pos;
+        let t = self.expect_token(what)?;
+        t.parse().map_err(|_| self.err(at, format!("expected {what}, found {t:?}")))
+    }
+
+    /// Rest of the current line (and move past its newline).
+    pub fn line(&mut self) -> &'a str {
+        let s = self.pos;
+        while self.pos < self.d.len() && self.d[self.pos] != b'\n' {
+            self.pos += 1;
+        }
+        let l = std::str::from_utf8(&self.d[s..self.pos]).unwrap_or("");
+        if self.pos < self.d.len() {
+            self.pos += 1;
+        }
+        l.trim_end_matches('\r')
     }
 }
 

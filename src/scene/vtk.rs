@@ -7,99 +7,50 @@
 use std::path::Path;
 
 use super::bytes::Scalar;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::scene::{Attribute, Raw};
 
-struct Cur<'a> {
-    d: &'a [u8],
-    pos: usize,
-    path: &'a Path,
-    binary: bool,
-}
+use super::bytes::Cursor;
 
-impl<'a> Cur<'a> {
-    fn err(&self, at: usize, reason: impl Into<String>) -> Error {
-        super::bytes::err_at(self.path, at, reason)
-    }
-    fn skip_ws(&mut self) {
-        while self.pos < self.d.len() && self.d[self.pos].is_ascii_whitespace() {
-            self.pos += 1;
+/// `count` values of VTK type `ty`, as f64.
+fn values(c: &mut Cursor, binary: bool, count: usize, ty: &str, what: &str) -> Result<Vec<f64>> {
+    let at = c.pos;
+    let scalar = Scalar::parse(ty).ok_or_else(|| c.err(at, format!("{what}: unsupported data type {ty:?}")))?;
+    let size = scalar.size();
+    if binary {
+        // The binary block starts after the newline that ends the header line.
+        c.line();
+        let start = c.pos;
+        let need = count.checked_mul(size).ok_or_else(|| c.err(at, format!("{what}: count overflows")))?;
+        if need > c.d.len() - start {
+            return Err(c.err(
+                start,
+                format!("{what}: {count} values of {ty} need {need} bytes but only {} remain", c.d.len() - start),
+            ));
         }
-    }
-    /// Next whitespace-separated token, or None at the end.
-    fn token(&mut self) -> Option<&'a str> {
-        self.skip_ws();
-        let s = self.pos;
-        while self.pos < self.d.len() && !self.d[self.pos].is_ascii_whitespace() {
-            self.pos += 1;
+        let b = &c.d[start..start + need];
+        // Legacy VTK binary data is big-endian.
+        let v: Vec<f64> = b.chunks_exact(size).map(|c| scalar.read(c, true)).collect();
+        c.pos = start + need;
+        Ok(v)
+    } else {
+        // Each ASCII value takes at least two bytes (digit + separator).
+        if count > (c.d.len() - c.pos) / 2 + 1 {
+            return Err(
+                c.err(at, format!("{what}: {count} values cannot fit in the {} bytes that remain", c.d.len() - c.pos))
+            );
         }
-        (self.pos > s).then(|| std::str::from_utf8(&self.d[s..self.pos]).unwrap_or("?"))
-    }
-    fn expect_token(&mut self, what: &str) -> Result<&'a str> {
-        let at = self.pos;
-        self.token().ok_or_else(|| self.err(at, format!("file truncated: expected {what}")))
-    }
-    fn number<T: std::str::FromStr>(&mut self, what: &str) -> Result<T> {
-        let at = self.pos;
-        let t = self.expect_token(what)?;
-        t.parse().map_err(|_| self.err(at, format!("expected {what}, found {t:?}")))
-    }
-    /// Rest of the current line (and move past its newline).
-    fn line(&mut self) -> &'a str {
-        let s = self.pos;
-        while self.pos < self.d.len() && self.d[self.pos] != b'\n' {
-            self.pos += 1;
+        let mut v = Vec::with_capacity(count);
+        for _ in 0..count {
+            v.push(c.number::<f64>(what)?);
         }
-        let l = std::str::from_utf8(&self.d[s..self.pos]).unwrap_or("");
-        if self.pos < self.d.len() {
-            self.pos += 1;
-        }
-        l.trim_end_matches('\r')
-    }
-    /// `count` values of VTK type `ty`, as f64.
-    fn values(&mut self, count: usize, ty: &str, what: &str) -> Result<Vec<f64>> {
-        let at = self.pos;
-        let scalar = Scalar::parse(ty).ok_or_else(|| self.err(at, format!("{what}: unsupported data type {ty:?}")))?;
-        let size = scalar.size();
-        if self.binary {
-            // The binary block starts after the newline that ends the header line.
-            self.line();
-            let start = self.pos;
-            let need = count.checked_mul(size).ok_or_else(|| self.err(at, format!("{what}: count overflows")))?;
-            if need > self.d.len() - start {
-                return Err(self.err(
-                    start,
-                    format!(
-                        "{what}: {count} values of {ty} need {need} bytes but only {} remain",
-                        self.d.len() - start
-                    ),
-                ));
-            }
-            let b = &self.d[start..start + need];
-            // Legacy VTK binary data is big-endian.
-            let v: Vec<f64> = b.chunks_exact(size).map(|c| scalar.read(c, true)).collect();
-            self.pos = start + need;
-            Ok(v)
-        } else {
-            // Each ASCII value takes at least two bytes (digit + separator).
-            if count > (self.d.len() - self.pos) / 2 + 1 {
-                return Err(self.err(
-                    at,
-                    format!("{what}: {count} values cannot fit in the {} bytes that remain", self.d.len() - self.pos),
-                ));
-            }
-            let mut v = Vec::with_capacity(count);
-            for _ in 0..count {
-                v.push(self.number::<f64>(what)?);
-            }
-            Ok(v)
-        }
+        Ok(v)
     }
 }
 
 /// Parse legacy VTK bytes. `path` only names the file in errors.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
-    let mut c = Cur { d: bytes, pos: 0, path, binary: false };
+    let mut c = Cursor::new(path, bytes);
     let first = c.line();
     if !first.starts_with("# vtk DataFile") {
         return Err(c.err(0, "wrong magic: not a legacy VTK file (expected \"# vtk DataFile Version\")"));
@@ -107,7 +58,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let _title = c.line();
     let at = c.pos;
     let mode = c.line().trim().to_ascii_uppercase();
-    c.binary = match mode.as_str() {
+    let binary = match mode.as_str() {
         "ASCII" => false,
         "BINARY" => true,
         m => return Err(c.err(at, format!("expected ASCII or BINARY, found {m:?}"))),
@@ -129,7 +80,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             "POINTS" => {
                 let n: usize = c.number("point count")?;
                 let ty = c.expect_token("point type")?;
-                let v = c.values(n.checked_mul(3).ok_or_else(|| c.err(at, "point count overflows"))?, ty, "POINTS")?;
+                let n3 = n.checked_mul(3).ok_or_else(|| c.err(at, "point count overflows"))?;
+                let v = values(&mut c, binary, n3, ty, "POINTS")?;
                 positions = Some(v.chunks_exact(3).map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect());
             }
             "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" | "CELLS" => {
@@ -140,23 +92,23 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 match c.token() {
                     Some(t) if t.eq_ignore_ascii_case("OFFSETS") => {
                         let ty = c.expect_token("offsets type")?;
-                        c.values(_n, ty, "OFFSETS")?;
+                        values(&mut c, binary, _n, ty, "OFFSETS")?;
                         let t2 = c.expect_token("CONNECTIVITY")?;
                         if !t2.eq_ignore_ascii_case("CONNECTIVITY") {
                             return Err(c.err(c.pos, format!("expected CONNECTIVITY, found {t2:?}")));
                         }
                         let ty = c.expect_token("connectivity type")?;
-                        c.values(size, ty, "CONNECTIVITY")?;
+                        values(&mut c, binary, size, ty, "CONNECTIVITY")?;
                     }
                     _ => {
                         c.pos = save;
-                        c.values(size, "int", kw)?;
+                        values(&mut c, binary, size, "int", kw)?;
                     }
                 }
             }
             "CELL_TYPES" => {
                 let n: usize = c.number("cell type count")?;
-                c.values(n, "int", "CELL_TYPES")?;
+                values(&mut c, binary, n, "int", "CELL_TYPES")?;
             }
             "POINT_DATA" => {
                 n_point_data = c.number("point data count")?;
@@ -190,7 +142,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 }
                 let n = if in_point_data { n_point_data } else { n_cell_data };
                 let total = n.checked_mul(ncomp).ok_or_else(|| c.err(at, "SCALARS size overflows"))?;
-                let v = c.values(total, ty, "SCALARS")?;
+                let v = values(&mut c, binary, total, ty, "SCALARS")?;
                 if in_point_data {
                     arrays.push((name, ncomp, v));
                 }
@@ -200,7 +152,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 let ty = c.expect_token("array type")?;
                 let n = if in_point_data { n_point_data } else { n_cell_data };
                 let total = n.checked_mul(3).ok_or_else(|| c.err(at, format!("{kw} size overflows")))?;
-                let v = c.values(total, ty, kw)?;
+                let v = values(&mut c, binary, total, ty, kw)?;
                 if in_point_data {
                     arrays.push((name, 3, v));
                 }
@@ -214,7 +166,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                     let nt: usize = c.number("tuple count")?;
                     let ty = c.expect_token("array type")?;
                     let total = ncomp.checked_mul(nt).ok_or_else(|| c.err(at, "array size overflows"))?;
-                    let v = c.values(total, ty, "FIELD array")?;
+                    let v = values(&mut c, binary, total, ty, "FIELD array")?;
                     if in_point_data && nt == n_point_data {
                         arrays.push((name, ncomp, v));
                     }
@@ -224,7 +176,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 c.expect_token("table name")?;
                 let n: usize = c.number("table size")?;
                 let total = n.checked_mul(4).ok_or_else(|| c.err(at, "LOOKUP_TABLE size overflows"))?;
-                c.values(total, if c.binary { "unsigned_char" } else { "float" }, "LOOKUP_TABLE")?;
+                values(&mut c, binary, total, if binary { "unsigned_char" } else { "float" }, "LOOKUP_TABLE")?;
             }
             "METADATA" => {
                 // Skip to the blank line that ends the block.
