@@ -145,6 +145,9 @@ pub struct DeviceInfo {
     pub timestamp_valid_bits: u32,
     /// The queues chosen (families and indices).
     pub queues: Option<Queues>,
+    /// VK_KHR/EXT_calibrated_timestamps enabled: the device time domain is defined and shared by every queue's
+    /// timestamps (without it, spans of two queues compare only as far as the driver keeps one clock).
+    pub calibrated_timestamps: bool,
     /// Subgroup size.
     pub subgroup_size: u32,
     /// Largest storage buffer range in bytes.
@@ -447,7 +450,7 @@ impl Gpu {
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver).push_next(&mut subgroup);
         unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
         let v = props.api_version;
-        let info = DeviceInfo {
+        let mut info = DeviceInfo {
             name: cstr_of(&props.device_name),
             driver: format!("{} {}", cstr_of(&driver.driver_name), cstr_of(&driver.driver_info)),
             api_version: format!(
@@ -460,6 +463,7 @@ impl Gpu {
             timestamp_period: props.limits.timestamp_period,
             timestamp_valid_bits: valid_bits,
             queues: None,
+            calibrated_timestamps: false,
             subgroup_size: subgroup.subgroup_size,
             max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
         };
@@ -506,6 +510,17 @@ impl Gpu {
         let mut dev_exts = vec![ash::khr::push_descriptor::NAME.as_ptr()];
         if swapchain {
             dev_exts.push(ash::khr::swapchain::NAME.as_ptr());
+        }
+        // Calibrated timestamps: with them the device time domain — which every queue's timestamps are in —
+        // is defined, so the per-queue spans of a split frame compare on one clock (the union, the overlap).
+        let available = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+        let has = |n: &std::ffi::CStr| available.iter().any(|e| e.extension_name_as_c_str() == Ok(n));
+        if has(ash::khr::calibrated_timestamps::NAME) {
+            dev_exts.push(ash::khr::calibrated_timestamps::NAME.as_ptr());
+            info.calibrated_timestamps = true;
+        } else if has(ash::ext::calibrated_timestamps::NAME) {
+            dev_exts.push(ash::ext::calibrated_timestamps::NAME.as_ptr());
+            info.calibrated_timestamps = true;
         }
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&qci)

@@ -567,7 +567,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     let overlap = overlap_report(&entries);
     if !overlap.is_empty() {
-        println!("\n{overlap}");
+        let clock = if gpu.info.calibrated_timestamps {
+            "one device time domain (calibrated timestamps)"
+        } else {
+            "per-queue timestamps assumed on one clock (no calibrated timestamps on this device)"
+        };
+        println!("\n{overlap}({clock})");
     }
     write_reports(a, &gpu, base, entries, &table)?;
     finish(&gpu)

@@ -100,5 +100,9 @@ fn device(filter: Option<String>) -> Result<()> {
         );
     }
     println!("queues:      {}", gpu.queues.describe());
+    println!(
+        "calibrated timestamps: {} (the per-queue spans of a split frame share the device time domain)",
+        if i.calibrated_timestamps { "enabled" } else { "not available" }
+    );
     Ok(())
 }
