@@ -27,7 +27,10 @@ pub struct Renderer {
     pub targets: Option<Targets>,
     /// The frame uniform block.
     pub uniforms: Buffer,
-    particles: Option<Buffer>,
+    /// Two particle buffers: a split frame uploads into the one the frame before did not read (on the async
+    /// queue, beside that frame's passes); `current` is the one this frame's passes read.
+    particles: [Option<Buffer>; 2],
+    current: usize,
     count: u32,
     /// Particles set but not yet copied to the GPU: the next frame's command buffer records the copy.
     staged: Option<Vec<[f32; 4]>>,
@@ -133,7 +136,8 @@ impl Renderer {
             passes: Passes::new(gpu)?,
             targets: None,
             uniforms,
-            particles: None,
+            particles: [None, None],
+            current: 0,
             count: 0,
             staged: None,
             executor,
@@ -208,19 +212,7 @@ impl Renderer {
                 [p[0], p[1], p[2], w]
             })
             .collect();
-        // The copy is recorded into the next frame's command buffer; the buffer itself is replaced only when it
-        // is too small, after the frames that may still read it.
-        let size = (bytes).max(16);
-        if self.particles.as_ref().is_none_or(|b| b.size < size) {
-            self.executor.wait_idle()?;
-            self.particles = Some(Buffer::new(
-                &self.gpu,
-                "particles",
-                size,
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuOnly,
-            )?);
-        }
+        // The copy is recorded into the next frame's command buffers (see `record_and_submit_with`).
         self.staged = Some(data);
         self.count = n as u32;
         self.positions = positions.to_vec();
@@ -453,7 +445,26 @@ impl Renderer {
         } else {
             false
         };
-        if self.particles.is_none() {
+        let split = self.async_compute;
+        if let Some(data) = &self.staged {
+            // A split frame uploads into the other buffer (the frame before may still read this one); a
+            // one-queue frame into the same (queue order keeps it after the readers). A buffer is replaced
+            // only when it is too small, after every frame that may still read it.
+            let target = if split { 1 - self.current } else { self.current };
+            let size = (data.len() as u64 * 16).max(16);
+            if self.particles[target].as_ref().is_none_or(|b| b.size < size) {
+                self.executor.wait_idle()?;
+                self.particles[target] = Some(Buffer::new(
+                    &self.gpu,
+                    if target == 0 { "particles" } else { "particles (second)" },
+                    size,
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                    MemoryLocation::GpuOnly,
+                )?);
+            }
+            self.current = target;
+        }
+        if self.particles[self.current].is_none() {
             return Err(Error::Invalid("no particles uploaded".into()));
         }
         let d_near = self.nearest_depth(view, s);
@@ -504,11 +515,10 @@ impl Renderer {
             d_near,
             target_distance: (view.camera.eye - view.camera.target).length().max(view.camera.near),
         };
-        let particles = self.particles.as_ref().expect("checked");
+        let particles = self.particles[self.current].as_ref().expect("checked");
         let iso = if iso { self.iso.as_ref() } else { None };
         let (passes, views, sky, mesh, count) = (&self.passes, &self.demo_passes, &self.sky, &self.mesh, self.count);
         let uniforms = mem.uniforms.as_ref().expect("set");
-        let split = self.async_compute;
         if split {
             self.executor.begin_split(k)?;
         }
@@ -565,42 +575,43 @@ impl Renderer {
             }
             let sm = record_one(&mut Recording::One(&mut ctx), frame_args)?;
             finish_frame(&mut ctx, sm);
+            let touches = std::mem::take(&mut ctx.touches);
             drop(ctx);
             self.smoothed = sm;
-            return self.executor.submit_with(k, &binary);
+            return self.executor.submit_one(k, &binary, touches);
         }
-        // A split frame: upload (main) → background + thickness (async compute) ‖ fluid (main) → shading
-        // (main); the waits between the queues come from what each part touched.
+        // A split frame: the particle upload (async) ‖ the previous frame's passes; background + thickness
+        // (async) ‖ the fluid passes (main); shading (main) after both. The waits between the queues — within
+        // this frame and against the frame before — come from what each segment touched.
         use crate::gpu::executor::Segment;
-        use crate::gpu::schedule::{derive_waits, QueueId};
-        let cmds = (slot.main_cmds, slot.compute_cmd);
-        let [ta, tf, tsh] = &mut slot.segment_timers;
+        use crate::gpu::schedule::QueueId;
         if binary.wait.is_some() || binary.signal.is_some() {
             return Err(Error::Invalid("a split (async) frame does not present; turn async compute off".into()));
         }
-        let mut up = FrameCtx::new(&gpu, cmds.0[0], Some(&mut slot.timer));
+        let (main_cmds, compute_cmds) = (slot.main_cmds, slot.compute_cmds);
+        let [ta, tf, tsh] = &mut slot.segment_timers;
+        // The first main command buffer only resets the main timer (it began with the slot).
+        let mut first = FrameCtx::new(&gpu, main_cmds[0], Some(&mut slot.timer));
+        let mut up = FrameCtx::new(&gpu, compute_cmds[0], None);
         upload(&mut up);
         if let Some(h) = hooks.before {
             h(&mut up);
         }
-        let mut a = FrameCtx::new(&gpu, cmds.1, Some(ta));
-        let mut f = FrameCtx::new(&gpu, cmds.0[1], Some(tf));
-        let mut sh = FrameCtx::new(&gpu, cmds.0[2], Some(tsh));
+        let mut a = FrameCtx::new(&gpu, compute_cmds[1], Some(ta));
+        let mut f = FrameCtx::new(&gpu, main_cmds[1], Some(tf));
+        let mut sh = FrameCtx::new(&gpu, main_cmds[2], Some(tsh));
         let sm = record_one(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, frame_args)?;
         finish_frame(&mut sh, sm);
-        let parts = [
-            (QueueId::Main, std::mem::take(&mut up.touches), cmds.0[0]),
-            (QueueId::Compute, std::mem::take(&mut a.touches), cmds.1),
-            (QueueId::Main, std::mem::take(&mut f.touches), cmds.0[1]),
-            (QueueId::Main, std::mem::take(&mut sh.touches), cmds.0[2]),
+        let segments = vec![
+            Segment { queue: QueueId::Main, cmd: main_cmds[0], touches: std::mem::take(&mut first.touches) },
+            Segment { queue: QueueId::Compute, cmd: compute_cmds[0], touches: std::mem::take(&mut up.touches) },
+            Segment { queue: QueueId::Compute, cmd: compute_cmds[1], touches: std::mem::take(&mut a.touches) },
+            Segment { queue: QueueId::Main, cmd: main_cmds[1], touches: std::mem::take(&mut f.touches) },
+            Segment { queue: QueueId::Main, cmd: main_cmds[2], touches: std::mem::take(&mut sh.touches) },
         ];
-        drop((up, a, f, sh));
-        let touches: Vec<_> = parts.iter().map(|(q, t, _)| (*q, t.clone())).collect();
-        let waits = derive_waits(&touches);
-        let segments: Vec<Segment> =
-            parts.iter().zip(waits).map(|((q, _, c), w)| Segment { queue: *q, cmd: *c, waits: w }).collect();
+        drop((first, up, a, f, sh));
         self.smoothed = sm;
-        self.executor.submit_segments(k, &segments)
+        self.executor.submit_segments(k, segments)
     }
 
     /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`

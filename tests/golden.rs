@@ -88,9 +88,12 @@ fn async_split_frame_is_bit_identical() {
         let mut out = vec![];
         let mut r2 = Renderer::new(&gpu).unwrap();
         r2.async_compute = split;
-        r2.set_particles(&g.particles.positions, None).unwrap();
         let mut pending = std::collections::VecDeque::new();
-        for v in &views {
+        for (k, v) in views.iter().enumerate() {
+            // New particles every frame (the split frame uploads them on the async queue, double-buffered).
+            let moved: Vec<[f32; 3]> =
+                g.particles.positions.iter().map(|p| [p[0], p[1] + 0.01 * k as f32, p[2]]).collect();
+            r2.set_particles(&moved, None).unwrap();
             pending.push_back(r2.submit(v, &s, true).unwrap());
             if pending.len() == r2.frames_in_flight() {
                 out.push(r2.read_submitted(pending.pop_front().unwrap()).unwrap());

@@ -27,8 +27,8 @@ pub struct Slot {
     pub cmd: vk::CommandBuffer,
     /// Further main-queue segments of a split frame.
     pub main_cmds: [vk::CommandBuffer; MAIN_SEGMENTS],
-    /// The async compute segment of a split frame.
-    pub compute_cmd: vk::CommandBuffer,
+    /// The async compute segments of a split frame: [particle upload, passes].
+    pub compute_cmds: [vk::CommandBuffer; 2],
     /// The slot's timestamp pool (the first main segment).
     pub timer: Timer,
     /// Timestamp pools of the other segments of a split frame: [async, fluid, shade].
@@ -43,6 +43,11 @@ pub struct Slot {
 /// N frames in flight on the main queue (and, for split frames, on the async compute queue).
 pub struct Executor {
     gpu: Arc<Gpu>,
+    /// The segments of the last submitted frame: queue, what it touched, the timeline value it signals — the
+    /// next frame's waits are derived against them too (cross-frame hazards, e.g. the next frame's upload into
+    /// the particle buffer the frame before last read).
+    /// (The last `frames − 1` frames: any older one is complete once `begin` waited for its slot.)
+    previous: std::collections::VecDeque<Vec<(super::schedule::QueueId, Vec<super::schedule::Touch>, u64)>>,
     timeline: vk::Semaphore,
     compute_timeline: vk::Semaphore,
     submitted: u64,
@@ -80,8 +85,8 @@ pub struct Segment {
     pub queue: super::schedule::QueueId,
     /// Its command buffer (recorded, not yet ended).
     pub cmd: vk::CommandBuffer,
-    /// Earlier segments of this frame (indices) on the other queue it waits for.
-    pub waits: Vec<usize>,
+    /// What it touched (from its `FrameCtx`).
+    pub touches: Vec<super::schedule::Touch>,
 }
 
 /// A frame handed to the GPU.
@@ -115,6 +120,7 @@ impl Executor {
             compute_timeline,
             submitted: 0,
             compute_submitted: 0,
+            previous: Default::default(),
             slots: vec![],
             next: 0,
         };
@@ -146,7 +152,7 @@ impl Executor {
                 compute_pool,
                 cmd: vk::CommandBuffer::null(),
                 main_cmds: [vk::CommandBuffer::null(); MAIN_SEGMENTS],
-                compute_cmd: vk::CommandBuffer::null(),
+                compute_cmds: [vk::CommandBuffer::null(); 2],
                 timer: Timer::new(gpu)?,
                 segment_timers: [Timer::new(gpu)?, Timer::new(gpu)?, Timer::new(gpu)?],
                 split: false,
@@ -157,7 +163,7 @@ impl Executor {
             let main = alloc(main_pool, MAIN_SEGMENTS as u32)?;
             s.cmd = main[0];
             s.main_cmds.copy_from_slice(&main);
-            s.compute_cmd = alloc(compute_pool, 1)?[0];
+            s.compute_cmds.copy_from_slice(&alloc(compute_pool, 2)?);
         }
         Ok(ex)
     }
@@ -234,67 +240,75 @@ impl Executor {
         let d = &self.gpu.device;
         let s = &self.slots[k];
         let bi = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        for &c in s.main_cmds[1..].iter().chain(std::iter::once(&s.compute_cmd)) {
+        for &c in s.main_cmds[1..].iter().chain(s.compute_cmds.iter()) {
             unsafe { d.begin_command_buffer(c, &bi) }.vk("vkBeginCommandBuffer")?;
         }
         Ok(())
     }
 
-    /// End and submit the segments of a split frame in slot `k`: each signals its queue's timeline, waits for
-    /// the segments `waits` names (on the other queue's timeline) and — the async segments — for the previous
-    /// frame on the main queue (its shading read what they overwrite).
-    pub fn submit_segments(&mut self, k: usize, segments: &[Segment]) -> Result<Submitted> {
-        use super::schedule::QueueId;
+    /// End and submit the segments of a split frame in slot `k`, in order. Each signals its queue's timeline and
+    /// waits for the segments of the other queue it conflicts with — in this frame or in the frame submitted
+    /// before (`schedule::derive_waits` over both; anything older is complete, `begin` waited for it).
+    pub fn submit_segments(&mut self, k: usize, segments: Vec<Segment>) -> Result<Submitted> {
+        use super::schedule::{derive_waits, QueueId};
         let d = &self.gpu.device;
-        let previous_main = self.submitted;
-        let mut values = vec![0u64; segments.len()];
+        let prev: Vec<_> = self.previous.iter().flatten().cloned().collect();
+        let all: Vec<(QueueId, Vec<super::schedule::Touch>)> = prev
+            .iter()
+            .map(|(q, t, _)| (*q, t.clone()))
+            .chain(segments.iter().map(|s| (s.queue, s.touches.clone())))
+            .collect();
+        let waits = derive_waits(&all);
+        let mut values: Vec<(QueueId, u64)> = prev.iter().map(|(q, _, v)| (*q, *v)).collect();
+        let sem_of = |q: QueueId, t: &Self| if q == QueueId::Main { t.timeline } else { t.compute_timeline };
         for (j, seg) in segments.iter().enumerate() {
             unsafe { d.end_command_buffer(seg.cmd) }.vk("vkEndCommandBuffer")?;
-            let (queue, sem, value) = match seg.queue {
+            let (queue, value) = match seg.queue {
                 QueueId::Main => {
                     self.submitted += 1;
-                    (self.gpu.queues.main.queue, self.timeline, self.submitted)
+                    (self.gpu.queues.main.queue, self.submitted)
                 }
                 QueueId::Compute => {
                     self.compute_submitted += 1;
-                    (self.gpu.queues.compute.queue, self.compute_timeline, self.compute_submitted)
+                    (self.gpu.queues.compute.queue, self.compute_submitted)
                 }
             };
-            values[j] = value;
-            let mut waits: Vec<vk::SemaphoreSubmitInfo> = seg
-                .waits
+            let wait_infos: Vec<vk::SemaphoreSubmitInfo> = waits[prev.len() + j]
                 .iter()
                 .map(|&i| {
-                    let s = if segments[i].queue == QueueId::Main { self.timeline } else { self.compute_timeline };
+                    let (q, v) = values[i];
                     vk::SemaphoreSubmitInfo::default()
-                        .semaphore(s)
-                        .value(values[i])
+                        .semaphore(sem_of(q, self))
+                        .value(v)
                         .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
                 })
                 .collect();
-            if seg.queue == QueueId::Compute && previous_main > 0 {
-                waits.push(
-                    vk::SemaphoreSubmitInfo::default()
-                        .semaphore(self.timeline)
-                        .value(previous_main)
-                        .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
-                );
-            }
+            values.push((seg.queue, value));
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(seg.cmd)];
             let signal = [vk::SemaphoreSubmitInfo::default()
-                .semaphore(sem)
+                .semaphore(sem_of(seg.queue, self))
                 .value(value)
                 .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
             let submit = [vk::SubmitInfo2::default()
-                .wait_semaphore_infos(&waits)
+                .wait_semaphore_infos(&wait_infos)
                 .command_buffer_infos(&cmds)
                 .signal_semaphore_infos(&signal)];
             unsafe { d.queue_submit2(queue, &submit, vk::Fence::null()) }.vk("vkQueueSubmit2")?;
         }
+        let done = segments.into_iter().zip(values[prev.len()..].iter()).map(|(seg, (q, v))| (*q, seg.touches, *v));
+        self.remember(done.collect());
         let s = &mut self.slots[k];
         s.value = self.submitted;
         s.compute_value = self.compute_submitted;
         Ok(Submitted { slot: k, value: self.submitted })
+    }
+
+    /// Keep a submitted frame's segments for the next frames' waits (at most `frames − 1` frames).
+    fn remember(&mut self, frame: Vec<(super::schedule::QueueId, Vec<super::schedule::Touch>, u64)>) {
+        self.previous.push_back(frame);
+        while self.previous.len() > self.slots.len().saturating_sub(1) {
+            self.previous.pop_front();
+        }
     }
 
     /// Wait on the host until the compute timeline reaches `value`.
@@ -318,6 +332,11 @@ impl Executor {
     /// [`Executor::submit`] that also waits for and signals binary semaphores (a swapchain's acquire and
     /// render-finished semaphores: the frame and its present in one submit).
     pub fn submit_with(&mut self, k: usize, binary: &Binary) -> Result<Submitted> {
+        self.submit_one(k, binary, vec![])
+    }
+
+    /// [`Executor::submit_with`], remembering what the frame touched (for the next split frame's waits).
+    pub fn submit_one(&mut self, k: usize, binary: &Binary, touches: Vec<super::schedule::Touch>) -> Result<Submitted> {
         let d = &self.gpu.device;
         let s = &mut self.slots[k];
         unsafe { d.end_command_buffer(s.cmd) }.vk("vkEndCommandBuffer")?;
@@ -344,6 +363,7 @@ impl Executor {
         unsafe { d.queue_submit2(self.gpu.queues.main.queue, &submit, vk::Fence::null()) }.vk("vkQueueSubmit2")?;
         self.submitted = value;
         s.value = value;
+        self.remember(vec![(super::schedule::QueueId::Main, touches, value)]);
         Ok(Submitted { slot: k, value })
     }
 

@@ -89,6 +89,21 @@ mod tests {
         assert_eq!(derive_waits(&war), vec![vec![], vec![0]]);
     }
 
+    /// Across frames: the next frame's upload into the buffer the frame before read waits for that frame's
+    /// reader on the main queue; its upload into the OTHER buffer (double-buffering) waits for nothing.
+    #[test]
+    fn cross_frame_hazards() {
+        use QueueId::*;
+        let previous = vec![(Main, vec![t(10, false), t(20, true)]), (Compute, vec![t(30, true)])];
+        let same = [previous.clone(), vec![(Compute, vec![t(10, true)])]].concat();
+        assert_eq!(derive_waits(&same)[2], vec![0]);
+        let other = [previous.clone(), vec![(Compute, vec![t(11, true)])]].concat();
+        assert_eq!(derive_waits(&other)[2], Vec::<usize>::new());
+        // The next frame's async pass overwriting what the previous shading read waits for that shading.
+        let war = [previous, vec![(Compute, vec![t(20, true)])]].concat();
+        assert_eq!(derive_waits(&war)[2], vec![0]);
+    }
+
     /// A schedule that breaks the overlap (main segment reading what the async one writes) gets the wait.
     #[test]
     fn a_pass_moved_across_queues_gets_its_wait() {
