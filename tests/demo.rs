@@ -98,3 +98,30 @@ fn render_bench_demo_and_info_see_the_same_job() {
     assert_eq!(render, demo, "render and demo disagree");
     assert!(render.starts_with(&info), "info's job line is not the start of render's:\n{info}\n{render}");
 }
+
+/// Issue #12: with frames in flight, resizing the window (the swapchain recreated while frames are on the GPU)
+/// survives, clean under validation, and the last frame has the window's final size.
+#[test]
+fn demo_survives_resizes_with_frames_in_flight() {
+    let display = std::env::var("DISPLAY").unwrap_or_default();
+    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
+    let dir = std::env::temp_dir().join(format!("meniscus-resize-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let shot = dir.join("resized.png");
+    let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
+        .args(["demo", "drop", "--particles", "2000", "--width", "200", "--height", "120", "--frames", "24"])
+        .args(["--exercise-resize", "--validation", "--screenshot"])
+        .arg(&shot)
+        .env("XDG_RUNTIME_DIR", &dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "demo failed: {err}");
+    assert!(!err.contains("[vulkan"), "validation messages: {err}");
+    assert!(err.contains("24 frames in"), "{err}");
+    // Created at 200×120, recreated at 150×90 and back.
+    let sizes: Vec<&str> = err.lines().filter(|l| l.starts_with("swapchain ")).collect();
+    assert!(sizes.contains(&"swapchain 150×90") && sizes.last() == Some(&"swapchain 200×120"), "{sizes:?}");
+    let img = image::open(&shot).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (200, 120));
+}

@@ -77,6 +77,10 @@ pub struct DemoArgs {
     /// With --frames: write the last frame here (PNG).
     #[arg(long)]
     screenshot: Option<PathBuf>,
+    /// With --frames: resize the window to ¾ after a third of the frames and back after two thirds (tests the
+    /// swapchain's recreation with frames in flight).
+    #[arg(long, hide = true)]
+    exercise_resize: bool,
     #[command(flatten)]
     load: LoadArgs,
     #[command(flatten)]
@@ -101,6 +105,7 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             device: a.gpu.device.clone(),
             frames: a.frames,
             screenshot: a.screenshot.clone(),
+            exercise_resize: a.exercise_resize,
             fps: a.fps.max(0.1),
         },
     )?;
@@ -118,6 +123,8 @@ pub struct DemoOptions {
     /// Run this many frames, then exit (after writing `screenshot` if given).
     pub frames: Option<u64>,
     pub screenshot: Option<PathBuf>,
+    /// Scripted resizes (see `--exercise-resize`).
+    pub exercise_resize: bool,
     pub fps: f32,
 }
 
@@ -456,6 +463,9 @@ impl App {
         let size = st.window.inner_size();
         let surface = present::Surface { loader: &st.surface_loader, raw: st.surface, size: (size.width, size.height) };
         st.swap = present::recreate(&st.gpu, surface, self.o.vsync, st.swap.take())?;
+        if let Some(sw) = &st.swap {
+            eprintln!("swapchain {}×{}", sw.extent.width, sw.extent.height);
+        }
         Ok(())
     }
 
@@ -631,6 +641,18 @@ impl App {
         let el_s = now.duration_since(self.fps_window.0).as_secs_f32();
         if el_s >= 0.5 {
             self.fps_window = (now, 0, self.fps_window.1 as f32 / el_s);
+        }
+        if let (Some(limit), true) = (self.o.frames, self.o.exercise_resize) {
+            let size = if self.frames_drawn == limit / 3 {
+                Some(((self.o.width * 3 / 4).max(1), (self.o.height * 3 / 4).max(1)))
+            } else if self.frames_drawn == 2 * limit / 3 {
+                Some((self.o.width, self.o.height))
+            } else {
+                None
+            };
+            if let Some((w, h)) = size {
+                let _ = st.window.request_inner_size(winit::dpi::PhysicalSize::new(w, h));
+            }
         }
         if let Some(limit) = self.o.frames {
             if self.frames_drawn >= limit {
