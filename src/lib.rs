@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod extract;
 pub mod frame;
 pub mod gpu;
 pub mod iso;

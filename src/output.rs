@@ -78,3 +78,51 @@ pub fn f16_to_f32(h: u16) -> f32 {
     };
     f32::from_bits(bits)
 }
+
+/// Write a triangle mesh: binary little-endian PLY (`.ply`, positions + normals) or Wavefront OBJ (`.obj`,
+/// `v`/`vn`/`f`), chosen by the extension; atomically (no half-written file on failure).
+pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
+    use std::io::Write;
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("ply") => write_atomic(path, |w| {
+            write!(
+                w,
+                "ply\nformat binary_little_endian 1.0\ncomment meniscus mesh\nelement vertex {}\n\
+                 property float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\n\
+                 property float nz\nelement face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+                m.vertices.len(),
+                m.triangles.len()
+            )?;
+            for (v, n) in m.vertices.iter().zip(&m.normals) {
+                for x in v.iter().chain(n) {
+                    w.write_all(&x.to_le_bytes())?;
+                }
+            }
+            for t in &m.triangles {
+                w.write_all(&[3u8])?;
+                for i in t {
+                    w.write_all(&i.to_le_bytes())?;
+                }
+            }
+            Ok(())
+        }),
+        Some("obj") => write_atomic(path, |w| {
+            writeln!(w, "# meniscus mesh: {} vertices, {} triangles", m.vertices.len(), m.triangles.len())?;
+            for v in &m.vertices {
+                writeln!(w, "v {} {} {}", v[0], v[1], v[2])?;
+            }
+            for n in &m.normals {
+                writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
+            }
+            for t in &m.triangles {
+                let [a, b, c] = t.map(|i| i + 1);
+                writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+            }
+            Ok(())
+        }),
+        _ => {
+            Err(Error::Invalid(format!("{}: the mesh format is chosen by the extension: .ply or .obj", path.display())))
+        }
+    }
+}

@@ -292,3 +292,38 @@ fn sequence_with_frames_in_flight_matches_one_at_a_time() {
         assert!(a == b, "frame {n}: 2 frames in flight and 1 differ");
     }
 }
+
+/// Issue #14 (first part): `meniscus mesh` writes a PLY or OBJ that loads back (vertices = the mesh's), the same
+/// mesh with 1 and 2 threads; a wrong extension is a one-line error and no file.
+#[test]
+fn mesh_subcommand_writes_ply_and_obj() {
+    let d = tmpdir("mesh");
+    let run = |out: &str, threads: &str| {
+        meniscus()
+            .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--threads", threads, "--out"])
+            .arg(d.join(out))
+            .output()
+            .unwrap()
+    };
+    let o = run("a.ply", "1");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("triangles"), "{err}");
+    let o = run("b.ply", "2");
+    assert!(o.status.success());
+    assert_eq!(
+        std::fs::read(d.join("a.ply")).unwrap(),
+        std::fs::read(d.join("b.ply")).unwrap(),
+        "threads changed the mesh"
+    );
+    let p = meniscus::scene::load(&d.join("a.ply")).unwrap();
+    assert!(p.len() > 100, "{} vertices", p.len());
+    assert!(run("c.obj", "2").status.success());
+    let obj = std::fs::read_to_string(d.join("c.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), p.len());
+    assert!(obj.lines().any(|l| l.starts_with("f ")));
+    let o = run("d.stl", "1");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".ply or .obj"));
+    assert!(!d.join("d.stl").exists() && !d.join("d.stl.partial").exists());
+}

@@ -8,6 +8,7 @@ mod chart;
 mod demo;
 mod info;
 mod job;
+mod mesh;
 mod render;
 
 use clap::{Parser, Subcommand};
@@ -31,6 +32,8 @@ enum Cmd {
     Scenes,
     /// Benchmark: scenes × resolutions, per-pass GPU medians/p95/min, memory; markdown table + JSON.
     Bench(bench::BenchArgs),
+    /// Extract the SPH iso-surface as a triangle mesh (marching cubes, CPU): PLY or OBJ.
+    Mesh(mesh::MeshArgs),
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
     #[command(after_help = demo::HELP)]
     Demo(demo::DemoArgs),
@@ -43,6 +46,7 @@ fn main() {
         Cmd::Info(a) => info::run(&a),
         Cmd::Bench(a) => bench::run(&a),
         Cmd::Demo(a) => demo::main(&a),
+        Cmd::Mesh(a) => mesh::run(&a),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");
