@@ -140,6 +140,10 @@ pub struct ExtractParams {
     pub cube: f32,
     /// Field value of the surface (splashsurf: 0.6).
     pub threshold: f32,
+    /// Evaluate the field at every corner within the kernel support (the reference) instead of following the
+    /// surface in from the outside. The two agree except that following skips closed cavities inside the
+    /// fluid (bubbles not connected to the outside), whose surfaces it does not reach.
+    pub dense: bool,
 }
 
 /// Extract the iso-surface of `grid`'s field (with 1/n_j `inv_n`, see [`IsoGrid::inv_density`]).
@@ -178,19 +182,24 @@ pub fn extract(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMesh {
             }
         }
     }
-    let cubes: Vec<i64> = marked
-        .iter()
-        .enumerate()
-        .flat_map(|(w, &bits)| (0..64).filter(move |b| bits >> b & 1 == 1).map(move |b| (w * 64 + b) as i64))
-        .collect();
+    let (values, cubes): (HashMap<i64, f32>, Vec<i64>) = if p.dense {
+        let cubes: Vec<i64> = marked
+            .iter()
+            .enumerate()
+            .flat_map(|(w, &bits)| (0..64).filter(move |b| bits >> b & 1 == 1).map(move |b| (w * 64 + b) as i64))
+            .collect();
+        let mut corners: Vec<i64> =
+            cubes.par_iter().flat_map_iter(|&c| (0..8).map(move |n| c + corner_offset(n, dims))).collect();
+        corners.par_sort_unstable();
+        corners.dedup();
+        let values: Vec<f32> = corners.par_iter().map(|&c| grid.field(corner_at(c), inv_n).0).collect();
+        (corners.into_iter().zip(values).collect(), cubes)
+    } else {
+        follow(&marked, dims, p.threshold, |c| grid.field(corner_at(c), inv_n).0)
+    };
     drop(marked);
-    // Corner values, each once.
-    let mut corners: Vec<i64> =
-        cubes.par_iter().flat_map_iter(|&c| (0..8).map(move |n| c + corner_offset(n, dims))).collect();
-    corners.par_sort_unstable();
-    corners.dedup();
-    let values: Vec<f32> = corners.par_iter().map(|&c| grid.field(corner_at(c), inv_n).0).collect();
-    let value = |c: i64| -> f32 { corners.binary_search(&c).map(|i| values[i]).unwrap_or(0.0) };
+    // Corners never evaluated are inside the fluid (following stops at the first inside corner).
+    let value = |c: i64| -> f32 { values.get(&c).copied().unwrap_or(f32::INFINITY) };
     let table = case_table();
     // March: per cube its triangles as (edge key, edge key, edge key); edge key = corner key × 3 + axis.
     let tris: Vec<[i64; 3]> = cubes
@@ -239,6 +248,89 @@ pub fn extract(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMesh {
         .collect();
     let triangles = tris.iter().map(|t| t.map(|k| index[&k])).collect();
     TriMesh { vertices, normals, triangles }
+}
+
+/// Surface following: the corners of the band's outer boundary lie farther than the support from every
+/// particle (field 0); from them a breadth-first walk over lattice corners evaluates the field, crossing corners
+/// below the threshold (outside the fluid) and stopping at the first corner above it. Every edge that crosses
+/// the surface has an outside end the walk reached, so it evaluated both ends; the cubes to march are those
+/// around the inside corners it stopped at. Interior corners are never evaluated. Returns the values and the
+/// cubes. Each frontier is evaluated in parallel; the sets do not depend on the thread count.
+fn follow(
+    marked: &[u64],
+    dims: glam::IVec3,
+    threshold: f32,
+    field: impl Fn(i64) -> f32 + Sync,
+) -> (HashMap<i64, f32>, Vec<i64>) {
+    let (dy, dz) = (dims.y as i64, dims.z as i64);
+    let ijk = |key: i64| glam::IVec3::new((key / dz / dy) as i32, (key / dz % dy) as i32, (key % dz) as i32);
+    let key_of = |c: glam::IVec3| (c.x as i64 * dy + c.y as i64) * dz + c.z as i64;
+    let cube_marked = |c: glam::IVec3| {
+        c.min_element() >= 0 && c.x <= dims.x - 2 && c.y <= dims.y - 2 && c.z <= dims.z - 2 && {
+            let k = key_of(c) as usize;
+            marked[k / 64] >> (k % 64) & 1 == 1
+        }
+    };
+    // (any adjacent cube marked, any adjacent cube not marked)
+    let around = |corner: i64| {
+        let c = ijk(corner);
+        let (mut any, mut all) = (false, true);
+        for n in 0..8 {
+            let m = cube_marked(c - glam::IVec3::new((n & 1) as i32, (n >> 1 & 1) as i32, (n >> 2 & 1) as i32));
+            any |= m;
+            all &= m;
+        }
+        (any, !all)
+    };
+    let band: Vec<i64> = marked
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(w, &bits)| (0..64).filter(move |b| bits >> b & 1 == 1).map(move |b| (w * 64 + b) as i64))
+        .collect();
+    let mut seeds: Vec<i64> = band
+        .par_iter()
+        .flat_map_iter(|&c| (0..8).map(move |n| c + corner_offset(n, dims)))
+        .filter(|&c| around(c) == (true, true))
+        .collect();
+    seeds.par_sort_unstable();
+    seeds.dedup();
+    let mut values: HashMap<i64, f32> = seeds.iter().map(|&c| (c, 0.0)).collect();
+    let mut frontier = seeds;
+    let steps = [1i64, -1, dz, -dz, dy * dz, -dy * dz];
+    while !frontier.is_empty() {
+        let mut next: Vec<i64> = frontier
+            .par_iter()
+            .flat_map_iter(|&c| {
+                let at = ijk(c);
+                steps.iter().filter_map(move |&s| {
+                    let n = c + s;
+                    let nc = ijk(n);
+                    ((nc - at).abs().element_sum() == 1).then_some(n)
+                })
+            })
+            .filter(|n| !values.contains_key(n) && around(*n).0)
+            .collect();
+        next.par_sort_unstable();
+        next.dedup();
+        let evaluated: Vec<f32> = next.par_iter().map(|&c| field(c)).collect();
+        frontier = next.iter().zip(&evaluated).filter(|(_, &v)| v < threshold).map(|(&c, _)| c).collect();
+        values.extend(next.into_iter().zip(evaluated));
+    }
+    // The cubes around the inside corners the walk stopped at.
+    let mut cubes: Vec<i64> = values
+        .iter()
+        .filter(|(_, &v)| v >= threshold)
+        .flat_map(|(&c, _)| {
+            let at = ijk(c);
+            (0..8).filter_map(move |n| {
+                let cube = at - glam::IVec3::new((n & 1) as i32, (n >> 1 & 1) as i32, (n >> 2 & 1) as i32);
+                cube_marked(cube).then(|| key_of(cube))
+            })
+        })
+        .collect();
+    cubes.par_sort_unstable();
+    cubes.dedup();
+    (values, cubes)
 }
 
 /// Key offset of cube corner `n` from the cube's lower corner.
@@ -293,7 +385,7 @@ mod tests {
         let r = 0.1f32;
         let one = IsoGrid::build(&[[0.3, 0.2, 0.1]], 4.0 * r);
         let inv = one.inv_density();
-        let m = extract(&one, &inv, &ExtractParams { cube: 0.25 * r, threshold: 0.6 });
+        let m = extract(&one, &inv, &ExtractParams { cube: 0.25 * r, threshold: 0.6, dense: false });
         assert!(m.triangles.len() > 100);
         assert_eq!(open_or_flipped_edges(&m), 0);
         // The analytic radius where one particle's normalised field W(d/h)/W(0) equals the threshold.
@@ -318,7 +410,7 @@ mod tests {
             assert!((b - a).cross(cc - a).dot(a - c) >= 0.0, "triangle faces into the fluid");
         }
         let two = IsoGrid::build(&[[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]], 4.0 * r);
-        let m2 = extract(&two, &two.inv_density(), &ExtractParams { cube: 0.25 * r, threshold: 0.6 });
+        let m2 = extract(&two, &two.inv_density(), &ExtractParams { cube: 0.25 * r, threshold: 0.6, dense: false });
         assert_eq!(open_or_flipped_edges(&m2), 0);
         let ratio = m2.triangles.len() as f32 / m.triangles.len() as f32;
         assert!((ratio - 2.0).abs() < 0.1, "two far particles: {ratio} × one particle's triangles");
@@ -330,8 +422,11 @@ mod tests {
         let pts: Vec<[f32; 3]> = (0..300).map(|_| [rnd() * 0.8, rnd() * 0.5, rnd() * 0.6]).collect();
         let g = IsoGrid::build(&pts, 4.0 * 0.03);
         let inv = g.inv_density();
-        let p = ExtractParams { cube: 0.015, threshold: 0.6 };
+        let p = ExtractParams { cube: 0.015, threshold: 0.6, dense: false };
         let a = extract(&g, &inv, &p);
+        // Surface following gives exactly the mesh of the dense reference (no closed cavities here).
+        let dense = extract(&g, &inv, &ExtractParams { dense: true, ..p });
+        assert_eq!(a, dense, "surface following and the dense evaluation differ");
         assert!(a.triangles.len() > 1000);
         assert_eq!(open_or_flipped_edges(&a), 0);
         let b = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| extract(&g, &inv, &p));

@@ -34,6 +34,10 @@ pub struct MeshArgs {
     /// Iso value of the normalised field (splashsurf: 0.6).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.6)]
     threshold: f32,
+    /// Evaluate the field at every cube corner within the kernel support (the reference) instead of following
+    /// the surface in from the outside (which skips closed cavities inside the fluid).
+    #[arg(long)]
+    dense: bool,
     /// Worker threads (default: all cores); changes nothing but the time.
     #[arg(long)]
     threads: Option<usize>,
@@ -61,7 +65,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let job = Job::open(&a.scene, &a.load, meniscus::settings::Settings::default(), Select::default())?;
     eprintln!("{}", job.summary(None));
     let r = job.settings.radius;
-    let params = ExtractParams { cube: a.cube_size * r, threshold: a.threshold };
+    let params = ExtractParams { cube: a.cube_size * r, threshold: a.threshold, dense: a.dense };
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
         let t0 = std::time::Instant::now();
         let m = pool.install(|| {
