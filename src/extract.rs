@@ -275,8 +275,8 @@ fn follow(
     let around = |corner: i64| {
         let c = ijk(corner);
         let (mut any, mut all) = (false, true);
-        for n in 0..8 {
-            let m = cube_marked(c - glam::IVec3::new((n & 1) as i32, (n >> 1 & 1) as i32, (n >> 2 & 1) as i32));
+        for n in 0..8usize {
+            let m = cube_marked(c - corner_delta(n));
             any |= m;
             all &= m;
         }
@@ -322,8 +322,8 @@ fn follow(
         .filter(|(_, &v)| v >= threshold)
         .flat_map(|(&c, _)| {
             let at = ijk(c);
-            (0..8).filter_map(move |n| {
-                let cube = at - glam::IVec3::new((n & 1) as i32, (n >> 1 & 1) as i32, (n >> 2 & 1) as i32);
+            (0..8usize).filter_map(move |n| {
+                let cube = at - corner_delta(n);
                 cube_marked(cube).then(|| key_of(cube))
             })
         })
@@ -331,6 +331,11 @@ fn follow(
     cubes.par_sort_unstable();
     cubes.dedup();
     (values, cubes)
+}
+
+/// Lattice offset of cube corner `n` from the cube's lower corner.
+fn corner_delta(n: usize) -> glam::IVec3 {
+    glam::IVec3::new((n & 1) as i32, (n >> 1 & 1) as i32, (n >> 2 & 1) as i32)
 }
 
 /// Key offset of cube corner `n` from the cube's lower corner.
