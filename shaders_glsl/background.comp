@@ -14,67 +14,12 @@ layout(std430, set = 0, binding = 4) readonly buffer BvhNodes { vec4 nodes[]; };
 layout(std430, set = 0, binding = 5) readonly buffer BvhTris { vec4 tris[]; };
 layout(push_constant) uniform Push { uint node_count; } pc;
 
-/// Möller–Trumbore, as mesh::ray_triangle.
-float ray_triangle(vec3 o, vec3 d, vec3 a, vec3 b, vec3 c) {
-    vec3 e1 = b - a, e2 = c - a;
-    vec3 p = cross(d, e2);
-    float det = dot(e1, p);
-    if (abs(det) < 1e-12) return INF;
-    float inv = 1.0 / det;
-    vec3 s = o - a;
-    float u = dot(s, p) * inv;
-    if (u < 0.0 || u > 1.0) return INF;
-    vec3 q = cross(s, e1);
-    float v = dot(d, q) * inv;
-    if (v < 0.0 || u + v > 1.0) return INF;
-    float t = dot(e2, q) * inv;
-    return t > 0.0 ? t : INF;
-}
-
-/// Nearest mesh hit t > 0 along o + t·d (below t_max) and its normal facing the ray; a stack walk of the BVH
-/// (left child follows its parent; GpuBvh::intersect is the CPU mirror).
-bool hit_mesh(vec3 o, vec3 d, float t_max, out float t_hit, out vec3 n_hit) {
-    t_hit = t_max;
-    n_hit = vec3(0, 1, 0);
-    if (pc.node_count == 0u) return false;
-    vec3 inv = 1.0 / d;
-    uint stack[32];
-    int sp = 0;
-    stack[sp++] = 0u;
-    bool hit = false;
-    while (sp > 0) {
-        uint n = stack[--sp];
-        vec4 a = nodes[2u * n], b = nodes[2u * n + 1u];
-        vec3 t0 = (a.xyz - o) * inv, t1 = (b.xyz - o) * inv;
-        vec3 tl = min(t0, t1), th = max(t0, t1);
-        float tn = max(max(max(tl.x, tl.y), tl.z), 0.0);
-        float tf = min(min(th.x, th.y), th.z);
-        if (tn > tf || tn >= t_hit) continue;
-        uint count = floatBitsToUint(b.w);
-        if (count > 0u) {
-            uint first = floatBitsToUint(a.w);
-            for (uint k = first; k < first + count; ++k) {
-                vec3 v0 = tris[3u * k].xyz, v1 = tris[3u * k + 1u].xyz, v2 = tris[3u * k + 2u].xyz;
-                float t = ray_triangle(o, d, v0, v1, v2);
-                if (t < t_hit) {
-                    t_hit = t;
-                    n_hit = normalize(cross(v1 - v0, v2 - v0));
-                    hit = true;
-                }
-            }
-        } else if (sp < 31) {
-            stack[sp++] = floatBitsToUint(a.w);
-            stack[sp++] = n + 1u;
-        }
-    }
-    if (dot(n_hit, d) > 0.0) n_hit = -n_hit;
-    return hit;
-}
+#include "bvh.glsl"
 
 /// Anything (box or mesh) between p and the sun.
 bool in_shadow(vec3 p) {
     float ts; vec3 ns;
-    return hit_boxes(p, frame.sun.xyz, ts, ns) || hit_mesh(p, frame.sun.xyz, INF, ts, ns);
+    return hit_boxes(p, frame.sun.xyz, ts, ns) || hit_mesh(p, frame.sun.xyz, INF, pc.node_count, ts, ns);
 }
 
 void main() {
@@ -94,7 +39,7 @@ void main() {
     float ambient = frame.fluid_color.w;
     float diffuse_sun = frame.sun.w;
     float tm; vec3 nm;
-    bool mesh = hit_mesh(o, dw, min(tg, box ? tb : INF), tm, nm);
+    bool mesh = hit_mesh(o, dw, min(tg, box ? tb : INF), pc.node_count, tm, nm);
     if (mesh) {
         t = tm;
         vec3 hp = o + t * dw;

@@ -6,6 +6,7 @@ use glam::{Mat4, Vec3};
 
 use crate::error::Result;
 use crate::gpu::{Buffer, FrameCtx, Image};
+use crate::passes::background::MeshBuffers;
 use crate::passes::composite::CompositeInputs;
 use crate::passes::iso::IsoBuffers;
 use crate::scene::{Bounds, Camera};
@@ -223,7 +224,8 @@ impl<'t> Recording<'_, 't> {
 /// THE FRAME: every pass in order, with the part (queue) beside it, each given the images it reads and writes;
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. Optional steps: `background`
-/// (skipped while the view and scene stand), `iso` (`surface = "iso"`), `upsample` (`fluid_scale` < 1).
+/// (skipped while the view and scene stand), `splat` or `mesh` (`surface = "mesh"`), `iso` (`surface =
+/// "iso"`), `upsample` (`fluid_scale` < 1).
 #[allow(clippy::too_many_arguments)]
 pub fn record_frame(
     rec: &mut Recording,
@@ -235,7 +237,7 @@ pub fn record_frame(
     iso: Option<&IsoBuffers>,
     s: &Settings,
     info: &FrameInfo,
-    (sky, mesh): (&Image, &crate::passes::background::MeshBuffers),
+    (sky, mesh, fluid_mesh): (&Image, &MeshBuffers, Option<&MeshBuffers>),
     background_cached: bool,
 ) -> Result<Frame> {
     use Part::*;
@@ -254,14 +256,9 @@ pub fn record_frame(
         blur,
     );
     let ctx = rec.part(Fluid);
-    match s.splat.mode {
-        SplatMode::Compute => {
-            let spheres = (s.radius, s.splat_scale());
-            p.splat.record(ctx, frame, particles, count, &t.depth, t.depth_back.as_ref(), &t.depth_tiles, spheres, info)
-        }
-        mode => {
-            p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)?
-        }
+    match (s.surface, fluid_mesh) {
+        (Surface::Mesh, Some(m)) => p.mesh.record(ctx, frame, m, &t.depth),
+        _ => record_splat(ctx, p, t, frame, particles, count, s, info)?,
     }
     if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
         // The rasterised splats do not write the far exit: the march then runs to the grid's box.
@@ -291,4 +288,38 @@ pub fn record_frame(
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
     Ok(Frame { smoothed })
+}
+
+/// The `splat` pass in the chosen mode (compute, or a rasterised variant).
+#[allow(clippy::too_many_arguments)]
+fn record_splat(
+    ctx: &mut FrameCtx,
+    p: &Passes,
+    t: &Targets,
+    frame: &Buffer,
+    particles: &Buffer,
+    count: u32,
+    s: &Settings,
+    info: &FrameInfo,
+) -> Result<()> {
+    match s.splat.mode {
+        SplatMode::Compute => {
+            let spheres = (s.radius, s.splat_scale());
+            p.splat.record(
+                ctx,
+                frame,
+                particles,
+                count,
+                &t.depth,
+                t.depth_back.as_ref(),
+                &t.depth_tiles,
+                spheres,
+                info,
+            );
+            Ok(())
+        }
+        mode => {
+            p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)
+        }
+    }
 }

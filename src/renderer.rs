@@ -60,6 +60,9 @@ pub struct Renderer {
     spray: Option<Vec<bool>>,
     /// The background mesh's BVH (placeholders and node count 0 without one).
     mesh: crate::passes::background::MeshBuffers,
+    /// The extracted iso-surface mesh of the current particles (BVH on the GPU), built on first use with
+    /// `surface = "mesh"`, and the (support, cube, threshold) it was made for.
+    fluid_mesh: Option<(crate::passes::background::MeshBuffers, [f32; 3])>,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
 }
@@ -74,7 +77,7 @@ type FrameArgs<'a> = (
     Option<&'a crate::passes::iso::IsoBuffers>,
     &'a Settings,
     &'a FrameInfo,
-    (&'a Image, &'a crate::passes::background::MeshBuffers),
+    (&'a Image, &'a crate::passes::background::MeshBuffers, Option<&'a crate::passes::background::MeshBuffers>),
     bool,
 );
 
@@ -146,6 +149,7 @@ impl Renderer {
             positions: vec![],
             spray: None,
             iso: None,
+            fluid_mesh: None,
             // Never read (node count 0): empty placeholders, no upload at start-up.
             mesh: crate::passes::background::MeshBuffers {
                 nodes: upload_buffer(gpu, "bvh_nodes", &[], None)?,
@@ -218,6 +222,7 @@ impl Renderer {
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
         self.iso = None;
+        self.fluid_mesh = None;
         Ok(())
     }
 
@@ -439,6 +444,9 @@ impl Renderer {
         }
         self.ensure_targets(view.width, view.height, s)?;
         let cached = self.background_cached(view, s);
+        if s.surface == crate::settings::Surface::Mesh {
+            self.ensure_fluid_mesh(s)?;
+        }
         let iso = if s.surface == crate::settings::Surface::Iso {
             self.ensure_iso(s.iso.support * s.radius)?;
             true
@@ -566,7 +574,8 @@ impl Renderer {
                 h(ctx, &t.final_color);
             }
         };
-        let frame_args = (passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh), cached);
+        let fluid_mesh = self.fluid_mesh.as_ref().map(|m| &m.0).filter(|_| s.surface == crate::settings::Surface::Mesh);
+        let frame_args = (passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh, fluid_mesh), cached);
         if !split {
             let mut ctx = FrameCtx::new(&gpu, slot.cmd, Some(&mut slot.timer));
             upload(&mut ctx);
@@ -612,6 +621,40 @@ impl Renderer {
         drop((first, up, a, f, sh));
         self.smoothed = sm;
         self.executor.submit_segments(k, segments)
+    }
+
+    /// Extract the iso-surface mesh of the current particles (spray left out) with the `[iso]` field and the
+    /// `[mesh]` cube size, and upload its BVH, unless it is there already.
+    fn ensure_fluid_mesh(&mut self, s: &Settings) -> Result<()> {
+        let key = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
+        if self.fluid_mesh.as_ref().is_some_and(|m| m.1 == key) {
+            return Ok(());
+        }
+        let pts: Vec<[f32; 3]> = match &self.spray {
+            Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
+            None => self.positions.clone(),
+        };
+        let grid = crate::iso::IsoGrid::build(&pts, key[0]);
+        let inv = grid.inv_density();
+        let params = crate::extract::ExtractParams { cube: key[1], threshold: key[2], dense: false };
+        let m = crate::extract::extract(&grid, &inv, &params);
+        let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
+        let bvh = crate::mesh::GpuBvh::build(&crate::mesh::Mesh { triangles: tris });
+        self.executor.wait_idle()?;
+        self.fluid_mesh = Some((
+            crate::passes::background::MeshBuffers {
+                nodes: upload_buffer(&self.gpu, "fluid_mesh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
+                triangles: upload_buffer(
+                    &self.gpu,
+                    "fluid_mesh_triangles",
+                    bytemuck::cast_slice(&bvh.triangles),
+                    None,
+                )?,
+                node_count: bvh.len() as u32,
+            },
+            key,
+        ));
+        Ok(())
     }
 
     /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`

@@ -105,6 +105,9 @@ named_enum! {
         /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass), then
         /// filtered like the spheres.
         Iso = "iso",
+        /// The same iso-surface extracted as a triangle mesh (marching cubes, `crate::extract`) and ray-cast
+        /// through its BVH (`mesh` pass).
+        Mesh = "mesh",
     }
 }
 
@@ -153,6 +156,8 @@ pub struct Settings {
     pub spray: SprayParams,
     /// `[iso]`: the iso-surface ray cast.
     pub iso: crate::passes::iso::Params,
+    /// `[mesh]`: the extracted mesh's cube size.
+    pub mesh: crate::passes::mesh::Params,
     /// `[thickness]`: resolution and blur.
     pub thickness: crate::passes::thickness::Params,
     /// `[smooth]`: the depth filter.
@@ -192,6 +197,7 @@ impl Default for Settings {
             splat: Default::default(),
             spray: Default::default(),
             iso: Default::default(),
+            mesh: Default::default(),
             thickness: Default::default(),
             smooth: Default::default(),
             normals: Default::default(),
@@ -286,7 +292,7 @@ impl Settings {
     /// Radius scale of the splatted spheres: the bound spheres when the iso-surface is ray-cast from them.
     pub fn splat_scale(&self) -> f32 {
         match self.surface {
-            Surface::Spheres => self.splat.radius_scale,
+            Surface::Spheres | Surface::Mesh => self.splat.radius_scale,
             Surface::Iso => self.iso.bound,
         }
     }

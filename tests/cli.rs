@@ -27,7 +27,7 @@ fn render_builtin_scene_writes_png_and_timings() {
         .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !["upsample", "iso"].contains(*p)) {
+    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !["upsample", "iso", "mesh"].contains(*p)) {
         assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
     }
     let img = image::open(&out).unwrap();
@@ -152,7 +152,7 @@ fn tiny_bench_writes_valid_json() {
     assert_eq!(e["frames"], 3);
     let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
     let want: Vec<&str> =
-        meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso"].contains(p)).collect();
+        meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso", "mesh"].contains(p)).collect();
     assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
     // Timing sanity: one entry per pass, none negative, and every frame's total is at least the sum of the passes'

@@ -21,7 +21,7 @@ macro_rules! frame_passes {
         }
 
         /// Every frame pass name, in frame order (timestamp keys, JSON keys, `--timings` rows). `iso` runs only
-        /// with `surface = "iso"`, `upsample` only when the fluid is rendered at reduced resolution.
+        /// with `surface = "iso"`, `mesh` (instead of `splat`) with `surface = "mesh"`, `upsample` only when the fluid is rendered at reduced resolution.
         pub const PASS_NAMES: &[&str] = &[$($module::NAME,)*];
     };
 }
@@ -35,6 +35,8 @@ frame_passes! {
     splat: Splat,
     /// The SPH iso-surface, ray-cast from the splatted depth.
     iso: Iso,
+    /// The extracted iso-surface mesh, ray-cast through its BVH (`surface = "mesh"`).
+    mesh: Mesh,
     /// Depth smoothing.
     smooth: Smooth,
     /// Reduced-resolution depth back to full size.

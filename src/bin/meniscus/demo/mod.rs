@@ -51,7 +51,7 @@ C: print the camera as a --camera argument (stdout)
 Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
-F: next filter | I: spheres / iso-surface | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
+F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
 V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit";
 
 /// `meniscus demo`.
@@ -417,7 +417,8 @@ impl App {
             KeyCode::KeyI => {
                 self.settings.surface = match self.settings.surface {
                     Surface::Spheres => Surface::Iso,
-                    Surface::Iso => Surface::Spheres,
+                    Surface::Iso => Surface::Mesh,
+                    Surface::Mesh => Surface::Spheres,
                 }
             }
             KeyCode::KeyO => {
