@@ -18,6 +18,7 @@ pub mod passes;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
+pub mod sim;
 /// Constants shared by Rust and GLSL, defined once (build.rs passes them to every shader as macros).
 pub mod shader_constants {
     include!("shader_constants.rs");

@@ -751,6 +751,20 @@ pub fn upload_buffer(gpu: &Arc<Gpu>, name: &str, data: &[u8], reuse: Option<Buff
     Ok(dst)
 }
 
+/// Copy the first `bytes` bytes of a device buffer (made with TRANSFER_SRC usage) into host memory.
+pub fn read_buffer(gpu: &Arc<Gpu>, src: &Buffer, bytes: u64) -> Result<Vec<u8>> {
+    let bytes = bytes.min(src.size);
+    let buf =
+        Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(gpu, cmd, None);
+        ctx.copy_buffer(src, &buf, vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes });
+        ctx.barrier(&[Use::Buffer(&buf, Access::HostRead)]);
+        Ok(())
+    })?;
+    Ok(buf.read()?[..bytes as usize].to_vec())
+}
+
 /// Copy a whole image into host memory (tightly packed texels).
 pub fn read_image(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<u8>> {
     let size = img.bytes();

@@ -17,6 +17,12 @@ pub const SSR_MISS: u32 = 0xffff_ffff;
 pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
 /// Tile size of the splat's occlusion bound (`splat_cull`).
 pub const SPLAT_TILE: u32 = 8;
+/// Colliders of a simulation scene (sim_common.glsl's uniform block).
+pub const MAX_COLLIDERS: u32 = 8;
+/// Threads of a prefix-sum work group (grid_scan.comp); each scans 4 cells, a block is 4 × this.
+pub const SCAN_LOCAL: u32 = 256;
+/// Cells scanned by one work group of grid_scan.comp.
+pub const SCAN_BLOCK: u32 = 4 * SCAN_LOCAL;
 
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
@@ -27,4 +33,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("SSR_MISS", SSR_MISS),
     ("MAX_PIXELS_PER_PARTICLE", MAX_PIXELS_PER_PARTICLE),
     ("SPLAT_TILE", SPLAT_TILE),
+    ("MAX_COLLIDERS", MAX_COLLIDERS),
+    ("SCAN_LOCAL", SCAN_LOCAL),
+    ("SCAN_BLOCK", SCAN_BLOCK),
 ];

@@ -133,6 +133,20 @@ impl<'t> FrameCtx<'t> {
         };
     }
 
+    /// Fill all of `buf` with the 32-bit `value` (a transfer write; the buffer needs TRANSFER_DST usage).
+    pub fn fill(&mut self, buf: &Buffer, value: u32) {
+        self.barrier(&[Use::Buffer(buf, Access::TransferDst)]);
+        unsafe { self.gpu.device.cmd_fill_buffer(self.cmd, buf.raw, 0, vk::WHOLE_SIZE, value) };
+    }
+
+    /// Copy `size` bytes from `src` to `dst` (offsets in bytes; transfer read and write, barriers derived).
+    pub fn copy_buffer(&mut self, src: &Buffer, dst: &Buffer, region: vk::BufferCopy) {
+        self.barrier(&[Use::Buffer(src, Access::TransferSrc), Use::Buffer(dst, Access::TransferDst)]);
+        if region.size > 0 {
+            unsafe { self.gpu.device.cmd_copy_buffer(self.cmd, src.raw, dst.raw, &[region]) };
+        }
+    }
+
     /// Open pass `name`: a debug label and a timestamp scope. The pass's barriers come with its dispatches
     /// (derived from each program's slot list), so nothing is declared here; the begin timestamp is written at
     /// ALL_COMMANDS, i.e. after every earlier command finished, wherever the first barrier lands.

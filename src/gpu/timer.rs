@@ -9,7 +9,7 @@ use super::Gpu;
 use crate::error::{Result, VkContext};
 
 /// Most scopes a frame can open.
-pub const MAX_SCOPES: u32 = 64;
+pub const MAX_SCOPES: u32 = 512;
 
 /// Milliseconds per pass name, in recording order; a name used twice in a frame is summed.
 #[derive(Clone, Debug, Default, serde::Serialize)]

@@ -50,6 +50,7 @@ frame_passes! {
 }
 
 // The demo's passes (not part of the frame function).
+pub mod grid;
 pub mod overlay;
 pub mod particles;
 pub mod view;

@@ -1,0 +1,122 @@
+//! sim_common.glsl — Position Based Fluids (Macklin & Müller, SIGGRAPH 2013; ../shared/docs/method.md §12),
+//! shared by the sim_* shaders (the stages of src/sim/stages.rs): the simulation's uniform block (mirrored by
+//! `sim::SimUniforms`), the SPH kernels (poly6 for densities, spiky gradients), the colliders and the
+//! neighbour loop over THE GPU grid (grid.glsl, cells one kernel radius wide).
+//! Particles live in two arrays: State {x (w: id bits), v} and the predicted positions x*, both in grid order
+//! after the `sim_reorder` stage.
+#include "grid.glsl"
+
+layout(std140, binding = 0) uniform Sim {
+    GridShape grid;
+    vec4 lo_dt;          // container interior shrunk by the particle radius (xyz); time step (w)
+    vec4 hi_h;           // its upper corner (xyz); kernel radius h (w)
+    vec4 gravity_mass;   // gravity (xyz); particle mass (w)
+    vec4 solver;         // rest density ρ0; relaxation ε; s_corr k; 1 / W_poly6(Δq)
+    vec4 visc;           // XSPH c; vorticity ε; particle radius; s_corr exponent n
+    vec4 kern;           // h²; poly6 coefficient; spiky gradient coefficient; particle volume m/ρ0
+    uvec4 counts;        // particles; colliders
+    vec4 colliders[2 * MAX_COLLIDERS]; // per collider: (a.xyz, kind), (b) — see collide()
+} sim;
+
+struct State {
+    vec4 x;   // position; w: the particle's id (uint bits)
+    vec4 v;   // velocity
+};
+
+// W_poly6 of a squared distance.
+float poly6(float r2) {
+    if (r2 >= sim.kern.x) return 0.0;
+    float d = sim.kern.x - r2;
+    return sim.kern.y * d * d * d;
+}
+
+// ∇W_spiky at r = x_i − x_j (points from j to i, so it is negative along r).
+vec3 spiky_grad(vec3 r) {
+    float l = length(r);
+    float h = sim.hi_h.w;
+    if (l >= h || l < 1e-9 * h) return vec3(0.0);
+    float a = h - l;
+    return (sim.kern.z * a * a / l) * r;
+}
+
+// The container's walls as a continuum of rest-density fluid beyond each face (boundary handling without
+// boundary particles): a particle at distance y from a face misses the mass F(y) = ∫_y^h A(z) dz of the
+// half-space behind it, with A(z) = ∫∫ W_poly6 over the plane at depth z = π K (h² − z²)⁴ / 4 (K: the poly6
+// coefficient). Returns Σ F over the six faces (a fraction of ρ0) and, in grad, its gradient ∇_i (F/1) —
+// pointing into the walls. Without it the particles at the walls are under-dense and stream along them.
+float wall_f(float y, out float a) {
+    float h = sim.hi_h.w;
+    y = clamp(y, 0.0, h);
+    float h2 = h * h;
+    float q = h2 - y * y;
+    float c = 0.25 * 3.14159265 * sim.kern.y;
+    a = c * q * q * q * q;
+    // Antiderivative of (h² − z²)⁴.
+    float y2 = y * y;
+    float gy = y * (h2 * h2 * h2 * h2 - 4.0 / 3.0 * h2 * h2 * h2 * y2 + 6.0 / 5.0 * h2 * h2 * y2 * y2
+                    - 4.0 / 7.0 * h2 * y2 * y2 * y2 + y2 * y2 * y2 * y2 / 9.0);
+    float gh = h * h2 * h2 * h2 * h2 * (1.0 - 4.0 / 3.0 + 6.0 / 5.0 - 4.0 / 7.0 + 1.0 / 9.0);
+    return c * (gh - gy);
+}
+
+float wall_density(vec3 x, out vec3 grad) {
+    // The container's faces: the interior bounds grown back by the particle radius.
+    vec3 lo = sim.lo_dt.xyz - sim.visc.z;
+    vec3 hi = sim.hi_h.xyz + sim.visc.z;
+    float f = 0.0;
+    grad = vec3(0.0);
+    for (int k = 0; k < 3; ++k) {
+        float a;
+        f += wall_f(x[k] - lo[k], a);
+        grad[k] -= a;
+        f += wall_f(hi[k] - x[k], a);
+        grad[k] += a;
+    }
+    return f;
+}
+
+// Project a position out of every collider, then into the container.
+//   kind 1: solid sphere, centre a.xyz, radius b.x;
+//   kind 2: solid box, centre a.xyz, half extents b.xyz (left through the nearest face);
+//   kind 3: half-space n·x ≥ b.x kept, n = a.xyz (unit).
+vec3 collide(vec3 x) {
+    float r = sim.visc.z;
+    for (uint k = 0u; k < sim.counts.y; ++k) {
+        vec4 a = sim.colliders[2u * k];
+        vec4 b = sim.colliders[2u * k + 1u];
+        uint kind = uint(a.w + 0.5);
+        if (kind == 1u) {
+            vec3 d = x - a.xyz;
+            float l = length(d);
+            float R = b.x + r;
+            if (l < R) x = a.xyz + (l > 1e-9 ? d / l : vec3(0.0, 1.0, 0.0)) * R;
+        } else if (kind == 2u) {
+            vec3 d = x - a.xyz;
+            vec3 e = b.xyz + r;
+            vec3 q = e - abs(d);
+            if (all(greaterThan(q, vec3(0.0)))) {
+                vec3 s = vec3(d.x >= 0.0 ? 1.0 : -1.0, d.y >= 0.0 ? 1.0 : -1.0, d.z >= 0.0 ? 1.0 : -1.0);
+                if (q.x <= q.y && q.x <= q.z) x.x = a.x + s.x * e.x;
+                else if (q.y <= q.z) x.y = a.y + s.y * e.y;
+                else x.z = a.z + s.z * e.z;
+            }
+        } else if (kind == 3u) {
+            float s = dot(a.xyz, x) - (b.x + r);
+            if (s < 0.0) x -= s * a.xyz;
+        }
+    }
+    return clamp(x, sim.lo_dt.xyz, sim.hi_h.xyz);
+}
+
+// for (uint J …) over the sorted places of every particle in the 27 cells around p; close with `}}`.
+// Needs `counts` and `start` (the grid pass's outputs) declared by the shader.
+#define FOR_NEIGHBOURS(p, J)                                                                    \
+    ivec3 c0_ = grid_cell(sim.grid, p);                                                        \
+    for (int dz_ = -1; dz_ <= 1; ++dz_) for (int dy_ = -1; dy_ <= 1; ++dy_) for (int dx_ = -1; dx_ <= 1; ++dx_) { \
+        ivec3 c_ = c0_ + ivec3(dx_, dy_, dz_);                                                 \
+        if (any(lessThan(c_, ivec3(0))) || any(greaterThanEqual(c_, ivec3(sim.grid.dims.xyz)))) continue; \
+        uint ci_ = grid_index(sim.grid, c_);                                                   \
+        uint s_ = start[ci_];                                                                  \
+        uint e_ = s_ + counts[ci_];                                                            \
+        for (uint J = s_; J < e_; ++J) {
+#define END_NEIGHBOURS }}

@@ -1,0 +1,39 @@
+#version 460
+//! sim_viscosity — the end of a PBF step (Macklin & Müller 2013, eqs. 16–17): vorticity confinement
+//! f = ε_v·(N × ω_i), N = η/|η|, η = Σ_j V·(|ω_j| − |ω_i|)·∇W_spiky(x_i − x_j); then XSPH viscosity
+//! v_i ← v_i + c·Σ_j V·(v_j − v_i)·W_poly6(x_i − x_j); x ← x*. Writes the new state (grid order of this step)
+//! and the renderer's particles (xyz, w = 0: the frame radius).
+//! In: counts, start, pred, vel, omega, the sorted state (ids). Out: state, particles.
+#include "sim_common.glsl"
+layout(local_size_x = LOCAL_1D) in;
+layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
+layout(std430, binding = 2) readonly buffer Start { uint start[]; };
+layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
+layout(std430, binding = 4) readonly buffer Vel { vec4 vel[]; };
+layout(std430, binding = 5) readonly buffer Omega { vec4 omega[]; };
+layout(std430, binding = 6) readonly buffer Sorted { State sorted[]; };
+layout(std430, binding = 7) writeonly buffer States { State state[]; };
+layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= sim.counts.x) return;
+    vec3 xi = pred[i].xyz;
+    vec3 vi = vel[i].xyz;
+    float wi = omega[i].w;
+    vec3 eta = vec3(0.0);
+    vec3 xsph = vec3(0.0);
+    FOR_NEIGHBOURS(xi, j)
+        if (j == i) continue;
+        vec3 r = xi - pred[j].xyz;
+        eta += (omega[j].w - wi) * spiky_grad(r);
+        xsph += (vel[j].xyz - vi) * poly6(dot(r, r));
+    END_NEIGHBOURS
+    float vol = sim.kern.w;
+    eta *= vol;
+    vec3 v = vi + sim.visc.x * vol * xsph;
+    float le = length(eta);
+    if (le > 1e-9 && sim.visc.y > 0.0) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega[i].xyz);
+    state[i] = State(vec4(xi, sorted[i].x.w), vec4(v, 0.0));
+    particles[i] = vec4(xi, 0.0);
+}

@@ -1,0 +1,176 @@
+//! `grid` pass: THE GPU neighbour grid — points counting-sorted into a dense uniform grid of cubic cells on the
+//! device (count with atomics, exclusive prefix sum, scatter), so no CPU work per frame and GPU-resident
+//! particles (the live simulation) work too. Green 2008, "Particle simulation using CUDA"; the same layout as
+//! the CPU grid (`scene::grid::UniformGrid`: cells x fastest, a cell's points contiguous), which the tests hold
+//! it to. Shaders: shaders_glsl/grid_count.comp, grid_scan.comp, grid_scatter.comp (and grid.glsl, which the
+//! passes that query the grid include).
+//!
+//! In: points (vec4, xyz used), their count, the grid's shape. Out: `counts[c]`, `start[c]` (first sorted place
+//! of cell c) and `order[k]` (the point at sorted place k). Within a cell the order is the atomics' order, so
+//! it may differ between runs; the members never do.
+use std::sync::Arc;
+
+use ash::vk;
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+
+use crate::declare_program;
+use crate::error::Result;
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
+use crate::shader_constants::{LOCAL_1D, SCAN_BLOCK, SCAN_LOCAL};
+use crate::shaders;
+
+/// The pass's one name (module, shader stems `grid_*`, debug label, timestamp key, JSON key): `grid`.
+pub const NAME: &str = "grid";
+
+/// A grid's shape as the shaders read it (grid.glsl's `GridShape`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GridShape {
+    /// Corner of cell (0, 0, 0) (xyz) and the cell side (w).
+    pub origin_cell: [f32; 4],
+    /// Cells along x, y, z, and in all (w).
+    pub dims: [u32; 4],
+}
+
+impl GridShape {
+    /// Cells of side at least `cell` covering the box `lo`..`hi` (points outside fall into border cells).
+    pub fn covering(lo: Vec3, hi: Vec3, cell: f32) -> GridShape {
+        let n = ((hi - lo) / cell).ceil().max(Vec3::ONE).as_uvec3();
+        GridShape { origin_cell: [lo.x, lo.y, lo.z, cell], dims: [n.x, n.y, n.z, n.x * n.y * n.z] }
+    }
+
+    /// Cells in all.
+    pub fn cells(&self) -> u32 {
+        self.dims[3]
+    }
+
+    /// The cell index of `p` (the shaders' `grid_index(grid_cell(p))`).
+    pub fn index(&self, p: Vec3) -> u32 {
+        let o = Vec3::new(self.origin_cell[0], self.origin_cell[1], self.origin_cell[2]);
+        let c = ((p - o) / self.origin_cell[3]).floor();
+        let clamp = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
+        let (x, y, z) = (clamp(c.x, self.dims[0]), clamp(c.y, self.dims[1]), clamp(c.z, self.dims[2]));
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+}
+
+/// Push constants of grid_count.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct CountPush {
+    /// The grid.
+    pub shape: GridShape,
+    /// Points.
+    pub n: u32,
+}
+
+/// Push constants of grid_scan.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ScanPush {
+    /// Cells.
+    pub cells: u32,
+    /// Blocks of SCAN_BLOCK cells.
+    pub blocks: u32,
+    /// 0: scan each block; 1: scan the block sums; 2: add them.
+    pub mode: u32,
+}
+
+/// Push constants of grid_scatter.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ScatterPush {
+    /// Points.
+    pub n: u32,
+}
+
+// Count: points → counts (atomics), keys.
+declare_program!(pub COUNT: CountPush = compute(shaders::GRID_COUNT, [BufRead, BufWrite, BufWrite]));
+// Scan: counts → start, sums.
+declare_program!(pub SCAN: ScanPush = compute(shaders::GRID_SCAN, [BufRead, BufWrite, BufWrite]));
+// Scatter: keys, start → order.
+declare_program!(pub SCATTER: ScatterPush = compute(shaders::GRID_SCATTER, [BufRead, BufRead, BufWrite]));
+
+/// The device buffers of one grid (sized for a capacity of points and a shape).
+pub struct GridBuffers {
+    /// Points per cell.
+    pub counts: Buffer,
+    /// First sorted place of every cell.
+    pub start: Buffer,
+    /// Sorted place → point index.
+    pub order: Buffer,
+    /// Per point: (cell, slot in the cell).
+    pub keys: Buffer,
+    /// Per scan block: its total, then its offset.
+    pub sums: Buffer,
+    /// The grid.
+    pub shape: GridShape,
+    /// Most points.
+    pub capacity: u32,
+}
+
+impl GridBuffers {
+    /// Buffers for up to `capacity` points in `shape`.
+    pub fn new(gpu: &Arc<Gpu>, shape: GridShape, capacity: u32) -> Result<GridBuffers> {
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC;
+        let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
+        let cells = shape.cells() as u64;
+        Ok(GridBuffers {
+            counts: buf("grid_counts", 4 * cells)?,
+            start: buf("grid_start", 4 * cells)?,
+            order: buf("grid_order", 4 * capacity as u64)?,
+            keys: buf("grid_keys", 8 * capacity as u64)?,
+            sums: buf("grid_sums", 4 * cells.div_ceil(SCAN_BLOCK as u64))?,
+            shape,
+            capacity,
+        })
+    }
+}
+
+/// The pass: its three programs.
+pub struct Grid {
+    count: ComputeProgram<CountPush>,
+    scan: ComputeProgram<ScanPush>,
+    scatter: ComputeProgram<ScatterPush>,
+}
+
+impl Grid {
+    /// Build the pipelines.
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
+        Ok(Grid {
+            count: ComputeProgram::new(gpu, &COUNT)?,
+            scan: ComputeProgram::new(gpu, &SCAN)?,
+            scatter: ComputeProgram::new(gpu, &SCATTER)?,
+        })
+    }
+
+    /// Sort the first `n` points of `points` (≤ the buffers' capacity) into `g`'s cells, inside the current
+    /// pass scope (the caller names it: `grid` here, or a stage of the simulation).
+    pub fn record(&self, ctx: &mut FrameCtx, points: &Buffer, n: u32, g: &GridBuffers) {
+        debug_assert!(n <= g.capacity);
+        let cells = g.shape.cells();
+        let blocks = cells.div_ceil(SCAN_BLOCK);
+        ctx.fill(&g.counts, 0);
+        let push = CountPush { shape: g.shape, n };
+        self.count.dispatch(
+            ctx,
+            &[points.into(), (&g.counts).into(), (&g.keys).into()],
+            &push,
+            [n.div_ceil(LOCAL_1D), 1, 1],
+        );
+        let res = [(&g.counts).into(), (&g.start).into(), (&g.sums).into()];
+        self.scan.dispatch(ctx, &res, &ScanPush { cells, blocks, mode: 0 }, [blocks, 1, 1]);
+        self.scan.dispatch(ctx, &res, &ScanPush { cells, blocks, mode: 1 }, [1, 1, 1]);
+        self.scan.dispatch(ctx, &res, &ScanPush { cells, blocks, mode: 2 }, [cells.div_ceil(SCAN_LOCAL), 1, 1]);
+        let res = [(&g.keys).into(), (&g.start).into(), (&g.order).into()];
+        self.scatter.dispatch(ctx, &res, &ScatterPush { n }, [n.div_ceil(LOCAL_1D), 1, 1]);
+    }
+
+    /// [`Grid::record`] in its own pass scope named [`NAME`].
+    pub fn record_pass(&self, ctx: &mut FrameCtx, points: &Buffer, n: u32, g: &GridBuffers) {
+        ctx.pass(NAME, |ctx| self.record(ctx, points, n, g));
+    }
+}

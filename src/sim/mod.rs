@@ -1,0 +1,523 @@
+//! Live fluid: a Position Based Fluids solver (Macklin & Müller, SIGGRAPH 2013; ../shared/docs/method.md §12)
+//! as compute passes on the GPU, feeding the renderer's particle buffer directly (no CPU copy per frame).
+//!
+//! One step (Δt = frame time / substeps), every stage a pass with its own name and GPU timestamp:
+//! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `passes::grid`: a
+//! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles gathered into grid order)
+//! → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the tensile-instability term, collisions) →
+//! `sim_velocity` (v = (x* − x)/Δt) → `sim_vorticity` (ω) → `sim_viscosity` (vorticity confinement, XSPH,
+//! x = x*, and the renderer's particles).
+//!
+//! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
+//! frame's cost is known in advance (the live demo needs that); the density error it leaves is measured by
+//! the resting-pool test. Constants (see [`Params`]): h = 4 r = 2 d, 4 iterations, relaxation ε = 1 % of the
+//! lattice's Σ|∇C|², s_corr k = 0.1 (in units of that sum), n = 4, Δq = 0.2 h, XSPH c = 0.01, vorticity ε = 0.05;
+//! the particle mass makes the initial lattice exactly ρ0 = 1000. The time step follows a CFL bound from the
+//! free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per 25 fps frame).
+
+pub mod reference;
+pub mod scene;
+pub mod stages;
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+
+use crate::error::{Error, Result};
+use crate::gpu::{Buffer, FrameCtx, Gpu, PassTimes, Timer};
+use crate::passes::grid::{Grid, GridBuffers, GridShape};
+use crate::shader_constants::MAX_COLLIDERS;
+pub use scene::{Collider, SimScene, SCENES};
+pub use stages::STAGE_NAMES;
+
+/// Solver settings: the `[sim]` section of a settings file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Frames per simulated second (the export rate; each frame is `substeps` steps).
+    pub fps: f32,
+    /// Steps per frame; 0 = from the CFL bound (`cfl` × spacing / free-fall speed of the scene's height).
+    pub substeps: u32,
+    /// CFL number of the automatic step.
+    pub cfl: f32,
+    /// Longest automatic step (s); SPlisHSPlasH's dam-break scene caps its step at 5 ms too.
+    pub max_dt: f32,
+    /// Solver iterations per step.
+    pub iterations: u32,
+    /// Relaxation ε as a fraction of Σ|∇C|² of the initial lattice (constraint-force mixing).
+    pub relaxation: f32,
+    /// Tensile-instability strength k, in units of 1/Σ|∇C|² of the lattice (so it reads like a constraint value).
+    pub scorr_k: f32,
+    /// Tensile-instability exponent n.
+    pub scorr_n: f32,
+    /// Tensile-instability reference distance Δq as a fraction of h.
+    pub scorr_dq: f32,
+    /// XSPH viscosity c.
+    pub xsph: f32,
+    /// Vorticity confinement ε (m/s).
+    pub vorticity: f32,
+    /// Gravity (m/s²).
+    pub gravity: [f32; 3],
+    /// Rest density (kg/m³).
+    pub rest_density: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            fps: 25.0,
+            substeps: 0,
+            cfl: 1.0,
+            max_dt: 0.005,
+            iterations: 4,
+            relaxation: 0.01,
+            scorr_k: 0.1,
+            scorr_n: 4.0,
+            scorr_dq: 0.2,
+            xsph: 0.01,
+            vorticity: 0.05,
+            gravity: [0.0, -9.81, 0.0],
+            rest_density: 1000.0,
+        }
+    }
+}
+
+impl Params {
+    /// Reject values the solver cannot run with.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: &str| Err(Error::Invalid(format!("[sim] {what}")));
+        if !(self.fps.is_finite() && self.fps > 0.0) {
+            return bad("fps must be positive");
+        }
+        if self.iterations == 0 || self.iterations > 100 {
+            return bad("iterations must be 1..=100");
+        }
+        if !(self.cfl > 0.0 && self.cfl.is_finite()) {
+            return bad("cfl must be positive");
+        }
+        if self.substeps > 1000 {
+            return bad("substeps must be at most 1000");
+        }
+        if !(self.rest_density.is_finite() && self.rest_density > 0.0) {
+            return bad("rest_density must be positive");
+        }
+        Ok(())
+    }
+}
+
+/// The simulation's uniform block (sim_common.glsl's `Sim`, std140).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SimUniforms {
+    /// The neighbour grid.
+    pub grid: GridShape,
+    /// Container interior shrunk by the radius; time step.
+    pub lo_dt: [f32; 4],
+    /// Its upper corner; kernel radius h.
+    pub hi_h: [f32; 4],
+    /// Gravity; particle mass.
+    pub gravity_mass: [f32; 4],
+    /// ρ0, ε, s_corr k, 1/W(Δq).
+    pub solver: [f32; 4],
+    /// XSPH c, vorticity ε, particle radius, s_corr n.
+    pub visc: [f32; 4],
+    /// h², poly6 coefficient, spiky gradient coefficient, particle volume m/ρ0.
+    pub kern: [f32; 4],
+    /// Particles, colliders.
+    pub counts: [u32; 4],
+    /// Two vec4 per collider.
+    pub colliders: [[f32; 4]; 2 * MAX_COLLIDERS as usize],
+}
+
+/// The constants of the equations for one scene and parameter set (shared by the GPU and the CPU reference).
+#[derive(Clone, Copy, Debug)]
+pub struct Constants {
+    /// Kernel radius h.
+    pub h: f32,
+    /// Particle mass.
+    pub mass: f32,
+    /// Particle volume m/ρ0.
+    pub volume: f32,
+    /// Relaxation ε (absolute).
+    pub eps: f32,
+    /// s_corr k (absolute, in λ's units).
+    pub scorr_k: f32,
+    /// 1 / W_poly6(Δq).
+    pub inv_w_dq: f32,
+    /// Time step.
+    pub dt: f32,
+    /// Steps per frame.
+    pub substeps: u32,
+}
+
+/// W_poly6 for kernel radius h, of a squared distance.
+pub fn poly6(r2: f32, h: f32) -> f32 {
+    let h2 = h * h;
+    if r2 >= h2 {
+        return 0.0;
+    }
+    let d = h2 - r2;
+    315.0 / (64.0 * std::f32::consts::PI * h.powi(9)) * d * d * d
+}
+
+/// ∇W_spiky at r = x_i − x_j.
+pub fn spiky_grad(r: Vec3, h: f32) -> Vec3 {
+    let l = r.length();
+    if l >= h || l < 1e-9 * h {
+        return Vec3::ZERO;
+    }
+    let a = h - l;
+    (-45.0 / (std::f32::consts::PI * h.powi(6)) * a * a / l) * r
+}
+
+impl Constants {
+    /// The constants for `scene` with `p`: h = 2 d; the mass makes the infinite lattice of spacing d exactly
+    /// ρ0; ε and k are scaled by the lattice's Σ|∇C|².
+    pub fn new(scene: &SimScene, p: &Params) -> Constants {
+        let d = scene.spacing;
+        let h = 2.0 * d;
+        let mut w = 0.0;
+        let mut grads = vec![];
+        for k in -2i32..=2 {
+            for j in -2i32..=2 {
+                for i in -2i32..=2 {
+                    let r = Vec3::new(i as f32, j as f32, k as f32) * d;
+                    w += poly6(r.length_squared(), h);
+                    if (i, j, k) != (0, 0, 0) {
+                        grads.push(spiky_grad(r, h));
+                    }
+                }
+            }
+        }
+        let mass = p.rest_density / w;
+        let volume = mass / p.rest_density;
+        let s0: f32 = grads.iter().map(|g| (volume * *g).length_squared()).sum();
+        let frame = 1.0 / p.fps;
+        let substeps = if p.substeps > 0 {
+            p.substeps
+        } else {
+            let top = scene
+                .positions
+                .iter()
+                .map(|q| q[1])
+                .chain(scene.emitter.map(|e| e.centre.y))
+                .fold(scene.container.0.y, f32::max);
+            let v0 = scene
+                .velocities
+                .iter()
+                .map(|v| Vec3::from(*v).length())
+                .chain(scene.emitter.map(|e| e.velocity.length()))
+                .fold(0.0, f32::max);
+            let speed = (2.0 * p.gravity[1].abs() * (top - scene.container.0.y)).sqrt() + v0;
+            let dt_max = (p.cfl * d / speed.max(1e-3)).min(p.max_dt.max(1e-5));
+            ((frame / dt_max).ceil() as u32).clamp(1, 1000)
+        };
+        Constants {
+            h,
+            mass,
+            volume,
+            eps: p.relaxation * s0,
+            scorr_k: p.scorr_k / s0,
+            inv_w_dq: 1.0 / poly6((p.scorr_dq * h).powi(2), h),
+            dt: frame / substeps as f32,
+            substeps,
+        }
+    }
+}
+
+/// Frames a simulation keeps host memory for (uniforms, emission staging): more than the renderer's frames in
+/// flight, so a frame never rewrites memory a running frame reads.
+const RING: usize = 3;
+
+/// A running simulation on one device.
+pub struct Simulation {
+    gpu: Arc<Gpu>,
+    stages: stages::Stages,
+    grid_pass: Grid,
+    /// The scene (initial state, container, colliders, emitter).
+    pub scene: SimScene,
+    /// Solver settings.
+    pub params: Params,
+    /// Derived constants.
+    pub constants: Constants,
+    uniforms: Vec<Buffer>,
+    staging: Vec<Option<Buffer>>,
+    ring: usize,
+    /// State in the order of the last step (A) and in grid order during a step (B).
+    state: [Buffer; 2],
+    /// Predicted positions: the predict output, then the two iterates.
+    pred: [Buffer; 2],
+    lambda: Buffer,
+    density: Buffer,
+    vel: Buffer,
+    omega: Buffer,
+    /// Render particles (vec4, w = 0) when no renderer buffer is given.
+    particles: Buffer,
+    grid: GridBuffers,
+    n: u32,
+    /// Particles to upload at the next recorded frame (the initial state, or emitted ones) at this index.
+    pending: Option<(u32, Vec<[f32; 8]>)>,
+    next_id: u32,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Frames simulated.
+    pub frames: u64,
+    /// A sphere collider the user moves (the demo's mouse), in addition to the scene's.
+    pub pusher: Option<(Vec3, f32)>,
+    timer: Option<Timer>,
+}
+
+impl Simulation {
+    /// Set up `scene` on `gpu` with `params` (nothing is recorded until the first frame).
+    pub fn new(gpu: &Arc<Gpu>, scene: SimScene, params: Params) -> Result<Simulation> {
+        params.validate()?;
+        if scene.colliders.len() + 1 > MAX_COLLIDERS as usize {
+            return Err(Error::Limit(format!("a scene has at most {} colliders", MAX_COLLIDERS - 1)));
+        }
+        let constants = Constants::new(&scene, &params);
+        let cap = scene.capacity.max(1) as u64;
+        if cap * 32 > gpu.info.max_storage_buffer_range {
+            return Err(Error::Limit(format!(
+                "{cap} particles need {} bytes of state, more than this device's storage buffer limit of {} bytes",
+                cap * 32,
+                gpu.info.max_storage_buffer_range
+            )));
+        }
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC;
+        let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, usage, MemoryLocation::GpuOnly);
+        let (lo, hi) = scene.container;
+        let shape = GridShape::covering(lo, hi, constants.h);
+        let uniforms = (0..RING)
+            .map(|_| {
+                Buffer::new(
+                    gpu,
+                    "sim",
+                    std::mem::size_of::<SimUniforms>() as u64,
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    MemoryLocation::CpuToGpu,
+                )
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut sim = Simulation {
+            gpu: gpu.clone(),
+            stages: stages::Stages::new(gpu)?,
+            grid_pass: Grid::new(gpu)?,
+            params,
+            constants,
+            uniforms,
+            staging: (0..RING).map(|_| None).collect(),
+            ring: 0,
+            state: [buf("sim_state", 32 * cap)?, buf("sim_state_sorted", 32 * cap)?],
+            pred: [buf("sim_pred", 16 * cap)?, buf("sim_pred_next", 16 * cap)?],
+            lambda: buf("sim_lambda", 4 * cap)?,
+            density: buf("sim_density", 4 * cap)?,
+            vel: buf("sim_vel", 16 * cap)?,
+            omega: buf("sim_omega", 16 * cap)?,
+            particles: buf("sim_particles", 16 * cap)?,
+            grid: GridBuffers::new(gpu, shape, cap as u32)?,
+            n: 0,
+            pending: None,
+            next_id: 0,
+            time: 0.0,
+            frames: 0,
+            pusher: None,
+            timer: Some(Timer::new(gpu)?),
+            scene,
+        };
+        sim.reset();
+        Ok(sim)
+    }
+
+    /// Back to the scene's initial state (uploaded with the next frame).
+    pub fn reset(&mut self) {
+        let init: Vec<[f32; 8]> = self
+            .scene
+            .positions
+            .iter()
+            .zip(&self.scene.velocities)
+            .enumerate()
+            .map(|(i, (p, v))| [p[0], p[1], p[2], f32::from_bits(i as u32), v[0], v[1], v[2], 0.0])
+            .collect();
+        self.n = 0;
+        self.next_id = init.len() as u32;
+        self.pending = Some((0, init));
+        self.time = 0.0;
+        self.frames = 0;
+    }
+
+    /// Particles after the next frame's uploads (the count the renderer draws).
+    pub fn count(&self) -> u32 {
+        self.n + self.pending.as_ref().map_or(0, |p| p.1.len() as u32)
+    }
+
+    /// Most particles.
+    pub fn capacity(&self) -> u32 {
+        self.scene.capacity as u32
+    }
+
+    /// Particle radius (m).
+    pub fn radius(&self) -> f32 {
+        self.scene.radius()
+    }
+
+    /// Add the emitter's particles for the coming frame to the pending upload.
+    fn emit(&mut self) {
+        let dt = 1.0 / self.params.fps as f64;
+        let room = self.capacity().saturating_sub(self.count()) as usize;
+        let new = self.scene.emit(self.time, self.time + dt, room);
+        if new.is_empty() {
+            return;
+        }
+        let at = self.count();
+        let pending = self.pending.get_or_insert_with(|| (at, vec![]));
+        for (p, v) in new {
+            pending.1.push([p[0], p[1], p[2], f32::from_bits(self.next_id), v[0], v[1], v[2], 0.0]);
+            self.next_id += 1;
+        }
+    }
+
+    /// Record one frame (`substeps` steps) into `ctx`, each stage in its own pass scope; the renderer's particles
+    /// (xyz, w = 0) go to `out`, or to the simulation's own buffer. Advances `time` by one frame.
+    pub fn record_frame(&mut self, ctx: &mut FrameCtx, out: Option<&Buffer>) -> Result<()> {
+        self.emit();
+        let k = self.ring;
+        self.ring = (self.ring + 1) % RING;
+        if let Some((at, data)) = self.pending.take() {
+            let bytes: &[u8] = bytemuck::cast_slice(&data);
+            if self.staging[k].as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
+                self.staging[k] = Some(Buffer::new(
+                    &self.gpu,
+                    "sim_staging",
+                    (bytes.len() as u64).max(16),
+                    vk::BufferUsageFlags::TRANSFER_SRC,
+                    MemoryLocation::CpuToGpu,
+                )?);
+            }
+            let staging = self.staging[k].as_mut().expect("set");
+            staging.write(0, bytes)?;
+            let region = vk::BufferCopy { src_offset: 0, dst_offset: at as u64 * 32, size: bytes.len() as u64 };
+            ctx.copy_buffer(staging, &self.state[0], region);
+            self.n = at + data.len() as u32;
+        }
+        let u = self.uniforms_now();
+        self.uniforms[k].write(0, bytemuck::bytes_of(&u))?;
+        let out = out.unwrap_or(&self.particles);
+        for _ in 0..self.constants.substeps {
+            self.record_step(ctx, k, out);
+        }
+        self.time += 1.0 / self.params.fps as f64;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// The uniform block for the current count, pusher and constants.
+    pub fn uniforms_now(&self) -> SimUniforms {
+        let c = &self.constants;
+        let r = self.radius();
+        let (lo, hi) = self.scene.container;
+        let mut colliders = [[0f32; 4]; 2 * MAX_COLLIDERS as usize];
+        let mut all = self.scene.colliders.clone();
+        if let Some((centre, radius)) = self.pusher {
+            all.push(Collider::Sphere { centre, radius });
+        }
+        for (i, col) in all.iter().enumerate() {
+            let [a, b] = col.encode();
+            colliders[2 * i] = a;
+            colliders[2 * i + 1] = b;
+        }
+        let pi = std::f32::consts::PI;
+        SimUniforms {
+            grid: self.grid.shape,
+            lo_dt: (lo + r).extend(c.dt).to_array(),
+            hi_h: (hi - r).extend(c.h).to_array(),
+            gravity_mass: Vec3::from(self.params.gravity).extend(c.mass).to_array(),
+            solver: [self.params.rest_density, c.eps, c.scorr_k, c.inv_w_dq],
+            visc: [self.params.xsph, self.params.vorticity, r, self.params.scorr_n],
+            kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
+            counts: [self.n, all.len() as u32, 0, 0],
+            colliders,
+        }
+    }
+
+    fn record_step(&self, ctx: &mut FrameCtx, k: usize, out: &Buffer) {
+        let n = self.n;
+        let u = &self.uniforms[k];
+        let [a, b] = &self.state;
+        let (g, s) = (&self.stages, &self.grid);
+        g.predict(ctx, u, a, &self.pred[0], n);
+        ctx.pass(crate::passes::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
+        g.reorder(ctx, u, &s.order, a, &self.pred[0], b, &self.pred[1], n);
+        let mut cur = 1;
+        for _ in 0..self.params.iterations {
+            g.density(ctx, u, s, &self.pred[cur], &self.lambda, &self.density, n);
+            g.solve(ctx, u, s, &self.pred[cur], &self.lambda, &self.pred[1 - cur], n);
+            cur = 1 - cur;
+        }
+        let x = &self.pred[cur];
+        g.velocity(ctx, u, b, x, &self.vel, n);
+        g.vorticity(ctx, u, s, x, &self.vel, &self.omega, n);
+        g.viscosity(ctx, u, s, x, &self.vel, &self.omega, b, a, out, n);
+    }
+
+    /// Simulate one frame in its own submission and wait for it; per-stage GPU times (summed over the steps).
+    pub fn step_frame(&mut self) -> Result<PassTimes> {
+        let mut timer = self.timer.take().expect("timer");
+        let gpu = self.gpu.clone();
+        let r = gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&gpu, cmd, Some(&mut timer));
+            self.record_frame(&mut ctx, None)
+        });
+        let times = r.and_then(|_| timer.read());
+        self.timer = Some(timer);
+        times
+    }
+
+    /// The simulation's own render particles (vec4, w = 0), written by frames recorded without a target.
+    pub fn particle_buffer(&self) -> &Buffer {
+        &self.particles
+    }
+
+    /// Read the state back (waits for the device): positions, velocities, densities and ids, in the order of
+    /// the last step.
+    pub fn read(&self) -> Result<crate::scene::Particles> {
+        if self.frames == 0 {
+            let n = self.scene.positions.len();
+            return Ok(crate::scene::Particles {
+                positions: self.scene.positions.clone(),
+                velocities: Some(self.scene.velocities.clone()),
+                densities: Some(vec![self.params.rest_density; n]),
+                ids: Some((0..n as i64).collect()),
+                ..Default::default()
+            });
+        }
+        let n = self.n as u64;
+        let rb = Buffer::new(
+            &self.gpu,
+            "sim_readback",
+            (36 * n).max(16),
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        self.gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&self.gpu, cmd, None);
+            ctx.copy_buffer(&self.state[0], &rb, vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 32 * n });
+            ctx.copy_buffer(&self.density, &rb, vk::BufferCopy { src_offset: 0, dst_offset: 32 * n, size: 4 * n });
+            ctx.barrier(&[crate::gpu::Use::Buffer(&rb, crate::gpu::Access::HostRead)]);
+            Ok(())
+        })?;
+        let bytes = rb.read()?;
+        let state: &[[f32; 8]] = bytemuck::cast_slice(&bytes[..32 * n as usize]);
+        let density: Vec<f32> = bytemuck::cast_slice::<u8, f32>(&bytes[32 * n as usize..36 * n as usize]).to_vec();
+        Ok(crate::scene::Particles {
+            positions: state.iter().map(|s| [s[0], s[1], s[2]]).collect(),
+            velocities: Some(state.iter().map(|s| [s[4], s[5], s[6]]).collect()),
+            densities: Some(density),
+            ids: Some(state.iter().map(|s| s[3].to_bits() as i64).collect()),
+            ..Default::default()
+        })
+    }
+}

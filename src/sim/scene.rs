@@ -1,0 +1,286 @@
+//! The simulation's scenes: a container (the box the water stays in), colliders, the water's initial shape
+//! and an optional emitter. Particle count is a request; the spacing follows from the water's volume
+//! (d = (V/N)^(1/3), radius r = d/2), and the lattice fill gives the actual count.
+//!
+//! - `dambreak`: the shared SPlisHSPlasH sequences' set-up (../shared/data/splishsplash/*/scene.json): tank
+//!   4 × 3 × 1.5 m centred at (0, 1.5, 0), a 1 m water cube at x ∈ [−1.95, −0.95], y ∈ [0.05, 1.05],
+//!   z ∈ [−0.5, 0.5].
+//! - `drop`: a sphere of water falling into a pool (the crown splash).
+//! - `waterfall`: water emitted over a ledge (a solid box) into a basin.
+//! - `pool`: water at rest (the resting-pool test).
+
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+
+/// A solid the water cannot enter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Collider {
+    /// Solid sphere.
+    Sphere {
+        /// Centre.
+        centre: Vec3,
+        /// Radius.
+        radius: f32,
+    },
+    /// Solid axis-aligned box.
+    Box {
+        /// Centre.
+        centre: Vec3,
+        /// Half extents.
+        half: Vec3,
+    },
+    /// Half-space: the water keeps n·x ≥ offset.
+    Plane {
+        /// Unit normal pointing into the water's side.
+        normal: Vec3,
+        /// Offset along the normal.
+        offset: f32,
+    },
+}
+
+impl Collider {
+    /// The two vec4 of the collider in sim_common.glsl's uniform block.
+    pub fn encode(&self) -> [[f32; 4]; 2] {
+        match *self {
+            Collider::Sphere { centre, radius } => [centre.extend(1.0).to_array(), [radius, 0.0, 0.0, 0.0]],
+            Collider::Box { centre, half } => [centre.extend(2.0).to_array(), half.extend(0.0).to_array()],
+            Collider::Plane { normal, offset } => {
+                [normal.normalize_or(Vec3::Y).extend(3.0).to_array(), [offset, 0.0, 0.0, 0.0]]
+            }
+        }
+    }
+}
+
+/// Particles entering the scene through a rectangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emitter {
+    /// Centre of the rectangle.
+    pub centre: Vec3,
+    /// Velocity of the emitted water (the rectangle faces along it).
+    pub velocity: Vec3,
+    /// Half extents of the rectangle (across the flow: horizontal, vertical).
+    pub half: [f32; 2],
+}
+
+/// A scene with its particles laid out.
+#[derive(Clone, Debug)]
+pub struct SimScene {
+    /// `dambreak`, `drop`, `waterfall`, `pool`.
+    pub name: &'static str,
+    /// Container interior (lo, hi).
+    pub container: (Vec3, Vec3),
+    /// Colliders besides the container.
+    pub colliders: Vec<Collider>,
+    /// Particle spacing d (the radius is d/2).
+    pub spacing: f32,
+    /// Initial positions.
+    pub positions: Vec<[f32; 3]>,
+    /// Initial velocities.
+    pub velocities: Vec<[f32; 3]>,
+    /// Most particles the scene will hold (emitters grow to it).
+    pub capacity: usize,
+    /// The emitter, if any.
+    pub emitter: Option<Emitter>,
+}
+
+/// The built-in scenes, with their default particle counts.
+pub const SCENES: &[(&str, usize, &str)] = &[
+    ("dambreak", 59_319, "the shared SPlisHSPlasH set-up: a 1 m water cube breaking in a 4 × 3 × 1.5 m tank"),
+    ("drop", 60_000, "a sphere of water falling into a pool (crown splash)"),
+    ("waterfall", 60_000, "water emitted over a ledge into a basin"),
+    ("pool", 20_000, "a pool at rest"),
+];
+
+/// Lattice points (cell centres) of spacing `d` in the box lo..hi, kept where `keep` holds.
+fn lattice(lo: Vec3, hi: Vec3, d: f32, keep: impl Fn(Vec3) -> bool) -> Vec<[f32; 3]> {
+    let n = ((hi - lo) / d + 1e-3).floor().as_uvec3();
+    let mut out = vec![];
+    for k in 0..n.z {
+        for j in 0..n.y {
+            for i in 0..n.x {
+                let p = lo + (Vec3::new(i as f32, j as f32, k as f32) + 0.5) * d;
+                if keep(p) {
+                    out.push(p.to_array());
+                }
+            }
+        }
+    }
+    out
+}
+
+impl SimScene {
+    /// Build scene `name` with about `particles` particles.
+    pub fn new(name: &str, particles: usize) -> Result<SimScene> {
+        if particles < 8 {
+            return Err(Error::Invalid(format!("--particles {particles}: a simulation needs at least 8 particles")));
+        }
+        let n = particles as f32;
+        let tank = (Vec3::new(-2.0, 0.0, -0.75), Vec3::new(2.0, 3.0, 0.75));
+        let scene = match name {
+            "dambreak" => {
+                let (lo, hi) = (Vec3::new(-1.95, 0.05, -0.5), Vec3::new(-0.95, 1.05, 0.5));
+                let d = (1.0 / n).cbrt();
+                let positions = lattice(lo, hi, d, |_| true);
+                SimScene::still("dambreak", tank, vec![], d, positions)
+            }
+            "pool" => {
+                let (lo, hi) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 2.0, 0.5));
+                let depth = 0.4;
+                let d = (depth / n).cbrt();
+                let positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
+                SimScene::still("pool", (lo, hi), vec![], d, positions)
+            }
+            "drop" => {
+                let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
+                let (depth, centre, radius) = (0.25f32, Vec3::new(0.0, 0.9, 0.0), 0.22f32);
+                let volume = 4.0 * depth + 4.0 / 3.0 * std::f32::consts::PI * radius.powi(3);
+                let d = (volume / n).cbrt();
+                let mut positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
+                let ball = lattice(centre - radius, centre + radius, d, |p| p.distance(centre) <= radius);
+                let first_ball = positions.len();
+                positions.extend(ball);
+                let mut s = SimScene::still("drop", (lo, hi), vec![], d, positions);
+                for v in &mut s.velocities[first_ball..] {
+                    *v = [0.0, -2.5, 0.0];
+                }
+                s
+            }
+            "waterfall" => {
+                // A ledge over the left third of the tank; the emitter pours over it for a few seconds.
+                let ledge = Collider::Box { centre: Vec3::new(-1.4, 0.6, 0.0), half: Vec3::new(0.6, 0.6, 0.75) };
+                let emitter = Emitter {
+                    centre: Vec3::new(-1.85, 1.45, 0.0),
+                    velocity: Vec3::new(1.6, 0.0, 0.0),
+                    half: [0.3, 0.12],
+                };
+                // About 6 s of emission fill the capacity.
+                let rate = 4.0 * emitter.half[0] * emitter.half[1] * emitter.velocity.length();
+                let d = (rate * 6.0 / n).cbrt();
+                let mut s = SimScene::still("waterfall", tank, vec![ledge], d, vec![]);
+                s.emitter = Some(emitter);
+                s.capacity = particles;
+                s
+            }
+            other => {
+                let known: Vec<&str> = SCENES.iter().map(|s| s.0).collect();
+                return Err(Error::Invalid(format!(
+                    "unknown simulation scene {other:?} (known: {})",
+                    known.join(", ")
+                )));
+            }
+        };
+        Ok(scene)
+    }
+
+    fn still(
+        name: &'static str,
+        container: (Vec3, Vec3),
+        colliders: Vec<Collider>,
+        d: f32,
+        positions: Vec<[f32; 3]>,
+    ) -> SimScene {
+        let n = positions.len();
+        SimScene {
+            name,
+            container,
+            colliders,
+            spacing: d,
+            velocities: vec![[0.0; 3]; n],
+            positions,
+            capacity: n,
+            emitter: None,
+        }
+    }
+
+    /// Particle radius (half the spacing).
+    pub fn radius(&self) -> f32 {
+        0.5 * self.spacing
+    }
+
+    /// The water the emitter adds when it has run `from`..`to` seconds: positions and velocities of the
+    /// lattice layers whose travel crossed the rectangle in that interval (at most `room` particles).
+    pub fn emit(&self, from: f64, to: f64, room: usize) -> Vec<([f32; 3], [f32; 3])> {
+        let Some(e) = self.emitter else { return vec![] };
+        let d = self.spacing as f64;
+        let speed = e.velocity.length() as f64;
+        if speed <= 0.0 || room == 0 {
+            return vec![];
+        }
+        let dir = e.velocity / speed as f32;
+        let across = dir.cross(Vec3::Y).normalize_or(Vec3::Z);
+        let up = across.cross(dir);
+        let (na, nu) = ((2.0 * e.half[0] / self.spacing) as i32, (2.0 * e.half[1] / self.spacing) as i32);
+        let mut out = vec![];
+        // Layer k leaves the rectangle at t = k d / speed; a layer emitted at t has travelled speed (to − t).
+        let (k0, k1) = ((from * speed / d).ceil() as i64, (to * speed / d).ceil() as i64);
+        for k in k0..k1 {
+            let travelled = (to - k as f64 * d / speed) * speed;
+            for a in 0..na {
+                for u in 0..nu {
+                    if out.len() >= room {
+                        return out;
+                    }
+                    let off = across * ((a as f32 + 0.5) * self.spacing - e.half[0])
+                        + up * ((u as f32 + 0.5) * self.spacing - e.half[1]);
+                    let p = e.centre + off + dir * travelled as f32;
+                    out.push((p.to_array(), e.velocity.to_array()));
+                }
+            }
+        }
+        out
+    }
+
+    /// The container's walls as background boxes (back, left and right walls and a low front lip, `thick`
+    /// thick), so the tank shows without hiding the water.
+    pub fn wall_boxes(&self) -> Vec<(Vec3, Vec3)> {
+        let (lo, hi) = self.container;
+        let t = (0.02 * (hi - lo).max_element()).max(self.spacing);
+        let mut b = vec![
+            (Vec3::new(lo.x - t, lo.y, lo.z - t), Vec3::new(hi.x + t, hi.y, lo.z)),
+            (Vec3::new(lo.x - t, lo.y, lo.z), Vec3::new(lo.x, hi.y, hi.z)),
+            (Vec3::new(hi.x, lo.y, lo.z), Vec3::new(hi.x + t, hi.y, hi.z)),
+        ];
+        for c in &self.colliders {
+            if let Collider::Box { centre, half } = c {
+                b.push((*centre - *half, *centre + *half));
+            }
+        }
+        b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dambreak_matches_the_shared_set_up() {
+        let s = SimScene::new("dambreak", 59_319).unwrap();
+        assert_eq!(s.positions.len(), 39 * 39 * 39);
+        assert!((s.radius() - 0.5 / 39.0).abs() < 1e-6);
+        let lo = s.positions.iter().fold(Vec3::INFINITY, |a, p| a.min(Vec3::from(*p)));
+        let hi = s.positions.iter().fold(Vec3::NEG_INFINITY, |a, p| a.max(Vec3::from(*p)));
+        assert!((lo - Vec3::new(-1.95, 0.05, -0.5) - Vec3::splat(s.radius())).abs().max_element() < 1e-4);
+        assert!((hi - Vec3::new(-0.95, 1.05, 0.5) + Vec3::splat(s.radius())).abs().max_element() < 1e-4);
+    }
+
+    #[test]
+    fn scenes_build_and_unknown_names_are_errors() {
+        for (name, n, _) in SCENES {
+            let s = SimScene::new(name, *n / 10).unwrap();
+            assert!(s.capacity >= s.positions.len());
+        }
+        assert!(SimScene::new("nope", 1000).unwrap_err().to_string().contains("dambreak"));
+        assert!(SimScene::new("dambreak", 0).is_err());
+    }
+
+    #[test]
+    fn the_emitter_adds_layers_at_its_speed() {
+        let s = SimScene::new("waterfall", 20_000).unwrap();
+        let a = s.emit(0.0, 0.5, usize::MAX).len();
+        let b = s.emit(0.5, 1.0, usize::MAX).len();
+        assert!(a > 0 && (a as i64 - b as i64).abs() <= (a as i64 / 5).max(1));
+        assert_eq!(s.emit(0.0, 0.5, 10).len(), 10);
+    }
+}

@@ -1,0 +1,173 @@
+//! The simulation's stages: one program each, named like its shader (`sim_predict` ↔
+//! shaders_glsl/sim_predict.comp ↔ debug label ↔ timestamp key ↔ JSON key). The neighbour grid between
+//! predict and reorder is the shared `grid` pass (src/passes/grid.rs). Binding 0 of every stage is the
+//! simulation's uniform block (sim_common.glsl). The stages live in one module because they share that block
+//! and the particle layout; each is one declaration and one small record function.
+use std::sync::Arc;
+
+use crate::declare_program;
+use crate::error::Result;
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
+use crate::passes::grid::GridBuffers;
+use crate::shader_constants::LOCAL_1D;
+use crate::shaders;
+
+/// Every stage of a step, in order (timestamp keys and bench rows).
+pub const STAGE_NAMES: &[&str] = &[
+    "sim_predict",
+    "grid",
+    "sim_reorder",
+    "sim_density",
+    "sim_solve",
+    "sim_velocity",
+    "sim_vorticity",
+    "sim_viscosity",
+];
+
+declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite]));
+declare_program!(pub REORDER: () = compute(shaders::SIM_REORDER, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
+declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub VISCOSITY: () = compute(
+    shaders::SIM_VISCOSITY,
+    [Uniform, BufRead, BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]
+));
+
+/// The stages' programs.
+pub struct Stages {
+    predict: ComputeProgram,
+    reorder: ComputeProgram,
+    density: ComputeProgram,
+    solve: ComputeProgram,
+    velocity: ComputeProgram,
+    vorticity: ComputeProgram,
+    viscosity: ComputeProgram,
+}
+
+fn groups(n: u32) -> [u32; 3] {
+    [n.div_ceil(LOCAL_1D), 1, 1]
+}
+
+impl Stages {
+    /// Build the pipelines.
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Stages> {
+        Ok(Stages {
+            predict: ComputeProgram::new(gpu, &PREDICT)?,
+            reorder: ComputeProgram::new(gpu, &REORDER)?,
+            density: ComputeProgram::new(gpu, &DENSITY)?,
+            solve: ComputeProgram::new(gpu, &SOLVE)?,
+            velocity: ComputeProgram::new(gpu, &VELOCITY)?,
+            vorticity: ComputeProgram::new(gpu, &VORTICITY)?,
+            viscosity: ComputeProgram::new(gpu, &VISCOSITY)?,
+        })
+    }
+
+    /// `sim_predict`: state (v += Δt g) → pred (x*).
+    pub fn predict(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, n: u32) {
+        ctx.pass("sim_predict", |ctx| {
+            self.predict.dispatch(ctx, &[u.into(), state.into(), pred.into()], &(), groups(n))
+        });
+    }
+
+    /// `sim_reorder`: state and pred gathered into grid order.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reorder(
+        &self,
+        ctx: &mut FrameCtx,
+        u: &Buffer,
+        order: &Buffer,
+        state: &Buffer,
+        pred: &Buffer,
+        state_out: &Buffer,
+        pred_out: &Buffer,
+        n: u32,
+    ) {
+        let res = [u.into(), order.into(), state.into(), pred.into(), state_out.into(), pred_out.into()];
+        ctx.pass("sim_reorder", |ctx| self.reorder.dispatch(ctx, &res, &(), groups(n)));
+    }
+
+    /// `sim_density`: pred → lambda, density.
+    #[allow(clippy::too_many_arguments)]
+    pub fn density(
+        &self,
+        ctx: &mut FrameCtx,
+        u: &Buffer,
+        g: &GridBuffers,
+        pred: &Buffer,
+        lambda: &Buffer,
+        density: &Buffer,
+        n: u32,
+    ) {
+        let res = [u.into(), (&g.counts).into(), (&g.start).into(), pred.into(), lambda.into(), density.into()];
+        ctx.pass("sim_density", |ctx| self.density.dispatch(ctx, &res, &(), groups(n)));
+    }
+
+    /// `sim_solve`: pred, lambda → the next iterate.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve(
+        &self,
+        ctx: &mut FrameCtx,
+        u: &Buffer,
+        g: &GridBuffers,
+        pred: &Buffer,
+        lambda: &Buffer,
+        next: &Buffer,
+        n: u32,
+    ) {
+        let res = [u.into(), (&g.counts).into(), (&g.start).into(), pred.into(), lambda.into(), next.into()];
+        ctx.pass("sim_solve", |ctx| self.solve.dispatch(ctx, &res, &(), groups(n)));
+    }
+
+    /// `sim_velocity`: (x* − x)/Δt → vel.
+    pub fn velocity(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, vel: &Buffer, n: u32) {
+        let res = [u.into(), state.into(), pred.into(), vel.into()];
+        ctx.pass("sim_velocity", |ctx| self.velocity.dispatch(ctx, &res, &(), groups(n)));
+    }
+
+    /// `sim_vorticity`: vel → omega.
+    #[allow(clippy::too_many_arguments)]
+    pub fn vorticity(
+        &self,
+        ctx: &mut FrameCtx,
+        u: &Buffer,
+        g: &GridBuffers,
+        pred: &Buffer,
+        vel: &Buffer,
+        omega: &Buffer,
+        n: u32,
+    ) {
+        let res = [u.into(), (&g.counts).into(), (&g.start).into(), pred.into(), vel.into(), omega.into()];
+        ctx.pass("sim_vorticity", |ctx| self.vorticity.dispatch(ctx, &res, &(), groups(n)));
+    }
+
+    /// `sim_viscosity`: confinement + XSPH → the new state and the render particles.
+    #[allow(clippy::too_many_arguments)]
+    pub fn viscosity(
+        &self,
+        ctx: &mut FrameCtx,
+        u: &Buffer,
+        g: &GridBuffers,
+        pred: &Buffer,
+        vel: &Buffer,
+        omega: &Buffer,
+        sorted: &Buffer,
+        state: &Buffer,
+        out: &Buffer,
+        n: u32,
+    ) {
+        let res = [
+            u.into(),
+            (&g.counts).into(),
+            (&g.start).into(),
+            pred.into(),
+            vel.into(),
+            omega.into(),
+            sorted.into(),
+            state.into(),
+            out.into(),
+        ];
+        ctx.pass("sim_viscosity", |ctx| self.viscosity.dispatch(ctx, &res, &(), groups(n)));
+    }
+}
