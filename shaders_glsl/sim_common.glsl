@@ -108,15 +108,38 @@ vec3 collide(vec3 x) {
     return clamp(x, sim.lo_dt.xyz, sim.hi_h.xyz);
 }
 
-// for (uint J …) over the sorted places of every particle in the 27 cells around p; close with `}}`.
-// Needs `counts` and `start` (the grid pass's outputs) declared by the shader.
-#define FOR_NEIGHBOURS(p, J)                                                                    \
+// for (uint J …) over the sorted places of every particle in the 27 cells around p; close with END_CELLS.
+// Cells are numbered x fastest and sorted in that order, so the three cells of a row (x − 1 … x + 1) are one
+// contiguous range: 9 ranges instead of 27 cells. Needs `counts` and `start` (the grid pass's outputs)
+// declared by the shader. Only sim_neighbours walks cells; the other stages read its neighbour lists.
+#define FOR_CELLS(p, J)                                                                         \
     ivec3 c0_ = grid_cell(sim.grid, p);                                                        \
-    for (int dz_ = -1; dz_ <= 1; ++dz_) for (int dy_ = -1; dy_ <= 1; ++dy_) for (int dx_ = -1; dx_ <= 1; ++dx_) { \
-        ivec3 c_ = c0_ + ivec3(dx_, dy_, dz_);                                                 \
-        if (any(lessThan(c_, ivec3(0))) || any(greaterThanEqual(c_, ivec3(sim.grid.dims.xyz)))) continue; \
-        uint ci_ = grid_index(sim.grid, c_);                                                   \
-        uint s_ = start[ci_];                                                                  \
-        uint e_ = s_ + counts[ci_];                                                            \
+    ivec3 d_ = ivec3(sim.grid.dims.xyz);                                                       \
+    int x0_ = max(c0_.x - 1, 0), x1_ = min(c0_.x + 1, d_.x - 1);                               \
+    for (int z_ = max(c0_.z - 1, 0); z_ <= min(c0_.z + 1, d_.z - 1); ++z_)                    \
+    for (int y_ = max(c0_.y - 1, 0); y_ <= min(c0_.y + 1, d_.y - 1); ++y_) {                   \
+        uint a_ = grid_index(sim.grid, ivec3(x0_, y_, z_));                                    \
+        uint b_ = grid_index(sim.grid, ivec3(x1_, y_, z_));                                    \
+        uint s_ = start[a_];                                                                   \
+        uint e_ = start[b_] + counts[b_];                                                      \
         for (uint J = s_; J < e_; ++J) {
-#define END_NEIGHBOURS }}
+#define END_CELLS }}
+
+// for (uint J …) over particle i's neighbours (within h of it when the list was made, itself excluded), as
+// listed by sim_neighbours at the step's predicted positions (Macklin & Müller, Alg. 1 line 6: the neighbour
+// set is found once per step). Needs `nbr_count` and `nbrs` declared by the shader.
+#define FOR_NEIGHBOURS(i, J)                                                                    \
+    for (uint k_ = 0u, n_ = nbr_count[i]; k_ < n_; ++k_) {                                     \
+        uint J = nbrs[(i) * MAX_NEIGHBOURS + k_];
+#define END_NEIGHBOURS }
+
+// The neighbour-list bindings of the stages that read them (at 1 and 2).
+#define NEIGHBOUR_BUFFERS                                                                       \
+    layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
+    layout(std430, binding = 2) readonly buffer Nbrs { uint nbrs[]; };
+
+// (s_corr ratio)ⁿ, exact multiplication for the usual n = 4.
+float scorr_pow(float x) {
+    if (sim.visc.w == 4.0) { float x2 = x * x; return x2 * x2; }
+    return pow(x, sim.visc.w);
+}

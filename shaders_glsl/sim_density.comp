@@ -3,11 +3,10 @@
 //! C_i = max(ρ_i/ρ0 − 1, 0) (unilateral: a particle at the free surface is not pulled outward, the usual
 //! choice since FleX), λ_i = −C_i / (Σ_k |∇_k C_i|² + ε), ∇_k C_i = (m/ρ0)·∇W_spiky.
 //! The container walls add their density and gradient (sim_common.glsl's wall_density).
-//! In: counts, start (grid), pred. Out: lambda, density (kg/m³, exported with the cache).
+//! In: the neighbour lists, pred. Out: lambda, density (kg/m³, exported with the cache).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
-layout(std430, binding = 2) readonly buffer Start { uint start[]; };
+NEIGHBOUR_BUFFERS
 layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
 layout(std430, binding = 4) writeonly buffer Lambda { float lambda[]; };
 layout(std430, binding = 5) writeonly buffer Density { float density[]; };
@@ -17,17 +16,15 @@ void main() {
     if (i >= sim.counts.x) return;
     vec3 xi = pred[i].xyz;
     float vol = sim.kern.w;
-    float w = 0.0;
+    float w = poly6(0.0);
     vec3 grad_i = vec3(0.0);
     float sum2 = 0.0;
-    FOR_NEIGHBOURS(xi, j)
+    FOR_NEIGHBOURS(i, j)
         vec3 r = xi - pred[j].xyz;
         w += poly6(dot(r, r));
-        if (j != i) {
-            vec3 g = vol * spiky_grad(r);
-            grad_i += g;
-            sum2 += dot(g, g);
-        }
+        vec3 g = vol * spiky_grad(r);
+        grad_i += g;
+        sum2 += dot(g, g);
     END_NEIGHBOURS
     vec3 gw;
     float fw = wall_density(xi, gw);

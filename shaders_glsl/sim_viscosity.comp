@@ -3,11 +3,10 @@
 //! f = ε_v·(N × ω_i), N = η/|η|, η = Σ_j V·(|ω_j| − |ω_i|)·∇W_spiky(x_i − x_j); then XSPH viscosity
 //! v_i ← v_i + c·Σ_j V·(v_j − v_i)·W_poly6(x_i − x_j); x ← x*. Writes the new state (grid order of this step)
 //! and the renderer's particles (xyz, w = 0: the frame radius).
-//! In: counts, start, pred, vel, omega, the sorted state (ids). Out: state, particles.
+//! In: the neighbour lists, pred, vel, omega, the sorted state (ids). Out: state, particles.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
-layout(std430, binding = 2) readonly buffer Start { uint start[]; };
+NEIGHBOUR_BUFFERS
 layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
 layout(std430, binding = 4) readonly buffer Vel { vec4 vel[]; };
 layout(std430, binding = 5) readonly buffer Omega { vec4 omega[]; };
@@ -23,8 +22,7 @@ void main() {
     float wi = omega[i].w;
     vec3 eta = vec3(0.0);
     vec3 xsph = vec3(0.0);
-    FOR_NEIGHBOURS(xi, j)
-        if (j == i) continue;
+    FOR_NEIGHBOURS(i, j)
         vec3 r = xi - pred[j].xyz;
         eta += (omega[j].w - wi) * spiky_grad(r);
         xsph += (vel[j].xyz - vi) * poly6(dot(r, r));

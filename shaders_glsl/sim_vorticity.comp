@@ -1,11 +1,10 @@
 #version 460
 //! sim_vorticity — vorticity at every particle (Macklin & Müller 2013, eq. 15; Fedkiw et al. 2001):
 //! ω_i = Σ_j V·(v_j − v_i) × ∇_j W_spiky(x_i − x_j), V = m/ρ0 and ∇_j W(x_i − x_j) = −∇W_spiky(x_i − x_j).
-//! In: counts, start, pred, vel. Out: omega (xyz; w = |ω|).
+//! In: the neighbour lists, pred, vel. Out: omega (xyz; w = |ω|).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
-layout(std430, binding = 2) readonly buffer Start { uint start[]; };
+NEIGHBOUR_BUFFERS
 layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
 layout(std430, binding = 4) readonly buffer Vel { vec4 vel[]; };
 layout(std430, binding = 5) writeonly buffer Omega { vec4 omega[]; };
@@ -16,8 +15,7 @@ void main() {
     vec3 xi = pred[i].xyz;
     vec3 vi = vel[i].xyz;
     vec3 w = vec3(0.0);
-    FOR_NEIGHBOURS(xi, j)
-        if (j == i) continue;
+    FOR_NEIGHBOURS(i, j)
         w += cross(vel[j].xyz - vi, -spiky_grad(xi - pred[j].xyz));
     END_NEIGHBOURS
     w *= sim.kern.w;

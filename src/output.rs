@@ -126,3 +126,18 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
         }
     }
 }
+
+/// Write particles (positions and the mapped attributes: id, velocity, density) as a particle cache, by the
+/// extension: `.bgeo` (gzip-compressed classic BGEO, as Partio and SPlisHSPlasH write it) or `.vtk` (legacy
+/// binary VTK, as SPlisHSPlasH writes it). Both are read back by `meniscus` and by splashsurf.
+pub fn write_particles(path: &Path, p: &crate::scene::Particles) -> Result<()> {
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    let bytes = if name.ends_with(".bgeo") || name.ends_with(".bgeo.gz") {
+        crate::scene::bgeo::write(&p.to_raw(), true)
+    } else if name.ends_with(".vtk") {
+        crate::scene::vtk::write(&p.to_raw(), true)
+    } else {
+        return Err(Error::Invalid(format!("{}: particle caches are written as .bgeo or .vtk", path.display())));
+    };
+    write_atomic(path, |w| w.write_all(&bytes))
+}

@@ -34,6 +34,8 @@ pub struct Renderer {
     count: u32,
     /// Particles set but not yet copied to the GPU: the next frame's command buffer records the copy.
     staged: Option<Vec<[f32; 4]>>,
+    /// The next frame's particles are written on the GPU by `Hooks::produce`.
+    external: bool,
     executor: Executor,
     /// Per slot: the frame uniform block, the particle staging buffer, the final-colour readback buffer.
     slots: Vec<SlotMemory>,
@@ -89,6 +91,9 @@ fn record_one(rec: &mut Recording, (p, t, u, parts, n, iso, s, info, bg, cached)
 /// Recording work given the frame context and the frame's final image.
 pub type AfterHook<'h> = &'h dyn Fn(&mut FrameCtx, &Image);
 
+/// Recording work that writes a frame's particle buffer (given) on the GPU.
+pub type ProduceHook<'h> = &'h dyn Fn(&mut FrameCtx, &Buffer);
+
 /// Work a caller records into a frame's command buffer: `before` the passes (after the particle upload) and
 /// `after` them (given the final image).
 #[derive(Default, Clone, Copy)]
@@ -97,6 +102,10 @@ pub struct Hooks<'h> {
     pub before: Option<&'h dyn Fn(&mut FrameCtx)>,
     /// Recorded after the frame's passes, with the final image.
     pub after: Option<AfterHook<'h>>,
+    /// Writes this frame's particles into the given buffer on the GPU (a simulation), after
+    /// [`Renderer::set_gpu_particles`]; recorded where the particle upload goes (the async queue's first part in
+    /// a split frame, so the step for this frame overlaps the previous frame's passes).
+    pub produce: Option<ProduceHook<'h>>,
 }
 
 /// Host-written memory of one frame slot.
@@ -143,6 +152,7 @@ impl Renderer {
             current: 0,
             count: 0,
             staged: None,
+            external: false,
             executor,
             slots,
             smoothed: Smoothed::Input,
@@ -218,6 +228,7 @@ impl Renderer {
             .collect();
         // The copy is recorded into the next frame's command buffers (see `record_and_submit_with`).
         self.staged = Some(data);
+        self.external = false;
         self.count = n as u32;
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
@@ -232,6 +243,34 @@ impl Renderer {
     pub fn set_scene_particles(&mut self, p: &crate::scene::Particles, s: &Settings) -> Result<()> {
         let spray = crate::scene::spray_mask_with(p, s.radius, s.spray.density, s.spray.by_neighbours);
         self.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))
+    }
+
+    /// The next frame's `count` particles are written on the GPU by the frame's `Hooks::produce` (xyz, w = 0:
+    /// the frame radius), e.g. by `sim::Simulation::record_frame`; no host copy. `bounds` (lo, hi) contain them
+    /// (the near plane is fitted to it). The iso and mesh surfaces need host positions: use
+    /// [`Renderer::set_particles`] for those.
+    pub fn set_gpu_particles(&mut self, count: u32, bounds: (glam::Vec3, glam::Vec3)) -> Result<()> {
+        let bytes = count as u64 * 16;
+        if bytes > self.gpu.info.max_storage_buffer_range {
+            return Err(Error::Limit(format!("{count} particles exceed this device's storage buffer limit")));
+        }
+        let (lo, hi) = bounds;
+        self.positions = (0..8)
+            .map(|k| {
+                [
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                ]
+            })
+            .collect();
+        self.staged = None;
+        self.external = true;
+        self.count = count;
+        self.spray = None;
+        self.iso = None;
+        self.fluid_mesh = None;
+        Ok(())
     }
 
     /// Upload particles (no per-particle radius, no spray); see [`Renderer::set_particles_with`].
@@ -454,12 +493,16 @@ impl Renderer {
             false
         };
         let split = self.async_compute;
-        if let Some(data) = &self.staged {
+        if self.external && hooks.produce.is_none() {
+            return Err(Error::Invalid("set_gpu_particles needs a frame with Hooks::produce".into()));
+        }
+        let new_particles = self.staged.as_ref().map(|d| d.len() as u64).or(self.external.then_some(self.count as u64));
+        if let Some(len) = new_particles {
             // A split frame uploads into the other buffer (the frame before may still read this one); a
             // one-queue frame into the same (queue order keeps it after the readers). A buffer is replaced
             // only when it is too small, after every frame that may still read it.
             let target = if split { 1 - self.current } else { self.current };
-            let size = (data.len() as u64 * 16).max(16);
+            let size = (len * 16).max(16);
             if self.particles[target].as_ref().is_none_or(|b| b.size < size) {
                 self.executor.wait_idle()?;
                 self.particles[target] = Some(Buffer::new(
@@ -493,6 +536,7 @@ impl Renderer {
         }
         mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
         let staged = self.staged.take();
+        let external = std::mem::take(&mut self.external);
         if let Some(data) = &staged {
             let bytes: &[u8] = bytemuck::cast_slice(data);
             if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
@@ -542,6 +586,9 @@ impl Renderer {
                     unsafe { gpu.device.cmd_copy_buffer(ctx.cmd, staging.raw, particles.raw, &[region]) };
                 }
                 ctx.barrier(&[Use::buf_read(particles)]);
+            }
+            if let (true, Some(p)) = (external, hooks.produce) {
+                p(ctx, particles);
             }
         };
         // The demo's views and overlay, then the readback: after the shading, in its command buffer.
@@ -601,24 +648,29 @@ impl Renderer {
         let [ta, tf, tsh] = &mut slot.segment_timers;
         // The first main command buffer only resets the main timer (it began with the slot).
         let mut first = FrameCtx::new(&gpu, main_cmds[0], Some(&mut slot.timer));
-        let mut up = FrameCtx::new(&gpu, compute_cmds[0], None);
+        // The async part's timer starts in the upload's command buffer (it runs first on that queue), so a
+        // simulation step recorded there (`Hooks::produce`) is timed with the async passes.
+        let mut up = FrameCtx::new(&gpu, compute_cmds[0], Some(ta));
         upload(&mut up);
         if let Some(h) = hooks.before {
             h(&mut up);
         }
-        let mut a = FrameCtx::new(&gpu, compute_cmds[1], Some(ta));
+        let up_touches = std::mem::take(&mut up.touches);
+        let ta = up.timer.take().expect("given");
+        drop(up);
+        let mut a = FrameCtx::continuing(&gpu, compute_cmds[1], Some(ta));
         let mut f = FrameCtx::new(&gpu, main_cmds[1], Some(tf));
         let mut sh = FrameCtx::new(&gpu, main_cmds[2], Some(tsh));
         let sm = record_one(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, frame_args)?;
         finish_frame(&mut sh, sm);
         let segments = vec![
             Segment { queue: QueueId::Main, cmd: main_cmds[0], touches: std::mem::take(&mut first.touches) },
-            Segment { queue: QueueId::Compute, cmd: compute_cmds[0], touches: std::mem::take(&mut up.touches) },
+            Segment { queue: QueueId::Compute, cmd: compute_cmds[0], touches: up_touches },
             Segment { queue: QueueId::Compute, cmd: compute_cmds[1], touches: std::mem::take(&mut a.touches) },
             Segment { queue: QueueId::Main, cmd: main_cmds[1], touches: std::mem::take(&mut f.touches) },
             Segment { queue: QueueId::Main, cmd: main_cmds[2], touches: std::mem::take(&mut sh.touches) },
         ];
-        drop((first, up, a, f, sh));
+        drop((first, a, f, sh));
         self.smoothed = sm;
         self.executor.submit_segments(k, segments)
     }

@@ -168,6 +168,8 @@ pub struct Settings {
     pub ssr: crate::passes::ssr::Params,
     /// `[composite]`: shading.
     pub composite: crate::passes::composite::Params,
+    /// `[sim]`: the live simulation's solver (`meniscus sim`, `demo --sim`, `bench --sim`).
+    pub sim: crate::sim::Params,
 }
 
 /// Spray classification: the `[spray]` section of a settings file.
@@ -203,6 +205,7 @@ impl Default for Settings {
             normals: Default::default(),
             ssr: Default::default(),
             composite: Default::default(),
+            sim: Default::default(),
         }
     }
 }
@@ -306,6 +309,7 @@ impl Settings {
         if !(self.fluid_scale > 0.0 && self.fluid_scale <= 1.0) {
             return bad("fluid_scale (0 < s ≤ 1)");
         }
+        self.sim.validate()?;
         if !(self.splat.radius_scale >= 0.25 && self.splat.radius_scale <= 4.0) {
             return bad("[splat] radius_scale (0.25 … 4)");
         }

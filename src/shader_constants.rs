@@ -19,6 +19,8 @@ pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
 pub const SPLAT_TILE: u32 = 8;
 /// Colliders of a simulation scene (sim_common.glsl's uniform block).
 pub const MAX_COLLIDERS: u32 = 8;
+/// Most neighbours a simulated particle keeps per step (sim_neighbours.comp).
+pub const MAX_NEIGHBOURS: u32 = 64;
 /// Threads of a prefix-sum work group (grid_scan.comp); each scans 4 cells, a block is 4 × this.
 pub const SCAN_LOCAL: u32 = 256;
 /// Cells scanned by one work group of grid_scan.comp.
@@ -34,6 +36,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_PIXELS_PER_PARTICLE", MAX_PIXELS_PER_PARTICLE),
     ("SPLAT_TILE", SPLAT_TILE),
     ("MAX_COLLIDERS", MAX_COLLIDERS),
+    ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),
     ("SCAN_BLOCK", SCAN_BLOCK),
 ];

@@ -256,6 +256,7 @@ pub struct Simulation {
     /// Render particles (vec4, w = 0) when no renderer buffer is given.
     particles: Buffer,
     grid: GridBuffers,
+    neighbours: stages::Neighbours,
     n: u32,
     /// Particles to upload at the next recorded frame (the initial state, or emitted ones) at this index.
     pending: Option<(u32, Vec<[f32; 8]>)>,
@@ -319,6 +320,11 @@ impl Simulation {
             omega: buf("sim_omega", 16 * cap)?,
             particles: buf("sim_particles", 16 * cap)?,
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
+            neighbours: stages::Neighbours {
+                count: buf("sim_nbr_count", 4 * cap)?,
+                list: buf("sim_nbrs", 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
+                overflow: buf("sim_nbr_overflow", 16)?,
+            },
             n: 0,
             pending: None,
             next_id: 0,
@@ -401,6 +407,9 @@ impl Simulation {
             staging.write(0, bytes)?;
             let region = vk::BufferCopy { src_offset: 0, dst_offset: at as u64 * 32, size: bytes.len() as u64 };
             ctx.copy_buffer(staging, &self.state[0], region);
+            if at == 0 {
+                ctx.fill(&self.neighbours.overflow, 0);
+            }
             self.n = at + data.len() as u32;
         }
         let u = self.uniforms_now();
@@ -451,16 +460,18 @@ impl Simulation {
         g.predict(ctx, u, a, &self.pred[0], n);
         ctx.pass(crate::passes::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
         g.reorder(ctx, u, &s.order, a, &self.pred[0], b, &self.pred[1], n);
+        let nb = &self.neighbours;
+        g.neighbours(ctx, u, s, &self.pred[1], nb, n);
         let mut cur = 1;
         for _ in 0..self.params.iterations {
-            g.density(ctx, u, s, &self.pred[cur], &self.lambda, &self.density, n);
-            g.solve(ctx, u, s, &self.pred[cur], &self.lambda, &self.pred[1 - cur], n);
+            g.density(ctx, u, nb, &self.pred[cur], &self.lambda, &self.density, n);
+            g.solve(ctx, u, nb, &self.pred[cur], &self.lambda, &self.pred[1 - cur], n);
             cur = 1 - cur;
         }
         let x = &self.pred[cur];
         g.velocity(ctx, u, b, x, &self.vel, n);
-        g.vorticity(ctx, u, s, x, &self.vel, &self.omega, n);
-        g.viscosity(ctx, u, s, x, &self.vel, &self.omega, b, a, out, n);
+        g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
+        g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, n);
     }
 
     /// Simulate one frame in its own submission and wait for it; per-stage GPU times (summed over the steps).
@@ -474,6 +485,16 @@ impl Simulation {
         let times = r.and_then(|_| timer.read());
         self.timer = Some(timer);
         times
+    }
+
+    /// Particle-steps whose neighbours did not all fit in the list (MAX_NEIGHBOURS) since the last reset
+    /// (waits for the device).
+    pub fn neighbour_overflow(&self) -> Result<u32> {
+        if self.frames == 0 {
+            return Ok(0);
+        }
+        let b = crate::renderer::read_buffer(&self.gpu, &self.neighbours.overflow, 4)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 
     /// The simulation's own render particles (vec4, w = 0), written by frames recorded without a target.

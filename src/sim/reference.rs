@@ -1,8 +1,7 @@
 //! A CPU reference of one PBF step with the same equations and the same uniform block as the GPU stages
 //! (sim_common.glsl and the sim_*.comp shaders), with brute-force neighbour loops: the tests hold the GPU
-//! solver to it. Slow (O(n²)); for small sets only. Like the GPU, a step finds neighbours through the grid
-//! built on the predicted positions: j is a candidate of i when j's cell at prediction is one of the 27 around
-//! i's current cell (the usual PBF approximation of a neighbour list fixed per step); the kernels then decide.
+//! solver to it. Slow (O(n²)); for small sets only. Like the GPU (Macklin & Müller, Alg. 1), a step lists
+//! every particle's neighbours (within h) once, at the predicted positions, and every later loop uses the list.
 
 use glam::Vec3;
 
@@ -73,6 +72,16 @@ pub fn collide(u: &SimUniforms, mut x: Vec3) -> Vec3 {
     x.clamp(v3(u.lo_dt), v3(u.hi_h))
 }
 
+/// sim_common.glsl's scorr_pow.
+fn scorr_pow(u: &SimUniforms, x: f32) -> f32 {
+    if u.visc[3] == 4.0 {
+        let x2 = x * x;
+        x2 * x2
+    } else {
+        x.powf(u.visc[3])
+    }
+}
+
 /// sim_common.glsl's wall_f: the missing half-space mass F(y) and A(y) = −F'(y).
 fn wall_f(u: &SimUniforms, y: f32) -> (f32, f32) {
     let h = u.hi_h[3];
@@ -115,27 +124,21 @@ pub fn step(u: &SimUniforms, iterations: u32, x: &[Vec3], v: &[Vec3]) -> (Vec<Ve
     let vol = u.kern[3];
     let v: Vec<Vec3> = v.iter().map(|v| *v + dt * g).collect();
     let mut p: Vec<Vec3> = x.iter().zip(&v).map(|(x, v)| collide(u, *x + dt * *v)).collect();
-    let shape = u.grid;
-    let cell = |q: Vec3| -> glam::IVec3 {
-        let o = Vec3::new(shape.origin_cell[0], shape.origin_cell[1], shape.origin_cell[2]);
-        let dims = glam::IVec3::new(shape.dims[0] as i32, shape.dims[1] as i32, shape.dims[2] as i32);
-        ((q - o) / shape.origin_cell[3]).floor().as_ivec3().clamp(glam::IVec3::ZERO, dims - 1)
-    };
-    let binned: Vec<glam::IVec3> = p.iter().map(|q| cell(*q)).collect();
-    let near = |q: Vec3, j: usize| (binned[j] - cell(q)).abs().max_element() <= 1;
+    // Neighbour lists at the predicted positions, fixed for the step (sim_neighbours.comp).
+    let h2 = u.kern[0];
+    let lists: Vec<Vec<usize>> =
+        (0..n).map(|i| (0..n).filter(|&j| j != i && (p[i] - p[j]).length_squared() < h2).collect()).collect();
     let mut density = vec![0.0; n];
     for _ in 0..iterations {
         let mut lambda = vec![0.0; n];
         for i in 0..n {
-            let (mut w, mut grad_i, mut sum2) = (0.0, Vec3::ZERO, 0.0);
-            for j in (0..n).filter(|&j| near(p[i], j)) {
+            let (mut w, mut grad_i, mut sum2) = (poly6(u, 0.0), Vec3::ZERO, 0.0);
+            for &j in &lists[i] {
                 let r = p[i] - p[j];
                 w += poly6(u, r.length_squared());
-                if j != i {
-                    let gr = vol * spiky_grad(u, r);
-                    grad_i += gr;
-                    sum2 += gr.length_squared();
-                }
+                let gr = vol * spiky_grad(u, r);
+                grad_i += gr;
+                sum2 += gr.length_squared();
             }
             let (fw, gw) = wall_density(u, p[i]);
             grad_i += gw;
@@ -147,12 +150,9 @@ pub fn step(u: &SimUniforms, iterations: u32, x: &[Vec3], v: &[Vec3]) -> (Vec<Ve
         p = (0..n)
             .map(|i| {
                 let mut dp = Vec3::ZERO;
-                for j in (0..n).filter(|&j| near(p[i], j)) {
-                    if j == i {
-                        continue;
-                    }
+                for &j in &lists[i] {
                     let r = p[i] - p[j];
-                    let s = -u.solver[2] * (poly6(u, r.length_squared()) * u.solver[3]).powf(u.visc[3]);
+                    let s = -u.solver[2] * scorr_pow(u, poly6(u, r.length_squared()) * u.solver[3]);
                     dp += (lambda[i] + lambda[j] + s) * spiky_grad(u, r);
                 }
                 collide(u, p[i] + vol * dp + lambda[i] * wall_density(u, p[i]).1)
@@ -163,10 +163,8 @@ pub fn step(u: &SimUniforms, iterations: u32, x: &[Vec3], v: &[Vec3]) -> (Vec<Ve
     let omega: Vec<Vec3> = (0..n)
         .map(|i| {
             let mut w = Vec3::ZERO;
-            for j in (0..n).filter(|&j| near(p[i], j)) {
-                if j != i {
-                    w += (vel[j] - vel[i]).cross(-spiky_grad(u, p[i] - p[j]));
-                }
+            for &j in &lists[i] {
+                w += (vel[j] - vel[i]).cross(-spiky_grad(u, p[i] - p[j]));
             }
             w * vol
         })
@@ -174,10 +172,7 @@ pub fn step(u: &SimUniforms, iterations: u32, x: &[Vec3], v: &[Vec3]) -> (Vec<Ve
     let out_v = (0..n)
         .map(|i| {
             let (mut eta, mut xsph) = (Vec3::ZERO, Vec3::ZERO);
-            for j in (0..n).filter(|&j| near(p[i], j)) {
-                if j == i {
-                    continue;
-                }
+            for &j in &lists[i] {
                 let r = p[i] - p[j];
                 eta += (omega[j].length() - omega[i].length()) * spiky_grad(u, r);
                 xsph += (vel[j] - vel[i]) * poly6(u, r.length_squared());

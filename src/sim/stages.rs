@@ -9,6 +9,16 @@ use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
 use crate::passes::grid::GridBuffers;
+
+/// Every particle's neighbour list (sim_neighbours.comp's outputs, read by the later stages at bindings 1, 2).
+pub struct Neighbours {
+    /// Neighbours per particle.
+    pub count: Buffer,
+    /// MAX_NEIGHBOURS indices per particle.
+    pub list: Buffer,
+    /// Particles that had more neighbours than fit (one counter).
+    pub overflow: Buffer,
+}
 use crate::shader_constants::LOCAL_1D;
 use crate::shaders;
 
@@ -26,6 +36,10 @@ pub const STAGE_NAMES: &[&str] = &[
 
 declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite]));
 declare_program!(pub REORDER: () = compute(shaders::SIM_REORDER, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+declare_program!(pub NEIGHBOURS: () = compute(
+    shaders::SIM_NEIGHBOURS,
+    [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite]
+));
 declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
@@ -39,6 +53,7 @@ declare_program!(pub VISCOSITY: () = compute(
 pub struct Stages {
     predict: ComputeProgram,
     reorder: ComputeProgram,
+    neighbours: ComputeProgram,
     density: ComputeProgram,
     solve: ComputeProgram,
     velocity: ComputeProgram,
@@ -56,6 +71,7 @@ impl Stages {
         Ok(Stages {
             predict: ComputeProgram::new(gpu, &PREDICT)?,
             reorder: ComputeProgram::new(gpu, &REORDER)?,
+            neighbours: ComputeProgram::new(gpu, &NEIGHBOURS)?,
             density: ComputeProgram::new(gpu, &DENSITY)?,
             solve: ComputeProgram::new(gpu, &SOLVE)?,
             velocity: ComputeProgram::new(gpu, &VELOCITY)?,
@@ -88,19 +104,33 @@ impl Stages {
         ctx.pass("sim_reorder", |ctx| self.reorder.dispatch(ctx, &res, &(), groups(n)));
     }
 
+    /// `sim_neighbours`: grid, pred → the neighbour lists.
+    pub fn neighbours(&self, ctx: &mut FrameCtx, u: &Buffer, g: &GridBuffers, pred: &Buffer, nb: &Neighbours, n: u32) {
+        let res = [
+            u.into(),
+            (&g.counts).into(),
+            (&g.start).into(),
+            pred.into(),
+            (&nb.count).into(),
+            (&nb.list).into(),
+            (&nb.overflow).into(),
+        ];
+        ctx.pass("sim_neighbours", |ctx| self.neighbours.dispatch(ctx, &res, &(), groups(n)));
+    }
+
     /// `sim_density`: pred → lambda, density.
     #[allow(clippy::too_many_arguments)]
     pub fn density(
         &self,
         ctx: &mut FrameCtx,
         u: &Buffer,
-        g: &GridBuffers,
+        g: &Neighbours,
         pred: &Buffer,
         lambda: &Buffer,
         density: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), (&g.counts).into(), (&g.start).into(), pred.into(), lambda.into(), density.into()];
+        let res = [u.into(), (&g.count).into(), (&g.list).into(), pred.into(), lambda.into(), density.into()];
         ctx.pass("sim_density", |ctx| self.density.dispatch(ctx, &res, &(), groups(n)));
     }
 
@@ -110,13 +140,13 @@ impl Stages {
         &self,
         ctx: &mut FrameCtx,
         u: &Buffer,
-        g: &GridBuffers,
+        g: &Neighbours,
         pred: &Buffer,
         lambda: &Buffer,
         next: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), (&g.counts).into(), (&g.start).into(), pred.into(), lambda.into(), next.into()];
+        let res = [u.into(), (&g.count).into(), (&g.list).into(), pred.into(), lambda.into(), next.into()];
         ctx.pass("sim_solve", |ctx| self.solve.dispatch(ctx, &res, &(), groups(n)));
     }
 
@@ -132,13 +162,13 @@ impl Stages {
         &self,
         ctx: &mut FrameCtx,
         u: &Buffer,
-        g: &GridBuffers,
+        g: &Neighbours,
         pred: &Buffer,
         vel: &Buffer,
         omega: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), (&g.counts).into(), (&g.start).into(), pred.into(), vel.into(), omega.into()];
+        let res = [u.into(), (&g.count).into(), (&g.list).into(), pred.into(), vel.into(), omega.into()];
         ctx.pass("sim_vorticity", |ctx| self.vorticity.dispatch(ctx, &res, &(), groups(n)));
     }
 
@@ -148,7 +178,7 @@ impl Stages {
         &self,
         ctx: &mut FrameCtx,
         u: &Buffer,
-        g: &GridBuffers,
+        g: &Neighbours,
         pred: &Buffer,
         vel: &Buffer,
         omega: &Buffer,
@@ -159,8 +189,8 @@ impl Stages {
     ) {
         let res = [
             u.into(),
-            (&g.counts).into(),
-            (&g.start).into(),
+            (&g.count).into(),
+            (&g.list).into(),
             pred.into(),
             vel.into(),
             omega.into(),

@@ -51,6 +51,8 @@ pub struct Job {
     pub camera: Option<Camera>,
     /// `--background-obj`, read and checked before any GPU work.
     pub mesh: Option<Mesh>,
+    /// A simulated scene's container walls (drawn as background boxes instead of the default ones).
+    pub walls: Vec<(glam::Vec3, glam::Vec3)>,
 }
 
 impl Job {
@@ -100,7 +102,34 @@ impl Job {
         if radius_from == RadiusFrom::Estimated {
             eprintln!("radius {radius:.5} estimated from the particles' number density (pass --radius to override)");
         }
-        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh })
+        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls: vec![] })
+    }
+
+    /// The job of a live simulation (`demo --sim`, `bench --sim`): the scene's initial particles, its radius,
+    /// its container as the bounds and its walls in the background.
+    pub fn simulated(scene: &meniscus::sim::SimScene, scene_args: &SceneArgs, settings: Settings) -> Result<Job> {
+        let mut settings = settings;
+        settings.radius = scene.radius();
+        settings.validate()?;
+        let (lo, hi) = scene.container;
+        let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
+        let mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
+        Ok(Job {
+            label: format!("sim {}", scene.name),
+            first: Particles {
+                positions: scene.positions.clone(),
+                velocities: Some(scene.velocities.clone()),
+                ..Default::default()
+            },
+            frames: None,
+            load: LoadOptions::default(),
+            settings,
+            radius_from: RadiusFrom::Scene,
+            bounds: Bounds { lo, hi },
+            camera,
+            mesh,
+            walls: scene.wall_boxes(),
+        })
     }
 
     /// The camera for a `width`×`height` output: the flag's, or fitted to the first frame.
@@ -110,12 +139,17 @@ impl Job {
 
     /// The view of a `width`×`height` output (camera and background scene).
     pub fn view(&self, width: u32, height: u32) -> View {
-        View {
-            camera: self.camera_for(width, height),
-            width,
-            height,
-            env: Environment::around(&self.bounds, self.settings.radius, &self.settings),
+        View { camera: self.camera_for(width, height), width, height, env: self.environment() }
+    }
+
+    /// The background scene: around the particles, or the simulated container's walls on its floor.
+    pub fn environment(&self) -> Environment {
+        let mut env = Environment::around(&self.bounds, self.settings.radius, &self.settings);
+        if !self.walls.is_empty() {
+            env.boxes = self.walls.clone();
+            env.ground_y = self.bounds.lo.y;
         }
+        env
     }
 
     /// Upload one frame's particles (spray flags, per-particle radii) with this job's settings.

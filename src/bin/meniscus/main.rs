@@ -1,5 +1,5 @@
 //! `meniscus` — the command line: `render` (headless to PNG, one frame or a sequence), `info` (what a particle
-//! file holds), `scenes` (the built-in scenes), `bench` (per-pass GPU timings, JSON), `demo` (the window).
+//! file holds), `scenes` (the built-in scenes), `bench` (per-pass GPU timings, JSON), `demo` (the window), `mesh` (marching cubes), `sim` (the GPU fluid solver's cache).
 //! Every subcommand that reads particles starts from the one [`job::Job`] set-up.
 
 mod args;
@@ -10,6 +10,7 @@ mod info;
 mod job;
 mod mesh;
 mod render;
+mod sim;
 
 use clap::{Parser, Subcommand};
 
@@ -34,6 +35,8 @@ enum Cmd {
     Bench(bench::BenchArgs),
     /// Extract the SPH iso-surface as a triangle mesh (marching cubes, CPU): PLY or OBJ.
     Mesh(mesh::MeshArgs),
+    /// Simulate a built-in scene on the GPU (Position Based Fluids) and write a particle cache (.bgeo/.vtk).
+    Sim(sim::SimArgs),
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
     #[command(after_help = demo::HELP)]
     Demo(demo::DemoArgs),
@@ -47,6 +50,7 @@ fn main() {
         Cmd::Bench(a) => bench::run(&a),
         Cmd::Demo(a) => demo::main(&a),
         Cmd::Mesh(a) => mesh::run(&a),
+        Cmd::Sim(a) => sim::run(&a),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");

@@ -52,7 +52,8 @@ Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
 F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
-V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit";
+V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit
+--sim: Space pause | Right: one frame | Backspace: restart | hold Ctrl + move the mouse: push the water";
 
 /// `meniscus demo`.
 #[derive(Args, Clone, Debug)]
@@ -81,6 +82,11 @@ pub struct DemoArgs {
     /// swapchain's recreation with frames in flight).
     #[arg(long, hide = true)]
     exercise_resize: bool,
+    /// Play a live simulation of this scene instead of a file: dambreak, drop, waterfall or pool (`--particles`
+    /// sets the count; the `[sim]` settings section the solver). Keys: Space pause, → one frame, Backspace
+    /// restart, hold Ctrl and move the mouse to push the water with a sphere.
+    #[arg(long, value_name = "SCENE")]
+    sim: Option<String>,
     #[command(flatten)]
     load: LoadArgs,
     #[command(flatten)]
@@ -93,7 +99,19 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
         anyhow::bail!("--screenshot needs --frames N (or press P in the window)");
     }
     crate::args::check_size(a.width, a.height)?;
-    let job = Job::open(&a.scene, &a.load, a.set.resolve()?, Select::default())?;
+    let settings = a.set.resolve()?;
+    let sim = match &a.sim {
+        Some(name) => {
+            let n = meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1);
+            let scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
+            Some((scene, settings.sim.clone()))
+        }
+        None => None,
+    };
+    let job = match &sim {
+        Some((scene, _)) => Job::simulated(scene, &a.scene, settings)?,
+        None => Job::open(&a.scene, &a.load, settings, Select::default())?,
+    };
     eprintln!("{}", job.summary(Some((a.width, a.height))));
     run(
         job,
@@ -107,6 +125,7 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             screenshot: a.screenshot.clone(),
             exercise_resize: a.exercise_resize,
             fps: a.fps.max(0.1),
+            sim,
         },
     )?;
     Ok(())
@@ -126,6 +145,8 @@ pub struct DemoOptions {
     /// Scripted resizes (see `--exercise-resize`).
     pub exercise_resize: bool,
     pub fps: f32,
+    /// A live simulation to play instead of the job's particles.
+    pub sim: Option<(meniscus::sim::SimScene, meniscus::sim::Params)>,
 }
 
 struct State {
@@ -141,6 +162,8 @@ struct State {
     overlay_staging: Vec<Option<Buffer>>,
     values: Vec<Option<Buffer>>,
     acquired: Vec<vk::Semaphore>,
+    /// The live simulation (`--sim`).
+    sim: Option<meniscus::sim::Simulation>,
 }
 
 struct App {
@@ -181,6 +204,9 @@ struct App {
     last_times: PassTimes,
     screenshot_count: u32,
     resized: bool,
+    /// Simulation: one frame requested while paused; the last particles read back (particle view, iso, mesh).
+    sim_step: bool,
+    sim_particles: Option<Particles>,
 }
 
 /// Run the demo until the window closes or `frames` are done.
@@ -232,6 +258,8 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         last_times: PassTimes::default(),
         screenshot_count: 0,
         resized: false,
+        sim_step: o.sim.is_some(),
+        sim_particles: None,
         o,
         settings: s,
         load,
@@ -348,6 +376,21 @@ impl App {
         if !ok {
             return Err(Error::NoDevice(format!("{} cannot present to this window", gpu.info.name)));
         }
+        let sim = match &self.o.sim {
+            Some((scene, params)) => {
+                let sim = meniscus::sim::Simulation::new(&gpu, scene.clone(), params.clone())?;
+                eprintln!(
+                    "sim {}: {} particles, {} steps of {:.2} ms per frame, {} iterations",
+                    scene.name,
+                    sim.count(),
+                    sim.constants.substeps,
+                    sim.constants.dt * 1e3,
+                    sim.params.iterations
+                );
+                Some(sim)
+            }
+            None => None,
+        };
         let mut renderer = Renderer::new(&gpu)?;
         if let Some(m) = &self.mesh {
             renderer.set_background_mesh(m)?;
@@ -366,6 +409,7 @@ impl App {
             overlay_staging: (0..n).map(|_| None).collect(),
             values: (0..n).map(|_| None).collect(),
             acquired,
+            sim,
         };
         self.recreate_swapchain(&mut st)?;
         Ok(st)
@@ -376,6 +420,16 @@ impl App {
         match code {
             KeyCode::Escape => el.exit(),
             KeyCode::Space => self.playing = !self.playing,
+            KeyCode::ArrowRight if self.o.sim.is_some() => {
+                self.playing = false;
+                self.sim_step = true;
+            }
+            KeyCode::Backspace => {
+                if let Some(sim) = self.state.as_mut().and_then(|s| s.sim.as_mut()) {
+                    sim.reset();
+                    self.sim_step = true;
+                }
+            }
             KeyCode::ArrowRight => {
                 self.playing = false;
                 self.frame = (self.frame + 1) % n;
@@ -470,6 +524,30 @@ impl App {
         Ok(())
     }
 
+    /// The pushing sphere under the mouse: on the plane through the container's centre facing the camera,
+    /// an eighth of the container's size.
+    fn pusher(&self, sim: &meniscus::sim::Simulation, extent: vk::Extent2D) -> Option<(Vec3, f32)> {
+        let (x, y) = self.cursor?;
+        let (lo, hi) = sim.scene.container;
+        let centre = 0.5 * (lo + hi);
+        let c = &self.camera;
+        let f = c.focal_px(extent.height);
+        let dir_view = Vec3::new(
+            (x as f32 + 0.5 - 0.5 * extent.width as f32) / f,
+            -(y as f32 + 0.5 - 0.5 * extent.height as f32) / f,
+            -1.0,
+        );
+        let dir = c.view().inverse().transform_vector3(dir_view).normalize();
+        let forward = (c.target - c.eye).normalize();
+        let denom = dir.dot(forward);
+        if denom.abs() < 1e-4 {
+            return None;
+        }
+        let t = (centre - c.eye).dot(forward) / denom;
+        let p = c.eye + dir * t;
+        Some((p.clamp(lo, hi), 0.125 * (hi - lo).max_element()))
+    }
+
     /// The fly keys held now, as (forward, right, up) in {-1, 0, 1}.
     fn fly_keys(&self) -> (f32, f32, f32) {
         let axis = |plus: KeyCode, minus: KeyCode| {
@@ -525,10 +603,30 @@ impl App {
         let keys = self.fly_keys();
         controller::fly(&mut self.camera, keys, dt);
         let n = self.src.len();
-        if self.playing
-            && n > 1
-            && now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed)
-        {
+        let due = now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed);
+        // The live simulation: one simulated frame per due frame while playing (or one on request).
+        let mut produce = false;
+        if let Some(sim) = st.sim.as_mut() {
+            sim.pusher = if self.mods.control_key() { self.pusher(sim, extent) } else { None };
+            if (self.playing && due) || self.sim_step {
+                self.last_advance = now;
+                self.sim_step = false;
+                // The spheres surface draws straight from the solver's buffer; the iso and mesh surfaces and the
+                // particle view need the particles on the host (a readback per frame).
+                if self.settings.surface == Surface::Spheres && self.mode != ViewMode::Particles {
+                    st.renderer.set_gpu_particles(sim.count(), sim.scene.container)?;
+                    produce = true;
+                    self.sim_particles = None;
+                } else {
+                    sim.step_frame()?;
+                    let p = sim.read()?;
+                    st.renderer.set_scene_particles(&p, &self.settings)?;
+                    self.sim_particles = Some(p);
+                }
+            }
+            self.uploaded = Some(self.frame);
+        }
+        if self.playing && n > 1 && due {
             self.last_advance = now;
             match playback::next_frame(self.frame, n, self.looping) {
                 Some(f) => self.frame = f,
@@ -547,7 +645,16 @@ impl App {
         let k = st.renderer.next_slot();
         st.renderer.wait_slot(k)?;
         let legend = if self.mode == ViewMode::Particles {
-            let p = self.src.get(self.frame, &self.load)?.clone();
+            let p = match &self.sim_particles {
+                Some(p) => p.clone(),
+                None if st.sim.is_some() => {
+                    let p = st.sim.as_ref().expect("checked").read()?;
+                    st.renderer.set_scene_particles(&p, &self.settings)?;
+                    self.sim_particles = Some(p.clone());
+                    p
+                }
+                None => self.src.get(self.frame, &self.load)?.clone(),
+            };
             let (vals, name, lo, hi) = self.values(&p);
             let bytes: &[u8] = bytemuck::cast_slice(&vals);
             let reuse = st.values[k].as_ref().is_some_and(|b| b.size >= bytes.len() as u64);
@@ -623,7 +730,22 @@ impl App {
             };
         };
         let blit = |ctx: &mut FrameCtx, final_img: &Image| present::record_blit(ctx, swap, index, final_img);
-        let hooks = Hooks { before: Some(&upload_overlay), after: Some(&blit) };
+        // The simulation's frame, recorded into this frame's command buffer; it writes the particle buffer the
+        // passes read.
+        let sim_cell = std::cell::RefCell::new(st.sim.as_mut());
+        let sim_err = std::cell::RefCell::new(None);
+        let step = |ctx: &mut FrameCtx, out: &Buffer| {
+            if let Some(sim) = sim_cell.borrow_mut().as_mut() {
+                if let Err(e) = sim.record_frame(ctx, Some(out)) {
+                    *sim_err.borrow_mut() = Some(e);
+                }
+            }
+        };
+        let hooks = Hooks {
+            before: Some(&upload_overlay),
+            after: Some(&blit),
+            produce: if produce { Some(&step) } else { None },
+        };
         let binary = Binary {
             wait: Some((st.acquired[k], vk::PipelineStageFlags2::ALL_COMMANDS)),
             signal: Some(present::rendered(swap, index)),
@@ -631,6 +753,9 @@ impl App {
         let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
         let (_, late) =
             st.renderer.submit_view(&view, &self.settings, self.mode, values, st.overlay.as_ref(), hooks, binary)?;
+        if let Some(e) = sim_err.into_inner() {
+            return Err(e);
+        }
         if let Some(t) = late {
             self.last_times = t;
         }
@@ -691,6 +816,16 @@ impl App {
                 if self.o.vsync { "on" } else { "off" }
             ),
         ];
+        if let Some(sim) = &st.sim {
+            t.push(format!(
+                "sim {}  t = {:.2} s  {} steps x {} iterations per frame  {}",
+                sim.scene.name,
+                sim.time,
+                sim.constants.substeps,
+                sim.params.iterations,
+                if sim.pusher.is_some() { "pushing" } else { "Ctrl+mouse: push" }
+            ));
+        }
         // Per-pass GPU ms of the last frame, four to a line.
         let mut entries: Vec<String> = self.last_times.0.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
         entries.push(format!("total {:.1}", self.last_times.total()));

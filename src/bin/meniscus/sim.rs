@@ -1,0 +1,143 @@
+//! `meniscus sim`: run the live solver (`meniscus::sim`, Position Based Fluids on the GPU) headless on a
+//! built-in scene and write a particle cache — position, velocity, density and id per particle, as `.bgeo`
+//! (what SPlisHSPlasH writes) or `.vtk` — that `meniscus render`, `meniscus info` and splashsurf read.
+//! File n holds the state at t = (n − 1)/fps, like the shared sequences.
+
+use anyhow::{bail, Result};
+use clap::Args;
+
+use meniscus::sim::{SimScene, Simulation, SCENES};
+
+use crate::args::{finish, GpuArgs, SettingsArgs};
+
+/// `meniscus sim`.
+#[derive(Args, Clone, Debug)]
+#[command(after_help = "Scenes: dambreak (the shared SPlisHSPlasH set-up), drop, waterfall, pool.\n\
+Example: meniscus sim dambreak --frames 51 --export 'out/f_{}.bgeo' && meniscus render 'out/f_{}.bgeo' --out frames/")]
+pub struct SimArgs {
+    /// The scene: dambreak, drop, waterfall or pool.
+    pub scene: String,
+    /// Particles (the spacing follows from the water's volume; default: the scene's).
+    #[arg(long)]
+    pub particles: Option<usize>,
+    /// Cache files to write (file 1 is the initial state).
+    #[arg(long, default_value_t = 50)]
+    pub frames: u32,
+    /// Frames per simulated second.
+    #[arg(long, allow_negative_numbers = true)]
+    pub fps: Option<f32>,
+    /// Steps per frame (0: from the CFL bound, at most 5 ms).
+    #[arg(long)]
+    pub substeps: Option<u32>,
+    /// Solver iterations per step.
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// Output pattern: {} is the frame number (1, 2, …); .bgeo or .vtk. Without it nothing is written (a dry run
+    /// that reports the times).
+    #[arg(long)]
+    pub export: Option<String>,
+    /// Settings (the `[sim]` section holds the solver's constants).
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+impl SimArgs {
+    /// The scene and the solver settings the flags ask for.
+    pub fn resolve(&self) -> Result<(SimScene, meniscus::sim::Params)> {
+        let default = SCENES.iter().find(|s| s.0 == self.scene).map_or(10_000, |s| s.1);
+        let scene = SimScene::new(&self.scene, self.particles.unwrap_or(default))?;
+        let mut p = self.settings.resolve()?.sim;
+        if let Some(f) = self.fps {
+            p.fps = f;
+        }
+        if let Some(s) = self.substeps {
+            p.substeps = s;
+        }
+        if let Some(i) = self.iterations {
+            p.iterations = i;
+        }
+        p.validate()?;
+        Ok((scene, p))
+    }
+}
+
+/// Run it.
+pub fn run(a: &SimArgs) -> Result<()> {
+    let (scene, params) = a.resolve()?;
+    if let Some(e) = &a.export {
+        if !e.contains("{}") {
+            bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
+        }
+        let l = e.to_ascii_lowercase();
+        if !(l.ends_with(".bgeo") || l.ends_with(".vtk")) {
+            bail!("--export {e:?}: the cache is written as .bgeo or .vtk");
+        }
+    }
+    if a.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let gpu = a.gpu.open()?;
+    let mut sim = Simulation::new(&gpu, scene, params)?;
+    let c = sim.constants;
+    eprintln!(
+        "sim: {} with {} particles (radius {:.5} m, capacity {}), {} steps of {:.2} ms per frame at {} fps, {} iterations, on {}",
+        sim.scene.name,
+        sim.count(),
+        sim.radius(),
+        sim.capacity(),
+        c.substeps,
+        c.dt * 1e3,
+        sim.params.fps,
+        sim.params.iterations,
+        gpu.info.name
+    );
+    let write = |sim: &Simulation, n: u32| -> Result<()> {
+        if let Some(e) = &a.export {
+            let path = std::path::PathBuf::from(e.replace("{}", &n.to_string()));
+            meniscus::output::write_particles(&path, &sim.read()?)?;
+        }
+        Ok(())
+    };
+    write(&sim, 1)?;
+    let bar = indicatif::ProgressBar::new(a.frames as u64 - 1);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} frames  {per_sec:.2}  {msg}  [{elapsed} < {eta}]",
+        )
+        .expect("template"),
+    );
+    let mut runs = vec![];
+    for n in 2..=a.frames {
+        let t = sim.step_frame()?;
+        bar.set_message(format!("{:.1} ms/step", t.total() / c.substeps as f64));
+        runs.push(t);
+        write(&sim, n)?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let med = meniscus::gpu::timer::median_times(&runs);
+    if !runs.is_empty() {
+        let per_step = med.total() / c.substeps as f64;
+        eprintln!(
+            "{} frames, {} particles at the end; median GPU time per step {:.2} ms ({:.1} steps/s): {}",
+            runs.len(),
+            sim.count(),
+            per_step,
+            1e3 / per_step,
+            med.0.iter().map(|(k, v)| format!("{k} {:.2}", v / c.substeps as f64)).collect::<Vec<_>>().join(", ")
+        );
+    }
+    let over = sim.neighbour_overflow()?;
+    if over > 0 {
+        eprintln!(
+            "warning: {over} particle-steps had more than {} neighbours (the extra ones were ignored)",
+            meniscus::shader_constants::MAX_NEIGHBOURS
+        );
+    }
+    if let Some(e) = &a.export {
+        eprintln!("wrote {} files: {e}", a.frames);
+    }
+    finish(&gpu)
+}
