@@ -370,6 +370,18 @@ impl Renderer {
         self.executor.spans(sub.slot)
     }
 
+    /// [`Renderer::render_spans`] with caller hooks (e.g. a simulation step through `Hooks::produce`).
+    pub fn render_spans_with(
+        &mut self,
+        view: &View,
+        s: &Settings,
+        hooks: Hooks,
+    ) -> Result<Vec<crate::gpu::executor::Span>> {
+        let sub = self.record_and_submit_with(view, s, None, false, hooks, Default::default())?;
+        self.executor.wait_slot(sub.slot)?;
+        self.executor.spans(sub.slot)
+    }
+
     /// Submit one frame and return without waiting for it (N frames may be in flight: starting the frame
     /// after waits only for the frame N back). With `readback`, the frame also copies its final image into
     /// host memory; take it with [`Renderer::read_submitted`] before N more frames are submitted.

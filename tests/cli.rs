@@ -327,3 +327,83 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert!(String::from_utf8_lossy(&o.stderr).contains(".ply or .obj"));
     assert!(!d.join("d.stl").exists() && !d.join("d.stl.partial").exists());
 }
+
+/// Issue #13: `meniscus sim` writes a cache (position, velocity, density, id) as .bgeo and .vtk that the loaders,
+/// `info` and `render` read; bad scenes and patterns are one-line errors that write nothing.
+#[test]
+fn sim_exports_a_cache_that_loads_and_renders() {
+    let d = tmpdir("sim");
+    for ext in ["bgeo", "vtk"] {
+        let pattern = d.join(format!("f_{{}}.{ext}"));
+        let o = meniscus()
+            .args(["sim", "dambreak", "--particles", "3000", "--frames", "4", "--validation", "--export"])
+            .arg(&pattern)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "stderr: {err}");
+        assert!(err.contains("sim_solve") && err.contains("steps/s"), "no per-stage times: {err}");
+        let first = meniscus::scene::load(&d.join(format!("f_1.{ext}"))).unwrap();
+        let last = meniscus::scene::load(&d.join(format!("f_4.{ext}"))).unwrap();
+        assert_eq!(first.len(), 14 * 14 * 14);
+        assert_eq!(last.len(), first.len(), "particle count conserved");
+        let ids = last.ids.as_ref().expect("ids");
+        let mut sorted = ids.clone();
+        sorted.sort();
+        assert_eq!(sorted, (0..first.len() as i64).collect::<Vec<_>>(), "every id once");
+        let v = last.velocities.as_ref().expect("velocities");
+        assert!(v.iter().any(|v| v[1] < -0.5), "the water is falling");
+        let rho = last.densities.as_ref().expect("densities");
+        assert!(rho.iter().all(|r| r.is_finite() && *r > 0.0));
+        // Every particle inside the tank.
+        assert!(last.positions.iter().all(|p| p[0].abs() <= 2.0 && p[1] >= 0.0 && p[2].abs() <= 0.75));
+    }
+    let png = d.join("sim.png");
+    let o = meniscus()
+        .args(["render", d.join("f_4.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "render of the export: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(png.exists());
+    for (args, expect) in [
+        (vec!["sim", "nope"], "known: dambreak"),
+        (vec!["sim", "drop", "--export", "x.png"], ".bgeo or .vtk"),
+        (vec!["sim", "drop", "--export", "x.bgeo"], "{}"),
+        (vec!["sim", "drop", "--frames", "0"], "--frames"),
+        (vec!["sim", "drop", "--particles", "3"], "at least 8"),
+    ] {
+        let o = meniscus().args(&args).current_dir(&d).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(expect), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    }
+    assert!(!d.join("x.png").exists() && !d.join("x.bgeo").exists());
+}
+
+/// Issue #13: `bench --sim` reports every stage per step, steps/s, and render + simulate frames with async
+/// compute off and on, as JSON.
+#[test]
+fn bench_sim_reports_stages_and_overlap() {
+    let d = tmpdir("bench-sim");
+    let json = d.join("sim.json");
+    let o = meniscus()
+        .args(["bench", "--sim", "dambreak:2000", "--warmup", "0", "--frames", "1", "--resolutions", "64x48"])
+        .args(["--async", "both", "--validation", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let stages: Vec<&str> =
+        v["stages_ms_per_step"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
+    assert_eq!(stages, meniscus::sim::STAGE_NAMES);
+    assert!(v["steps_per_second"].as_f64().unwrap() > 0.0);
+    let combined = v["combined"].as_array().unwrap();
+    assert_eq!(combined.len(), 2);
+    for c in combined {
+        let names: Vec<&str> = c["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
+        assert!(names.contains(&"sim_solve") && names.contains(&"composite"), "{names:?}");
+        assert!(c["union_ms"].as_f64().unwrap() > 0.0);
+    }
+}

@@ -82,7 +82,9 @@ fn one_step_matches_the_cpu_reference() {
         // The uniforms the GPU step will see (count set by the first frame's upload).
         let mut u = sim.uniforms_now();
         u.counts[0] = scene.positions.len() as u32;
-        sim.step_frame().unwrap();
+        let times = sim.step_frame().unwrap();
+        let names: Vec<&str> = times.0.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, meniscus::sim::STAGE_NAMES, "every stage timed, in order, under its one name");
         let got = sim.read().unwrap();
         let x0: Vec<Vec3> = scene.positions.iter().map(|p| Vec3::from(*p)).collect();
         let v0: Vec<Vec3> = scene.velocities.iter().map(|p| Vec3::from(*p)).collect();

@@ -27,6 +27,7 @@ pub const STAGE_NAMES: &[&str] = &[
     "sim_predict",
     "grid",
     "sim_reorder",
+    "sim_neighbours",
     "sim_density",
     "sim_solve",
     "sim_velocity",

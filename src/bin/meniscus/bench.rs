@@ -342,6 +342,11 @@ pub struct BenchArgs {
     /// TOML settings over the preset.
     #[arg(long)]
     settings: Option<PathBuf>,
+    /// Benchmark the live simulation instead: SCENE or SCENE:PARTICLES (dambreak, drop, waterfall, pool). Reports
+    /// per-stage ms per step and steps/s, then frames that step and render together at the first resolution
+    /// (with --async on/both: the step on the async compute queue, and the overlap it buys).
+    #[arg(long, value_name = "SCENE[:N]")]
+    pub sim: Option<String>,
     #[command(flatten)]
     load: LoadArgs,
     #[command(flatten)]
@@ -463,6 +468,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     };
     let gpu = a.gpu.open()?;
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
+    if let Some(sim) = &a.sim {
+        let modes = async_modes(&a.async_mode);
+        return crate::bench_sim::run(&gpu, sim, &base, resolutions[0], a.warmup, a.frames, &modes, a.json.as_deref());
+    }
     let mut r = Renderer::new(&gpu)?;
     r.always_render_background = !a.cache_background;
     let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];

@@ -4,6 +4,7 @@
 
 mod args;
 mod bench;
+mod bench_sim;
 mod chart;
 mod demo;
 mod info;

@@ -67,12 +67,12 @@ impl SimArgs {
 pub fn run(a: &SimArgs) -> Result<()> {
     let (scene, params) = a.resolve()?;
     if let Some(e) = &a.export {
-        if !e.contains("{}") {
-            bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
-        }
         let l = e.to_ascii_lowercase();
         if !(l.ends_with(".bgeo") || l.ends_with(".vtk")) {
             bail!("--export {e:?}: the cache is written as .bgeo or .vtk");
+        }
+        if !e.contains("{}") {
+            bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
         }
     }
     if a.frames == 0 {

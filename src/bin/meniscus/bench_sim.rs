@@ -1,0 +1,244 @@
+//! `meniscus bench --sim SCENE[:N]`: the live simulation's cost. First the solver alone (its own submissions):
+//! per-stage GPU medians per step, ms per step and steps/s. Then frames that step AND render (the step recorded
+//! through `Hooks::produce` into the renderer's particle buffer, as `demo --sim` does) at one resolution, with
+//! async compute off and/or on: per-queue busy time, the union over both queues and the time the overlap hid
+//! (method.md §14). JSON with --json.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+
+use meniscus::frame::{Environment, View};
+use meniscus::gpu::schedule::QueueId;
+use meniscus::gpu::timer::median;
+use meniscus::gpu::{Buffer, FrameCtx, Gpu};
+use meniscus::renderer::{Hooks, Renderer};
+use meniscus::scene::{Bounds, Camera};
+use meniscus::settings::Settings;
+use meniscus::sim::{SimScene, Simulation, SCENES, STAGE_NAMES};
+
+/// One render + simulation configuration.
+#[derive(Serialize)]
+struct Combined {
+    async_compute: bool,
+    /// Median GPU ms per frame of each timed scope (simulation stages summed over the frame's steps).
+    passes: Vec<(String, f64)>,
+    queue_main_ms: f64,
+    queue_compute_ms: f64,
+    union_ms: f64,
+}
+
+#[derive(Serialize)]
+struct SimReport {
+    schema: u32,
+    device: meniscus::gpu::DeviceInfo,
+    git_commit: String,
+    scene: String,
+    particles: u32,
+    radius: f32,
+    substeps: u32,
+    iterations: u32,
+    dt_ms: f32,
+    warmup_frames: u32,
+    frames: u32,
+    /// Stage → median GPU ms per step.
+    stages_ms_per_step: Vec<(String, f64)>,
+    ms_per_step: f64,
+    steps_per_second: f64,
+    width: u32,
+    height: u32,
+    combined: Vec<Combined>,
+}
+
+/// Run it.
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    gpu: &Arc<Gpu>,
+    spec: &str,
+    base: &Settings,
+    (width, height): (u32, u32),
+    warmup: u32,
+    frames: u32,
+    modes: &[bool],
+    json: Option<&Path>,
+) -> Result<()> {
+    let (name, count) = match spec.split_once(':') {
+        Some((n, c)) => (n, c.parse::<usize>().with_context(|| format!("--sim {spec}: bad particle count"))?),
+        None => (spec, SCENES.iter().find(|s| s.0 == spec).map_or(10_000, |s| s.1)),
+    };
+    let scene = SimScene::new(name, count)?;
+    let frames = frames.max(1);
+    // The solver alone.
+    let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
+    let c = sim.constants;
+    eprintln!(
+        "sim {name}: {} particles, {} steps of {:.2} ms per frame, {} iterations",
+        sim.count(),
+        c.substeps,
+        c.dt * 1e3,
+        sim.params.iterations
+    );
+    let bar = indicatif::ProgressBar::new((warmup + frames) as u64 * (1 + modes.len() as u64));
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {msg} [{elapsed}]")?);
+    for _ in 0..warmup {
+        sim.step_frame()?;
+        bar.inc(1);
+    }
+    let mut runs = vec![];
+    for _ in 0..frames {
+        runs.push(sim.step_frame()?);
+        bar.inc(1);
+    }
+    let per_step = |name: &str| {
+        let mut v: Vec<f64> = runs.iter().filter_map(|t| t.get(name)).collect();
+        median(&mut v) / c.substeps as f64
+    };
+    let stages: Vec<(String, f64)> = STAGE_NAMES.iter().map(|n| (n.to_string(), per_step(n))).collect();
+    let mut totals: Vec<f64> = runs.iter().map(|t| t.total() / c.substeps as f64).collect();
+    let ms_per_step = median(&mut totals);
+    // Rendering and simulating together.
+    let mut combined = vec![];
+    let mut r = Renderer::new(gpu)?;
+    r.always_render_background = true;
+    let mut s = base.clone();
+    s.radius = scene.radius();
+    s.validate()?;
+    let (lo, hi) = scene.container;
+    let view = View {
+        camera: Camera::fit(&Bounds { lo, hi }, width as f32 / height as f32),
+        width,
+        height,
+        env: Environment {
+            boxes: scene.wall_boxes(),
+            ground_y: lo.y,
+            ..Environment::around(&Bounds { lo, hi }, s.radius, &s)
+        },
+    };
+    for &on in modes {
+        r.async_compute = on;
+        let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
+        let mut spans_all = vec![];
+        for k in 0..warmup + frames {
+            r.set_gpu_particles(sim.count(), scene.container)?;
+            let cell = std::cell::RefCell::new(&mut sim);
+            let err = std::cell::RefCell::new(None);
+            let step = |ctx: &mut FrameCtx, out: &Buffer| {
+                if let Err(e) = cell.borrow_mut().record_frame(ctx, Some(out)) {
+                    *err.borrow_mut() = Some(e);
+                }
+            };
+            let spans = r.render_spans_with(&view, &s, Hooks { produce: Some(&step), ..Default::default() })?;
+            if let Some(e) = err.into_inner() {
+                return Err(e.into());
+            }
+            if k >= warmup {
+                spans_all.push(spans);
+            }
+            bar.inc(1);
+        }
+        let mut names: Vec<String> = vec![];
+        for sp in spans_all.iter().flatten() {
+            if !names.contains(&sp.name) {
+                names.push(sp.name.clone());
+            }
+        }
+        let passes = names
+            .iter()
+            .map(|n| {
+                let mut v: Vec<f64> = spans_all
+                    .iter()
+                    .map(|f| f.iter().filter(|x| &x.name == n).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum())
+                    .collect();
+                (n.clone(), median(&mut v))
+            })
+            .collect();
+        let busy = |q: QueueId| {
+            let mut v: Vec<f64> = spans_all
+                .iter()
+                .map(|f| f.iter().filter(|x| x.queue == q).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum())
+                .collect();
+            median(&mut v)
+        };
+        let mut unions: Vec<f64> = spans_all
+            .iter()
+            .map(|f| {
+                let a = f.iter().map(|x| x.begin_ns).fold(f64::INFINITY, f64::min);
+                let b = f.iter().map(|x| x.end_ns).fold(f64::NEG_INFINITY, f64::max);
+                if f.is_empty() {
+                    0.0
+                } else {
+                    (b - a) * 1e-6
+                }
+            })
+            .collect();
+        combined.push(Combined {
+            async_compute: on,
+            passes,
+            queue_main_ms: busy(QueueId::Main),
+            queue_compute_ms: busy(QueueId::Compute),
+            union_ms: median(&mut unions),
+        });
+    }
+    bar.finish_and_clear();
+    // Report.
+    println!(
+        "## sim {name}: {} particles on {} ({} steps × {} iterations per frame, Δt {:.2} ms)\n",
+        sim.count(),
+        gpu.info.name,
+        c.substeps,
+        sim.params.iterations,
+        c.dt * 1e3
+    );
+    println!("| stage | ms per step (median of {frames} frames) |\n|---|---|");
+    for (n, ms) in &stages {
+        println!("| {n} | {ms:.3} |");
+    }
+    println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |\n", 1e3 / ms_per_step);
+    println!("Render + simulate one frame at {width}×{height} (GPU ms per frame, medians):\n");
+    println!("| async | main queue | compute queue | union |\n|---|---|---|---|");
+    for cb in &combined {
+        println!(
+            "| {} | {:.2} | {:.2} | {:.2} |",
+            if cb.async_compute { "on" } else { "off" },
+            cb.queue_main_ms.abs(),
+            cb.queue_compute_ms.abs(),
+            cb.union_ms
+        );
+    }
+    if let (Some(off), Some(on)) =
+        (combined.iter().find(|c| !c.async_compute), combined.iter().find(|c| c.async_compute))
+    {
+        println!(
+            "\nhidden by the async queue: {:.2} ms per frame (queues: {})",
+            off.union_ms - on.union_ms,
+            gpu.queues.describe()
+        );
+    }
+    if let Some(p) = json {
+        let report = SimReport {
+            schema: 1,
+            device: gpu.info.clone(),
+            git_commit: env!("MENISCUS_GIT_COMMIT").to_string(),
+            scene: name.to_string(),
+            particles: sim.count(),
+            radius: scene.radius(),
+            substeps: c.substeps,
+            iterations: sim.params.iterations,
+            dt_ms: c.dt * 1e3,
+            warmup_frames: warmup,
+            frames,
+            stages_ms_per_step: stages,
+            ms_per_step,
+            steps_per_second: 1e3 / ms_per_step,
+            width,
+            height,
+            combined,
+        };
+        let text = serde_json::to_string_pretty(&report)?;
+        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    crate::args::finish(gpu)
+}
