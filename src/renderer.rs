@@ -653,9 +653,6 @@ impl Renderer {
         // this frame and against the frame before — come from what each segment touched.
         use crate::gpu::executor::Segment;
         use crate::gpu::schedule::QueueId;
-        if binary.wait.is_some() || binary.signal.is_some() {
-            return Err(Error::Invalid("a split (async) frame does not present; turn async compute off".into()));
-        }
         let (main_cmds, compute_cmds) = (slot.main_cmds, slot.compute_cmds);
         let [ta, tf, tsh] = &mut slot.segment_timers;
         // The first main command buffer only resets the main timer (it began with the slot).
@@ -684,7 +681,7 @@ impl Renderer {
         ];
         drop((first, a, f, sh));
         self.smoothed = sm;
-        self.executor.submit_segments(k, segments)
+        self.executor.submit_segments(k, segments, &binary)
     }
 
     /// Extract the iso-surface mesh of the current particles (spray left out) with the `[iso]` field and the

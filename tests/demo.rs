@@ -137,7 +137,7 @@ fn demo_plays_a_live_simulation() {
     let shot = dir.join("sim.png");
     let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
         .args(["demo", "--sim", "dambreak", "--particles", "4000", "--width", "160", "--height", "96"])
-        .args(["--frames", "12", "--fps", "1000", "--validation", "--screenshot"])
+        .args(["--frames", "12", "--fps", "1000", "--async", "on", "--validation", "--screenshot"])
         .arg(&shot)
         .env("XDG_RUNTIME_DIR", &dir)
         .output()

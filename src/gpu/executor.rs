@@ -249,7 +249,10 @@ impl Executor {
     /// End and submit the segments of a split frame in slot `k`, in order. Each signals its queue's timeline and
     /// waits for the segments of the other queue it conflicts with — in this frame or in the frame submitted
     /// before (`schedule::derive_waits` over both; anything older is complete, `begin` waited for it).
-    pub fn submit_segments(&mut self, k: usize, segments: Vec<Segment>) -> Result<Submitted> {
+    ///
+    /// `binary` (a swapchain's acquire and render-finished semaphores) is waited for and signalled by the last
+    /// segment, which must be on the main queue (it writes and hands over the swapchain image).
+    pub fn submit_segments(&mut self, k: usize, segments: Vec<Segment>, binary: &Binary) -> Result<Submitted> {
         use super::schedule::{derive_waits, QueueId};
         let d = &self.gpu.device;
         let prev: Vec<_> = self.previous.iter().flatten().cloned().collect();
@@ -273,7 +276,11 @@ impl Executor {
                     (self.gpu.queues.compute.queue, self.compute_submitted)
                 }
             };
-            let wait_infos: Vec<vk::SemaphoreSubmitInfo> = waits[prev.len() + j]
+            let last = j + 1 == segments.len();
+            if last && seg.queue != QueueId::Main && (binary.wait.is_some() || binary.signal.is_some()) {
+                return Err(crate::error::Error::Invalid("a presenting split frame must end on the main queue".into()));
+            }
+            let mut wait_infos: Vec<vk::SemaphoreSubmitInfo> = waits[prev.len() + j]
                 .iter()
                 .map(|&i| {
                     let (q, v) = values[i];
@@ -285,10 +292,22 @@ impl Executor {
                 .collect();
             values.push((seg.queue, value));
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(seg.cmd)];
-            let signal = [vk::SemaphoreSubmitInfo::default()
+            let mut signal = vec![vk::SemaphoreSubmitInfo::default()
                 .semaphore(sem_of(seg.queue, self))
                 .value(value)
                 .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+            if last {
+                if let Some((sem, stage)) = binary.wait {
+                    wait_infos.push(vk::SemaphoreSubmitInfo::default().semaphore(sem).stage_mask(stage));
+                }
+                if let Some(sem) = binary.signal {
+                    signal.push(
+                        vk::SemaphoreSubmitInfo::default()
+                            .semaphore(sem)
+                            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+                    );
+                }
+            }
             let submit = [vk::SubmitInfo2::default()
                 .wait_semaphore_infos(&wait_infos)
                 .command_buffer_infos(&cmds)

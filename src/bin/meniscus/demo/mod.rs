@@ -87,6 +87,11 @@ pub struct DemoArgs {
     /// restart, hold Ctrl and move the mouse to push the water with a sphere.
     #[arg(long, value_name = "SCENE")]
     sim: Option<String>,
+    /// Split each frame over the main and the async compute queue (the simulation step, background and
+    /// thickness on the async queue, beside the previous frame's fluid passes): auto = on when the device has a
+    /// queue for it, on, off.
+    #[arg(long = "async", value_parser = ["auto", "on", "off"], default_value = "auto")]
+    async_mode: String,
     #[command(flatten)]
     load: LoadArgs,
     #[command(flatten)]
@@ -126,6 +131,7 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             exercise_resize: a.exercise_resize,
             fps: a.fps.max(0.1),
             sim,
+            async_mode: a.async_mode.clone(),
         },
     )?;
     Ok(())
@@ -147,6 +153,8 @@ pub struct DemoOptions {
     pub fps: f32,
     /// A live simulation to play instead of the job's particles.
     pub sim: Option<(meniscus::sim::SimScene, meniscus::sim::Params)>,
+    /// `--async`: auto, on, off.
+    pub async_mode: String,
 }
 
 struct State {
@@ -392,6 +400,11 @@ impl App {
             None => None,
         };
         let mut renderer = Renderer::new(&gpu)?;
+        renderer.async_compute = match self.o.async_mode.as_str() {
+            "on" => true,
+            "off" => false,
+            _ => gpu.queues.kind != meniscus::gpu::AsyncQueue::SameQueue,
+        };
         if let Some(m) = &self.mesh {
             renderer.set_background_mesh(m)?;
         }
@@ -807,13 +820,14 @@ impl App {
                 st.renderer.particle_count()
             ),
             format!(
-                "view {}  surface {}  filter {}  fluid scale {}  ssr {}  vsync {}",
+                "view {}  surface {}  filter {}  fluid scale {}  ssr {}  vsync {}  async {}",
                 self.mode.name(),
                 s.surface.name(),
                 s.smooth.filter.name(),
                 s.fluid_scale,
                 if s.ssr.enabled { "on" } else { "off" },
-                if self.o.vsync { "on" } else { "off" }
+                if self.o.vsync { "on" } else { "off" },
+                if st.renderer.async_compute { "on" } else { "off" }
             ),
         ];
         if let Some(sim) = &st.sim {
