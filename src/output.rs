@@ -121,9 +121,39 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
             }
             Ok(())
         }),
-        _ => {
-            Err(Error::Invalid(format!("{}: the mesh format is chosen by the extension: .ply or .obj", path.display())))
-        }
+        // Legacy VTK POLYDATA, binary (big-endian, as the format requires), with point normals: what splashsurf
+        // writes by default and ParaView opens.
+        Some("vtk") => write_atomic(path, |w| {
+            write!(w, "# vtk DataFile Version 4.2\nmeniscus mesh\nBINARY\nDATASET POLYDATA\n")?;
+            writeln!(w, "POINTS {} float", m.vertices.len())?;
+            for v in &m.vertices {
+                for x in v {
+                    w.write_all(&x.to_be_bytes())?;
+                }
+            }
+            writeln!(w)?;
+            writeln!(w, "POLYGONS {} {}", m.triangles.len(), 4 * m.triangles.len())?;
+            for t in &m.triangles {
+                w.write_all(&3i32.to_be_bytes())?;
+                for i in t {
+                    w.write_all(&(*i as i32).to_be_bytes())?;
+                }
+            }
+            writeln!(w)?;
+            writeln!(w, "POINT_DATA {}", m.vertices.len())?;
+            writeln!(w, "NORMALS normals float")?;
+            for n in &m.normals {
+                for x in n {
+                    w.write_all(&x.to_be_bytes())?;
+                }
+            }
+            writeln!(w)?;
+            Ok(())
+        }),
+        _ => Err(Error::Invalid(format!(
+            "{}: the mesh format is chosen by the extension: .ply, .obj or .vtk",
+            path.display()
+        ))),
     }
 }
 

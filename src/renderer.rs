@@ -67,6 +67,8 @@ pub struct Renderer {
     fluid_mesh: Option<(crate::passes::background::MeshBuffers, [f32; 3])>,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
+    /// Seconds the last mesh extraction + BVH build took (CPU), and the mesh's vertex and triangle counts.
+    fluid_mesh_stats: Option<(f64, usize, usize)>,
 }
 
 /// The arguments of `record_frame` after the recording.
@@ -160,6 +162,7 @@ impl Renderer {
             spray: None,
             iso: None,
             fluid_mesh: None,
+            fluid_mesh_stats: None,
             // Never read (node count 0): empty placeholders, no upload at start-up.
             mesh: crate::passes::background::MeshBuffers {
                 nodes: upload_buffer(gpu, "bvh_nodes", &[], None)?,
@@ -691,6 +694,7 @@ impl Renderer {
         if self.fluid_mesh.as_ref().is_some_and(|m| m.1 == key) {
             return Ok(());
         }
+        let t0 = std::time::Instant::now();
         let pts: Vec<[f32; 3]> = match &self.spray {
             Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
             None => self.positions.clone(),
@@ -701,6 +705,7 @@ impl Renderer {
         let m = crate::extract::extract(&grid, &inv, &params);
         let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
         let bvh = crate::mesh::GpuBvh::build(&crate::mesh::Mesh { triangles: tris });
+        self.fluid_mesh_stats = Some((t0.elapsed().as_secs_f64(), m.vertices.len(), m.triangles.len()));
         self.executor.wait_idle()?;
         self.fluid_mesh = Some((
             crate::passes::background::MeshBuffers {
@@ -755,6 +760,12 @@ impl Renderer {
             .filter(|d| *d > -s.radius)
             .fold(f32::INFINITY, f32::min)
             .max(near)
+    }
+
+    /// Seconds (CPU) the last extraction of the fluid mesh took with its BVH, and its vertex and triangle counts
+    /// (`surface = "mesh"`).
+    pub fn fluid_mesh_stats(&self) -> Option<(f64, usize, usize)> {
+        self.fluid_mesh_stats
     }
 
     /// The image that holds the smoothed depth of the last frame.

@@ -324,8 +324,24 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert!(obj.lines().any(|l| l.starts_with("f ")));
     let o = run("d.stl", "1");
     assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains(".ply or .obj"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".ply, .obj or .vtk"));
     assert!(!d.join("d.stl").exists() && !d.join("d.stl.partial").exists());
+    // Legacy VTK POLYDATA: the same vertices (our loader reads its POINTS).
+    assert!(run("e.vtk", "2").status.success());
+    let v = meniscus::scene::load(&d.join("e.vtk")).unwrap();
+    assert_eq!(v.positions, p.positions);
+    // The thesis' comparison: three labelled panels side by side.
+    let o = meniscus()
+        .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--width", "80", "--height", "60"])
+        .args(["--validation", "--compare"])
+        .arg(d.join("cmp.png"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("ms extraction") && err.contains("iso-surface ray cast"), "{err}");
+    let img = image::open(d.join("cmp.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (240, 60));
 }
 
 /// Issue #13: `meniscus sim` writes a cache (position, velocity, density, id) as .bgeo and .vtk that the loaders,

@@ -6,7 +6,7 @@ mod args;
 mod bench;
 mod bench_sim;
 mod chart;
-mod demo;
+pub(crate) mod demo;
 mod info;
 mod job;
 mod mesh;

@@ -21,10 +21,24 @@ pub struct MeshArgs {
     scene: SceneArgs,
     #[command(flatten)]
     load: LoadArgs,
-    /// Output mesh, .ply (binary, with normals) or .obj; for a sequence {} in the name is the frame number
-    /// (4 digits), else _NNNN is added before the extension.
-    #[arg(short, long, default_value = "mesh.ply")]
-    out: PathBuf,
+    /// Output mesh, .ply (binary, with normals), .obj or .vtk (legacy binary POLYDATA, with normals); for a
+    /// sequence {} in the name is the frame number (4 digits), else _NNNN is added before the extension.
+    /// Default: mesh.ply (none with --compare alone).
+    #[arg(short, long)]
+    out: Option<PathBuf>,
+    /// Write the thesis' comparison of the two techniques: one PNG with the screen-space surface (default
+    /// settings), the iso-surface ray cast and the extracted mesh (same shading) side by side, each labelled
+    /// with its time — GPU ms per frame, plus the CPU extraction for the mesh. One input file; --camera or fitted.
+    #[arg(long, value_name = "PNG")]
+    compare: Option<PathBuf>,
+    /// Width of each --compare panel.
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    /// Height of each --compare panel.
+    #[arg(long, default_value_t = 360)]
+    height: u32,
+    #[command(flatten)]
+    gpu: crate::args::GpuArgs,
     /// Marching-cubes edge length in particle radii (splashsurf's --cube-size).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     cube_size: f32,
@@ -63,7 +77,18 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     }
     let pool = pool.build()?;
     let job = Job::open(&a.scene, &a.load, meniscus::settings::Settings::default(), Select::default())?;
-    eprintln!("{}", job.summary(None));
+    eprintln!("{}", job.summary(a.compare.as_ref().map(|_| (a.width, a.height))));
+    if let Some(png) = &a.compare {
+        if job.frames.is_some() {
+            bail!("--compare takes one file, not a sequence");
+        }
+        crate::args::check_size(a.width, a.height)?;
+        compare(a, &job, png)?;
+        if a.out.is_none() {
+            return Ok(());
+        }
+    }
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("mesh.ply"));
     let r = job.settings.radius;
     let params = ExtractParams { cube: a.cube_size * r, threshold: a.threshold, dense: a.dense };
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
@@ -86,16 +111,16 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         ))
     };
     let Some(frames) = job.frames.clone() else {
-        eprintln!("{}", one(&job.first, &a.out)?);
+        eprintln!("{}", one(&job.first, &out)?);
         return Ok(());
     };
     let out_name = |n: u64| -> PathBuf {
-        let s = a.out.to_string_lossy();
+        let s = out.to_string_lossy();
         if s.contains("{}") {
             PathBuf::from(s.replace("{}", &format!("{n:04}")))
         } else {
-            let stem = a.out.with_extension("");
-            let ext = a.out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "ply".into());
+            let stem = out.with_extension("");
+            let ext = out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "ply".into());
             PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
         }
     };
@@ -114,4 +139,55 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     }
     bar.finish();
     Ok(())
+}
+
+/// `--compare`: render the job's particles with the three surfaces at one camera, time each (GPU medians of 3
+/// frames after one warm-up; the mesh adds its CPU extraction), label and place them side by side.
+fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
+    use meniscus::settings::{Settings, Surface};
+    let gpu = a.gpu.open()?;
+    let mut r = meniscus::renderer::Renderer::new(&gpu)?;
+    job.apply_background(&mut r)?;
+    job.upload(&mut r, &job.first)?;
+    let view = job.view(a.width, a.height);
+    let (w, h) = (a.width, a.height);
+    let mut out = image::RgbaImage::new(3 * w, h);
+    let base = job.settings.clone();
+    let panels: [(&str, Settings); 3] = [
+        ("screen space (spheres + narrow-range)", base.clone()),
+        ("iso-surface ray cast", {
+            let mut s = Settings::preset("quality")?;
+            s.radius = base.radius;
+            s
+        }),
+        ("marching-cubes mesh", {
+            let mut s = Settings::preset("quality")?;
+            s.radius = base.radius;
+            s.surface = Surface::Mesh;
+            s.mesh.cube = a.cube_size;
+            s.iso.support = a.support;
+            s.iso.threshold = a.threshold;
+            s
+        }),
+    ];
+    for (k, (name, s)) in panels.iter().enumerate() {
+        r.render(&view, s)?;
+        let mut ms: Vec<f64> = (0..3).map(|_| r.render(&view, s).map(|t| t.total())).collect::<Result<_, _>>()?;
+        let gpu_ms = meniscus::gpu::timer::median(&mut ms);
+        let label = match (s.surface, r.fluid_mesh_stats()) {
+            (Surface::Mesh, Some((secs, _, tris))) => {
+                format!("{:.0} ms extraction ({tris} triangles) + {gpu_ms:.1} ms GPU", secs * 1e3)
+            }
+            _ => format!("{gpu_ms:.1} ms GPU"),
+        };
+        eprintln!("{name}: {label}");
+        let img = r.read_final()?;
+        image::imageops::overlay(&mut out, &img, (k as u32 * w) as i64, 0);
+        let text = crate::demo::overlay::rasterize(&[name.to_string(), label], false, 1);
+        let text = image::imageops::crop_imm(&text, 0, 0, text.width().min(w), text.height().min(h)).to_image();
+        image::imageops::overlay(&mut out, &text, (k as u32 * w) as i64, 0);
+    }
+    meniscus::output::write_png(png, &out)?;
+    eprintln!("wrote {}", png.display());
+    crate::args::finish(&gpu)
 }

@@ -11,7 +11,7 @@
 //! holds the window loop and the keys.
 
 mod controller;
-mod overlay;
+pub(crate) mod overlay;
 mod playback;
 mod present;
 
