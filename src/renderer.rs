@@ -701,7 +701,7 @@ impl Renderer {
         };
         let grid = crate::iso::IsoGrid::build(&pts, key[0]);
         let inv = grid.inv_density();
-        let params = crate::extract::ExtractParams { cube: key[1], threshold: key[2], dense: false };
+        let params = crate::extract::ExtractParams::new(key[1], key[2]);
         let m = crate::extract::extract(&grid, &inv, &params);
         let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
         let bvh = crate::mesh::GpuBvh::build(&crate::mesh::Mesh { triangles: tris });
