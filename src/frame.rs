@@ -261,6 +261,7 @@ pub fn record_frame(
         _ => record_splat(ctx, p, t, frame, particles, count, s, info)?,
     }
     if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
+        p.iso.record_grid(ctx, particles, count, grid);
         // The rasterised splats do not write the far exit: the march then runs to the grid's box.
         let back = t.depth_back.as_ref().filter(|_| s.splat.mode == SplatMode::Compute);
         p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);

@@ -67,6 +67,8 @@ pub struct Renderer {
     fluid_mesh: Option<(crate::passes::background::MeshBuffers, [f32; 3])>,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
+    /// The particles changed since the iso grid was built.
+    iso_stale: bool,
     /// Seconds the last mesh extraction + BVH build took (CPU), and the mesh's vertex and triangle counts.
     fluid_mesh_stats: Option<(f64, usize, usize)>,
 }
@@ -161,6 +163,7 @@ impl Renderer {
             positions: vec![],
             spray: None,
             iso: None,
+            iso_stale: true,
             fluid_mesh: None,
             fluid_mesh_stats: None,
             // Never read (node count 0): empty placeholders, no upload at start-up.
@@ -235,7 +238,7 @@ impl Renderer {
         self.count = n as u32;
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
-        self.iso = None;
+        self.iso_stale = true;
         self.fluid_mesh = None;
         Ok(())
     }
@@ -250,8 +253,8 @@ impl Renderer {
 
     /// The next frame's `count` particles are written on the GPU by the frame's `Hooks::produce` (xyz, w = 0:
     /// the frame radius), e.g. by `sim::Simulation::record_frame`; no host copy. `bounds` (lo, hi) contain them
-    /// (the near plane is fitted to it). The iso and mesh surfaces need host positions: use
-    /// [`Renderer::set_particles`] for those.
+    /// (the near plane and the iso surface's GPU grid are fitted to it). The mesh surface needs host positions:
+    /// use [`Renderer::set_particles`] for it.
     pub fn set_gpu_particles(&mut self, count: u32, bounds: (glam::Vec3, glam::Vec3)) -> Result<()> {
         let bytes = count as u64 * 16;
         if bytes > self.gpu.info.max_storage_buffer_range {
@@ -271,7 +274,7 @@ impl Renderer {
         self.external = true;
         self.count = count;
         self.spray = None;
-        self.iso = None;
+        self.iso_stale = true;
         self.fluid_mesh = None;
         Ok(())
     }
@@ -723,10 +726,62 @@ impl Renderer {
         Ok(())
     }
 
-    /// Build and upload the iso-surface grid of the current particles (spray left out) for kernel `support`
-    /// (world units), unless it is there already.
+    /// The iso-surface grid of the current particles for kernel `support` (world units), unless it is there
+    /// already. Without spray the grid is built on the GPU from the particle buffer (the `grid` pass in the frame:
+    /// no CPU work per frame, and GPU-resident particles work too; the buffers are kept while the shape holds);
+    /// with spray the CPU builds it without the spray and uploads it.
     fn ensure_iso(&mut self, support: f32) -> Result<()> {
-        if self.iso.as_ref().is_some_and(|b| b.shape.support() == support) {
+        let spray = self.spray.as_ref().is_some_and(|s| s.iter().any(|&x| x));
+        if !spray {
+            let (lo, hi) = self.positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(a, b), p| {
+                let p = glam::Vec3::from(*p);
+                if p.is_finite() {
+                    (a.min(p), b.max(p))
+                } else {
+                    (a, b)
+                }
+            });
+            let n = self.count;
+            let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
+            let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, support, n as usize);
+            let shape = crate::passes::grid::GridShape {
+                origin_cell: [lo.x, lo.y, lo.z, cell],
+                dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
+            };
+            let push = crate::passes::iso::IsoPush {
+                origin: shape.origin_cell,
+                dims: [d[0], d[1], d[2], n],
+                params: [support, 0.0, 0.0, 0.0],
+                steps: [0; 4],
+            };
+            if let Some(b) = &mut self.iso {
+                if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
+                    if self.iso_stale {
+                        b.rebuild.set(true);
+                        self.iso_stale = false;
+                    }
+                    b.shape = push;
+                    return Ok(());
+                }
+            }
+            self.executor.wait_idle()?;
+            self.iso = None;
+            let cap = n.max(1);
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let buf =
+                |name: &str, bytes: u64| Buffer::new(&self.gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
+            self.iso = Some(crate::passes::iso::IsoBuffers {
+                points: buf("iso_points", cap as u64 * 16)?,
+                cells: buf("iso_cells", shape.cells() as u64 * 8)?,
+                weights: buf("iso_weights", cap as u64 * 4)?,
+                shape: push,
+                gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
+                rebuild: std::cell::Cell::new(true),
+            });
+            self.iso_stale = false;
+            return Ok(());
+        }
+        if !self.iso_stale && self.iso.as_ref().is_some_and(|b| b.gpu.is_none() && b.shape.support() == support) {
             return Ok(());
         }
         let pts: Vec<[f32; 3]> = match &self.spray {
@@ -746,7 +801,15 @@ impl Renderer {
             MemoryLocation::GpuOnly,
         )?;
         let shape = crate::passes::iso::IsoPush::shape(&grid);
-        self.iso = Some(crate::passes::iso::IsoBuffers { points, cells, weights, shape });
+        self.iso = Some(crate::passes::iso::IsoBuffers {
+            points,
+            cells,
+            weights,
+            shape,
+            gpu: None,
+            rebuild: std::cell::Cell::new(false),
+        });
+        self.iso_stale = false;
         Ok(())
     }
 

@@ -49,6 +49,11 @@ pub struct IsoBuffers {
     pub weights: Buffer,
     /// Grid shape as push constants.
     pub shape: IsoPush,
+    /// The GPU grid (`grid` pass + `iso_gather`) that fills `points` and `cells` from the particle buffer;
+    /// `None` when the CPU built and uploaded them.
+    pub gpu: Option<crate::passes::grid::GridBuffers>,
+    /// The GPU grid must be rebuilt by the next frame (its particles changed).
+    pub rebuild: std::cell::Cell<bool>,
 }
 
 /// Push constants (IsoPush in iso_field.glsl).
@@ -95,7 +100,22 @@ impl IsoPush {
 pub struct Iso {
     density: ComputeProgram<IsoPush>,
     cast: ComputeProgram<IsoPush>,
+    grid: crate::passes::grid::Grid,
+    gather: ComputeProgram<GatherPush>,
 }
+
+/// Push constants of iso_gather.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GatherPush {
+    /// Points.
+    pub n: u32,
+    /// Cells.
+    pub cells: u32,
+}
+
+// Gather: particles, order, start, counts → sorted points, cell table.
+declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 
 // Density: frame, grid points, cell table → per-point weights 1/n_j.
 declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, BufRead, BufRead, BufWrite]));
@@ -105,7 +125,28 @@ declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, Bu
 impl Iso {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Iso { density: ComputeProgram::new(gpu, &DENSITY)?, cast: ComputeProgram::new(gpu, &CAST)? })
+        Ok(Iso {
+            density: ComputeProgram::new(gpu, &DENSITY)?,
+            cast: ComputeProgram::new(gpu, &CAST)?,
+            grid: crate::passes::grid::Grid::new(gpu)?,
+            gather: ComputeProgram::new(gpu, &GATHER)?,
+        })
+    }
+
+    /// When `b` has a GPU grid due for a rebuild: sort the first `n` particles of `particles` into it (the
+    /// `grid` pass) and gather the sorted points and the cell table.
+    pub fn record_grid(&self, ctx: &mut FrameCtx, particles: &Buffer, n: u32, b: &IsoBuffers) {
+        let Some(g) = &b.gpu else { return };
+        if !b.rebuild.replace(false) {
+            return;
+        }
+        ctx.pass(crate::passes::grid::NAME, |ctx| {
+            self.grid.record(ctx, particles, n, g);
+            let cells = g.shape.cells();
+            let res =
+                [particles.into(), (&g.order).into(), (&g.start).into(), (&g.counts).into(), (&b.points).into(), (&b.cells).into()];
+            self.gather.dispatch(ctx, &res, &GatherPush { n, cells }, [n.max(cells).div_ceil(super::LOCAL_1D), 1, 1]);
+        });
     }
 
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the

@@ -37,18 +37,7 @@ impl UniformGrid {
             return UniformGrid { cells: vec![[0, 0]], dims: [1, 1, 1], cell: min_cell, ..Default::default() };
         }
         let (lo, hi) = pts.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
-        let ext = (hi - lo).max(Vec3::splat(min_cell * 1e-3));
-        let max_cells = (pts.len() as u64 * CELLS_PER_PARTICLE).max(4096) as f64;
-        let mut cell = min_cell;
-        let count = |c: f32| ((ext / c).floor() + Vec3::ONE).as_dvec3();
-        while {
-            let n = count(cell);
-            n.x * n.y * n.z > max_cells
-        } {
-            cell *= 1.25;
-        }
-        let n = (ext / cell).floor() + Vec3::ONE;
-        let dims = [n.x as u32, n.y as u32, n.z as u32];
+        let (cell, dims) = UniformGrid::shape_for(lo, hi, min_cell, pts.len());
         let last = UVec3::new(dims[0] - 1, dims[1] - 1, dims[2] - 1);
         let index = |p: Vec3| -> usize {
             let c = ((p - lo) / cell).floor().as_uvec3().min(last);
@@ -75,6 +64,25 @@ impl UniformGrid {
             fill[k] += 1;
         }
         UniformGrid { points, order, cells, origin: lo, cell, dims }
+    }
+
+    /// The cell side and cells per axis of a grid over the box `lo`..`hi` (origin `lo`) for `n` points: cells at
+    /// least `min_cell` wide, grown by 1.25× until there are at most max(8 n, 4096) of them. The GPU grid of
+    /// the iso surface uses the same shape.
+    pub fn shape_for(lo: Vec3, hi: Vec3, min_cell: f32, n: usize) -> (f32, [u32; 3]) {
+        let min_cell = if min_cell.is_finite() && min_cell > 0.0 { min_cell } else { 1.0 };
+        let ext = (hi - lo).max(Vec3::splat(min_cell * 1e-3));
+        let max_cells = (n as u64 * CELLS_PER_PARTICLE).max(4096) as f64;
+        let mut cell = min_cell;
+        let count = |c: f32| ((ext / c).floor() + Vec3::ONE).as_dvec3();
+        while {
+            let n = count(cell);
+            n.x * n.y * n.z > max_cells
+        } {
+            cell *= 1.25;
+        }
+        let n = (ext / cell).floor() + Vec3::ONE;
+        (cell, [n.x as u32, n.y as u32, n.z as u32])
     }
 
     /// Visit every sorted point in the 3×3×3 cells around `x` (a superset of the points within one cell

@@ -624,9 +624,10 @@ impl App {
             if (self.playing && due) || self.sim_step {
                 self.last_advance = now;
                 self.sim_step = false;
-                // The spheres surface draws straight from the solver's buffer; the iso and mesh surfaces and the
-                // particle view need the particles on the host (a readback per frame).
-                if self.settings.surface == Surface::Spheres && self.mode != ViewMode::Particles {
+                // The spheres and iso surfaces draw straight from the solver's buffer (the iso surface's grid is
+                // built on the GPU); the mesh surface and the particle view need the particles on the host (a
+                // readback per frame).
+                if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles {
                     st.renderer.set_gpu_particles(sim.count(), sim.scene.container)?;
                     produce = true;
                     self.sim_particles = None;
