@@ -154,13 +154,32 @@ pub struct ExtractParams {
     /// Cubes per edge of a block (the default path, [`extract_blocks`]); 0 = the per-corner paths above
     /// (`dense`, or surface following). Changes nothing but the time and the memory.
     pub block: u32,
+    /// The thesis' metaball field instead of the SPH colour field (Janisz §2.2, method.md §10):
+    /// F(x) = Σ f(|x − x_j|), f(d) = (d/(√2 R_c))⁴ − (d/(√2 R_c))² + ¼ for d < R_c, else 0 — unnormalised
+    /// (the 1/n_j weights are not used), with R_c the grid's support. Block path only.
+    pub metaball: bool,
 }
 
 impl ExtractParams {
-    /// The default: blocks of 32³ cubes.
+    /// The default: the SPH colour field, blocks of 32³ cubes.
     pub fn new(cube: f32, threshold: f32) -> ExtractParams {
-        ExtractParams { cube, threshold, dense: false, block: 32 }
+        ExtractParams { cube, threshold, dense: false, block: 32, metaball: false }
     }
+}
+
+/// The metaball falloff f(d) of [`ExtractParams::metaball`] at q = d / R_c: ((q²/2) − ½)² for q < 1.
+pub fn metaball(q: f32) -> f32 {
+    if q < 1.0 {
+        let s = 0.5 * q * q - 0.5;
+        s * s
+    } else {
+        0.0
+    }
+}
+
+/// The metaball threshold that puts an isolated particle's surface at distance `r` for influence radius `rc`.
+pub fn metaball_threshold(r: f32, rc: f32) -> f32 {
+    metaball(r / rc)
 }
 
 /// Extract the iso-surface of `grid`'s field (with 1/n_j `inv_n`, see [`IsoGrid::inv_density`]).
@@ -169,8 +188,8 @@ pub fn extract(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMesh {
     if grid.points.is_empty() {
         return TriMesh::default();
     }
-    if p.block > 0 && !p.dense {
-        return extract_blocks(grid, inv_n, p);
+    if (p.block > 0 && !p.dense) || p.metaball {
+        return extract_blocks(grid, inv_n, &ExtractParams { block: p.block.max(1), ..*p });
     }
     // The lattice: corners at origin + h·(i, j, k), covering the particles' box grown by the support.
     let lo = grid.points.iter().fold(Vec3::INFINITY, |a, q| a.min(Vec3::new(q[0], q[1], q[2]))) - grid.support;
@@ -366,7 +385,7 @@ pub fn extract_blocks(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMe
                 for j in first..first + count {
                     let q = g.points[j as usize];
                     let x = Vec3::new(q[0], q[1], q[2]);
-                    let w_j = inv_n[j as usize];
+                    let w_j = if p.metaball { 1.0 } else { inv_n[j as usize] };
                     // Local corner range of the support (one wider: the distance test below decides, on the
                     // corner's global position, so every block includes the same corners), clipped to the block.
                     let l = (((x - support - box_lo) / h).floor().as_ivec3()).max(glam::IVec3::ZERO);
@@ -388,7 +407,7 @@ pub fn extract_blocks(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMe
                                 continue;
                             }
                             let seg = &mut v[row + i0 as usize..=row + i1 as usize];
-                            scatter_row(seg, c0.x + i0, lat.lo.x, h, x.x, d2, inv_support, w_j);
+                            scatter_row(seg, c0.x + i0, lat.lo.x, h, x.x, d2, inv_support, w_j, p.metaball);
                         }
                     }
                 }
@@ -461,30 +480,46 @@ pub fn extract_blocks(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMe
 }
 
 /// Add one particle's kernel to a row of corner values: corner `o` of `seg` is global lattice index `i0 + o`
-/// along x (position `lo_x + index·h`), `d2` the squared distance across the row, `w` the particle's 1/n_j.
-/// Branch-free (the cubic spline as selects) so that it vectorises. (Tried: an AVX2 build of it chosen at run
-/// time — no faster, the rows are only ~17 corners long.)
+/// along x (position `lo_x + index·h`), `d2` the squared distance across the row, `w` the particle's weight.
+/// Branch-free (the kernel as selects) so that it vectorises. (Tried: an AVX2 build of it chosen at run time —
+/// no faster, the rows are only ~17 corners long.)
 #[allow(clippy::too_many_arguments)]
-fn scatter_row(seg: &mut [f32], i0: i32, lo_x: f32, h: f32, px: f32, d2: f32, inv_support: f32, w: f32) {
-    #[inline(always)]
-    fn body(seg: &mut [f32], i0: i32, lo_x: f32, h: f32, px: f32, d2: f32, inv_support: f32, w: f32) {
-        for (o, val) in seg.iter_mut().enumerate() {
-            let dx = lo_x + (i0 + o as i32) as f32 * h - px;
-            let q = (dx * dx + d2).sqrt() * inv_support;
+fn scatter_row(
+    seg: &mut [f32],
+    i0: i32,
+    lo_x: f32,
+    h: f32,
+    px: f32,
+    d2: f32,
+    inv_support: f32,
+    w: f32,
+    metaball: bool,
+) {
+    for (o, val) in seg.iter_mut().enumerate() {
+        let dx = lo_x + (i0 + o as i32) as f32 * h - px;
+        let q = (dx * dx + d2).sqrt() * inv_support;
+        let k = if metaball {
+            let s = 0.5 * q * q - 0.5;
+            if q < 1.0 {
+                s * s
+            } else {
+                0.0
+            }
+        } else {
+            // The cubic spline (crate::iso::kernel).
             let a = 1.0 - q;
             let near = 1.0 - 6.0 * q * q + 6.0 * q * q * q;
             let far = 2.0 * a * a * a;
-            let k = if q <= 0.5 {
+            if q <= 0.5 {
                 near
             } else if q < 1.0 {
                 far
             } else {
                 0.0
-            };
-            *val += k * w;
-        }
+            }
+        };
+        *val += k * w;
     }
-    body(seg, i0, lo_x, h, px, d2, inv_support, w)
 }
 
 /// Surface following: the corners of the band's outer boundary lie farther than the support from every
@@ -618,6 +653,33 @@ mod tests {
         let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
         assert!(n.dot(Vec3::ONE) > 0.0, "mask 1's triangle must point away from corner 0");
         assert!(t.iter().all(|c| c.len() <= 6));
+    }
+
+    /// The metaball field: one particle's surface at the analytic distance; a random cloud closed and oriented.
+    #[test]
+    fn metaball_field() {
+        let (r, rc) = (0.1f32, 0.3f32);
+        let t = metaball_threshold(r, rc);
+        let one = IsoGrid::build(&[[0.3, 0.2, 0.1]], rc);
+        let p = ExtractParams { metaball: true, ..ExtractParams::new(0.25 * r, t) };
+        let m = extract(&one, &one.inv_density(), &p);
+        assert!(m.triangles.len() > 100);
+        assert_eq!(open_or_flipped_edges(&m), 0);
+        for v in &m.vertices {
+            let d = (Vec3::from(*v) - Vec3::new(0.3, 0.2, 0.1)).length();
+            assert!((d - r).abs() < 0.02 * r, "vertex at {d}, the surface is at {r}");
+        }
+        let pts: Vec<[f32; 3]> = (0..200)
+            .map(|i| [(i * 37 % 101) as f32 * 0.01, (i * 59 % 97) as f32 * 0.005, (i % 13) as f32 * 0.03])
+            .collect();
+        let g = IsoGrid::build(&pts, 0.09);
+        let m = extract(
+            &g,
+            &g.inv_density(),
+            &ExtractParams { metaball: true, ..ExtractParams::new(0.015, metaball_threshold(0.03, 0.09)) },
+        );
+        assert!(m.triangles.len() > 1000);
+        assert_eq!(open_or_flipped_edges(&m), 0);
     }
 
     /// One particle: a closed sphere whose vertices sit where the field equals the threshold; two far

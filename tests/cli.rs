@@ -330,6 +330,16 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert!(run("e.vtk", "2").status.success());
     let v = meniscus::scene::load(&d.join("e.vtk")).unwrap();
     assert_eq!(v.positions, p.positions);
+    // The thesis' metaball field: a closed mesh too; a threshold past its peak is an error.
+    let o = meniscus()
+        .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--field", "metaball", "--out"])
+        .arg(d.join("mb.ply"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(meniscus::scene::load(&d.join("mb.ply")).unwrap().len() > 100);
+    let o = meniscus().args(["mesh", "drop", "--field", "metaball", "--threshold", "0.5"]).output().unwrap();
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("(0, 0.25)"));
     // The thesis' comparison: three labelled panels side by side.
     let o = meniscus()
         .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--width", "80", "--height", "60"])

@@ -45,9 +45,17 @@ pub struct MeshArgs {
     /// Kernel support in particle radii (splashsurf: 2 × smoothing length 2 = 4).
     #[arg(long, allow_negative_numbers = true, default_value_t = 4.0)]
     support: f32,
-    /// Iso value of the normalised field (splashsurf: 0.6).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.6)]
-    threshold: f32,
+    /// Iso value (default: 0.6 for the SPH field, splashsurf's; for the metaball field the value that puts an
+    /// isolated particle's surface at its radius).
+    #[arg(long, allow_negative_numbers = true)]
+    threshold: Option<f32>,
+    /// The field: sph (the colour field the iso pass ray-casts and splashsurf meshes) or metaball (the thesis'
+    /// f(d) = (d/(√2 R_c))⁴ − (d/(√2 R_c))² + ¼ within R_c, unnormalised).
+    #[arg(long, value_parser = ["sph", "metaball"], default_value = "sph")]
+    field: String,
+    /// The metaball field's radius of influence R_c in particle radii.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
+    rc: f32,
     /// Cubes per block edge: each block scatters its particles into its own corner values and marches its
     /// cubes, in parallel. 0: the per-corner paths (every corner gathers its particles), surface following
     /// unless --dense. Changes nothing but the time.
@@ -70,8 +78,18 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if !(a.support.is_finite() && (1.0..=16.0).contains(&a.support)) {
         bail!("--support must be in [1, 16] particle radii");
     }
-    if !(a.threshold > 0.0 && a.threshold < 1.0) {
-        bail!("--threshold must be in (0, 1)");
+    let metaball = a.field == "metaball";
+    if metaball && !(a.rc.is_finite() && (1.0..=16.0).contains(&a.rc)) {
+        bail!("--rc must be in [1, 16] particle radii");
+    }
+    let threshold =
+        a.threshold.unwrap_or(if metaball { meniscus::extract::metaball_threshold(1.0, a.rc) } else { 0.6 });
+    let top = if metaball { 0.25 } else { 1.0 };
+    if !(threshold > 0.0 && threshold < top) {
+        bail!("--threshold must be in (0, {top}) for the {} field", a.field);
+    }
+    if a.compare.is_some() && metaball {
+        bail!("--compare renders the SPH field (the one the iso pass ray-casts); drop --field metaball");
     }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = a.threads {
@@ -95,12 +113,13 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("mesh.ply"));
     let r = job.settings.radius;
-    let params = ExtractParams { cube: a.cube_size * r, threshold: a.threshold, dense: a.dense, block: a.block };
+    let params = ExtractParams { cube: a.cube_size * r, threshold, dense: a.dense, block: a.block, metaball };
+    let support = if metaball { a.rc } else { a.support };
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
         let t0 = std::time::Instant::now();
         let m = pool.install(|| {
             let t = std::time::Instant::now();
-            let grid = IsoGrid::build(&p.positions, a.support * r);
+            let grid = IsoGrid::build(&p.positions, support * r);
             let t1 = t.elapsed().as_secs_f64();
             let inv = grid.inv_density();
             let t2 = t.elapsed().as_secs_f64();
@@ -179,7 +198,7 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
             s.surface = Surface::Mesh;
             s.mesh.cube = a.cube_size;
             s.iso.support = a.support;
-            s.iso.threshold = a.threshold;
+            s.iso.threshold = a.threshold.unwrap_or(0.6);
             s
         }),
     ];
