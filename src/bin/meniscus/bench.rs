@@ -342,6 +342,14 @@ pub struct BenchArgs {
     /// TOML settings over the preset.
     #[arg(long)]
     settings: Option<PathBuf>,
+    /// Also measure these presets (comma-separated: default, fast, quality, moritz) on every workload and
+    /// resolution, in the same run, and print each one's frame time as a ratio of the main preset's.
+    #[arg(long, value_delimiter = ',')]
+    also_presets: Vec<String>,
+    /// Frame the built-in workloads so the fluid covers about a quarter of the screen (Moritz's framing; implied
+    /// by --preset moritz and table43).
+    #[arg(long)]
+    quarter_framing: bool,
     /// Benchmark the live simulation instead: SCENE or SCENE:PARTICLES (dambreak, drop, waterfall, pool). Reports
     /// per-stage ms per step and steps/s, then frames that step and render together at the first resolution
     /// (with --async on/both: the step on the async compute queue, and the overlap it buys).
@@ -444,6 +452,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
     let table43 = a.preset == "table43";
     let moritz = a.preset == "moritz" || table43;
+    let quarter = moritz || a.quarter_framing;
     let mut base = Settings::preset(if table43 { "moritz" } else { &a.preset })?;
     if let Some(f) = &a.settings {
         base = base.with_toml(f)?;
@@ -474,6 +483,14 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     let mut r = Renderer::new(&gpu)?;
     r.always_render_background = !a.cache_background;
+    let mut also = vec![];
+    for p in &a.also_presets {
+        let mut s = Settings::preset(p)?;
+        if let Some(f) = &a.settings {
+            s = s.with_toml(f)?;
+        }
+        also.push((p.clone(), s));
+    }
     let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
     let n_var = if a.variants { 12 } else { 0 };
     let bar = indicatif::ProgressBar::new((scenes.len() * resolutions.len() + n_var) as u64);
@@ -487,7 +504,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     for (k, name) in scenes.iter().enumerate() {
         bar.set_message(format!("generating {name}"));
-        let (w, job) = workload(name, a, &base, moritz)?;
+        let (w, job) = workload(name, a, &base, quarter)?;
         if let Some(job) = &job {
             eprintln!("{}", job.summary(Some(resolutions[0])));
         }
@@ -517,6 +534,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 entries.push(measure(&mut r, &w, wd, ht, &base, &label, a.warmup, a.frames)?);
             }
             r.async_compute = a.async_mode == "on";
+            for (label, vs) in &also {
+                bar.set_message(format!("{} {}×{} preset {label}", w.label, wd, ht));
+                entries.push(measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+            }
             bar.inc(1);
             if a.variants && k == 0 && j == 0 {
                 variants.clear();
@@ -571,6 +592,27 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 if let Some(t) = splat(&format!("splat {m}")) {
                     println!("ratio splat quad-frag-depth ÷ {m}: {:.2} (> 1: {m} is faster)", fd / t.max(1e-9));
                 }
+            }
+        }
+    }
+    if !also.is_empty() {
+        println!("\nframe time (union of the queues, median) as a ratio of preset {}:", a.preset);
+        for e in entries.iter().filter(|e| also.iter().any(|(l, _)| *l == e.variant)) {
+            let base_entry = entries.iter().find(|b| {
+                b.scene == e.scene && b.width == e.width && b.height == e.height && b.variant.starts_with(&a.preset)
+            });
+            if let Some(b) = base_entry {
+                println!(
+                    "  {} {}×{}: {} {:.2} ms ÷ {} {:.2} ms = {:.2}",
+                    e.scene,
+                    e.width,
+                    e.height,
+                    e.variant,
+                    e.union_ms.median,
+                    b.variant,
+                    b.union_ms.median,
+                    e.union_ms.median / b.union_ms.median.max(1e-9)
+                );
             }
         }
     }
