@@ -14,7 +14,7 @@ layout(std140, binding = 0) uniform Sim {
     vec4 solver;         // rest density ρ0; relaxation ε; s_corr k; 1 / W_poly6(Δq)
     vec4 visc;           // XSPH c; vorticity ε; particle radius; s_corr exponent n
     vec4 kern;           // h²; poly6 coefficient; spiky gradient coefficient; particle volume m/ρ0
-    uvec4 counts;        // particles; colliders
+    uvec4 counts;        // particles; colliders; neighbour-list stride (capacity)
     vec4 colliders[2 * MAX_COLLIDERS]; // per collider: (a.xyz, kind), (b) — see collide()
 } sim;
 
@@ -127,10 +127,11 @@ vec3 collide(vec3 x) {
 
 // for (uint J …) over particle i's neighbours (within h of it when the list was made, itself excluded), as
 // listed by sim_neighbours at the step's predicted positions (Macklin & Müller, Alg. 1 line 6: the neighbour
-// set is found once per step). Needs `nbr_count` and `nbrs` declared by the shader.
+// set is found once per step). The lists are slot-major (slot k of every particle contiguous), so the threads of
+// a warp read one run of words, not one word per 256-byte row. Needs `nbr_count` and `nbrs` declared.
 #define FOR_NEIGHBOURS(i, J)                                                                    \
     for (uint k_ = 0u, n_ = nbr_count[i]; k_ < n_; ++k_) {                                     \
-        uint J = nbrs[(i) * MAX_NEIGHBOURS + k_];
+        uint J = nbrs[k_ * sim.counts.z + (i)];
 #define END_NEIGHBOURS }
 
 // The neighbour-list bindings of the stages that read them (at 1 and 2).

@@ -3,7 +3,8 @@
 //! the particles within h of it at the predicted positions (itself excluded), found through the `grid` pass's
 //! cells, at most MAX_NEIGHBOURS (a compressed particle past that keeps the nearest cells' first ones; the
 //! overflow count is reported). The solver's loops then visit ~30 neighbours instead of ~200 candidates.
-//! In: counts, start (grid), pred (grid order). Out: nbr_count, nbrs (MAX_NEIGHBOURS per particle), overflow.
+//! In: counts, start (grid), pred (grid order). Out: nbr_count, nbrs (MAX_NEIGHBOURS slots, slot-major: slot k of particle i at k × capacity + i),
+//! overflow.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
@@ -25,7 +26,7 @@ void main() {
         vec3 r = xi - pred[j].xyz;
         if (dot(r, r) >= h2) continue;
         if (n < MAX_NEIGHBOURS) {
-            nbrs[i * MAX_NEIGHBOURS + n] = j;
+            nbrs[n * sim.counts.z + i] = j;
             n++;
         } else {
             full = true;

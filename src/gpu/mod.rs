@@ -515,11 +515,13 @@ impl Gpu {
         // is defined, so the per-queue spans of a split frame compare on one clock (the union, the overlap).
         let available = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
         let has = |n: &std::ffi::CStr| available.iter().any(|e| e.extension_name_as_c_str() == Ok(n));
-        if has(ash::khr::calibrated_timestamps::NAME) {
-            dev_exts.push(ash::khr::calibrated_timestamps::NAME.as_ptr());
-            info.calibrated_timestamps = true;
-        } else if has(ash::ext::calibrated_timestamps::NAME) {
+        // EXT first: the same feature, and validation layers older than the KHR promotion (Debian 12's 1.3.239)
+        // warn about the KHR name ("not supported by this layer"), which fails a --validation run.
+        if has(ash::ext::calibrated_timestamps::NAME) {
             dev_exts.push(ash::ext::calibrated_timestamps::NAME.as_ptr());
+            info.calibrated_timestamps = true;
+        } else if has(ash::khr::calibrated_timestamps::NAME) {
+            dev_exts.push(ash::khr::calibrated_timestamps::NAME.as_ptr());
             info.calibrated_timestamps = true;
         }
         let dci = vk::DeviceCreateInfo::default()

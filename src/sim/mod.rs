@@ -125,7 +125,8 @@ pub struct SimUniforms {
     pub visc: [f32; 4],
     /// h², poly6 coefficient, spiky gradient coefficient, particle volume m/ρ0.
     pub kern: [f32; 4],
-    /// Particles, colliders.
+    /// Particles, colliders, the neighbour lists' stride (particle capacity: list k of every particle is one
+    /// contiguous run, so neighbouring threads read neighbouring words).
     pub counts: [u32; 4],
     /// Two vec4 per collider.
     pub colliders: [[f32; 4]; 2 * MAX_COLLIDERS as usize],
@@ -447,7 +448,7 @@ impl Simulation {
             solver: [self.params.rest_density, c.eps, c.scorr_k, c.inv_w_dq],
             visc: [self.params.xsph, self.params.vorticity, r, self.params.scorr_n],
             kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
-            counts: [self.n, all.len() as u32, 0, 0],
+            counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, 0],
             colliders,
         }
     }

@@ -723,6 +723,8 @@ fn run_sweep(
     bar.finish_and_clear();
     let table = markdown(&entries);
     println!("{} — {} — preset {} — sweep {sweep}\n\n{table}", gpu.info.name, gpu.info.driver, a.preset);
+    // The measurements first, so a chart that cannot be drawn (no font on a bare GPU machine) loses nothing.
+    write_reports(a, gpu, base.clone(), entries, &table)?;
     if let Some(p) = &a.chart {
         let series: Vec<crate::chart::Series> = panels
             .into_iter()
@@ -734,5 +736,5 @@ fn run_sweep(
         crate::chart::write(p, &format!("meniscus bench --sweep {sweep} — {}", gpu.info.name), &series)?;
         eprintln!("wrote {}", p.display());
     }
-    write_reports(a, gpu, base.clone(), entries, &table)
+    Ok(())
 }
