@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use crate::iso::IsoGrid;
 
 /// The 12 cube edges as (corner a, corner b, axis); corner c = (c & 1, c >> 1 & 1, c >> 2 & 1).
-const EDGES: [(usize, usize, usize); 12] = [
+pub(crate) const EDGES: [(usize, usize, usize); 12] = [
     (0, 1, 0),
     (2, 3, 0),
     (4, 5, 0),
@@ -291,21 +291,47 @@ pub fn extract(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMesh {
 
 /// The lattice of an extraction: corner (i, j, k) at `lo + h·(i, j, k)`, `dims` corners per axis, keys
 /// `(i·dims.y + j)·dims.z + k` (the per-corner paths use the same keys).
-struct Lattice {
-    lo: Vec3,
-    h: f32,
-    dims: glam::IVec3,
+/// The marching-cubes lattice: corners at `lo + h·(i, j, k)`, covering the particles' box grown by the support.
+pub(crate) struct Lattice {
+    pub(crate) lo: Vec3,
+    pub(crate) h: f32,
+    pub(crate) dims: glam::IVec3,
 }
 
 impl Lattice {
-    fn of(grid: &IsoGrid, h: f32) -> Lattice {
+    pub(crate) fn of(grid: &IsoGrid, h: f32) -> Lattice {
         let lo = grid.points.iter().fold(Vec3::INFINITY, |a, q| a.min(Vec3::new(q[0], q[1], q[2]))) - grid.support;
         let hi = grid.points.iter().fold(Vec3::NEG_INFINITY, |a, q| a.max(Vec3::new(q[0], q[1], q[2]))) + grid.support;
         Lattice { lo, h, dims: ((hi - lo) / h).ceil().as_ivec3() + 1 }
     }
-    fn key(&self, c: glam::IVec3) -> i64 {
+    pub(crate) fn key(&self, c: glam::IVec3) -> i64 {
         (c.x as i64 * self.dims.y as i64 + c.y as i64) * self.dims.z as i64 + c.z as i64
     }
+}
+
+/// The blocks of `b`³ cubes that some particle's support reaches (cube lower corners in [c − reach, c + reach]),
+/// as sorted keys `(x · nb.y + y) · nb.z + z`, and `nb`, the blocks per axis. Shared by the CPU and GPU paths.
+pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
+    let (h, dims) = (lat.h, lat.dims);
+    let reach = (grid.support / h).ceil() as i32;
+    let nb = (dims - 1 + b - 1) / b; // blocks per axis over the dims − 1 cubes
+    let mut blocks: Vec<i64> = grid
+        .points
+        .par_iter()
+        .flat_map_iter(|q| {
+            let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
+            let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
+            let b1 = ((c + reach).min(dims - 2)) / b;
+            (b0.x..=b1.x).flat_map(move |x| {
+                (b0.y..=b1.y).flat_map(move |y| {
+                    (b0.z..=b1.z).map(move |z| (x as i64 * nb.y as i64 + y as i64) * nb.z as i64 + z as i64)
+                })
+            })
+        })
+        .collect();
+    blocks.par_sort_unstable();
+    blocks.dedup();
+    (blocks, nb)
 }
 
 /// Block extraction (the default): the lattice is cut into blocks of `p.block`³ cubes; only blocks within the
@@ -326,25 +352,7 @@ pub fn extract_blocks(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMe
     let (h, dims) = (lat.h, lat.dims);
     let b = p.block.max(1) as i32;
     let support = grid.support;
-    let reach = (support / h).ceil() as i32;
-    // Blocks that some particle's support reaches (cube lower corners in [c − reach, c + reach]).
-    let nb = (dims - 1 + b - 1) / b; // blocks per axis over the dims − 1 cubes
-    let mut blocks: Vec<i64> = grid
-        .points
-        .par_iter()
-        .flat_map_iter(|q| {
-            let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
-            let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
-            let b1 = ((c + reach).min(dims - 2)) / b;
-            (b0.x..=b1.x).flat_map(move |x| {
-                (b0.y..=b1.y).flat_map(move |y| {
-                    (b0.z..=b1.z).map(move |z| (x as i64 * nb.y as i64 + y as i64) * nb.z as i64 + z as i64)
-                })
-            })
-        })
-        .collect();
-    blocks.par_sort_unstable();
-    blocks.dedup();
+    let (blocks, nb) = occupied_blocks(grid, &lat, b);
     let table = case_table();
     let threshold = p.threshold;
     let g = &grid.grid;
@@ -606,7 +614,7 @@ fn follow(
 }
 
 /// Lattice offset of cube corner `n` from the cube's lower corner.
-fn corner_delta(n: usize) -> glam::IVec3 {
+pub(crate) fn corner_delta(n: usize) -> glam::IVec3 {
     glam::IVec3::new((n & 1) as i32, (n >> 1 & 1) as i32, (n >> 2 & 1) as i32)
 }
 

@@ -26,6 +26,11 @@ pub const SCAN_LOCAL: u32 = 256;
 /// Cells scanned by one work group of grid_scan.comp.
 pub const SCAN_BLOCK: u32 = 4 * SCAN_LOCAL;
 
+/// Cubes per edge of a block of the GPU marching cubes (`mc` pass; the CPU path's blocks are 32).
+pub const MC_BLOCK: u32 = 8;
+/// Most triangles of one cube in the generated case table (mc_emit.comp's table stride).
+pub const MC_MAX_TRIS: u32 = 12;
+
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
@@ -38,5 +43,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_COLLIDERS", MAX_COLLIDERS),
     ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),
+    ("MC_BLOCK", MC_BLOCK),
+    ("MC_MAX_TRIS", MC_MAX_TRIS),
     ("SCAN_BLOCK", SCAN_BLOCK),
 ];

@@ -1,6 +1,7 @@
 //! `meniscus mesh`: extract the SPH iso-surface of a particle file (or of every frame of a sequence) as a
 //! triangle mesh — marching cubes over the colour field the `iso` pass ray-casts (`meniscus::extract`) — and
-//! write it as PLY or OBJ. CPU only (rayon); `--threads` changes nothing but the time.
+//! write it as PLY, OBJ or VTK. On the CPU (rayon; `--threads` changes nothing but the time) or, with `--gpu`, on
+//! the GPU (the `mc` pass, src/passes/mc.rs: the same mesh up to float rounding).
 
 use std::path::PathBuf;
 
@@ -38,7 +39,7 @@ pub struct MeshArgs {
     #[arg(long, default_value_t = 360)]
     height: u32,
     #[command(flatten)]
-    gpu: crate::args::GpuArgs,
+    device: crate::args::GpuArgs,
     /// Marching-cubes edge length in particle radii (splashsurf's --cube-size).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     cube_size: f32,
@@ -68,6 +69,11 @@ pub struct MeshArgs {
     /// Worker threads (default: all cores); changes nothing but the time.
     #[arg(long)]
     threads: Option<usize>,
+    /// Extract on the GPU (the `mc` pass: field on the occupied blocks, count, prefix sum, emit; the host
+    /// welds the vertices): the same lattice and field as the CPU path, the same mesh up to float rounding.
+    /// Prints the GPU ms of each stage.
+    #[arg(long)]
+    gpu: bool,
 }
 
 /// Run the extraction.
@@ -115,8 +121,39 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let r = job.settings.radius;
     let params = ExtractParams { cube: a.cube_size * r, threshold, dense: a.dense, block: a.block, metaball };
     let support = if metaball { a.rc } else { a.support };
+    let gpu_mc = if a.gpu {
+        let gpu = a.device.open()?;
+        let mc = meniscus::passes::mc::Mc::new(&gpu)?;
+        Some((gpu, mc))
+    } else {
+        None
+    };
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
         let t0 = std::time::Instant::now();
+        if let Some((gpu, mc)) = &gpu_mc {
+            let (m, st) = pool.install(|| -> Result<_> {
+                let grid = IsoGrid::build(&p.positions, support * r);
+                let inv = grid.inv_density();
+                Ok(mc.extract(gpu, &grid, &inv, &params)?)
+            })?;
+            let secs = t0.elapsed().as_secs_f64();
+            meniscus::output::write_mesh(out, &m)?;
+            let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
+            let gpu_ms: f64 = st.gpu.0.iter().map(|(_, t)| t).sum();
+            return Ok(format!(
+                "{} particles → {} vertices, {} triangles in {:.2} s on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: set-up {:.1} ms, read-back and weld {:.1} ms) → {}",
+                p.len(),
+                m.vertices.len(),
+                m.triangles.len(),
+                secs,
+                gpu.info.name,
+                st.blocks,
+                stages.join(", "),
+                st.host_setup_ms,
+                st.host_weld_ms,
+                out.display()
+            ));
+        }
         let m = pool.install(|| {
             let t = std::time::Instant::now();
             let grid = IsoGrid::build(&p.positions, support * r);
@@ -142,9 +179,11 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             out.display()
         ))
     };
+    // Validation messages (--validation) fail the run at its end.
+    let done = || gpu_mc.as_ref().map_or(Ok(()), |(gpu, _)| crate::args::finish(gpu));
     let Some(frames) = job.frames.clone() else {
         eprintln!("{}", one(&job.first, &out)?);
-        return Ok(());
+        return done();
     };
     let out_name = |n: u64| -> PathBuf {
         let s = out.to_string_lossy();
@@ -170,14 +209,14 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         bar.inc(1);
     }
     bar.finish();
-    Ok(())
+    done()
 }
 
 /// `--compare`: render the job's particles with the three surfaces at one camera, time each (GPU medians of 3
 /// frames after one warm-up; the mesh adds its CPU extraction), label and place them side by side.
 fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
     use meniscus::settings::{Settings, Surface};
-    let gpu = a.gpu.open()?;
+    let gpu = a.device.open()?;
     let mut r = meniscus::renderer::Renderer::new(&gpu)?;
     job.apply_background(&mut r)?;
     job.upload(&mut r, &job.first)?;

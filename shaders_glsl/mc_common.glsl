@@ -1,0 +1,19 @@
+//! mc_common.glsl — shared by the `mc` pass's shaders (GPU marching cubes, src/passes/mc.rs; the CPU path and
+//! the reference the tests hold it to is src/extract.rs's block extraction). The lattice, the blocks and the
+//! push constants; a block is MC_BLOCK³ cubes whose corner values are stored with a one-corner margin
+//! (MC_N = MC_BLOCK + 3 corners per axis, local corner 0 = global corner c0), exactly the CPU's block layout.
+#define MC_N (MC_BLOCK + 3u)
+#define MC_NC (MC_N * MC_N * MC_N)
+
+layout(push_constant) uniform McPush {
+    vec4 lat;       // lattice origin (xyz), cube edge h (w)
+    vec4 grid;      // neighbour grid origin (xyz), cell side (w, ≥ support)
+    uvec4 gdims;    // neighbour grid cells per axis (xyz); w: 1 = metaball field
+    ivec4 ldims;    // lattice corners per axis (xyz); w: blocks
+    vec4 field;     // support, 1 / support, threshold, -
+} pc;
+
+// A flat index over a 2-D dispatch (more than 65,535 work groups along x are not allowed).
+uint flat_group() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
+
+uint corner_index(uvec3 l) { return (l.z * MC_N + l.y) * MC_N + l.x; }
