@@ -326,6 +326,24 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains(".ply, .obj or .vtk"));
     assert!(!d.join("d.stl").exists() && !d.join("d.stl.partial").exists());
+    // --gpu (the `mc` pass, under validation): the same vertices, and the GPU stages' times printed.
+    let o = meniscus()
+        .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--gpu", "--validation", "--out"])
+        .arg(d.join("g.ply"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("mc_field") && err.contains("mc_emit"), "{err}");
+    let g = meniscus::scene::load(&d.join("g.ply")).unwrap();
+    assert_eq!(g.len(), p.len(), "GPU and CPU vertex counts");
+    let dmax = g
+        .positions
+        .iter()
+        .zip(&p.positions)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0f32, f32::max))
+        .fold(0f32, f32::max);
+    assert!(dmax < 1e-4, "GPU vertices {dmax} from the CPU's");
     // Legacy VTK POLYDATA: the same vertices (our loader reads its POINTS).
     assert!(run("e.vtk", "2").status.success());
     let v = meniscus::scene::load(&d.join("e.vtk")).unwrap();
@@ -349,7 +367,7 @@ fn mesh_subcommand_writes_ply_and_obj() {
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("ms extraction") && err.contains("iso-surface ray cast"), "{err}");
+    assert!(err.contains("ms CPU extraction + BVH") && err.contains("iso-surface ray cast"), "{err}");
     let img = image::open(d.join("cmp.png")).unwrap();
     assert_eq!((img.width(), img.height()), (240, 60));
 }

@@ -247,7 +247,7 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
         let gpu_ms = meniscus::gpu::timer::median(&mut ms);
         let label = match (s.surface, r.fluid_mesh_stats()) {
             (Surface::Mesh, Some((secs, _, tris))) => {
-                format!("{:.0} ms extraction ({tris} triangles) + {gpu_ms:.1} ms GPU", secs * 1e3)
+                format!("{:.0} ms CPU extraction + BVH ({tris} triangles) + {gpu_ms:.1} ms GPU", secs * 1e3)
             }
             _ => format!("{gpu_ms:.1} ms GPU"),
         };
