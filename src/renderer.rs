@@ -888,12 +888,18 @@ pub fn upload_buffer(gpu: &Arc<Gpu>, name: &str, data: &[u8], reuse: Option<Buff
 
 /// Copy the first `bytes` bytes of a device buffer (made with TRANSFER_SRC usage) into host memory.
 pub fn read_buffer(gpu: &Arc<Gpu>, src: &Buffer, bytes: u64) -> Result<Vec<u8>> {
-    let bytes = bytes.min(src.size);
+    read_buffer_at(gpu, src, 0, bytes)
+}
+
+/// Copy `bytes` bytes of a device buffer (made with TRANSFER_SRC usage) from `offset` on into host memory
+/// (clipped to the buffer).
+pub fn read_buffer_at(gpu: &Arc<Gpu>, src: &Buffer, offset: u64, bytes: u64) -> Result<Vec<u8>> {
+    let bytes = bytes.min(src.size.saturating_sub(offset));
     let buf =
         Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(gpu, cmd, None);
-        ctx.copy_buffer(src, &buf, vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes });
+        ctx.copy_buffer(src, &buf, vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes });
         ctx.barrier(&[Use::Buffer(&buf, Access::HostRead)]);
         Ok(())
     })?;
@@ -934,6 +940,23 @@ pub fn read_f32(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<f32>> {
     Ok(bytemuck::pod_collect_to_vec(&read_image(gpu, img)?))
 }
 
+/// Record a copy of tightly packed texels from `src` into the `extent` corner of every layer of `img` (its
+/// old contents dropped), after the barrier that makes `img` a transfer destination.
+pub fn record_upload(ctx: &mut FrameCtx, src: &Buffer, img: &Image, extent: vk::Extent2D) {
+    ctx.barrier(&[Use::Image(img, Access::TransferDst, true)]);
+    let region = vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: img.layers,
+        })
+        .image_extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 });
+    unsafe {
+        ctx.gpu.device.cmd_copy_buffer_to_image(ctx.cmd, src.raw, img.raw, Access::TransferDst.info().layout, &[region])
+    };
+}
+
 /// Fill a whole image from host memory (tightly packed texels); leaves it ready for compute reads.
 pub fn upload_image(gpu: &Arc<Gpu>, img: &Image, data: &[u8]) -> Result<()> {
     if data.len() as u64 != img.bytes() {
@@ -947,24 +970,7 @@ pub fn upload_image(gpu: &Arc<Gpu>, img: &Image, data: &[u8]) -> Result<()> {
     let staging = Buffer::with_data(gpu, "upload", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(gpu, cmd, None);
-        ctx.barrier(&[Use::Image(img, Access::TransferDst, true)]);
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: img.layers,
-            })
-            .image_extent(vk::Extent3D { width: img.extent.width, height: img.extent.height, depth: 1 });
-        unsafe {
-            gpu.device.cmd_copy_buffer_to_image(
-                cmd,
-                staging.raw,
-                img.raw,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &[region],
-            )
-        };
+        record_upload(&mut ctx, &staging, img, img.extent);
         Ok(())
     })
 }

@@ -1289,5 +1289,10 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
             );
         }
     }
+    // A threshold above the field's peak: no cube crosses it, an empty mesh (and no zero-sized copies).
+    let grid = IsoGrid::build(&cases[0].1, 4.0 * r);
+    let inv = grid.inv_density();
+    let (m, _) = mc.extract(&gpu, &grid, &inv, &ExtractParams::new(0.5 * r, 10.0)).unwrap();
+    assert!(m.triangles.is_empty() && m.vertices.is_empty());
     assert_clean(&gpu);
 }

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use crate::declare_program;
 use crate::error::Result;
 use crate::extract::{case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
-use crate::gpu::{Access, Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer, Use};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
 use crate::iso::IsoGrid;
 use crate::passes::grid::{ScanPush, SCAN};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
@@ -101,19 +101,6 @@ fn device_buffer(gpu: &Arc<Gpu>, name: &str, bytes: u64) -> Result<Buffer> {
     let usage =
         vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
     Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly)
-}
-
-/// Copy `bytes` bytes at `offset` of a device buffer into host memory.
-fn read_at(gpu: &Arc<Gpu>, src: &Buffer, offset: u64, bytes: u64) -> Result<Vec<u8>> {
-    let buf =
-        Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
-    gpu.one_shot(|cmd| {
-        let mut ctx = FrameCtx::new(gpu, cmd, None);
-        ctx.copy_buffer(src, &buf, vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes });
-        ctx.barrier(&[Use::Buffer(&buf, Access::HostRead)]);
-        Ok(())
-    })?;
-    Ok(buf.read()?[..bytes as usize].to_vec())
 }
 
 impl Mc {
@@ -205,10 +192,15 @@ impl Mc {
         let mut times = timer.read()?.0;
         // The triangle total: the last cube's start plus its count.
         let last = 4 * (ncubes as u64 - 1);
-        let s = read_at(gpu, &start, last, 4)?;
-        let c = read_at(gpu, &counts, last, 4)?;
+        let s = crate::renderer::read_buffer_at(gpu, &start, last, 4)?;
+        let c = crate::renderer::read_buffer_at(gpu, &counts, last, 4)?;
         let total = u32::from_le_bytes(s[..4].try_into().expect("4 bytes"))
             + u32::from_le_bytes(c[..4].try_into().expect("4 bytes"));
+        if total == 0 {
+            // No cube crosses the threshold: nothing to emit (and no zero-sized copies to make).
+            stats.gpu = PassTimes(times);
+            return Ok((TriMesh::default(), stats));
+        }
         let pos = device_buffer(gpu, "mc_pos", 48 * total as u64)?;
         let nrm = device_buffer(gpu, "mc_nrm", 48 * total as u64)?;
         let tri = device_buffer(gpu, "mc_tri", 16 * total as u64)?;
@@ -232,9 +224,12 @@ impl Mc {
         times.extend(timer.read()?.0);
         stats.gpu = PassTimes(times);
         let t1 = Instant::now();
-        let pos: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&read_at(gpu, &pos, 0, 48 * total as u64)?);
-        let nrm: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&read_at(gpu, &nrm, 0, 48 * total as u64)?);
-        let tri: Vec<[i32; 4]> = bytemuck::pod_collect_to_vec(&read_at(gpu, &tri, 0, 16 * total as u64)?);
+        let pos: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&crate::renderer::read_buffer(gpu, &pos, 48 * total as u64)?);
+        let nrm: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&crate::renderer::read_buffer(gpu, &nrm, 48 * total as u64)?);
+        let tri: Vec<[i32; 4]> =
+            bytemuck::pod_collect_to_vec(&crate::renderer::read_buffer(gpu, &tri, 16 * total as u64)?);
         let mesh = weld(&lat, &pos, &nrm, &tri);
         stats.host_weld_ms = t1.elapsed().as_secs_f64() * 1e3;
         Ok((mesh, stats))
