@@ -65,8 +65,8 @@ impl Timer {
         };
     }
 
-    /// Begin and end of every scope of the last frame in nanoseconds of the device clock (waits for them).
-    pub fn spans(&self) -> Result<Vec<(String, f64, f64)>> {
+    /// Per scope of the last frame: its begin timestamp and its length, in ticks (valid bits only; waits).
+    fn ticks(&self) -> Result<Vec<(u64, u64)>> {
         let n = self.names.len();
         if n == 0 {
             return Ok(vec![]);
@@ -83,40 +83,25 @@ impl Timer {
         .vk("vkGetQueryPoolResults")?;
         let bits = self.gpu.info.timestamp_valid_bits;
         let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        Ok(raw.chunks_exact(2).map(|be| (be[0] & mask, be[1].wrapping_sub(be[0]) & mask)).collect())
+    }
+
+    /// Begin and end of every scope of the last frame in nanoseconds of the device clock (waits for them).
+    pub fn spans(&self) -> Result<Vec<(String, f64, f64)>> {
         let period = self.gpu.info.timestamp_period as f64;
         Ok(self
             .names
             .iter()
-            .enumerate()
-            .map(|(k, name)| {
-                let (b, e) = (raw[2 * k] & mask, raw[2 * k + 1] & mask);
-                (name.clone(), b as f64 * period, b as f64 * period + (e.wrapping_sub(b) & mask) as f64 * period)
-            })
+            .zip(self.ticks()?)
+            .map(|(name, (b, d))| (name.clone(), b as f64 * period, b as f64 * period + d as f64 * period))
             .collect())
     }
 
     /// Read the results of the last frame (waits for them). Same-named scopes are summed.
     pub fn read(&self) -> Result<PassTimes> {
-        let n = self.names.len();
-        if n == 0 {
-            return Ok(PassTimes::default());
-        }
-        let mut raw = vec![0u64; 2 * n];
-        unsafe {
-            self.gpu.device.get_query_pool_results(
-                self.pool,
-                0,
-                &mut raw,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-            )
-        }
-        .vk("vkGetQueryPoolResults")?;
-        let bits = self.gpu.info.timestamp_valid_bits;
-        let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
         let period = self.gpu.info.timestamp_period as f64;
         let mut out: Vec<(String, f64)> = vec![];
-        for (k, name) in self.names.iter().enumerate() {
-            let ticks = raw[2 * k + 1].wrapping_sub(raw[2 * k]) & mask;
+        for (name, (_, ticks)) in self.names.iter().zip(self.ticks()?) {
             let ms = ticks as f64 * period * 1e-6;
             match out.iter_mut().find(|(n, _)| n == name) {
                 Some(e) => e.1 += ms,

@@ -33,7 +33,7 @@ use winit::window::{Window, WindowId};
 use meniscus::error::{Error, Result, VkContext};
 use meniscus::frame::{Environment, View};
 use meniscus::gpu::executor::Binary;
-use meniscus::gpu::{Access, Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes, Use};
+use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes};
 use meniscus::passes::view::ViewMode;
 use meniscus::renderer::{Hooks, Renderer};
 use meniscus::scene::{Camera, LoadOptions, Particles};
@@ -724,24 +724,7 @@ impl App {
         let overlay_img = st.overlay.as_ref().expect("set");
         let staging = st.overlay_staging[k].as_ref().expect("set");
         let upload_overlay = |ctx: &mut FrameCtx| {
-            ctx.barrier(&[Use::Image(overlay_img, Access::TransferDst, true)]);
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D { width: ow, height: oh, depth: 1 });
-            unsafe {
-                ctx.gpu.device.cmd_copy_buffer_to_image(
-                    ctx.cmd,
-                    staging.raw,
-                    overlay_img.raw,
-                    Access::TransferDst.info().layout,
-                    &[region],
-                )
-            };
+            meniscus::renderer::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
         };
         let blit = |ctx: &mut FrameCtx, final_img: &Image| present::record_blit(ctx, swap, index, final_img);
         // The simulation's frame, recorded into this frame's command buffer; it writes the particle buffer the
