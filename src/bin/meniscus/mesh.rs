@@ -130,52 +130,41 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     };
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
         let t0 = std::time::Instant::now();
-        if let Some((gpu, mc)) = &gpu_mc {
-            let (m, st) = pool.install(|| -> Result<_> {
-                let grid = IsoGrid::build(&p.positions, support * r);
-                let inv = grid.inv_density();
-                Ok(mc.extract(gpu, &grid, &inv, &params)?)
-            })?;
-            let secs = t0.elapsed().as_secs_f64();
-            meniscus::output::write_mesh(out, &m)?;
-            let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
-            let gpu_ms: f64 = st.gpu.0.iter().map(|(_, t)| t).sum();
-            return Ok(format!(
-                "{} particles → {} vertices, {} triangles in {:.2} s on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: set-up {:.1} ms, read-back and weld {:.1} ms) → {}",
-                p.len(),
-                m.vertices.len(),
-                m.triangles.len(),
-                secs,
-                gpu.info.name,
-                st.blocks,
-                stages.join(", "),
-                st.host_setup_ms,
-                st.host_weld_ms,
-                out.display()
-            ));
-        }
-        let m = pool.install(|| {
-            let t = std::time::Instant::now();
+        let (m, how) = pool.install(|| -> Result<_> {
             let grid = IsoGrid::build(&p.positions, support * r);
-            let t1 = t.elapsed().as_secs_f64();
+            let t1 = t0.elapsed().as_secs_f64();
             let inv = grid.inv_density();
-            let t2 = t.elapsed().as_secs_f64();
-            let m = extract(&grid, &inv, &params);
-            if std::env::var("MENISCUS_PROFILE").is_ok() {
-                eprintln!("grid {t1:.3} s, 1/n {:.3} s, extract {:.3} s", t2 - t1, t.elapsed().as_secs_f64() - t2);
-            }
+            let t2 = t0.elapsed().as_secs_f64();
+            let (m, how) = match &gpu_mc {
+                Some((gpu, mc)) => {
+                    let (m, st) = mc.extract(gpu, &grid, &inv, &params)?;
+                    let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
+                    let gpu_ms: f64 = st.gpu.0.iter().map(|(_, t)| t).sum();
+                    let how = format!(
+                        "on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: set-up {:.1} ms, read-back and weld {:.1} ms)",
+                        gpu.info.name,
+                        st.blocks,
+                        stages.join(", "),
+                        st.host_setup_ms,
+                        st.host_weld_ms
+                    );
+                    (m, how)
+                }
+                None => (extract(&grid, &inv, &params), format!("({} threads)", pool.current_num_threads())),
+            };
             // (MENISCUS_PROFILE=1: where the time goes.)
-            m
-        });
+            if std::env::var("MENISCUS_PROFILE").is_ok() {
+                eprintln!("grid {t1:.3} s, 1/n {:.3} s, extract {:.3} s", t2 - t1, t0.elapsed().as_secs_f64() - t2);
+            }
+            Ok((m, how))
+        })?;
         let secs = t0.elapsed().as_secs_f64();
         meniscus::output::write_mesh(out, &m)?;
         Ok(format!(
-            "{} particles → {} vertices, {} triangles in {:.2} s ({} threads) → {}",
+            "{} particles → {} vertices, {} triangles in {secs:.2} s {how} → {}",
             p.len(),
             m.vertices.len(),
             m.triangles.len(),
-            secs,
-            pool.current_num_threads(),
             out.display()
         ))
     };
