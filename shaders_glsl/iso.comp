@@ -6,8 +6,10 @@
 //! and refines the first step past the threshold by bisection. Rays that leave the grid's box miss.
 //! The march ends where the ray leaves the grid's box or, with pc.steps.z = 1, behind the farthest sphere
 //! exit (`back`, from the splat). The bracket is refined by bisection, then by one linear interpolation.
-//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F).
+//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F),
+//! the anisotropic kernels (binding 6, read when pc.steps.w = 1).
 #include "common.glsl"
+#define ISO_ANISO_BINDING 6
 #include "iso_field.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 4, r32f) uniform image2D depth;

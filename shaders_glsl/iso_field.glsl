@@ -1,16 +1,28 @@
 //! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
 //! (src/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
-//! Bindings 1–3: points sorted by cell (xyz), cells (first point, count), weights 1/n_j (one per point).
+//! Bindings 1–3: points sorted by cell (xyz), cells (first point, count), weights 1/n_j (one per point; not
+//! declared, nor iso_sum, with ISO_NO_WEIGHTS).
+//! With ISO_ANISO_BINDING defined, and pc.steps.w = 1, each point's anisotropic kernel (the `anisotropy` pass,
+//! Yu & Turk 2013): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j.
 
 layout(std430, set = 0, binding = 1) readonly buffer IsoPoints { vec4 iso_points[]; };
 layout(std430, set = 0, binding = 2) readonly buffer IsoCells { uvec2 iso_cells[]; };
+#ifndef ISO_NO_WEIGHTS
 layout(std430, set = 0, binding = 3) buffer IsoWeights { float iso_w[]; };
+#endif
+
+#ifdef ISO_ANISO_BINDING
+layout(std430, set = 0, binding = ISO_ANISO_BINDING) readonly buffer IsoAniso { vec4 iso_aniso[]; };
+#endif
 
 layout(push_constant) uniform IsoPush {
     vec4 origin;  // xyz: grid origin (world), w: cell size (≥ support)
     uvec4 dims;   // xyz: cells per axis, w: point count
     vec4 params;  // x: kernel support h, y: iso threshold, z: smallest step, w: bound radius (world units)
-    uvec4 steps;  // x: most march steps, y: bisection iterations, z: 1 = the back image bounds the march
+    uvec4 steps;  // x: most march steps, y: bisection iterations, z: 1 = the back image bounds the march,
+                  // w: 1 = anisotropic kernels
+    vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
+    vec4 aniso2;  // anisotropy: x: longest axis (units of h)
 } pc;
 
 /// Cubic spline without its constant (it cancels in φ); q = distance / support.
@@ -20,6 +32,7 @@ float iso_kernel(float q) {
     return 0.0;
 }
 
+#ifndef ISO_NO_WEIGHTS
 /// Σ W(|x − x_j|) (weighted by 1/n_j when `weighted`) over the 3×3×3 cells around x; `dmin`: the distance
 /// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far).
 float iso_sum(vec3 x, bool weighted, out float dmin) {
@@ -38,6 +51,19 @@ float iso_sum(vec3 x, bool weighted, out float dmin) {
                     vec3 v = iso_points[i].xyz - x;
                     float d2 = dot(v, v);
                     d2min = min(d2min, d2);
+#ifdef ISO_ANISO_BINDING
+                    if (pc.steps.w != 0u) {
+                        vec4 a0 = iso_aniso[3u * i];
+                        vec3 u = x - a0.xyz;
+                        // The ellipsoid lies inside the ball of radius (longest axis) around its centre.
+                        float reach = pc.params.x * pc.aniso2.x;
+                        if (dot(u, u) >= reach * reach) continue;
+                        vec4 a1 = iso_aniso[3u * i + 1u], a2 = iso_aniso[3u * i + 2u];
+                        mat3 m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
+                        s += a0.w * iso_kernel(length(m * u) * inv_h) * iso_w[i];
+                        continue;
+                    }
+#endif
                     float w = iso_kernel(sqrt(d2) * inv_h);
                     s += weighted ? w * iso_w[i] : w;
                 }
@@ -47,3 +73,4 @@ float iso_sum(vec3 x, bool weighted, out float dmin) {
     dmin = sqrt(d2min);
     return s;
 }
+#endif

@@ -225,7 +225,7 @@ impl<'t> Recording<'_, 't> {
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. Optional steps: `background`
 /// (skipped while the view and scene stand), `splat` or `mesh` (`surface = "mesh"`), `iso` (`surface =
-/// "iso"`), `upsample` (`fluid_scale` < 1).
+/// "iso"`, after `anisotropy` with `kernel = "anisotropic"`), `upsample` (`fluid_scale` < 1).
 #[allow(clippy::too_many_arguments)]
 pub fn record_frame(
     rec: &mut Recording,
@@ -262,9 +262,13 @@ pub fn record_frame(
     }
     if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
         p.iso.record_grid(ctx, particles, count, grid);
+        let params = s.iso_params();
+        if let Some(a) = &params.aniso {
+            p.anisotropy.record(ctx, frame, grid, a);
+        }
         // The rasterised splats do not write the far exit: the march then runs to the grid's box.
         let back = t.depth_back.as_ref().filter(|_| s.splat.mode == SplatMode::Compute);
-        p.iso.record(ctx, frame, grid, &s.iso_params(), &t.depth, back);
+        p.iso.record(ctx, frame, grid, &params, &t.depth, back);
     }
     let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, info);
     let fluid_depth = t.smoothed(smoothed);

@@ -47,7 +47,14 @@ impl std::ops::Deref for IsoGrid {
 impl IsoGrid {
     /// Build over `positions` (non-finite positions are dropped) for kernel support `support`.
     pub fn build(positions: &[[f32; 3]], support: f32) -> IsoGrid {
-        IsoGrid { grid: UniformGrid::new(positions, support), support }
+        IsoGrid::build_reaching(positions, support, support)
+    }
+
+    /// As `build`, with cells at least `reach` (≥ `support`) wide: kernels whose centres moved up to
+    /// `reach − support` from their particle (anisotropic kernels with smoothed centres) are still found in the
+    /// 3×3×3 cells around a point.
+    pub fn build_reaching(positions: &[[f32; 3]], support: f32, reach: f32) -> IsoGrid {
+        IsoGrid { grid: UniformGrid::new(positions, reach.max(support)), support }
     }
 
     /// 1 / n_j for every sorted point (the GPU's `iso` pass computes the same on the device).
@@ -66,14 +73,205 @@ impl IsoGrid {
 
     /// φ(x) and the distance to the nearest point (capped at the cell size).
     pub fn field(&self, x: Vec3, inv_n: &[f32]) -> (f32, f32) {
+        self.field_with(x, inv_n, None)
+    }
+
+    /// φ(x) with the isotropic kernel, or with each point's anisotropic kernel `aniso[j]` (same order as the
+    /// sorted points): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j. Also the distance to the nearest point
+    /// (the particles themselves, not the kernel centres), capped at the cell size.
+    pub fn field_with(&self, x: Vec3, inv_n: &[f32], aniso: Option<&[Aniso]>) -> (f32, f32) {
         let mut s = 0.0;
         let mut dmin = self.cell;
         self.for_each_near(x, |i, y| {
             let d = x.distance(y);
             dmin = dmin.min(d);
-            s += kernel(d / self.support) * inv_n[i];
+            match aniso {
+                None => s += kernel(d / self.support) * inv_n[i],
+                Some(a) => {
+                    let v = x - a[i].centre();
+                    s += a[i].det() * kernel((a[i].matrix() * v).length() / self.support) * inv_n[i];
+                }
+            }
         });
         (s, dmin)
+    }
+
+    /// The weighted neighbourhood of sorted point `i` (Yu & Turk 2013 eq. 4–5, over the particles within the
+    /// kernel support h, weights w = 1 − (d/h)³, the point itself included): the weighted mean's offset from
+    /// the point, the weighted covariance about that mean (row-major), and the number of OTHER points within h.
+    pub fn covariance(&self, i: usize) -> (Vec3, [[f32; 3]; 3], u32) {
+        let p = self.points[i];
+        let x = Vec3::new(p[0], p[1], p[2]);
+        let h = self.support;
+        let (mut sw, mut sv, mut svv, mut n) = (0.0f32, Vec3::ZERO, [[0.0f32; 3]; 3], 0u32);
+        self.for_each_near(x, |j, y| {
+            let v = y - x;
+            let d = v.length();
+            if d < h {
+                let q = d / h;
+                let w = 1.0 - q * q * q;
+                sw += w;
+                sv += w * v;
+                for r in 0..3 {
+                    for c in 0..3 {
+                        svv[r][c] += w * v[r] * v[c];
+                    }
+                }
+                if j != i {
+                    n += 1;
+                }
+            }
+        });
+        let mean = sv / sw;
+        let mut cov = [[0.0f32; 3]; 3];
+        for r in 0..3 {
+            for c in 0..3 {
+                cov[r][c] = svv[r][c] / sw - mean[r] * mean[c];
+            }
+        }
+        (mean, cov, n)
+    }
+
+    /// Every sorted point's anisotropic kernel (the CPU reference of the `anisotropy` pass,
+    /// shaders_glsl/anisotropy.comp).
+    pub fn anisotropy(&self, p: &AnisoParams) -> Vec<Aniso> {
+        use rayon::prelude::*;
+        (0..self.points.len())
+            .into_par_iter()
+            .map(|i| {
+                let (mean, cov, n) = self.covariance(i);
+                let q = self.points[i];
+                Aniso::from_covariance(Vec3::new(q[0], q[1], q[2]), mean, cov, n, self.support, p)
+            })
+            .collect()
+    }
+}
+
+/// Parameters of the anisotropic kernels (Yu & Turk 2013 §4); see `passes::anisotropy::Params`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AnisoParams {
+    /// Largest ratio of the longest to the shortest axis (Yu & Turk's k_r).
+    pub ratio: f32,
+    /// Points with fewer neighbours within h keep the isotropic kernel (Yu & Turk's N_ε).
+    pub min_neighbours: u32,
+    /// Blend λ of the kernel centre towards the weighted mean of the neighbours (Yu & Turk eq. 6): 0 keeps the
+    /// particle positions.
+    pub centre_blend: f32,
+    /// Longest move of a kernel centre (world units): the grid's cells are this much wider than h.
+    pub max_shift: f32,
+    /// Longest axis of a kernel, in units of h (≥ 1): the axes keep the sphere's volume (det M = 1) unless
+    /// the longest would exceed this; the grid's cells are at least this many h wide.
+    pub stretch: f32,
+}
+
+/// Jacobi sweeps of `sym_eigen` (a 3×3 symmetric matrix converges to float precision in 4–5).
+pub const JACOBI_SWEEPS: usize = 6;
+
+/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations (the same steps as
+/// `sym_eigen` in anisotropy.comp): the eigenvalues (unsorted) and the eigenvectors as the COLUMNS of the
+/// returned row-major matrix. Written by hand because it runs in the shader too, and the CPU reference must
+/// take the same steps.
+pub fn sym_eigen(mut a: [[f32; 3]; 3]) -> ([f32; 3], [[f32; 3]; 3]) {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..JACOBI_SWEEPS {
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            let apq = a[p][q];
+            if apq.abs() <= 1e-30 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+            let sign = if theta >= 0.0 { 1.0 } else { -1.0 };
+            let t = sign / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // A ← Pᵀ A P and V ← V P, with P the rotation in the (p, q) plane.
+            for row in a.iter_mut().chain(v.iter_mut()) {
+                let (kp, kq) = (row[p], row[q]);
+                row[p] = c * kp - s * kq;
+                row[q] = s * kp + c * kq;
+            }
+            let (rp, rq) = (a[p], a[q]);
+            for k in 0..3 {
+                a[p][k] = c * rp[k] - s * rq[k];
+                a[q][k] = s * rp[k] + c * rq[k];
+            }
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2]], v)
+}
+
+/// One point's anisotropic kernel as the GPU stores it (three vec4): the centre and det M, then the
+/// symmetric matrix M (m00 m01 m02 m11, m12 m22). The kernel is det(M) W(|M (x − c)| / h): an ellipsoid of
+/// semi-axes h / (M's eigenvalues), the sphere's volume where the longest stays within `stretch` h, so the
+/// kernel's integral is W's.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Aniso(pub [f32; 12]);
+
+impl Aniso {
+    /// The isotropic kernel at `x`.
+    pub fn isotropic(x: Vec3) -> Aniso {
+        Aniso([x.x, x.y, x.z, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0])
+    }
+
+    /// The kernel of a point at `x` whose neighbourhood has weighted mean `x + mean`, covariance `cov` and `n`
+    /// other points (Yu & Turk 2013 §4: the covariance's eigenvalues σ, the small ones raised to σ_max / k_r;
+    /// the axes in proportion to them, the longest h).
+    pub fn from_covariance(x: Vec3, mean: Vec3, cov: [[f32; 3]; 3], n: u32, h: f32, p: &AnisoParams) -> Aniso {
+        let mut shift = mean * p.centre_blend;
+        if shift.length() > p.max_shift {
+            shift *= p.max_shift / shift.length();
+        }
+        let centre = x + shift;
+        let (sig, vecs) = sym_eigen(cov);
+        let smax = sig[0].max(sig[1]).max(sig[2]);
+        if n < p.min_neighbours || smax <= 1e-12 * h * h {
+            return Aniso::isotropic(centre);
+        }
+        // Axes in proportion to the clamped eigenvalues, scaled to the sphere's volume, the longest at most
+        // `stretch` (so at least 1: the flattest kernel keeps its long axes at h).
+        let s = sig.map(|x| x.max(smax / p.ratio) / smax);
+        let g = (s[0] * s[1] * s[2]).cbrt();
+        let scale = (1.0 / g).min(p.stretch.max(1.0)) * g;
+        let mut m = [[0.0f32; 3]; 3];
+        let mut det = 1.0;
+        for k in 0..3 {
+            let s = s[k] / g * scale;
+            det /= s;
+            for r in 0..3 {
+                for c in 0..3 {
+                    m[r][c] += vecs[r][k] * vecs[c][k] / s;
+                }
+            }
+        }
+        Aniso([centre.x, centre.y, centre.z, det, m[0][0], m[0][1], m[0][2], m[1][1], m[1][2], m[2][2], 0.0, 0.0])
+    }
+
+    /// The kernel's centre.
+    pub fn centre(&self) -> Vec3 {
+        Vec3::new(self.0[0], self.0[1], self.0[2])
+    }
+
+    /// det M.
+    pub fn det(&self) -> f32 {
+        self.0[3]
+    }
+
+    /// M.
+    pub fn matrix(&self) -> glam::Mat3 {
+        let a = &self.0;
+        glam::Mat3::from_cols_array(&[a[4], a[5], a[6], a[5], a[7], a[8], a[6], a[8], a[9]])
+    }
+
+    /// The ellipsoid's semi-axes in units of h, longest first, with their directions (unit columns).
+    pub fn axes(&self) -> ([f32; 3], [Vec3; 3]) {
+        let m = self.matrix();
+        let rows = [m.row(0).to_array(), m.row(1).to_array(), m.row(2).to_array()];
+        let (ev, vecs) = sym_eigen(rows);
+        let mut k = [0usize, 1, 2];
+        k.sort_by(|a, b| ev[*a].total_cmp(&ev[*b]));
+        let col = |i: usize| Vec3::new(vecs[0][i], vecs[1][i], vecs[2][i]);
+        (k.map(|i| 1.0 / ev[i]), k.map(col))
     }
 }
 
@@ -90,6 +288,8 @@ pub struct IsoParams {
     pub max_steps: u32,
     /// Bisection iterations after the first step past the threshold.
     pub refine: u32,
+    /// The anisotropic kernels' parameters (`None`: the isotropic kernel).
+    pub aniso: Option<AnisoParams>,
 }
 
 /// Depth at which the ray `origin + d·dir` leaves the grid's box grown by the support (as `iso.comp`).
@@ -115,13 +315,28 @@ pub fn cast(
     d_start: f32,
     d_end: f32,
 ) -> Option<f32> {
+    cast_with(grid, inv_n, None, p, origin, dir, d_start, d_end)
+}
+
+/// `cast` with the isotropic kernel or, given `aniso`, each point's anisotropic kernel.
+#[allow(clippy::too_many_arguments)]
+pub fn cast_with(
+    grid: &IsoGrid,
+    inv_n: &[f32],
+    aniso: Option<&[Aniso]>,
+    p: &IsoParams,
+    origin: Vec3,
+    dir: Vec3,
+    d_start: f32,
+    d_end: f32,
+) -> Option<f32> {
     let len = dir.length();
     let (mut d, mut prev, mut phi_prev) = (d_start, d_start, 0.0);
     for k in 0..p.max_steps {
         if d > d_end {
             return None;
         }
-        let (phi, dmin) = grid.field(origin + dir * d, inv_n);
+        let (phi, dmin) = grid.field_with(origin + dir * d, inv_n, aniso);
         if phi >= p.threshold {
             if k == 0 {
                 return Some(d);
@@ -129,7 +344,7 @@ pub fn cast(
             let (mut a, mut b, mut fa, mut fb) = (prev, d, phi_prev, phi);
             for _ in 0..p.refine {
                 let m = 0.5 * (a + b);
-                let fm = grid.field(origin + dir * m, inv_n).0;
+                let fm = grid.field_with(origin + dir * m, inv_n, aniso).0;
                 if fm >= p.threshold {
                     (b, fb) = (m, fm);
                 } else {
@@ -156,7 +371,7 @@ mod tests {
         let g = IsoGrid::build(&[[0.3, 0.2, 0.1]], 4.0 * r);
         let inv = g.inv_density();
         assert!((inv[0] - 1.0).abs() < 1e-6);
-        let p = IsoParams { threshold: 0.6, step: 0.25 * r, bound: 2.0 * r, max_steps: 256, refine: 16 };
+        let p = IsoParams { threshold: 0.6, step: 0.25 * r, bound: 2.0 * r, max_steps: 256, refine: 16, aniso: None };
         // Ray along −z through the centre, from 1 unit in front.
         let d = cast(&g, &inv, &p, Vec3::new(0.3, 0.2, 1.1), Vec3::new(0.0, 0.0, -1.0), 1.0 - 2.0 * r, 2.0).unwrap();
         // Analytic: 1 − 6q² + 6q³ = 0.6 → q = 0.31108…
@@ -183,5 +398,61 @@ mod tests {
             let n: f32 = g.points.iter().map(|q| kernel(x.distance(Vec3::new(q[0], q[1], q[2])) / 0.04)).sum();
             assert!((1.0 / inv[k] - n).abs() < 1e-4, "{k}: {} vs {n}", 1.0 / inv[k]);
         }
+    }
+
+    fn aniso_params() -> AnisoParams {
+        AnisoParams { ratio: 4.0, min_neighbours: 6, centre_blend: 0.0, max_shift: 0.0, stretch: 1.0 }
+    }
+
+    #[test]
+    fn jacobi_decomposes_a_symmetric_matrix() {
+        let a = [[4.0, 1.0, -2.0], [1.0, 2.0, 0.5], [-2.0, 0.5, 3.0]];
+        let (ev, v) = sym_eigen(a);
+        // V diag(ev) Vᵀ = A, and V is orthonormal.
+        for r in 0..3 {
+            for c in 0..3 {
+                let got: f32 = (0..3).map(|k| v[r][k] * ev[k] * v[c][k]).sum();
+                assert!((got - a[r][c]).abs() < 1e-5, "({r},{c}): {got} vs {}", a[r][c]);
+                let dot: f32 = (0..3).map(|k| v[k][r] * v[k][c]).sum();
+                assert!((dot - (r == c) as u8 as f32).abs() < 1e-5);
+            }
+        }
+        // Already diagonal, and repeated eigenvalues.
+        let (ev, _) = sym_eigen([[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]]);
+        assert_eq!(ev, [2.0, 2.0, 1.0]);
+    }
+
+    #[test]
+    fn isolated_particle_keeps_a_spherical_kernel_and_a_plane_flattens() {
+        let h = 0.04;
+        let g = IsoGrid::build(&[[0.3, 0.2, 0.1]], h);
+        let a = g.anisotropy(&aniso_params());
+        assert_eq!(a[0], Aniso::isotropic(Vec3::new(0.3, 0.2, 0.1)));
+        // A tilted square lattice of spacing h/4: every point's shortest axis is the plane's normal, at h / k_r.
+        let n = Vec3::new(0.3, 1.0, -0.2).normalize();
+        let u = n.any_orthonormal_vector();
+        let w = n.cross(u);
+        let mut pts = vec![];
+        for i in -8..=8 {
+            for j in -8..=8 {
+                pts.push((u * i as f32 + w * j as f32) * (h / 4.0));
+            }
+        }
+        let g = IsoGrid::build(&pts.iter().map(|p| p.to_array()).collect::<Vec<_>>(), h);
+        let a = g.anisotropy(&aniso_params());
+        let centre = g.points.iter().position(|p| Vec3::new(p[0], p[1], p[2]).length() < 1e-6).unwrap();
+        let (len, dirs) = a[centre].axes();
+        assert!((len[0] - 1.0).abs() < 1e-4 && (len[1] - 1.0).abs() < 1e-4, "{len:?}");
+        assert!((len[2] - 0.25).abs() < 1e-4, "{len:?}");
+        assert!(dirs[2].dot(n).abs() > 0.9999, "short axis {:?} vs normal {n:?}", dirs[2]);
+        assert!((a[centre].det() - 4.0).abs() < 1e-3);
+        // The field of the flat kernels is flatter: on the plane's normal through the centre, the surface
+        // (φ = 0.6) is nearer the plane than with the spheres.
+        let inv = g.inv_density();
+        let cross = |an: Option<&[Aniso]>| {
+            (0..400).map(|k| k as f32 * h / 400.0).find(|t| g.field_with(n * *t, &inv, an).0 < 0.6).unwrap()
+        };
+        let (iso, ani) = (cross(None), cross(Some(&a)));
+        assert!(ani < iso, "anisotropic surface at {ani}, isotropic at {iso}");
     }
 }

@@ -505,7 +505,7 @@ impl Renderer {
             self.ensure_fluid_mesh(s)?;
         }
         let iso = if s.surface == crate::settings::Surface::Iso {
-            self.ensure_iso(s.iso.support * s.radius)?;
+            self.ensure_iso(s.iso.support * s.radius, s.iso_reach())?;
             true
         } else {
             false
@@ -729,8 +729,9 @@ impl Renderer {
     /// The iso-surface grid of the current particles for kernel `support` (world units), unless it is there
     /// already. Without spray the grid is built on the GPU from the particle buffer (the `grid` pass in the frame:
     /// no CPU work per frame, and GPU-resident particles work too; the buffers are kept while the shape holds);
-    /// with spray the CPU builds it without the spray and uploads it.
-    fn ensure_iso(&mut self, support: f32) -> Result<()> {
+    /// with spray the CPU builds it without the spray and uploads it. The cells are at least `reach` (≥ the
+    /// kernel `support`) wide: the farthest a kernel reaches from its particle.
+    fn ensure_iso(&mut self, support: f32, reach: f32) -> Result<()> {
         let spray = self.spray.as_ref().is_some_and(|s| s.iter().any(|&x| x));
         if !spray {
             let (lo, hi) = self.positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(a, b), p| {
@@ -743,7 +744,7 @@ impl Renderer {
             });
             let n = self.count;
             let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
-            let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, support, n as usize);
+            let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, reach, n as usize);
             let shape = crate::passes::grid::GridShape {
                 origin_cell: [lo.x, lo.y, lo.z, cell],
                 dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
@@ -753,6 +754,8 @@ impl Renderer {
                 dims: [d[0], d[1], d[2], n],
                 params: [support, 0.0, 0.0, 0.0],
                 steps: [0; 4],
+                aniso: [0.0; 4],
+                aniso2: [1.0, 0.0, 0.0, 0.0],
             };
             if let Some(b) = &mut self.iso {
                 if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
@@ -767,13 +770,15 @@ impl Renderer {
             self.executor.wait_idle()?;
             self.iso = None;
             let cap = n.max(1);
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            // TRANSFER_SRC: the tests read the grid and kernels back.
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
             let buf =
                 |name: &str, bytes: u64| Buffer::new(&self.gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
             self.iso = Some(crate::passes::iso::IsoBuffers {
                 points: buf("iso_points", cap as u64 * 16)?,
                 cells: buf("iso_cells", shape.cells() as u64 * 8)?,
                 weights: buf("iso_weights", cap as u64 * 4)?,
+                aniso: buf("iso_aniso", cap as u64 * 48)?,
                 shape: push,
                 gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
                 rebuild: std::cell::Cell::new(true),
@@ -781,14 +786,19 @@ impl Renderer {
             self.iso_stale = false;
             return Ok(());
         }
-        if !self.iso_stale && self.iso.as_ref().is_some_and(|b| b.gpu.is_none() && b.shape.support() == support) {
+        if !self.iso_stale
+            && self
+                .iso
+                .as_ref()
+                .is_some_and(|b| b.gpu.is_none() && b.shape.support() == support && b.shape.origin[3] >= reach)
+        {
             return Ok(());
         }
         let pts: Vec<[f32; 3]> = match &self.spray {
             Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
             None => self.positions.clone(),
         };
-        let grid = crate::iso::IsoGrid::build(&pts, support);
+        let grid = crate::iso::IsoGrid::build_reaching(&pts, support, reach);
         self.executor.wait_idle()?;
         self.iso = None;
         let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?;
@@ -800,11 +810,19 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
+        let aniso = Buffer::new(
+            &self.gpu,
+            "iso_aniso",
+            (grid.points.len() as u64 * 48).max(48),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.iso = Some(crate::passes::iso::IsoBuffers {
             points,
             cells,
             weights,
+            aniso,
             shape,
             gpu: None,
             rebuild: std::cell::Cell::new(false),
@@ -823,6 +841,11 @@ impl Renderer {
             .filter(|d| *d > -s.radius)
             .fold(f32::INFINITY, f32::min)
             .max(near)
+    }
+
+    /// The iso surface's grid and kernels on the device (after a frame with `surface = "iso"`), for tests.
+    pub fn iso_buffers(&self) -> Option<&crate::passes::iso::IsoBuffers> {
+        self.iso.as_ref()
     }
 
     /// Seconds (CPU) the last extraction of the fluid mesh took with its BVH, and its vertex and triangle counts

@@ -112,6 +112,16 @@ named_enum! {
 }
 
 named_enum! {
+    /// The iso field's kernel (`--kernel`).
+    pub enum Kernel {
+        /// One sphere per particle (splashsurf's field).
+        Isotropic = "isotropic",
+        /// Ellipsoids from each particle's neighbourhood (Yu & Turk 2013; the `anisotropy` pass).
+        Anisotropic = "anisotropic",
+    }
+}
+
+named_enum! {
     /// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
     pub enum SplatMode {
         /// One thread per particle, atomicMin on the depth bits (default).
@@ -145,6 +155,8 @@ pub struct Settings {
     pub radius: f32,
     /// Depth from spheres or from the ray-cast iso-surface.
     pub surface: Surface,
+    /// The iso field's kernel: isotropic, or anisotropic (`[anisotropy]`).
+    pub kernel: Kernel,
     /// Fluid resolution (splat, smooth) relative to the output: 1, 0.5 (half) or 0.25 (quarter); upsampled
     /// to full resolution by the `upsample` pass.
     pub fluid_scale: f32,
@@ -156,6 +168,8 @@ pub struct Settings {
     pub spray: SprayParams,
     /// `[iso]`: the iso-surface ray cast.
     pub iso: crate::passes::iso::Params,
+    /// `[anisotropy]`: the anisotropic kernels (with `kernel = "anisotropic"`).
+    pub anisotropy: crate::passes::anisotropy::Params,
     /// `[mesh]`: the extracted mesh's cube size.
     pub mesh: crate::passes::mesh::Params,
     /// `[thickness]`: resolution and blur.
@@ -194,11 +208,13 @@ impl Default for Settings {
         Settings {
             radius: 0.0,
             surface: Surface::Spheres,
+            kernel: Kernel::Isotropic,
             fluid_scale: 1.0,
             background: Default::default(),
             splat: Default::default(),
             spray: Default::default(),
             iso: Default::default(),
+            anisotropy: Default::default(),
             mesh: Default::default(),
             thickness: Default::default(),
             smooth: Default::default(),
@@ -289,7 +305,16 @@ impl Settings {
             bound: self.iso.bound * self.radius,
             max_steps: self.iso.max_steps,
             refine: self.iso.refine,
+            aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius)),
         }
+    }
+
+    /// The farthest an iso kernel reaches from its particle (world units): the support, or for anisotropic
+    /// kernels `stretch` supports from a centre that moved up to `max_shift`. The iso grid's cells are at
+    /// least this wide.
+    pub fn iso_reach(&self) -> f32 {
+        let h = self.iso.support * self.radius;
+        self.iso_params().aniso.map_or(h, |a| a.stretch.max(1.0) * h + a.max_shift)
     }
 
     /// Radius scale of the splatted spheres: the bound spheres when the iso-surface is ray-cast from them.
@@ -344,6 +369,15 @@ impl Settings {
         if self.smooth.bilateral.iterations > 64 {
             return bad("[smooth.bilateral] iterations (≤ 64)");
         }
+        let a = &self.anisotropy;
+        let aniso_ok = (1.0..=16.0).contains(&a.ratio)
+            && a.min_neighbours <= 1000
+            && (0.0..=1.0).contains(&a.centre_blend)
+            && (0.0..=self.iso.support).contains(&a.max_shift)
+            && (1.0..=3.0).contains(&a.stretch);
+        if !aniso_ok {
+            return bad("[anisotropy] (ratio 1 … 16, min_neighbours ≤ 1000, centre_blend 0 … 1, 0 ≤ max_shift ≤ [iso] support, stretch 1 … 3)");
+        }
         Ok(())
     }
 }
@@ -366,6 +400,7 @@ mod tests {
         }
         check::<Filter>();
         check::<Surface>();
+        check::<Kernel>();
         check::<SplatMode>();
         let s: Settings =
             toml::from_str("[smooth]\nfilter = \"curvature-flow\"\n[splat]\nmode = \"quad-min\"").unwrap();

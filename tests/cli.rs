@@ -27,7 +27,8 @@ fn render_builtin_scene_writes_png_and_timings() {
         .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !["upsample", "iso", "mesh"].contains(*p)) {
+    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !["upsample", "anisotropy", "iso", "mesh"].contains(*p))
+    {
         assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
     }
     let img = image::open(&out).unwrap();
@@ -63,6 +64,24 @@ fn render_builtin_scene_writes_png_and_timings() {
     assert!(stdout.contains("| upsample |") && stdout.contains("| iso |"), "{stdout}");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!stderr.contains("[vulkan"), "validation messages: {stderr}");
+    // Anisotropic kernels add the anisotropy pass before iso; a bad kernel name is a one-line error.
+    let o = meniscus()
+        .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings"])
+        .args(["--surface", "iso", "--kernel", "anisotropic", "--validation"])
+        .arg("--out")
+        .arg(d.join("aniso.png"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("| anisotropy |") && stdout.contains("| iso |"), "{stdout}");
+    let o = meniscus().args(["render", "drop", "--kernel", "elliptic"]).output().unwrap();
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("isotropic, anisotropic"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 #[test]

@@ -843,8 +843,21 @@ fn skybox_faces_from_files() {
 /// pair: same coverage and the same depth where both are covered.
 #[test]
 fn iso_surface_matches_cpu_ray_cast() {
+    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0));
+}
+
+/// The same with anisotropic kernels (Yu & Turk 2013): the `anisotropy` pass's kernels match the CPU
+/// reference point by point (centre, det M, M), and the ray cast of their field matches the CPU cast.
+#[test]
+fn anisotropic_iso_surface_matches_cpu_ray_cast() {
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.0, 1.0));
+    // Moved centres and stretched kernels: the grid's cells widen to reach them.
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 1.5));
+}
+
+fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f32)) {
     use glam::Vec3;
-    use meniscus::iso::{cast, ray_end, IsoGrid};
+    use meniscus::iso::{cast_with, ray_end, Aniso, IsoGrid};
     let gpu = gpu();
     let (w, h) = (128usize, 96usize);
     let r = 0.05f32;
@@ -869,15 +882,47 @@ fn iso_surface_matches_cpu_ray_cast() {
     let mut s = settings(r);
     s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
+    s.kernel = kernel;
+    // The slab's points have about 12–30 neighbours within 4 r: most get flat kernels, the lone one a sphere.
+    s.anisotropy.min_neighbours = 12;
+    (s.anisotropy.centre_blend, s.anisotropy.stretch) = (blend, stretch);
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
     rd.set_particles(&pts, None).unwrap();
     rd.render(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
 
-    let grid = IsoGrid::build(&pts, s.iso.support * r);
+    let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let inv = grid.inv_density();
     let p = s.iso_params();
+    let aniso = p.aniso.map(|a| grid.anisotropy(&a));
+    if let Some(want) = &aniso {
+        // The GPU grid sorts within a cell in the atomics' order: match the points by position.
+        let b = rd.iso_buffers().unwrap();
+        let n = b.shape.dims[3] as usize;
+        let points: Vec<[f32; 4]> =
+            bytemuck::cast_slice(&meniscus::renderer::read_buffer(&gpu, &b.points, n as u64 * 16).unwrap()).to_vec();
+        let got: Vec<Aniso> =
+            bytemuck::cast_slice(&meniscus::renderer::read_buffer(&gpu, &b.aniso, n as u64 * 48).unwrap()).to_vec();
+        let index: std::collections::HashMap<[u32; 3], usize> =
+            grid.points.iter().enumerate().map(|(i, q)| ([q[0], q[1], q[2]].map(f32::to_bits), i)).collect();
+        assert_eq!(n, grid.points.len());
+        let (mut flat, mut round) = (0, 0);
+        for (q, g) in points.iter().zip(&got) {
+            let w = &want[index[&[q[0], q[1], q[2]].map(f32::to_bits)]];
+            assert!((g.centre() - w.centre()).length() < 1e-5 * r, "centre {:?} vs {:?}", g.centre(), w.centre());
+            assert!((g.det() - w.det()).abs() < 1e-3 * w.det(), "det M {} vs {}", g.det(), w.det());
+            let e = (g.matrix() - w.matrix()).to_cols_array().iter().fold(0f32, |m, x| m.max(x.abs()));
+            assert!(e < 2e-3 * w.det(), "M differs by {e}: {:?} vs {:?}", g.matrix(), w.matrix());
+            let (axes, _) = w.axes();
+            if axes[0] > 1.5 * axes[2] {
+                flat += 1;
+            } else if w.matrix() == glam::Mat3::IDENTITY {
+                round += 1;
+            }
+        }
+        assert!(flat > n / 2 && round >= 1, "{flat} flat and {round} round kernels of {n}");
+    }
     let view_m = v.camera.view();
     let inv_view = view_m.inverse();
     let f = v.camera.focal_px(h as u32) as f64;
@@ -894,7 +939,7 @@ fn iso_surface_matches_cpu_ray_cast() {
             let dir = inv_view.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
             let eye = v.camera.eye;
             let want = if start.is_finite() {
-                cast(&grid, &inv, &p, eye, dir, start as f32, ray_end(&grid, eye, dir).min(back))
+                cast_with(&grid, &inv, aniso.as_deref(), &p, eye, dir, start as f32, ray_end(&grid, eye, dir).min(back))
             } else {
                 None
             };
@@ -913,6 +958,7 @@ fn iso_surface_matches_cpu_ray_cast() {
             }
         }
     }
+    eprintln!("{kernel:?}: {both} pixels, {mismatch} differ in coverage, {close} within 0.01 r, max {max_err}");
     assert!(both > 1500, "covered {both}");
     assert!(mismatch * 200 <= both, "coverage differs on {mismatch} of {both} pixels");
     assert!(close * 100 >= both * 99, "{close} of {both} pixels within 0.01 r");

@@ -47,6 +47,8 @@ pub struct IsoBuffers {
     pub cells: Buffer,
     /// 1 / n_j per point, written by `iso_density`.
     pub weights: Buffer,
+    /// Each point's anisotropic kernel (three vec4), written by the `anisotropy` pass.
+    pub aniso: Buffer,
     /// Grid shape as push constants.
     pub shape: IsoPush,
     /// The GPU grid (`grid` pass + `iso_gather`) that fills `points` and `cells` from the particle buffer;
@@ -66,8 +68,13 @@ pub struct IsoPush {
     pub dims: [u32; 4],
     /// x: support, y: threshold, z: smallest step, w: bound sphere radius (world units).
     pub params: [f32; 4],
-    /// x: most steps, y: bisection iterations, z: 1 when the back depth bounds the march.
+    /// x: most steps, y: bisection iterations, z: 1 when the back depth bounds the march, w: 1 with
+    /// anisotropic kernels.
     pub steps: [u32; 4],
+    /// The `anisotropy` pass's parameters: k_r, N_ε, centre blend, longest centre move (world units).
+    pub aniso: [f32; 4],
+    /// x: the kernels' longest axis (units of h).
+    pub aniso2: [f32; 4],
 }
 
 impl IsoPush {
@@ -78,6 +85,8 @@ impl IsoPush {
             dims: [g.dims[0], g.dims[1], g.dims[2], g.points.len() as u32],
             params: [g.support, 0.0, 0.0, 0.0],
             steps: [0; 4],
+            aniso: [0.0; 4],
+            aniso2: [1.0, 0.0, 0.0, 0.0],
         }
     }
 
@@ -85,7 +94,8 @@ impl IsoPush {
     pub fn with(self, p: &crate::iso::IsoParams, back: bool) -> IsoPush {
         IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
-            steps: [p.max_steps, p.refine, back as u32, 0],
+            steps: [p.max_steps, p.refine, back as u32, p.aniso.is_some() as u32],
+            aniso2: [p.aniso.map_or(1.0, |a| a.stretch.max(1.0)), 0.0, 0.0, 0.0],
             ..self
         }
     }
@@ -119,8 +129,8 @@ declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead,
 
 // Density: frame, grid points, cell table → per-point weights 1/n_j.
 declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, BufRead, BufRead, BufWrite]));
-// Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth.
-declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead]));
+// Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth, kernels.
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufRead]));
 
 impl Iso {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
@@ -168,7 +178,7 @@ impl Iso {
             let n = b.shape.dims[3];
             self.density.dispatch(ctx, &bufs, &push, [n.div_ceil(super::LOCAL_1D), 1, 1]);
             let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
-            let all = [bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into()];
+            let all = [bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into(), (&b.aniso).into()];
             self.cast.dispatch(ctx, &all, &push, g);
         });
     }

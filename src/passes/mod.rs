@@ -21,7 +21,7 @@ macro_rules! frame_passes {
         }
 
         /// Every frame pass name, in frame order (timestamp keys, JSON keys, `--timings` rows). `iso` runs only
-        /// with `surface = "iso"`, `mesh` (instead of `splat`) with `surface = "mesh"`, `upsample` only when the fluid is rendered at reduced resolution.
+        /// with `surface = "iso"` (`anisotropy` too, with `kernel = "anisotropic"`), `mesh` (instead of `splat`) with `surface = "mesh"`, `upsample` only when the fluid is rendered at reduced resolution.
         pub const PASS_NAMES: &[&str] = &[$($module::NAME,)*];
     };
 }
@@ -33,6 +33,8 @@ frame_passes! {
     thickness: Thickness,
     /// Nearest sphere depth of every particle.
     splat: Splat,
+    /// Anisotropic kernels of the iso field (`kernel = "anisotropic"`).
+    anisotropy: Anisotropy,
     /// The SPH iso-surface, ray-cast from the splatted depth.
     iso: Iso,
     /// The extracted iso-surface mesh, ray-cast through its BVH (`surface = "mesh"`).

@@ -11,7 +11,7 @@ use clap::Args;
 
 use meniscus::gpu::{Gpu, GpuOptions};
 use meniscus::scene;
-use meniscus::settings::{from_name, Filter, Named, Settings, SplatMode, Surface};
+use meniscus::settings::{from_name, Filter, Kernel, Named, Settings, SplatMode, Surface};
 
 /// A clap value parser for a library enum: its names are the possible values (listed in `--help`).
 pub fn named<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
@@ -117,6 +117,10 @@ pub struct SettingsArgs {
     /// reconstructs; a filter only blurs it: use --filter none, or --preset quality).
     #[arg(long, value_parser = named::<Surface>())]
     pub surface: Option<Surface>,
+    /// The iso field's kernel: isotropic (splashsurf's spheres) or anisotropic (Yu & Turk 2013: ellipsoids from
+    /// each particle's neighbours, flat where the water is calm; `[anisotropy]` in a settings file).
+    #[arg(long, value_parser = named::<Kernel>())]
+    pub kernel: Option<Kernel>,
     /// How the depth splat draws (compute is the default; the rasterised variants exist to be measured).
     #[arg(long, value_parser = named::<SplatMode>())]
     pub splat: Option<SplatMode>,
@@ -140,6 +144,9 @@ impl SettingsArgs {
         }
         if let Some(m) = self.surface {
             s.surface = m;
+        }
+        if let Some(k) = self.kernel {
+            s.kernel = k;
         }
         Ok(s)
     }
