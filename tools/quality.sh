@@ -1,6 +1,11 @@
 #!/usr/bin/env bash
-# Measure every smoothing filter on the shared dam-break frame against the reference surface
-# (../shared/tools/quality). Usage: tools/quality.sh [extra render args…]
+# Measure every surface, kernel and smoothing filter on the shared dam-break frame 20 (960×540, the reference
+# camera) against BOTH splashsurf references in ../shared/data/quality/ with ../shared/tools/quality: the raw
+# reconstruction (dambreak59k_f20_ref_depth.npy) and the smoothed one practitioners render
+# (dambreak59k_f20_smooth_ref_depth.npy). Prints one markdown table per reference (issue #15: the tables are
+# produced by this script, never typed in). Each configuration is rendered once; its `smooth`/`iso`/
+# `anisotropy` GPU ms are this machine's (benchmarks: `meniscus bench`).
+# Usage: tools/quality.sh [extra render args…]; CONFIGS="name|render args;…" replaces the list.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=${MENISCUS_SHARED:-../shared}
@@ -10,12 +15,34 @@ if [ ! -x "$q" ]; then
     q=/tmp/meniscus-quality/release/quality
 fi
 frame="$shared/data/splishsplash/dambreak_59k/partio/ParticleData_Fluid_20.bgeo"
+[ -f "$frame" ] || { echo "quality.sh: missing $frame" >&2; exit 1; }
 out=$(mktemp -d)
-printf '| filter | IoU | depth median (r) | depth p90 (r) | normal median (°) | normal p90 (°) | smooth ms |\n|---|---:|---:|---:|---:|---:|---:|\n'
-for f in ${FILTERS:-none gaussian bilateral bilateral2d curvature-flow narrow-range}; do
-    ms=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 --height 540 \
-        --filter "$f" --out "$out/$f.png" --dump smoothed --timings "$@" 2>/dev/null | awk -F'|' '$2 ~ /smooth/ {gsub(/ /,"",$3); print $3}')
-    "$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_ref_depth.npy" --depth "$out/$f.smoothed.npy" \
-        --normals-from-depth --ref-normals-from-depth --radius 0.0125 | tail -n 1 |
-        python3 -c "import json,sys; d=json.load(sys.stdin); print('| $f | %.3f | %.2f | %.2f | %.1f | %.1f | $ms |' % (d['iou'], d['depth_median_abs']/0.0125, d['depth_p90_abs']/0.0125, d['normal_median_deg'], d['normal_p90_deg']))"
+trap 'rm -rf "$out"' EXIT
+default_configs="spheres + none|--filter none;spheres + gaussian|--filter gaussian;spheres + bilateral|--filter bilateral;\
+spheres + bilateral2d|--filter bilateral2d;spheres + curvature-flow|--filter curvature-flow;\
+spheres + narrow-range (default)|--filter narrow-range;iso isotropic|--surface iso --filter none;\
+iso anisotropic|--surface iso --filter none --kernel anisotropic;\
+iso anisotropic stretch 1.5|--surface iso --filter none --kernel anisotropic --settings $out/stretch.toml;\
+iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --settings $out/centres.toml"
+printf '[anisotropy]\nstretch = 1.5\n' > "$out/stretch.toml"
+printf '[anisotropy]\ncentre_blend = 0.3\n' > "$out/centres.toml"
+IFS=';' read -ra configs <<< "${CONFIGS:-$default_configs}"
+declare -A rows
+for c in "${configs[@]}"; do
+    name=${c%%|*}
+    args=${c#*|}
+    # shellcheck disable=SC2086
+    timings=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 \
+        --height 540 $args --out "$out/c.png" --dump smoothed --timings "$@" 2>/dev/null)
+    ms=$(awk -F'|' '$2 ~ /^ (smooth|iso|anisotropy) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
+    for ref in ref smooth_ref; do
+        rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_${ref}_depth.npy" \
+            --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius 0.0125 | tail -n 1 |
+            python3 -c "import json,sys; d=json.load(sys.stdin); print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (d['iou'], d['depth_median_abs']/0.0125, d['depth_p90_abs']/0.0125, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
+    done
+done
+for ref in ref smooth_ref; do
+    printf '\n### against dambreak59k_f20_%s_depth.npy\n\n' "$ref"
+    printf '| surface + filter | IoU | depth median (r) | depth p90 (r) | normal median (°) | normal p90 (°) | GPU ms |\n|---|---:|---:|---:|---:|---:|---|\n'
+    printf '%s' "${rows[$ref]}"
 done
