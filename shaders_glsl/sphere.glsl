@@ -40,6 +40,23 @@ bool ray_sphere(vec3 dir, vec3 c, float r, out float d_in, out float d_out) {
     return true;
 }
 
+/// Entry and exit LINEAR EYE DEPTH of the ray with direction `dir` (z = −1) through the ellipsoid
+/// {x : |M (x − c)| ≤ rho} (view space, M symmetric): with x = d·dir the quadratic |d·M dir − M c|² = rho² is
+/// solved from its closest approach, as `ray_sphere`; false on a miss. Yu & Turk 2013's kernels as impostors.
+bool ray_ellipsoid(vec3 dir, vec3 c, mat3 m, float rho, out float d_in, out float d_out) {
+    vec3 a = m * dir;
+    vec3 b = m * c;
+    float aa = dot(a, a);
+    float dc = dot(a, b) / aa;
+    vec3 q = dc * a - b;
+    float h2 = rho * rho - dot(q, q);
+    if (h2 < 0.0) return false;
+    float h = sqrt(h2 / aa);
+    d_in = dc - h;
+    d_out = dc + h;
+    return true;
+}
+
 /// One particle as every per-particle shader reads it: the `w` encoding Renderer::set_particles_with writes
 /// (w > 0: its own radius; w = 0: the frame's; w < 0: spray, |w| its radius, or about 0 for the frame's).
 struct Particle {

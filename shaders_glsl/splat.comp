@@ -9,6 +9,9 @@
 //! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
 //!      back (same layout, cleared to 0), only when pc.back = 1: the FARTHEST exit depth of the spheres, where
 //!      the `iso` march can stop (the iso-surface lies inside the spheres).
+//! With pc.ellipsoid = 1 (`--kernel anisotropic` on spheres) the particles are the iso grid's sorted points and
+//! each is drawn as its anisotropic kernel's ellipsoid (binding 5, the `anisotropy` pass; Yu & Turk 2013):
+//! {x : |M (x − c)| ≤ R ∛det M}, the volume of the sphere of radius R it replaces; exact ray–ellipsoid depth.
 #include "common.glsl"
 #include "sphere.glsl"
 layout(local_size_x = LOCAL_1D) in;
@@ -18,12 +21,26 @@ layout(set = 0, binding = 3, r32ui) uniform coherent uimage2D back_bits;
 // Occlusion bound per tile from `splat_cull` (float bits); used when pc.cull = 1 (not with `back`, which
 // needs every sphere's exit).
 layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D tiles;
-layout(push_constant) uniform Push { uint count; float radius_scale; uint back; uint cull; uint tile; } pc;
+layout(std430, set = 0, binding = 5) readonly buffer Aniso { vec4 aniso[]; };
+layout(push_constant) uniform Push {
+    uint count;
+    float radius_scale;
+    uint back;
+    uint cull;
+    uint tile;
+    uint ellipsoid; // 1: draw each particle's anisotropic kernel (then no cull and no back)
+    float stretch;  // the kernels' longest axis relative to ∛det M (bounds the screen rectangle)
+} pc;
+
+mat3 ell_m;      // the ellipsoid's matrix in view space (pc.ellipsoid = 1)
+float ell_rho;   // and its size
 
 /// Nearest entry (atomicMin) and, with pc.back, farthest exit (atomicMax) of the sphere at pixel q.
 void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
     float d_in, d_out;
-    if (!ray_sphere(pixel_dir(vec2(q), size, F), c, r, d_in, d_out)) return;
+    vec3 dir = pixel_dir(vec2(q), size, F);
+    bool hit = pc.ellipsoid != 0u ? ray_ellipsoid(dir, c, ell_m, ell_rho, d_in, d_out) : ray_sphere(dir, c, r, d_in, d_out);
+    if (!hit) return;
     if (d_out < near) return;
     imageAtomicMin(depth_bits, q, floatBitsToUint(max(d_in, near)));
     if (pc.back != 0u) imageAtomicMax(back_bits, q, floatBitsToUint(d_out));
@@ -38,6 +55,17 @@ void main() {
     if (pt.spray) return;
     vec3 c = pt.c;
     float r = pt.r;
+    if (pc.ellipsoid != 0u) {
+        vec4 a0 = aniso[3u * i], a1 = aniso[3u * i + 1u], a2 = aniso[3u * i + 2u];
+        mat3 mw = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
+        mat3 v = mat3(frame.view);
+        // |M (x − c)| in view space: x_w − c_w = vᵀ (x_v − c_v), so M_v = M vᵀ (M's rows stay world-space).
+        ell_m = mw * transpose(v);
+        ell_rho = r * pow(a0.w, 1.0 / 3.0);
+        c = (frame.view * vec4(a0.xyz, 1.0)).xyz;
+        // The longest semi-axis is rho / (M's smallest eigenvalue) ≤ rho · stretch.
+        r = ell_rho * pc.stretch;
+    }
     vec2 size = vec2(imageSize(depth_bits));
     float F = focal_for(size.y);
     float near = frame.proj.w;

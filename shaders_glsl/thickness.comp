@@ -3,6 +3,9 @@
 //! Compute splat: one thread per particle adds the exact chord of each covered pixel's view ray through its
 //! sphere, cut at the scene depth, so particles behind scene geometry add nothing. Fixed-point uint atomics
 //! (frame.fluid.z units per world unit) keep it portable (no float-atomic extension needed).
+//! With pc.ellipsoid = 1 (`--kernel anisotropic` on spheres) the particles are the iso grid's sorted points and
+//! each adds the chord through its anisotropic kernel's ellipsoid of the particle's volume (binding 4, as in
+//! splat.comp; Yu & Turk 2013).
 //! In: particles, scene depth (full-res r32f). Out: thickness accumulator (r32ui), cleared to 0.
 #include "common.glsl"
 #include "sphere.glsl"
@@ -10,7 +13,8 @@ layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32f) uniform readonly image2D scene_depth;
 layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;
-layout(push_constant) uniform Push { uint count; } pc;
+layout(std430, set = 0, binding = 4) readonly buffer Aniso { vec4 aniso[]; };
+layout(push_constant) uniform Push { uint count; uint ellipsoid; float stretch; } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -19,6 +23,15 @@ void main() {
     Particle pt = load_particle(particles[i], 1.0);
     vec3 c = pt.c;
     float r = pt.r;
+    mat3 ell_m = mat3(1.0);
+    float ell_rho = r;
+    if (pc.ellipsoid != 0u) {
+        vec4 a0 = aniso[3u * i], a1 = aniso[3u * i + 1u], a2 = aniso[3u * i + 2u];
+        ell_m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y) * transpose(mat3(frame.view));
+        ell_rho = r * pow(a0.w, 1.0 / 3.0);
+        c = (frame.view * vec4(a0.xyz, 1.0)).xyz;
+        r = ell_rho * pc.stretch;
+    }
     vec2 size = vec2(imageSize(accum));
     vec2 scene_size = vec2(imageSize(scene_depth));
     float F = focal_for(size.y);
@@ -31,7 +44,9 @@ void main() {
         for (int x = lo.x; x <= hi.x; ++x) {
             vec3 dir = pixel_dir(vec2(x, y), size, F);
             float d_in, d_out;
-            if (!ray_sphere(dir, c, r, d_in, d_out)) continue;
+            bool hit = pc.ellipsoid != 0u ? ray_ellipsoid(dir, c, ell_m, ell_rho, d_in, d_out)
+                                          : ray_sphere(dir, c, r, d_in, d_out);
+            if (!hit) continue;
             ivec2 sp = min(ivec2((vec2(x, y) + 0.5) * to_scene), ivec2(scene_size) - 1);
             float scene = imageLoad(scene_depth, sp).x;
             d_in = max(d_in, near);

@@ -10,7 +10,7 @@ use crate::passes::background::MeshBuffers;
 use crate::passes::composite::CompositeInputs;
 use crate::passes::iso::IsoBuffers;
 use crate::scene::{Bounds, Camera};
-use crate::settings::{Settings, SplatMode, Surface};
+use crate::settings::{Kernel, Settings, SplatMode, Surface};
 use crate::targets::Targets;
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
@@ -225,7 +225,8 @@ impl<'t> Recording<'_, 't> {
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. Optional steps: `background`
 /// (skipped while the view and scene stand), `splat` or `mesh` (`surface = "mesh"`), `iso` (`surface =
-/// "iso"`, after `anisotropy` with `kernel = "anisotropic"`), `upsample` (`fluid_scale` < 1).
+/// "iso"`, after `anisotropy` with `kernel = "anisotropic"`, which also turns the spheres of the compute splat
+/// into ellipsoids), `upsample` (`fluid_scale` < 1).
 #[allow(clippy::too_many_arguments)]
 pub fn record_frame(
     rec: &mut Recording,
@@ -244,28 +245,43 @@ pub fn record_frame(
     if !background_cached {
         p.background.record(rec.part(Async), frame, sky, mesh, &t.scene_color, &t.scene_depth);
     }
-    let blur = s.thickness.blur_px;
-    p.thickness.record(
-        rec.part(Async),
-        frame,
-        particles,
-        count,
-        &t.scene_depth,
-        &t.thickness_accum,
-        &t.thickness,
-        blur,
-    );
-    let ctx = rec.part(Fluid);
-    match (s.surface, fluid_mesh) {
-        (Surface::Mesh, Some(m)) => p.mesh.record(ctx, frame, m, &t.depth),
-        _ => record_splat(ctx, p, t, frame, particles, count, s, info)?,
-    }
-    if let (Surface::Iso, Some(grid)) = (s.surface, iso) {
+    // The iso grid (and the anisotropic kernels) feed the iso surface, and with `kernel = "anisotropic"` on
+    // spheres the ellipsoids of `thickness` and `splat`: then they are recorded before `thickness`, in its part.
+    let ellipsoids =
+        s.surface == Surface::Spheres && s.kernel == Kernel::Anisotropic && s.splat.mode == SplatMode::Compute;
+    let params = s.iso_params();
+    let grid = iso.filter(|_| s.surface == Surface::Iso || ellipsoids);
+    if let Some(grid) = grid {
+        let ctx = rec.part(if ellipsoids { Async } else { Fluid });
         p.iso.record_grid(ctx, particles, count, grid);
-        let params = s.iso_params();
         if let Some(a) = &params.aniso {
             p.anisotropy.record(ctx, frame, grid, a);
         }
+    }
+    let kernels =
+        grid.filter(|_| ellipsoids).map(|g| (&g.points, g.shape.dims[3], (&g.aniso, s.anisotropy.stretch.max(1.0))));
+    let (th_particles, th_count) = kernels.map_or((particles, count), |k| (k.0, k.1));
+    p.thickness.record(
+        rec.part(Async),
+        frame,
+        th_particles,
+        th_count,
+        &t.scene_depth,
+        &t.thickness_accum,
+        &t.thickness,
+        s.thickness.blur_px,
+        kernels.map(|k| k.2),
+    );
+    let ctx = rec.part(Fluid);
+    match (s.surface, fluid_mesh, kernels) {
+        (Surface::Mesh, Some(m), _) => p.mesh.record(ctx, frame, m, &t.depth),
+        (_, _, Some((points, n, k))) => {
+            let spheres = (s.radius, s.splat_scale());
+            p.splat.record(ctx, frame, points, n, &t.depth, None, &t.depth_tiles, spheres, Some(k), info)
+        }
+        _ => record_splat(ctx, p, t, frame, particles, count, s, info)?,
+    }
+    if let (Surface::Iso, Some(grid)) = (s.surface, grid) {
         // The rasterised splats do not write the far exit: the march then runs to the grid's box.
         let back = t.depth_back.as_ref().filter(|_| s.splat.mode == SplatMode::Compute);
         p.iso.record(ctx, frame, grid, &params, &t.depth, back);
@@ -319,6 +335,7 @@ fn record_splat(
                 t.depth_back.as_ref(),
                 &t.depth_tiles,
                 spheres,
+                None,
                 info,
             );
             Ok(())

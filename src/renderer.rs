@@ -504,7 +504,10 @@ impl Renderer {
         if s.surface == crate::settings::Surface::Mesh {
             self.ensure_fluid_mesh(s)?;
         }
-        let iso = if s.surface == crate::settings::Surface::Iso {
+        let ellipsoids = s.surface == crate::settings::Surface::Spheres
+            && s.kernel == crate::settings::Kernel::Anisotropic
+            && s.splat.mode == crate::settings::SplatMode::Compute;
+        let iso = if s.surface == crate::settings::Surface::Iso || ellipsoids {
             self.ensure_iso(s.iso.support * s.radius, s.iso_reach())?;
             true
         } else {

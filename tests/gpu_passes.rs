@@ -1342,3 +1342,91 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
     assert!(m.triangles.is_empty() && m.vertices.is_empty());
     assert_clean(&gpu);
 }
+
+/// Ellipsoid splats (`--kernel anisotropic` on spheres): the splat of a tilted lattice (flat kernels) and a lone
+/// particle (a sphere) equals the exact ray–ellipsoid entry depth of the CPU reference's kernels,
+/// {x : |M (x − c)| ≤ R ∛det M}, solved in f64; the thickness equals the sum of the chords through them.
+#[test]
+fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
+    use glam::Vec3;
+    use meniscus::iso::IsoGrid;
+    let gpu = gpu();
+    let (w, h) = (128usize, 96usize);
+    let r = 0.05f32;
+    let n = Vec3::new(0.2, 1.0, 0.3).normalize();
+    let (u, t) = (n.any_orthonormal_vector(), n.cross(n.any_orthonormal_vector()));
+    let mut pts = vec![];
+    for i in -5..=5 {
+        for j in -5..=5 {
+            pts.push(((u * i as f32 + t * j as f32) * 2.0 * r).to_array());
+        }
+    }
+    pts.push([0.0, 0.6, 0.0]);
+    let v = view([0.2, 1.4, 1.8], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
+    let mut s = settings(r);
+    s.smooth.filter = Filter::None;
+    s.kernel = meniscus::settings::Kernel::Anisotropic;
+    s.anisotropy.min_neighbours = 8;
+    s.thickness.scale = 1.0;
+    s.thickness.blur_px = 0;
+    let mut rd = Renderer::new(&gpu).unwrap();
+    rd.keep_raw_depth = true;
+    rd.set_particles(&pts, None).unwrap();
+    rd.render(&v, &s).unwrap();
+    let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    let thick = read_f32(&gpu, &rd.targets.as_ref().unwrap().thickness).unwrap();
+
+    let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
+    let kernels = grid.anisotropy(&s.iso_params().aniso.unwrap());
+    let flat = kernels.iter().filter(|k| k.det() > 2.0).count();
+    assert!(flat > 60, "{flat} flat kernels");
+    let big_r = (r * s.splat.radius_scale) as f64;
+    let inv_view = v.camera.view().inverse();
+    let eye = v.camera.eye.as_dvec3();
+    let f = v.camera.focal_px(h as u32) as f64;
+    let (mut both, mut mismatch, mut close, mut thick_ok, mut thick_px) = (0, 0, 0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let dv = pixel_dir(x, y, w, h, f);
+            let dir = inv_view.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32)).as_dvec3();
+            // Entry and exit depth of the ray through each kernel's ellipsoid of the sphere of radius `big`.
+            let hits = |big: f64| {
+                kernels.iter().filter_map(move |k| {
+                    let m = k.matrix().as_dmat3();
+                    let rho = big * (k.det() as f64).cbrt();
+                    let (a, b) = (m * dir, m * (eye - k.centre().as_dvec3()));
+                    let (aa, ab) = (a.dot(a), a.dot(b));
+                    let disc = ab * ab - aa * (b.dot(b) - rho * rho);
+                    (disc >= 0.0).then(|| ((-ab - disc.sqrt()) / aa, (-ab + disc.sqrt()) / aa))
+                })
+            };
+            let want = hits(big_r).map(|h| h.0).fold(f64::INFINITY, f64::min);
+            // Thickness: the chords through the ellipsoids of the particles' own volume.
+            let chord: f64 = hits(r as f64).map(|(a, b)| (b - a) * dir.length()).sum();
+            if chord > 0.0 {
+                thick_px += 1;
+                if (thick[y * w + x] as f64 - chord).abs() < 0.01 * r as f64 {
+                    thick_ok += 1;
+                }
+            }
+            let g = got[y * w + x] as f64;
+            match (want.is_finite(), g.is_finite()) {
+                (true, true) => {
+                    both += 1;
+                    if (g - want).abs() < 0.01 * r as f64 {
+                        close += 1;
+                    }
+                }
+                (false, false) => {}
+                _ => mismatch += 1,
+            }
+        }
+    }
+    eprintln!("ellipsoids: {both} pixels, {mismatch} differ in coverage, {close} within 0.01 r");
+    assert!(both > 1000, "covered {both}");
+    assert!(mismatch * 100 <= both, "coverage differs on {mismatch} of {both} pixels");
+    assert!(close * 100 >= both * 99, "{close} of {both} pixels within 0.01 r");
+    eprintln!("thickness: {thick_ok} of {thick_px} pixels within 0.01 r");
+    assert!(thick_px > 1000 && thick_ok * 100 >= thick_px * 99, "thickness: {thick_ok} of {thick_px} within 0.01 r");
+    assert_clean(&gpu);
+}

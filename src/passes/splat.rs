@@ -57,6 +57,10 @@ pub struct SplatPush {
     pub cull: u32,
     /// Tile size of the occlusion bound.
     pub tile: u32,
+    /// 1: the particles are the iso grid's points, drawn as their anisotropic kernels' ellipsoids.
+    pub ellipsoid: u32,
+    /// The kernels' longest axis relative to ∛det M (`[anisotropy] stretch`, at least 1).
+    pub stretch: f32,
 }
 
 /// Push constants of splat_cull.comp.
@@ -87,8 +91,9 @@ pub struct RasterPush {
     pub size: [f32; 2],
 }
 
-// The compute splat: frame, particles, depth and back depth (R32_UINT views, atomicMin/Max), the tile bounds.
-declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgAltWrite, ImgRead]));
+// The compute splat: frame, particles, depth and back depth (R32_UINT views, atomicMin/Max), the tile bounds,
+// the anisotropic kernels (read with `ellipsoid`).
+declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgAltWrite, ImgRead, BufRead]));
 // The occlusion pre-pass: frame, particles → per-tile depth bound (atomicMin).
 declare_program!(pub CULL: CullPush = compute(shaders::SPLAT_CULL, [Uniform, BufRead, ImgWrite]));
 // The rasterised variants: frame and particles, read by the vertex and fragment shaders.
@@ -178,7 +183,9 @@ impl Splat {
     /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile: when spheres span tiles
     /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance), and never with
     /// `back_img`, which needs every sphere. Spheres are `radius_scale` particle radii of `radius` (the
-    /// frame's; particles may carry their own).
+    /// frame's; particles may carry their own). With `ellipsoids` (the kernels `anisotropy` wrote for these
+    /// particles, the iso grid's points, and their `stretch`) each sphere becomes its kernel's ellipsoid of the
+    /// same volume (no cull: its bound assumes spheres).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -190,10 +197,14 @@ impl Splat {
         back_img: Option<&Image>,
         tiles: &Image,
         (radius, radius_scale): (f32, f32),
+        ellipsoids: Option<(&Buffer, f32)>,
         info: &FrameInfo,
     ) {
         let back = back_img.is_some();
-        let cull = !back && cull_pays(info.focal_px_fluid * radius * radius_scale / info.target_distance);
+        let cull = !back
+            && ellipsoids.is_none()
+            && cull_pays(info.focal_px_fluid * radius * radius_scale / info.target_distance);
+        let (kernels, stretch) = ellipsoids.unwrap_or((particles, 1.0));
         // Without a back image the binding still needs one: the depth itself (never written through it then).
         let back_img = back_img.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
@@ -213,8 +224,16 @@ impl Splat {
                 };
                 self.cull.dispatch(ctx, &[frame.into(), particles.into(), tiles.into()], &push, groups);
             }
-            let push = SplatPush { count, radius_scale, back: back as u32, cull: cull as u32, tile: TILE };
-            let res = [frame.into(), particles.into(), depth.into(), back_img.into(), tiles.into()];
+            let push = SplatPush {
+                count,
+                radius_scale,
+                back: back as u32,
+                cull: cull as u32,
+                tile: TILE,
+                ellipsoid: ellipsoids.is_some() as u32,
+                stretch,
+            };
+            let res = [frame.into(), particles.into(), depth.into(), back_img.into(), tiles.into(), kernels.into()];
             self.prog.dispatch(ctx, &res, &push, groups);
         });
     }

@@ -40,6 +40,10 @@ pub struct Thickness {
 pub struct AccumulatePush {
     /// Particles.
     pub count: u32,
+    /// 1: the particles are the iso grid's points, each its anisotropic kernel's ellipsoid.
+    pub ellipsoid: u32,
+    /// The kernels' longest axis relative to ∛det M.
+    pub stretch: f32,
 }
 
 /// Push constants of thickness_blur.comp.
@@ -52,8 +56,9 @@ pub struct BlurPush {
     pub sigma: f32,
 }
 
-// Accumulate: frame, particles, scene depth → accum (atomic adds into the cleared image).
-declare_program!(pub ACCUMULATE: AccumulatePush = compute(shaders::THICKNESS, [Uniform, BufRead, ImgRead, ImgWrite]));
+// Accumulate: frame, particles, scene depth → accum (atomic adds into the cleared image); the anisotropic
+// kernels (read with `ellipsoid`).
+declare_program!(pub ACCUMULATE: AccumulatePush = compute(shaders::THICKNESS, [Uniform, BufRead, ImgRead, ImgWrite, BufRead]));
 // Blur: frame, accum → out.
 declare_program!(pub BLUR: BlurPush = compute(shaders::THICKNESS_BLUR, [Uniform, ImgRead, ImgOverwrite]));
 
@@ -64,6 +69,8 @@ impl Thickness {
     }
 
     /// `accum` (R32_UINT) is cleared and filled; `out` (R32_SFLOAT, world units) receives the blurred result.
+    /// With `ellipsoids` (the `anisotropy` pass's kernels of these particles, the iso grid's points, and their
+    /// `stretch`) each particle adds the chord through its ellipsoid of the same volume.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -75,11 +82,13 @@ impl Thickness {
         accum: &Image,
         out: &Image,
         blur_radius: u32,
+        ellipsoids: Option<(&Buffer, f32)>,
     ) {
         ctx.pass(NAME, |ctx| {
             ctx.clear(accum, vk::ClearColorValue { uint32: [0; 4] });
-            let push = AccumulatePush { count };
-            let res = [frame.into(), particles.into(), scene_depth.into(), accum.into()];
+            let (kernels, stretch) = ellipsoids.unwrap_or((particles, 1.0));
+            let push = AccumulatePush { count, ellipsoid: ellipsoids.is_some() as u32, stretch };
+            let res = [frame.into(), particles.into(), scene_depth.into(), accum.into(), kernels.into()];
             self.accumulate.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
             let push = BlurPush { radius: blur_radius, sigma: (blur_radius as f32 * 0.5).max(0.5) };
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
