@@ -2,7 +2,7 @@
 //! (src/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
 //! Bindings 1–3: points sorted by cell (xyz), cells (first point, count), weights 1/n_j (one per point; not
 //! declared, nor iso_sum, with ISO_NO_WEIGHTS).
-//! With ISO_ANISO_BINDING defined, and pc.steps.w = 1, each point's anisotropic kernel (the `anisotropy` pass,
+//! With ISO_ANISO_BINDING defined (iso_aniso.comp), each point's anisotropic kernel (the `anisotropy` pass,
 //! Yu & Turk 2013): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j.
 
 layout(std430, set = 0, binding = 1) readonly buffer IsoPoints { vec4 iso_points[]; };
@@ -20,7 +20,7 @@ layout(push_constant) uniform IsoPush {
     uvec4 dims;   // xyz: cells per axis, w: point count
     vec4 params;  // x: kernel support h, y: iso threshold, z: smallest step, w: bound radius (world units)
     uvec4 steps;  // x: most march steps, y: bisection iterations, z: 1 = the back image bounds the march,
-                  // w: 1 = anisotropic kernels
+                  // w: 1 = anisotropic kernels (iso_aniso.comp)
     vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
     vec4 aniso2;  // anisotropy: x: longest axis (units of h)
 } pc;
@@ -52,20 +52,20 @@ float iso_sum(vec3 x, bool weighted, out float dmin) {
                     float d2 = dot(v, v);
                     d2min = min(d2min, d2);
 #ifdef ISO_ANISO_BINDING
-                    if (pc.steps.w != 0u) {
-                        vec4 a0 = iso_aniso[3u * i];
-                        vec3 u = x - a0.xyz;
-                        // The ellipsoid lies inside the ball of radius (longest axis) around its centre.
-                        float reach = pc.params.x * pc.aniso2.x;
-                        if (dot(u, u) >= reach * reach) continue;
+                    // Weighted always (iso_aniso.comp only casts). The ellipsoid lies inside the ball of radius
+                    // (longest axis) around its centre.
+                    vec4 a0 = iso_aniso[3u * i];
+                    vec3 u = x - a0.xyz;
+                    float reach = pc.params.x * pc.aniso2.x;
+                    if (dot(u, u) < reach * reach) {
                         vec4 a1 = iso_aniso[3u * i + 1u], a2 = iso_aniso[3u * i + 2u];
                         mat3 m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
                         s += a0.w * iso_kernel(length(m * u) * inv_h) * iso_w[i];
-                        continue;
                     }
-#endif
+#else
                     float w = iso_kernel(sqrt(d2) * inv_h);
                     s += weighted ? w * iso_w[i] : w;
+#endif
                 }
             }
         }

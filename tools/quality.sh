@@ -20,7 +20,9 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 default_configs="spheres + none|--filter none;spheres + gaussian|--filter gaussian;spheres + bilateral|--filter bilateral;\
 spheres + bilateral2d|--filter bilateral2d;spheres + curvature-flow|--filter curvature-flow;\
-spheres + narrow-range (default)|--filter narrow-range;iso isotropic|--surface iso --filter none;\
+spheres + narrow-range (default)|--filter narrow-range;ellipsoids + none|--filter none --kernel anisotropic;\
+ellipsoids + narrow-range|--filter narrow-range --kernel anisotropic;\
+ellipsoids + curvature-flow|--filter curvature-flow --kernel anisotropic;iso isotropic|--surface iso --filter none;\
 iso anisotropic|--surface iso --filter none --kernel anisotropic;\
 iso anisotropic stretch 1.5|--surface iso --filter none --kernel anisotropic --settings $out/stretch.toml;\
 iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --settings $out/centres.toml"
@@ -34,7 +36,7 @@ for c in "${configs[@]}"; do
     # shellcheck disable=SC2086
     timings=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 \
         --height 540 $args --out "$out/c.png" --dump smoothed --timings "$@" 2>/dev/null)
-    ms=$(awk -F'|' '$2 ~ /^ (smooth|iso|anisotropy) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
+    ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
     for ref in ref smooth_ref; do
         rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_${ref}_depth.npy" \
             --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius 0.0125 | tail -n 1 |
