@@ -23,6 +23,7 @@ void main() {
     if (pc.steps.z != 0u) d_end = min(d_end, imageLoad(back, p).x);
     float len = length(dir);
     float threshold = pc.params.y;
+    float near = frame.proj.w;
     float d = d0, prev = d0, phi_prev = 0.0;
     float result = INF;
     for (uint k = 0u; k < pc.steps.x; ++k) {
@@ -30,8 +31,21 @@ void main() {
         float dmin;
         float phi = iso_sum(eye + dir * d, true, dmin);
         if (phi >= threshold) {
-            if (k == 0u) { result = d; break; } // the march started inside
             float a = prev, b = d, fa = phi_prev, fb = phi;
+            if (k == 0u) {
+                // Started inside: the surface bulges past the bound sphere here. Step back towards the eye (at
+                // most ISO_BACK_STEPS smallest steps, not past the near plane) to bracket the crossing.
+                a = d;
+                fa = phi;
+                for (uint j = 0u; j < ISO_BACK_STEPS && fa >= threshold && a > near; ++j) {
+                    b = a;
+                    fb = fa;
+                    a = max(a - pc.params.z / len, near);
+                    float unused;
+                    fa = iso_sum(eye + dir * a, true, unused);
+                }
+                if (fa >= threshold) { result = a; break; }
+            }
             for (uint j = 0u; j < pc.steps.y; ++j) {
                 float m = 0.5 * (a + b);
                 float unused;

@@ -290,6 +290,8 @@ pub struct IsoParams {
     pub refine: u32,
     /// The anisotropic kernels' parameters (`None`: the isotropic kernel).
     pub aniso: Option<AnisoParams>,
+    /// The camera's near plane (linear depth): a march that starts inside steps back no nearer.
+    pub near: f32,
 }
 
 /// Depth at which the ray `origin + d·dir` leaves the grid's box grown by the support (as `iso.comp`).
@@ -305,7 +307,8 @@ pub fn ray_end(grid: &IsoGrid, origin: Vec3, dir: Vec3) -> f32 {
 
 /// CPU reference of the march of `iso.comp` along `origin + d·dir` (d: linear depth, dir with unit forward
 /// component) from `d_start` (the bound spheres' depth) to `d_end`: the first depth where φ ≥ threshold,
-/// bracketed by the march, bisected `refine` times, then linearly interpolated.
+/// bracketed by the march (or, when φ ≥ threshold at the start, by up to ISO_BACK_STEPS steps back towards
+/// the eye), bisected `refine` times, then linearly interpolated.
 pub fn cast(
     grid: &IsoGrid,
     inv_n: &[f32],
@@ -338,10 +341,21 @@ pub fn cast_with(
         }
         let (phi, dmin) = grid.field_with(origin + dir * d, inv_n, aniso);
         if phi >= p.threshold {
-            if k == 0 {
-                return Some(d);
-            }
             let (mut a, mut b, mut fa, mut fb) = (prev, d, phi_prev, phi);
+            if k == 0 {
+                // Started inside: step back towards the eye (at most ISO_BACK_STEPS steps, not past `near`).
+                (a, fa) = (d, phi);
+                let mut j = 0;
+                while j < crate::shader_constants::ISO_BACK_STEPS && fa >= p.threshold && a > p.near {
+                    (b, fb) = (a, fa);
+                    a = (a - p.step / len).max(p.near);
+                    fa = grid.field_with(origin + dir * a, inv_n, aniso).0;
+                    j += 1;
+                }
+                if fa >= p.threshold {
+                    return Some(a);
+                }
+            }
             for _ in 0..p.refine {
                 let m = 0.5 * (a + b);
                 let fm = grid.field_with(origin + dir * m, inv_n, aniso).0;
@@ -371,7 +385,15 @@ mod tests {
         let g = IsoGrid::build(&[[0.3, 0.2, 0.1]], 4.0 * r);
         let inv = g.inv_density();
         assert!((inv[0] - 1.0).abs() < 1e-6);
-        let p = IsoParams { threshold: 0.6, step: 0.25 * r, bound: 2.0 * r, max_steps: 256, refine: 16, aniso: None };
+        let p = IsoParams {
+            threshold: 0.6,
+            step: 0.25 * r,
+            bound: 2.0 * r,
+            max_steps: 256,
+            refine: 16,
+            aniso: None,
+            near: 0.01,
+        };
         // Ray along −z through the centre, from 1 unit in front.
         let d = cast(&g, &inv, &p, Vec3::new(0.3, 0.2, 1.1), Vec3::new(0.0, 0.0, -1.0), 1.0 - 2.0 * r, 2.0).unwrap();
         // Analytic: 1 − 6q² + 6q³ = 0.6 → q = 0.31108…

@@ -297,7 +297,7 @@ impl Settings {
         })
     }
 
-    /// The ray-cast parameters in world units.
+    /// The ray-cast parameters in world units (`near` is the view's: 0 here).
     pub fn iso_params(&self) -> crate::iso::IsoParams {
         crate::iso::IsoParams {
             threshold: self.iso.threshold,
@@ -306,6 +306,8 @@ impl Settings {
             max_steps: self.iso.max_steps,
             refine: self.iso.refine,
             aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius)),
+            // The view's (the GPU reads it from the frame); CPU references set it.
+            near: 0.0,
         }
     }
 

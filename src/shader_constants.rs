@@ -26,6 +26,9 @@ pub const SCAN_LOCAL: u32 = 256;
 /// Cells scanned by one work group of grid_scan.comp.
 pub const SCAN_BLOCK: u32 = 4 * SCAN_LOCAL;
 
+/// Smallest steps the `iso` march may take back towards the eye when it starts inside the surface (the surface
+/// bulges past the bound sphere there), so a bound sphere tighter than every bulge stays exact.
+pub const ISO_BACK_STEPS: u32 = 4;
 /// Cubes per edge of a block of the GPU marching cubes (`mc` pass; the CPU path's blocks are 32).
 pub const MC_BLOCK: u32 = 8;
 /// Most triangles of one cube in the generated case table (mc_emit.comp's table stride).
@@ -40,6 +43,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("SSR_MISS", SSR_MISS),
     ("MAX_PIXELS_PER_PARTICLE", MAX_PIXELS_PER_PARTICLE),
     ("SPLAT_TILE", SPLAT_TILE),
+    ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("MAX_COLLIDERS", MAX_COLLIDERS),
     ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),

@@ -843,19 +843,21 @@ fn skybox_faces_from_files() {
 /// pair: same coverage and the same depth where both are covered.
 #[test]
 fn iso_surface_matches_cpu_ray_cast() {
-    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0));
+    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0), 2.0);
+    // Bound spheres tighter than the surface: marches that start inside step back to the crossing.
+    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0), 1.3);
 }
 
 /// The same with anisotropic kernels (Yu & Turk 2013): the `anisotropy` pass's kernels match the CPU
 /// reference point by point (centre, det M, M), and the ray cast of their field matches the CPU cast.
 #[test]
 fn anisotropic_iso_surface_matches_cpu_ray_cast() {
-    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.0, 1.0));
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.0, 1.0), 2.0);
     // Moved centres and stretched kernels: the grid's cells widen to reach them.
-    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 1.5));
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 1.5), 2.0);
 }
 
-fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f32)) {
+fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f32), bound: f32) {
     use glam::Vec3;
     use meniscus::iso::{cast_with, ray_end, Aniso, IsoGrid};
     let gpu = gpu();
@@ -886,6 +888,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f
     // The slab's points have about 12–30 neighbours within 4 r: most get flat kernels, the lone one a sphere.
     s.anisotropy.min_neighbours = 12;
     (s.anisotropy.centre_blend, s.anisotropy.stretch) = (blend, stretch);
+    s.iso.bound = bound;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
     rd.set_particles(&pts, None).unwrap();
@@ -894,7 +897,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f
 
     let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let inv = grid.inv_density();
-    let p = s.iso_params();
+    let p = meniscus::iso::IsoParams { near: v.camera.near, ..s.iso_params() };
     let aniso = p.aniso.map(|a| grid.anisotropy(&a));
     if let Some(want) = &aniso {
         // The GPU grid sorts within a cell in the atomics' order: match the points by position.
@@ -958,7 +961,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f
             }
         }
     }
-    eprintln!("{kernel:?}: {both} pixels, {mismatch} differ in coverage, {close} within 0.01 r, max {max_err}");
+    eprintln!("{kernel:?}, bound {bound} r: {both} pixels, {mismatch} differ in coverage, {close} within 0.01 r, max {max_err}");
     assert!(both > 1500, "covered {both}");
     assert!(mismatch * 200 <= both, "coverage differs on {mismatch} of {both} pixels");
     assert!(close * 100 >= both * 99, "{close} of {both} pixels within 0.01 r");

@@ -24,17 +24,21 @@ pub struct Params {
     pub threshold: f32,
     /// Iso-surface: smallest march step, particle radii.
     pub step: f32,
-    /// Iso-surface: radius of the spheres the march starts from, particle radii (the surface lies inside).
+    /// Iso-surface: radius of the spheres the march starts from, particle radii. Where the surface bulges past
+    /// them the march steps back to it; only silhouettes outside every bound sphere are lost. Measured on the
+    /// shared frame (tools/quality.sh, lavapipe): 2.0 → IoU 0.997 at 276 ms, 1.75 → 0.996 at 194 ms, 1.5 →
+    /// 0.987 at 142 ms, normals unchanged (0.8° median).
     pub bound: f32,
     /// Iso-surface: most march steps per pixel.
     pub max_steps: u32,
-    /// Iso-surface: bisection iterations after the first step past the threshold.
+    /// Iso-surface: bisection iterations after the first step past the threshold, before the final linear
+    /// interpolation (0: the interpolation alone, as accurate on the shared frame and 28 % cheaper than 4).
     pub refine: u32,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { support: 4.0, threshold: 0.6, step: 0.5, bound: 2.0, max_steps: 512, refine: 4 }
+        Params { support: 4.0, threshold: 0.6, step: 0.5, bound: 1.75, max_steps: 512, refine: 0 }
     }
 }
 
