@@ -170,8 +170,11 @@ fn tiny_bench_writes_valid_json() {
     assert_eq!(e["width"], 64);
     assert_eq!(e["frames"], 3);
     let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
-    let want: Vec<&str> =
-        meniscus::passes::PASS_NAMES.iter().copied().filter(|p| !["upsample", "iso", "mesh"].contains(p)).collect();
+    let want: Vec<&str> = meniscus::passes::PASS_NAMES
+        .iter()
+        .copied()
+        .filter(|p| !["upsample", "anisotropy", "iso", "mesh"].contains(p))
+        .collect();
     assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
     // Timing sanity: one entry per pass, none negative, and every frame's total is at least the sum of the passes'
@@ -427,8 +430,40 @@ fn sim_exports_a_cache_that_loads_and_renders() {
         .arg(&png)
         .output()
         .unwrap();
-    assert!(o.status.success(), "render of the export: {}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "render of the export: {err}");
     assert!(png.exists());
+    // The export's scene.json (SPlisHSPlasH's format) gives the radius and the tank, drawn as walls.
+    let sj = meniscus::scene::splishsplash::SceneJson::load(&d.join("scene.json")).unwrap();
+    assert_eq!(sj.containers.len(), 1);
+    assert!((sj.radius.unwrap() - 0.5 * (1.0f32 / 3000.0).cbrt()).abs() < 1e-6);
+    assert!(err.contains("(SceneJson)") && err.contains("1 container(s)"), "{err}");
+    // Without it the background has no tank: the pictures differ.
+    let plain = d.join("plain.png");
+    let o = meniscus()
+        .args(["render", d.join("f_4.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--no-scene-json"])
+        .arg("--out")
+        .arg(&plain)
+        .output()
+        .unwrap();
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("(Estimated)"));
+    assert_ne!(image::open(&png).unwrap().to_rgba8(), image::open(&plain).unwrap().to_rgba8());
+    // A broken scene.json is reported with its byte and ignored; a foreign one is never overwritten.
+    std::fs::write(d.join("scene.json"), "{\"RigidBodies\": [1]}").unwrap();
+    let o = meniscus()
+        .args(["render", d.join("f_4.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--out"])
+        .arg(&plain)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("warning: ignoring") && err.contains("byte 17"), "{err}");
+    let o = meniscus()
+        .args(["sim", "dambreak", "--particles", "300", "--frames", "1", "--export"])
+        .arg(d.join("f_{}.bgeo"))
+        .output()
+        .unwrap();
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("was not written by meniscus"));
+    assert_eq!(std::fs::read_to_string(d.join("scene.json")).unwrap(), "{\"RigidBodies\": [1]}");
     for (args, expect) in [
         (vec!["sim", "nope"], "known: dambreak"),
         (vec!["sim", "drop", "--export", "x.png"], ".bgeo or .vtk"),

@@ -12,6 +12,7 @@ pub mod ply;
 pub mod procedural;
 pub mod realflow;
 pub mod sequence;
+pub mod splishsplash;
 pub mod vtk;
 pub mod vtu;
 pub mod xyz;

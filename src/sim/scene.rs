@@ -235,18 +235,28 @@ impl SimScene {
     /// thick), so the tank shows without hiding the water.
     pub fn wall_boxes(&self) -> Vec<(Vec3, Vec3)> {
         let (lo, hi) = self.container;
-        let t = (0.02 * (hi - lo).max_element()).max(self.spacing);
-        let mut b = vec![
-            (Vec3::new(lo.x - t, lo.y, lo.z - t), Vec3::new(hi.x + t, hi.y, lo.z)),
-            (Vec3::new(lo.x - t, lo.y, lo.z), Vec3::new(lo.x, hi.y, hi.z)),
-            (Vec3::new(hi.x, lo.y, lo.z), Vec3::new(hi.x + t, hi.y, hi.z)),
-        ];
-        for c in &self.colliders {
-            if let Collider::Box { centre, half } = c {
-                b.push((*centre - *half, *centre + *half));
-            }
-        }
+        let mut b = crate::scene::splishsplash::container_walls(lo, hi, self.wall_thickness()).to_vec();
+        b.extend(self.box_colliders());
         b
+    }
+}
+
+impl SimScene {
+    /// The box colliders as (lo, hi).
+    pub fn box_colliders(&self) -> Vec<(Vec3, Vec3)> {
+        self.colliders
+            .iter()
+            .filter_map(|c| match c {
+                Collider::Box { centre, half } => Some((*centre - *half, *centre + *half)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The wall thickness drawn for the container.
+    pub fn wall_thickness(&self) -> f32 {
+        let (lo, hi) = self.container;
+        (0.02 * (hi - lo).max_element()).max(self.spacing)
     }
 }
 

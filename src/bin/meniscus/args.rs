@@ -83,6 +83,11 @@ pub struct SceneArgs {
     /// reflected, refracted and casts shadows on the ground.
     #[arg(long, value_name = "FILE")]
     pub background_obj: Option<PathBuf>,
+    /// Ignore a SPlisHSPlasH `scene.json` beside the particle files (or one folder up); by default its particle
+    /// radius is used when --radius is absent and its container is drawn as walls (the shared sequences and
+    /// `meniscus sim --export` have one).
+    #[arg(long)]
+    pub no_scene_json: bool,
 }
 
 /// The long help of the input argument, from the scene list and the format registry.

@@ -387,6 +387,7 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                     particles: None,
                     camera: a.camera.clone(),
                     background_obj: None,
+                    no_scene_json: false,
                 };
                 let job = Job::open(&scene_args, &a.load, base.clone(), Select::default())?;
                 let label = Path::new(&job.label)

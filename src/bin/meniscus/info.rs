@@ -35,8 +35,14 @@ pub fn run(a: &InfoArgs) -> Result<()> {
         return device(filter.clone());
     }
     let input = a.file.clone().unwrap_or_default();
-    let scene_args =
-        SceneArgs { input: input.clone(), radius: a.radius, particles: None, camera: None, background_obj: None };
+    let scene_args = SceneArgs {
+        input: input.clone(),
+        radius: a.radius,
+        particles: None,
+        camera: None,
+        background_obj: None,
+        no_scene_json: false,
+    };
     let t0 = std::time::Instant::now();
     let job = Job::open(&scene_args, &a.load, meniscus::settings::Settings::default(), Select::default())?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;

@@ -30,6 +30,8 @@ pub struct Select {
 pub enum RadiusFrom {
     Flag,
     Scene,
+    /// A SPlisHSPlasH `scene.json` beside the files.
+    SceneJson,
     Estimated,
 }
 
@@ -51,8 +53,36 @@ pub struct Job {
     pub camera: Option<Camera>,
     /// `--background-obj`, read and checked before any GPU work.
     pub mesh: Option<Mesh>,
-    /// A simulated scene's container walls (drawn as background boxes instead of the default ones).
+    /// A simulated scene's container walls (drawn as background boxes instead of the default ones), from the
+    /// live scene or a `scene.json` beside the files.
     pub walls: Vec<(glam::Vec3, glam::Vec3)>,
+    /// The ground height under the walls (the container's floor), when they come with one.
+    pub floor: Option<f32>,
+}
+
+/// The `scene.json` describing the particle file `path`, if any, with one line about what it gives; one that
+/// cannot be read is reported and ignored (it only adds the radius and the walls).
+fn find_scene_json(path: &Path) -> Option<meniscus::scene::splishsplash::SceneJson> {
+    match meniscus::scene::splishsplash::SceneJson::find_for(path) {
+        Ok(Some(s)) => {
+            let radius = s.radius.map(|r| format!("radius {r}")).unwrap_or("no radius".into());
+            eprintln!(
+                "{}: {radius}, {} container(s) and {} box(es) drawn in the background (--no-scene-json ignores it)",
+                s.path.display(),
+                s.containers.len(),
+                s.boxes.len()
+            );
+            for k in &s.skipped {
+                eprintln!("{}: not drawn: {k}", s.path.display());
+            }
+            Some(s)
+        }
+        Ok(None) => None,
+        Err(e) => {
+            eprintln!("warning: ignoring {e}");
+            None
+        }
+    }
 }
 
 impl Job {
@@ -61,9 +91,10 @@ impl Job {
         let load = load.options()?;
         let input = scene_args.input.as_str();
         let builtin = procedural::SCENES.iter().find(|s| s.0 == input);
+        let mut scene_json = None;
         let (first, scene_radius, frames, label) = if let Some((name, n, _)) = builtin {
             let g = procedural::generate(name, scene_args.particles.unwrap_or(*n))?;
-            (g.particles, Some(g.radius), None, format!("scene {name}"))
+            (g.particles, Some((g.radius, RadiusFrom::Scene)), None, format!("scene {name}"))
         } else {
             if scene_args.particles.is_some() {
                 bail!("--particles applies to built-in scenes only");
@@ -71,7 +102,11 @@ impl Job {
             if sequence::is_sequence(input) {
                 let frames = sequence::resolve(input, select.range, select.shard)?;
                 let first = scene::load_with(&frames[0].path, &load)?;
-                (first, None, Some(frames), input.to_string())
+                if !scene_args.no_scene_json {
+                    scene_json = find_scene_json(&frames[0].path);
+                }
+                let r = scene_json.as_ref().and_then(|s| s.radius).map(|r| (r, RadiusFrom::SceneJson));
+                (first, r, Some(frames), input.to_string())
             } else {
                 if select.range.is_some() || select.shard.is_some() {
                     bail!("--frames and --shard apply to sequences (a pattern with {{}}, a folder or a glob)");
@@ -81,13 +116,17 @@ impl Job {
                     let known: Vec<&str> = procedural::SCENES.iter().map(|s| s.0).collect();
                     bail!("{input}: no such file, and not a built-in scene ({})", known.join(", "));
                 }
-                (scene::load_with(path, &load)?, None, None, input.to_string())
+                if !scene_args.no_scene_json {
+                    scene_json = find_scene_json(path);
+                }
+                let r = scene_json.as_ref().and_then(|s| s.radius).map(|r| (r, RadiusFrom::SceneJson));
+                (scene::load_with(path, &load)?, r, None, input.to_string())
             }
         };
         let mut settings = settings;
         let (radius, radius_from) = match (scene_args.radius, scene_radius) {
             (Some(r), _) => (r, RadiusFrom::Flag),
-            (None, Some(r)) => (r, RadiusFrom::Scene),
+            (None, Some(r)) => r,
             (None, None) => {
                 let r = scene::estimate_radius(&first.positions)
                     .context("cannot estimate the particle radius (too few distinct particles); pass --radius")?;
@@ -102,7 +141,15 @@ impl Job {
         if radius_from == RadiusFrom::Estimated {
             eprintln!("radius {radius:.5} estimated from the particles' number density (pass --radius to override)");
         }
-        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls: vec![] })
+        // A scene.json's container: its walls in the background, on its floor.
+        let (walls, floor) = match &scene_json {
+            Some(sj) if !sj.containers.is_empty() || !sj.boxes.is_empty() => {
+                let size = sj.containers.iter().map(|c| (c.1 - c.0).max_element()).fold(0.0, f32::max);
+                (sj.background_boxes((0.02 * size).max(2.0 * radius)), sj.floor())
+            }
+            _ => (vec![], None),
+        };
+        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls, floor })
     }
 
     /// The job of a live simulation (`demo --sim`, `bench --sim`): the scene's initial particles, its radius,
@@ -129,6 +176,7 @@ impl Job {
             camera,
             mesh,
             walls: scene.wall_boxes(),
+            floor: Some(lo.y),
         })
     }
 
@@ -147,7 +195,7 @@ impl Job {
         let mut env = Environment::around(&self.bounds, self.settings.radius, &self.settings);
         if !self.walls.is_empty() {
             env.boxes = self.walls.clone();
-            env.ground_y = self.bounds.lo.y;
+            env.ground_y = self.floor.unwrap_or(self.bounds.lo.y);
         }
         env
     }

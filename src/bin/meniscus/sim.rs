@@ -101,6 +101,19 @@ pub fn run(a: &SimArgs) -> Result<()> {
         Ok(())
     };
     write(&sim, 1)?;
+    if let Some(e) = &a.export {
+        // The container beside the cache (SPlisHSPlasH's scene.json), so `render` draws the tank and needs no
+        // --radius; a scene.json that meniscus did not write is left alone.
+        let dir = std::path::Path::new(e).parent().unwrap_or(std::path::Path::new(""));
+        let path = dir.join("scene.json");
+        let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::load(&path).is_ok_and(|s| s.by_meniscus);
+        if ours {
+            let s = &sim.scene;
+            meniscus::scene::splishsplash::write_scene_json(&path, s.radius(), s.container, &s.box_colliders())?;
+        } else {
+            eprintln!("warning: {} exists and was not written by meniscus: left as it is", path.display());
+        }
+    }
     let bar = indicatif::ProgressBar::new(a.frames as u64 - 1);
     bar.set_style(
         indicatif::ProgressStyle::with_template(

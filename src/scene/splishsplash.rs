@@ -1,0 +1,217 @@
+//! The `scene.json` of a SPlisHSPlasH simulation (the shared sequences ship one beside their `partio/` folder;
+//! `meniscus sim --export` writes one in the same format): the particle radius and the static rigid bodies, so
+//! `render` of a cache draws the container it was simulated in (issue #13) and needs no `--radius`.
+//!
+//! Only what rendering needs is read: `Configuration.particleRadius`, and the `RigidBodies` that are unit
+//! boxes (`geometryFile` ending in `UnitBox.obj`, a cube of side 1 centred at the origin) with `translation`
+//! and `scale` (rotations other than 0 are skipped with a note). `isWall` bodies are containers: their back and
+//! side walls are drawn (the front is left open for the camera); other boxes are drawn as solid blocks.
+//! Format: <https://splishsplash.readthedocs.io/en/latest/file_format.html> (SPlisHSPlasH, MIT).
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// What a `scene.json` says about the rendered scene.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneJson {
+    /// The file it came from.
+    pub path: PathBuf,
+    /// `Configuration.particleRadius`.
+    pub radius: Option<f32>,
+    /// Interiors (lo, hi) of the containers (`isWall` unit boxes).
+    pub containers: Vec<(Vec3, Vec3)>,
+    /// Solid boxes (lo, hi).
+    pub boxes: Vec<(Vec3, Vec3)>,
+    /// Bodies that could not be drawn (another mesh, a rotation), one line each.
+    pub skipped: Vec<String>,
+    /// Written by `meniscus sim --export` (so a later export may replace it).
+    pub by_meniscus: bool,
+}
+
+#[derive(Serialize, Deserialize, Default)]
+#[serde(rename_all = "camelCase")]
+struct Configuration {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    particle_radius: Option<f32>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct RigidBody {
+    geometry_file: String,
+    #[serde(default)]
+    translation: [f32; 3],
+    #[serde(default = "one3")]
+    scale: [f32; 3],
+    #[serde(default)]
+    rotation_angle: f32,
+    #[serde(default)]
+    is_wall: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    is_dynamic: Option<bool>,
+}
+
+fn one3() -> [f32; 3] {
+    [1.0; 3]
+}
+
+#[derive(Serialize, Deserialize)]
+struct File {
+    #[serde(rename = "Configuration", default)]
+    configuration: Configuration,
+    #[serde(rename = "RigidBodies", default)]
+    rigid_bodies: Vec<RigidBody>,
+    /// Set by `write_scene_json` (SPlisHSPlasH ignores unknown keys): such a file may be replaced.
+    #[serde(rename = "Meniscus", default, skip_serializing_if = "Option::is_none")]
+    meniscus: Option<serde_json::Value>,
+}
+
+/// Byte offset of a serde_json error's line and column in `text`.
+fn offset_of(text: &str, line: usize, column: usize) -> u64 {
+    let start: usize = text.split_inclusive('\n').take(line.saturating_sub(1)).map(str::len).sum();
+    (start + column.saturating_sub(1)) as u64
+}
+
+impl SceneJson {
+    /// Parse `text` (the contents of `path`).
+    pub fn parse(path: &Path, text: &str) -> Result<SceneJson> {
+        let f: File = serde_json::from_str(text).map_err(|e| Error::Parse {
+            path: path.to_path_buf(),
+            offset: offset_of(text, e.line(), e.column()),
+            reason: e.to_string(),
+        })?;
+        let mut s = SceneJson {
+            path: path.to_path_buf(),
+            radius: f.configuration.particle_radius,
+            by_meniscus: f.meniscus.is_some(),
+            ..Default::default()
+        };
+        for b in &f.rigid_bodies {
+            if !b.geometry_file.ends_with("UnitBox.obj") {
+                s.skipped.push(format!("{} (only unit boxes are drawn)", b.geometry_file));
+                continue;
+            }
+            if b.rotation_angle != 0.0 {
+                s.skipped.push(format!(
+                    "{} rotated by {} (only axis-aligned boxes are drawn)",
+                    b.geometry_file, b.rotation_angle
+                ));
+                continue;
+            }
+            let (c, half) = (Vec3::from(b.translation), Vec3::from(b.scale).abs() * 0.5);
+            if !(c.is_finite() && half.is_finite()) {
+                s.skipped.push(format!("{} with a non-finite translation or scale", b.geometry_file));
+                continue;
+            }
+            if b.is_wall {
+                s.containers.push((c - half, c + half));
+            } else {
+                s.boxes.push((c - half, c + half));
+            }
+        }
+        Ok(s)
+    }
+
+    /// Read and parse `path`.
+    pub fn load(path: &Path) -> Result<SceneJson> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        SceneJson::parse(path, &text)
+    }
+
+    /// The `scene.json` that describes the particle file `data`: in its folder or the folder above (the
+    /// SPlisHSPlasH layout: `scene.json` beside `partio/` and `vtk/`). `None` when there is none; an error when
+    /// there is one that cannot be read.
+    pub fn find_for(data: &Path) -> Result<Option<SceneJson>> {
+        let dir = data.parent().unwrap_or(Path::new("."));
+        for d in [Some(dir), dir.parent()].into_iter().flatten() {
+            let p = if d.as_os_str().is_empty() { Path::new("scene.json").to_path_buf() } else { d.join("scene.json") };
+            if p.is_file() {
+                return SceneJson::load(&p).map(Some);
+            }
+        }
+        Ok(None)
+    }
+
+    /// The background boxes: each container's back and side walls (thickness `t`), then the solid boxes.
+    pub fn background_boxes(&self, t: f32) -> Vec<(Vec3, Vec3)> {
+        let mut b: Vec<_> = self.containers.iter().flat_map(|&(lo, hi)| container_walls(lo, hi, t)).collect();
+        b.extend(&self.boxes);
+        b
+    }
+
+    /// The floor: the lowest container's bottom.
+    pub fn floor(&self) -> Option<f32> {
+        self.containers.iter().map(|c| c.0.y).reduce(f32::min)
+    }
+}
+
+/// The back (−z) and side (±x) walls of a container with interior `lo`..`hi`, `t` thick, outside it (the front
+/// stays open so a camera in front sees in). The live simulation's tank and `render`'s scene.json use them.
+pub fn container_walls(lo: Vec3, hi: Vec3, t: f32) -> [(Vec3, Vec3); 3] {
+    [
+        (Vec3::new(lo.x - t, lo.y, lo.z - t), Vec3::new(hi.x + t, hi.y, lo.z)),
+        (Vec3::new(lo.x - t, lo.y, lo.z), Vec3::new(lo.x, hi.y, hi.z)),
+        (Vec3::new(hi.x, lo.y, lo.z), Vec3::new(hi.x + t, hi.y, hi.z)),
+    ]
+}
+
+/// A `scene.json` in SPlisHSPlasH's format for a cache of particles of `radius` simulated in `container`
+/// (interior lo, hi) with solid `boxes`: what `render` reads back.
+pub fn write_scene_json(path: &Path, radius: f32, container: (Vec3, Vec3), boxes: &[(Vec3, Vec3)]) -> Result<()> {
+    let body = |lo: Vec3, hi: Vec3, wall: bool| RigidBody {
+        geometry_file: "../models/UnitBox.obj".into(),
+        translation: ((lo + hi) * 0.5).to_array(),
+        scale: (hi - lo).to_array(),
+        rotation_angle: 0.0,
+        is_wall: wall,
+        is_dynamic: Some(false),
+    };
+    let mut bodies = vec![body(container.0, container.1, true)];
+    bodies.extend(boxes.iter().map(|&(lo, hi)| body(lo, hi, false)));
+    let f = File {
+        configuration: Configuration { particle_radius: Some(radius) },
+        rigid_bodies: bodies,
+        meniscus: Some(serde_json::json!({ "writtenBy": concat!("meniscus ", env!("CARGO_PKG_VERSION")) })),
+    };
+    let text = serde_json::to_string_pretty(&f).map_err(|e| Error::Invalid(e.to_string()))?;
+    crate::output::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_shared_layout_and_round_trips() {
+        let text = r#"{"Configuration": {"particleRadius": 0.0125, "timeStepSize": 0.005},
+            "RigidBodies": [{"geometryFile": "../models/UnitBox.obj", "translation": [0, 1.5, 0],
+            "rotationAxis": [1, 0, 0], "rotationAngle": 0, "scale": [4, 3, 1.5], "isWall": true},
+            {"geometryFile": "../models/Dragon.obj"}], "FluidBlocks": []}"#;
+        let s = SceneJson::parse(Path::new("scene.json"), text).unwrap();
+        assert_eq!(s.radius, Some(0.0125));
+        assert_eq!(s.containers, vec![(Vec3::new(-2.0, 0.0, -0.75), Vec3::new(2.0, 3.0, 0.75))]);
+        assert_eq!(s.skipped.len(), 1);
+        assert_eq!(s.floor(), Some(0.0));
+        let dir = std::env::temp_dir().join(format!("meniscus-scene-json-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("scene.json");
+        let boxes = [(Vec3::new(-2.0, 0.0, -0.75), Vec3::new(-0.8, 1.2, 0.75))];
+        write_scene_json(&p, 0.01, s.containers[0], &boxes).unwrap();
+        let back = SceneJson::find_for(&dir.join("partio").join("f_1.bgeo")).unwrap().unwrap();
+        assert_eq!((back.radius, back.containers.clone()), (Some(0.01), s.containers.clone()));
+        assert!(back.by_meniscus && !s.by_meniscus);
+        let (lo, hi) = back.boxes[0];
+        assert!(lo.abs_diff_eq(boxes[0].0, 1e-6) && hi.abs_diff_eq(boxes[0].1, 1e-6), "{:?}", back.boxes);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_broken_file_names_the_byte() {
+        let e = SceneJson::parse(Path::new("s/scene.json"), "{\n  \"RigidBodies\": [1,]\n}").unwrap_err().to_string();
+        // Line 2, column 19 (the `1`): 2 + 18 bytes in.
+        assert!(e.contains("s/scene.json") && e.contains("byte 20"), "{e}");
+    }
+}
