@@ -56,21 +56,24 @@ void main() {
     if (i >= pc.dims.w) return;
     vec3 x = iso_points[i].xyz;
     float h = pc.params.x;
-    ivec3 cc = ivec3(floor((x - pc.origin.xyz) / pc.origin.w));
     ivec3 dims = ivec3(pc.dims.xyz);
+    // The point's own cell (clamped into the grid as the grid's sort does).
+    ivec3 cc = clamp(ivec3(floor((x - pc.origin.xyz) / pc.origin.w)), ivec3(0), dims - 1);
     float sw = 0.0;
     vec3 sv = vec3(0.0);
     float svv[3][3];
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) svv[r][c] = 0.0;
     uint n = 0u;
-    for (int dz = -1; dz <= 1; ++dz) {
-        for (int dy = -1; dy <= 1; ++dy) {
-            for (int dx = -1; dx <= 1; ++dx) {
-                ivec3 q = cc + ivec3(dx, dy, dz);
-                if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
-                uvec2 cell = iso_cells[q.x + dims.x * (q.y + dims.y * q.z)];
-                for (uint j = cell.x; j < cell.x + cell.y; ++j) {
+    // The 9 rows of 3 cells around the point, each one contiguous range of points (as iso_sum).
+    int x0 = max(cc.x - 1, 0), x1 = min(cc.x + 1, dims.x - 1);
+    for (int z = max(cc.z - 1, 0); z <= min(cc.z + 1, dims.z - 1); ++z) {
+        for (int y = max(cc.y - 1, 0); y <= min(cc.y + 1, dims.y - 1); ++y) {
+            {
+                int row = dims.x * (y + dims.y * z);
+                uint first = iso_cells[x0 + row].x;
+                uvec2 last = iso_cells[x1 + row];
+                for (uint j = first; j < last.x + last.y; ++j) {
                     vec3 v = iso_points[j].xyz - x;
                     float d = length(v);
                     if (d >= h) continue;

@@ -36,11 +36,14 @@ void main() {
         vec3 x = pc.lat.xyz + vec3(c0 + ivec3(l)) * pc.lat.w;
         ivec3 cc = ivec3(floor((x - pc.grid.xyz) / pc.grid.w));
         float v = 0.0;
+        // The 9 rows of 3 cells, each one contiguous range of points (cells are x fastest).
+        int x0 = max(cc.x - 1, 0), x1 = min(cc.x + 1, gd.x - 1);
         for (int z = max(cc.z - 1, 0); z <= min(cc.z + 1, gd.z - 1); ++z)
-        for (int y = max(cc.y - 1, 0); y <= min(cc.y + 1, gd.y - 1); ++y)
-        for (int xx = max(cc.x - 1, 0); xx <= min(cc.x + 1, gd.x - 1); ++xx) {
-            uvec2 cell = cells[xx + gd.x * (y + gd.y * z)];
-            for (uint j = cell.x; j < cell.x + cell.y; ++j) {
+        for (int y = max(cc.y - 1, 0); y <= min(cc.y + 1, gd.y - 1) && x0 <= x1; ++y) {
+            int row = gd.x * (y + gd.y * z);
+            uint first = cells[x0 + row].x;
+            uvec2 last = cells[x1 + row];
+            for (uint j = first; j < last.x + last.y; ++j) {
                 vec3 p = pts[j].xyz;
                 float dy = x.y - p.y, dz = x.z - p.z, dx = x.x - p.x;
                 float d2 = dy * dy + dz * dz;
