@@ -67,7 +67,7 @@ fn find_scene_json(path: &Path) -> Option<meniscus::scene::splishsplash::SceneJs
         Ok(Some(s)) => {
             let radius = s.radius.map(|r| format!("radius {r}")).unwrap_or("no radius".into());
             eprintln!(
-                "{}: {radius}, {} container(s) and {} box(es) drawn in the background (--no-scene-json ignores it)",
+                "{}: {radius}, {} container(s) and {} box(es) for the background (--no-scene-json ignores it)",
                 s.path.display(),
                 s.containers.len(),
                 s.boxes.len()
