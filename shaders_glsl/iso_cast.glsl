@@ -20,7 +20,8 @@ void main() {
     vec3 t0 = (lo - eye) / safe, t1 = (hi - eye) / safe;
     vec3 tf = max(t0, t1);
     float d_end = min(tf.x, min(tf.y, tf.z));
-    if (pc.steps.z != 0u) d_end = min(d_end, imageLoad(back, p).x);
+    // The far bound of the pixel's tile (from `splat_cull`): no bound sphere of the tile reaches deeper.
+    if (pc.steps.z != 0u) d_end = min(d_end, imageLoad(back, p / int(SPLAT_TILE)).x);
     float len = length(dir);
     float threshold = pc.params.y;
     float near = frame.proj.w;

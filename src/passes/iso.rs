@@ -168,8 +168,8 @@ impl Iso {
         });
     }
 
-    /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the
-    /// spheres' farthest exit depth, where the march may stop (else it runs to the grid's box).
+    /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the far
+    /// bound per 8×8 tile from the splat's pre-pass, where the march may stop (else it runs to the grid's box).
     pub fn record(
         &self,
         ctx: &mut FrameCtx,

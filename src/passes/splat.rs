@@ -51,8 +51,6 @@ pub struct SplatPush {
     pub count: u32,
     /// Sphere radius in particle radii.
     pub radius_scale: f32,
-    /// 1: also write the farthest exit depth.
-    pub back: u32,
     /// 1: skip spheres hidden in a whole tile.
     pub cull: u32,
     /// Tile size of the occlusion bound.
@@ -73,8 +71,8 @@ pub struct CullPush {
     pub radius_scale: f32,
     /// Tile size.
     pub tile: u32,
-    /// Padding.
-    pub pad: u32,
+    /// 1: also write the far bound per tile (the `iso` march's).
+    pub back: u32,
     /// Depth image size in pixels.
     pub size: [u32; 2],
 }
@@ -91,11 +89,11 @@ pub struct RasterPush {
     pub size: [f32; 2],
 }
 
-// The compute splat: frame, particles, depth and back depth (R32_UINT views, atomicMin/Max), the tile bounds,
-// the anisotropic kernels (read with `ellipsoid`).
-declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgAltWrite, ImgRead, BufRead]));
-// The occlusion pre-pass: frame, particles → per-tile depth bound (atomicMin).
-declare_program!(pub CULL: CullPush = compute(shaders::SPLAT_CULL, [Uniform, BufRead, ImgWrite]));
+// The compute splat: frame, particles, depth (R32_UINT view, atomicMin), the tile bounds, the anisotropic
+// kernels (read with `ellipsoid`).
+declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgRead, BufRead]));
+// The pre-pass: frame, particles → per-tile occlusion bound (atomicMin) and far bound (R32_UINT view, atomicMax).
+declare_program!(pub CULL: CullPush = compute(shaders::SPLAT_CULL, [Uniform, BufRead, ImgWrite, ImgAltWrite]));
 // The rasterised variants: frame and particles, read by the vertex and fragment shaders.
 declare_program!(pub QUAD_FRAG_DEPTH: RasterPush = graphics(shaders::SPLAT_QUAD_VERT, shaders::SPLAT_FRAGDEPTH_FRAG, [Uniform, BufRead]));
 declare_program!(pub QUAD_CONSERVATIVE: RasterPush = graphics(shaders::SPLAT_QUAD_VERT, shaders::SPLAT_CONSERVATIVE_FRAG, [Uniform, BufRead]));
@@ -178,14 +176,14 @@ impl Splat {
         Ok(())
     }
 
-    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it; with `back_img`, also the
-    /// farthest sphere exit per pixel into it (cleared to 0). The pass decides whether `splat_cull` first
-    /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile: when spheres span tiles
-    /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance), and never with
-    /// `back_img`, which needs every sphere. Spheres are `radius_scale` particle radii of `radius` (the
-    /// frame's; particles may carry their own). With `ellipsoids` (the kernels `anisotropy` wrote for these
-    /// particles, the iso grid's points, and their `stretch`) each sphere becomes its kernel's ellipsoid of the
-    /// same volume (no cull: its bound assumes spheres).
+    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it. The pre-pass `splat_cull`
+    /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile, when spheres span tiles
+    /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance); with `back_tiles`
+    /// (one texel per tile, cleared to 0) it also writes each tile's far bound, the deepest centre depth + radius
+    /// of the spheres touching it, where the `iso` march stops. Spheres are `radius_scale` particle radii of
+    /// `radius` (the frame's; particles may carry their own). With `ellipsoids` (the kernels `anisotropy` wrote
+    /// for these particles, the iso grid's points, and their `stretch`) each sphere becomes its kernel's
+    /// ellipsoid of the same volume (no cull: its bound assumes spheres).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -194,46 +192,44 @@ impl Splat {
         particles: &Buffer,
         count: u32,
         depth: &Image,
-        back_img: Option<&Image>,
+        back_tiles: Option<&Image>,
         tiles: &Image,
         (radius, radius_scale): (f32, f32),
         ellipsoids: Option<(&Buffer, f32)>,
         info: &FrameInfo,
     ) {
-        let back = back_img.is_some();
-        let cull = !back
-            && ellipsoids.is_none()
-            && cull_pays(info.focal_px_fluid * radius * radius_scale / info.target_distance);
+        let back = back_tiles.is_some() && ellipsoids.is_none();
+        let cull = ellipsoids.is_none() && cull_pays(info.focal_px_fluid * radius * radius_scale / info.target_distance);
         let (kernels, stretch) = ellipsoids.unwrap_or((particles, 1.0));
         // Without a back image the binding still needs one: the depth itself (never written through it then).
-        let back_img = back_img.unwrap_or(depth);
+        let back_img = back_tiles.filter(|_| back).unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
             ctx.clear(depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
+            ctx.clear(tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
             if back {
                 ctx.clear(back_img, vk::ClearColorValue { float32: [0.0; 4] });
             }
-            ctx.clear(tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
-            if cull {
+            if cull || back {
                 let push = CullPush {
                     count,
                     radius_scale,
                     tile: TILE,
-                    pad: 0,
+                    back: back as u32,
                     size: [depth.extent.width, depth.extent.height],
                 };
-                self.cull.dispatch(ctx, &[frame.into(), particles.into(), tiles.into()], &push, groups);
+                let res = [frame.into(), particles.into(), tiles.into(), back_img.into()];
+                self.cull.dispatch(ctx, &res, &push, groups);
             }
             let push = SplatPush {
                 count,
                 radius_scale,
-                back: back as u32,
                 cull: cull as u32,
                 tile: TILE,
                 ellipsoid: ellipsoids.is_some() as u32,
                 stretch,
             };
-            let res = [frame.into(), particles.into(), depth.into(), back_img.into(), tiles.into(), kernels.into()];
+            let res = [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into()];
             self.prog.dispatch(ctx, &res, &push, groups);
         });
     }

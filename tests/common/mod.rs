@@ -67,6 +67,48 @@ pub fn ray_sphere(dir: [f64; 3], c: [f64; 3], r: f64) -> Option<(f64, f64)> {
     (h2 >= 0.0).then(|| ((tc - h2.sqrt()) / len, (tc + h2.sqrt()) / len))
 }
 
+/// Pixel rectangle [lo, hi] a sphere (view-space centre `c`, radius `r`) covers in a `w`×`h` image of focal `f`,
+/// mirroring `sphere_bounds` in sphere.glsl (f32, the same rounding); the whole image when it crosses `near`.
+pub fn sphere_bounds(c: [f32; 3], r: f32, w: usize, h: usize, f: f32, near: f32) -> Option<([i32; 2], [i32; 2])> {
+    let cd = -c[2];
+    if cd + r <= near {
+        return None;
+    }
+    if cd - r <= near {
+        return Some(([0, 0], [w as i32 - 1, h as i32 - 1]));
+    }
+    let (d0, d1) = (cd - r, cd + r);
+    let xmin = ((c[0] - r) / d0).min((c[0] - r) / d1);
+    let xmax = ((c[0] + r) / d0).max((c[0] + r) / d1);
+    let ymin = ((c[1] - r) / d0).min((c[1] - r) / d1);
+    let ymax = ((c[1] + r) / d0).max((c[1] + r) / d1);
+    let (hx, hy) = (0.5 * w as f32, 0.5 * h as f32);
+    let lo = [((hx + f * xmin - 0.5).ceil() as i32).max(0), ((hy - f * ymax - 0.5).ceil() as i32).max(0)];
+    let hi = [
+        ((hx + f * xmax - 0.5).floor() as i32).min(w as i32 - 1),
+        ((hy - f * ymin - 0.5).floor() as i32).min(h as i32 - 1),
+    ];
+    (lo[0] <= hi[0] && lo[1] <= hi[1]).then_some((lo, hi))
+}
+
+/// The `iso` march's far bound per `tile`×`tile` tile (splat_cull.comp): the deepest centre depth + r of the
+/// spheres whose pixel rectangle touches the tile, 0 where none does. Row-major, ⌈w/tile⌉ tiles per row.
+pub fn tile_back(centres: &[[f32; 3]], r: f32, w: usize, h: usize, f: f32, near: f32, tile: usize) -> Vec<f32> {
+    let tw = w.div_ceil(tile);
+    let mut out = vec![0f32; tw * h.div_ceil(tile)];
+    for c in centres {
+        if let Some((lo, hi)) = sphere_bounds(*c, r, w, h, f, near) {
+            for ty in lo[1] as usize / tile..=hi[1] as usize / tile {
+                for tx in lo[0] as usize / tile..=hi[0] as usize / tile {
+                    let b = &mut out[ty * tw + tx];
+                    *b = b.max(-c[2] + r);
+                }
+            }
+        }
+    }
+    out
+}
+
 /// A folder or file of `../shared/data` (relative to it). Missing data FAILS under `CI=true` (the data is there in
 /// CI, so its absence means a broken set-up); outside CI it returns None and the test says it checked nothing.
 pub fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
