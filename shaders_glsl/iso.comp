@@ -4,9 +4,9 @@
 //! CPU reference). The march starts at the depth the `splat` pass wrote for spheres of the bound radius (the
 //! surface lies inside them), steps by max(nearest point − bound, smallest step) so empty space is skipped,
 //! and refines the first step past the threshold by bisection. Rays that leave the grid's box miss.
-//! The march ends where the ray leaves the grid's box or, with pc.steps.z = 1, behind the deepest bound sphere
-//! of the pixel's 8×8 tile (`back`, from `splat_cull`). The bracket is refined by bisection, then by one linear interpolation.
-//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F, one texel per 8×8 tile).
+//! The march ends where the ray leaves the grid's box or behind the farthest bound sphere exit of the pixel
+//! (pc.steps.z = 1, `back` from the splat) or of its 8×8 tile (2, from `splat_cull`, when the splat culls). The bracket is refined by bisection, then by one linear interpolation.
+//! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F, per pixel or per 8×8 tile).
 //! The march is in iso_cast.glsl; iso_aniso.comp is the same march over the anisotropic kernels' field.
 #include "common.glsl"
 #include "iso_field.glsl"

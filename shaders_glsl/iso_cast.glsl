@@ -20,8 +20,10 @@ void main() {
     vec3 t0 = (lo - eye) / safe, t1 = (hi - eye) / safe;
     vec3 tf = max(t0, t1);
     float d_end = min(tf.x, min(tf.y, tf.z));
-    // The far bound of the pixel's tile (from `splat_cull`): no bound sphere of the tile reaches deeper.
-    if (pc.steps.z != 0u) d_end = min(d_end, imageLoad(back, p / int(SPLAT_TILE)).x);
+    // The far bound: the farthest sphere exit of the pixel (pc.steps.z = 1, from the splat) or of its 8×8 tile
+    // (2, from `splat_cull`: no bound sphere touching the tile reaches deeper).
+    if (pc.steps.z == 1u) d_end = min(d_end, imageLoad(back, p).x);
+    if (pc.steps.z == 2u) d_end = min(d_end, imageLoad(back, p / int(SPLAT_TILE)).x);
     float len = length(dir);
     float threshold = pc.params.y;
     float near = frame.proj.w;

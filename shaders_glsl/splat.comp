@@ -7,8 +7,9 @@
 //! proves the sphere hidden there (a software Hi-Z test; the output is unchanged).
 //! In:  particles (vec4: world xyz, w: radius, 0 = frame radius, < 0 = spray: not part of the surface).
 //! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
-//! (The `iso` march's far bound is per tile, from `splat_cull`: a per-pixel farthest exit needed every sphere,
-//! so no culling — 505 vs 92 ms on the worst-case workload.)
+//!      back (same layout, cleared to 0), only when pc.back = 1: the FARTHEST exit depth of the spheres, where
+//!      the `iso` march can stop. It needs every sphere, so with culling (large spheres) the far bound is per
+//!      tile instead, from `splat_cull` (worst-case workload: splat 505 → 81 ms).
 //! With pc.ellipsoid = 1 (`--kernel anisotropic` on spheres) the particles are the iso grid's sorted points and
 //! each is drawn as its anisotropic kernel's ellipsoid (binding 4, the `anisotropy` pass; Yu & Turk 2013):
 //! {x : |M (x − c)| ≤ R ∛det M}, the volume of the sphere of radius R it replaces; exact ray–ellipsoid depth.
@@ -20,6 +21,7 @@ layout(set = 0, binding = 2, r32ui) uniform coherent uimage2D depth_bits;
 // Occlusion bound per tile from `splat_cull` (float bits); used when pc.cull = 1.
 layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D tiles;
 layout(std430, set = 0, binding = 4) readonly buffer Aniso { vec4 aniso[]; };
+layout(set = 0, binding = 5, r32ui) uniform coherent uimage2D back_bits;
 layout(push_constant) uniform Push {
     uint count;
     float radius_scale;
@@ -27,12 +29,13 @@ layout(push_constant) uniform Push {
     uint tile;
     uint ellipsoid; // 1: draw each particle's anisotropic kernel (then no cull)
     float stretch;  // the kernels' longest axis relative to ∛det M (bounds the screen rectangle)
+    uint back;      // 1: also the farthest exit per pixel (never with cull)
 } pc;
 
 mat3 ell_m;      // the ellipsoid's matrix in view space (pc.ellipsoid = 1)
 float ell_rho;   // and its size
 
-/// Nearest entry (atomicMin) of the sphere (or ellipsoid) at pixel q.
+/// Nearest entry (atomicMin) of the sphere (or ellipsoid) at pixel q and, with pc.back, its farthest exit.
 void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
     float d_in, d_out;
     vec3 dir = pixel_dir(vec2(q), size, F);
@@ -40,6 +43,7 @@ void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
     if (!hit) return;
     if (d_out < near) return;
     imageAtomicMin(depth_bits, q, floatBitsToUint(max(d_in, near)));
+    if (pc.back != 0u) imageAtomicMax(back_bits, q, floatBitsToUint(d_out));
 }
 
 void main() {

@@ -9,6 +9,7 @@ use crate::gpu::{Buffer, FrameCtx, Image};
 use crate::passes::background::MeshBuffers;
 use crate::passes::composite::CompositeInputs;
 use crate::passes::iso::IsoBuffers;
+use crate::passes::splat::BackBound;
 use crate::scene::{Bounds, Camera};
 use crate::settings::{Kernel, Settings, SplatMode, Surface};
 use crate::targets::Targets;
@@ -273,17 +274,19 @@ pub fn record_frame(
         kernels.map(|k| k.2),
     );
     let ctx = rec.part(Fluid);
-    match (s.surface, fluid_mesh, kernels) {
-        (Surface::Mesh, Some(m), _) => p.mesh.record(ctx, frame, m, &t.depth),
+    let back = match (s.surface, fluid_mesh, kernels) {
+        (Surface::Mesh, Some(m), _) => {
+            p.mesh.record(ctx, frame, m, &t.depth);
+            None
+        }
         (_, _, Some((points, n, k))) => {
             let spheres = (s.radius, s.splat_scale());
             p.splat.record(ctx, frame, points, n, &t.depth, None, &t.depth_tiles, spheres, Some(k), info)
         }
         _ => record_splat(ctx, p, t, frame, particles, count, s, info)?,
-    }
+    };
     if let (Surface::Iso, Some(grid)) = (s.surface, grid) {
-        // The rasterised splats do not write the far exit: the march then runs to the grid's box.
-        let back = t.depth_back.as_ref().filter(|_| s.splat.mode == SplatMode::Compute);
+        // The rasterised splats do not write a far bound: the march then runs to the grid's box.
         p.iso.record(ctx, frame, grid, &params, &t.depth, back);
     }
     let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, info);
@@ -313,35 +316,26 @@ pub fn record_frame(
 
 /// The `splat` pass in the chosen mode (compute, or a rasterised variant).
 #[allow(clippy::too_many_arguments)]
-fn record_splat(
+/// Returns where the `iso` march's far bound was written (the compute splat only).
+fn record_splat<'t>(
     ctx: &mut FrameCtx,
     p: &Passes,
-    t: &Targets,
+    t: &'t Targets,
     frame: &Buffer,
     particles: &Buffer,
     count: u32,
     s: &Settings,
     info: &FrameInfo,
-) -> Result<()> {
+) -> Result<Option<BackBound<'t>>> {
     match s.splat.mode {
         SplatMode::Compute => {
             let spheres = (s.radius, s.splat_scale());
-            p.splat.record(
-                ctx,
-                frame,
-                particles,
-                count,
-                &t.depth,
-                t.depth_back.as_ref(),
-                &t.depth_tiles,
-                spheres,
-                None,
-                info,
-            );
-            Ok(())
+            let back = t.depth_back.as_ref().zip(t.depth_back_tiles.as_ref());
+            Ok(p.splat.record(ctx, frame, particles, count, &t.depth, back, &t.depth_tiles, spheres, None, info))
         }
         mode => {
-            p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)
+            p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)?;
+            Ok(None)
         }
     }
 }

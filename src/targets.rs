@@ -82,8 +82,10 @@ pub struct Targets {
     pub smooth_a: Image,
     /// The second ping-pong image when the raw depth is kept (else the raw depth itself is the second one).
     pub smooth_b: Option<Image>,
-    /// The `iso` march's far bound per 8×8 tile of the fluid depth (`surface = "iso"`), R32F + R32_UINT view.
+    /// The `iso` march's far bound per pixel (`surface = "iso"`), R32F + R32_UINT view.
     pub depth_back: Option<Image>,
+    /// The same per 8×8 tile (written instead when the splat culls).
+    pub depth_back_tiles: Option<Image>,
     /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
     pub depth_tiles: Image,
     /// D32 depth buffer of the depth-tested rasterised splat variants.
@@ -123,7 +125,8 @@ impl Targets {
             scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
             scene_depth: img("scene_depth", full, r32, storage, None)?,
             depth: img("depth", fluid, r32, storage | U::COLOR_ATTACHMENT, bits)?,
-            depth_back: d.back.then(|| img("depth_back", tiles, r32, storage, bits)).transpose()?,
+            depth_back: d.back.then(|| img("depth_back", fluid, r32, storage, bits)).transpose()?,
+            depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
             depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
             zbuffer: d
                 .zbuffer
@@ -169,7 +172,7 @@ impl Targets {
             &self.ssr,
             &self.final_color,
         ];
-        let optional = [&self.smooth_b, &self.depth_full, &self.zbuffer, &self.depth_back];
+        let optional = [&self.smooth_b, &self.depth_full, &self.zbuffer, &self.depth_back, &self.depth_back_tiles];
         always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes())).collect()
     }
 }

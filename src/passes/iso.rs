@@ -94,11 +94,11 @@ impl IsoPush {
         }
     }
 
-    /// This shape with the march parameters `p`; `back`: the back image bounds the march.
-    pub fn with(self, p: &crate::iso::IsoParams, back: bool) -> IsoPush {
+    /// This shape with the march parameters `p`; `back`: 0, or the far bound per pixel (1) or per 8×8 tile (2).
+    pub fn with(self, p: &crate::iso::IsoParams, back: u32) -> IsoPush {
         IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
-            steps: [p.max_steps, p.refine, back as u32, p.aniso.is_some() as u32],
+            steps: [p.max_steps, p.refine, back, p.aniso.is_some() as u32],
             aniso2: [p.aniso.map_or(1.0, |a| a.stretch.max(1.0)), 0.0, 0.0, 0.0],
             ..self
         }
@@ -169,7 +169,7 @@ impl Iso {
     }
 
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the far
-    /// bound per 8×8 tile from the splat's pre-pass, where the march may stop (else it runs to the grid's box).
+    /// bound from the splat, per pixel or per 8×8 tile, where the march may stop (else it runs to the grid's box).
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
@@ -177,9 +177,15 @@ impl Iso {
         b: &IsoBuffers,
         params: &crate::iso::IsoParams,
         depth: &Image,
-        back: Option<&Image>,
+        back: Option<crate::passes::splat::BackBound>,
     ) {
-        let push = b.shape.with(params, back.is_some());
+        use crate::passes::splat::BackBound;
+        let (mode, back) = match back {
+            None => (0, None),
+            Some(BackBound::Pixel(i)) => (1, Some(i)),
+            Some(BackBound::Tile(i)) => (2, Some(i)),
+        };
+        let push = b.shape.with(params, mode);
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {

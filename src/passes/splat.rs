@@ -59,6 +59,18 @@ pub struct SplatPush {
     pub ellipsoid: u32,
     /// The kernels' longest axis relative to ∛det M (`[anisotropy] stretch`, at least 1).
     pub stretch: f32,
+    /// 1: also write the farthest exit per pixel (never with `cull`).
+    pub back: u32,
+}
+
+/// Where the `iso` march's far bound was written: per pixel by the splat, or per 8×8 tile by its pre-pass (when
+/// the splat culls, the per-pixel bound would need every sphere).
+#[derive(Clone, Copy)]
+pub enum BackBound<'a> {
+    /// The farthest sphere exit of each pixel.
+    Pixel(&'a Image),
+    /// The deepest centre depth + radius of the spheres touching each tile.
+    Tile(&'a Image),
 }
 
 /// Push constants of splat_cull.comp.
@@ -90,8 +102,8 @@ pub struct RasterPush {
 }
 
 // The compute splat: frame, particles, depth (R32_UINT view, atomicMin), the tile bounds, the anisotropic
-// kernels (read with `ellipsoid`).
-declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgRead, BufRead]));
+// kernels (read with `ellipsoid`), the per-pixel far bound (R32_UINT view, atomicMax, with `back`).
+declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgRead, BufRead, ImgAltWrite]));
 // The pre-pass: frame, particles → per-tile occlusion bound (atomicMin) and far bound (R32_UINT view, atomicMax).
 declare_program!(pub CULL: CullPush = compute(shaders::SPLAT_CULL, [Uniform, BufRead, ImgWrite, ImgAltWrite]));
 // The rasterised variants: frame and particles, read by the vertex and fragment shaders.
@@ -178,47 +190,61 @@ impl Splat {
 
     /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it. The pre-pass `splat_cull`
     /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile, when spheres span tiles
-    /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance); with `back_tiles`
-    /// (one texel per tile, cleared to 0) it also writes each tile's far bound, the deepest centre depth + radius
-    /// of the spheres touching it, where the `iso` march stops. Spheres are `radius_scale` particle radii of
+    /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance). With `back` (the
+    /// per-pixel and the per-tile image, for the `iso` march) the far bound is written too, and returned: per
+    /// pixel (the farthest sphere exit) when the splat does not cull, else per tile by the pre-pass (the deepest
+    /// centre depth + radius of the spheres touching the tile). Spheres are `radius_scale` particle radii of
     /// `radius` (the frame's; particles may carry their own). With `ellipsoids` (the kernels `anisotropy` wrote
     /// for these particles, the iso grid's points, and their `stretch`) each sphere becomes its kernel's
-    /// ellipsoid of the same volume (no cull: its bound assumes spheres).
+    /// ellipsoid of the same volume (no cull, no far bound: both assume spheres).
     #[allow(clippy::too_many_arguments)]
-    pub fn record(
+    pub fn record<'a>(
         &self,
         ctx: &mut FrameCtx,
         frame: &Buffer,
         particles: &Buffer,
         count: u32,
         depth: &Image,
-        back_tiles: Option<&Image>,
+        back: Option<(&'a Image, &'a Image)>,
         tiles: &Image,
         (radius, radius_scale): (f32, f32),
         ellipsoids: Option<(&Buffer, f32)>,
         info: &FrameInfo,
-    ) {
-        let back = back_tiles.is_some() && ellipsoids.is_none();
+    ) -> Option<BackBound<'a>> {
         let cull = ellipsoids.is_none() && cull_pays(info.focal_px_fluid * radius * radius_scale / info.target_distance);
+        let bound = back.filter(|_| ellipsoids.is_none()).map(|(pixel, tile)| {
+            if cull {
+                BackBound::Tile(tile)
+            } else {
+                BackBound::Pixel(pixel)
+            }
+        });
         let (kernels, stretch) = ellipsoids.unwrap_or((particles, 1.0));
-        // Without a back image the binding still needs one: the depth itself (never written through it then).
-        let back_img = back_tiles.filter(|_| back).unwrap_or(depth);
+        // Bindings without their image still need one: the depth itself (never written through it then).
+        let pixel_back = match bound {
+            Some(BackBound::Pixel(i)) => i,
+            _ => depth,
+        };
+        let tile_back = match bound {
+            Some(BackBound::Tile(i)) => i,
+            _ => depth,
+        };
         ctx.pass(NAME, |ctx| {
             ctx.clear(depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
             ctx.clear(tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
-            if back {
-                ctx.clear(back_img, vk::ClearColorValue { float32: [0.0; 4] });
+            if let Some(BackBound::Pixel(i) | BackBound::Tile(i)) = bound {
+                ctx.clear(i, vk::ClearColorValue { float32: [0.0; 4] });
             }
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
-            if cull || back {
+            if cull {
                 let push = CullPush {
                     count,
                     radius_scale,
                     tile: TILE,
-                    back: back as u32,
+                    back: matches!(bound, Some(BackBound::Tile(_))) as u32,
                     size: [depth.extent.width, depth.extent.height],
                 };
-                let res = [frame.into(), particles.into(), tiles.into(), back_img.into()];
+                let res = [frame.into(), particles.into(), tiles.into(), tile_back.into()];
                 self.cull.dispatch(ctx, &res, &push, groups);
             }
             let push = SplatPush {
@@ -228,10 +254,12 @@ impl Splat {
                 tile: TILE,
                 ellipsoid: ellipsoids.is_some() as u32,
                 stretch,
+                back: matches!(bound, Some(BackBound::Pixel(_))) as u32,
             };
-            let res = [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into()];
+            let res = [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into(), pixel_back.into()];
             self.prog.dispatch(ctx, &res, &push, groups);
         });
+        bound
     }
 }
 
