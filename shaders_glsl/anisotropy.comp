@@ -2,7 +2,8 @@
 //! anisotropy — the anisotropic kernels of Yu & Turk 2013 ("Reconstructing surfaces of particle-based fluids
 //! using anisotropic kernels", §4), one thread per sorted grid point: the weighted mean and covariance of the
 //! neighbours within the kernel support h (weights 1 − (d/h)³, the point included), the covariance's
-//! eigen-decomposition (cyclic Jacobi, the same steps as `sym_eigen` in src/iso.rs), the small eigenvalues
+//! eigen-decomposition (cyclic Jacobi, the same steps as `sym_eigen` in src/iso.rs; the neighbourhood's radius is
+//! pc.aniso2.z: h, or up to 2 h as in the paper, N_ε still counts within h), the small eigenvalues
 //! raised to σ_max / k_r, and the kernel matrix M = R diag(1 / a_k) Rᵀ with semi-axes a_k h ∝ σ̃_k, of the
 //! sphere's volume unless the longest would exceed pc.aniso2.x h (the field multiplies by det M so the
 //! kernel's integral is unchanged). Points with fewer than N_ε neighbours keep the
@@ -65,10 +66,13 @@ void main() {
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) svv[r][c] = 0.0;
     uint n = 0u;
-    // The 9 rows of 3 cells around the point, each one contiguous range of points (as iso_sum).
-    int x0 = max(cc.x - 1, 0), x1 = min(cc.x + 1, dims.x - 1);
-    for (int z = max(cc.z - 1, 0); z <= min(cc.z + 1, dims.z - 1); ++z) {
-        for (int y = max(cc.y - 1, 0); y <= min(cc.y + 1, dims.y - 1); ++y) {
+    // The neighbourhood: radius R = pc.aniso2.z (h, or up to 2 h as Yu & Turk), over the rows of cells within
+    // K = ⌈R / cell⌉ of the point's cell, each row one contiguous range of points (as iso_sum).
+    float R = pc.aniso2.z;
+    int K = int(ceil(R / pc.origin.w - 1e-5));
+    int x0 = max(cc.x - K, 0), x1 = min(cc.x + K, dims.x - 1);
+    for (int z = max(cc.z - K, 0); z <= min(cc.z + K, dims.z - 1); ++z) {
+        for (int y = max(cc.y - K, 0); y <= min(cc.y + K, dims.y - 1); ++y) {
             {
                 int row = dims.x * (y + dims.y * z);
                 uint first = iso_cells[x0 + row].x;
@@ -76,14 +80,14 @@ void main() {
                 for (uint j = first; j < last.x + last.y; ++j) {
                     vec3 v = iso_points[j].xyz - x;
                     float d = length(v);
-                    if (d >= h) continue;
-                    float qq = d / h;
+                    if (d >= R) continue;
+                    float qq = d / R;
                     float w = 1.0 - qq * qq * qq;
                     sw += w;
                     sv += w * v;
                     for (int r = 0; r < 3; ++r)
                         for (int c = 0; c < 3; ++c) svv[r][c] += w * v[r] * v[c];
-                    if (j != i) n += 1u;
+                    if (j != i && d < h) n += 1u;
                 }
             }
         }

@@ -23,7 +23,7 @@ layout(push_constant) uniform IsoPush {
                   // (1) or per 8×8 tile (2),
                   // w: 1 = anisotropic kernels (iso_aniso.comp)
     vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
-    vec4 aniso2;  // anisotropy: x: longest axis (units of h)
+    vec4 aniso2;  // anisotropy: x: longest axis (units of h), z: neighbourhood radius (world units)
 } pc;
 
 /// Cubic spline without its constant (it cancels in φ); q = distance / support.

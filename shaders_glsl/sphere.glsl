@@ -57,6 +57,20 @@ bool ray_ellipsoid(vec3 dir, vec3 c, mat3 m, float rho, out float d_in, out floa
     return true;
 }
 
+/// An anisotropic kernel (three vec4 of the `anisotropy` pass: centre + det M, m00 m01 m02 m11, m12 m22) as the
+/// view-space ellipsoid {x : |m (x − c)| ≤ rho} of the volume of the sphere of radius `r` it replaces
+/// (rho = r ∛det M), and `bound`: a sphere around `c` holding it (its longest semi-axis, rho / M's smallest
+/// eigenvalue, is at most rho · `stretch`). Shared by `splat` and `thickness`.
+void load_ellipsoid(vec4 a0, vec4 a1, vec4 a2, float r, float stretch, out vec3 c, out mat3 m, out float rho,
+                    out float bound) {
+    mat3 mw = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
+    // |M (x − c)| in view space: x_w − c_w = vᵀ (x_v − c_v), so M_v = M vᵀ (M's rows stay world-space).
+    m = mw * transpose(mat3(frame.view));
+    rho = r * pow(a0.w, 1.0 / 3.0);
+    c = (frame.view * vec4(a0.xyz, 1.0)).xyz;
+    bound = rho * stretch;
+}
+
 /// One particle as every per-particle shader reads it: the `w` encoding Renderer::set_particles_with writes
 /// (w > 0: its own radius; w = 0: the frame's; w < 0: spray, |w| its radius, or about 0 for the frame's).
 struct Particle {

@@ -56,15 +56,7 @@ void main() {
     vec3 c = pt.c;
     float r = pt.r;
     if (pc.ellipsoid != 0u) {
-        vec4 a0 = aniso[3u * i], a1 = aniso[3u * i + 1u], a2 = aniso[3u * i + 2u];
-        mat3 mw = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
-        mat3 v = mat3(frame.view);
-        // |M (x − c)| in view space: x_w − c_w = vᵀ (x_v − c_v), so M_v = M vᵀ (M's rows stay world-space).
-        ell_m = mw * transpose(v);
-        ell_rho = r * pow(a0.w, 1.0 / 3.0);
-        c = (frame.view * vec4(a0.xyz, 1.0)).xyz;
-        // The longest semi-axis is rho / (M's smallest eigenvalue) ≤ rho · stretch.
-        r = ell_rho * pc.stretch;
+        load_ellipsoid(aniso[3u * i], aniso[3u * i + 1u], aniso[3u * i + 2u], r, pc.stretch, c, ell_m, ell_rho, r);
     }
     vec2 size = vec2(imageSize(depth_bits));
     float F = focal_for(size.y);

@@ -26,11 +26,7 @@ void main() {
     mat3 ell_m = mat3(1.0);
     float ell_rho = r;
     if (pc.ellipsoid != 0u) {
-        vec4 a0 = aniso[3u * i], a1 = aniso[3u * i + 1u], a2 = aniso[3u * i + 2u];
-        ell_m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y) * transpose(mat3(frame.view));
-        ell_rho = r * pow(a0.w, 1.0 / 3.0);
-        c = (frame.view * vec4(a0.xyz, 1.0)).xyz;
-        r = ell_rho * pc.stretch;
+        load_ellipsoid(aniso[3u * i], aniso[3u * i + 1u], aniso[3u * i + 2u], r, pc.stretch, c, ell_m, ell_rho, r);
     }
     vec2 size = vec2(imageSize(accum));
     vec2 scene_size = vec2(imageSize(scene_depth));

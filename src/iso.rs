@@ -96,19 +96,22 @@ impl IsoGrid {
         (s, dmin)
     }
 
-    /// The weighted neighbourhood of sorted point `i` (Yu & Turk 2013 eq. 4–5, over the particles within the
-    /// kernel support h, weights w = 1 − (d/h)³, the point itself included): the weighted mean's offset from
-    /// the point, the weighted covariance about that mean (row-major), and the number of OTHER points within h.
-    pub fn covariance(&self, i: usize) -> (Vec3, [[f32; 3]; 3], u32) {
+    /// The weighted neighbourhood of sorted point `i` (Yu & Turk 2013 eq. 4–5, over the particles within
+    /// `radius` (≥ the kernel support h), weights w = 1 − (d/radius)³, the point itself included): the weighted
+    /// mean's offset from the point, the weighted covariance about that mean (row-major), and the number of
+    /// OTHER points within h.
+    pub fn covariance(&self, i: usize, radius: f32) -> (Vec3, [[f32; 3]; 3], u32) {
         let p = self.points[i];
         let x = Vec3::new(p[0], p[1], p[2]);
         let h = self.support;
+        let r = radius.max(h);
+        let k = (r / self.cell - 1e-5).ceil().max(1.0) as i32;
         let (mut sw, mut sv, mut svv, mut n) = (0.0f32, Vec3::ZERO, [[0.0f32; 3]; 3], 0u32);
-        self.for_each_near(x, |j, y| {
+        self.for_each_within_cells(x, k, |j, y| {
             let v = y - x;
             let d = v.length();
-            if d < h {
-                let q = d / h;
+            if d < r {
+                let q = d / r;
                 let w = 1.0 - q * q * q;
                 sw += w;
                 sv += w * v;
@@ -117,7 +120,7 @@ impl IsoGrid {
                         svv[r][c] += w * v[r] * v[c];
                     }
                 }
-                if j != i {
+                if j != i && d < h {
                     n += 1;
                 }
             }
@@ -139,7 +142,7 @@ impl IsoGrid {
         (0..self.points.len())
             .into_par_iter()
             .map(|i| {
-                let (mean, cov, n) = self.covariance(i);
+                let (mean, cov, n) = self.covariance(i, p.radius);
                 let q = self.points[i];
                 Aniso::from_covariance(Vec3::new(q[0], q[1], q[2]), mean, cov, n, self.support, p)
             })
@@ -162,6 +165,8 @@ pub struct AnisoParams {
     /// Longest axis of a kernel, in units of h (≥ 1): the axes keep the sphere's volume (det M = 1) unless
     /// the longest would exceed this; the grid's cells are at least this many h wide.
     pub stretch: f32,
+    /// Radius of the neighbourhood whose covariance and mean shape a kernel (world units, ≥ h; Yu & Turk: 2 h).
+    pub radius: f32,
 }
 
 /// Jacobi sweeps of `sym_eigen` (a 3×3 symmetric matrix converges to float precision in 4–5).
@@ -423,7 +428,7 @@ mod tests {
     }
 
     fn aniso_params() -> AnisoParams {
-        AnisoParams { ratio: 4.0, min_neighbours: 6, centre_blend: 0.0, max_shift: 0.0, stretch: 1.0 }
+        AnisoParams { ratio: 4.0, min_neighbours: 6, centre_blend: 0.0, max_shift: 0.0, stretch: 1.0, radius: 0.04 }
     }
 
     #[test]

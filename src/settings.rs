@@ -305,7 +305,7 @@ impl Settings {
             bound: self.iso.bound * self.radius,
             max_steps: self.iso.max_steps,
             refine: self.iso.refine,
-            aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius)),
+            aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support)),
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
         }
@@ -376,9 +376,10 @@ impl Settings {
             && a.min_neighbours <= 1000
             && (0.0..=1.0).contains(&a.centre_blend)
             && (0.0..=self.iso.support).contains(&a.max_shift)
-            && (1.0..=3.0).contains(&a.stretch);
+            && (1.0..=3.0).contains(&a.stretch)
+            && (1.0..=2.0).contains(&a.radius);
         if !aniso_ok {
-            return bad("[anisotropy] (ratio 1 … 16, min_neighbours ≤ 1000, centre_blend 0 … 1, 0 ≤ max_shift ≤ [iso] support, stretch 1 … 3)");
+            return bad("[anisotropy] (ratio 1 … 16, min_neighbours ≤ 1000, centre_blend 0 … 1, 0 ≤ max_shift ≤ [iso] support, stretch 1 … 3, radius 1 … 2)");
         }
         Ok(())
     }

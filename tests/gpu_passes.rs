@@ -855,9 +855,13 @@ fn anisotropic_iso_surface_matches_cpu_ray_cast() {
     iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.0, 1.0), 2.0);
     // Moved centres and stretched kernels: the grid's cells widen to reach them.
     iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 1.5), 2.0);
+    // Yu & Turk's neighbourhood of 2 h: the kernels read rows of cells two away.
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 2.0), 2.0);
 }
 
-fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f32), bound: f32) {
+/// `shape`: the anisotropic kernels' centre blend and, up to 1.5, their stretch; above it, stretch 1 and a
+/// neighbourhood of that many supports.
+fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32), bound: f32) {
     use glam::Vec3;
     use meniscus::iso::{cast_with, ray_end, Aniso, IsoGrid};
     let gpu = gpu();
@@ -887,7 +891,12 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, stretch): (f32, f
     s.kernel = kernel;
     // The slab's points have about 12–30 neighbours within 4 r: most get flat kernels, the lone one a sphere.
     s.anisotropy.min_neighbours = 12;
-    (s.anisotropy.centre_blend, s.anisotropy.stretch) = (blend, stretch);
+    s.anisotropy.centre_blend = blend;
+    if shape <= 1.5 {
+        s.anisotropy.stretch = shape;
+    } else {
+        s.anisotropy.radius = shape;
+    }
     s.iso.bound = bound;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;

@@ -39,23 +39,27 @@ pub struct Params {
     /// Longest axis of a kernel in units of the support (≥ 1): the kernels keep the sphere's volume up to this
     /// stretch; the grid's cells are this many supports wide, so the iso cast's cost grows with its cube.
     pub stretch: f32,
+    /// Radius of the neighbourhood in supports (1 … 2; Yu & Turk use 2): its covariance shapes the kernel and
+    /// its mean moves the centre. 2 visits about 8× the neighbours.
+    pub radius: f32,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { ratio: 4.0, min_neighbours: 20, centre_blend: 0.0, max_shift: 1.0, stretch: 1.0 }
+        Params { ratio: 4.0, min_neighbours: 20, centre_blend: 0.0, max_shift: 1.0, stretch: 1.0, radius: 1.0 }
     }
 }
 
 impl Params {
-    /// In world units for particles of `radius`.
-    pub fn world(&self, radius: f32) -> crate::iso::AnisoParams {
+    /// In world units for particles of `radius` and a kernel support of `support` radii.
+    pub fn world(&self, radius: f32, support: f32) -> crate::iso::AnisoParams {
         crate::iso::AnisoParams {
             ratio: self.ratio,
             min_neighbours: self.min_neighbours,
             centre_blend: self.centre_blend,
             max_shift: if self.centre_blend > 0.0 { self.max_shift * radius } else { 0.0 },
             stretch: self.stretch,
+            radius: self.radius.max(1.0) * support * radius,
         }
     }
 }
@@ -78,7 +82,7 @@ impl Anisotropy {
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::iso::AnisoParams) {
         let push = IsoPush {
             aniso: [p.ratio, p.min_neighbours as f32, p.centre_blend, p.max_shift],
-            aniso2: [p.stretch.max(1.0), 0.0, 0.0, 0.0],
+            aniso2: [p.stretch.max(1.0), 0.0, p.radius, 0.0],
             ..b.shape
         };
         ctx.pass(NAME, |ctx| {

@@ -87,15 +87,21 @@ impl UniformGrid {
 
     /// Visit every sorted point in the 3×3×3 cells around `x` (a superset of the points within one cell
     /// size): `f(sorted index, position)`.
-    pub fn for_each_near(&self, x: Vec3, mut f: impl FnMut(usize, Vec3)) {
+    pub fn for_each_near(&self, x: Vec3, f: impl FnMut(usize, Vec3)) {
+        self.for_each_within_cells(x, 1, f)
+    }
+
+    /// Visit every sorted point in the (2k+1)³ cells around `x` (a superset of the points within k cell sizes),
+    /// in the shaders' order (rows of cells, x fastest): `f(sorted index, position)`.
+    pub fn for_each_within_cells(&self, x: Vec3, k: i32, mut f: impl FnMut(usize, Vec3)) {
         if !x.is_finite() || self.points.is_empty() {
             return;
         }
         let c = ((x - self.origin) / self.cell).floor().as_ivec3();
         let dims = IVec3::new(self.dims[0] as i32, self.dims[1] as i32, self.dims[2] as i32);
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
+        for dz in -k..=k {
+            for dy in -k..=k {
+                for dx in -k..=k {
                     let q = c + IVec3::new(dx, dy, dz);
                     if q.min_element() < 0 || q.cmpge(dims).any() {
                         continue;
