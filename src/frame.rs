@@ -261,7 +261,10 @@ pub fn record_frame(
     }
     let kernels =
         grid.filter(|_| ellipsoids).map(|g| (&g.points, g.shape.dims[3], (&g.aniso, s.anisotropy.stretch.max(1.0))));
-    let (th_particles, th_count) = kernels.map_or((particles, count), |k| (k.0, k.1));
+    // Spray still adds thickness: with spray the grid (built on the CPU then) leaves it out, so the thickness
+    // keeps the spheres of every particle.
+    let th_kernels = kernels.filter(|_| grid.is_some_and(|g| g.gpu.is_some()));
+    let (th_particles, th_count) = th_kernels.map_or((particles, count), |k| (k.0, k.1));
     p.thickness.record(
         rec.part(Async),
         frame,
@@ -271,7 +274,7 @@ pub fn record_frame(
         &t.thickness_accum,
         &t.thickness,
         s.thickness.blur_px,
-        kernels.map(|k| k.2),
+        th_kernels.map(|k| k.2),
     );
     let ctx = rec.part(Fluid);
     let back = match (s.surface, fluid_mesh, kernels) {
