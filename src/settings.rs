@@ -444,4 +444,25 @@ mod tests {
         }
         assert!(Settings::preset("nope").is_err());
     }
+
+    #[test]
+    fn anisotropy_settings_are_checked_and_reach_the_grid() {
+        let s = Settings { radius: 0.01, kernel: Kernel::Anisotropic, ..Settings::default() };
+        s.validate().unwrap();
+        // The grid's cells reach the kernels: h, stretched, plus the centres' move when they move.
+        assert!((s.iso_reach() - 0.04).abs() < 1e-7);
+        let moved = s.with(|s| (s.anisotropy.centre_blend, s.anisotropy.stretch) = (0.5, 1.5));
+        assert!((moved.iso_reach() - (0.06 + 0.01)).abs() < 1e-6, "{}", moved.iso_reach());
+        assert!((s.with(|s| s.kernel = Kernel::Isotropic).iso_reach() - 0.04).abs() < 1e-7);
+        for bad in [
+            s.with(|s| s.anisotropy.ratio = 0.5),
+            s.with(|s| s.anisotropy.centre_blend = 1.5),
+            s.with(|s| s.anisotropy.stretch = 4.0),
+            s.with(|s| s.anisotropy.radius = 3.0),
+            s.with(|s| s.anisotropy.max_shift = -1.0),
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("[anisotropy]"), "{e}");
+        }
+    }
 }
