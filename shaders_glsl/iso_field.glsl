@@ -20,8 +20,7 @@ layout(push_constant) uniform IsoPush {
     uvec4 dims;   // xyz: cells per axis, w: point count
     vec4 params;  // x: kernel support h, y: iso threshold, z: smallest step, w: bound radius (world units)
     uvec4 steps;  // x: most march steps, y: bisection iterations, z: the back image bounds the march per pixel
-                  // (1) or per 8×8 tile (2),
-                  // w: 1 = anisotropic kernels (iso_aniso.comp)
+                  // (1) or per 8×8 tile (2)
     vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
     vec4 aniso2;  // anisotropy: x: longest axis (units of h), z: neighbourhood radius (world units)
 } pc;

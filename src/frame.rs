@@ -11,7 +11,7 @@ use crate::passes::composite::CompositeInputs;
 use crate::passes::iso::IsoBuffers;
 use crate::passes::splat::BackBound;
 use crate::scene::{Bounds, Camera};
-use crate::settings::{Kernel, Settings, SplatMode, Surface};
+use crate::settings::{Settings, SplatMode, Surface};
 use crate::targets::Targets;
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
@@ -248,8 +248,7 @@ pub fn record_frame(
     }
     // The iso grid (and the anisotropic kernels) feed the iso surface, and with `kernel = "anisotropic"` on
     // spheres the ellipsoids of `thickness` and `splat`: then they are recorded before `thickness`, in its part.
-    let ellipsoids =
-        s.surface == Surface::Spheres && s.kernel == Kernel::Anisotropic && s.splat.mode == SplatMode::Compute;
+    let ellipsoids = s.ellipsoid_splats();
     let params = s.iso_params();
     let grid = iso.filter(|_| s.surface == Surface::Iso || ellipsoids);
     if let Some(grid) = grid {

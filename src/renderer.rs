@@ -504,10 +504,7 @@ impl Renderer {
         if s.surface == crate::settings::Surface::Mesh {
             self.ensure_fluid_mesh(s)?;
         }
-        let ellipsoids = s.surface == crate::settings::Surface::Spheres
-            && s.kernel == crate::settings::Kernel::Anisotropic
-            && s.splat.mode == crate::settings::SplatMode::Compute;
-        let iso = if s.surface == crate::settings::Surface::Iso || ellipsoids {
+        let iso = if s.surface == crate::settings::Surface::Iso || s.ellipsoid_splats() {
             self.ensure_iso(s.iso.support * s.radius, s.iso_reach())?;
             true
         } else {
@@ -752,14 +749,7 @@ impl Renderer {
                 origin_cell: [lo.x, lo.y, lo.z, cell],
                 dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
             };
-            let push = crate::passes::iso::IsoPush {
-                origin: shape.origin_cell,
-                dims: [d[0], d[1], d[2], n],
-                params: [support, 0.0, 0.0, 0.0],
-                steps: [0; 4],
-                aniso: [0.0; 4],
-                aniso2: [1.0, 0.0, 0.0, 0.0],
-            };
+            let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
             if let Some(b) = &mut self.iso {
                 if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
                     if self.iso_stale {
@@ -806,20 +796,11 @@ impl Renderer {
         self.iso = None;
         let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?;
         let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?;
-        let weights = Buffer::new(
-            &self.gpu,
-            "iso_weights",
-            (grid.points.len() as u64 * 4).max(16),
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
-        let aniso = Buffer::new(
-            &self.gpu,
-            "iso_aniso",
-            (grid.points.len() as u64 * 48).max(48),
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
+        let buf = |name: &str, per_point: u64| {
+            let bytes = (grid.points.len() as u64 * per_point).max(per_point.max(16));
+            Buffer::new(&self.gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly)
+        };
+        let (weights, aniso) = (buf("iso_weights", 4)?, buf("iso_aniso", 48)?);
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.iso = Some(crate::passes::iso::IsoBuffers {
             points,

@@ -319,6 +319,12 @@ impl Settings {
         self.iso_params().aniso.map_or(h, |a| a.stretch.max(1.0) * h + a.max_shift)
     }
 
+    /// The compute splat and thickness draw the anisotropic kernels' ellipsoids (`kernel = "anisotropic"` on
+    /// spheres): the frame then needs the iso grid and the `anisotropy` pass too.
+    pub fn ellipsoid_splats(&self) -> bool {
+        self.surface == Surface::Spheres && self.kernel == Kernel::Anisotropic && self.splat.mode == SplatMode::Compute
+    }
+
     /// Radius scale of the splatted spheres: the bound spheres when the iso-surface is ray-cast from them.
     pub fn splat_scale(&self) -> f32 {
         match self.surface {

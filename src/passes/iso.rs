@@ -72,8 +72,7 @@ pub struct IsoPush {
     pub dims: [u32; 4],
     /// x: support, y: threshold, z: smallest step, w: bound sphere radius (world units).
     pub params: [f32; 4],
-    /// x: most steps, y: bisection iterations, z: 1 when the back depth bounds the march, w: 1 with
-    /// anisotropic kernels.
+    /// x: most steps, y: bisection iterations, z: the far bound (0 none, 1 per pixel, 2 per 8×8 tile).
     pub steps: [u32; 4],
     /// The `anisotropy` pass's parameters: k_r, N_ε, centre blend, longest centre move (world units).
     pub aniso: [f32; 4],
@@ -82,12 +81,18 @@ pub struct IsoPush {
 }
 
 impl IsoPush {
-    /// The grid's shape; the march parameters are filled in by `with`.
+    /// The shape of the CPU-built grid `g`; the march parameters are filled in by `with`.
     pub fn shape(g: &IsoGrid) -> IsoPush {
+        let o = g.origin;
+        IsoPush::grid([o.x, o.y, o.z, g.cell], [g.dims[0], g.dims[1], g.dims[2], g.points.len() as u32], g.support)
+    }
+
+    /// A grid's shape: origin and cell side, cells per axis and point count, kernel support (world units).
+    pub fn grid(origin_cell: [f32; 4], dims_points: [u32; 4], support: f32) -> IsoPush {
         IsoPush {
-            origin: [g.origin.x, g.origin.y, g.origin.z, g.cell],
-            dims: [g.dims[0], g.dims[1], g.dims[2], g.points.len() as u32],
-            params: [g.support, 0.0, 0.0, 0.0],
+            origin: origin_cell,
+            dims: dims_points,
+            params: [support, 0.0, 0.0, 0.0],
             steps: [0; 4],
             aniso: [0.0; 4],
             aniso2: [1.0, 0.0, 0.0, 0.0],
@@ -98,7 +103,7 @@ impl IsoPush {
     pub fn with(self, p: &crate::iso::IsoParams, back: u32) -> IsoPush {
         IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
-            steps: [p.max_steps, p.refine, back, p.aniso.is_some() as u32],
+            steps: [p.max_steps, p.refine, back, 0],
             aniso2: [p.aniso.map_or(1.0, |a| a.stretch.max(1.0)), 0.0, 0.0, 0.0],
             ..self
         }
