@@ -331,6 +331,8 @@ fn mesh_subcommand_writes_ply_and_obj() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("triangles"), "{err}");
+    // Where the time goes: the block path's stages.
+    assert!(["scatter", "march", "weld", "written in"].iter().all(|s| err.contains(s)), "{err}");
     let o = run("b.ply", "2");
     assert!(o.status.success());
     assert_eq!(

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::Args;
 
-use meniscus::extract::{extract, ExtractParams};
+use meniscus::extract::ExtractParams;
 use meniscus::iso::IsoGrid;
 use meniscus::scene::{self, sequence::Prefetch, Particles};
 
@@ -59,8 +59,9 @@ pub struct MeshArgs {
     rc: f32,
     /// Cubes per block edge: each block scatters its particles into its own corner values and marches its
     /// cubes, in parallel. 0: the per-corner paths (every corner gathers its particles), surface following
-    /// unless --dense. Changes nothing but the time.
-    #[arg(long, default_value_t = 32)]
+    /// unless --dense. Changes nothing but the time (measured on the dam-break frames, 1 and 2 threads: 64 is
+    /// 3–20 % faster than 32; benches/results/llvmpipe-race-splashsurf.md).
+    #[arg(long, default_value_t = 64)]
     block: u32,
     /// With --block 0: evaluate the field at every cube corner within the kernel support (the reference)
     /// instead of following the surface in from the outside (which skips closed cavities inside the fluid).
@@ -132,16 +133,16 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         let t0 = std::time::Instant::now();
         let (m, how) = pool.install(|| -> Result<_> {
             let grid = IsoGrid::build(&p.positions, support * r);
-            let t1 = t0.elapsed().as_secs_f64();
             let inv = grid.inv_density();
-            let t2 = t0.elapsed().as_secs_f64();
+            let t_field = t0.elapsed().as_secs_f64();
             let (m, how) = match &gpu_mc {
                 Some((gpu, mc)) => {
                     let (m, st) = mc.extract(gpu, &grid, &inv, &params)?;
                     let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
                     let gpu_ms: f64 = st.gpu.0.iter().map(|(_, t)| t).sum();
                     let how = format!(
-                        "on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: set-up {:.1} ms, read-back and weld {:.1} ms)",
+                        "on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: grid and 1/n {t_field:.3} s, set-up {:.1} \
+                         ms, read-back and weld {:.1} ms)",
                         gpu.info.name,
                         st.blocks,
                         stages.join(", "),
@@ -150,21 +151,32 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                     );
                     (m, how)
                 }
-                None => (extract(&grid, &inv, &params), format!("({} threads)", pool.current_num_threads())),
+                None => {
+                    let (m, t) = meniscus::extract::extract_timed(&grid, &inv, &params);
+                    let threads = pool.current_num_threads();
+                    let how = match t {
+                        // Where the time goes: scatter and march are summed over the threads.
+                        Some(t) => format!(
+                            "({threads} threads; grid and 1/n {t_field:.3} s, {} blocks of {}³ cubes: scatter \
+                             {:.3} s, march {:.3} s (thread time), weld {:.3} s)",
+                            t.blocks, params.block, t.scatter, t.march, t.weld
+                        ),
+                        None => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
+                    };
+                    (m, how)
+                }
             };
-            // (MENISCUS_PROFILE=1: where the time goes.)
-            if std::env::var("MENISCUS_PROFILE").is_ok() {
-                eprintln!("grid {t1:.3} s, 1/n {:.3} s, extract {:.3} s", t2 - t1, t0.elapsed().as_secs_f64() - t2);
-            }
             Ok((m, how))
         })?;
         let secs = t0.elapsed().as_secs_f64();
+        let t_write = std::time::Instant::now();
         meniscus::output::write_mesh(out, &m)?;
         Ok(format!(
-            "{} particles → {} vertices, {} triangles in {secs:.2} s {how} → {}",
+            "{} particles → {} vertices, {} triangles in {secs:.2} s {how}, written in {:.3} s → {}",
             p.len(),
             m.vertices.len(),
             m.triangles.len(),
+            t_write.elapsed().as_secs_f64(),
             out.display()
         ))
     };
