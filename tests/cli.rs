@@ -237,6 +237,33 @@ fn sequence_renders_numbered_pngs() {
     assert_eq!(names, vec!["img_0002.png", "img_0010.png"]);
 }
 
+/// `mesh` of a sequence: one mesh per frame of --frames, numbered, and a closing line (the bar is hidden when
+/// stderr is not a terminal).
+#[test]
+fn mesh_of_a_sequence_honours_frames() {
+    let d = tmpdir("meshseq");
+    for n in [1, 2, 3] {
+        let p = meniscus::scene::procedural::generate("drop", 500).unwrap().particles;
+        std::fs::write(d.join(format!("f_{n}.bgeo")), meniscus::scene::bgeo::write(&p.to_raw(), true)).unwrap();
+    }
+    let o = meniscus()
+        .arg("mesh")
+        .arg(format!("{}/f_{{}}.bgeo", d.display()))
+        .args(["--frames", "2..3", "--cube-size", "1", "--out"])
+        .arg(d.join("out/m_{}.obj"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("2 meshes"), "{err}");
+    let mut names: Vec<String> = std::fs::read_dir(d.join("out"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, vec!["m_0002.obj", "m_0003.obj"]);
+}
+
 /// A camera east of / below the origin: values with a leading minus sign are values, not flags.
 #[test]
 fn negative_numbers_in_flag_values() {

@@ -34,7 +34,7 @@ enum Cmd {
     Scenes,
     /// Benchmark: scenes × resolutions, per-pass GPU medians/p95/min, memory; markdown table + JSON.
     Bench(bench::BenchArgs),
-    /// Extract the SPH iso-surface as a triangle mesh (marching cubes, CPU): PLY or OBJ.
+    /// Extract the SPH iso-surface as a triangle mesh (marching cubes, CPU or --gpu): PLY, OBJ or VTK.
     Mesh(mesh::MeshArgs),
     /// Simulate a built-in scene on the GPU (Position Based Fluids) and write a particle cache (.bgeo/.vtk).
     Sim(sim::SimArgs),
