@@ -94,17 +94,21 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
                 m.vertices.len(),
                 m.triangles.len()
             )?;
+            // The body is packed into memory and written at once (4-byte writes through the BufWriter cost
+            // 0.06 s on the 1.4 M-triangle dam-break mesh).
+            let mut body = Vec::with_capacity(24 * m.vertices.len() + 13 * m.triangles.len());
             for (v, n) in m.vertices.iter().zip(&m.normals) {
                 for x in v.iter().chain(n) {
-                    w.write_all(&x.to_le_bytes())?;
+                    body.extend_from_slice(&x.to_le_bytes());
                 }
             }
             for t in &m.triangles {
-                w.write_all(&[3u8])?;
+                body.push(3u8);
                 for i in t {
-                    w.write_all(&i.to_le_bytes())?;
+                    body.extend_from_slice(&i.to_le_bytes());
                 }
             }
+            w.write_all(&body)?;
             Ok(())
         }),
         Some("obj") => write_atomic(path, |w| {
@@ -125,28 +129,22 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
         // writes by default and ParaView opens.
         Some("vtk") => write_atomic(path, |w| {
             write!(w, "# vtk DataFile Version 4.2\nmeniscus mesh\nBINARY\nDATASET POLYDATA\n")?;
+            let be3 = |a: &[[f32; 3]]| -> Vec<u8> { a.iter().flatten().flat_map(|x| x.to_be_bytes()).collect() };
             writeln!(w, "POINTS {} float", m.vertices.len())?;
-            for v in &m.vertices {
-                for x in v {
-                    w.write_all(&x.to_be_bytes())?;
-                }
-            }
+            w.write_all(&be3(&m.vertices))?;
             writeln!(w)?;
             writeln!(w, "POLYGONS {} {}", m.triangles.len(), 4 * m.triangles.len())?;
-            for t in &m.triangles {
-                w.write_all(&3i32.to_be_bytes())?;
-                for i in t {
-                    w.write_all(&(*i as i32).to_be_bytes())?;
-                }
-            }
+            let polys: Vec<u8> = m
+                .triangles
+                .iter()
+                .flat_map(|t| [3, t[0] as i32, t[1] as i32, t[2] as i32])
+                .flat_map(|i| i.to_be_bytes())
+                .collect();
+            w.write_all(&polys)?;
             writeln!(w)?;
             writeln!(w, "POINT_DATA {}", m.vertices.len())?;
             writeln!(w, "NORMALS normals float")?;
-            for n in &m.normals {
-                for x in n {
-                    w.write_all(&x.to_be_bytes())?;
-                }
-            }
+            w.write_all(&be3(&m.normals))?;
             writeln!(w)?;
             Ok(())
         }),

@@ -25,7 +25,9 @@ ellipsoids + narrow-range|--filter narrow-range --kernel anisotropic;\
 ellipsoids + curvature-flow|--filter curvature-flow --kernel anisotropic;iso isotropic|--surface iso --filter none;\
 iso anisotropic|--surface iso --filter none --kernel anisotropic;\
 iso anisotropic stretch 1.5|--surface iso --filter none --kernel anisotropic --settings $out/stretch.toml;\
-iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --settings $out/centres.toml"
+iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --settings $out/centres.toml;\
+iso + narrow-range|--surface iso --filter narrow-range;iso + bilateral|--surface iso --filter bilateral;\
+iso + curvature-flow|--surface iso --filter curvature-flow"
 printf '[anisotropy]\nstretch = 1.5\n' > "$out/stretch.toml"
 printf '[anisotropy]\ncentre_blend = 0.3\n' > "$out/centres.toml"
 IFS=';' read -ra configs <<< "${CONFIGS:-$default_configs}"
@@ -43,6 +45,12 @@ for c in "${configs[@]}"; do
             python3 -c "import json,sys; d=json.load(sys.stdin); print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (d['iou'], d['depth_median_abs']/0.0125, d['depth_p90_abs']/0.0125, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
     done
 done
+# The yardstick: splashsurf's own unsmoothed surface (the raw reference) measured against its smoothed one — the
+# same reconstruction without the mesh smoothing, i.e. what any unsmoothed surface of the field can reach.
+rows[smooth_ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_smooth_ref_depth.npy" \
+    --depth "$shared/data/quality/dambreak59k_f20_ref_depth.npy" --normals-from-depth --ref-normals-from-depth \
+    --radius 0.0125 | tail -n 1 |
+    python3 -c "import json,sys; d=json.load(sys.stdin); print('| splashsurf raw reference (yardstick) | %.3f | %.2f | %.2f | %.1f | %.1f | – |' % (d['iou'], d['depth_median_abs']/0.0125, d['depth_p90_abs']/0.0125, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
 for ref in ref smooth_ref; do
     printf '\n### against dambreak59k_f20_%s_depth.npy\n\n' "$ref"
     printf '| surface + filter | IoU | depth median (r) | depth p90 (r) | normal median (°) | normal p90 (°) | GPU ms |\n|---|---:|---:|---:|---:|---:|---|\n'
