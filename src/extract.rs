@@ -182,6 +182,24 @@ pub fn metaball_threshold(r: f32, rc: f32) -> f32 {
     metaball(r / rc)
 }
 
+/// The lattice of cube edge `cube` over `grid`'s particles fits the extraction's 64-bit edge keys (corners ×
+/// 3 below 2⁶²); an error naming its size otherwise (particles spread far apart at a small cube size).
+pub fn check_lattice(grid: &IsoGrid, cube: f32) -> crate::error::Result<()> {
+    if grid.points.is_empty() {
+        return Ok(());
+    }
+    let lat = Lattice::of(grid, cube.max(1e-6));
+    let corners = lat.dims.as_dvec3();
+    if corners.x * corners.y * corners.z * 3.0 < 2f64.powi(62) && lat.dims.min_element() > 0 {
+        return Ok(());
+    }
+    Err(crate::error::Error::Invalid(format!(
+        "the particles span {:.0} × {:.0} × {:.0} cubes of {cube}: too many for one marching-cubes lattice; use a \
+         larger --cube-size",
+        corners.x, corners.y, corners.z
+    )))
+}
+
 /// Extract the iso-surface of `grid`'s field (with 1/n_j `inv_n`, see [`IsoGrid::inv_density`]).
 pub fn extract(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMesh {
     extract_timed(grid, inv_n, p).0

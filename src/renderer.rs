@@ -705,6 +705,7 @@ impl Renderer {
         let grid = crate::iso::IsoGrid::build(&pts, key[0]);
         let inv = grid.inv_density();
         let params = crate::extract::ExtractParams::new(key[1], key[2]);
+        crate::extract::check_lattice(&grid, key[1])?;
         let m = crate::extract::extract(&grid, &inv, &params);
         let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
         let bvh = crate::mesh::GpuBvh::build(&crate::mesh::Mesh { triangles: tris });

@@ -377,6 +377,18 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains(".ply, .obj or .vtk"));
     assert!(!d.join("d.stl").exists() && !d.join("d.stl.partial").exists());
+    // Particles too far apart for one lattice at this cube size: an error naming the file, no output.
+    std::fs::write(d.join("far.csv"), "x,y,z\n0,0,0\n1000000,1000000,1000000\n").unwrap();
+    let o = meniscus()
+        .args(["mesh", "--radius", "0.001", "--out"])
+        .arg(d.join("far.ply"))
+        .arg(d.join("far.csv"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("far.csv") && err.contains("--cube-size"), "{err}");
+    assert!(!d.join("far.ply").exists());
     // --gpu (the `mc` pass, under validation): the same vertices, and the GPU stages' times printed.
     let o = meniscus()
         .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--gpu", "--validation", "--out"])

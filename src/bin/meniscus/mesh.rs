@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meniscus::extract::ExtractParams;
@@ -138,6 +138,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         let t0 = std::time::Instant::now();
         let (m, how) = pool.install(|| -> Result<_> {
             let grid = IsoGrid::build(&p.positions, support * r);
+            meniscus::extract::check_lattice(&grid, params.cube)?;
             let inv = grid.inv_density();
             let t_field = t0.elapsed().as_secs_f64();
             let (m, how) = match &gpu_mc {
@@ -188,7 +189,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     // Validation messages (--validation) fail the run at its end.
     let done = || gpu_mc.as_ref().map_or(Ok(()), |(gpu, _)| crate::args::finish(gpu));
     let Some(frames) = job.frames.clone() else {
-        eprintln!("{}", one(&job.first, &out)?);
+        eprintln!("{}", one(&job.first, &out).with_context(|| job.label.clone())?);
         return done();
     };
     let out_name = |n: u64| -> PathBuf {
@@ -211,7 +212,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let (t0, mut last) = (std::time::Instant::now(), String::new());
     for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
         let p: scene::Particles = loaded?;
-        last = one(&p, &out_name(frame.number))?;
+        last = one(&p, &out_name(frame.number)).with_context(|| frame.path.display().to_string())?;
         bar.set_message(last.clone());
         bar.inc(1);
     }
