@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
 use crate::passes::grid::GridBuffers;
 
 /// Every particle's neighbour list (sim_neighbours.comp's outputs, read by the later stages at bindings 1, 2).
@@ -81,11 +81,32 @@ impl Stages {
         })
     }
 
+    /// One stage: `program` over the `n` particles with `res` bound in order, in a pass named `name` (its debug
+    /// label and timestamp key).
+    fn run(&self, ctx: &mut FrameCtx, name: &str, program: &ComputeProgram, res: &[Res], n: u32) {
+        ctx.pass(name, |ctx| program.dispatch(ctx, res, &(), groups(n)));
+    }
+
+    /// A stage that walks the neighbour lists: the uniform block, the lists (bindings 1, 2), then `rest`.
+    #[allow(clippy::too_many_arguments)]
+    fn run_listed(
+        &self,
+        ctx: &mut FrameCtx,
+        name: &str,
+        program: &ComputeProgram,
+        u: &Buffer,
+        g: &Neighbours,
+        rest: &[&Buffer],
+        n: u32,
+    ) {
+        let mut res: Vec<Res> = vec![u.into(), (&g.count).into(), (&g.list).into()];
+        res.extend(rest.iter().map(|&b| Res::from(b)));
+        self.run(ctx, name, program, &res, n);
+    }
+
     /// `sim_predict`: state (v += Δt g) → pred (x*).
     pub fn predict(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, n: u32) {
-        ctx.pass("sim_predict", |ctx| {
-            self.predict.dispatch(ctx, &[u.into(), state.into(), pred.into()], &(), groups(n))
-        });
+        self.run(ctx, "sim_predict", &self.predict, &[u.into(), state.into(), pred.into()], n);
     }
 
     /// `sim_reorder`: state and pred gathered into grid order.
@@ -102,7 +123,7 @@ impl Stages {
         n: u32,
     ) {
         let res = [u.into(), order.into(), state.into(), pred.into(), state_out.into(), pred_out.into()];
-        ctx.pass("sim_reorder", |ctx| self.reorder.dispatch(ctx, &res, &(), groups(n)));
+        self.run(ctx, "sim_reorder", &self.reorder, &res, n);
     }
 
     /// `sim_neighbours`: grid, pred → the neighbour lists.
@@ -116,7 +137,7 @@ impl Stages {
             (&nb.list).into(),
             (&nb.overflow).into(),
         ];
-        ctx.pass("sim_neighbours", |ctx| self.neighbours.dispatch(ctx, &res, &(), groups(n)));
+        self.run(ctx, "sim_neighbours", &self.neighbours, &res, n);
     }
 
     /// `sim_density`: pred → lambda, density.
@@ -131,8 +152,7 @@ impl Stages {
         density: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), (&g.count).into(), (&g.list).into(), pred.into(), lambda.into(), density.into()];
-        ctx.pass("sim_density", |ctx| self.density.dispatch(ctx, &res, &(), groups(n)));
+        self.run_listed(ctx, "sim_density", &self.density, u, g, &[pred, lambda, density], n);
     }
 
     /// `sim_solve`: pred, lambda → the next iterate.
@@ -147,14 +167,12 @@ impl Stages {
         next: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), (&g.count).into(), (&g.list).into(), pred.into(), lambda.into(), next.into()];
-        ctx.pass("sim_solve", |ctx| self.solve.dispatch(ctx, &res, &(), groups(n)));
+        self.run_listed(ctx, "sim_solve", &self.solve, u, g, &[pred, lambda, next], n);
     }
 
     /// `sim_velocity`: (x* − x)/Δt → vel.
     pub fn velocity(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, vel: &Buffer, n: u32) {
-        let res = [u.into(), state.into(), pred.into(), vel.into()];
-        ctx.pass("sim_velocity", |ctx| self.velocity.dispatch(ctx, &res, &(), groups(n)));
+        self.run(ctx, "sim_velocity", &self.velocity, &[u.into(), state.into(), pred.into(), vel.into()], n);
     }
 
     /// `sim_vorticity`: vel → omega.
@@ -169,8 +187,7 @@ impl Stages {
         omega: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), (&g.count).into(), (&g.list).into(), pred.into(), vel.into(), omega.into()];
-        ctx.pass("sim_vorticity", |ctx| self.vorticity.dispatch(ctx, &res, &(), groups(n)));
+        self.run_listed(ctx, "sim_vorticity", &self.vorticity, u, g, &[pred, vel, omega], n);
     }
 
     /// `sim_viscosity`: confinement + XSPH → the new state and the render particles.
@@ -188,17 +205,6 @@ impl Stages {
         out: &Buffer,
         n: u32,
     ) {
-        let res = [
-            u.into(),
-            (&g.count).into(),
-            (&g.list).into(),
-            pred.into(),
-            vel.into(),
-            omega.into(),
-            sorted.into(),
-            state.into(),
-            out.into(),
-        ];
-        ctx.pass("sim_viscosity", |ctx| self.viscosity.dispatch(ctx, &res, &(), groups(n)));
+        self.run_listed(ctx, "sim_viscosity", &self.viscosity, u, g, &[pred, vel, omega, sorted, state, out], n);
     }
 }
