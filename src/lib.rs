@@ -24,6 +24,7 @@ pub mod shader_constants {
     include!("shader_constants.rs");
 }
 pub mod sky;
+pub mod smooth_mesh;
 pub mod targets;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.

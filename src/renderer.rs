@@ -63,8 +63,8 @@ pub struct Renderer {
     /// The background mesh's BVH (placeholders and node count 0 without one).
     mesh: crate::passes::background::MeshBuffers,
     /// The extracted iso-surface mesh of the current particles (BVH on the GPU), built on first use with
-    /// `surface = "mesh"`, and the (support, cube, threshold) it was made for.
-    fluid_mesh: Option<(crate::passes::background::MeshBuffers, [f32; 3])>,
+    /// `surface = "mesh"`, and the (support, cube, threshold, smoothing iterations, weights) it was made for.
+    fluid_mesh: Option<(crate::passes::background::MeshBuffers, [f32; 5])>,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
     /// The particles changed since the iso grid was built.
@@ -693,7 +693,18 @@ impl Renderer {
     /// Extract the iso-surface mesh of the current particles (spray left out) with the `[iso]` field and the
     /// `[mesh]` cube size, and upload its BVH, unless it is there already.
     fn ensure_fluid_mesh(&mut self, s: &Settings) -> Result<()> {
-        let key = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
+        let smoothing = crate::smooth_mesh::SmoothParams {
+            iterations: s.mesh.smoothing_iters,
+            weights: s.mesh.smoothing_weights,
+            ..Default::default()
+        };
+        let key = [
+            s.iso.support * s.radius,
+            s.mesh.cube * s.radius,
+            s.iso.threshold,
+            smoothing.iterations as f32,
+            smoothing.weights as u32 as f32,
+        ];
         if self.fluid_mesh.as_ref().is_some_and(|m| m.1 == key) {
             return Ok(());
         }
@@ -706,7 +717,8 @@ impl Renderer {
         let inv = grid.inv_density();
         let params = crate::extract::ExtractParams::new(key[1], key[2]);
         crate::extract::check_lattice(&grid, key[1])?;
-        let m = crate::extract::extract(&grid, &inv, &params);
+        let mut m = crate::extract::extract(&grid, &inv, &params);
+        crate::smooth_mesh::smooth(&mut m, &grid, &inv, &smoothing);
         let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
         let bvh = crate::mesh::GpuBvh::build(&crate::mesh::Mesh { triangles: tris });
         self.fluid_mesh_stats = Some((t0.elapsed().as_secs_f64(), m.vertices.len(), m.triangles.len()));

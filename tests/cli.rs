@@ -360,6 +360,18 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert!(err.contains("triangles"), "{err}");
     // Where the time goes: the block path's stages.
     assert!(["scatter", "march", "weld", "written in"].iter().all(|s| err.contains(s)), "{err}");
+    // Laplacian smoothing moves the vertices, not the connectivity.
+    let o = meniscus()
+        .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--smoothing-iters", "5", "--out"])
+        .arg(d.join("s.ply"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("smoothed (5 iterations)"), "{err}");
+    let (raw, smooth) =
+        (meniscus::scene::load(&d.join("a.ply")).unwrap(), meniscus::scene::load(&d.join("s.ply")).unwrap());
+    assert_eq!(raw.len(), smooth.len());
+    assert!(raw.positions != smooth.positions, "smoothing moved nothing");
     let o = run("b.ply", "2");
     assert!(o.status.success());
     assert_eq!(

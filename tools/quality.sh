@@ -27,9 +27,13 @@ iso anisotropic|--surface iso --filter none --kernel anisotropic;\
 iso anisotropic stretch 1.5|--surface iso --filter none --kernel anisotropic --settings $out/stretch.toml;\
 iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --settings $out/centres.toml;\
 iso + narrow-range|--surface iso --filter narrow-range;iso + bilateral|--surface iso --filter bilateral;\
-iso + curvature-flow|--surface iso --filter curvature-flow"
+iso + curvature-flow|--surface iso --filter curvature-flow;mesh (cubes 0.5 r)|--surface mesh --filter none;\
+mesh + 10 smoothing iterations|--surface mesh --filter none --settings $out/smooth10.toml;\
+mesh + 25 smoothing iterations (splashsurf's finishing)|--surface mesh --filter none --settings $out/smooth25.toml"
 printf '[anisotropy]\nstretch = 1.5\n' > "$out/stretch.toml"
 printf '[anisotropy]\ncentre_blend = 0.3\n' > "$out/centres.toml"
+printf '[mesh]\nsmoothing_iters = 10\n' > "$out/smooth10.toml"
+printf '[mesh]\nsmoothing_iters = 25\n' > "$out/smooth25.toml"
 IFS=';' read -ra configs <<< "${CONFIGS:-$default_configs}"
 declare -A rows
 for c in "${configs[@]}"; do
@@ -38,7 +42,7 @@ for c in "${configs[@]}"; do
     # shellcheck disable=SC2086
     timings=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 \
         --height 540 $args --out "$out/c.png" --dump smoothed --timings "$@" 2>/dev/null)
-    ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
+    ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
     for ref in ref smooth_ref; do
         rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_${ref}_depth.npy" \
             --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius 0.0125 | tail -n 1 |

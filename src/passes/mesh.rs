@@ -19,11 +19,15 @@ pub const NAME: &str = "mesh";
 pub struct Params {
     /// Marching-cubes edge length in particle radii (the field, support and threshold are the `[iso]` ones).
     pub cube: f32,
+    /// Laplacian smoothing iterations of the extracted mesh (`crate::smooth_mesh`; splashsurf's finishing: 25).
+    pub smoothing_iters: u32,
+    /// Smoothing with feature weights (isolated droplets keep their shape).
+    pub smoothing_weights: bool,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { cube: 0.5 }
+        Params { cube: 0.5, smoothing_iters: 0, smoothing_weights: true }
     }
 }
 

@@ -71,6 +71,12 @@ pub struct MeshArgs {
     /// instead of following the surface in from the outside (which skips closed cavities inside the fluid).
     #[arg(long)]
     dense: bool,
+    /// Laplacian smoothing iterations after extraction (splashsurf's finishing, e.g. 25; src/smooth_mesh.rs).
+    #[arg(long, default_value_t = 0)]
+    smoothing_iters: u32,
+    /// With --smoothing-iters: every vertex moves fully (no feature weights; isolated droplets shrink).
+    #[arg(long)]
+    no_smoothing_weights: bool,
     /// Worker threads (default: all cores); changes nothing but the time.
     #[arg(long)]
     threads: Option<usize>,
@@ -141,7 +147,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             meniscus::extract::check_lattice(&grid, params.cube)?;
             let inv = grid.inv_density();
             let t_field = t0.elapsed().as_secs_f64();
-            let (m, how) = match &gpu_mc {
+            let (mut m, how) = match &gpu_mc {
                 Some((gpu, mc)) => {
                     let (m, st) = mc.extract(gpu, &grid, &inv, &params)?;
                     let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
@@ -171,6 +177,22 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                     };
                     (m, how)
                 }
+            };
+            let smoothing = meniscus::smooth_mesh::SmoothParams {
+                iterations: a.smoothing_iters,
+                weights: !a.no_smoothing_weights,
+                ..Default::default()
+            };
+            let t_smooth = std::time::Instant::now();
+            meniscus::smooth_mesh::smooth(&mut m, &grid, &inv, &smoothing);
+            let how = if smoothing.iterations > 0 {
+                format!(
+                    "{how}, smoothed ({} iterations) in {:.3} s",
+                    smoothing.iterations,
+                    t_smooth.elapsed().as_secs_f64()
+                )
+            } else {
+                how
             };
             Ok((m, how))
         })?;
