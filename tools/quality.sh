@@ -29,7 +29,7 @@ iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --s
 iso + narrow-range|--surface iso --filter narrow-range;iso + bilateral|--surface iso --filter bilateral;\
 iso + curvature-flow|--surface iso --filter curvature-flow;mesh (cubes 0.5 r)|--surface mesh --filter none;\
 mesh + 10 smoothing iterations|--surface mesh --filter none --settings $out/smooth10.toml;\
-mesh + 25 smoothing iterations (splashsurf's finishing)|--surface mesh --filter none --settings $out/smooth25.toml"
+mesh + 25 smoothing iterations (as the smoothed reference)|--surface mesh --filter none --settings $out/smooth25.toml"
 printf '[anisotropy]\nstretch = 1.5\n' > "$out/stretch.toml"
 printf '[anisotropy]\ncentre_blend = 0.3\n' > "$out/centres.toml"
 printf '[mesh]\nsmoothing_iters = 10\n' > "$out/smooth10.toml"
