@@ -105,7 +105,8 @@ fn input_help() -> String {
 #[derive(Args, Clone, Debug)]
 pub struct SettingsArgs {
     /// Settings preset: default (spheres + narrow-range), fast, quality (ray-cast SPH iso-surface, unfiltered),
-    /// moritz (the thesis' curvature flow).
+    /// smooth (the marching-cubes mesh with 25 Laplacian smoothing iterations, as splashsurf users finish it;
+    /// offline: re-extracted on the CPU whenever the particles change), moritz (the thesis' curvature flow).
     #[arg(long, default_value = "default")]
     pub preset: String,
     /// TOML file of settings applied over the preset, one section per pass, e.g. `[smooth.narrow]` then
