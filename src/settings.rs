@@ -351,6 +351,9 @@ impl Settings {
             return bad("fluid_scale (0 < s ≤ 1)");
         }
         self.sim.validate()?;
+        if !(self.mesh.cube > 0.05 && self.mesh.cube <= 8.0) || self.mesh.smoothing_iters > 1000 {
+            return bad("[mesh] cube (0.05 < c ≤ 8) or smoothing_iters (≤ 1000)");
+        }
         if !(self.splat.radius_scale >= 0.25 && self.splat.radius_scale <= 4.0) {
             return bad("[splat] radius_scale (0.25 … 4)");
         }
@@ -477,6 +480,21 @@ mod tests {
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.contains("[anisotropy]"), "{e}");
+        }
+    }
+
+    #[test]
+    fn mesh_settings_are_checked() {
+        let s = Settings { radius: 0.01, ..Settings::preset("smooth").unwrap() };
+        s.validate().unwrap();
+        assert_eq!((s.surface, s.mesh.smoothing_iters), (Surface::Mesh, 25));
+        for bad in [
+            s.with(|s| s.mesh.cube = 0.0),
+            s.with(|s| s.mesh.cube = f32::NAN),
+            s.with(|s| s.mesh.smoothing_iters = 5000),
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("[mesh]"), "{e}");
         }
     }
 }

@@ -95,6 +95,9 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if !(a.support.is_finite() && (1.0..=16.0).contains(&a.support)) {
         bail!("--support must be in [1, 16] particle radii");
     }
+    if a.smoothing_iters > 1000 {
+        bail!("--smoothing-iters must be at most 1000");
+    }
     let metaball = a.field == "metaball";
     if metaball && !(a.rc.is_finite() && (1.0..=16.0).contains(&a.rc)) {
         bail!("--rc must be in [1, 16] particle radii");
