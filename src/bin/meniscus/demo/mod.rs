@@ -489,7 +489,8 @@ impl App {
                 }
             }
             KeyCode::KeyO => {
-                const NAMES: [&str; 4] = ["default", "fast", "quality", "moritz"];
+                // `smooth` last: it re-extracts and smooths the mesh on the CPU whenever the particles change.
+                const NAMES: [&str; 5] = ["default", "fast", "quality", "moritz", "smooth"];
                 self.presets = (self.presets + 1) % NAMES.len();
                 if let Ok(mut s) = Settings::preset(NAMES[self.presets]) {
                     s.radius = self.radius;
