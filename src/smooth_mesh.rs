@@ -39,23 +39,43 @@ impl Default for SmoothParams {
     }
 }
 
-/// Every vertex's edge neighbours (sorted, unique), as offsets into one list.
+/// Every vertex's edge neighbours (sorted, unique), as offsets into one list: each triangle lists its other two
+/// corners at each corner (a counting sort into per-vertex runs), then each short run is sorted and deduplicated.
 pub fn vertex_neighbours(m: &TriMesh) -> (Vec<u32>, Vec<u32>) {
-    let mut pairs: Vec<(u32, u32)> = m
-        .triangles
-        .par_iter()
-        .flat_map_iter(|t| (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])]))
-        .collect();
-    pairs.par_sort_unstable();
-    pairs.dedup();
-    let mut offsets = vec![0u32; m.vertices.len() + 1];
-    for &(a, _) in &pairs {
-        offsets[a as usize + 1] += 1;
+    let n = m.vertices.len();
+    let mut start = vec![0usize; n + 1];
+    for t in &m.triangles {
+        for &v in t {
+            start[v as usize + 1] += 2;
+        }
     }
-    for i in 0..m.vertices.len() {
-        offsets[i + 1] += offsets[i];
+    for i in 0..n {
+        start[i + 1] += start[i];
     }
-    (offsets, pairs.into_iter().map(|p| p.1).collect())
+    let mut fill = start.clone();
+    let mut raw = vec![0u32; start[n]];
+    for t in &m.triangles {
+        for k in 0..3 {
+            let v = t[k] as usize;
+            raw[fill[v]] = t[(k + 1) % 3];
+            raw[fill[v] + 1] = t[(k + 2) % 3];
+            fill[v] += 2;
+        }
+    }
+    let mut offsets = vec![0u32; n + 1];
+    let mut out = Vec::with_capacity(raw.len() / 2);
+    for v in 0..n {
+        let run = &mut raw[start[v]..start[v + 1]];
+        run.sort_unstable();
+        let first = out.len();
+        for &x in run.iter() {
+            if out.len() == first || out.last() != Some(&x) {
+                out.push(x);
+            }
+        }
+        offsets[v + 1] = out.len() as u32;
+    }
+    (offsets, out)
 }
 
 /// The feature weight of every vertex (see the module doc).
@@ -137,6 +157,25 @@ pub fn area_weighted_normals(m: &TriMesh) -> Vec<[f32; 3]> {
 mod tests {
     use super::*;
     use crate::extract::{extract, ExtractParams};
+
+    /// The neighbour lists equal a set-based count over the edges of every triangle.
+    #[test]
+    fn vertex_neighbours_are_the_edge_neighbours() {
+        let one = IsoGrid::build(&[[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]], 0.4);
+        let m = extract(&one, &one.inv_density(), &ExtractParams::new(0.03, 0.6));
+        let mut want = vec![std::collections::BTreeSet::new(); m.vertices.len()];
+        for t in &m.triangles {
+            for k in 0..3 {
+                want[t[k] as usize].insert(t[(k + 1) % 3]);
+                want[t[(k + 1) % 3] as usize].insert(t[k]);
+            }
+        }
+        let (offsets, nbrs) = vertex_neighbours(&m);
+        for (v, w) in want.iter().enumerate() {
+            let got = &nbrs[offsets[v] as usize..offsets[v + 1] as usize];
+            assert_eq!(got, w.iter().copied().collect::<Vec<_>>().as_slice(), "vertex {v}");
+        }
+    }
 
     /// A lone particle's sphere: with weights off it shrinks towards its centre and stays closed and round;
     /// with weights on (a lone particle has no neighbours) it does not move at all. A flat slab's top stays flat
