@@ -33,7 +33,8 @@ pub struct MeshArgs {
     frames_range: Option<String>,
     /// Write the thesis' comparison of the two techniques: one PNG with the screen-space surface (default
     /// settings), the iso-surface ray cast and the extracted mesh (same shading) side by side, each labelled
-    /// with its time — GPU ms per frame, plus the CPU extraction for the mesh. One input file; --camera or fitted.
+    /// with its time — GPU ms per frame, plus the CPU extraction for the mesh (and its smoothing with
+    /// --smoothing-iters). One input file; --camera or fitted.
     #[arg(long, value_name = "PNG")]
     compare: Option<PathBuf>,
     /// Width of each --compare panel.
@@ -266,11 +267,13 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
             s.radius = base.radius;
             s
         }),
-        ("marching-cubes mesh", {
+        (if a.smoothing_iters > 0 { "marching-cubes mesh, smoothed" } else { "marching-cubes mesh" }, {
             let mut s = Settings::preset("quality")?;
             s.radius = base.radius;
             s.surface = Surface::Mesh;
             s.mesh.cube = a.cube_size;
+            s.mesh.smoothing_iters = a.smoothing_iters;
+            s.mesh.smoothing_weights = !a.no_smoothing_weights;
             s.iso.support = a.support;
             s.iso.threshold = a.threshold.unwrap_or(0.6);
             s
@@ -282,7 +285,12 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
         let gpu_ms = meniscus::gpu::timer::median(&mut ms);
         let label = match (s.surface, r.fluid_mesh_stats()) {
             (Surface::Mesh, Some((secs, _, tris))) => {
-                format!("{:.0} ms CPU extraction + BVH ({tris} triangles) + {gpu_ms:.1} ms GPU", secs * 1e3)
+                let cpu = if s.mesh.smoothing_iters > 0 {
+                    "CPU extraction + smoothing + BVH"
+                } else {
+                    "CPU extraction + BVH"
+                };
+                format!("{:.0} ms {cpu} ({tris} triangles) + {gpu_ms:.1} ms GPU", secs * 1e3)
             }
             _ => format!("{gpu_ms:.1} ms GPU"),
         };
