@@ -1283,6 +1283,46 @@ fn mesh_depth_matches_iso_ray_cast() {
     assert_clean(&gpu);
 }
 
+/// Issue #15: `[mesh] smoothing_iters` (the `smooth` preset's surface) renders the smoothed mesh: the same
+/// coverage as the raw mesh, depths moved by a fraction of a radius (the jittered slab's bumps smoothed), under
+/// validation.
+#[test]
+fn smoothed_mesh_renders_near_the_raw_mesh() {
+    let gpu = gpu();
+    let (w, h) = (128usize, 96usize);
+    let r = 0.05f32;
+    let pts = jittered_slab(4321, [10, 3, 8], [-0.45, -0.3, -0.4], r, [1.0; 3]);
+    let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
+    let mut rd = Renderer::new(&gpu).unwrap();
+    rd.set_particles(&pts, None).unwrap();
+    let mut depth_of = |iters: u32| {
+        let mut s =
+            meniscus::settings::Settings { radius: r, ..meniscus::settings::Settings::preset("smooth").unwrap() };
+        s.mesh.smoothing_iters = iters;
+        rd.render(&v, &s).unwrap();
+        read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap()
+    };
+    let raw = depth_of(0);
+    let smooth = depth_of(10);
+    let (mut same, mut diffs) = (0usize, vec![]);
+    for (a, b) in raw.iter().zip(&smooth) {
+        if a.is_finite() == b.is_finite() {
+            same += 1;
+        }
+        if a.is_finite() && b.is_finite() {
+            diffs.push((a - b).abs() / r);
+        }
+    }
+    assert!(diffs.len() > 1000, "only {} fluid pixels", diffs.len());
+    assert!(same as f32 >= 0.97 * (w * h) as f32, "coverage agrees on {same} of {} pixels", w * h);
+    diffs.sort_by(f32::total_cmp);
+    let (median, p95) = (diffs[diffs.len() / 2], diffs[diffs.len() * 95 / 100]);
+    eprintln!("smoothed vs raw mesh depth: median {median:.4} r, p95 {p95:.4} r");
+    assert!(p95 > 0.01, "smoothing moved nothing");
+    assert!(median < 0.25 && p95 < 1.0, "smoothed vs raw mesh: median {median} r, p95 {p95} r");
+    assert_clean(&gpu);
+}
+
 /// Issue #14: the GPU marching cubes (`mc` pass) give the CPU block path's mesh — the same triangles over the
 /// same welded vertices, positions within 1e-3 of a cube edge, normals within 1° — for random clouds (SPH and
 /// metaball fields, cubes 0.5 r and 1 r) and, when the shared data is here, the dam-break 6,859 frame 40; the
