@@ -393,10 +393,6 @@ pub fn extract_blocks(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> TriMe
 pub struct ExtractTimes {
     /// Occupied blocks.
     pub blocks: usize,
-    /// Listing the occupied blocks (wall).
-    pub block_list: f64,
-    /// The blocks, scatter and march (wall, all threads).
-    pub blocks_wall: f64,
     /// Scattering the particles into the blocks' corner values, summed over the threads.
     pub scatter: f64,
     /// Marching the blocks' cubes, summed over the threads.
@@ -412,7 +408,6 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     let lat = Lattice::of(grid, p.cube.max(1e-6));
     let b = p.block.max(1) as i32;
     let (blocks, nb) = occupied_blocks(grid, &lat, b);
-    let t_list = t0.elapsed();
     // Per-thread scratch (corner values, inside flags, edge → vertex slots), reused from block to block.
     let n = b + 3;
     let cells = (n * n * n) as usize;
@@ -443,8 +438,6 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     let mesh = weld_blocks(outs);
     let times = ExtractTimes {
         blocks: blocks.len(),
-        block_list: t_list.as_secs_f64(),
-        blocks_wall: (t_blocks - t_list).as_secs_f64(),
         scatter: scatter_ns.into_inner() as f64 * 1e-9,
         march: march_ns.into_inner() as f64 * 1e-9,
         weld: (t0.elapsed() - t_blocks).as_secs_f64(),
@@ -503,7 +496,8 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
     let s2 = support * support;
     let inv_support = 1.0 / support;
     let inv_h = 1.0 / h;
-    // Cells in index order (z, y, x nested) = the global sorted order of their points.
+    let rs = support * inv_h; // the support in lattice units
+                              // Cells in index order (z, y, x nested) = the global sorted order of their points.
     for z in cl.z..=ch.z {
         for y in cl.y..=ch.y {
             let row = (gdims.x * (y + gdims.y * z)) as usize;
@@ -517,14 +511,13 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
                     // corner includes the same particles in it: shared faces agree bit for bit), clipped to the
                     // block. A corner the rounding leaves out lies at q ≈ 1, where the kernel is ≈ 0, in every
                     // block alike.
-                    let g = (x - lat.lo) * inv_h;
-                    let rs = support * inv_h;
-                    let lx = (ceil_i(g.x - rs) - c0.x).max(0);
-                    let ly = (ceil_i(g.y - rs) - c0.y).max(0);
-                    let lz = (ceil_i(g.z - rs) - c0.z).max(0);
-                    let ux = (floor_i(g.x + rs) - c0.x).min(n - 1);
-                    let uy = (floor_i(g.y + rs) - c0.y).min(n - 1);
-                    let uz = (floor_i(g.z + rs) - c0.z).min(n - 1);
+                    let gx = (x - lat.lo) * inv_h; // in lattice units
+                    let lx = (ceil_i(gx.x - rs) - c0.x).max(0);
+                    let ly = (ceil_i(gx.y - rs) - c0.y).max(0);
+                    let lz = (ceil_i(gx.z - rs) - c0.z).max(0);
+                    let ux = (floor_i(gx.x + rs) - c0.x).min(n - 1);
+                    let uy = (floor_i(gx.y + rs) - c0.y).min(n - 1);
+                    let uz = (floor_i(gx.z + rs) - c0.z).min(n - 1);
                     for k in lz..=uz {
                         let dz = lat.lo.z + (c0.z + k) as f32 * h - x.z;
                         for jj in ly..=uy {
@@ -536,8 +529,8 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
                             let row = ((k * n + jj) * n) as usize;
                             // The row's chord through the support sphere.
                             let half = (s2 - d2).sqrt() * inv_h;
-                            let i0 = (ceil_i(g.x - half) - c0.x).max(lx);
-                            let i1 = (floor_i(g.x + half) - c0.x).min(ux);
+                            let i0 = (ceil_i(gx.x - half) - c0.x).max(lx);
+                            let i1 = (floor_i(gx.x + half) - c0.x).min(ux);
                             if i1 < i0 {
                                 continue;
                             }
@@ -641,34 +634,46 @@ fn march_block(
     out
 }
 
+/// Weld on keys: sorts `(key, item)` pairs and walks them; returns every item's vertex (the rank of its key among
+/// the distinct keys, so vertices come in key order) and, per vertex, the first item with its key (the lowest
+/// item index: its data stands for the vertex). Shared by the CPU block path and the GPU path's host weld.
+pub(crate) fn rank_by_key(mut keys: Vec<(i64, u32)>, items: usize) -> (Vec<u32>, Vec<u32>) {
+    keys.par_sort_unstable();
+    let mut rank = vec![0u32; items];
+    let mut first = vec![];
+    let mut last = None;
+    for &(key, item) in &keys {
+        if last != Some(key) {
+            last = Some(key);
+            first.push(item);
+        }
+        rank[item as usize] = first.len() as u32 - 1;
+    }
+    (rank, first)
+}
+
 /// Step 4 of [`extract_blocks`]: one vertex per edge key (blocks that share a face made the same vertex, bit for
 /// bit), in key order; triangles in cube order (a cube's triangles all come from one block, in table order).
 fn weld_blocks(outs: Vec<BlockMesh>) -> TriMesh {
-    // (edge key, block, local vertex) sorted by key; a vertex's global index is the rank of its key.
+    // Block b's vertices are items base[b] … base[b + 1] − 1.
     let mut base = Vec::with_capacity(outs.len() + 1);
     base.push(0usize);
     for o in &outs {
         base.push(base.last().copied().unwrap_or(0) + o.verts.len());
     }
-    let mut keys: Vec<(i64, u32, u32)> = outs
+    let keys: Vec<(i64, u32)> = outs
         .par_iter()
-        .enumerate()
-        .flat_map_iter(|(bi, o)| o.verts.iter().enumerate().map(move |(li, v)| (v.0, bi as u32, li as u32)))
+        .zip(&base)
+        .flat_map_iter(|(o, &b)| o.verts.iter().enumerate().map(move |(li, v)| (v.0, (b + li) as u32)))
         .collect();
-    keys.par_sort_unstable();
-    let mut global = vec![0u32; base[outs.len()]];
-    let (mut vertices, mut normals) = (vec![], vec![]);
-    let mut last = None;
-    for &(key, bi, li) in &keys {
-        if last != Some(key) {
-            last = Some(key);
-            let v = &outs[bi as usize].verts[li as usize];
-            vertices.push(v.1);
-            normals.push(v.2);
-        }
-        global[base[bi as usize] + li as usize] = vertices.len() as u32 - 1;
-    }
-    drop(keys);
+    let (global, first) = rank_by_key(keys, base[outs.len()]);
+    let owner: Vec<u32> =
+        outs.iter().enumerate().flat_map(|(bi, o)| std::iter::repeat_n(bi as u32, o.verts.len())).collect();
+    let vertex = |item: u32| {
+        let bi = owner[item as usize] as usize;
+        &outs[bi].verts[item as usize - base[bi]]
+    };
+    let (vertices, normals) = first.par_iter().map(|&i| vertex(i)).map(|v| (v.1, v.2)).unzip();
     // Triangles in cube order: sorted by (cube key, block, index in the block).
     let mut order: Vec<(i64, u32, u32)> = outs
         .par_iter()

@@ -237,30 +237,22 @@ impl Mc {
 }
 
 /// Shared vertices on global edge keys (vertices in key order, triangles in cube order, then table order: the
-/// CPU block path's order). Sorts (edge key, corner) pairs, not whole vertices, and gives every triangle corner
-/// its vertex's rank while walking them: no searches (session 8; the weld was 0.39 s of the H200's 0.81 s).
+/// CPU block path's order). Ranks (edge key, corner) pairs (`extract::rank_by_key`, as the CPU path), not whole
+/// vertices, with no searches (session 8; the weld was 0.39 s of the H200's 0.81 s).
 fn weld(lat: &Lattice, pos: &[[f32; 4]], nrm: &[[f32; 4]], tri: &[[i32; 4]]) -> TriMesh {
     let key_of = |t: &[i32; 4], v: usize| -> i64 {
         let e = (t[3] as u32 >> (8 + 4 * v) & 15) as usize;
         let (a, _, axis) = EDGES[e];
         lat.key(IVec3::new(t[0], t[1], t[2]) + corner_delta(a)) * 3 + axis as i64
     };
-    let mut keys: Vec<(i64, u32)> =
+    let keys: Vec<(i64, u32)> =
         (0..tri.len() * 3).into_par_iter().map(|k| (key_of(&tri[k / 3], k % 3), k as u32)).collect();
-    keys.par_sort_unstable();
-    let mut rank = vec![0u32; tri.len() * 3];
-    let (mut vertices, mut normals) = (vec![], vec![]);
-    let mut last = None;
-    for &(key, k) in &keys {
-        if last != Some(key) {
-            last = Some(key);
-            let (p, n) = (pos[k as usize], nrm[k as usize]);
-            vertices.push([p[0], p[1], p[2]]);
-            normals.push([n[0], n[1], n[2]]);
-        }
-        rank[k as usize] = vertices.len() as u32 - 1;
-    }
-    drop(keys);
+    let (rank, first) = crate::extract::rank_by_key(keys, tri.len() * 3);
+    let (vertices, normals) = first
+        .par_iter()
+        .map(|&k| (pos[k as usize], nrm[k as usize]))
+        .map(|(p, n)| ([p[0], p[1], p[2]], [n[0], n[1], n[2]]))
+        .unzip();
     let mut order: Vec<(i64, u32, u32)> = tri
         .par_iter()
         .enumerate()
