@@ -63,8 +63,8 @@ pub struct Renderer {
     /// The background mesh's BVH (placeholders and node count 0 without one).
     mesh: crate::passes::background::MeshBuffers,
     /// The extracted iso-surface mesh of the current particles (BVH on the GPU), built on first use with
-    /// `surface = "mesh"`, and the (support, cube, threshold, smoothing iterations, weights) it was made for.
-    fluid_mesh: Option<(crate::passes::background::MeshBuffers, [f32; 5])>,
+    /// `surface = "mesh"`, and the ([support, cube, threshold], smoothing) it was made for.
+    fluid_mesh: Option<(crate::passes::background::MeshBuffers, ([f32; 3], crate::smooth_mesh::SmoothParams))>,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
     /// The particles changed since the iso grid was built.
@@ -698,13 +698,8 @@ impl Renderer {
             weights: s.mesh.smoothing_weights,
             ..Default::default()
         };
-        let key = [
-            s.iso.support * s.radius,
-            s.mesh.cube * s.radius,
-            s.iso.threshold,
-            smoothing.iterations as f32,
-            smoothing.weights as u32 as f32,
-        ];
+        let field = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
+        let key = (field, smoothing);
         if self.fluid_mesh.as_ref().is_some_and(|m| m.1 == key) {
             return Ok(());
         }
@@ -713,10 +708,10 @@ impl Renderer {
             Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
             None => self.positions.clone(),
         };
-        let grid = crate::iso::IsoGrid::build(&pts, key[0]);
+        let grid = crate::iso::IsoGrid::build(&pts, field[0]);
         let inv = grid.inv_density();
-        let params = crate::extract::ExtractParams::new(key[1], key[2]);
-        crate::extract::check_lattice(&grid, key[1])?;
+        let params = crate::extract::ExtractParams::new(field[1], field[2]);
+        crate::extract::check_lattice(&grid, field[1])?;
         let mut m = crate::extract::extract(&grid, &inv, &params);
         crate::smooth_mesh::smooth(&mut m, &grid, &inv, &smoothing);
         let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
