@@ -372,6 +372,11 @@ fn mesh_subcommand_writes_ply_and_obj() {
         (meniscus::scene::load(&d.join("a.ply")).unwrap(), meniscus::scene::load(&d.join("s.ply")).unwrap());
     assert_eq!(raw.len(), smooth.len());
     assert!(raw.positions != smooth.positions, "smoothing moved nothing");
+    let o =
+        meniscus().args(["mesh", "drop", "--smoothing-iters", "5000", "--out"]).arg(d.join("t.ply")).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--smoothing-iters"));
+    assert!(!d.join("t.ply").exists());
     let o = run("b.ply", "2");
     assert!(o.status.success());
     assert_eq!(
