@@ -293,6 +293,9 @@ pub struct IsoParams {
     pub max_steps: u32,
     /// Bisection iterations after the first step past the threshold.
     pub refine: u32,
+    /// Samples of the GPU cast's first dispatch before a ray is queued for the second (scheduling only: the
+    /// surface is the same; 0 = one dispatch). The CPU reference ignores it.
+    pub first_steps: u32,
     /// The anisotropic kernels' parameters (`None`: the isotropic kernel).
     pub aniso: Option<AnisoParams>,
     /// The camera's near plane (linear depth): a march that starts inside steps back no nearer.
@@ -396,6 +399,7 @@ mod tests {
             bound: 2.0 * r,
             max_steps: 256,
             refine: 16,
+            first_steps: 0,
             aniso: None,
             near: 0.01,
         };

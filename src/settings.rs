@@ -313,6 +313,7 @@ impl Settings {
             bound: self.iso.bound * self.radius,
             max_steps: self.iso.max_steps,
             refine: self.iso.refine,
+            first_steps: self.iso.first_steps,
             aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support)),
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
@@ -381,9 +382,10 @@ impl Settings {
             && (0.01..=4.0).contains(&self.iso.step)
             && (0.5..=self.iso.support).contains(&self.iso.bound)
             && (1..=65536).contains(&self.iso.max_steps)
-            && self.iso.refine <= 32;
+            && self.iso.refine <= 32
+            && self.iso.first_steps <= 65536;
         if !iso_ok {
-            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements)");
+            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements, first_steps ≤ 65536)");
         }
         if self.smooth.bilateral.iterations > 64 {
             return bad("[smooth.bilateral] iterations (≤ 64)");

@@ -86,6 +86,8 @@ pub struct Targets {
     pub depth_back: Option<Image>,
     /// The same per 8×8 tile (written instead when the splat culls).
     pub depth_back_tiles: Option<Image>,
+    /// The `iso` cast's queue of unfinished rays (`surface = "iso"`).
+    pub iso_queue: Option<crate::passes::iso::IsoQueue>,
     /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
     pub depth_tiles: Image,
     /// D32 depth buffer of the depth-tested rasterised splat variants.
@@ -127,6 +129,10 @@ impl Targets {
             depth: img("depth", fluid, r32, storage | U::COLOR_ATTACHMENT, bits)?,
             depth_back: d.back.then(|| img("depth_back", fluid, r32, storage, bits)).transpose()?,
             depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
+            iso_queue: d
+                .back
+                .then(|| crate::passes::iso::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
+                .transpose()?,
             depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
             zbuffer: d
                 .zbuffer
@@ -158,7 +164,7 @@ impl Targets {
         }
     }
 
-    /// (name, bytes) of every image that exists.
+    /// (name, bytes) of every image (and the iso queue) that exists.
     pub fn memory(&self) -> Vec<(&str, u64)> {
         let always = [
             &self.scene_color,
@@ -173,7 +179,9 @@ impl Targets {
             &self.final_color,
         ];
         let optional = [&self.smooth_b, &self.depth_full, &self.zbuffer, &self.depth_back, &self.depth_back_tiles];
-        always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes())).collect()
+        let images = always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes()));
+        let queue = self.iso_queue.iter().map(|q| (q.entries.name.as_str(), q.entries.size));
+        images.chain(queue).collect()
     }
 }
 

@@ -843,20 +843,21 @@ fn skybox_faces_from_files() {
 /// pair: same coverage and the same depth where both are covered.
 #[test]
 fn iso_surface_matches_cpu_ray_cast() {
-    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0), 2.0);
-    // Bound spheres tighter than the surface: marches that start inside step back to the crossing.
-    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0), 1.3);
+    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0), 2.0, 8);
+    // Bound spheres tighter than the surface: marches that start inside step back to the crossing. Every ray
+    // still marching after one sample is queued for the second dispatch.
+    iso_matches_cpu(meniscus::settings::Kernel::Isotropic, (0.0, 1.0), 1.3, 1);
 }
 
 /// The same with anisotropic kernels (Yu & Turk 2013): the `anisotropy` pass's kernels match the CPU
 /// reference point by point (centre, det M, M), and the ray cast of their field matches the CPU cast.
 #[test]
 fn anisotropic_iso_surface_matches_cpu_ray_cast() {
-    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.0, 1.0), 2.0);
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.0, 1.0), 2.0, 8);
     // Moved centres and stretched kernels: the grid's cells widen to reach them.
-    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 1.5), 2.0);
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 1.5), 2.0, 2);
     // Yu & Turk's neighbourhood of 2 h: the kernels read rows of cells two away.
-    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 2.0), 2.0);
+    iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 2.0), 2.0, 8);
 }
 
 /// A slab of `n` = [x, y, z] particles at spacing 2 r from `origin`, each moved by up to ± `jitter`·r/2 per axis
@@ -880,8 +881,9 @@ fn jittered_slab(seed: u32, n: [usize; 3], origin: [f32; 3], r: f32, jitter: [f3
 }
 
 /// `shape`: the anisotropic kernels' centre blend and, up to 1.5, their stretch; above it, stretch 1 and a
-/// neighbourhood of that many supports.
-fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32), bound: f32) {
+/// neighbourhood of that many supports. `first_steps`: samples of the cast's first dispatch before a ray is
+/// queued for the second; the depth must equal, bit for bit, the one-dispatch cast's (first_steps 0).
+fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32), bound: f32, first_steps: u32) {
     use glam::Vec3;
     use meniscus::iso::{cast_with, ray_end, Aniso, IsoGrid};
     let gpu = gpu();
@@ -908,8 +910,14 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
     rd.set_particles(&pts, None).unwrap();
+    s.iso.first_steps = 0;
+    rd.render(&v, &s).unwrap();
+    let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    s.iso.first_steps = first_steps;
     rd.render(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+    assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
 
     let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let inv = grid.inv_density();

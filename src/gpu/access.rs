@@ -32,6 +32,8 @@ pub enum Access {
     HostWrite,
     /// Presented to a swapchain.
     Present,
+    /// Read as the arguments of an indirect dispatch.
+    IndirectRead,
 }
 
 /// The Vulkan view of an [`Access`].
@@ -87,6 +89,7 @@ impl Access {
             Access::HostRead => (S::HOST, A::HOST_READ.as_raw(), L::GENERAL, false),
             Access::HostWrite => (S::HOST, A::HOST_WRITE.as_raw(), L::GENERAL, true),
             Access::Present => (S::NONE, 0, L::PRESENT_SRC_KHR, false),
+            Access::IndirectRead => (S::DRAW_INDIRECT, A::INDIRECT_COMMAND_READ.as_raw(), L::GENERAL, false),
         };
         AccessInfo { stage, access: A::from_raw(access), layout, writes }
     }

@@ -34,11 +34,16 @@ pub struct Params {
     /// Iso-surface: bisection iterations after the first step past the threshold, before the final linear
     /// interpolation (0: the interpolation alone, as accurate on the shared frame and 28 % cheaper than 4).
     pub refine: u32,
+    /// Iso-surface: samples per ray in the cast's first dispatch; the rays still marching after them are queued
+    /// and finished by a second, indirect dispatch, so lavapipe's 8-wide SIMD vectors hold long rays together
+    /// instead of waiting on one long ray among short ones (0: one dispatch runs every ray to the end). The same
+    /// surface either way; only the cost changes (see iso_cast.glsl).
+    pub first_steps: u32,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { support: 4.0, threshold: 0.6, step: 0.5, bound: 1.75, max_steps: 512, refine: 0 }
+        Params { support: 4.0, threshold: 0.6, step: 0.5, bound: 1.75, max_steps: 512, refine: 0, first_steps: 8 }
     }
 }
 
@@ -72,7 +77,8 @@ pub struct IsoPush {
     pub dims: [u32; 4],
     /// x: support, y: threshold, z: smallest step, w: bound sphere radius (world units).
     pub params: [f32; 4],
-    /// x: most steps, y: bisection iterations, z: the far bound (0 none, 1 per pixel, 2 per 8×8 tile).
+    /// x: most steps, y: bisection iterations, z: the far bound (0 none, 1 per pixel, 2 per 8×8 tile), w: samples
+    /// of the first dispatch (the rest are queued).
     pub steps: [u32; 4],
     /// The `anisotropy` pass's parameters: k_r, N_ε, centre blend, longest centre move (world units).
     pub aniso: [f32; 4],
@@ -103,7 +109,7 @@ impl IsoPush {
     pub fn with(self, p: &crate::iso::IsoParams, back: u32) -> IsoPush {
         IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
-            steps: [p.max_steps, p.refine, back, 0],
+            steps: [p.max_steps, p.refine, back, if p.first_steps == 0 { p.max_steps } else { p.first_steps }],
             aniso2: [p.aniso.map_or(1.0, |a| a.stretch.max(1.0)), 0.0, 0.0, 0.0],
             ..self
         }
@@ -120,6 +126,8 @@ pub struct Iso {
     density: ComputeProgram<IsoPush>,
     cast: ComputeProgram<IsoPush>,
     cast_aniso: ComputeProgram<IsoPush>,
+    rest: ComputeProgram<IsoPush>,
+    rest_aniso: ComputeProgram<IsoPush>,
     grid: crate::passes::grid::Grid,
     gather: ComputeProgram<GatherPush>,
 }
@@ -139,11 +147,41 @@ declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead,
 
 // Density: frame, grid points, cell table → per-point weights 1/n_j.
 declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, BufRead, BufRead, BufWrite]));
-// Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth.
-declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead]));
+// Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth, the queue of
+// unfinished rays and its header (written).
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
 // the isotropic cast's cost on lavapipe, 553 → 988 ms on the dam-break frame at 960×540).
-declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufRead]));
+declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufRead]));
+// The second dispatches: the queued rays finished (the queue and its header read).
+declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufRead, BufRead]));
+declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufRead, BufRead, BufRead]));
+
+/// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
+pub struct IsoQueue {
+    /// One entry (pixel, march state: 16 bytes) per pixel.
+    pub entries: Buffer,
+    /// {groups x, 1, 1, count}: the second dispatch's indirect arguments and the entry count.
+    pub header: Buffer,
+}
+
+impl IsoQueue {
+    /// A queue for `pixels` pixels.
+    pub fn new(gpu: &Arc<Gpu>, pixels: u64) -> Result<IsoQueue> {
+        use ash::vk::BufferUsageFlags as U;
+        let gpu_only = gpu_allocator::MemoryLocation::GpuOnly;
+        Ok(IsoQueue {
+            entries: Buffer::new(gpu, "iso_queue", 16 * pixels.max(1), U::STORAGE_BUFFER, gpu_only)?,
+            header: Buffer::new(
+                gpu,
+                "iso_queue_header",
+                16,
+                U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST,
+                gpu_only,
+            )?,
+        })
+    }
+}
 
 impl Iso {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
@@ -152,6 +190,8 @@ impl Iso {
             density: ComputeProgram::new(gpu, &DENSITY)?,
             cast: ComputeProgram::new(gpu, &CAST)?,
             cast_aniso: ComputeProgram::new(gpu, &CAST_ANISO)?,
+            rest: ComputeProgram::new(gpu, &REST)?,
+            rest_aniso: ComputeProgram::new(gpu, &REST_ANISO)?,
             grid: crate::passes::grid::Grid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
         })
@@ -174,7 +214,9 @@ impl Iso {
     }
 
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the far
-    /// bound from the splat, per pixel or per 8×8 tile, where the march may stop (else it runs to the grid's box).
+    /// bound from the splat, per pixel or per 8×8 tile, where the march may stop (else it runs to the grid's box);
+    /// `queue`: where the first dispatch leaves the rays the second finishes.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
@@ -183,6 +225,7 @@ impl Iso {
         params: &crate::iso::IsoParams,
         depth: &Image,
         back: Option<crate::passes::splat::BackBound>,
+        queue: &IsoQueue,
     ) {
         use crate::passes::splat::BackBound;
         let (mode, back) = match back {
@@ -197,13 +240,20 @@ impl Iso {
             let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weights).into()];
             let n = b.shape.dims[3];
             self.density.dispatch(ctx, &bufs, &push, [n.div_ceil(super::LOCAL_1D), 1, 1]);
+            ctx.fill(&queue.header, 0);
             let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
-            if params.aniso.is_some() {
-                let all = [bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into(), (&b.aniso).into()];
-                self.cast_aniso.dispatch(ctx, &all, &push, g);
-            } else {
-                let all = [bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into()];
-                self.cast.dispatch(ctx, &all, &push, g);
+            let (q, h) = ((&queue.entries).into(), (&queue.header).into());
+            let mut all = vec![bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into(), q, h];
+            let (cast, rest) = match params.aniso {
+                Some(_) => {
+                    all.push((&b.aniso).into());
+                    (&self.cast_aniso, &self.rest_aniso)
+                }
+                None => (&self.cast, &self.rest),
+            };
+            cast.dispatch(ctx, &all, &push, g);
+            if push.steps[3] < push.steps[0] {
+                rest.dispatch_indirect(ctx, &all, &push, &queue.header);
             }
         });
     }
