@@ -496,8 +496,9 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
     let s2 = support * support;
     let inv_support = 1.0 / support;
     let inv_h = 1.0 / h;
-    let rs = support * inv_h; // the support in lattice units
-                              // Cells in index order (z, y, x nested) = the global sorted order of their points.
+    // The support in lattice units.
+    let rs = support * inv_h;
+    // Cells in index order (z, y, x nested) = the global sorted order of their points.
     for z in cl.z..=ch.z {
         for y in cl.y..=ch.y {
             let row = (gdims.x * (y + gdims.y * z)) as usize;

@@ -1273,22 +1273,30 @@ fn mesh_depth_matches_iso_ray_cast() {
     };
     let iso = depth_of(meniscus::settings::Surface::Iso);
     let mesh = depth_of(meniscus::settings::Surface::Mesh);
-    let (mut same, mut diffs) = (0usize, vec![]);
-    for (a, b) in iso.iter().zip(&mesh) {
-        if a.is_finite() == b.is_finite() {
-            same += 1;
-        }
-        if a.is_finite() && b.is_finite() {
-            diffs.push((a - b).abs() / r);
-        }
-    }
-    assert!(diffs.len() > 1000, "only {} fluid pixels", diffs.len());
+    let DepthDiff { same, fluid, median, p95 } = depth_diff(&iso, &mesh, r);
+    assert!(fluid > 1000, "only {fluid} fluid pixels");
     assert!(same as f32 >= 0.98 * (w * h) as f32, "coverage agrees on {same} of {} pixels", w * h);
-    diffs.sort_by(f32::total_cmp);
-    let (median, p95) = (diffs[diffs.len() / 2], diffs[diffs.len() * 95 / 100]);
-    eprintln!("mesh vs iso depth: median {median:.4} r, p95 {p95:.4} r over {} pixels", diffs.len());
+    eprintln!("mesh vs iso depth: median {median:.4} r, p95 {p95:.4} r over {fluid} pixels");
     assert!(median < 0.05 && p95 < 0.25, "mesh vs iso depth: median {median} r, p95 {p95} r");
     assert_clean(&gpu);
+}
+
+/// How two depth images (linear depth, +inf = none) differ: pixels whose coverage agrees, pixels covered in
+/// both, and the median and 95th percentile of their depth difference in units of `r`.
+struct DepthDiff {
+    same: usize,
+    fluid: usize,
+    median: f32,
+    p95: f32,
+}
+
+fn depth_diff(a: &[f32], b: &[f32], r: f32) -> DepthDiff {
+    let same = a.iter().zip(b).filter(|(x, y)| x.is_finite() == y.is_finite()).count();
+    let mut diffs: Vec<f32> =
+        a.iter().zip(b).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(x, y)| (x - y).abs() / r).collect();
+    diffs.sort_by(f32::total_cmp);
+    let at = |q: usize| diffs.get(diffs.len() * q / 100).copied().unwrap_or(f32::NAN);
+    DepthDiff { same, fluid: diffs.len(), median: at(50), p95: at(95) }
 }
 
 /// Issue #15: `[mesh] smoothing_iters` (the `smooth` preset's surface) renders the smoothed mesh: the same
@@ -1312,19 +1320,9 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
     };
     let raw = depth_of(0);
     let smooth = depth_of(10);
-    let (mut same, mut diffs) = (0usize, vec![]);
-    for (a, b) in raw.iter().zip(&smooth) {
-        if a.is_finite() == b.is_finite() {
-            same += 1;
-        }
-        if a.is_finite() && b.is_finite() {
-            diffs.push((a - b).abs() / r);
-        }
-    }
-    assert!(diffs.len() > 1000, "only {} fluid pixels", diffs.len());
+    let DepthDiff { same, fluid, median, p95 } = depth_diff(&raw, &smooth, r);
+    assert!(fluid > 1000, "only {fluid} fluid pixels");
     assert!(same as f32 >= 0.97 * (w * h) as f32, "coverage agrees on {same} of {} pixels", w * h);
-    diffs.sort_by(f32::total_cmp);
-    let (median, p95) = (diffs[diffs.len() / 2], diffs[diffs.len() * 95 / 100]);
     eprintln!("smoothed vs raw mesh depth: median {median:.4} r, p95 {p95:.4} r");
     assert!(p95 > 0.01, "smoothing moved nothing");
     assert!(median < 0.25 && p95 < 1.0, "smoothed vs raw mesh: median {median} r, p95 {p95} r");
