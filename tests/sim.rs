@@ -77,7 +77,7 @@ fn one_step_matches_the_cpu_reference() {
     let gpu = common::gpu();
     for iterations in [1, 3] {
         let scene = blob(350, 11 + iterations as u64);
-        let params = Params { substeps: 1, iterations, vorticity: 0.3, xsph: 0.05, ..Params::default() };
+        let params = Params { substeps: 1, iterations, vorticity: 0.3, xsph: Some(0.05), ..Params::default() };
         let mut sim = Simulation::new(&gpu, scene.clone(), params).unwrap();
         // The uniforms the GPU step will see (count set by the first frame's upload).
         let mut u = sim.uniforms_now();
@@ -146,11 +146,11 @@ fn a_resting_pool_stays_at_rest() {
     );
     eprintln!("rms speed after each second: {rms_at:?}");
     assert_eq!(outside.count(), 0, "particles outside the container");
-    // The issue asks for < 0.05 m/s; PBF at 4 iterations keeps a surface jitter of 0.20–0.32 m/s (max over
-    // 7,290 particles) after 2 s, RMS 0.03 m/s and decaying: NOT met, reported in NOTES.md. The maximum varies
-    // between runs (the grid's within-cell order comes from atomics), so this bound only catches a solver that
-    // gains energy; the RMS check below is the settling test.
-    assert!(vmax < 0.5, "max speed {vmax} m/s");
+    // The issue asks for < 0.05 m/s. With ν = 0.01 m²/s and s_corr k = 0.02 (session 10) the maximum over 7,290
+    // particles after 2 s measured 0.041–0.054 m/s over 12 runs, 5 of them ≥ 0.05 (single particles at the floor, the walls or
+    // the surface; the grid's within-cell order comes from atomics, so runs differ): at the limit, not reliably
+    // below it — reported in NOTES.md. This bound catches a solver that regresses to the old 0.2–0.4 m/s jitter.
+    assert!(vmax < 0.1, "max speed {vmax} m/s");
     assert!(rms_at[1] < rms_at[0], "the pool is not settling: rms {rms_at:?}");
     assert!(err < 0.01, "density error {err}");
     common::assert_clean(&gpu);
@@ -248,7 +248,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
         let fed = r.read_final().unwrap();
         let depth = meniscus::renderer::read_f32(&gpu, r.smoothed_depth().unwrap()).unwrap();
         let covered = depth.iter().filter(|d| **d < 1e30).count();
-        assert!(covered > 500, "{surface:?}: the water covers only {covered} pixels");
+        assert!(covered > 300, "{surface:?}: the water covers only {covered} pixels");
         let differ = host.pixels().zip(fed.pixels()).filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 2)).count();
         eprintln!("{surface:?}: {differ} of {} pixels differ by more than 2 levels", host.len() / 4);
         // Spheres: the same bits; iso: the GPU grid's shape differs (container vs particle bounds), so the

@@ -11,8 +11,10 @@
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
 //! frame's cost is known in advance (the live demo needs that); the density error it leaves is measured by
 //! the resting-pool test. Constants (see [`Params`]): h = 4 r = 2 d, 4 iterations, relaxation ε = 1 % of the
-//! lattice's Σ|∇C|², s_corr k = 0.1 (in units of that sum), n = 4, Δq = 0.2 h, XSPH c = 0.01, vorticity ε = 0.05;
-//! the particle mass makes the initial lattice exactly ρ0 = 1000. The time step follows a CFL bound from the
+//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s as XSPH
+//! (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity confinement (ε = 0; the shared SPlisHSPlasH set-up
+//! has none either); the particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's
+//! fastest particles (NOTES.md, session 10). The time step follows a CFL bound from the
 //! free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per 25 fps frame).
 
 pub mod reference;
@@ -54,9 +56,13 @@ pub struct Params {
     pub scorr_n: f32,
     /// Tensile-instability reference distance Δq as a fraction of h.
     pub scorr_dq: f32,
-    /// XSPH viscosity c.
-    pub xsph: f32,
-    /// Vorticity confinement ε (m/s).
+    /// Kinematic viscosity ν (m²/s), applied as XSPH with c = 22 ν Δt / h² (see [`Constants::xsph`]); the
+    /// shared SPlisHSPlasH dam break uses ν = 0.01 ("Standard viscosity" in its scene.json).
+    pub viscosity: f32,
+    /// XSPH c used as it is instead of the one derived from `viscosity` (c per step, so its effect depends on Δt
+    /// and h).
+    pub xsph: Option<f32>,
+    /// Vorticity confinement ε (m/s); 0 (the default) switches it off — the stage still runs and is timed.
     pub vorticity: f32,
     /// Gravity (m/s²).
     pub gravity: [f32; 3],
@@ -73,11 +79,12 @@ impl Default for Params {
             max_dt: 0.005,
             iterations: 4,
             relaxation: 0.01,
-            scorr_k: 0.1,
+            scorr_k: 0.02,
             scorr_n: 4.0,
             scorr_dq: 0.2,
-            xsph: 0.01,
-            vorticity: 0.05,
+            viscosity: 0.01,
+            xsph: None,
+            vorticity: 0.0,
             gravity: [0.0, -9.81, 0.0],
             rest_density: 1000.0,
         }
@@ -102,6 +109,16 @@ impl Params {
         }
         if !(self.rest_density.is_finite() && self.rest_density > 0.0) {
             return bad("rest_density must be positive");
+        }
+        if !(self.viscosity.is_finite() && self.viscosity >= 0.0) {
+            return bad("viscosity must be zero or positive (m²/s)");
+        }
+        if let Some(c) = self.xsph {
+            if !(0.0..=XSPH_MAX).contains(&c) {
+                return bad(&format!(
+                    "xsph must be 0..={XSPH_MAX} (larger c overshoots the neighbours' mean velocity)"
+                ));
+            }
         }
         Ok(())
     }
@@ -151,7 +168,14 @@ pub struct Constants {
     pub dt: f32,
     /// Steps per frame.
     pub substeps: u32,
+    /// XSPH c: `Params::xsph`, or from the viscosity ν: Σ_j V (v_j − v_i) W_poly6 ≈ ⟨r²⟩/6 ∇²v with ⟨r²⟩ =
+    /// 3h²/11 for poly6, so one step of c adds Δt ν ∇²v when c = 22 ν Δt / h². Clamped at `XSPH_MAX` (the
+    /// explicit step's stability limit; a finer resolution than the viscosity resolves then gets less).
+    pub xsph: f32,
 }
+
+/// The largest XSPH c: Σ_j V W_poly6 ≈ 0.8 over a full neighbourhood, so c past ≈ 1.2 overshoots the mean.
+pub const XSPH_MAX: f32 = 0.9;
 
 /// W_poly6 for kernel radius h, of a squared distance.
 pub fn poly6(r2: f32, h: f32) -> f32 {
@@ -215,6 +239,7 @@ impl Constants {
             let dt_max = (p.cfl * d / speed.max(1e-3)).min(p.max_dt.max(1e-5));
             ((frame / dt_max).ceil() as u32).clamp(1, 1000)
         };
+        let dt = frame / substeps as f32;
         Constants {
             h,
             mass,
@@ -222,8 +247,9 @@ impl Constants {
             eps: p.relaxation * s0,
             scorr_k: p.scorr_k / s0,
             inv_w_dq: 1.0 / poly6((p.scorr_dq * h).powi(2), h),
-            dt: frame / substeps as f32,
+            dt,
             substeps,
+            xsph: p.xsph.unwrap_or((22.0 * p.viscosity * dt / (h * h)).min(XSPH_MAX)),
         }
     }
 }
@@ -446,7 +472,7 @@ impl Simulation {
             hi_h: (hi - r).extend(c.h).to_array(),
             gravity_mass: Vec3::from(self.params.gravity).extend(c.mass).to_array(),
             solver: [self.params.rest_density, c.eps, c.scorr_k, c.inv_w_dq],
-            visc: [self.params.xsph, self.params.vorticity, r, self.params.scorr_n],
+            visc: [c.xsph, self.params.vorticity, r, self.params.scorr_n],
             kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, 0],
             colliders,
