@@ -15,6 +15,8 @@ layout(std140, binding = 0) uniform Sim {
     vec4 visc;           // XSPH c; vorticity ε; particle radius; s_corr exponent n
     vec4 kern;           // h²; poly6 coefficient; spiky gradient coefficient; particle volume m/ρ0
     uvec4 counts;        // particles; colliders; neighbour-list stride (capacity)
+    vec4 sdf_lo;         // the mesh collider's distance lattice (src/sim/sdf.rs): first node (xyz), spacing (w)
+    uvec4 sdf_dims;      // its nodes per axis (xyz); w: 1 when there is a mesh collider
     vec4 colliders[2 * MAX_COLLIDERS]; // per collider: (a.xyz, kind), (b) — see collide()
 } sim;
 
@@ -75,7 +77,43 @@ float wall_density(vec3 x, out vec3 grad) {
     return f;
 }
 
-// Project a position out of every collider, then into the container.
+#ifdef SIM_SDF_BINDING
+// The mesh collider (src/sim/sdf.rs, whose Sdf::sample and push_out do the same arithmetic): a signed distance
+// on a node lattice, read trilinearly; a centre closer than r to the surface moves along the gradient to r.
+layout(std430, binding = SIM_SDF_BINDING) readonly buffer SdfValues { float sdf[]; };
+
+float sdf_node(uvec3 i) { return sdf[i.x + sim.sdf_dims.x * (i.y + sim.sdf_dims.y * i.z)]; }
+
+vec3 sdf_push(vec3 x, float r) {
+    if (sim.sdf_dims.w == 0u) return x;
+    float cell = sim.sdf_lo.w;
+    vec3 g = (x - sim.sdf_lo.xyz) / cell;
+    vec3 top = vec3(sim.sdf_dims.xyz - 1u);
+    if (any(lessThan(g, vec3(0.0))) || any(greaterThanEqual(g, top))) return x;
+    vec3 fl = floor(g);
+    vec3 f = g - fl;
+    uvec3 i = uvec3(fl);
+    float c000 = sdf_node(i), c001 = sdf_node(i + uvec3(1, 0, 0));
+    float c010 = sdf_node(i + uvec3(0, 1, 0)), c011 = sdf_node(i + uvec3(1, 1, 0));
+    float c100 = sdf_node(i + uvec3(0, 0, 1)), c101 = sdf_node(i + uvec3(1, 0, 1));
+    float c110 = sdf_node(i + uvec3(0, 1, 1)), c111 = sdf_node(i + uvec3(1, 1, 1));
+    // cZYX: z, y, x offsets; the same order of operations as sdf.rs's trilinear().
+    float x00 = c000 + f.x * (c001 - c000), x10 = c010 + f.x * (c011 - c010);
+    float x01 = c100 + f.x * (c101 - c100), x11 = c110 + f.x * (c111 - c110);
+    float y0 = x00 + f.y * (x10 - x00);
+    float y1 = x01 + f.y * (x11 - x01);
+    float d = y0 + f.z * (y1 - y0);
+    float gx0 = (c001 - c000) + f.y * ((c011 - c010) - (c001 - c000));
+    float gx1 = (c101 - c100) + f.y * ((c111 - c110) - (c101 - c100));
+    vec3 grad = vec3(gx0 + f.z * (gx1 - gx0), (x10 - x00) + f.z * ((x11 - x01) - (x10 - x00)), y1 - y0) / cell;
+    float l = length(grad);
+    if (d < r && l > 1e-6) x += (r - d) * (grad / l);
+    return x;
+}
+#endif
+
+// Project a position out of every collider (and the mesh collider, where the stage binds it), then into the
+// container.
 //   kind 1: solid sphere, centre a.xyz, radius b.x;
 //   kind 2: solid box, centre a.xyz, half extents b.xyz (left through the nearest face);
 //   kind 3: half-space n·x ≥ b.x kept, n = a.xyz (unit).
@@ -105,6 +143,9 @@ vec3 collide(vec3 x) {
             if (s < 0.0) x -= s * a.xyz;
         }
     }
+#ifdef SIM_SDF_BINDING
+    x = sdf_push(x, r);
+#endif
     return clamp(x, sim.lo_dt.xyz, sim.hi_h.xyz);
 }
 

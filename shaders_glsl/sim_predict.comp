@@ -2,6 +2,7 @@
 //! sim_predict — PBF step 1 (Macklin & Müller 2013, Alg. 1 lines 1–4): v ← v + Δt·g; x* ← x + Δt·v, projected
 //! out of the colliders and into the container.
 //! In/out: state (v updated). Out: pred (x*).
+#define SIM_SDF_BINDING 3
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, binding = 1) buffer States { State state[]; };

@@ -3,6 +3,7 @@
 //! (λ_i + λ_j + s_corr)·∇W_spiky(x*_i − x*_j), with the tensile-instability term s_corr = −k·(W(r)/W(Δq))ⁿ
 //! (artificial pressure), plus the walls' λ_i·∇F (sim_common.glsl's wall_density); then collisions; x* ← x* + Δp, written to the other buffer (all Δp from one iterate).
 //! In: the neighbour lists, pred (iterate k), lambda. Out: pred (iterate k + 1).
+#define SIM_SDF_BINDING 6
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS

@@ -26,6 +26,14 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// An axis-aligned box lo..hi as 12 triangles (tests and examples).
+    pub fn cuboid(lo: Vec3, hi: Vec3) -> Mesh {
+        let c = |i: usize| Vec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][(i >> 1) & 1], [lo.z, hi.z][i >> 2]);
+        let quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+        let triangles = quads.iter().flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]]).collect();
+        Mesh { triangles }
+    }
+
     /// Read an OBJ file.
     pub fn load_obj(path: &Path) -> Result<Mesh> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;

@@ -537,6 +537,53 @@ fn sim_exports_a_cache_that_loads_and_renders() {
     assert!(!d.join("x.png").exists() && !d.join("x.bgeo").exists());
 }
 
+/// Issue #13: `sim --collider FILE.obj` keeps the water out of a closed mesh (water that starts inside is removed);
+/// a missing, broken or misplaced OBJ is a one-line error naming the file.
+#[test]
+fn sim_with_a_mesh_collider() {
+    let d = tmpdir("sim-collider");
+    // A block through the dam-break water cube (x −1.95..−0.95): some water starts inside it.
+    let (lo, hi) = ([-1.5f32, 0.0, -0.3], [-0.5f32, 0.4, 0.3]);
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = |k: usize| if (i >> k) & 1 == 1 { hi[k] } else { lo[k] };
+        obj += &format!("v {} {} {}\n", c(0), c(1), c(2));
+    }
+    for f in ["1 2 4 3", "5 7 8 6", "1 5 6 2", "3 4 8 7", "1 3 7 5", "2 6 8 4"] {
+        obj += &format!("f {f}\n");
+    }
+    let block = d.join("block.obj");
+    std::fs::write(&block, obj).unwrap();
+    let o = meniscus()
+        .args(["sim", "dambreak", "--particles", "3000", "--frames", "6", "--collider"])
+        .arg(&block)
+        .arg("--export")
+        .arg(d.join("f_{}.bgeo"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let first = meniscus::scene::load(&d.join("f_1.bgeo")).unwrap();
+    let last = meniscus::scene::load(&d.join("f_6.bgeo")).unwrap();
+    assert!(first.len() < 14 * 14 * 14, "the block displaced no water: {}", first.len());
+    assert_eq!(last.len(), first.len(), "particle count conserved");
+    let r = 0.5 * (1.0f32 / 3000.0).cbrt();
+    let inside = |p: &[f32; 3], m: f32| (0..3).all(|k| p[k] > lo[k] - m && p[k] < hi[k] + m);
+    assert!(first.positions.iter().all(|p| !inside(p, 0.5 * r)), "water left inside the block");
+    assert!(last.positions.iter().all(|p| !inside(p, 0.5 * r)), "water entered the block");
+    assert!(last.positions.iter().any(|p| inside(p, 2.0 * r)), "the water never reached the block");
+    std::fs::write(d.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    std::fs::write(d.join("far.obj"), "v 10 10 10\nv 11 10 10\nv 10 11 10\nf 1 2 3\n").unwrap();
+    for (file, expect) in
+        [("missing.obj", "missing.obj"), ("broken.obj", "byte 16"), ("far.obj", "outside the container")]
+    {
+        let o = meniscus().args(["sim", "pool", "--frames", "1", "--collider", file]).current_dir(&d).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(expect), "{file}: {err}");
+        assert!(!err.contains("panicked"), "{file} panicked: {err}");
+    }
+}
+
 /// Issue #13: `bench --sim` reports every stage per step, steps/s, and render + simulate frames with async
 /// compute off and on, as JSON.
 #[test]

@@ -76,7 +76,12 @@ fn blob(n: usize, seed: u64) -> SimScene {
 fn one_step_matches_the_cpu_reference() {
     let gpu = common::gpu();
     for iterations in [1, 3] {
-        let scene = blob(350, 11 + iterations as u64);
+        let mut scene = blob(350, 11 + iterations as u64);
+        // A mesh collider too (a box as triangles: its signed distance field), where the blob moves into it.
+        let block = meniscus::mesh::Mesh::cuboid(Vec3::new(-0.05, 0.0, 0.02), Vec3::new(0.05, 0.12, 0.12));
+        scene.add_mesh_collider(&block).unwrap();
+        let n0 = scene.positions.len();
+        assert!(n0 < 350, "the block displaced some water");
         let params = Params { substeps: 1, iterations, vorticity: 0.3, xsph: Some(0.05), ..Params::default() };
         let mut sim = Simulation::new(&gpu, scene.clone(), params).unwrap();
         // The uniforms the GPU step will see (count set by the first frame's upload).
@@ -88,7 +93,7 @@ fn one_step_matches_the_cpu_reference() {
         let got = sim.read().unwrap();
         let x0: Vec<Vec3> = scene.positions.iter().map(|p| Vec3::from(*p)).collect();
         let v0: Vec<Vec3> = scene.velocities.iter().map(|p| Vec3::from(*p)).collect();
-        let (x, v, rho) = reference::step(&u, iterations, &x0, &v0);
+        let (x, v, rho) = reference::step(&u, scene.mesh_collider.as_deref(), iterations, &x0, &v0);
         let ids = got.ids.as_ref().unwrap();
         let (gv, gd) = (got.velocities.as_ref().unwrap(), got.densities.as_ref().unwrap());
         let (mut ex, mut ev, mut ed) = (0f32, 0f32, 0f32);
@@ -100,7 +105,12 @@ fn one_step_matches_the_cpu_reference() {
         }
         let mut sorted_ids = ids.clone();
         sorted_ids.sort();
-        assert_eq!(sorted_ids, (0..350).collect::<Vec<i64>>(), "every particle once");
+        assert_eq!(sorted_ids, (0..n0 as i64).collect::<Vec<i64>>(), "every particle once");
+        // The mesh collider did act: particles the block pushed out (the reference without it differs).
+        let (x_free, _, _) = reference::step(&u, None, iterations, &x0, &v0);
+        let pushed = (0..n0).filter(|&i| (x[i] - x_free[i]).length() > 1e-4).count();
+        eprintln!("{pushed} particles pushed by the mesh collider");
+        assert!(pushed > 5, "only {pushed} particles met the mesh collider");
         assert_eq!(sim.neighbour_overflow().unwrap(), 0, "the neighbour lists held everyone");
         eprintln!("{iterations} iterations: max |Δx| {ex:.2e} m, |Δv| {ev:.2e} m/s, |Δρ|/ρ0 {ed:.2e}");
         // f32 sums in another order; the step moves particles by up to ~1 cm.
@@ -153,6 +163,41 @@ fn a_resting_pool_stays_at_rest() {
     assert!(vmax < 0.1, "max speed {vmax} m/s");
     assert!(rms_at[1] < rms_at[0], "the pool is not settling: rms {rms_at:?}");
     assert!(err < 0.01, "density error {err}");
+    common::assert_clean(&gpu);
+}
+
+/// A drop falling onto a block given as a triangle mesh (the OBJ path: `sim --collider`): no particle ends inside
+/// it, none is lost, and the water does reach it (it splashes off the block's top).
+#[test]
+fn water_stays_out_of_a_mesh_collider() {
+    let gpu = common::gpu();
+    let mut scene = SimScene::new("drop", 6000).unwrap();
+    let (lo, hi) = (Vec3::new(-0.15, 0.0, -0.15), Vec3::new(0.15, 0.45, 0.15));
+    scene.add_mesh_collider(&meniscus::mesh::Mesh::cuboid(lo, hi)).unwrap();
+    let n = scene.positions.len();
+    let r = scene.radius();
+    let sdf = scene.mesh_collider.clone().unwrap();
+    let mut sim = Simulation::new(&gpu, scene, Params::default()).unwrap();
+    let (mut touched, mut worst) = (0, f32::MAX);
+    for f in 0..25 {
+        sim.step_frame().unwrap();
+        if f % 5 == 4 {
+            let p = sim.read().unwrap();
+            assert_eq!(p.len(), n, "particle count conserved");
+            for q in &p.positions {
+                let d = sdf.sample(Vec3::from(*q)).0;
+                worst = worst.min(d);
+                if d < 2.0 * r {
+                    touched += 1;
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{n} particles, r {r:.4} m: nearest approach to the block {worst:.4} m; {touched} samples within 2 r of it"
+    );
+    assert!(touched > 50, "the water never reached the block");
+    assert!(worst > 0.5 * r, "a particle came within {worst} m of the block's surface (r = {r})");
     common::assert_clean(&gpu);
 }
 

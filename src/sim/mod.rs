@@ -19,6 +19,7 @@
 
 pub mod reference;
 pub mod scene;
+pub mod sdf;
 pub mod stages;
 
 use std::sync::Arc;
@@ -145,6 +146,10 @@ pub struct SimUniforms {
     /// Particles, colliders, the neighbour lists' stride (particle capacity: list k of every particle is one
     /// contiguous run, so neighbouring threads read neighbouring words).
     pub counts: [u32; 4],
+    /// The mesh collider's lattice: first node, spacing.
+    pub sdf_lo: [f32; 4],
+    /// Its nodes per axis; w = 1 when there is one.
+    pub sdf_dims: [u32; 4],
     /// Two vec4 per collider.
     pub colliders: [[f32; 4]; 2 * MAX_COLLIDERS as usize],
 }
@@ -282,6 +287,8 @@ pub struct Simulation {
     omega: Buffer,
     /// Render particles (vec4, w = 0) when no renderer buffer is given.
     particles: Buffer,
+    /// The mesh collider's signed distances (16 unused bytes without one).
+    sdf: Buffer,
     grid: GridBuffers,
     neighbours: stages::Neighbours,
     n: u32,
@@ -346,6 +353,10 @@ impl Simulation {
             vel: buf("sim_vel", 16 * cap)?,
             omega: buf("sim_omega", 16 * cap)?,
             particles: buf("sim_particles", 16 * cap)?,
+            sdf: match &scene.mesh_collider {
+                Some(m) => crate::renderer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
+                None => buf("sim_sdf", 16)?,
+            },
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
             neighbours: stages::Neighbours {
                 count: buf("sim_nbr_count", 4 * cap)?,
@@ -475,6 +486,8 @@ impl Simulation {
             visc: [c.xsph, self.params.vorticity, r, self.params.scorr_n],
             kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, 0],
+            sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
+            sdf_dims: self.scene.mesh_collider.as_ref().map_or([0; 4], |m| m.dims.extend(1).to_array()),
             colliders,
         }
     }
@@ -484,7 +497,7 @@ impl Simulation {
         let u = &self.uniforms[k];
         let [a, b] = &self.state;
         let (g, s) = (&self.stages, &self.grid);
-        g.predict(ctx, u, a, &self.pred[0], n);
+        g.predict(ctx, u, a, &self.pred[0], &self.sdf, n);
         ctx.pass(crate::passes::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
         g.reorder(ctx, u, &s.order, a, &self.pred[0], b, &self.pred[1], n);
         let nb = &self.neighbours;
@@ -492,7 +505,7 @@ impl Simulation {
         let mut cur = 1;
         for _ in 0..self.params.iterations {
             g.density(ctx, u, nb, &self.pred[cur], &self.lambda, &self.density, n);
-            g.solve(ctx, u, nb, &self.pred[cur], &self.lambda, &self.pred[1 - cur], n);
+            g.solve(ctx, u, nb, &self.pred[cur], &self.lambda, &self.pred[1 - cur], &self.sdf, n);
             cur = 1 - cur;
         }
         let x = &self.pred[cur];

@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 
+use super::sdf::{push_out, Sdf};
 use super::SimUniforms;
 
 fn v3(a: [f32; 4]) -> Vec3 {
@@ -31,8 +32,8 @@ fn spiky_grad(u: &SimUniforms, r: Vec3) -> Vec3 {
     (u.kern[2] * a * a / l) * r
 }
 
-/// sim_common.glsl's collide().
-pub fn collide(u: &SimUniforms, mut x: Vec3) -> Vec3 {
+/// sim_common.glsl's collide(), with the mesh collider when there is one.
+pub fn collide(u: &SimUniforms, sdf: Option<&Sdf>, mut x: Vec3) -> Vec3 {
     let r = u.visc[2];
     for k in 0..u.counts[1] as usize {
         let (a, b) = (u.colliders[2 * k], u.colliders[2 * k + 1]);
@@ -68,6 +69,9 @@ pub fn collide(u: &SimUniforms, mut x: Vec3) -> Vec3 {
             }
             _ => {}
         }
+    }
+    if let Some(sdf) = sdf {
+        x = push_out(sdf, x, r);
     }
     x.clamp(v3(u.lo_dt), v3(u.hi_h))
 }
@@ -117,13 +121,19 @@ pub fn wall_density(u: &SimUniforms, x: Vec3) -> (f32, Vec3) {
 
 /// One step of `iterations` solver iterations from positions `x` and velocities `v`: the new positions,
 /// velocities and the densities of the last iteration.
-pub fn step(u: &SimUniforms, iterations: u32, x: &[Vec3], v: &[Vec3]) -> (Vec<Vec3>, Vec<Vec3>, Vec<f32>) {
+pub fn step(
+    u: &SimUniforms,
+    sdf: Option<&Sdf>,
+    iterations: u32,
+    x: &[Vec3],
+    v: &[Vec3],
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<f32>) {
     let n = x.len();
     let dt = u.lo_dt[3];
     let g = v3(u.gravity_mass);
     let vol = u.kern[3];
     let v: Vec<Vec3> = v.iter().map(|v| *v + dt * g).collect();
-    let mut p: Vec<Vec3> = x.iter().zip(&v).map(|(x, v)| collide(u, *x + dt * *v)).collect();
+    let mut p: Vec<Vec3> = x.iter().zip(&v).map(|(x, v)| collide(u, sdf, *x + dt * *v)).collect();
     // Neighbour lists at the predicted positions, fixed for the step (sim_neighbours.comp).
     let h2 = u.kern[0];
     let lists: Vec<Vec<usize>> =
@@ -155,7 +165,7 @@ pub fn step(u: &SimUniforms, iterations: u32, x: &[Vec3], v: &[Vec3]) -> (Vec<Ve
                     let s = -u.solver[2] * scorr_pow(u, poly6(u, r.length_squared()) * u.solver[3]);
                     dp += (lambda[i] + lambda[j] + s) * spiky_grad(u, r);
                 }
-                collide(u, p[i] + vol * dp + lambda[i] * wall_density(u, p[i]).1)
+                collide(u, sdf, p[i] + vol * dp + lambda[i] * wall_density(u, p[i]).1)
             })
             .collect();
     }

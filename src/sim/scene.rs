@@ -11,7 +11,9 @@
 
 use glam::Vec3;
 
+use super::sdf::Sdf;
 use crate::error::{Error, Result};
+use crate::mesh::Mesh;
 
 /// A solid the water cannot enter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,6 +84,8 @@ pub struct SimScene {
     pub capacity: usize,
     /// The emitter, if any.
     pub emitter: Option<Emitter>,
+    /// A triangle mesh the water cannot enter, as a signed distance field ([`SimScene::add_mesh_collider`]).
+    pub mesh_collider: Option<std::sync::Arc<Sdf>>,
 }
 
 /// The built-in scenes, with their default particle counts.
@@ -190,7 +194,38 @@ impl SimScene {
             positions,
             capacity: n,
             emitter: None,
+            mesh_collider: None,
         }
+    }
+
+    /// Make `mesh` (world coordinates, closed for inside/outside; see src/sim/sdf.rs) a collider: its signed
+    /// distance on a lattice of the particle radius (coarser when that would pass `sdf::MAX_NODES`), exact within
+    /// a band of 4 cells + r. Water that starts inside it (closer than r) is removed — the solid displaces it.
+    pub fn add_mesh_collider(&mut self, mesh: &Mesh) -> Result<()> {
+        let r = self.radius();
+        let (lo, hi) = self.container;
+        let (mut mlo, mut mhi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for v in mesh.triangles.iter().flatten() {
+            mlo = mlo.min(*v);
+            mhi = mhi.max(*v);
+        }
+        let extent = (mhi.min(hi) - mlo.max(lo)).max(Vec3::splat(r)) + 10.0 * r;
+        let fit = (extent.x * extent.y * extent.z / (super::sdf::MAX_NODES as f32 * 0.9)).cbrt();
+        let cell = r.max(fit);
+        let sdf = Sdf::build(mesh, cell, 4.0 * cell + r, (lo, hi))?;
+        let keep: Vec<bool> = self.positions.iter().map(|p| sdf.sample(Vec3::from(*p)).0 >= r).collect();
+        let mut k = keep.iter();
+        self.positions.retain(|_| *k.next().unwrap());
+        let mut k = keep.iter();
+        self.velocities.retain(|_| *k.next().unwrap());
+        if self.emitter.is_none() {
+            self.capacity = self.positions.len();
+        }
+        if self.positions.is_empty() && self.emitter.is_none() {
+            return Err(Error::Invalid("the collider mesh covers all of the scene's water".into()));
+        }
+        self.mesh_collider = Some(std::sync::Arc::new(sdf));
+        Ok(())
     }
 
     /// Particle radius (half the spacing).

@@ -35,14 +35,14 @@ pub const STAGE_NAMES: &[&str] = &[
     "sim_viscosity",
 ];
 
-declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite]));
+declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite, BufRead]));
 declare_program!(pub REORDER: () = compute(shaders::SIM_REORDER, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 declare_program!(pub NEIGHBOURS: () = compute(
     shaders::SIM_NEIGHBOURS,
     [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite]
 ));
 declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
-declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite, BufRead]));
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
 declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
 declare_program!(pub VISCOSITY: () = compute(
@@ -104,9 +104,9 @@ impl Stages {
         self.run(ctx, name, program, &res, n);
     }
 
-    /// `sim_predict`: state (v += Δt g) → pred (x*).
-    pub fn predict(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, n: u32) {
-        self.run(ctx, "sim_predict", &self.predict, &[u.into(), state.into(), pred.into()], n);
+    /// `sim_predict`: state (v += Δt g) → pred (x*); `sdf`: the mesh collider's distances.
+    pub fn predict(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, sdf: &Buffer, n: u32) {
+        self.run(ctx, "sim_predict", &self.predict, &[u.into(), state.into(), pred.into(), sdf.into()], n);
     }
 
     /// `sim_reorder`: state and pred gathered into grid order.
@@ -155,7 +155,7 @@ impl Stages {
         self.run_listed(ctx, "sim_density", &self.density, u, g, &[pred, lambda, density], n);
     }
 
-    /// `sim_solve`: pred, lambda → the next iterate.
+    /// `sim_solve`: pred, lambda (and the mesh collider's distances) → the next iterate.
     #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &self,
@@ -165,9 +165,10 @@ impl Stages {
         pred: &Buffer,
         lambda: &Buffer,
         next: &Buffer,
+        sdf: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_solve", &self.solve, u, g, &[pred, lambda, next], n);
+        self.run_listed(ctx, "sim_solve", &self.solve, u, g, &[pred, lambda, next, sdf], n);
     }
 
     /// `sim_velocity`: (x* − x)/Δt → vel.

@@ -80,7 +80,7 @@ pub struct SceneArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub camera: Option<String>,
     /// A triangle mesh (OBJ, world coordinates of the particles) added to the background scene: it is
-    /// reflected, refracted and casts shadows on the ground.
+    /// reflected, refracted and casts shadows on the ground. Under `demo --sim` it is also a collider of the water.
     #[arg(long, value_name = "FILE")]
     pub background_obj: Option<PathBuf>,
     /// Ignore a SPlisHSPlasH `scene.json` beside the particle files (or one folder up); by default its particle

@@ -3,7 +3,7 @@
 //! (what SPlisHSPlasH writes) or `.vtk` — that `meniscus render`, `meniscus info` and splashsurf read.
 //! File n holds the state at t = (n − 1)/fps, like the shared sequences.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meniscus::sim::{SimScene, Simulation, SCENES};
@@ -32,6 +32,10 @@ pub struct SimArgs {
     /// Solver iterations per step.
     #[arg(long)]
     pub iterations: Option<u32>,
+    /// A closed triangle mesh (OBJ, world coordinates) the water cannot enter; water that starts inside it is
+    /// removed. Render the export with `--background-obj` of the same file to see it.
+    #[arg(long, value_name = "FILE.obj")]
+    pub collider: Option<std::path::PathBuf>,
     /// Output pattern: {} is the frame number (1, 2, …); .bgeo or .vtk. Without it nothing is written (a dry run
     /// that reports the times).
     #[arg(long)]
@@ -47,7 +51,11 @@ impl SimArgs {
     /// The scene and the solver settings the flags ask for.
     pub fn resolve(&self) -> Result<(SimScene, meniscus::sim::Params)> {
         let default = SCENES.iter().find(|s| s.0 == self.scene).map_or(10_000, |s| s.1);
-        let scene = SimScene::new(&self.scene, self.particles.unwrap_or(default))?;
+        let mut scene = SimScene::new(&self.scene, self.particles.unwrap_or(default))?;
+        if let Some(path) = &self.collider {
+            let mesh = meniscus::mesh::Mesh::load_obj(path)?;
+            scene.add_mesh_collider(&mesh).with_context(|| format!("--collider {}", path.display()))?;
+        }
         let mut p = self.settings.resolve()?.sim;
         if let Some(f) = self.fps {
             p.fps = f;

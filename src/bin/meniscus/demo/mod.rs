@@ -108,7 +108,14 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
     let sim = match &a.sim {
         Some(name) => {
             let n = meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1);
-            let scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
+            let mut scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
+            // The background mesh is also a collider of the live water.
+            if let Some(path) = &a.scene.background_obj {
+                let mesh = meniscus::mesh::Mesh::load_obj(path)?;
+                scene
+                    .add_mesh_collider(&mesh)
+                    .map_err(|e| anyhow::anyhow!("--background-obj {}: {e}", path.display()))?;
+            }
             Some((scene, settings.sim.clone()))
         }
         None => None,
