@@ -3,12 +3,13 @@
 //! C_i = max(ρ_i/ρ0 − 1, 0) (unilateral: a particle at the free surface is not pulled outward, the usual
 //! choice since FleX), λ_i = −C_i / (Σ_k |∇_k C_i|² + ε), ∇_k C_i = (m/ρ0)·∇W_spiky.
 //! The container walls add their density and gradient (sim_common.glsl's wall_density).
-//! In: the neighbour lists, pred. Out: lambda, density (kg/m³, exported with the cache).
+//! In: the neighbour lists, pred. Out: pos_lambda (x*_i, λ_i: sim_solve reads both with one load per
+//! neighbour), density (kg/m³, exported with the cache).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
 layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
-layout(std430, binding = 4) writeonly buffer Lambda { float lambda[]; };
+layout(std430, binding = 4) writeonly buffer PosLambda { vec4 pos_lambda[]; };
 layout(std430, binding = 5) writeonly buffer Density { float density[]; };
 
 void main() {
@@ -31,6 +32,6 @@ void main() {
     grad_i += gw;
     float rho = sim.gravity_mass.w * w + sim.solver.x * fw;
     float C = max(rho / sim.solver.x - 1.0, 0.0);
-    lambda[i] = -C / (sum2 + dot(grad_i, grad_i) + sim.solver.y);
+    pos_lambda[i] = vec4(xi, -C / (sum2 + dot(grad_i, grad_i) + sim.solver.y));
     density[i] = rho;
 }

@@ -2,25 +2,26 @@
 //! sim_solve — PBF position correction (Macklin & Müller 2013, eqs. 12–14), Jacobi: Δp_i = (m/ρ0)·Σ_j
 //! (λ_i + λ_j + s_corr)·∇W_spiky(x*_i − x*_j), with the tensile-instability term s_corr = −k·(W(r)/W(Δq))ⁿ
 //! (artificial pressure), plus the walls' λ_i·∇F (sim_common.glsl's wall_density); then collisions; x* ← x* + Δp, written to the other buffer (all Δp from one iterate).
-//! In: the neighbour lists, pred (iterate k), lambda. Out: pred (iterate k + 1).
-#define SIM_SDF_BINDING 6
+//! In: the neighbour lists, pos_lambda (iterate k and λ, from sim_density). Out: pred (iterate k + 1).
+#define SIM_SDF_BINDING 5
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
-layout(std430, binding = 3) readonly buffer PredIn { vec4 pred_in[]; };
-layout(std430, binding = 4) readonly buffer Lambda { float lambda[]; };
-layout(std430, binding = 5) writeonly buffer PredOut { vec4 pred_out[]; };
+layout(std430, binding = 3) readonly buffer PosLambda { vec4 pos_lambda[]; };
+layout(std430, binding = 4) writeonly buffer PredOut { vec4 pred_out[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xi = pred_in[i].xyz;
-    float li = lambda[i];
+    vec4 pi = pos_lambda[i];
+    vec3 xi = pi.xyz;
+    float li = pi.w;
     vec3 dp = vec3(0.0);
     FOR_NEIGHBOURS(i, j)
-        vec3 r = xi - pred_in[j].xyz;
+        vec4 pj = pos_lambda[j];
+        vec3 r = xi - pj.xyz;
         float s = -sim.solver.z * scorr_pow(poly6(dot(r, r)) * sim.solver.w);
-        dp += (li + lambda[j] + s) * spiky_grad(r);
+        dp += (li + pj.w + s) * spiky_grad(r);
     END_NEIGHBOURS
     vec3 gw;
     wall_density(xi, gw);

@@ -19,19 +19,29 @@ void main() {
     if (i >= sim.counts.x) return;
     vec3 xi = pred[i].xyz;
     vec3 vi = vel[i].xyz;
-    float wi = omega[i].w;
-    vec3 eta = vec3(0.0);
-    vec3 xsph = vec3(0.0);
-    FOR_NEIGHBOURS(i, j)
-        vec3 r = xi - pred[j].xyz;
-        eta += (omega[j].w - wi) * spiky_grad(r);
-        xsph += (vel[j].xyz - vi) * poly6(dot(r, r));
-    END_NEIGHBOURS
     float vol = sim.kern.w;
-    eta *= vol;
-    vec3 v = vi + sim.visc.x * vol * xsph;
-    float le = length(eta);
-    if (le > 1e-9 && sim.visc.y > 0.0) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega[i].xyz);
+    vec3 xsph = vec3(0.0);
+    vec3 v;
+    if (sim.visc.y > 0.0) {
+        float wi = omega[i].w;
+        vec3 eta = vec3(0.0);
+        FOR_NEIGHBOURS(i, j)
+            vec3 r = xi - pred[j].xyz;
+            eta += (omega[j].w - wi) * spiky_grad(r);
+            xsph += (vel[j].xyz - vi) * poly6(dot(r, r));
+        END_NEIGHBOURS
+        eta *= vol;
+        v = vi + sim.visc.x * vol * xsph;
+        float le = length(eta);
+        if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega[i].xyz);
+    } else {
+        // No confinement (sim_vorticity did not run): XSPH alone.
+        FOR_NEIGHBOURS(i, j)
+            vec3 r = xi - pred[j].xyz;
+            xsph += (vel[j].xyz - vi) * poly6(dot(r, r));
+        END_NEIGHBOURS
+        v = vi + sim.visc.x * vol * xsph;
+    }
     state[i] = State(vec4(xi, sorted[i].x.w), vec4(v, 0.0));
     particles[i] = vec4(xi, 0.0);
 }

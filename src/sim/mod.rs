@@ -5,7 +5,7 @@
 //! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `passes::grid`: a
 //! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles gathered into grid order)
 //! → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the tensile-instability term, collisions) →
-//! `sim_velocity` (v = (x* − x)/Δt) → `sim_vorticity` (ω) → `sim_viscosity` (vorticity confinement, XSPH,
+//! `sim_velocity` (v = (x* − x)/Δt) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity` (vorticity confinement, XSPH,
 //! x = x*, and the renderer's particles).
 //!
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
@@ -281,7 +281,8 @@ pub struct Simulation {
     state: [Buffer; 2],
     /// Predicted positions: the predict output, then the two iterates.
     pred: [Buffer; 2],
-    lambda: Buffer,
+    /// The iterate and λ per particle (sim_density → sim_solve).
+    pos_lambda: Buffer,
     density: Buffer,
     vel: Buffer,
     omega: Buffer,
@@ -348,7 +349,7 @@ impl Simulation {
             ring: 0,
             state: [buf("sim_state", 32 * cap)?, buf("sim_state_sorted", 32 * cap)?],
             pred: [buf("sim_pred", 16 * cap)?, buf("sim_pred_next", 16 * cap)?],
-            lambda: buf("sim_lambda", 4 * cap)?,
+            pos_lambda: buf("sim_pos_lambda", 16 * cap)?,
             density: buf("sim_density", 4 * cap)?,
             vel: buf("sim_vel", 16 * cap)?,
             omega: buf("sim_omega", 16 * cap)?,
@@ -504,13 +505,16 @@ impl Simulation {
         g.neighbours(ctx, u, s, &self.pred[1], nb, n);
         let mut cur = 1;
         for _ in 0..self.params.iterations {
-            g.density(ctx, u, nb, &self.pred[cur], &self.lambda, &self.density, n);
-            g.solve(ctx, u, nb, &self.pred[cur], &self.lambda, &self.pred[1 - cur], &self.sdf, n);
+            g.density(ctx, u, nb, &self.pred[cur], &self.pos_lambda, &self.density, n);
+            g.solve(ctx, u, nb, &self.pos_lambda, &self.pred[1 - cur], &self.sdf, n);
             cur = 1 - cur;
         }
         let x = &self.pred[cur];
         g.velocity(ctx, u, b, x, &self.vel, n);
-        g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
+        // Without confinement (ε = 0, the default) nothing reads ω: the stage is not recorded.
+        if self.params.vorticity > 0.0 {
+            g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
+        }
         g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, n);
     }
 

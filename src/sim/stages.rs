@@ -42,7 +42,7 @@ declare_program!(pub NEIGHBOURS: () = compute(
     [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite]
 ));
 declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
-declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite, BufRead]));
+declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufRead]));
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
 declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
 declare_program!(pub VISCOSITY: () = compute(
@@ -140,7 +140,7 @@ impl Stages {
         self.run(ctx, "sim_neighbours", &self.neighbours, &res, n);
     }
 
-    /// `sim_density`: pred → lambda, density.
+    /// `sim_density`: pred → pos_lambda (x*, λ), density.
     #[allow(clippy::too_many_arguments)]
     pub fn density(
         &self,
@@ -155,20 +155,19 @@ impl Stages {
         self.run_listed(ctx, "sim_density", &self.density, u, g, &[pred, lambda, density], n);
     }
 
-    /// `sim_solve`: pred, lambda (and the mesh collider's distances) → the next iterate.
+    /// `sim_solve`: pos_lambda (and the mesh collider's distances) → the next iterate.
     #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &self,
         ctx: &mut FrameCtx,
         u: &Buffer,
         g: &Neighbours,
-        pred: &Buffer,
-        lambda: &Buffer,
+        pos_lambda: &Buffer,
         next: &Buffer,
         sdf: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_solve", &self.solve, u, g, &[pred, lambda, next, sdf], n);
+        self.run_listed(ctx, "sim_solve", &self.solve, u, g, &[pos_lambda, next, sdf], n);
     }
 
     /// `sim_velocity`: (x* − x)/Δt → vel.
