@@ -34,11 +34,12 @@ float poly6(float r2) {
 
 // ∇W_spiky at r = x_i − x_j (points from j to i, so it is negative along r).
 vec3 spiky_grad(vec3 r) {
-    float l = length(r);
+    float r2 = dot(r, r);
     float h = sim.hi_h.w;
-    if (l >= h || l < 1e-9 * h) return vec3(0.0);
-    float a = h - l;
-    return (sim.kern.z * a * a / l) * r;
+    if (r2 >= sim.kern.x || r2 < 1e-18 * sim.kern.x) return vec3(0.0);
+    float il = inversesqrt(r2);
+    float a = h - r2 * il;
+    return (sim.kern.z * a * a * il) * r;
 }
 
 // The container's walls as a continuum of rest-density fluid beyond each face (boundary handling without
