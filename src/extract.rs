@@ -415,8 +415,8 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     let outs: Vec<BlockMesh> = blocks
         .par_iter()
         .map_init(
-            || (vec![0f32; cells], vec![0u8; cells], vec![u32::MAX; 3 * cells]),
-            |(v, inside, slot), &bk| {
+            || (vec![0f32; cells], vec![0u8; cells], vec![u32::MAX; 3 * cells], vec![0u8; (n * n) as usize]),
+            |(v, inside, slot, rows), &bk| {
                 let bi = glam::IVec3::new(
                     (bk / nb.z as i64 / nb.y as i64) as i32,
                     (bk / nb.z as i64 % nb.y as i64) as i32,
@@ -427,7 +427,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
                 let t = std::time::Instant::now();
                 scatter_block(grid, inv_n, p, &lat, &blk, v);
                 let t_scatter = t.elapsed();
-                let out = march_block(&lat, &blk, v, p.threshold, inside, slot);
+                let out = march_block(&lat, &blk, v, p.threshold, inside, slot, rows);
                 scatter_ns.fetch_add(t_scatter.as_nanos() as u64, Relaxed);
                 march_ns.fetch_add((t.elapsed() - t_scatter).as_nanos() as u64, Relaxed);
                 out
@@ -555,6 +555,7 @@ fn march_block(
     threshold: f32,
     inside: &mut [u8],
     slot: &mut [u32],
+    uniform: &mut [u8],
 ) -> BlockMesh {
     let (h, dims, c0, b) = (lat.h, lat.dims, blk.c0, blk.b);
     let table = case_table();
@@ -576,19 +577,18 @@ fn march_block(
     // Per row of corners (j, k): whether its corners 1 … ie + 1 are all on one side (1 outside, 2 inside), so
     // the rows of cubes between four such rows on the same side are skipped without looking at their cubes.
     let n = blk.n;
-    let uniform: Vec<u8> = (0..n * n)
-        .map(|r| {
-            let row = &inside[(r * n + 1) as usize..=(r * n + ie + 1) as usize];
-            let s: usize = row.iter().map(|&x| x as usize).sum();
-            if s == 0 {
-                1
-            } else if s == row.len() {
-                2
-            } else {
-                0
-            }
-        })
-        .collect();
+    for (r, u) in uniform.iter_mut().enumerate() {
+        let r = r as i32;
+        let row = &inside[(r * n + 1) as usize..=(r * n + ie + 1) as usize];
+        let s: usize = row.iter().map(|&x| x as usize).sum();
+        *u = if s == 0 {
+            1
+        } else if s == row.len() {
+            2
+        } else {
+            0
+        };
+    }
     let mut out = BlockMesh { verts: vec![], tris: vec![] };
     for k in 1..=ke {
         for j in 1..=je {
