@@ -135,16 +135,25 @@ fn demo_plays_a_live_simulation() {
     let dir = std::env::temp_dir().join(format!("meniscus-demo-sim-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let shot = dir.join("sim.png");
+    // A block in the water's way: the background mesh is also the live water's collider.
+    let block = dir.join("block.obj");
+    let v: String = (0..8)
+        .map(|i| format!("v {} {} {}\n", [0.2, 0.6][i & 1], [0.0, 0.5][(i >> 1) & 1], [-0.3, 0.3][i >> 2]))
+        .collect();
+    std::fs::write(&block, v + "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n").unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
         .args(["demo", "--sim", "dambreak", "--particles", "4000", "--width", "160", "--height", "96"])
         .args(["--frames", "12", "--fps", "1000", "--async", "on", "--validation", "--screenshot"])
         .arg(&shot)
+        .arg("--background-obj")
+        .arg(&block)
         .env("XDG_RUNTIME_DIR", &dir)
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "demo --sim failed: {err}");
     assert!(err.contains("sim dambreak"), "{err}");
+    assert!(err.contains("mesh collider") && err.contains("12 triangles"), "{err}");
     let img = image::open(&shot).unwrap().to_rgba8();
     // Water is drawn: some pixels are clearly bluer than the grey-and-white ground and the tank walls.
     let blue = img.pixels().filter(|p| p[2] as i32 > p[0] as i32 + 40).count();

@@ -200,8 +200,9 @@ impl SimScene {
 
     /// Make `mesh` (world coordinates, closed for inside/outside; see src/sim/sdf.rs) a collider: its signed
     /// distance on a lattice of the particle radius (coarser when that would pass `sdf::MAX_NODES`), exact within
-    /// a band of 4 cells + r. Water that starts inside it (closer than r) is removed — the solid displaces it.
-    pub fn add_mesh_collider(&mut self, mesh: &Mesh) -> Result<()> {
+    /// a band of 4 cells + r. Water that starts inside it (closer than r) is removed — the solid displaces it;
+    /// returns how many particles that was.
+    pub fn add_mesh_collider(&mut self, mesh: &Mesh) -> Result<usize> {
         let r = self.radius();
         let (lo, hi) = self.container;
         let (mut mlo, mut mhi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -214,6 +215,7 @@ impl SimScene {
         let cell = r.max(fit);
         let sdf = Sdf::build(mesh, cell, 4.0 * cell + r, (lo, hi))?;
         let keep: Vec<bool> = self.positions.iter().map(|p| sdf.sample(Vec3::from(*p)).0 >= r).collect();
+        let removed = keep.iter().filter(|k| !**k).count();
         let mut k = keep.iter();
         self.positions.retain(|_| *k.next().unwrap());
         let mut k = keep.iter();
@@ -225,7 +227,7 @@ impl SimScene {
             return Err(Error::Invalid("the collider mesh covers all of the scene's water".into()));
         }
         self.mesh_collider = Some(std::sync::Arc::new(sdf));
-        Ok(())
+        Ok(removed)
     }
 
     /// Particle radius (half the spacing).

@@ -45,6 +45,13 @@ impl std::fmt::Debug for Sdf {
     }
 }
 
+impl Sdf {
+    /// One line for logs: the lattice's size and spacing.
+    pub fn describe(&self) -> String {
+        format!("distance lattice {}×{}×{} at {:.4} m", self.dims.x, self.dims.y, self.dims.z, self.cell)
+    }
+}
+
 /// Closest point to `p` on triangle `t` (Ericson §5.1.5).
 pub fn closest_on_triangle(p: Vec3, t: &[Vec3; 3]) -> Vec3 {
     let [a, b, c] = *t;

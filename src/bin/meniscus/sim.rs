@@ -54,7 +54,8 @@ impl SimArgs {
         let mut scene = SimScene::new(&self.scene, self.particles.unwrap_or(default))?;
         if let Some(path) = &self.collider {
             let mesh = meniscus::mesh::Mesh::load_obj(path)?;
-            scene.add_mesh_collider(&mesh).with_context(|| format!("--collider {}", path.display()))?;
+            let removed = scene.add_mesh_collider(&mesh).with_context(|| format!("--collider {}", path.display()))?;
+            eprintln!("{}", collider_line(path, &mesh, &scene, removed));
         }
         let mut p = self.settings.resolve()?.sim;
         if let Some(f) = self.fps {
@@ -161,4 +162,14 @@ pub fn run(a: &SimArgs) -> Result<()> {
         eprintln!("wrote {} files: {e}", a.frames);
     }
     finish(&gpu)
+}
+
+/// The log line for a mesh collider (`sim --collider`, `demo --sim --background-obj`).
+pub fn collider_line(path: &std::path::Path, mesh: &meniscus::mesh::Mesh, scene: &SimScene, removed: usize) -> String {
+    let lattice = scene.mesh_collider.as_ref().map_or(String::new(), |m| m.describe());
+    format!(
+        "mesh collider {}: {} triangles, {lattice}; {removed} particles that started inside it removed",
+        path.display(),
+        mesh.triangles.len()
+    )
 }

@@ -112,9 +112,10 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             // The background mesh is also a collider of the live water.
             if let Some(path) = &a.scene.background_obj {
                 let mesh = meniscus::mesh::Mesh::load_obj(path)?;
-                scene
+                let removed = scene
                     .add_mesh_collider(&mesh)
                     .map_err(|e| anyhow::anyhow!("--background-obj {}: {e}", path.display()))?;
+                eprintln!("{}", crate::sim::collider_line(path, &mesh, &scene, removed));
             }
             Some((scene, settings.sim.clone()))
         }
