@@ -40,8 +40,13 @@ for c in "${configs[@]}"; do
     name=${c%%|*}
     args=${c#*|}
     # shellcheck disable=SC2086
-    timings=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 \
-        --height 540 $args --out "$out/c.png" --dump smoothed --timings "$@" 2>/dev/null)
+    rm -f "$out/c.smoothed.npy"
+    if ! timings=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 \
+        --height 540 $args --out "$out/c.png" --dump smoothed --timings "$@" 2>"$out/err"); then
+        echo "quality.sh: the render of \"$name\" ($args) failed:" >&2
+        cat "$out/err" >&2
+        exit 1
+    fi
     ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
     for ref in ref smooth_ref; do
         rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_${ref}_depth.npy" \
