@@ -2,35 +2,33 @@
 //! lavapipe with validation on, a screenshot that shows the fluid, a clean exit. Without DISPLAY the test
 //! FAILS (it never skips silently); tools/dev test provides Xvfb.
 
-use std::process::Command;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+/// A scratch folder for one test (also the demo's XDG_RUNTIME_DIR); fails when there is no X server.
+fn x_dir(name: &str) -> PathBuf {
+    let display = std::env::var("DISPLAY").unwrap_or_default();
+    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
+    let dir = std::env::temp_dir().join(format!("meniscus-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Run `meniscus ARGS…` with `dir` as its runtime folder; its output and its stderr as text.
+fn meniscus_in(dir: &std::path::Path, args: &[&std::ffi::OsStr]) -> (Output, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_meniscus")).args(args).env("XDG_RUNTIME_DIR", dir).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    (o, err)
+}
 
 #[test]
 fn demo_runs_under_x_and_screenshot_shows_fluid() {
-    let display = std::env::var("DISPLAY").unwrap_or_default();
-    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
-    let dir = std::env::temp_dir().join(format!("meniscus-demo-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = x_dir("demo");
     let shot = dir.join("demo.png");
-    let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
-        .args([
-            "demo",
-            "drop",
-            "--particles",
-            "4000",
-            "--width",
-            "320",
-            "--height",
-            "200",
-            "--frames",
-            "6",
-            "--validation",
-        ])
-        .arg("--screenshot")
-        .arg(&shot)
-        .env("XDG_RUNTIME_DIR", &dir)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    let args = "demo drop --particles 4000 --width 320 --height 200 --frames 6 --validation --screenshot";
+    let mut args: Vec<&std::ffi::OsStr> = args.split_whitespace().map(std::ffi::OsStr::new).collect();
+    args.push(shot.as_os_str());
+    let (o, err) = meniscus_in(&dir, &args);
     assert!(o.status.success(), "demo failed: {err}");
     assert!(!err.contains("[vulkan"), "validation messages: {err}");
     let img = image::open(&shot).unwrap().to_rgba8();
@@ -60,10 +58,7 @@ fn demo_without_a_display_is_a_clear_error() {
 /// radius and the same camera. Each prints one `job:` line; they must agree (info's has no camera).
 #[test]
 fn render_bench_demo_and_info_see_the_same_job() {
-    let display = std::env::var("DISPLAY").unwrap_or_default();
-    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
-    let dir = std::env::temp_dir().join(format!("meniscus-job-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = x_dir("job");
     let mut positions = vec![];
     let mut radii = vec![];
     for i in 0..12 {
@@ -80,8 +75,8 @@ fn render_bench_demo_and_info_see_the_same_job() {
     std::fs::write(&file, meniscus::scene::bgeo::write(&p.to_raw(), false)).unwrap();
     let f = file.to_str().unwrap();
     let job_line = |args: &[&str]| -> String {
-        let o = Command::new(env!("CARGO_BIN_EXE_meniscus")).args(args).env("XDG_RUNTIME_DIR", &dir).output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(std::ffi::OsStr::new).collect();
+        let (o, err) = meniscus_in(&dir, &args);
         assert!(o.status.success(), "{args:?} failed: {err}");
         let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("job: ")).collect();
         assert_eq!(lines.len(), 1, "{args:?}: expected one job line in: {err}");
@@ -103,19 +98,12 @@ fn render_bench_demo_and_info_see_the_same_job() {
 /// survives, clean under validation, and the last frame has the window's final size.
 #[test]
 fn demo_survives_resizes_with_frames_in_flight() {
-    let display = std::env::var("DISPLAY").unwrap_or_default();
-    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
-    let dir = std::env::temp_dir().join(format!("meniscus-resize-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = x_dir("resize");
     let shot = dir.join("resized.png");
-    let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
-        .args(["demo", "drop", "--particles", "2000", "--width", "200", "--height", "120", "--frames", "24"])
-        .args(["--exercise-resize", "--validation", "--screenshot"])
-        .arg(&shot)
-        .env("XDG_RUNTIME_DIR", &dir)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    let args = "demo drop --particles 2000 --width 200 --height 120 --frames 24 --exercise-resize --validation";
+    let mut args: Vec<&std::ffi::OsStr> = args.split_whitespace().map(std::ffi::OsStr::new).collect();
+    args.extend(["--screenshot".as_ref(), shot.as_os_str()]);
+    let (o, err) = meniscus_in(&dir, &args);
     assert!(o.status.success(), "demo failed: {err}");
     assert!(!err.contains("[vulkan"), "validation messages: {err}");
     assert!(err.contains("24 frames in"), "{err}");
@@ -130,10 +118,7 @@ fn demo_survives_resizes_with_frames_in_flight() {
 /// and draws water in the tank.
 #[test]
 fn demo_plays_a_live_simulation() {
-    let display = std::env::var("DISPLAY").unwrap_or_default();
-    assert!(!display.is_empty(), "no DISPLAY: run the tests through `tools/dev test` (starts Xvfb) or set DISPLAY");
-    let dir = std::env::temp_dir().join(format!("meniscus-demo-sim-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = x_dir("demo-sim");
     let shot = dir.join("sim.png");
     // A block in the water's way: the background mesh is also the live water's collider.
     let block = dir.join("block.obj");
@@ -141,16 +126,11 @@ fn demo_plays_a_live_simulation() {
         .map(|i| format!("v {} {} {}\n", [0.2, 0.6][i & 1], [0.0, 0.5][(i >> 1) & 1], [-0.3, 0.3][i >> 2]))
         .collect();
     std::fs::write(&block, v + "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))
-        .args(["demo", "--sim", "dambreak", "--particles", "4000", "--width", "160", "--height", "96"])
-        .args(["--frames", "12", "--fps", "1000", "--async", "on", "--validation", "--screenshot"])
-        .arg(&shot)
-        .arg("--background-obj")
-        .arg(&block)
-        .env("XDG_RUNTIME_DIR", &dir)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    let args = "demo --sim dambreak --particles 4000 --width 160 --height 96 --frames 12 --fps 1000 --async on \
+                --validation";
+    let mut args: Vec<&std::ffi::OsStr> = args.split_whitespace().map(std::ffi::OsStr::new).collect();
+    args.extend(["--screenshot".as_ref(), shot.as_os_str(), "--background-obj".as_ref(), block.as_os_str()]);
+    let (o, err) = meniscus_in(&dir, &args);
     assert!(o.status.success(), "demo --sim failed: {err}");
     assert!(err.contains("sim dambreak"), "{err}");
     assert!(err.contains("mesh collider") && err.contains("12 triangles"), "{err}");
