@@ -19,10 +19,7 @@ fn splat_depth_matches_analytic_sphere() {
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(0.5);
     s.smooth.filter = Filter::None;
-    let mut r = Renderer::new(&gpu).unwrap();
-    r.keep_raw_depth = true;
-    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
-    r.render(&v, &s).unwrap();
+    let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, true);
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
     let f = v.camera.focal_px(h as u32) as f64;
     let (mut covered, mut max_err) = (0, 0f64);
@@ -51,10 +48,7 @@ fn splat_clamps_to_near_plane() {
     let v = view([0.0, 0.0, 0.3], [0.0, 0.0, 0.0], 32, 32, 60.0);
     let mut s = settings(0.5);
     s.smooth.filter = Filter::None;
-    let mut r = Renderer::new(&gpu).unwrap();
-    r.keep_raw_depth = true;
-    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
-    r.render(&v, &s).unwrap();
+    let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, true);
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
     let centre = depth[16 * 32 + 16];
     assert!((centre - v.camera.near).abs() < 1e-6, "centre depth {centre}, near {}", v.camera.near);
@@ -70,9 +64,7 @@ fn thickness_of_one_sphere_is_its_chord() {
     let mut s = settings(0.5);
     s.thickness.scale = 1.0;
     s.thickness.blur_px = 0;
-    let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
-    r.render(&v, &s).unwrap();
+    let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, false);
     let t = read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap();
     let f = v.camera.focal_px(h as u32) as f64;
     let mut max_err = 0f64;
@@ -102,9 +94,7 @@ fn thickness_is_zero_behind_scene_geometry() {
     let mut s = settings(0.5);
     s.thickness.scale = 1.0;
     s.thickness.blur_px = 0;
-    let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
-    r.render(&v, &s).unwrap();
+    let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, false);
     let t = read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap();
     // The sphere covers a disc of about 15 px radius around (32, 32); the box hides x < 32.
     for y in 26..38 {
@@ -1184,9 +1174,7 @@ fn thickness_blur_matches_cpu_gaussian() {
     let render = |blur: u32| {
         let mut s = s.clone();
         s.thickness.blur_px = blur;
-        let mut r = Renderer::new(&gpu).unwrap();
-        r.set_particles(&particles, None).unwrap();
-        r.render(&v, &s).unwrap();
+        let r = rendered(&gpu, &particles, &v, &s, false);
         read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap()
     };
     let raw = render(0);
@@ -1224,9 +1212,7 @@ fn barrier_batches_follow_the_access_table() {
     let gpu = gpu();
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 16, 16, 40.0);
     let s = settings(0.3);
-    let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
-    r.render(&v, &s).unwrap();
+    let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, false);
     let t = r.targets.as_ref().unwrap();
     let counts = gpu
         .one_shot(|cmd| {

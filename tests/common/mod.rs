@@ -8,6 +8,21 @@ use meniscus::gpu::{Gpu, GpuOptions};
 use meniscus::scene::Camera;
 use meniscus::settings::Settings;
 
+/// A renderer that has drawn `particles` once from `v` with `s`, keeping the unsmoothed depth when `raw`.
+pub fn rendered(
+    gpu: &Arc<Gpu>,
+    particles: &[[f32; 3]],
+    v: &View,
+    s: &Settings,
+    raw: bool,
+) -> meniscus::renderer::Renderer {
+    let mut r = meniscus::renderer::Renderer::new(gpu).unwrap();
+    r.keep_raw_depth = raw;
+    r.set_particles(particles, None).unwrap();
+    r.render(v, s).unwrap();
+    r
+}
+
 /// A device with validation + synchronization validation. No device is a test FAILURE, in CI and out.
 pub fn gpu() -> Arc<Gpu> {
     match Gpu::new(&GpuOptions { validation: true, ..Default::default() }) {
