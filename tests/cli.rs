@@ -572,6 +572,18 @@ fn sim_with_a_mesh_collider() {
     assert!(first.positions.iter().all(|p| !inside(p, 0.5 * r)), "water left inside the block");
     assert!(last.positions.iter().all(|p| !inside(p, 0.5 * r)), "water entered the block");
     assert!(last.positions.iter().any(|p| inside(p, 2.0 * r)), "the water never reached the block");
+    // The export's scene.json lists the block, so `render` of the export draws it without --background-obj.
+    let sj = meniscus::scene::splishsplash::SceneJson::load(&d.join("scene.json")).unwrap();
+    assert_eq!(sj.meshes.len(), 1);
+    assert_eq!(sj.meshes[0].load().unwrap().triangles.len(), 12);
+    let png = d.join("with-block.png");
+    let o = meniscus()
+        .args(["render", d.join("f_6.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("1 mesh(es)") && !err.contains("not drawn"), "{err}");
     std::fs::write(d.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
     std::fs::write(d.join("far.obj"), "v 10 10 10\nv 11 10 10\nv 10 11 10\nf 1 2 3\n").unwrap();
     for (file, expect) in

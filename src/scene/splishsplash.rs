@@ -2,10 +2,13 @@
 //! `meniscus sim --export` writes one in the same format): the particle radius and the static rigid bodies, so
 //! `render` of a cache draws the container it was simulated in (issue #13) and needs no `--radius`.
 //!
-//! Only what rendering needs is read: `Configuration.particleRadius`, and the `RigidBodies` that are unit
-//! boxes (`geometryFile` ending in `UnitBox.obj`, a cube of side 1 centred at the origin) with `translation`
-//! and `scale` (rotations other than 0 are skipped with a note). `isWall` bodies are containers: their back and
-//! side walls are drawn (the front is left open for the camera); other boxes are drawn as solid blocks.
+//! Only what rendering needs is read: `Configuration.particleRadius`, and the `RigidBodies`. Unit boxes
+//! (`geometryFile` ending in `UnitBox.obj`, a cube of side 1 centred at the origin) with `translation` and
+//! `scale` (rotated ones are skipped with a note): `isWall` bodies are containers, whose back and side walls are
+//! drawn (the front is left open for the camera); other boxes are drawn as solid blocks. Any other
+//! `geometryFile` is an OBJ mesh (its path relative to the scene.json), placed by `scale`, `rotationAxis` /
+//! `rotationAngle` (radians) and `translation` in that order, and drawn as part of the background mesh —
+//! `meniscus sim --collider` lists its collider this way.
 //! Format: <https://splishsplash.readthedocs.io/en/latest/file_format.html> (SPlisHSPlasH, MIT).
 use std::path::{Path, PathBuf};
 
@@ -25,10 +28,39 @@ pub struct SceneJson {
     pub containers: Vec<(Vec3, Vec3)>,
     /// Solid boxes (lo, hi).
     pub boxes: Vec<(Vec3, Vec3)>,
-    /// Bodies that could not be drawn (another mesh, a rotation), one line each.
+    /// Other meshes: the OBJ file (resolved against the scene.json's folder) and its placement.
+    pub meshes: Vec<SceneMesh>,
+    /// Bodies that could not be drawn (a rotated box, a non-finite placement), one line each.
     pub skipped: Vec<String>,
     /// Written by `meniscus sim --export` (so a later export may replace it).
     pub by_meniscus: bool,
+}
+
+/// A rigid body given as a mesh file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneMesh {
+    /// The OBJ file.
+    pub file: PathBuf,
+    /// Scale, rotation, then translation: world = translation + rotation · (scale ∘ vertex).
+    pub scale: Vec3,
+    /// Rotation axis (unit) and angle (radians).
+    pub rotation: (Vec3, f32),
+    /// Translation.
+    pub translation: Vec3,
+}
+
+impl SceneMesh {
+    /// Read the file and place its triangles in the world.
+    pub fn load(&self) -> Result<crate::mesh::Mesh> {
+        let mut m = crate::mesh::Mesh::load_obj(&self.file)?;
+        let q = glam::Quat::from_axis_angle(self.rotation.0, self.rotation.1);
+        for t in m.triangles.iter_mut() {
+            for v in t.iter_mut() {
+                *v = self.translation + q * (self.scale * *v);
+            }
+        }
+        Ok(m)
+    }
 }
 
 #[derive(Serialize, Deserialize, Default)]
@@ -46,6 +78,8 @@ struct RigidBody {
     translation: [f32; 3],
     #[serde(default = "one3")]
     scale: [f32; 3],
+    #[serde(default = "x_axis")]
+    rotation_axis: [f32; 3],
     #[serde(default)]
     rotation_angle: f32,
     #[serde(default)]
@@ -56,6 +90,10 @@ struct RigidBody {
 
 fn one3() -> [f32; 3] {
     [1.0; 3]
+}
+
+fn x_axis() -> [f32; 3] {
+    [1.0, 0.0, 0.0]
 }
 
 #[derive(Serialize, Deserialize)]
@@ -89,9 +127,20 @@ impl SceneJson {
             by_meniscus: f.meniscus.is_some(),
             ..Default::default()
         };
+        let dir = path.parent().unwrap_or(Path::new(""));
         for b in &f.rigid_bodies {
             if !b.geometry_file.ends_with("UnitBox.obj") {
-                s.skipped.push(format!("{} (only unit boxes are drawn)", b.geometry_file));
+                let (t, sc, axis) = (Vec3::from(b.translation), Vec3::from(b.scale), Vec3::from(b.rotation_axis));
+                if !(t.is_finite() && sc.is_finite() && b.rotation_angle.is_finite() && axis.length() > 1e-6) {
+                    s.skipped.push(format!("{} with a non-finite or degenerate placement", b.geometry_file));
+                    continue;
+                }
+                s.meshes.push(SceneMesh {
+                    file: dir.join(&b.geometry_file),
+                    scale: sc,
+                    rotation: (axis.normalize(), b.rotation_angle),
+                    translation: t,
+                });
                 continue;
             }
             if b.rotation_angle != 0.0 {
@@ -159,18 +208,31 @@ pub fn container_walls(lo: Vec3, hi: Vec3, t: f32) -> [(Vec3, Vec3); 3] {
 }
 
 /// A `scene.json` in SPlisHSPlasH's format for a cache of particles of `radius` simulated in `container`
-/// (interior lo, hi) with solid `boxes`: what `render` reads back.
-pub fn write_scene_json(path: &Path, radius: f32, container: (Vec3, Vec3), boxes: &[(Vec3, Vec3)]) -> Result<()> {
-    let body = |lo: Vec3, hi: Vec3, wall: bool| RigidBody {
-        geometry_file: "../models/UnitBox.obj".into(),
+/// (interior lo, hi) with solid `boxes` and mesh colliders `meshes` (OBJ files in world coordinates, written
+/// as given: pass absolute paths): what `render` reads back.
+pub fn write_scene_json(
+    path: &Path,
+    radius: f32,
+    container: (Vec3, Vec3),
+    boxes: &[(Vec3, Vec3)],
+    meshes: &[PathBuf],
+) -> Result<()> {
+    let body = |file: String, lo: Vec3, hi: Vec3, wall: bool| RigidBody {
+        geometry_file: file,
         translation: ((lo + hi) * 0.5).to_array(),
         scale: (hi - lo).to_array(),
+        rotation_axis: x_axis(),
         rotation_angle: 0.0,
         is_wall: wall,
         is_dynamic: Some(false),
     };
-    let mut bodies = vec![body(container.0, container.1, true)];
-    bodies.extend(boxes.iter().map(|&(lo, hi)| body(lo, hi, false)));
+    let unit = || "../models/UnitBox.obj".to_string();
+    let mut bodies = vec![body(unit(), container.0, container.1, true)];
+    bodies.extend(boxes.iter().map(|&(lo, hi)| body(unit(), lo, hi, false)));
+    // A mesh in world coordinates: no translation, unit scale.
+    bodies.extend(
+        meshes.iter().map(|m| body(m.to_string_lossy().into_owned(), Vec3::splat(-0.5), Vec3::splat(0.5), false)),
+    );
     let f = File {
         configuration: Configuration { particle_radius: Some(radius) },
         rigid_bodies: bodies,
@@ -193,18 +255,34 @@ mod tests {
         let s = SceneJson::parse(Path::new("scene.json"), text).unwrap();
         assert_eq!(s.radius, Some(0.0125));
         assert_eq!(s.containers, vec![(Vec3::new(-2.0, 0.0, -0.75), Vec3::new(2.0, 3.0, 0.75))]);
-        assert_eq!(s.skipped.len(), 1);
+        assert!(s.skipped.is_empty());
+        assert_eq!(s.meshes.len(), 1, "the dragon is a mesh to load");
+        assert_eq!(s.meshes[0].file, Path::new("../models/Dragon.obj"));
         assert_eq!(s.floor(), Some(0.0));
         let dir = std::env::temp_dir().join(format!("meniscus-scene-json-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("scene.json");
         let boxes = [(Vec3::new(-2.0, 0.0, -0.75), Vec3::new(-0.8, 1.2, 0.75))];
-        write_scene_json(&p, 0.01, s.containers[0], &boxes).unwrap();
+        let obj = dir.join("block.obj");
+        std::fs::write(&obj, "v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        write_scene_json(&p, 0.01, s.containers[0], &boxes, std::slice::from_ref(&obj)).unwrap();
         let back = SceneJson::find_for(&dir.join("partio").join("f_1.bgeo")).unwrap().unwrap();
         assert_eq!((back.radius, back.containers.clone()), (Some(0.01), s.containers.clone()));
         assert!(back.by_meniscus && !s.by_meniscus);
         let (lo, hi) = back.boxes[0];
         assert!(lo.abs_diff_eq(boxes[0].0, 1e-6) && hi.abs_diff_eq(boxes[0].1, 1e-6), "{:?}", back.boxes);
+        // The mesh comes back where it was (identity placement).
+        let m = back.meshes[0].load().unwrap();
+        assert_eq!(m.triangles, vec![[Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::Y]]);
+        // Scale, then rotate (a quarter turn about y), then translate.
+        let placed = SceneMesh {
+            file: obj.clone(),
+            scale: Vec3::splat(2.0),
+            rotation: (Vec3::Y, std::f32::consts::FRAC_PI_2),
+            translation: Vec3::new(0.0, 1.0, 0.0),
+        };
+        let t = placed.load().unwrap().triangles[0];
+        assert!(t[1].abs_diff_eq(Vec3::new(0.0, 1.0, -4.0), 1e-5), "{t:?}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -67,10 +67,12 @@ fn find_scene_json(path: &Path) -> Option<meniscus::scene::splishsplash::SceneJs
         Ok(Some(s)) => {
             let radius = s.radius.map(|r| format!("radius {r}")).unwrap_or("no radius".into());
             eprintln!(
-                "{}: {radius}, {} container(s) and {} box(es) for the background (--no-scene-json ignores it)",
+                "{}: {radius}, {} container(s), {} box(es) and {} mesh(es) for the background (--no-scene-json \
+                 ignores it)",
                 s.path.display(),
                 s.containers.len(),
-                s.boxes.len()
+                s.boxes.len(),
+                s.meshes.len()
             );
             for k in &s.skipped {
                 eprintln!("{}: not drawn: {k}", s.path.display());
@@ -137,7 +139,16 @@ impl Job {
         settings.validate()?;
         let bounds = scene::percentile_bounds(&first.positions, 0.01).context("no finite particle positions")?;
         let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
-        let mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
+        let mut mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
+        // A scene.json's mesh bodies join the background mesh; one that cannot be read is reported and left out.
+        if let Some(sj) = &scene_json {
+            for m in &sj.meshes {
+                match m.load() {
+                    Ok(placed) => mesh.get_or_insert_with(Mesh::default).triangles.extend(placed.triangles),
+                    Err(e) => eprintln!("{}: not drawn: {e}", sj.path.display()),
+                }
+            }
+        }
         if radius_from == RadiusFrom::Estimated {
             eprintln!("radius {radius:.5} estimated from the particles' number density (pass --radius to override)");
         }

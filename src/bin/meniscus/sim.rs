@@ -118,7 +118,16 @@ pub fn run(a: &SimArgs) -> Result<()> {
         let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::load(&path).is_ok_and(|s| s.by_meniscus);
         if ours {
             let s = &sim.scene;
-            meniscus::scene::splishsplash::write_scene_json(&path, s.radius(), s.container, &s.box_colliders())?;
+            // The collider mesh by its absolute path, so `render` of the export draws it from any folder.
+            let meshes: Vec<std::path::PathBuf> =
+                a.collider.iter().map(|c| std::fs::canonicalize(c).unwrap_or_else(|_| c.clone())).collect();
+            meniscus::scene::splishsplash::write_scene_json(
+                &path,
+                s.radius(),
+                s.container,
+                &s.box_colliders(),
+                &meshes,
+            )?;
         } else {
             eprintln!("warning: {} exists and was not written by meniscus: left as it is", path.display());
         }
