@@ -11,7 +11,7 @@
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
 //! frame's cost is known in advance (the live demo needs that); the density error it leaves is measured by
 //! the resting-pool test. Constants (see [`Params`]): h = 4 r = 2 d, 4 iterations, relaxation ε = 1 % of the
-//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s as XSPH
+//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s (dam break, pool; 0.001 for the splash scenes) as XSPH
 //! (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity confinement (ε = 0; the shared SPlisHSPlasH set-up
 //! has none either); the particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's
 //! fastest particles (NOTES.md, session 10). The time step follows a CFL bound from the
@@ -57,9 +57,11 @@ pub struct Params {
     pub scorr_n: f32,
     /// Tensile-instability reference distance Δq as a fraction of h.
     pub scorr_dq: f32,
-    /// Kinematic viscosity ν (m²/s), applied as XSPH with c = 22 ν Δt / h² (see [`Constants::xsph`]); the
-    /// shared SPlisHSPlasH dam break uses ν = 0.01 ("Standard viscosity" in its scene.json).
-    pub viscosity: f32,
+    /// Kinematic viscosity ν (m²/s), applied as XSPH with c = 22 ν Δt / h² (see [`Constants::xsph`]); absent:
+    /// the scene's ([`SimScene::viscosity`]: 0.01 for `dambreak` — the shared SPlisHSPlasH set-up's "Standard
+    /// viscosity" — and `pool`, 0.001 for the splash scenes `drop` and `waterfall`, whose crown and spray 0.01
+    /// smears into a smooth ring).
+    pub viscosity: Option<f32>,
     /// XSPH c used as it is instead of the one derived from `viscosity` (c per step, so its effect depends on Δt
     /// and h).
     pub xsph: Option<f32>,
@@ -83,7 +85,7 @@ impl Default for Params {
             scorr_k: 0.02,
             scorr_n: 4.0,
             scorr_dq: 0.2,
-            viscosity: 0.01,
+            viscosity: None,
             xsph: None,
             vorticity: 0.0,
             gravity: [0.0, -9.81, 0.0],
@@ -111,7 +113,7 @@ impl Params {
         if !(self.rest_density.is_finite() && self.rest_density > 0.0) {
             return bad("rest_density must be positive");
         }
-        if !(self.viscosity.is_finite() && self.viscosity >= 0.0) {
+        if self.viscosity.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
             return bad("viscosity must be zero or positive (m²/s)");
         }
         if let Some(c) = self.xsph {
@@ -254,7 +256,7 @@ impl Constants {
             inv_w_dq: 1.0 / poly6((p.scorr_dq * h).powi(2), h),
             dt,
             substeps,
-            xsph: p.xsph.unwrap_or((22.0 * p.viscosity * dt / (h * h)).min(XSPH_MAX)),
+            xsph: p.xsph.unwrap_or((22.0 * p.viscosity.unwrap_or(scene.viscosity) * dt / (h * h)).min(XSPH_MAX)),
         }
     }
 }

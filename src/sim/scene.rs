@@ -84,6 +84,8 @@ pub struct SimScene {
     pub capacity: usize,
     /// The emitter, if any.
     pub emitter: Option<Emitter>,
+    /// Kinematic viscosity (m²/s) when `[sim] viscosity` does not set one.
+    pub viscosity: f32,
     /// A triangle mesh the water cannot enter, as a signed distance field ([`SimScene::add_mesh_collider`]).
     pub mesh_collider: Option<std::sync::Arc<Sdf>>,
 }
@@ -148,6 +150,7 @@ impl SimScene {
                 for v in &mut s.velocities[first_ball..] {
                     *v = [0.0, -2.5, 0.0];
                 }
+                s.viscosity = 0.001;
                 s
             }
             "waterfall" => {
@@ -164,6 +167,7 @@ impl SimScene {
                 let mut s = SimScene::still("waterfall", tank, vec![ledge], d, vec![]);
                 s.emitter = Some(emitter);
                 s.capacity = particles;
+                s.viscosity = 0.001;
                 s
             }
             other => {
@@ -194,6 +198,7 @@ impl SimScene {
             positions,
             capacity: n,
             emitter: None,
+            viscosity: 0.01,
             mesh_collider: None,
         }
     }
