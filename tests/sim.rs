@@ -157,7 +157,7 @@ fn a_resting_pool_stays_at_rest() {
     eprintln!("rms speed after each second: {rms_at:?}");
     assert_eq!(outside.count(), 0, "particles outside the container");
     // The issue asks for < 0.05 m/s. With ν = 0.01 m²/s and s_corr k = 0.02 (session 10) the maximum over 7,290
-    // particles after 2 s measured 0.041–0.054 m/s over 12 runs, 5 of them ≥ 0.05 (single particles at the floor, the walls or
+    // particles after 2 s measured 0.038–0.057 m/s over 20 runs, 7 of them ≥ 0.05 (single particles at the floor, the walls or
     // the surface; the grid's within-cell order comes from atomics, so runs differ): at the limit, not reliably
     // below it — reported in NOTES.md. This bound catches a solver that regresses to the old 0.2–0.4 m/s jitter.
     assert!(vmax < 0.1, "max speed {vmax} m/s");
