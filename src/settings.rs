@@ -226,8 +226,12 @@ impl Default for Settings {
     }
 }
 
+/// Every preset [`Settings::preset`] knows, in the order the demo's `O` key cycles them (`smooth` last: it
+/// re-extracts and smooths the mesh on the CPU whenever the particles change).
+pub const PRESETS: &[&str] = &["default", "fast", "quality", "moritz", "smooth"];
+
 impl Settings {
-    /// A named preset: `default` (spheres + narrow-range), `fast`, `quality` (the ray-cast SPH iso-surface,
+    /// A named preset (one of [`PRESETS`]): `default` (spheres + narrow-range), `fast`, `quality` (the ray-cast SPH iso-surface,
     /// unfiltered) or `moritz` (the thesis' curvature flow).
     pub fn preset(name: &str) -> Result<Settings> {
         let mut s = Settings::default();
@@ -263,9 +267,7 @@ impl Settings {
                 s.ssr.refine = 4;
             }
             _ => {
-                return Err(Error::Invalid(format!(
-                    "unknown settings preset {name:?} (known: default, fast, quality, smooth, moritz)"
-                )))
+                return Err(Error::Invalid(format!("unknown settings preset {name:?} (known: {})", PRESETS.join(", "))))
             }
         }
         Ok(s)
@@ -407,6 +409,20 @@ impl Settings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every preset the list names (the demo's `O` key cycles it, `smooth` last) exists and validates; an unknown
+    /// name lists them all.
+    #[test]
+    fn every_listed_preset_exists() {
+        for name in PRESETS {
+            let mut s = Settings::preset(name).unwrap();
+            s.radius = 0.01;
+            s.validate().unwrap();
+        }
+        assert_eq!(PRESETS.last(), Some(&"smooth"));
+        let e = Settings::preset("nope").unwrap_err().to_string();
+        assert!(PRESETS.iter().all(|p| e.contains(p)), "{e}");
+    }
 
     /// Every enum name parses back to its variant, in TOML and through `FromStr`; a bad name lists the good ones.
     #[test]

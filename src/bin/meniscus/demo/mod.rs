@@ -497,13 +497,17 @@ impl App {
                 }
             }
             KeyCode::KeyO => {
-                // `smooth` last: it re-extracts and smooths the mesh on the CPU whenever the particles change.
-                const NAMES: [&str; 5] = ["default", "fast", "quality", "moritz", "smooth"];
-                self.presets = (self.presets + 1) % NAMES.len();
-                if let Ok(mut s) = Settings::preset(NAMES[self.presets]) {
-                    s.radius = self.radius;
-                    self.settings = s;
-                    self.uploaded = None;
+                // Every preset, in the library's order (`smooth` last).
+                let names = meniscus::settings::PRESETS;
+                self.presets = (self.presets + 1) % names.len();
+                match Settings::preset(names[self.presets]) {
+                    Ok(mut s) => {
+                        s.radius = self.radius;
+                        self.settings = s;
+                        self.uploaded = None;
+                        eprintln!("preset {}", names[self.presets]);
+                    }
+                    Err(e) => eprintln!("{e}"),
                 }
             }
             KeyCode::KeyV => {
