@@ -132,10 +132,20 @@ impl Sdf {
             tris.iter().map(|t| (t[0].min(t[1]).min(t[2]) - band, t[0].max(t[1]).max(t[2]) + band)).collect();
         // Irrational offsets: no row passes exactly through an edge or vertex of an axis-aligned mesh.
         let (oy, oz) = (cell * 0.000_314_159_27, cell * 0.000_271_828_18);
+        // The triangles near each z slab (bounds grown by the band), bucketed once: O(triangles × slabs they span).
+        let nz = dims.z as usize;
+        let mut near_slab: Vec<Vec<u32>> = vec![vec![]; nz];
+        for (t, (b0, b1)) in bounds.iter().enumerate() {
+            let k0 = ((b0.z - origin.z) / cell).ceil().max(0.0) as usize;
+            let k1 = (((b1.z - origin.z) / cell).floor().max(-1.0) as i64).min(nz as i64 - 1);
+            for slab in near_slab.iter_mut().take((k1 + 1).max(0) as usize).skip(k0) {
+                slab.push(t as u32);
+            }
+        }
         let mut values = vec![band; nodes];
         values.par_chunks_mut(nx * ny).enumerate().for_each(|(k, slab)| {
             let z = origin.z + k as f32 * cell;
-            let near: Vec<usize> = (0..tris.len()).filter(|&t| bounds[t].0.z <= z && z <= bounds[t].1.z).collect();
+            let near: Vec<usize> = near_slab[k].iter().map(|&t| t as usize).collect();
             for j in 0..ny {
                 let y = origin.y + j as f32 * cell;
                 let row = &mut slab[j * nx..(j + 1) * nx];
@@ -153,8 +163,10 @@ impl Sdf {
                 }
                 // The sign: crossings of this row (slightly offset) with every triangle spanning it.
                 let (ry, rz) = (y + oy, z + oz);
-                let mut xs: Vec<f32> = tris
+                // (Every triangle spanning the row is in this slab's list: its bounds grown by the band hold rz.)
+                let mut xs: Vec<f32> = near
                     .iter()
+                    .map(|&t| &tris[t])
                     .filter(|t| {
                         let (a, b) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
                         a.y <= ry && ry <= b.y && a.z <= rz && rz <= b.z
