@@ -109,13 +109,14 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
         Some(name) => {
             let n = meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1);
             let mut scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
-            // The background mesh is also a collider of the live water.
+            // The background mesh is also a collider of the live water — when it can be one (scenery outside the
+            // tank, or one too fine for the lattice, is still drawn).
             if let Some(path) = &a.scene.background_obj {
                 let mesh = meniscus::mesh::Mesh::load_obj(path)?;
-                let removed = scene
-                    .add_mesh_collider(&mesh)
-                    .map_err(|e| anyhow::anyhow!("--background-obj {}: {e}", path.display()))?;
-                eprintln!("{}", crate::sim::collider_line(path, &mesh, &scene, removed));
+                match scene.add_mesh_collider(&mesh) {
+                    Ok(removed) => eprintln!("{}", crate::sim::collider_line(path, &mesh, &scene, removed)),
+                    Err(e) => eprintln!("--background-obj {}: drawn, but not a collider: {e}", path.display()),
+                }
             }
             Some((scene, settings.sim.clone()))
         }
