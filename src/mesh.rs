@@ -34,6 +34,14 @@ impl Mesh {
         Mesh { triangles }
     }
 
+    /// The corners of the box around every triangle (lo > hi without triangles).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.triangles
+            .iter()
+            .flatten()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
+    }
+
     /// Read an OBJ file.
     pub fn load_obj(path: &Path) -> Result<Mesh> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;

@@ -231,8 +231,8 @@ impl Default for Settings {
 pub const PRESETS: &[&str] = &["default", "fast", "quality", "moritz", "smooth"];
 
 impl Settings {
-    /// A named preset (one of [`PRESETS`]): `default` (spheres + narrow-range), `fast`, `quality` (the ray-cast SPH iso-surface,
-    /// unfiltered) or `moritz` (the thesis' curvature flow).
+    /// A named preset (one of [`PRESETS`]): `default` (spheres + narrow-range), `fast`, `quality` (the ray-cast
+    /// SPH iso-surface, unfiltered), `moritz` (the thesis' curvature flow) or `smooth` (the smoothed mesh).
     pub fn preset(name: &str) -> Result<Settings> {
         let mut s = Settings::default();
         match name {

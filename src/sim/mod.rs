@@ -5,17 +5,18 @@
 //! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `passes::grid`: a
 //! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles gathered into grid order)
 //! → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the tensile-instability term, collisions) →
-//! `sim_velocity` (v = (x* − x)/Δt) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity` (vorticity confinement, XSPH,
-//! x = x*, and the renderer's particles).
+//! `sim_velocity` (v = (x* − x)/Δt) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity`
+//! (vorticity confinement, XSPH, x = x*, and the renderer's particles).
 //!
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
 //! frame's cost is known in advance (the live demo needs that); the density error it leaves is measured by
 //! the resting-pool test. Constants (see [`Params`]): h = 4 r = 2 d, 4 iterations, relaxation ε = 1 % of the
-//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s (dam break, pool; 0.001 for the splash scenes) as XSPH
-//! (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity confinement (ε = 0; the shared SPlisHSPlasH set-up
-//! has none either); the particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's
-//! fastest particles (NOTES.md, session 10). The time step follows a CFL bound from the
-//! free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per 25 fps frame).
+//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s (dam
+//! break, pool; 0.001 for the splash scenes) as XSPH (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity
+//! confinement (ε = 0; the shared SPlisHSPlasH set-up has none either); the particle mass makes the initial
+//! lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (NOTES.md, session 10). The time
+//! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
+//! 25 fps frame).
 
 pub mod reference;
 pub mod scene;
@@ -65,7 +66,7 @@ pub struct Params {
     /// XSPH c used as it is instead of the one derived from `viscosity` (c per step, so its effect depends on Δt
     /// and h).
     pub xsph: Option<f32>,
-    /// Vorticity confinement ε (m/s); 0 (the default) switches it off — the stage still runs and is timed.
+    /// Vorticity confinement ε (m/s); 0 (the default) switches it off, and `sim_vorticity` is not recorded.
     pub vorticity: f32,
     /// Gravity (m/s²).
     pub gravity: [f32; 3],

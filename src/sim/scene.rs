@@ -204,21 +204,11 @@ impl SimScene {
     }
 
     /// Make `mesh` (world coordinates, closed for inside/outside; see src/sim/sdf.rs) a collider: its signed
-    /// distance on a lattice of the particle radius (coarser when that would pass `sdf::MAX_NODES`), exact within
-    /// a band of 4 cells + r. Water that starts inside it (closer than r) is removed — the solid displaces it;
+    /// distance ([`Sdf::for_particles`]). Water that starts inside it (closer than r) is removed — the solid displaces it;
     /// returns how many particles that was.
     pub fn add_mesh_collider(&mut self, mesh: &Mesh) -> Result<usize> {
         let r = self.radius();
-        let (lo, hi) = self.container;
-        let (mut mlo, mut mhi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-        for v in mesh.triangles.iter().flatten() {
-            mlo = mlo.min(*v);
-            mhi = mhi.max(*v);
-        }
-        let extent = (mhi.min(hi) - mlo.max(lo)).max(Vec3::splat(r)) + 10.0 * r;
-        let fit = (extent.x * extent.y * extent.z / (super::sdf::MAX_NODES as f32 * 0.9)).cbrt();
-        let cell = r.max(fit);
-        let sdf = Sdf::build(mesh, cell, 4.0 * cell + r, (lo, hi))?;
+        let sdf = Sdf::for_particles(mesh, r, self.container)?;
         let keep: Vec<bool> = self.positions.iter().map(|p| sdf.sample(Vec3::from(*p)).0 >= r).collect();
         let removed = keep.iter().filter(|k| !**k).count();
         let mut k = keep.iter();

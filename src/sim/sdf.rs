@@ -1,6 +1,6 @@
 //! A triangle mesh as a collider (`meniscus sim --collider FILE.obj`, and the demo's `--background-obj` under
 //! `--sim`): its signed distance, sampled on a node lattice once on the CPU, uploaded, and read trilinearly by
-//! the solver's collision projection (sim_common.glsl's `sdf_at`, mirrored by [`Sdf::sample`]). A particle whose
+//! the solver's collision projection (sim_common.glsl's `sdf_push`, mirrored by [`Sdf::sample`] and [`push_out`]). A particle whose
 //! centre is closer than its radius to the surface (or inside) is moved along the field's gradient to distance r —
 //! the usual signed-distance collision of particle solvers (e.g. FleX's SDF shapes).
 //!
@@ -106,15 +106,9 @@ impl Sdf {
         if !(cell > 0.0 && band > 0.0) {
             return Err(Error::Invalid("a mesh collider needs a positive cell and band".into()));
         }
-        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-        for t in &mesh.triangles {
-            for v in t {
-                lo = lo.min(*v);
-                hi = hi.max(*v);
-            }
-        }
-        lo = (lo - band).max(clip.0 - band);
-        hi = (hi + band).min(clip.1 + band);
+        let (lo, hi) = mesh.bounds();
+        let lo = (lo - band).max(clip.0 - band);
+        let hi = (hi + band).min(clip.1 + band);
         if hi.cmple(lo).any() {
             return Err(Error::Invalid("the collider mesh lies outside the container".into()));
         }
@@ -145,11 +139,11 @@ impl Sdf {
         let mut values = vec![band; nodes];
         values.par_chunks_mut(nx * ny).enumerate().for_each(|(k, slab)| {
             let z = origin.z + k as f32 * cell;
-            let near: Vec<usize> = near_slab[k].iter().map(|&t| t as usize).collect();
+            let near = &near_slab[k];
             for j in 0..ny {
                 let y = origin.y + j as f32 * cell;
                 let row = &mut slab[j * nx..(j + 1) * nx];
-                for &t in near.iter().filter(|&&t| bounds[t].0.y <= y && y <= bounds[t].1.y) {
+                for t in near.iter().map(|&t| t as usize).filter(|&t| bounds[t].0.y <= y && y <= bounds[t].1.y) {
                     let (b0, b1) = bounds[t];
                     let i0 = (((b0.x - origin.x) / cell).floor().max(0.0) as usize).min(nx - 1);
                     let i1 = (((b1.x - origin.x) / cell).ceil().max(0.0) as usize).min(nx - 1);
@@ -166,7 +160,7 @@ impl Sdf {
                 // (Every triangle spanning the row is in this slab's list: its bounds grown by the band hold rz.)
                 let mut xs: Vec<f32> = near
                     .iter()
-                    .map(|&t| &tris[t])
+                    .map(|&t| &tris[t as usize])
                     .filter(|t| {
                         let (a, b) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
                         a.y <= ry && ry <= b.y && a.z <= rz && rz <= b.z
@@ -192,7 +186,17 @@ impl Sdf {
         Ok(Sdf { origin, cell, dims, values, band })
     }
 
-    /// The field and its gradient at `x` (trilinear; sim_common.glsl's `sdf_at` does the same arithmetic);
+    /// The field of `mesh` for particles of radius `r` in the container `clip`: nodes a radius apart (coarser when
+    /// that would pass [`MAX_NODES`]), exact within a band of 4 cells + r.
+    pub fn for_particles(mesh: &Mesh, r: f32, clip: (Vec3, Vec3)) -> Result<Sdf> {
+        let (lo, hi) = mesh.bounds();
+        let extent = (hi.min(clip.1) - lo.max(clip.0)).max(Vec3::splat(r)) + 10.0 * r;
+        let fit = (extent.x * extent.y * extent.z / (MAX_NODES as f32 * 0.9)).cbrt();
+        let cell = r.max(fit);
+        Sdf::build(mesh, cell, 4.0 * cell + r, clip)
+    }
+
+    /// The field and its gradient at `x` (trilinear; sim_common.glsl's `sdf_push` does the same arithmetic);
     /// outside the lattice, `band` and no gradient.
     pub fn sample(&self, x: Vec3) -> (f32, Vec3) {
         let g = (x - self.origin) / self.cell;

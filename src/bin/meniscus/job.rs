@@ -163,15 +163,20 @@ impl Job {
         Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls, floor })
     }
 
-    /// The job of a live simulation (`demo --sim`, `bench --sim`): the scene's initial particles, its radius,
-    /// its container as the bounds and its walls in the background.
-    pub fn simulated(scene: &meniscus::sim::SimScene, scene_args: &SceneArgs, settings: Settings) -> Result<Job> {
+    /// The job of a live simulation (`demo --sim`): the scene's initial particles, its radius, its container as
+    /// the bounds and its walls in the background; `mesh`: the `--background-obj` its caller read (and made the
+    /// water's collider).
+    pub fn simulated(
+        scene: &meniscus::sim::SimScene,
+        scene_args: &SceneArgs,
+        mesh: Option<Mesh>,
+        settings: Settings,
+    ) -> Result<Job> {
         let mut settings = settings;
         settings.radius = scene.radius();
         settings.validate()?;
         let (lo, hi) = scene.container;
         let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
-        let mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
         Ok(Job {
             label: format!("sim {}", scene.name),
             first: Particles {

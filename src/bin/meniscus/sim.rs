@@ -33,7 +33,7 @@ pub struct SimArgs {
     #[arg(long)]
     pub iterations: Option<u32>,
     /// A closed triangle mesh (OBJ, world coordinates) the water cannot enter; water that starts inside it is
-    /// removed. Render the export with `--background-obj` of the same file to see it.
+    /// removed. The export's scene.json lists it, so `render` of the export draws it.
     #[arg(long, value_name = "FILE.obj")]
     pub collider: Option<std::path::PathBuf>,
     /// Output pattern: {} is the frame number (1, 2, …); .bgeo or .vtk. Without it nothing is written (a dry run

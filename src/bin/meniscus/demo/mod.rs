@@ -105,26 +105,23 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
     }
     crate::args::check_size(a.width, a.height)?;
     let settings = a.set.resolve()?;
-    let sim = match &a.sim {
+    let (sim, job) = match &a.sim {
         Some(name) => {
             let n = meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1);
             let mut scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
-            // The background mesh is also a collider of the live water — when it can be one (scenery outside the
-            // tank, or one too fine for the lattice, is still drawn).
-            if let Some(path) = &a.scene.background_obj {
-                let mesh = meniscus::mesh::Mesh::load_obj(path)?;
-                match scene.add_mesh_collider(&mesh) {
-                    Ok(removed) => eprintln!("{}", crate::sim::collider_line(path, &mesh, &scene, removed)),
+            // The background mesh (read once, for the job too) is also a collider of the live water — when it can
+            // be one (scenery outside the tank, or one too fine for the lattice, is still drawn).
+            let mesh = a.scene.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?;
+            if let (Some(path), Some(mesh)) = (&a.scene.background_obj, &mesh) {
+                match scene.add_mesh_collider(mesh) {
+                    Ok(removed) => eprintln!("{}", crate::sim::collider_line(path, mesh, &scene, removed)),
                     Err(e) => eprintln!("--background-obj {}: drawn, but not a collider: {e}", path.display()),
                 }
             }
-            Some((scene, settings.sim.clone()))
+            let job = Job::simulated(&scene, &a.scene, mesh, settings.clone())?;
+            (Some((scene, settings.sim)), job)
         }
-        None => None,
-    };
-    let job = match &sim {
-        Some((scene, _)) => Job::simulated(scene, &a.scene, settings)?,
-        None => Job::open(&a.scene, &a.load, settings, Select::default())?,
+        None => (None, Job::open(&a.scene, &a.load, settings, Select::default())?),
     };
     eprintln!("{}", job.summary(Some((a.width, a.height))));
     run(
