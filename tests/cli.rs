@@ -544,16 +544,8 @@ fn sim_with_a_mesh_collider() {
     let d = tmpdir("sim-collider");
     // A block through the dam-break water cube (x −1.95..−0.95): some water starts inside it.
     let (lo, hi) = ([-1.5f32, 0.0, -0.3], [-0.5f32, 0.4, 0.3]);
-    let mut obj = String::new();
-    for i in 0..8 {
-        let c = |k: usize| if (i >> k) & 1 == 1 { hi[k] } else { lo[k] };
-        obj += &format!("v {} {} {}\n", c(0), c(1), c(2));
-    }
-    for f in ["1 2 4 3", "5 7 8 6", "1 5 6 2", "3 4 8 7", "1 3 7 5", "2 6 8 4"] {
-        obj += &format!("f {f}\n");
-    }
     let block = d.join("block.obj");
-    std::fs::write(&block, obj).unwrap();
+    std::fs::write(&block, common::box_obj(lo, hi)).unwrap();
     let o = meniscus()
         .args(["sim", "dambreak", "--particles", "3000", "--frames", "6", "--collider"])
         .arg(&block)

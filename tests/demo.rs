@@ -2,6 +2,8 @@
 //! lavapipe with validation on, a screenshot that shows the fluid, a clean exit. Without DISPLAY the test
 //! FAILS (it never skips silently); tools/dev test provides Xvfb.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -122,10 +124,7 @@ fn demo_plays_a_live_simulation() {
     let shot = dir.join("sim.png");
     // A block in the water's way: the background mesh is also the live water's collider.
     let block = dir.join("block.obj");
-    let v: String = (0..8)
-        .map(|i| format!("v {} {} {}\n", [0.2, 0.6][i & 1], [0.0, 0.5][(i >> 1) & 1], [-0.3, 0.3][i >> 2]))
-        .collect();
-    std::fs::write(&block, v + "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n").unwrap();
+    std::fs::write(&block, common::box_obj([0.2, 0.0, -0.3], [0.6, 0.5, 0.3])).unwrap();
     let args = "demo --sim dambreak --particles 4000 --width 160 --height 96 --frames 12 --fps 1000 --async on \
                 --validation";
     let mut args: Vec<&std::ffi::OsStr> = args.split_whitespace().map(std::ffi::OsStr::new).collect();

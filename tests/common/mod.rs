@@ -8,6 +8,16 @@ use meniscus::gpu::{Gpu, GpuOptions};
 use meniscus::scene::Camera;
 use meniscus::settings::Settings;
 
+/// An axis-aligned box lo..hi as OBJ text: 8 vertices and 6 quads (12 triangles once loaded).
+pub fn box_obj(lo: [f32; 3], hi: [f32; 3]) -> String {
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = |k: usize| if (i >> k) & 1 == 1 { hi[k] } else { lo[k] };
+        obj += &format!("v {} {} {}\n", c(0), c(1), c(2));
+    }
+    obj + "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n"
+}
+
 /// A renderer that has drawn `particles` once from `v` with `s`, keeping the unsmoothed depth when `raw`.
 pub fn rendered(
     gpu: &Arc<Gpu>,
