@@ -150,22 +150,20 @@ vec3 collide(vec3 x) {
     return clamp(x, sim.lo_dt.xyz, sim.hi_h.xyz);
 }
 
-// for (uint J …) over the sorted places of every particle in the 27 cells around p; close with END_CELLS.
-// Cells are numbered x fastest and sorted in that order, so the three cells of a row (x − 1 … x + 1) are one
-// contiguous range: 9 ranges instead of 27 cells. Needs `counts` and `start` (the grid pass's outputs)
+// Over the sorted places [S, E) of the particles in each row of cells around p: the 27 cells around p as 9
+// ranges, since cells are numbered x fastest and sorted in that order, so the three cells of a row (x − 1 …
+// x + 1) are one contiguous range. Close with END_ROWS. Needs `counts` and `start` (the grid pass's outputs)
 // declared by the shader. Only sim_neighbours walks cells; the other stages read its neighbour lists.
-#define FOR_CELLS(p, J)                                                                         \
+#define FOR_ROWS(p, S, E)                                                                       \
     ivec3 c0_ = grid_cell(sim.grid, p);                                                        \
     ivec3 d_ = ivec3(sim.grid.dims.xyz);                                                       \
     int x0_ = max(c0_.x - 1, 0), x1_ = min(c0_.x + 1, d_.x - 1);                               \
     for (int z_ = max(c0_.z - 1, 0); z_ <= min(c0_.z + 1, d_.z - 1); ++z_)                    \
     for (int y_ = max(c0_.y - 1, 0); y_ <= min(c0_.y + 1, d_.y - 1); ++y_) {                   \
-        uint a_ = grid_index(sim.grid, ivec3(x0_, y_, z_));                                    \
+        uint S = start[grid_index(sim.grid, ivec3(x0_, y_, z_))];                              \
         uint b_ = grid_index(sim.grid, ivec3(x1_, y_, z_));                                    \
-        uint s_ = start[a_];                                                                   \
-        uint e_ = start[b_] + counts[b_];                                                      \
-        for (uint J = s_; J < e_; ++J) {
-#define END_CELLS }}
+        uint E = start[b_] + counts[b_];
+#define END_ROWS }
 
 // for (uint J …) over particle i's neighbours (within h of it when the list was made, itself excluded), as
 // listed by sim_neighbours at the step's predicted positions (Macklin & Müller, Alg. 1 line 6: the neighbour
@@ -176,7 +174,8 @@ vec3 collide(vec3 x) {
         uint J = nbrs[k_ * sim.counts.z + (i)];
 #define END_NEIGHBOURS }
 
-// The neighbour-list bindings of the stages that read them (at 1 and 2).
+// The neighbour-list bindings of the stages that read them (at 1 and 2), texel buffers like every array the
+// neighbour loops read at a per-lane index (Buffer::with_texel_view says why).
 #define NEIGHBOUR_BUFFERS                                                                       \
     layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
     layout(std430, binding = 2) readonly buffer Nbrs { uint nbrs[]; };

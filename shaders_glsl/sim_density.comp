@@ -8,20 +8,20 @@
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
-layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
+layout(binding = 3) uniform samplerBuffer pred;
 layout(std430, binding = 4) writeonly buffer PosLambda { vec4 pos_lambda[]; };
 layout(std430, binding = 5) writeonly buffer Density { float density[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xi = pred[i].xyz;
+    vec3 xi = texelFetch(pred, int(i)).xyz;
     float vol = sim.kern.w;
     float w = poly6(0.0);
     vec3 grad_i = vec3(0.0);
     float sum2 = 0.0;
     FOR_NEIGHBOURS(i, j)
-        vec3 r = xi - pred[j].xyz;
+        vec3 r = xi - texelFetch(pred, int(j)).xyz;
         w += poly6(dot(r, r));
         vec3 g = vol * spiky_grad(r);
         grad_i += g;

@@ -9,7 +9,7 @@
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
 layout(std430, binding = 2) readonly buffer Start { uint start[]; };
-layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
+layout(binding = 3) uniform samplerBuffer pred;
 layout(std430, binding = 4) writeonly buffer NbrCount { uint nbr_count[]; };
 layout(std430, binding = 5) writeonly buffer Nbrs { uint nbrs[]; };
 layout(std430, binding = 6) buffer Overflow { uint overflow[]; };
@@ -17,21 +17,33 @@ layout(std430, binding = 6) buffer Overflow { uint overflow[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xi = pred[i].xyz;
+    vec3 xi = texelFetch(pred, int(i)).xyz;
     float h2 = sim.kern.x;
     uint n = 0u;
     bool full = false;
-    FOR_CELLS(xi, j)
-        if (j == i) continue;
-        vec3 r = xi - pred[j].xyz;
-        if (dot(r, r) >= h2) continue;
-        if (n < MAX_NEIGHBOURS) {
-            nbrs[n * sim.counts.z + i] = j;
-            n++;
-        } else {
-            full = true;
+    // Candidates are tested 32 at a time into a bit mask, and only the mask's set bits are written. Why: a
+    // store under a per-lane condition is a loop over the lanes on lavapipe, so writing inside the candidate
+    // loop paid that loop for all ~200 candidates, not for the ~30 neighbours (13 of the pass's 21 ms at 59k).
+    // The lists come out the same: ascending places, the nearest rows first.
+    FOR_ROWS(xi, s, e)
+        for (uint c = s; c < e; c += 32u) {
+            uint m = 0u;
+            for (uint j = c; j < min(c + 32u, e); ++j) {
+                vec3 r = xi - texelFetch(pred, int(j)).xyz;
+                if (dot(r, r) < h2 && j != i) m |= 1u << (j - c);
+            }
+            while (m != 0u) {
+                uint j = c + uint(findLSB(m));
+                m &= m - 1u;
+                if (n < MAX_NEIGHBOURS) {
+                    nbrs[n * sim.counts.z + i] = j;
+                    n++;
+                } else {
+                    full = true;
+                }
+            }
         }
-    END_CELLS
+    END_ROWS
     nbr_count[i] = n;
     if (full) atomicAdd(overflow[0], 1u);
 }

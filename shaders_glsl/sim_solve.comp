@@ -7,18 +7,18 @@
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
-layout(std430, binding = 3) readonly buffer PosLambda { vec4 pos_lambda[]; };
+layout(binding = 3) uniform samplerBuffer pos_lambda;
 layout(std430, binding = 4) writeonly buffer PredOut { vec4 pred_out[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec4 pi = pos_lambda[i];
+    vec4 pi = texelFetch(pos_lambda, int(i));
     vec3 xi = pi.xyz;
     float li = pi.w;
     vec3 dp = vec3(0.0);
     FOR_NEIGHBOURS(i, j)
-        vec4 pj = pos_lambda[j];
+        vec4 pj = texelFetch(pos_lambda, int(j));
         vec3 r = xi - pj.xyz;
         float s = -sim.solver.z * scorr_pow(poly6(dot(r, r)) * sim.solver.w);
         dp += (li + pj.w + s) * spiky_grad(r);

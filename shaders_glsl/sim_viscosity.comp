@@ -7,9 +7,9 @@
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
-layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
-layout(std430, binding = 4) readonly buffer Vel { vec4 vel[]; };
-layout(std430, binding = 5) readonly buffer Omega { vec4 omega[]; };
+layout(binding = 3) uniform samplerBuffer pred;
+layout(binding = 4) uniform samplerBuffer vel;
+layout(binding = 5) uniform samplerBuffer omega;
 layout(std430, binding = 6) readonly buffer Sorted { State sorted[]; };
 layout(std430, binding = 7) writeonly buffer States { State state[]; };
 layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
@@ -17,28 +17,28 @@ layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xi = pred[i].xyz;
-    vec3 vi = vel[i].xyz;
+    vec3 xi = texelFetch(pred, int(i)).xyz;
+    vec3 vi = texelFetch(vel, int(i)).xyz;
     float vol = sim.kern.w;
     vec3 xsph = vec3(0.0);
     vec3 v;
     if (sim.visc.y > 0.0) {
-        float wi = omega[i].w;
+        float wi = texelFetch(omega, int(i)).w;
         vec3 eta = vec3(0.0);
         FOR_NEIGHBOURS(i, j)
-            vec3 r = xi - pred[j].xyz;
-            eta += (omega[j].w - wi) * spiky_grad(r);
-            xsph += (vel[j].xyz - vi) * poly6(dot(r, r));
+            vec3 r = xi - texelFetch(pred, int(j)).xyz;
+            eta += (texelFetch(omega, int(j)).w - wi) * spiky_grad(r);
+            xsph += (texelFetch(vel, int(j)).xyz - vi) * poly6(dot(r, r));
         END_NEIGHBOURS
         eta *= vol;
         v = vi + sim.visc.x * vol * xsph;
         float le = length(eta);
-        if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega[i].xyz);
+        if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, texelFetch(omega, int(i)).xyz);
     } else {
         // No confinement (sim_vorticity did not run): XSPH alone.
         FOR_NEIGHBOURS(i, j)
-            vec3 r = xi - pred[j].xyz;
-            xsph += (vel[j].xyz - vi) * poly6(dot(r, r));
+            vec3 r = xi - texelFetch(pred, int(j)).xyz;
+            xsph += (texelFetch(vel, int(j)).xyz - vi) * poly6(dot(r, r));
         END_NEIGHBOURS
         v = vi + sim.visc.x * vol * xsph;
     }

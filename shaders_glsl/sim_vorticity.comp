@@ -5,18 +5,18 @@
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
-layout(std430, binding = 3) readonly buffer Pred { vec4 pred[]; };
-layout(std430, binding = 4) readonly buffer Vel { vec4 vel[]; };
+layout(binding = 3) uniform samplerBuffer pred;
+layout(binding = 4) uniform samplerBuffer vel;
 layout(std430, binding = 5) writeonly buffer Omega { vec4 omega[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xi = pred[i].xyz;
-    vec3 vi = vel[i].xyz;
+    vec3 xi = texelFetch(pred, int(i)).xyz;
+    vec3 vi = texelFetch(vel, int(i)).xyz;
     vec3 w = vec3(0.0);
     FOR_NEIGHBOURS(i, j)
-        w += cross(vel[j].xyz - vi, -spiky_grad(xi - pred[j].xyz));
+        w += cross(texelFetch(vel, int(j)).xyz - vi, -spiky_grad(xi - texelFetch(pred, int(j)).xyz));
     END_NEIGHBOURS
     w *= sim.kern.w;
     omega[i] = vec4(w, length(w));

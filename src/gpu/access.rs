@@ -12,7 +12,7 @@ use ash::vk;
 pub enum Access {
     /// Read as a storage image / storage buffer / uniform in a compute shader.
     ComputeRead,
-    /// Sampled through a sampler in a compute shader.
+    /// Sampled through a sampler, or a uniform texel buffer fetched, in a compute shader.
     ComputeSampled,
     /// Written (or read and written, atomics) as storage in a compute shader.
     ComputeWrite,

@@ -35,6 +35,9 @@ pub enum Slot {
     BufRead,
     /// Storage buffer, read and written.
     BufWrite,
+    /// Uniform texel buffer (`samplerBuffer`, read with `texelFetch`), through the buffer's texel view
+    /// ([`Buffer::with_texel_view`]).
+    TexelRead,
     /// Storage image, read.
     ImgRead,
     /// Storage image, read and written (keeps what was there).
@@ -57,6 +60,7 @@ impl Slot {
         match self {
             Slot::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
             Slot::BufRead | Slot::BufWrite => vk::DescriptorType::STORAGE_BUFFER,
+            Slot::TexelRead => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
             Slot::ImgRead | Slot::ImgWrite | Slot::ImgOverwrite | Slot::ImgAltWrite | Slot::ImgAltRead => {
                 vk::DescriptorType::STORAGE_IMAGE
             }
@@ -66,16 +70,17 @@ impl Slot {
 
     /// Whether the slot takes a buffer (else an image).
     pub const fn is_buffer(self) -> bool {
-        matches!(self, Slot::Uniform | Slot::BufRead | Slot::BufWrite)
+        matches!(self, Slot::Uniform | Slot::BufRead | Slot::BufWrite | Slot::TexelRead)
     }
 
     /// The access (and whether old contents are dropped) for a compute or a graphics program.
     pub fn access(self, graphics: bool) -> (Access, bool) {
         match self {
-            Slot::Uniform | Slot::BufRead | Slot::ImgRead | Slot::ImgAltRead if graphics => {
+            Slot::Uniform | Slot::BufRead | Slot::TexelRead | Slot::ImgRead | Slot::ImgAltRead if graphics => {
                 (Access::GraphicsRead, false)
             }
             Slot::Uniform | Slot::BufRead | Slot::ImgRead | Slot::ImgAltRead => (Access::ComputeRead, false),
+            Slot::TexelRead => (Access::ComputeSampled, false),
             Slot::BufWrite | Slot::ImgWrite | Slot::ImgAltWrite => (Access::ComputeWrite, false),
             Slot::ImgOverwrite => (Access::ComputeWrite, true),
             Slot::Sampled | Slot::SampledNearest => (Access::ComputeSampled, false),
@@ -419,8 +424,13 @@ pub fn push_descriptors(
 ) {
     let mut images = Vec::with_capacity(res.len());
     let mut buffers = Vec::with_capacity(res.len());
+    let mut texels = Vec::with_capacity(res.len());
     for (slot, r) in slots.iter().zip(res) {
         match (*slot, *r) {
+            (Slot::TexelRead, Res::Buf(b)) => texels.push(
+                b.texel_view
+                    .unwrap_or_else(|| panic!("buffer {} is bound to a TexelRead slot without a texel view", b.name)),
+            ),
             (_, Res::Buf(b)) => {
                 buffers.push(vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE })
             }
@@ -440,13 +450,16 @@ pub fn push_descriptors(
             }),
         }
     }
-    let (mut ii, mut bi) = (0, 0);
+    let (mut ii, mut bi, mut ti) = (0, 0, 0);
     let writes: Vec<_> = slots
         .iter()
         .enumerate()
         .map(|(k, slot)| {
             let w = vk::WriteDescriptorSet::default().dst_binding(k as u32).descriptor_type(slot.descriptor_type());
-            if slot.is_buffer() {
+            if *slot == Slot::TexelRead {
+                ti += 1;
+                w.texel_buffer_view(std::slice::from_ref(&texels[ti - 1]))
+            } else if slot.is_buffer() {
                 bi += 1;
                 w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
             } else {
@@ -667,5 +680,11 @@ mod tests {
         assert_eq!(Slot::BufRead.access(true), (Access::GraphicsRead, false));
         assert_eq!(Slot::ImgAltRead.descriptor_type(), vk::DescriptorType::STORAGE_IMAGE);
         assert!(Slot::Uniform.is_buffer() && !Slot::Sampled.is_buffer());
+        // A texel buffer is a buffer read through the sampled path (its barrier must name SAMPLED_READ, which
+        // sync validation checks).
+        assert!(Slot::TexelRead.is_buffer());
+        assert_eq!(Slot::TexelRead.descriptor_type(), vk::DescriptorType::UNIFORM_TEXEL_BUFFER);
+        assert_eq!(Slot::TexelRead.access(false), (Access::ComputeSampled, false));
+        assert!(Access::ComputeSampled.info().access.contains(vk::AccessFlags2::SHADER_SAMPLED_READ));
     }
 }

@@ -240,6 +240,8 @@ pub struct Buffer {
     pub name: String,
     pub(crate) state: Cell<AccessState>,
     alloc: Option<Allocation>,
+    /// A texel view of the whole buffer (see [`Buffer::with_texel_view`]), for `Slot::TexelRead` bindings.
+    pub texel_view: Option<vk::BufferView>,
 }
 
 impl Buffer {
@@ -270,6 +272,7 @@ impl Buffer {
             name: name.to_string(),
             state: Cell::new(AccessState::default()),
             alloc: Some(alloc),
+            texel_view: None,
         })
     }
 
@@ -278,6 +281,18 @@ impl Buffer {
         let mut b = Buffer::new(gpu, name, data.len() as u64, usage, MemoryLocation::CpuToGpu)?;
         b.write(0, data)?;
         Ok(b)
+    }
+
+    /// Give the buffer (created with `UNIFORM_TEXEL_BUFFER` usage) a texel view of its whole size in `format`, so
+    /// a `Slot::TexelRead` binding can read it through `texelFetch` (a `samplerBuffer` in GLSL). Why: lavapipe
+    /// turns a storage-buffer load at a per-lane index into a loop over the 8 lanes, one branch and one scalar
+    /// load per lane and component, while a texel fetch is one branch-free gather; GPUs read both through their
+    /// caches. The hot neighbour loops read their particles this way.
+    pub fn with_texel_view(mut self, format: vk::Format) -> Result<Buffer> {
+        let ci = vk::BufferViewCreateInfo::default().buffer(self.raw).format(format).offset(0).range(vk::WHOLE_SIZE);
+        let view = unsafe { self.gpu.device.create_buffer_view(&ci, None) }.vk("vkCreateBufferView")?;
+        self.texel_view = Some(view);
+        Ok(self)
     }
 
     /// Copy `data` into a mapped buffer at `offset`.
@@ -308,6 +323,9 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
+        if let Some(v) = self.texel_view.take() {
+            unsafe { self.gpu.device.destroy_buffer_view(v, None) };
+        }
         unsafe { self.gpu.device.destroy_buffer(self.raw, None) };
         if let Some(a) = self.alloc.take() {
             if let Ok(mut al) = self.gpu.allocator.lock() {

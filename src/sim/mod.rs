@@ -328,6 +328,12 @@ impl Simulation {
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
         let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, usage, MemoryLocation::GpuOnly);
+        let texels = |name: &str, bytes: u64, format: vk::Format| {
+            Buffer::new(gpu, name, bytes, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
+                .with_texel_view(format)
+        };
+        let vec4s = |name: &str| texels(name, 16 * cap, vk::Format::R32G32B32A32_SFLOAT);
+        let uints = |name: &str, n: u64| texels(name, 4 * n, vk::Format::R32_UINT);
         let (lo, hi) = scene.container;
         let shape = GridShape::covering(lo, hi, constants.h);
         let uniforms = (0..RING)
@@ -351,11 +357,11 @@ impl Simulation {
             staging: (0..RING).map(|_| None).collect(),
             ring: 0,
             state: [buf("sim_state", 32 * cap)?, buf("sim_state_sorted", 32 * cap)?],
-            pred: [buf("sim_pred", 16 * cap)?, buf("sim_pred_next", 16 * cap)?],
-            pos_lambda: buf("sim_pos_lambda", 16 * cap)?,
+            pred: [vec4s("sim_pred")?, vec4s("sim_pred_next")?],
+            pos_lambda: vec4s("sim_pos_lambda")?,
             density: buf("sim_density", 4 * cap)?,
-            vel: buf("sim_vel", 16 * cap)?,
-            omega: buf("sim_omega", 16 * cap)?,
+            vel: vec4s("sim_vel")?,
+            omega: vec4s("sim_omega")?,
             particles: buf("sim_particles", 16 * cap)?,
             sdf: match &scene.mesh_collider {
                 Some(m) => crate::renderer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
@@ -363,8 +369,8 @@ impl Simulation {
             },
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
             neighbours: stages::Neighbours {
-                count: buf("sim_nbr_count", 4 * cap)?,
-                list: buf("sim_nbrs", 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
+                count: uints("sim_nbr_count", cap)?,
+                list: uints("sim_nbrs", cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
                 overflow: buf("sim_nbr_overflow", 16)?,
             },
             n: 0,

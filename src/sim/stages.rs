@@ -39,15 +39,15 @@ declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWr
 declare_program!(pub REORDER: () = compute(shaders::SIM_REORDER, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 declare_program!(pub NEIGHBOURS: () = compute(
     shaders::SIM_NEIGHBOURS,
-    [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite]
+    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
 ));
-declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
-declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufRead]));
+declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite]));
+declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead]));
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
-declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
 declare_program!(pub VISCOSITY: () = compute(
     shaders::SIM_VISCOSITY,
-    [Uniform, BufRead, BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]
+    [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
 ));
 
 /// The stages' programs.
