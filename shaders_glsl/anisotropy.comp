@@ -55,7 +55,7 @@ void sym_eigen(inout float a[3][3], out float v[3][3]) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.dims.w) return;
-    vec3 x = iso_points[i].xyz;
+    vec3 x = ISO_POINT(i).xyz;
     float h = pc.params.x;
     ivec3 dims = ivec3(pc.dims.xyz);
     // The point's own cell (clamped into the grid as the grid's sort does).
@@ -75,10 +75,10 @@ void main() {
         for (int y = max(cc.y - K, 0); y <= min(cc.y + K, dims.y - 1); ++y) {
             {
                 int row = dims.x * (y + dims.y * z);
-                uint first = iso_cells[x0 + row].x;
-                uvec2 last = iso_cells[x1 + row];
+                uint first = ISO_CELL(x0 + row).x;
+                uvec2 last = ISO_CELL(x1 + row);
                 for (uint j = first; j < last.x + last.y; ++j) {
-                    vec3 v = iso_points[j].xyz - x;
+                    vec3 v = ISO_POINT(j).xyz - x;
                     float d = length(v);
                     if (d >= R) continue;
                     float qq = d / R;

@@ -4,6 +4,7 @@
 //! IsoGrid::inv_density in src/iso.rs.
 //! In: sorted points, cells. Out: weights (one float per point).
 #include "common.glsl"
+#define ISO_WRITES_WEIGHTS
 #include "iso_field.glsl"
 layout(local_size_x = LOCAL_1D) in;
 
@@ -11,5 +12,5 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.dims.w) return;
     float dmin;
-    iso_w[i] = 1.0 / iso_sum(iso_points[i].xyz, false, dmin);
+    iso_w_out[i] = 1.0 / iso_sum(ISO_POINT(i).xyz, false, dmin);
 }

@@ -1,18 +1,29 @@
 //! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
 //! (src/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
 //! Bindings 1–3: points sorted by cell (xyz), cells (first point, count), weights 1/n_j (one per point; not
-//! declared, nor iso_sum, with ISO_NO_WEIGHTS).
+//! declared, nor iso_sum, with ISO_NO_WEIGHTS; a storage buffer with ISO_WRITES_WEIGHTS, iso_density's
+//! output). Every array the loops read at a per-point index is a texel buffer (Buffer::with_texel_view says
+//! why: on lavapipe a storage-buffer load there is a loop over the lanes).
 //! With ISO_ANISO_BINDING defined (iso_aniso.comp), each point's anisotropic kernel (the `anisotropy` pass,
 //! Yu & Turk 2013): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j.
 
-layout(std430, set = 0, binding = 1) readonly buffer IsoPoints { vec4 iso_points[]; };
-layout(std430, set = 0, binding = 2) readonly buffer IsoCells { uvec2 iso_cells[]; };
+layout(set = 0, binding = 1) uniform samplerBuffer iso_points_t;   // RGBA32F
+layout(set = 0, binding = 2) uniform usamplerBuffer iso_cells_t;   // RG32UI
+#define ISO_POINT(i) texelFetch(iso_points_t, int(i))
+#define ISO_CELL(i) texelFetch(iso_cells_t, int(i)).xy
 #ifndef ISO_NO_WEIGHTS
-layout(std430, set = 0, binding = 3) buffer IsoWeights { float iso_w[]; };
+#ifdef ISO_WRITES_WEIGHTS
+layout(std430, set = 0, binding = 3) writeonly buffer IsoWeights { float iso_w_out[]; };
+#define ISO_WEIGHT(i) 1.0
+#else
+layout(set = 0, binding = 3) uniform samplerBuffer iso_w_t;        // R32F
+#define ISO_WEIGHT(i) texelFetch(iso_w_t, int(i)).x
+#endif
 #endif
 
 #ifdef ISO_ANISO_BINDING
-layout(std430, set = 0, binding = ISO_ANISO_BINDING) readonly buffer IsoAniso { vec4 iso_aniso[]; };
+layout(set = 0, binding = ISO_ANISO_BINDING) uniform samplerBuffer iso_aniso_t;   // RGBA32F
+#define ISO_ANISO(i) texelFetch(iso_aniso_t, int(i))
 #endif
 
 layout(push_constant) uniform IsoPush {
@@ -52,26 +63,26 @@ float iso_sum(vec3 x, bool weighted, out float dmin) {
         for (int y = max(c.y - 1, 0); y <= min(c.y + 1, dims.y - 1); ++y) {
             {
                 int row = dims.x * (y + dims.y * z);
-                uint first = iso_cells[x0 + row].x;
-                uvec2 last = iso_cells[x1 + row];
+                uint first = ISO_CELL(x0 + row).x;
+                uvec2 last = ISO_CELL(x1 + row);
                 for (uint i = first; i < last.x + last.y; ++i) {
-                    vec3 v = iso_points[i].xyz - x;
+                    vec3 v = ISO_POINT(i).xyz - x;
                     float d2 = dot(v, v);
                     d2min = min(d2min, d2);
 #ifdef ISO_ANISO_BINDING
                     // Weighted always (iso_aniso.comp only casts). The ellipsoid lies inside the ball of radius
                     // (longest axis) around its centre.
-                    vec4 a0 = iso_aniso[3u * i];
+                    vec4 a0 = ISO_ANISO(3u * i);
                     vec3 u = x - a0.xyz;
                     float reach = pc.params.x * pc.aniso2.x;
                     if (dot(u, u) < reach * reach) {
-                        vec4 a1 = iso_aniso[3u * i + 1u], a2 = iso_aniso[3u * i + 2u];
+                        vec4 a1 = ISO_ANISO(3u * i + 1u), a2 = ISO_ANISO(3u * i + 2u);
                         mat3 m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
-                        s += a0.w * iso_kernel(length(m * u) * inv_h) * iso_w[i];
+                        s += a0.w * iso_kernel(length(m * u) * inv_h) * ISO_WEIGHT(i);
                     }
 #else
                     float w = iso_kernel(sqrt(d2) * inv_h);
-                    s += weighted ? w * iso_w[i] : w;
+                    s += weighted ? w * ISO_WEIGHT(i) : w;
 #endif
                 }
             }

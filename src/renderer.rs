@@ -772,14 +772,17 @@ impl Renderer {
             self.iso = None;
             let cap = n.max(1);
             // TRANSFER_SRC: the tests read the grid and kernels back.
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-            let buf =
-                |name: &str, bytes: u64| Buffer::new(&self.gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC;
+            let buf = |name: &str, bytes: u64, format: vk::Format| {
+                Buffer::new(&self.gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly)?.with_texel_view(format)
+            };
             self.iso = Some(crate::passes::iso::IsoBuffers {
-                points: buf("iso_points", cap as u64 * 16)?,
-                cells: buf("iso_cells", shape.cells() as u64 * 8)?,
-                weights: buf("iso_weights", cap as u64 * 4)?,
-                aniso: buf("iso_aniso", cap as u64 * 48)?,
+                points: buf("iso_points", cap as u64 * 16, crate::passes::iso::IsoBuffers::POINTS)?,
+                cells: buf("iso_cells", shape.cells() as u64 * 8, crate::passes::iso::IsoBuffers::CELLS)?,
+                weights: buf("iso_weights", cap as u64 * 4, crate::passes::iso::IsoBuffers::WEIGHTS)?,
+                aniso: buf("iso_aniso", cap as u64 * 48, crate::passes::iso::IsoBuffers::ANISO)?,
                 shape: push,
                 gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
                 rebuild: std::cell::Cell::new(true),
@@ -802,13 +805,17 @@ impl Renderer {
         let grid = crate::iso::IsoGrid::build_reaching(&pts, support, reach);
         self.executor.wait_idle()?;
         self.iso = None;
-        let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?;
-        let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?;
-        let buf = |name: &str, per_point: u64| {
+        let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?
+            .with_texel_view(crate::passes::iso::IsoBuffers::POINTS)?;
+        let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?
+            .with_texel_view(crate::passes::iso::IsoBuffers::CELLS)?;
+        let buf = |name: &str, per_point: u64, format: vk::Format| {
             let bytes = (grid.points.len() as u64 * per_point).max(per_point.max(16));
-            Buffer::new(&self.gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly)
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+            Buffer::new(&self.gpu, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(format)
         };
-        let (weights, aniso) = (buf("iso_weights", 4)?, buf("iso_aniso", 48)?);
+        let weights = buf("iso_weights", 4, crate::passes::iso::IsoBuffers::WEIGHTS)?;
+        let aniso = buf("iso_aniso", 48, crate::passes::iso::IsoBuffers::ANISO)?;
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.iso = Some(crate::passes::iso::IsoBuffers {
             points,
@@ -884,7 +891,9 @@ pub fn upload_buffer(gpu: &Arc<Gpu>, name: &str, data: &[u8], reuse: Option<Buff
             gpu,
             name,
             size,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?,
     };

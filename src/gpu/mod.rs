@@ -152,6 +152,8 @@ pub struct DeviceInfo {
     pub subgroup_size: u32,
     /// Largest storage buffer range in bytes.
     pub max_storage_buffer_range: u64,
+    /// maxTexelBufferElements: the most texels a texel view (`Buffer::with_texel_view`) may cover.
+    pub max_texel_buffer_elements: u64,
 }
 
 /// The device and everything that lives as long as it.
@@ -466,6 +468,7 @@ impl Gpu {
             calibrated_timestamps: false,
             subgroup_size: subgroup.subgroup_size,
             max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
+            max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
         };
 
         // Features: synchronization2 and dynamic rendering (1.3), demote-to-helper (shaderc turns `discard`

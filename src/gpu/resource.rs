@@ -63,7 +63,7 @@ pub fn format_bytes(f: vk::Format) -> u64 {
     match f {
         vk::Format::R8G8B8A8_UNORM | vk::Format::B8G8R8A8_UNORM | vk::Format::R8G8B8A8_SRGB => 4,
         vk::Format::R32_SFLOAT | vk::Format::R32_UINT | vk::Format::D32_SFLOAT => 4,
-        vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT => 8,
+        vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT | vk::Format::R32G32_UINT => 8,
         vk::Format::R32G32B32A32_SFLOAT => 16,
         vk::Format::R16_SFLOAT => 2,
         _ => 4,
@@ -288,7 +288,20 @@ impl Buffer {
     /// turns a storage-buffer load at a per-lane index into a loop over the 8 lanes, one branch and one scalar
     /// load per lane and component, while a texel fetch is one branch-free gather; GPUs read both through their
     /// caches. The hot neighbour loops read their particles this way.
+    /// A buffer that already has one gets a new one. Fails with `Error::Limit` past the device's
+    /// maxTexelBufferElements.
     pub fn with_texel_view(mut self, format: vk::Format) -> Result<Buffer> {
+        let texels = self.size / format_bytes(format);
+        let limit = self.gpu.info.max_texel_buffer_elements;
+        if texels > limit {
+            return Err(Error::Limit(format!(
+                "{}: {texels} texels exceed this device's texel buffer limit of {limit}",
+                self.name
+            )));
+        }
+        if let Some(v) = self.texel_view.take() {
+            unsafe { self.gpu.device.destroy_buffer_view(v, None) };
+        }
         let ci = vk::BufferViewCreateInfo::default().buffer(self.raw).format(format).offset(0).range(vk::WHOLE_SIZE);
         let view = unsafe { self.gpu.device.create_buffer_view(&ci, None) }.vk("vkCreateBufferView")?;
         self.texel_view = Some(view);

@@ -70,7 +70,7 @@ pub struct Anisotropy {
 }
 
 // Frame, sorted points, cell table → kernels.
-declare_program!(pub PROGRAM: IsoPush = compute(shaders::ANISOTROPY, [Uniform, BufRead, BufRead, BufWrite]));
+declare_program!(pub PROGRAM: IsoPush = compute(shaders::ANISOTROPY, [Uniform, TexelRead, TexelRead, BufWrite]));
 
 impl Anisotropy {
     /// Build the pass's pipeline.

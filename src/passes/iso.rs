@@ -5,6 +5,8 @@
 //! particles.
 use std::sync::Arc;
 
+use ash::vk;
+
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
@@ -65,6 +67,17 @@ pub struct IsoBuffers {
     pub gpu: Option<crate::passes::grid::GridBuffers>,
     /// The GPU grid must be rebuilt by the next frame (its particles changed).
     pub rebuild: std::cell::Cell<bool>,
+}
+
+impl IsoBuffers {
+    /// The texel formats iso_field.glsl reads them in: points xyzw, cells (first, count), weights, kernels.
+    pub const POINTS: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+    /// See [`IsoBuffers::POINTS`].
+    pub const CELLS: vk::Format = vk::Format::R32G32_UINT;
+    /// See [`IsoBuffers::POINTS`].
+    pub const WEIGHTS: vk::Format = vk::Format::R32_SFLOAT;
+    /// See [`IsoBuffers::POINTS`].
+    pub const ANISO: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 }
 
 /// Push constants (IsoPush in iso_field.glsl).
@@ -146,16 +159,16 @@ pub struct GatherPush {
 declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 
 // Density: frame, grid points, cell table → per-point weights 1/n_j.
-declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, BufRead, BufRead, BufWrite]));
+declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite]));
 // Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth, the queue of
 // unfinished rays and its header (written).
-declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
 // the isotropic cast's cost on lavapipe, 553 → 988 ms on the dam-break frame at 960×540).
-declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufRead]));
+declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
 // The second dispatches: the queued rays finished (the queue and its header read).
-declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufRead, BufRead]));
-declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, BufRead, BufRead, BufRead, ImgWrite, ImgRead, BufRead, BufRead, BufRead]));
+declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
