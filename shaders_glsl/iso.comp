@@ -7,7 +7,7 @@
 //! The march ends where the ray leaves the grid's box or behind the farthest bound sphere exit of the pixel
 //! (pc.steps.z = 1, `back` from the splat) or of its 8×8 tile (2, from `splat_cull`, when the splat culls). The bracket is refined by bisection, then by one linear interpolation.
 //! In/out: depth (R32F, linear eye depth; +inf = no fluid), rewritten in place per pixel. In: back (R32F, per pixel or per 8×8 tile).
-//! Out: the queue of rays unfinished after pc.steps.w samples (bindings 6, 7), which iso_rest.comp finishes.
+//! Out: the queue of rays unfinished after pc.steps.w samples (bindings 5, 6), which iso_rest.comp finishes.
 //! The march is in iso_cast.glsl; iso_aniso.comp is the same march over the anisotropic kernels' field.
 #include "common.glsl"
 #include "iso_field.glsl"

@@ -7,21 +7,21 @@
 //! a vector runs until its slowest lane is done. On the dam-break frame (960×540) the median hit takes 3 samples
 //! but 1 % take 30–100 (grazing rays along the shell between the surface and the bound spheres, in the
 //! spray), so one dispatch paid 3.1× the samples it used; compacted, the long rays share vectors.
-//! Queue header (binding 7): {groups x, 1, 1, count} — a VkDispatchIndirectCommand followed by the count; the
-//! host zero-fills it before the first dispatch. Entries (binding 6): (pixel x | y << 16, d, previous d, φ there).
+//! Queue header (binding 6): {groups x, 1, 1, count} — a VkDispatchIndirectCommand followed by the count; the
+//! host zero-fills it before the first dispatch. Entries (binding 5): (pixel x | y << 16, d, previous d, φ there).
 #ifdef ISO_REST
 layout(local_size_x = LOCAL_1D) in;
 #else
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 #endif
-layout(set = 0, binding = 4, r32f) uniform image2D depth;
-layout(set = 0, binding = 5, r32f) uniform readonly image2D back;
+layout(set = 0, binding = 3, r32f) uniform image2D depth;
+layout(set = 0, binding = 4, r32f) uniform readonly image2D back;
 #ifdef ISO_REST
-layout(std430, set = 0, binding = 6) readonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = 7) readonly buffer IsoArgs { uint iso_args[4]; };
+layout(std430, set = 0, binding = 5) readonly buffer IsoQueue { uvec4 iso_queue[]; };
+layout(std430, set = 0, binding = 6) readonly buffer IsoArgs { uint iso_args[4]; };
 #else
-layout(std430, set = 0, binding = 6) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = 7) buffer IsoArgs { uint iso_args[4]; };
+layout(std430, set = 0, binding = 5) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
+layout(std430, set = 0, binding = 6) buffer IsoArgs { uint iso_args[4]; };
 #endif
 
 struct Ray {

@@ -2,7 +2,7 @@
 //! iso_density — first dispatch of the `iso` pass: per grid point j, 1/n_j with n_j = Σ_k W(|x_j − x_k|)
 //! (the particle's SPH volume up to the rest mass; splashsurf's normalisation). CPU reference:
 //! IsoGrid::inv_density in src/iso.rs.
-//! In: sorted points, cells. Out: weights (one float per point).
+//! In: sorted points, cells. Out: the weighted points (xyz, 1/n_j), which the casts read.
 #include "common.glsl"
 #define ISO_WRITES_WEIGHTS
 #include "iso_field.glsl"
@@ -12,5 +12,6 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.dims.w) return;
     float dmin;
-    iso_w_out[i] = 1.0 / iso_sum(ISO_POINT(i).xyz, false, dmin);
+    vec3 x = ISO_POINT(i).xyz;
+    iso_weighted_out[i] = vec4(x, 1.0 / iso_sum(x, false, dmin));
 }

@@ -1,9 +1,11 @@
 //! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
 //! (src/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
-//! Bindings 1–3: points sorted by cell (xyz), cells (first point, count), weights 1/n_j (one per point; not
-//! declared, nor iso_sum, with ISO_NO_WEIGHTS; a storage buffer with ISO_WRITES_WEIGHTS, iso_density's
-//! output). Every array the loops read at a per-point index is a texel buffer (Buffer::with_texel_view says
-//! why: on lavapipe a storage-buffer load there is a loop over the lanes).
+//! Binding 1: the points sorted by cell: (xyz, 1/n_j) in the casts (`weighted`, iso_density's output), xyz in
+//! iso_density and the anisotropy pass (`points`); binding 2: cells (first point, count); with
+//! ISO_WRITES_WEIGHTS (iso_density) binding 3: the weighted points it writes. The casts read a point and its
+//! weight with one fetch (iso 7 % cheaper than a separate weight buffer on lavapipe). Every array the loops
+//! read at a per-point index is a texel buffer (Buffer::with_texel_view says why: on lavapipe a
+//! storage-buffer load there is a loop over the lanes). ISO_NO_WEIGHTS: no iso_sum (the anisotropy pass).
 //! With ISO_ANISO_BINDING defined (iso_aniso.comp), each point's anisotropic kernel (the `anisotropy` pass,
 //! Yu & Turk 2013): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j.
 
@@ -11,14 +13,8 @@ layout(set = 0, binding = 1) uniform samplerBuffer iso_points_t;   // RGBA32F
 layout(set = 0, binding = 2) uniform usamplerBuffer iso_cells_t;   // RG32UI
 #define ISO_POINT(i) texelFetch(iso_points_t, int(i))
 #define ISO_CELL(i) texelFetch(iso_cells_t, int(i)).xy
-#ifndef ISO_NO_WEIGHTS
 #ifdef ISO_WRITES_WEIGHTS
-layout(std430, set = 0, binding = 3) writeonly buffer IsoWeights { float iso_w_out[]; };
-#define ISO_WEIGHT(i) 1.0
-#else
-layout(set = 0, binding = 3) uniform samplerBuffer iso_w_t;        // R32F
-#define ISO_WEIGHT(i) texelFetch(iso_w_t, int(i)).x
-#endif
+layout(std430, set = 0, binding = 3) writeonly buffer IsoWeighted { vec4 iso_weighted_out[]; };
 #endif
 
 #ifdef ISO_ANISO_BINDING
@@ -66,7 +62,8 @@ float iso_sum(vec3 x, bool weighted, out float dmin) {
                 uint first = ISO_CELL(x0 + row).x;
                 uvec2 last = ISO_CELL(x1 + row);
                 for (uint i = first; i < last.x + last.y; ++i) {
-                    vec3 v = ISO_POINT(i).xyz - x;
+                    vec4 pt = ISO_POINT(i);
+                    vec3 v = pt.xyz - x;
                     float d2 = dot(v, v);
                     d2min = min(d2min, d2);
 #ifdef ISO_ANISO_BINDING
@@ -78,11 +75,11 @@ float iso_sum(vec3 x, bool weighted, out float dmin) {
                     if (dot(u, u) < reach * reach) {
                         vec4 a1 = ISO_ANISO(3u * i + 1u), a2 = ISO_ANISO(3u * i + 2u);
                         mat3 m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
-                        s += a0.w * iso_kernel(length(m * u) * inv_h) * ISO_WEIGHT(i);
+                        s += a0.w * iso_kernel(length(m * u) * inv_h) * pt.w;
                     }
 #else
                     float w = iso_kernel(sqrt(d2) * inv_h);
-                    s += weighted ? w * ISO_WEIGHT(i) : w;
+                    s += weighted ? w * pt.w : w;
 #endif
                 }
             }

@@ -1,7 +1,7 @@
 #version 460
 //! iso_rest — the `iso` pass's second dispatch (iso_cast.glsl): finishes the rays that iso.comp queued after
 //! its first pc.steps.w samples, one queue entry per invocation, dispatched indirectly from the queue header.
-//! In: the queue (bindings 6, 7), the grid, back. Out: depth at the queued pixels.
+//! In: the queue (bindings 5, 6), the grid, back. Out: depth at the queued pixels.
 #include "common.glsl"
 #include "iso_field.glsl"
 #define ISO_REST

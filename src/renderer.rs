@@ -781,7 +781,7 @@ impl Renderer {
             self.iso = Some(crate::passes::iso::IsoBuffers {
                 points: buf("iso_points", cap as u64 * 16, crate::passes::iso::IsoBuffers::POINTS)?,
                 cells: buf("iso_cells", shape.cells() as u64 * 8, crate::passes::iso::IsoBuffers::CELLS)?,
-                weights: buf("iso_weights", cap as u64 * 4, crate::passes::iso::IsoBuffers::WEIGHTS)?,
+                weighted: buf("iso_weighted", cap as u64 * 16, crate::passes::iso::IsoBuffers::WEIGHTED)?,
                 aniso: buf("iso_aniso", cap as u64 * 48, crate::passes::iso::IsoBuffers::ANISO)?,
                 shape: push,
                 gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
@@ -814,13 +814,13 @@ impl Renderer {
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
             Buffer::new(&self.gpu, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(format)
         };
-        let weights = buf("iso_weights", 4, crate::passes::iso::IsoBuffers::WEIGHTS)?;
+        let weighted = buf("iso_weighted", 16, crate::passes::iso::IsoBuffers::WEIGHTED)?;
         let aniso = buf("iso_aniso", 48, crate::passes::iso::IsoBuffers::ANISO)?;
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.iso = Some(crate::passes::iso::IsoBuffers {
             points,
             cells,
-            weights,
+            weighted,
             aniso,
             shape,
             gpu: None,

@@ -56,8 +56,8 @@ pub struct IsoBuffers {
     pub points: Buffer,
     /// Cell table (first point, count).
     pub cells: Buffer,
-    /// 1 / n_j per point, written by `iso_density`.
-    pub weights: Buffer,
+    /// The sorted points with their weights (xyz, 1 / n_j), written by `iso_density`, read by the casts.
+    pub weighted: Buffer,
     /// Each point's anisotropic kernel (three vec4), written by the `anisotropy` pass.
     pub aniso: Buffer,
     /// Grid shape as push constants.
@@ -75,7 +75,7 @@ impl IsoBuffers {
     /// See [`IsoBuffers::POINTS`].
     pub const CELLS: vk::Format = vk::Format::R32G32_UINT;
     /// See [`IsoBuffers::POINTS`].
-    pub const WEIGHTS: vk::Format = vk::Format::R32_SFLOAT;
+    pub const WEIGHTED: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
     /// See [`IsoBuffers::POINTS`].
     pub const ANISO: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 }
@@ -158,17 +158,17 @@ pub struct GatherPush {
 // Gather: particles, order, start, counts → sorted points, cell table.
 declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 
-// Density: frame, grid points, cell table → per-point weights 1/n_j.
+// Density: frame, grid points, cell table → the weighted points (xyz, 1/n_j).
 declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite]));
-// Ray cast: frame, grid, weights, depth (read as the start, written as the surface), back depth, the queue of
-// unfinished rays and its header (written).
-declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+// Ray cast: frame, the weighted points, the cell table, depth (read as the start, written as the surface), back
+// depth, the queue of unfinished rays and its header (written).
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
 // the isotropic cast's cost on lavapipe, 553 → 988 ms on the dam-break frame at 960×540).
-declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
+declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
 // The second dispatches: the queued rays finished (the queue and its header read).
-declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
-declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
+declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
@@ -250,13 +250,13 @@ impl Iso {
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
-            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weights).into()];
             let n = b.shape.dims[3];
+            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weighted).into()];
             self.density.dispatch(ctx, &bufs, &push, [n.div_ceil(super::LOCAL_1D), 1, 1]);
             ctx.fill(&queue.header, 0);
             let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
             let (q, h) = ((&queue.entries).into(), (&queue.header).into());
-            let mut all = vec![bufs[0], bufs[1], bufs[2], bufs[3], depth.into(), back_img.into(), q, h];
+            let mut all = vec![frame.into(), (&b.weighted).into(), (&b.cells).into(), depth.into(), back_img.into(), q, h];
             let (cast, rest) = match params.aniso {
                 Some(_) => {
                     all.push((&b.aniso).into());
