@@ -316,7 +316,8 @@ pub fn ray_end(grid: &IsoGrid, origin: Vec3, dir: Vec3) -> f32 {
 /// CPU reference of the march of `iso.comp` along `origin + d·dir` (d: linear depth, dir with unit forward
 /// component) from `d_start` (the bound spheres' depth) to `d_end`: the first depth where φ ≥ threshold,
 /// bracketed by the march (or, when φ ≥ threshold at the start, by up to ISO_BACK_STEPS steps back towards
-/// the eye), bisected `refine` times, then linearly interpolated.
+/// the eye), bisected `refine` times, then linearly interpolated. The march steps by the nearest particle's
+/// distance less the bound radius, at least `step` (2 `step` after ISO_SHORT_STEPS samples).
 pub fn cast(
     grid: &IsoGrid,
     inv_n: &[f32],
@@ -377,7 +378,8 @@ pub fn cast_with(
         }
         prev = d;
         phi_prev = phi;
-        d += (dmin - p.bound).max(p.step) / len;
+        let step = if k >= crate::shader_constants::ISO_SHORT_STEPS { 2.0 * p.step } else { p.step };
+        d += (dmin - p.bound).max(step) / len;
     }
     None
 }

@@ -29,6 +29,8 @@ pub const SCAN_BLOCK: u32 = 4 * SCAN_LOCAL;
 /// Smallest steps the `iso` march may take back towards the eye when it starts inside the surface (the surface
 /// bulges past the bound sphere there), so a bound sphere tighter than every bulge stays exact.
 pub const ISO_BACK_STEPS: u32 = 4;
+/// Samples after which the `iso` march's smallest step doubles (rays that long graze the surface's shell).
+pub const ISO_SHORT_STEPS: u32 = 8;
 /// Cubes per edge of a block of the GPU marching cubes (`mc` pass; the CPU path's blocks are 32).
 pub const MC_BLOCK: u32 = 8;
 /// Most triangles of one cube in the generated case table (mc_emit.comp's table stride).
@@ -44,6 +46,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_PIXELS_PER_PARTICLE", MAX_PIXELS_PER_PARTICLE),
     ("SPLAT_TILE", SPLAT_TILE),
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
+    ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
     ("MAX_COLLIDERS", MAX_COLLIDERS),
     ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),
