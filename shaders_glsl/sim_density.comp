@@ -12,6 +12,16 @@ layout(binding = 3) uniform samplerBuffer pred;
 layout(std430, binding = 4) writeonly buffer PosLambda { vec4 pos_lambda[]; };
 layout(std430, binding = 5) writeonly buffer Density { float density[]; };
 
+// One neighbour's share of ρ_i (poly6), ∇_i C_i and Σ_k |∇_k C_i|².
+void visit(uint j, vec3 xi, float vol, inout float w, inout vec3 grad_i, inout float sum2) {
+    vec3 r = xi - texelFetch(pred, int(j)).xyz;
+    w += poly6(dot(r, r));
+    vec3 g = vol * spiky_grad(r);
+    grad_i += g;
+    sum2 += dot(g, g);
+}
+#define VISIT(j) visit(j, xi, vol, w, grad_i, sum2)
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
@@ -20,13 +30,7 @@ void main() {
     float w = poly6(0.0);
     vec3 grad_i = vec3(0.0);
     float sum2 = 0.0;
-    FOR_NEIGHBOURS(i, j)
-        vec3 r = xi - texelFetch(pred, int(j)).xyz;
-        w += poly6(dot(r, r));
-        vec3 g = vol * spiky_grad(r);
-        grad_i += g;
-        sum2 += dot(g, g);
-    END_NEIGHBOURS
+    FOR_NEIGHBOURS(i, VISIT)
     vec3 gw;
     float fw = wall_density(xi, gw);
     grad_i += gw;

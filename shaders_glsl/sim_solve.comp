@@ -10,6 +10,15 @@ NEIGHBOUR_BUFFERS
 layout(binding = 3) uniform samplerBuffer pos_lambda;
 layout(std430, binding = 4) writeonly buffer PredOut { vec4 pred_out[]; };
 
+// One neighbour's share of Δp_i: (λ_i + λ_j + s_corr)·∇W_spiky.
+void visit(uint j, vec3 xi, float li, inout vec3 dp) {
+    vec4 pj = texelFetch(pos_lambda, int(j));
+    vec3 r = xi - pj.xyz;
+    float s = -sim.solver.z * scorr_pow(poly6(dot(r, r)) * sim.solver.w);
+    dp += (li + pj.w + s) * spiky_grad(r);
+}
+#define VISIT(j) visit(j, xi, li, dp)
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
@@ -17,12 +26,7 @@ void main() {
     vec3 xi = pi.xyz;
     float li = pi.w;
     vec3 dp = vec3(0.0);
-    FOR_NEIGHBOURS(i, j)
-        vec4 pj = texelFetch(pos_lambda, int(j));
-        vec3 r = xi - pj.xyz;
-        float s = -sim.solver.z * scorr_pow(poly6(dot(r, r)) * sim.solver.w);
-        dp += (li + pj.w + s) * spiky_grad(r);
-    END_NEIGHBOURS
+    FOR_NEIGHBOURS(i, VISIT)
     vec3 gw;
     wall_density(xi, gw);
     pred_out[i] = vec4(collide(xi + sim.kern.w * dp + li * gw), 0.0);

@@ -14,6 +14,15 @@ layout(std430, binding = 6) readonly buffer Sorted { State sorted[]; };
 layout(std430, binding = 7) writeonly buffer States { State state[]; };
 layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
 
+// One neighbour's share of XSPH's Σ (v_j − v_i) W_poly6, and with confinement of η.
+void visit(uint j, vec3 xi, vec3 vi, float wi, bool confine, inout vec3 xsph, inout vec3 eta) {
+    vec3 r = xi - texelFetch(pred, int(j)).xyz;
+    if (confine) eta += (texelFetch(omega, int(j)).w - wi) * spiky_grad(r);
+    xsph += (texelFetch(vel, int(j)).xyz - vi) * poly6(dot(r, r));
+}
+#define VISIT_CONFINED(j) visit(j, xi, vi, wi, true, xsph, eta)
+#define VISIT_XSPH(j) visit(j, xi, vi, 0.0, false, xsph, eta)
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
@@ -25,21 +34,15 @@ void main() {
     if (sim.visc.y > 0.0) {
         float wi = texelFetch(omega, int(i)).w;
         vec3 eta = vec3(0.0);
-        FOR_NEIGHBOURS(i, j)
-            vec3 r = xi - texelFetch(pred, int(j)).xyz;
-            eta += (texelFetch(omega, int(j)).w - wi) * spiky_grad(r);
-            xsph += (texelFetch(vel, int(j)).xyz - vi) * poly6(dot(r, r));
-        END_NEIGHBOURS
+        FOR_NEIGHBOURS(i, VISIT_CONFINED)
         eta *= vol;
         v = vi + sim.visc.x * vol * xsph;
         float le = length(eta);
         if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, texelFetch(omega, int(i)).xyz);
     } else {
         // No confinement (sim_vorticity did not run): XSPH alone.
-        FOR_NEIGHBOURS(i, j)
-            vec3 r = xi - texelFetch(pred, int(j)).xyz;
-            xsph += (texelFetch(vel, int(j)).xyz - vi) * poly6(dot(r, r));
-        END_NEIGHBOURS
+        vec3 eta = vec3(0.0);
+        FOR_NEIGHBOURS(i, VISIT_XSPH)
         v = vi + sim.visc.x * vol * xsph;
     }
     state[i] = State(vec4(xi, sorted[i].x.w), vec4(v, 0.0));
