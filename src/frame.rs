@@ -254,6 +254,9 @@ pub fn record_frame(
     if let Some(grid) = grid {
         let ctx = rec.part(if ellipsoids { Async } else { Fluid });
         p.iso.record_grid(ctx, particles, count, grid);
+        if s.surface == Surface::Iso {
+            p.iso.record_density(ctx, frame, grid);
+        }
         if let Some(a) = &params.aniso {
             p.anisotropy.record(ctx, frame, grid, a);
         }

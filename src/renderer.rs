@@ -762,7 +762,11 @@ impl Renderer {
                 if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
                     if self.iso_stale {
                         b.rebuild.set(true);
+                        b.weights_stale.set(true);
                         self.iso_stale = false;
+                    }
+                    if b.shape.support() != push.support() {
+                        b.weights_stale.set(true);
                     }
                     b.shape = push;
                     return Ok(());
@@ -786,6 +790,7 @@ impl Renderer {
                 shape: push,
                 gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
                 rebuild: std::cell::Cell::new(true),
+                weights_stale: std::cell::Cell::new(true),
             });
             self.iso_stale = false;
             return Ok(());
@@ -825,6 +830,7 @@ impl Renderer {
             shape,
             gpu: None,
             rebuild: std::cell::Cell::new(false),
+            weights_stale: std::cell::Cell::new(true),
         });
         self.iso_stale = false;
         Ok(())

@@ -1,8 +1,9 @@
 //! `iso` pass (runs after `splat` when `surface = "iso"`): replaces the splatted sphere depth by the depth of
 //! the SPH colour-field iso-surface, ray-cast per pixel (shaders_glsl/iso.comp, field in iso_field.glsl,
-//! CPU reference and grid build in src/iso.rs). Two dispatches: `iso_density` (1/n_j per point), then the
-//! march from the bound spheres' depth. The grid (points sorted by cell + cell table) is uploaded with the
-//! particles.
+//! CPU reference and grid build in src/iso.rs). The grid (points sorted by cell + cell table) is built on the GPU
+//! (`grid` pass, or uploaded with spray) and the `iso_density` pass (1/n_j per point, its own timestamp) runs
+//! when the particles change; every frame, the march from the bound spheres' depth (two dispatches: the first
+//! samples of every ray, then the queued long rays).
 use std::sync::Arc;
 
 use ash::vk;
@@ -15,6 +16,8 @@ use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `iso`.
 pub const NAME: &str = "iso";
+/// The weights' pass (shaders_glsl/iso_density.comp), recorded only when the particles changed.
+pub const DENSITY_NAME: &str = "iso_density";
 
 /// Settings of the `iso` pass: the `[iso]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -67,6 +70,10 @@ pub struct IsoBuffers {
     pub gpu: Option<crate::passes::grid::GridBuffers>,
     /// The GPU grid must be rebuilt by the next frame (its particles changed).
     pub rebuild: std::cell::Cell<bool>,
+    /// `weighted` must be recomputed (`iso_density`) before the next cast: the particles or the support changed.
+    /// The weights depend on the particles alone, not the view, so a static set of particles (a paused demo, a
+    /// file explored with a moving camera, `bench` of one frame) computes them once, like its grid.
+    pub weights_stale: std::cell::Cell<bool>,
 }
 
 impl IsoBuffers {
@@ -226,6 +233,19 @@ impl Iso {
         });
     }
 
+    /// When `b`'s weights are stale: the `iso_density` pass, each sorted point with its weight 1/n_j (its own
+    /// timestamp, so sequences, where it runs every frame, show its cost).
+    pub fn record_density(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers) {
+        if !b.weights_stale.replace(false) {
+            return;
+        }
+        ctx.pass(DENSITY_NAME, |ctx| {
+            let n = b.shape.dims[3];
+            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weighted).into()];
+            self.density.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(super::LOCAL_1D), 1, 1]);
+        });
+    }
+
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the far
     /// bound from the splat, per pixel or per 8×8 tile, where the march may stop (else it runs to the grid's box);
     /// `queue`: where the first dispatch leaves the rays the second finishes.
@@ -250,9 +270,6 @@ impl Iso {
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
-            let n = b.shape.dims[3];
-            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weighted).into()];
-            self.density.dispatch(ctx, &bufs, &push, [n.div_ceil(super::LOCAL_1D), 1, 1]);
             ctx.fill(&queue.header, 0);
             let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
             let (q, h) = ((&queue.entries).into(), (&queue.header).into());

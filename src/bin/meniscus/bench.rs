@@ -243,7 +243,16 @@ pub fn measure(
 
 /// Markdown table of entries, one row each, columns = passes (medians, ms), like Moritz tables 4.1–4.4.
 pub fn markdown(entries: &[Entry]) -> String {
-    let names: Vec<&str> = meniscus::passes::PASS_NAMES.to_vec();
+    // The frame passes, then any other timed scope that ran in a measured frame (`grid`, `iso_density`: they run
+    // only when the particles change, so a static frame shows them as –).
+    let mut names: Vec<&str> = meniscus::passes::PASS_NAMES.to_vec();
+    for e in entries {
+        for (p, _) in &e.passes {
+            if !names.contains(&p.as_str()) {
+                names.push(p);
+            }
+        }
+    }
     let mut s = String::from("| scene | particles | resolution | variant |");
     for n in &names {
         s.push_str(&format!(" {n} |"));

@@ -88,6 +88,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     // Timed frames re-render the static background too, so the table shows every pass.
     r.always_render_background = a.timings;
     let mut times = r.render(&view, s)?;
+    let first = times.clone();
     if a.timings {
         let mut runs = vec![];
         for k in 0..a.warmup + a.frames.max(1) {
@@ -118,6 +119,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             println!("| {name} | {ms:.3} |");
         }
         println!("| **total** | **{:.3}** |", times.total());
+        // Work that runs only when the particles change (the iso grid and weights): timed in the first frame.
+        for (name, ms) in first.0.iter().filter(|(n, _)| !times.0.iter().any(|(m, _)| m == n)) {
+            println!("| {name} (first frame only: runs when the particles change) | {ms:.3} |");
+        }
     }
     dump(&r, a, &view)?;
     finish(&gpu)
