@@ -191,6 +191,36 @@ fn tiny_bench_writes_valid_json() {
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
 }
 
+/// `bench --also-presets` measures the main preset and the others with their frames interleaved (one renderer
+/// each): one entry per preset in order, each with its own passes (iso only in `quality`, whose weights ran in
+/// a warm-up frame and so are not in the measured ones), and the ratio lines. No timing is asserted.
+#[test]
+fn bench_also_presets_interleaves_every_preset() {
+    let d = tmpdir("bench-also");
+    let json = d.join("b.json");
+    let o = meniscus()
+        .args(["bench", "--scenes", "wave:3000", "--resolutions", "64x48", "--warmup", "1", "--frames", "2"])
+        .args(["--also-presets", "quality,fast", "--validation", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let entries = v["entries"].as_array().unwrap();
+    let variants: Vec<&str> = entries.iter().map(|e| e["variant"].as_str().unwrap()).collect();
+    assert_eq!(variants, ["default", "quality", "fast"]);
+    let has = |e: &serde_json::Value, pass: &str| e["passes"].as_array().unwrap().iter().any(|p| p[0] == pass);
+    for e in entries {
+        assert_eq!(e["frames"], 2);
+        assert_eq!(has(e, "iso"), e["variant"] == "quality", "{}", e["variant"]);
+        assert_eq!(has(e, "smooth"), e["variant"] != "quality", "{}", e["variant"]);
+        assert!(!has(e, "iso_density"), "the weights of a static frame are computed once, in warm-up");
+    }
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("quality") && out.contains("÷ default"), "{out}");
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
+}
+
 /// The same SPlisHSPlasH frame from .bgeo and from .vtk renders to byte-identical PNGs (shared data; fails under
 /// CI=true when absent).
 #[test]

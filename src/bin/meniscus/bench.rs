@@ -148,26 +148,87 @@ pub fn measure(
     warmup: u32,
     frames: u32,
 ) -> Result<Entry> {
-    let mut s = s.clone();
-    s.radius = w.radius;
-    let bounds = scene::percentile_bounds(&w.particles.positions, 0.01)
-        .ok_or_else(|| meniscus::Error::Invalid(format!("{}: no finite particles", w.label)))?;
-    let camera = w.camera.unwrap_or_else(|| {
-        let mut c = Camera::fit(&bounds, width as f32 / height as f32);
-        c.eye = c.target + (c.eye - c.target) * w.distance;
-        c
-    });
-    let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
-    // The one upload path of every subcommand: spray flags and per-particle radii (pscale) included.
-    r.set_scene_particles(&w.particles, &s)?;
-    let mut per_pass: Vec<(String, Vec<f64>)> = vec![];
-    let (mut totals, mut cpu) = (vec![], vec![]);
-    let (mut main_ms, mut compute_ms, mut union_ms) = (vec![], vec![], vec![]);
-    let mut pass_queues: Vec<(String, String)> = vec![];
-    let mut rss_after_warmup = rss_bytes();
+    let mut series = Series::new(r, w, width, height, s, variant)?;
     for k in 0..warmup + frames.max(1) {
+        series.frame(r, k < warmup, k + 1 == warmup)?;
+    }
+    series.finish(r, w, warmup, frames)
+}
+
+/// Run several settings on one workload at one size with frames interleaved (frame k of every variant, then
+/// frame k + 1), each variant on its own renderer, so they see the same host: on a shared 2-core machine the
+/// speed drifts ±20 % within seconds, and variants measured one after another gave frame ratios from 1.1 to
+/// 1.5 for the same build. Entries in the order of `variants`.
+#[allow(clippy::too_many_arguments)]
+pub fn measure_interleaved(
+    rs: &mut [Renderer],
+    w: &Workload,
+    width: u32,
+    height: u32,
+    variants: &[(String, Settings)],
+    warmup: u32,
+    frames: u32,
+) -> Result<Vec<Entry>> {
+    let mut series = vec![];
+    for (r, (label, s)) in rs.iter_mut().zip(variants) {
+        series.push(Series::new(r, w, width, height, s, label)?);
+    }
+    for k in 0..warmup + frames.max(1) {
+        for (r, x) in rs.iter_mut().zip(&mut series) {
+            x.frame(r, k < warmup, k + 1 == warmup)?;
+        }
+    }
+    rs.iter_mut().zip(series).map(|(r, x)| x.finish(r, w, warmup, frames)).collect()
+}
+
+/// One variant's measured frames: set up once (camera, particles), then one [`Series::frame`] per frame.
+struct Series {
+    view: View,
+    s: Settings,
+    variant: String,
+    per_pass: Vec<(String, Vec<f64>)>,
+    totals: Vec<f64>,
+    cpu: Vec<f64>,
+    main_ms: Vec<f64>,
+    compute_ms: Vec<f64>,
+    union_ms: Vec<f64>,
+    pass_queues: Vec<(String, String)>,
+    rss_after_warmup: Option<u64>,
+}
+
+impl Series {
+    fn new(r: &mut Renderer, w: &Workload, width: u32, height: u32, s: &Settings, variant: &str) -> Result<Series> {
+        let mut s = s.clone();
+        s.radius = w.radius;
+        let bounds = scene::percentile_bounds(&w.particles.positions, 0.01)
+            .ok_or_else(|| meniscus::Error::Invalid(format!("{}: no finite particles", w.label)))?;
+        let camera = w.camera.unwrap_or_else(|| {
+            let mut c = Camera::fit(&bounds, width as f32 / height as f32);
+            c.eye = c.target + (c.eye - c.target) * w.distance;
+            c
+        });
+        let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
+        // The one upload path of every subcommand: spray flags and per-particle radii (pscale) included.
+        r.set_scene_particles(&w.particles, &s)?;
+        Ok(Series {
+            view,
+            s,
+            variant: variant.to_string(),
+            per_pass: vec![],
+            totals: vec![],
+            cpu: vec![],
+            main_ms: vec![],
+            compute_ms: vec![],
+            union_ms: vec![],
+            pass_queues: vec![],
+            rss_after_warmup: rss_bytes(),
+        })
+    }
+
+    /// Render one frame; a warm-up frame is not recorded (`last_warmup`: note the memory after it).
+    fn frame(&mut self, r: &mut Renderer, warmup: bool, last_warmup: bool) -> Result<()> {
         let t0 = Instant::now();
-        let spans = r.render_spans(&view, &s)?;
+        let spans = r.render_spans(&self.view, &self.s)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
         // Same-named scopes summed, in recording order.
         let mut times: Vec<(String, f64)> = vec![];
@@ -177,68 +238,72 @@ pub fn measure(
                 Some(e) => e.1 += ms,
                 None => times.push((sp.name.clone(), ms)),
             }
-            if !pass_queues.iter().any(|(n, _)| *n == sp.name) {
-                pass_queues.push((sp.name.clone(), format!("{:?}", sp.queue).to_lowercase()));
+            if !self.pass_queues.iter().any(|(n, _)| *n == sp.name) {
+                self.pass_queues.push((sp.name.clone(), format!("{:?}", sp.queue).to_lowercase()));
             }
         }
         let times = meniscus::gpu::PassTimes(times);
-        if k + 1 == warmup {
-            rss_after_warmup = rss_bytes();
+        if last_warmup {
+            self.rss_after_warmup = rss_bytes();
         }
-        if k < warmup {
-            continue;
+        if warmup {
+            return Ok(());
         }
         for (name, ms) in &times.0 {
-            match per_pass.iter_mut().find(|(n, _)| n == name) {
+            match self.per_pass.iter_mut().find(|(n, _)| n == name) {
                 Some(e) => e.1.push(*ms),
-                None => per_pass.push((name.clone(), vec![*ms])),
+                None => self.per_pass.push((name.clone(), vec![*ms])),
             }
         }
-        totals.push(times.total());
-        cpu.push(cpu_ms);
+        self.totals.push(times.total());
+        self.cpu.push(cpu_ms);
         // Per queue: the time its passes were busy; the union: first begin to last end over both queues
         // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
         use meniscus::gpu::schedule::QueueId;
         let busy =
             |q: QueueId| spans.iter().filter(|x| x.queue == q).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum::<f64>();
-        main_ms.push(busy(QueueId::Main));
-        compute_ms.push(busy(QueueId::Compute));
+        self.main_ms.push(busy(QueueId::Main));
+        self.compute_ms.push(busy(QueueId::Compute));
         let first = spans.iter().map(|x| x.begin_ns).fold(f64::INFINITY, f64::min);
         let last = spans.iter().map(|x| x.end_ns).fold(f64::NEG_INFINITY, f64::max);
-        union_ms.push(if spans.is_empty() { 0.0 } else { (last - first) * 1e-6 });
+        self.union_ms.push(if spans.is_empty() { 0.0 } else { (last - first) * 1e-6 });
+        Ok(())
     }
-    let t = r.targets.as_ref().expect("rendered");
-    let memory: Vec<Mem> = t.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
-    Ok(Entry {
-        scene: w.label.clone(),
-        particles: w.particles.len(),
-        radius: s.radius,
-        width,
-        height,
-        variant: variant.to_string(),
-        filter: s.smooth.filter.name().to_string(),
-        camera: camera.to_arg(),
-        frames: frames.max(1),
-        warmup,
-        passes: per_pass.into_iter().map(|(n, v)| (n, Stat::of(&v))).collect(),
-        gpu_total: Stat::of(&totals),
-        cpu_frame: Stat::of(&cpu),
-        memory_images_bytes: memory.iter().map(|m| m.bytes).sum(),
-        memory_fluid_images_bytes: memory
-            .iter()
-            .filter(|m| !matches!(m.name.as_str(), "scene_color" | "scene_depth" | "final"))
-            .map(|m| m.bytes)
-            .sum(),
-        memory,
-        memory_particles_bytes: 16 * w.particles.len() as u64,
-        rss_after_warmup_bytes: rss_after_warmup,
-        async_compute: r.async_compute,
-        queue_main_ms: Stat::of(&main_ms),
-        queue_compute_ms: Stat::of(&compute_ms),
-        union_ms: Stat::of(&union_ms),
-        pass_queues,
-        rss_after_frames_bytes: rss_bytes(),
-    })
+
+    fn finish(self, r: &Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
+        let t = r.targets.as_ref().expect("rendered");
+        let memory: Vec<Mem> = t.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
+        Ok(Entry {
+            scene: w.label.clone(),
+            particles: w.particles.len(),
+            radius: self.s.radius,
+            width: self.view.width,
+            height: self.view.height,
+            variant: self.variant,
+            filter: self.s.smooth.filter.name().to_string(),
+            camera: self.view.camera.to_arg(),
+            frames: frames.max(1),
+            warmup,
+            passes: self.per_pass.into_iter().map(|(n, v)| (n, Stat::of(&v))).collect(),
+            gpu_total: Stat::of(&self.totals),
+            cpu_frame: Stat::of(&self.cpu),
+            memory_images_bytes: memory.iter().map(|m| m.bytes).sum(),
+            memory_fluid_images_bytes: memory
+                .iter()
+                .filter(|m| !matches!(m.name.as_str(), "scene_color" | "scene_depth" | "final"))
+                .map(|m| m.bytes)
+                .sum(),
+            memory,
+            memory_particles_bytes: 16 * w.particles.len() as u64,
+            rss_after_warmup_bytes: self.rss_after_warmup,
+            async_compute: r.async_compute,
+            queue_main_ms: Stat::of(&self.main_ms),
+            queue_compute_ms: Stat::of(&self.compute_ms),
+            union_ms: Stat::of(&self.union_ms),
+            pass_queues: self.pass_queues,
+            rss_after_frames_bytes: rss_bytes(),
+        })
+    }
 }
 
 /// Markdown table of entries, one row each, columns = passes (medians, ms), like Moritz tables 4.1–4.4.
@@ -352,7 +417,9 @@ pub struct BenchArgs {
     #[arg(long)]
     settings: Option<PathBuf>,
     /// Also measure these presets (comma-separated: default, fast, quality, moritz) on every workload and
-    /// resolution, in the same run, and print each one's frame time as a ratio of the main preset's.
+    /// resolution, in the same run with their frames interleaved with the main preset's (one renderer each, so
+    /// all see the same host), and print each one's frame time as a ratio of the main preset's. (With
+    /// --async both, they run one after another.)
     #[arg(long, value_delimiter = ',')]
     also_presets: Vec<String>,
     /// Frame the built-in workloads so the fluid covers about a quarter of the screen (Moritz's framing; implied
@@ -508,6 +575,8 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed}]").expect("valid template"),
     );
     let mut entries = vec![];
+    // With --also-presets: one renderer per extra preset (created at the first workload).
+    let mut also_renderers: Vec<Renderer> = vec![];
     if let Some(sweep) = &a.sweep {
         bar.finish_and_clear();
         return run_sweep(a, sweep, &gpu, &mut r, &base, resolutions[0]);
@@ -534,19 +603,42 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 bar.inc(1);
                 continue;
             }
-            for split in async_modes(&a.async_mode) {
-                r.async_compute = split;
-                let label = if a.async_mode == "both" {
-                    format!("{} async {}", a.preset, if split { "on" } else { "off" })
-                } else {
-                    a.preset.clone()
-                };
-                entries.push(measure(&mut r, &w, wd, ht, &base, &label, a.warmup, a.frames)?);
-            }
-            r.async_compute = a.async_mode == "on";
-            for (label, vs) in &also {
-                bar.set_message(format!("{} {}×{} preset {label}", w.label, wd, ht));
-                entries.push(measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+            if !also.is_empty() && a.async_mode != "both" {
+                // The main preset and the others, frames interleaved (one renderer each), so their ratios
+                // compare on a drifting host.
+                bar.set_message(format!("{} {}×{} presets {} + {} interleaved", w.label, wd, ht, a.preset, also.len()));
+                while also_renderers.len() < also.len() {
+                    let mut x = Renderer::new(&gpu)?;
+                    x.always_render_background = !a.cache_background;
+                    also_renderers.push(x);
+                }
+                r.async_compute = a.async_mode == "on";
+                for x in &mut also_renderers {
+                    x.async_compute = r.async_compute;
+                }
+                let mut rs = std::mem::take(&mut also_renderers);
+                rs.insert(0, r);
+                let mut vs = vec![(a.preset.clone(), base.clone())];
+                vs.extend(also.iter().cloned());
+                let measured = measure_interleaved(&mut rs, &w, wd, ht, &vs, a.warmup, a.frames);
+                r = rs.remove(0);
+                also_renderers = rs;
+                entries.extend(measured?);
+            } else {
+                for split in async_modes(&a.async_mode) {
+                    r.async_compute = split;
+                    let label = if a.async_mode == "both" {
+                        format!("{} async {}", a.preset, if split { "on" } else { "off" })
+                    } else {
+                        a.preset.clone()
+                    };
+                    entries.push(measure(&mut r, &w, wd, ht, &base, &label, a.warmup, a.frames)?);
+                }
+                r.async_compute = a.async_mode == "on";
+                for (label, vs) in &also {
+                    bar.set_message(format!("{} {}×{} preset {label}", w.label, wd, ht));
+                    entries.push(measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+                }
             }
             bar.inc(1);
             if a.variants && k == 0 && j == 0 {
