@@ -762,11 +762,11 @@ impl Renderer {
                 if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
                     if self.iso_stale {
                         b.rebuild.set(true);
-                        b.weights_stale.set(true);
+                        b.mark_stale();
                         self.iso_stale = false;
                     }
                     if b.shape.support() != push.support() {
-                        b.weights_stale.set(true);
+                        b.mark_stale();
                     }
                     b.shape = push;
                     return Ok(());
@@ -791,6 +791,7 @@ impl Renderer {
                 gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
+                kernels_for: std::cell::Cell::new(None),
             });
             self.iso_stale = false;
             return Ok(());
@@ -831,6 +832,7 @@ impl Renderer {
             gpu: None,
             rebuild: std::cell::Cell::new(false),
             weights_stale: std::cell::Cell::new(true),
+            kernels_for: std::cell::Cell::new(None),
         });
         self.iso_stale = false;
         Ok(())

@@ -850,11 +850,16 @@ fn anisotropic_iso_surface_matches_cpu_ray_cast() {
     iso_matches_cpu(meniscus::settings::Kernel::Anisotropic, (0.5, 2.0), 2.0, 8);
 }
 
-/// The iso weights (`iso_density`) are computed once per set of particles, not per frame, and again when the
-/// particles change: a renderer that drew one set and then gets another draws the second exactly as a fresh
-/// renderer does.
+/// The iso weights (`iso_density`) and the anisotropic kernels (`anisotropy`) are computed once per set of
+/// particles, not per frame, and again when the particles change: a renderer that drew one set and then gets
+/// another draws the second exactly as a fresh renderer does.
 #[test]
 fn iso_weights_follow_the_particles() {
+    weights_follow(meniscus::settings::Kernel::Isotropic, &["iso_density"]);
+    weights_follow(meniscus::settings::Kernel::Anisotropic, &["iso_density", "anisotropy"]);
+}
+
+fn weights_follow(kernel: meniscus::settings::Kernel, once: &[&str]) {
     let gpu = gpu();
     let r = 0.05f32;
     let a = jittered_slab(7, [10, 3, 8], [-0.5, -0.3, -0.4], r, [1.0, 1.0, 1.0]);
@@ -870,15 +875,18 @@ fn iso_weights_follow_the_particles() {
     let mut s = settings(r);
     s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
+    s.kernel = kernel;
     let ran = |t: &meniscus::gpu::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
     rd.set_particles(&a, None).unwrap();
-    assert!(ran(&rd.render(&v, &s).unwrap(), "iso_density"), "the first frame computes the weights");
+    let first = rd.render(&v, &s).unwrap();
+    assert!(once.iter().all(|p| ran(&first, p)), "the first frame computes {once:?}: {:?}", first.0);
     let again = rd.render(&v, &s).unwrap();
-    assert!(!ran(&again, "iso_density") && ran(&again, "iso"), "a static frame reuses them: {:?}", again.0);
+    assert!(once.iter().all(|p| !ran(&again, p)) && ran(&again, "iso"), "a static frame reuses them: {:?}", again.0);
     rd.set_particles(&b, None).unwrap();
-    assert!(ran(&rd.render(&v, &s).unwrap(), "iso_density"), "new particles, new weights");
+    let next = rd.render(&v, &s).unwrap();
+    assert!(once.iter().all(|p| ran(&next, p)), "new particles: {once:?} again: {:?}", next.0);
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let mut fresh = Renderer::new(&gpu).unwrap();
     fresh.keep_raw_depth = true;

@@ -78,8 +78,13 @@ impl Anisotropy {
         Ok(Anisotropy { program: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
-    /// Every grid point's kernel into `b.aniso`.
+    /// Every grid point's kernel into `b.aniso`, unless they were computed for these particles with `p` already
+    /// (the kernels depend on the particles, not the view).
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::iso::AnisoParams) {
+        if b.kernels_for.get() == Some(*p) {
+            return;
+        }
+        b.kernels_for.set(Some(*p));
         let push = IsoPush {
             aniso: [p.ratio, p.min_neighbours as f32, p.centre_blend, p.max_shift],
             aniso2: [p.stretch.max(1.0), 0.0, p.radius, 0.0],

@@ -74,6 +74,17 @@ pub struct IsoBuffers {
     /// The weights depend on the particles alone, not the view, so a static set of particles (a paused demo, a
     /// file explored with a moving camera, `bench` of one frame) computes them once, like its grid.
     pub weights_stale: std::cell::Cell<bool>,
+    /// The parameters `aniso` was computed with for the current particles (`None`: stale). The kernels, like the
+    /// weights, depend on the particles, not the view: the `anisotropy` pass runs when either changes.
+    pub kernels_for: std::cell::Cell<Option<crate::iso::AnisoParams>>,
+}
+
+impl IsoBuffers {
+    /// The particles (or the support) changed: the weights and the kernels must be computed again.
+    pub fn mark_stale(&self) {
+        self.weights_stale.set(true);
+        self.kernels_for.set(None);
+    }
 }
 
 impl IsoBuffers {
