@@ -50,9 +50,9 @@ Ray ray_through(ivec2 p, ivec2 size) {
     return r;
 }
 
-// March samples k0 … k1 − 1 from depth d. The smallest step doubles after ISO_SHORT_STEPS samples: a ray that
-// long grazes the shell between the surface and the bound spheres (iso −5 % on the dam-break frame, normals
-// unchanged: tools/quality.sh). (prev, phi_prev: the sample before; k0 = 0: d is the start). True
+// March samples k0 … k1 − 1 from depth d (prev, phi_prev: the sample before; k0 = 0: d is the start). The
+// smallest step doubles after ISO_SHORT_STEPS samples: a ray that long grazes the shell between the surface and
+// the bound spheres (iso −5 % on the dam-break frame, normals unchanged: tools/quality.sh). True
 // when the ray is done, with `result` its surface depth or INF (no crossing before the far bound or the most
 // steps pc.steps.x); false when it ran out of samples first (the state then continues it).
 bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float phi_prev, out float result) {

@@ -187,8 +187,8 @@ vec3 collide(vec3 x) {
         }                                                                                      \
     }
 
-// The neighbour-list bindings of the stages that read them (at 1 and 2), texel buffers like every array the
-// neighbour loops read at a per-lane index (Buffer::with_texel_view says why).
+// The neighbour-list bindings of the stages that read them (at 1 and 2). Storage buffers: as texel buffers, like
+// the particle arrays the loops read, they measured no faster (NOTES.md, session 11).
 #define NEIGHBOUR_BUFFERS                                                                       \
     layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
     layout(std430, binding = 2) readonly buffer Nbrs { uint nbrs[]; };

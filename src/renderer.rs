@@ -776,12 +776,8 @@ impl Renderer {
             self.iso = None;
             let cap = n.max(1);
             // TRANSFER_SRC: the tests read the grid and kernels back.
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_SRC;
-            let buf = |name: &str, bytes: u64, format: vk::Format| {
-                Buffer::new(&self.gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly)?.with_texel_view(format)
-            };
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+            let buf = |name: &str, bytes: u64, format| Buffer::texels(&self.gpu, name, bytes.max(16), usage, format);
             self.iso = Some(crate::passes::iso::IsoBuffers {
                 points: buf("iso_points", cap as u64 * 16, crate::passes::iso::IsoBuffers::POINTS)?,
                 cells: buf("iso_cells", shape.cells() as u64 * 8, crate::passes::iso::IsoBuffers::CELLS)?,
@@ -815,10 +811,9 @@ impl Renderer {
             .with_texel_view(crate::passes::iso::IsoBuffers::POINTS)?;
         let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?
             .with_texel_view(crate::passes::iso::IsoBuffers::CELLS)?;
-        let buf = |name: &str, per_point: u64, format: vk::Format| {
+        let buf = |name: &str, per_point: u64, format| {
             let bytes = (grid.points.len() as u64 * per_point).max(per_point.max(16));
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
-            Buffer::new(&self.gpu, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(format)
+            Buffer::texels(&self.gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, format)
         };
         let weighted = buf("iso_weighted", 16, crate::passes::iso::IsoBuffers::WEIGHTED)?;
         let aniso = buf("iso_aniso", 48, crate::passes::iso::IsoBuffers::ANISO)?;

@@ -283,6 +283,19 @@ impl Buffer {
         Ok(b)
     }
 
+    /// A GPU-only buffer of `size` bytes that `Slot::TexelRead` bindings read as `format` texels: `usage` plus
+    /// `UNIFORM_TEXEL_BUFFER`, with its texel view ([`Buffer::with_texel_view`]).
+    pub fn texels(
+        gpu: &Arc<Gpu>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        format: vk::Format,
+    ) -> Result<Buffer> {
+        let usage = usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        Buffer::new(gpu, name, size, usage, MemoryLocation::GpuOnly)?.with_texel_view(format)
+    }
+
     /// Give the buffer (created with `UNIFORM_TEXEL_BUFFER` usage) a texel view of its whole size in `format`, so
     /// a `Slot::TexelRead` binding can read it through `texelFetch` (a `samplerBuffer` in GLSL). Why: lavapipe
     /// turns a storage-buffer load at a per-lane index into a loop over the 8 lanes, one branch and one scalar

@@ -85,9 +85,7 @@ impl IsoBuffers {
         self.weights_stale.set(true);
         self.kernels_for.set(None);
     }
-}
 
-impl IsoBuffers {
     /// The texel formats iso_field.glsl reads them in: points xyzw, cells (first, count), weights, kernels.
     pub const POINTS: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
     /// See [`IsoBuffers::POINTS`].

@@ -328,12 +328,8 @@ impl Simulation {
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
         let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, usage, MemoryLocation::GpuOnly);
-        let texels = |name: &str, bytes: u64, format: vk::Format| {
-            Buffer::new(gpu, name, bytes, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
-                .with_texel_view(format)
-        };
-        let vec4s = |name: &str| texels(name, 16 * cap, vk::Format::R32G32B32A32_SFLOAT);
-        let uints = |name: &str, n: u64| texels(name, 4 * n, vk::Format::R32_UINT);
+        // What the neighbour loops read at a per-lane index (Slot::TexelRead).
+        let vec4s = |name: &str| Buffer::texels(gpu, name, 16 * cap, usage, vk::Format::R32G32B32A32_SFLOAT);
         let (lo, hi) = scene.container;
         let shape = GridShape::covering(lo, hi, constants.h);
         let uniforms = (0..RING)
@@ -369,8 +365,8 @@ impl Simulation {
             },
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
             neighbours: stages::Neighbours {
-                count: uints("sim_nbr_count", cap)?,
-                list: uints("sim_nbrs", cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
+                count: buf("sim_nbr_count", 4 * cap)?,
+                list: buf("sim_nbrs", 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
                 overflow: buf("sim_nbr_overflow", 16)?,
             },
             n: 0,
