@@ -14,6 +14,21 @@ fn tmpdir(name: &str) -> std::path::PathBuf {
     d
 }
 
+/// `meniscus render FRAME` at 64×48 with `extra` flags, into `png`.
+fn render_small(frame: &std::path::Path, extra: &[&str], png: &std::path::Path) -> std::process::Output {
+    let size = ["--width", "64", "--height", "48"];
+    meniscus().arg("render").arg(frame).args(size).args(extra).arg("--out").arg(png).output().unwrap()
+}
+
+/// `meniscus bench ARGS --validation --json FILE` in a fresh folder named `name`: it must succeed; its output
+/// and the JSON report.
+fn bench_json(name: &str, args: &[&str]) -> (std::process::Output, serde_json::Value) {
+    let json = tmpdir(name).join("bench.json");
+    let o = meniscus().arg("bench").args(args).args(["--validation", "--json"]).arg(&json).output().unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    (o, serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap())
+}
+
 #[test]
 fn render_builtin_scene_writes_png_and_timings() {
     let d = tmpdir("ok");
@@ -145,27 +160,8 @@ fn bad_flags_are_errors_not_panics() {
 /// CI smoke test of the benchmark: tiny workload, valid JSON with every pass; no timing is asserted.
 #[test]
 fn tiny_bench_writes_valid_json() {
-    let d = tmpdir("bench");
-    let json = d.join("b.json");
-    let o = meniscus()
-        .args([
-            "bench",
-            "--scenes",
-            "block:2000",
-            "--resolutions",
-            "64x64",
-            "--warmup",
-            "1",
-            "--frames",
-            "3",
-            "--validation",
-        ])
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let (o, v) =
+        bench_json("bench", &["--scenes", "block:2000", "--resolutions", "64x64", "--warmup", "1", "--frames", "3"]);
     assert_eq!(v["schema"], 1);
     assert!(!v["device"]["name"].as_str().unwrap().is_empty());
     let e = &v["entries"][0];
@@ -198,16 +194,21 @@ fn tiny_bench_writes_valid_json() {
 /// a warm-up frame and so are not in the measured ones), and the ratio lines. No timing is asserted.
 #[test]
 fn bench_also_presets_interleaves_every_preset() {
-    let d = tmpdir("bench-also");
-    let json = d.join("b.json");
-    let o = meniscus()
-        .args(["bench", "--scenes", "wave:3000", "--resolutions", "64x48", "--warmup", "1", "--frames", "2"])
-        .args(["--also-presets", "quality,fast", "--validation", "--json"])
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let (o, v) = bench_json(
+        "bench-also",
+        &[
+            "--scenes",
+            "wave:3000",
+            "--resolutions",
+            "64x48",
+            "--warmup",
+            "1",
+            "--frames",
+            "2",
+            "--also-presets",
+            "quality,fast",
+        ],
+    );
     let entries = v["entries"].as_array().unwrap();
     let variants: Vec<&str> = entries.iter().map(|e| e["variant"].as_str().unwrap()).collect();
     assert_eq!(variants, ["default", "quality", "fast"]);
@@ -515,11 +516,7 @@ fn sim_exports_a_cache_that_loads_and_renders() {
         assert!(last.positions.iter().all(|p| p[0].abs() <= 2.0 && p[1] >= 0.0 && p[2].abs() <= 0.75));
     }
     let png = d.join("sim.png");
-    let o = meniscus()
-        .args(["render", d.join("f_4.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--out"])
-        .arg(&png)
-        .output()
-        .unwrap();
+    let o = render_small(&d.join("f_4.bgeo"), &[], &png);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "render of the export: {err}");
     assert!(png.exists());
@@ -530,21 +527,12 @@ fn sim_exports_a_cache_that_loads_and_renders() {
     assert!(err.contains("(SceneJson)") && err.contains("1 container(s)"), "{err}");
     // Without it the background has no tank: the pictures differ.
     let plain = d.join("plain.png");
-    let o = meniscus()
-        .args(["render", d.join("f_4.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--no-scene-json"])
-        .arg("--out")
-        .arg(&plain)
-        .output()
-        .unwrap();
+    let o = render_small(&d.join("f_4.bgeo"), &["--no-scene-json"], &plain);
     assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("(Estimated)"));
     assert_ne!(image::open(&png).unwrap().to_rgba8(), image::open(&plain).unwrap().to_rgba8());
     // A broken scene.json is reported with its byte and ignored; a foreign one is never overwritten.
     std::fs::write(d.join("scene.json"), "{\"RigidBodies\": [1]}").unwrap();
-    let o = meniscus()
-        .args(["render", d.join("f_4.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--out"])
-        .arg(&plain)
-        .output()
-        .unwrap();
+    let o = render_small(&d.join("f_4.bgeo"), &[], &plain);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success() && err.contains("warning: ignoring") && err.contains("byte 17"), "{err}");
     let o = meniscus()
@@ -601,11 +589,7 @@ fn sim_with_a_mesh_collider() {
     assert_eq!(sj.meshes.len(), 1);
     assert_eq!(sj.meshes[0].load().unwrap().triangles.len(), 12);
     let png = d.join("with-block.png");
-    let o = meniscus()
-        .args(["render", d.join("f_6.bgeo").to_str().unwrap(), "--width", "64", "--height", "48", "--out"])
-        .arg(&png)
-        .output()
-        .unwrap();
+    let o = render_small(&d.join("f_6.bgeo"), &[], &png);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success() && err.contains("1 mesh(es)") && !err.contains("not drawn"), "{err}");
     std::fs::write(d.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
@@ -624,16 +608,10 @@ fn sim_with_a_mesh_collider() {
 /// compute off and on, as JSON.
 #[test]
 fn bench_sim_reports_stages_and_overlap() {
-    let d = tmpdir("bench-sim");
-    let json = d.join("sim.json");
-    let o = meniscus()
-        .args(["bench", "--sim", "dambreak:2000", "--warmup", "0", "--frames", "1", "--resolutions", "64x48"])
-        .args(["--async", "both", "--validation", "--json"])
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let (_, v) = bench_json(
+        "bench-sim",
+        &["--sim", "dambreak:2000", "--warmup", "0", "--frames", "1", "--resolutions", "64x48", "--async", "both"],
+    );
     let stages: Vec<&str> =
         v["stages_ms_per_step"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
     // Every stage in order, under its one name; sim_vorticity only runs with confinement on (off by default).
