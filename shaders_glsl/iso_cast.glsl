@@ -7,8 +7,18 @@
 //! a vector runs until its slowest lane is done. On the dam-break frame (960×540) the median hit takes 3 samples
 //! but 1 % take 30–100 (grazing rays along the shell between the surface and the bound spheres, in the
 //! spray), so one dispatch paid 3.1× the samples it used; compacted, the long rays share vectors.
-//! Queue header (binding 6): {groups x, 1, 1, count} — a VkDispatchIndirectCommand followed by the count; the
-//! host zero-fills it before the first dispatch. Entries (binding 5): (pixel x | y << 16, d, previous d, φ there).
+//! Queue header (binding 6): two rounds of {groups x, 1, 1, count} — a VkDispatchIndirectCommand followed by the
+//! count; the host zero-fills both before the first dispatch. Entries (binding 5): (pixel x | y << 16, d,
+//! previous d, φ there); round 0 (the first dispatch's rays, continued from sample pc.steps.w) from entry 0,
+//! round 1 (the fine dispatch's fallbacks, marched from the start) after round 0's.
+//! Coarse-to-fine (pc.fine.y > 0, isotropic kernels only): where a particle is at least pc.fine.y pixels in
+//! radius on screen, the first dispatch marches only the pixels with even x and y; a third dispatch (ISO_FINE,
+//! iso_fine.comp) gives every other such pixel the mean depth of its 2 or 4 marched neighbours and one Newton
+//! step of the field along its own ray (one field sum instead of a march), falling back to the march where a
+//! neighbour missed, the neighbours' depths spread more than pc.fine.z, or the step is longer than pc.fine.w.
+//! Those fallbacks (≈ 5 % of the fine pixels on the worst-case block: its silhouettes and edges) are queued as
+//! round 1 and marched by a second iso_rest dispatch, so they do not hold up the vectors of Newton steps.
+//! The issue's lever "march at reduced resolution, refine at full resolution".
 #ifdef ISO_REST
 layout(local_size_x = LOCAL_1D) in;
 #else
@@ -18,10 +28,19 @@ layout(set = 0, binding = 3, r32f) uniform image2D depth;
 layout(set = 0, binding = 4, r32f) uniform readonly image2D back;
 #ifdef ISO_REST
 layout(std430, set = 0, binding = 5) readonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = 6) readonly buffer IsoArgs { uint iso_args[4]; };
+layout(std430, set = 0, binding = 6) readonly buffer IsoArgs { uint iso_args[8]; };
 #else
 layout(std430, set = 0, binding = 5) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = 6) buffer IsoArgs { uint iso_args[4]; };
+layout(std430, set = 0, binding = 6) buffer IsoArgs { uint iso_args[8]; };
+
+/// Append pixel p's march state to the queue's round (0 or 1).
+void enqueue(uint round, ivec2 p, float d, float prev, float phi_prev) {
+    uint at = atomicAdd(iso_args[4u * round + 3u], 1u);
+    if (at % LOCAL_1D == 0u) atomicAdd(iso_args[4u * round], 1u);
+    uint base = round == 1u ? iso_args[3] : 0u;
+    iso_queue[base + at] = uvec4(uint(p.x) | (uint(p.y) << 16), floatBitsToUint(d), floatBitsToUint(prev),
+                                 floatBitsToUint(phi_prev));
+}
 #endif
 
 struct Ray {
@@ -29,6 +48,7 @@ struct Ray {
     vec3 dir;    // through the pixel, unnormalised (depth d is at eye + dir * d)
     float len;   // |dir|
     float end;   // the march ends past this depth
+    float focal; // focal length, pixels
 };
 
 Ray ray_through(ivec2 p, ivec2 size) {
@@ -36,6 +56,7 @@ Ray ray_through(ivec2 p, ivec2 size) {
     r.dir = mat3(frame.inv_view) * pixel_dir(vec2(p), vec2(size), focal_for(float(size.y)));
     r.eye = frame.eye.xyz;
     r.len = length(r.dir);
+    r.focal = focal_for(float(size.y));
     // Where the ray leaves the grid's box grown by the support (no field beyond it).
     vec3 lo = pc.origin.xyz - pc.params.x;
     vec3 hi = pc.origin.xyz + vec3(pc.dims.xyz) * pc.origin.w + pc.params.x;
@@ -49,6 +70,23 @@ Ray ray_through(ivec2 p, ivec2 size) {
     if (pc.steps.z == 2u) r.end = min(r.end, imageLoad(back, p / int(SPLAT_TILE)).x);
     return r;
 }
+
+/// Coarse-to-fine is on and a particle at depth d is at least its least radius on screen (pc.fine.x = radius ÷
+/// least pixels).
+bool fine_scale(float d, float focal) { return pc.fine.x > 0.0 && pc.fine.x * focal >= d; }
+
+#ifndef ISO_ANISO_BINDING
+/// One Newton step of φ along the ray from depth z (φ and ∇φ in one sum); ok: the field rises into the water
+/// there and the step is at most pc.fine.w.
+float newton(Ray r, float z, out bool ok) {
+    vec3 grad;
+    float phi = iso_sum_grad(r.eye + r.dir * z, grad);
+    float slope = dot(grad, r.dir);
+    float step = (pc.params.y - phi) / slope;
+    ok = slope > 0.0 && abs(step) <= pc.fine.w;
+    return z + step;
+}
+#endif
 
 // March samples k0 … k1 − 1 from depth d (prev, phi_prev: the sample before; k0 = 0: d is the start). The
 // smallest step doubles after ISO_SHORT_STEPS samples: a ray that long grazes the shell between the surface and
@@ -86,6 +124,16 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
                 if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
             }
             result = a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
+#ifndef ISO_ANISO_BINDING
+            // Where coarse-to-fine applies, the marched depth gets the Newton step its fine neighbours get:
+            // the linear interpolation's error (up to 0.02 r) against their Newton-exact depths would otherwise
+            // show as a 2-pixel pattern in the normals.
+            if (fine_scale(result, r.focal)) {
+                bool ok;
+                float z = newton(r, result, ok);
+                if (ok && z >= a && z <= b) result = z;
+            }
+#endif
             return true;
         }
         prev = d;
@@ -95,35 +143,106 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
     return k1 >= pc.steps.x;
 }
 
-#ifndef ISO_REST
-void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
-    if (p == ivec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; }
-    ivec2 size = imageSize(depth);
-    if (any(greaterThanEqual(p, size))) return;
-    float d = imageLoad(depth, p).x;
-    if (!is_fluid(d)) return;
+/// Whether pixel p (depth d of the bound spheres, focal length F pixels) is left to the fine dispatch: off the
+/// even lattice, where a particle's radius on screen reaches 1 / pc.fine.x pixels per world unit of radius
+/// (pc.fine.x = radius / least pixels).
+bool fine_pixel(ivec2 p, float d, float F) {
+    return ((p.x | p.y) & 1) != 0 && fine_scale(d, F);
+}
+
+/// With coarse-to-fine on, an invocation of the first and the fine dispatch owns a 2×2 block of pixels (the
+/// marched pixel at its even corner), so the 8 lanes of a SIMD vector stay busy in both; off, one pixel.
+uint block_pixels() { return pc.fine.x > 0.0 ? 4u : 1u; }
+ivec2 block_pixel(uint k) {
+    ivec2 g = ivec2(gl_GlobalInvocationID.xy);
+    return pc.fine.x > 0.0 ? 2 * g + ivec2(k & 1u, k >> 1) : g;
+}
+
+#if defined(ISO_FINE)
+// Where the marched neighbours' second differences say their mean is within this fraction of a pixel's width
+// (in depth) of the surface, the mean is kept without a Newton step.
+#ifndef ISO_FINE_FLAT
+#define ISO_FINE_FLAT 0.01
+#endif
+/// Pixel p (a fine pixel: its bound spheres' depth d) from its marched neighbours; INF when it must be marched.
+float fine_depth(ivec2 p, ivec2 size, float d) {
     Ray r = ray_through(p, size);
-    float prev = d, phi_prev = 0.0, result;
-    if (march(r, 0u, min(pc.steps.w, pc.steps.x), d, prev, phi_prev, result)) {
-        imageStore(depth, p, vec4(result));
-        return;
+    // The marched neighbours: left and right (odd x, even y), above and below (even x, odd y), or the four
+    // diagonals (both odd; then n2, n3 are the other two corners, else repeats of n1, n0).
+    ivec2 o = p & 1;
+    ivec2 n0 = p - o, n1 = p + o, n2 = p + ivec2(o.x, -o.y), n3 = p + ivec2(-o.x, o.y);
+    if (all(lessThan(max(n1, n2), size))) {
+        vec4 nd = vec4(imageLoad(depth, n0).x, imageLoad(depth, n1).x, imageLoad(depth, n2).x, imageLoad(depth, n3).x);
+        float lo = min(min(nd.x, nd.y), min(nd.z, nd.w)), hi = max(max(nd.x, nd.y), max(nd.z, nd.w));
+        if (is_fluid(hi) && hi - lo <= pc.fine.z) {
+            float mean = 0.25 * (nd.x + nd.y + nd.z + nd.w);
+            // The mean's error where the surface is a quadratic a x² + b y² + c x y + …: a + b (x, y in units of
+            // 2 pixels), from the second differences along the marched row above (or through) p and the
+            // marched column left of (or through) p: d(−3) − d(−1) − d(1) + d(3) = 16 a.
+            ivec2 c = p - o;
+            float e = all(greaterThanEqual(c, ivec2(2) * o)) && all(lessThan(c + ivec2(4) * o, size)) ? 0.0 : INF;
+            if (o.x == 1) e += imageLoad(depth, c + ivec2(-2, 0)).x - nd.x - imageLoad(depth, c + ivec2(2, 0)).x
+                               + imageLoad(depth, c + ivec2(4, 0)).x;
+            if (o.y == 1) e += imageLoad(depth, c + ivec2(0, -2)).x - nd.x - imageLoad(depth, c + ivec2(0, 2)).x
+                               + imageLoad(depth, c + ivec2(0, 4)).x;
+            if (abs(e) <= 16.0 * ISO_FINE_FLAT * mean / r.focal) return mean;
+            bool ok;
+            float z = newton(r, mean, ok);
+            // Trusted when the field rises into the water, the step is short, and the surface lies before the
+            // ray's far bound (where the march would stop).
+            if (ok && z <= r.end) return z;
+        }
     }
-    uint at = atomicAdd(iso_args[3], 1u);
-    if (at % LOCAL_1D == 0u) atomicAdd(iso_args[0], 1u);
-    iso_queue[at] = uvec4(uint(p.x) | (uint(p.y) << 16), floatBitsToUint(d), floatBitsToUint(prev),
-                          floatBitsToUint(phi_prev));
+    return INF;
+}
+
+void main() {
+    // Round 1's indirect y and z.
+    if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[5] = 1u; iso_args[6] = 1u; }
+    ivec2 size = imageSize(depth);
+    float F = focal_for(float(size.y));
+    for (uint k = 1u; k < 4u; ++k) {
+        ivec2 p = block_pixel(k);
+        if (any(greaterThanEqual(p, size))) continue;
+        float d = imageLoad(depth, p).x;
+        if (!is_fluid(d) || !fine_pixel(p, d, F)) continue;
+        float f = fine_depth(p, size, d);
+        if (is_fluid(f)) imageStore(depth, p, vec4(f));
+        else enqueue(1u, p, d, d, 0.0);
+    }
+}
+#elif !defined(ISO_REST)
+void main() {
+    // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
+    if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; }
+    ivec2 size = imageSize(depth);
+    float F = focal_for(float(size.y));
+    for (uint k = 0u; k < block_pixels(); ++k) {
+        ivec2 p = block_pixel(k);
+        if (any(greaterThanEqual(p, size))) continue;
+        float d = imageLoad(depth, p).x;
+        if (!is_fluid(d) || fine_pixel(p, d, F)) continue;
+        Ray r = ray_through(p, size);
+        float prev = d, phi_prev = 0.0, result;
+        if (march(r, 0u, min(pc.steps.w, pc.steps.x), d, prev, phi_prev, result)) {
+            imageStore(depth, p, vec4(result));
+            continue;
+        }
+        enqueue(0u, p, d, prev, phi_prev);
+    }
 }
 #else
 void main() {
+    // Round pc.fine.y: 0 continues the first dispatch's rays, 1 marches the fine dispatch's fallbacks from the
+    // start.
+    bool fallbacks = pc.fine.y > 0.0;
     uint i = gl_GlobalInvocationID.x;
-    if (i >= iso_args[3]) return;
-    uvec4 q = iso_queue[i];
+    if (i >= iso_args[fallbacks ? 7 : 3]) return;
+    uvec4 q = iso_queue[(fallbacks ? iso_args[3] : 0u) + i];
     ivec2 p = ivec2(q.x & 0xffffu, q.x >> 16);
     Ray r = ray_through(p, imageSize(depth));
     float d = uintBitsToFloat(q.y), prev = uintBitsToFloat(q.z), phi_prev = uintBitsToFloat(q.w), result;
-    march(r, pc.steps.w, pc.steps.x, d, prev, phi_prev, result);
+    march(r, fallbacks ? 0u : pc.steps.w, pc.steps.x, d, prev, phi_prev, result);
     imageStore(depth, p, vec4(result));
 }
 #endif

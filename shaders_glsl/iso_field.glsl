@@ -30,6 +30,9 @@ layout(push_constant) uniform IsoPush {
                   // (1) or per 8×8 tile (2)
     vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
     vec4 aniso2;  // anisotropy: x: longest axis (units of h), z: neighbourhood radius (world units)
+    vec4 fine;    // coarse-to-fine (iso_fine.comp): x: particle radius (world), y: the least radius on screen in
+                  // pixels (0: off), z: the widest depth spread of the marched neighbours, w: the longest
+                  // Newton step (both world units)
 } pc;
 
 /// Cubic spline without its constant (it cancels in φ); q = distance / support.
@@ -40,52 +43,91 @@ float iso_kernel(float q) {
 }
 
 #ifndef ISO_NO_WEIGHTS
+/// Runs VISIT(i, pt, v, d2) for every point i of the 3×3×3 cells around x: pt its texel (xyz, 1/n_j), v = pt.xyz
+/// − x, d2 = |v|². Cells are x fastest and their points contiguous, so each of the 9 rows of 3 cells is one range
+/// of points (9 cell-table pairs of reads instead of 27 lookups: the `iso` pass 198 → 127 ms on lavapipe, dam
+/// break 960×540). A macro, not a function taking a callback (GLSL has none), shared by iso_sum and
+/// iso_sum_grad.
+#define ISO_FOR_POINTS(x, VISIT)                                                                  \
+    {                                                                                            \
+        ivec3 c_ = ivec3(floor(((x) - pc.origin.xyz) / pc.origin.w));                             \
+        ivec3 dims_ = ivec3(pc.dims.xyz);                                                        \
+        int x0_ = max(c_.x - 1, 0), x1_ = min(c_.x + 1, dims_.x - 1);                            \
+        if (x0_ <= x1_) {                                                                        \
+            for (int z_ = max(c_.z - 1, 0); z_ <= min(c_.z + 1, dims_.z - 1); ++z_) {            \
+                for (int y_ = max(c_.y - 1, 0); y_ <= min(c_.y + 1, dims_.y - 1); ++y_) {        \
+                    int row_ = dims_.x * (y_ + dims_.y * z_);                                    \
+                    uint first_ = ISO_CELL(x0_ + row_).x;                                        \
+                    uvec2 last_ = ISO_CELL(x1_ + row_);                                          \
+                    for (uint i_ = first_; i_ < last_.x + last_.y; ++i_) {                       \
+                        vec4 pt_ = ISO_POINT(i_);                                                \
+                        vec3 v_ = pt_.xyz - (x);                                                 \
+                        VISIT(i_, pt_, v_, dot(v_, v_));                                         \
+                    }                                                                            \
+                }                                                                                \
+            }                                                                                    \
+        }                                                                                        \
+    }
+
 /// Σ W(|x − x_j|) (weighted by 1/n_j when `weighted`) over the 3×3×3 cells around x; `dmin`: the distance
-/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far). Cells are x
-/// fastest and their points contiguous, so each of the 9 rows of 3 cells is one range of points (9 cell-table
-/// pairs of reads instead of 27 lookups: the `iso` pass 198 → 127 ms on lavapipe, dam break 960×540).
+/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far).
 float iso_sum(vec3 x, bool weighted, out float dmin) {
-    ivec3 c = ivec3(floor((x - pc.origin.xyz) / pc.origin.w));
-    ivec3 dims = ivec3(pc.dims.xyz);
     float s = 0.0;
     float d2min = pc.origin.w * pc.origin.w;
     float inv_h = 1.0 / pc.params.x;
-    int x0 = max(c.x - 1, 0), x1 = min(c.x + 1, dims.x - 1);
-    if (x0 > x1) {
-        dmin = pc.origin.w;
-        return 0.0;
-    }
-    for (int z = max(c.z - 1, 0); z <= min(c.z + 1, dims.z - 1); ++z) {
-        for (int y = max(c.y - 1, 0); y <= min(c.y + 1, dims.y - 1); ++y) {
-            {
-                int row = dims.x * (y + dims.y * z);
-                uint first = ISO_CELL(x0 + row).x;
-                uvec2 last = ISO_CELL(x1 + row);
-                for (uint i = first; i < last.x + last.y; ++i) {
-                    vec4 pt = ISO_POINT(i);
-                    vec3 v = pt.xyz - x;
-                    float d2 = dot(v, v);
-                    d2min = min(d2min, d2);
 #ifdef ISO_ANISO_BINDING
-                    // Weighted always (iso_aniso.comp only casts). The ellipsoid lies inside the ball of radius
-                    // (longest axis) around its centre.
-                    vec4 a0 = ISO_ANISO(3u * i);
-                    vec3 u = x - a0.xyz;
-                    float reach = pc.params.x * pc.aniso2.x;
-                    if (dot(u, u) < reach * reach) {
-                        vec4 a1 = ISO_ANISO(3u * i + 1u), a2 = ISO_ANISO(3u * i + 2u);
-                        mat3 m = mat3(a1.x, a1.y, a1.z, a1.y, a1.w, a2.x, a1.z, a2.x, a2.y);
-                        s += a0.w * iso_kernel(length(m * u) * inv_h) * pt.w;
-                    }
-#else
-                    float w = iso_kernel(sqrt(d2) * inv_h);
-                    s += weighted ? w * pt.w : w;
-#endif
-                }
-            }
-        }
+    // Weighted always (iso_aniso.comp only casts). The ellipsoid lies inside the ball of radius (longest axis)
+    // around its centre.
+    float reach = pc.params.x * pc.aniso2.x;
+#define ISO_SUM_VISIT(i, pt, v, d2)                                                              \
+    {                                                                                            \
+        float e2_ = d2;                                                                          \
+        d2min = min(d2min, e2_);                                                                 \
+        vec4 a0_ = ISO_ANISO(3u * i);                                                            \
+        vec3 u_ = x - a0_.xyz;                                                                   \
+        if (dot(u_, u_) < reach * reach) {                                                       \
+            vec4 a1_ = ISO_ANISO(3u * i + 1u), a2_ = ISO_ANISO(3u * i + 2u);                     \
+            mat3 m_ = mat3(a1_.x, a1_.y, a1_.z, a1_.y, a1_.w, a2_.x, a1_.z, a2_.x, a2_.y);       \
+            s += a0_.w * iso_kernel(length(m_ * u_) * inv_h) * pt.w;                             \
+        }                                                                                        \
     }
+#else
+#define ISO_SUM_VISIT(i, pt, v, d2)                                                              \
+    {                                                                                            \
+        float e2_ = d2;                                                                          \
+        d2min = min(d2min, e2_);                                                                 \
+        float w_ = iso_kernel(sqrt(e2_) * inv_h);                                                \
+        s += weighted ? w_ * pt.w : w_;                                                          \
+    }
+#endif
+    ISO_FOR_POINTS(x, ISO_SUM_VISIT)
+#undef ISO_SUM_VISIT
     dmin = sqrt(d2min);
     return s;
 }
+
+#ifndef ISO_ANISO_BINDING
+/// The weighted field φ(x) and its gradient (isotropic kernel): ∇W(|x − x_j| / h) = W'(q) / q · (x − x_j) / h²,
+/// with W'(q) / q = −12 + 18 q (q ≤ ½) or −6 (1 − q)² / q (½ < q < 1). For the `iso` pass's Newton step
+/// (iso_fine.comp).
+float iso_sum_grad(vec3 x, out vec3 grad) {
+    float s = 0.0;
+    vec3 g = vec3(0.0);
+    float inv_h = 1.0 / pc.params.x;
+#define ISO_GRAD_VISIT(i, pt, v, d2)                                                             \
+    {                                                                                            \
+        float q_ = max(sqrt(d2) * inv_h, 1e-6);                                                  \
+        float a_ = max(1.0 - q_, 0.0);                                                           \
+        bool inner_ = q_ <= 0.5;                                                                 \
+        float w_ = inner_ ? 1.0 - 6.0 * q_ * q_ + 6.0 * q_ * q_ * q_ : 2.0 * a_ * a_ * a_;        \
+        float dq_ = inner_ ? -12.0 + 18.0 * q_ : -6.0 * a_ * a_ / q_;                             \
+        s += w_ * pt.w;                                                                          \
+        g -= (dq_ * pt.w) * v;                                                                   \
+    }
+    ISO_FOR_POINTS(x, ISO_GRAD_VISIT)
+#undef ISO_GRAD_VISIT
+    grad = g * (inv_h * inv_h);
+    return s;
+}
+#endif
 #endif

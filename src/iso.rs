@@ -298,6 +298,10 @@ pub struct IsoParams {
     pub first_steps: u32,
     /// The anisotropic kernels' parameters (`None`: the isotropic kernel).
     pub aniso: Option<AnisoParams>,
+    /// The particle radius (coarse-to-fine's units).
+    pub radius: f32,
+    /// Coarse-to-fine on the GPU (`[iso] fine_px`, 0: off); the CPU reference marches every ray.
+    pub fine_px: f32,
     /// The camera's near plane (linear depth): a march that starts inside steps back no nearer.
     pub near: f32,
 }
@@ -403,6 +407,8 @@ mod tests {
             refine: 16,
             first_steps: 0,
             aniso: None,
+            radius: 0.0,
+            fine_px: 0.0,
             near: 0.01,
         };
         // Ray along −z through the centre, from 1 unit in front.

@@ -316,6 +316,8 @@ impl Settings {
             max_steps: self.iso.max_steps,
             refine: self.iso.refine,
             first_steps: self.iso.first_steps,
+            radius: self.radius,
+            fine_px: self.iso.fine_px,
             aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support)),
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
@@ -385,9 +387,10 @@ impl Settings {
             && (0.5..=self.iso.support).contains(&self.iso.bound)
             && (1..=65536).contains(&self.iso.max_steps)
             && self.iso.refine <= 32
-            && self.iso.first_steps <= 65536;
+            && self.iso.first_steps <= 65536
+            && (self.iso.fine_px == 0.0 || (1.0..=64.0).contains(&self.iso.fine_px));
         if !iso_ok {
-            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements, first_steps ≤ 65536)");
+            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements, first_steps ≤ 65536, fine_px 0 or 1 … 64)");
         }
         if self.smooth.bilateral.iterations > 64 {
             return bad("[smooth.bilateral] iterations (≤ 64)");

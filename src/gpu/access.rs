@@ -208,6 +208,16 @@ impl AccessState {
         }
     }
 
+    /// [`AccessState::transition`] for a buffer, which has no layout. (Before session 12 buffers went through
+    /// the image rule with the layout forgotten each time, so every read looked like a layout transition and
+    /// replaced the reads before it: a buffer read by a shader and then as indirect arguments lost the shader
+    /// read, and the next write waited for the indirect read alone — the write-after-read hazard sync
+    /// validation reported on the `iso` queue header.)
+    pub fn buffer_transition(self, next: Access) -> (Option<Dependency>, AccessState) {
+        let (dep, state) = AccessState { layout: next.info().layout, ..self }.transition(next, false);
+        (dep, AccessState { layout: vk::ImageLayout::UNDEFINED, ..state })
+    }
+
     fn write_bits() -> vk::AccessFlags2 {
         vk::AccessFlags2::SHADER_STORAGE_WRITE
             | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE
@@ -220,6 +230,23 @@ impl AccessState {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A buffer read in two stages, then written: the write waits for both reads (and a read after a read
+    /// needs no barrier of its own beyond the write it follows).
+    #[test]
+    fn buffer_reads_accumulate_until_the_next_write() {
+        let (_, st) = AccessState::default().buffer_transition(Access::ComputeWrite);
+        let (dep, st) = st.buffer_transition(Access::ComputeRead);
+        assert_eq!(dep.unwrap().src_stage, vk::PipelineStageFlags2::COMPUTE_SHADER);
+        let (dep, st) = st.buffer_transition(Access::IndirectRead);
+        assert_eq!(dep.unwrap().dst_stage, vk::PipelineStageFlags2::DRAW_INDIRECT);
+        let (dep, _) = st.buffer_transition(Access::ComputeWrite);
+        let src = dep.unwrap().src_stage;
+        assert!(
+            src.contains(vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::DRAW_INDIRECT),
+            "{src:?}"
+        );
+    }
 
     #[test]
     fn first_write_transitions_from_undefined() {

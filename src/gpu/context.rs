@@ -91,8 +91,8 @@ impl<'t> FrameCtx<'t> {
                 Use::Buffer(buf, access) => {
                     use ash::vk::Handle;
                     self.touches.push(touch(buf.raw.as_raw(), access.info().writes));
-                    let (dep, next) = buf.state.get().transition(access, false);
-                    buf.state.set(crate::gpu::AccessState { layout: vk::ImageLayout::UNDEFINED, ..next });
+                    let (dep, next) = buf.state.get().buffer_transition(access);
+                    buf.state.set(next);
                     if let Some(d) = dep {
                         if !d.src_stage.is_empty() {
                             buffers.push(

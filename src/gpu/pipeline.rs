@@ -396,15 +396,16 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
 }
 
 impl<P: bytemuck::Pod> ComputeProgram<P> {
-    /// As [`ComputeProgram::dispatch`], with the workgroup counts read by the device from the first 12 bytes of
-    /// `args` (a `VkDispatchIndirectCommand` an earlier dispatch wrote; its barrier derived like any other use).
-    pub fn dispatch_indirect(&self, ctx: &mut FrameCtx, res: &[Res], push: &P, args: &Buffer) {
+    /// As [`ComputeProgram::dispatch`], with the workgroup counts read by the device from the 12 bytes of `args`
+    /// at `offset` (a `VkDispatchIndirectCommand` an earlier dispatch wrote; its barrier derived like any other
+    /// use).
+    pub fn dispatch_indirect(&self, ctx: &mut FrameCtx, res: &[Res], push: &P, args: &Buffer, offset: u64) {
         let c = &self.core;
         c.bind(ctx, vk::PipelineBindPoint::COMPUTE, res);
         ctx.barrier(&[Use::Buffer(args, Access::IndirectRead)]);
         unsafe { c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline) };
         c.push(ctx.cmd, push);
-        unsafe { c.gpu.device.cmd_dispatch_indirect(ctx.cmd, args.raw, 0) };
+        unsafe { c.gpu.device.cmd_dispatch_indirect(ctx.cmd, args.raw, offset) };
     }
 }
 

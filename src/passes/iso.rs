@@ -44,13 +44,34 @@ pub struct Params {
     /// instead of waiting on one long ray among short ones (0: one dispatch runs every ray to the end). The same
     /// surface either way; only the cost changes (see iso_cast.glsl).
     pub first_steps: u32,
+    /// Iso-surface, coarse-to-fine: where a particle's radius on screen is at least this many pixels, only the
+    /// pixels with even x and y march; every other pixel starts from its marched neighbours' mean depth and
+    /// takes one Newton step of the field (one field sum instead of a march), or marches where a neighbour
+    /// missed, the neighbours' depths spread more than 1 r, or the step is longer than ¼ r. Isotropic kernels
+    /// only (0: every pixel marches).
+    pub fine_px: f32,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { support: 4.0, threshold: 0.6, step: 0.5, bound: 1.75, max_steps: 512, refine: 0, first_steps: 8 }
+        Params {
+            support: 4.0,
+            threshold: 0.6,
+            step: 0.5,
+            bound: 1.75,
+            max_steps: 512,
+            refine: 0,
+            first_steps: 8,
+            fine_px: 4.0,
+        }
     }
 }
+
+/// Coarse-to-fine: the widest spread of the marched neighbours' depths, and the longest Newton step, that a
+/// fine pixel trusts (particle radii; see [`Params::fine_px`]).
+pub const FINE_SPREAD: f32 = 1.0;
+/// See [`FINE_SPREAD`].
+pub const FINE_STEP: f32 = 0.25;
 
 /// The grid on the device, and its shape (origin, cell, dims, point count, support) as push constants; the
 /// CPU copy of the grid is not kept.
@@ -113,6 +134,10 @@ pub struct IsoPush {
     pub aniso: [f32; 4],
     /// x: the kernels' longest axis (units of h).
     pub aniso2: [f32; 4],
+    /// Coarse-to-fine: x: particle radius ÷ the least radius on screen in pixels (0: off), y: the queue round
+    /// iso_rest finishes (0: the first dispatch's rays, 1: the fine dispatch's fallbacks), z: the widest spread
+    /// of the marched neighbours' depths, w: the longest Newton step (world units).
+    pub fine: [f32; 4],
 }
 
 impl IsoPush {
@@ -131,6 +156,7 @@ impl IsoPush {
             steps: [0; 4],
             aniso: [0.0; 4],
             aniso2: [1.0, 0.0, 0.0, 0.0],
+            fine: [0.0; 4],
         }
     }
 
@@ -140,6 +166,13 @@ impl IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
             steps: [p.max_steps, p.refine, back, if p.first_steps == 0 { p.max_steps } else { p.first_steps }],
             aniso2: [p.aniso.map_or(1.0, |a| a.stretch.max(1.0)), 0.0, 0.0, 0.0],
+            // No gradient of the anisotropic field: those casts march every pixel.
+            fine: [
+                if p.aniso.is_none() && p.fine_px > 0.0 { p.radius / p.fine_px } else { 0.0 },
+                0.0,
+                FINE_SPREAD * p.radius,
+                FINE_STEP * p.radius,
+            ],
             ..self
         }
     }
@@ -157,6 +190,7 @@ pub struct Iso {
     cast_aniso: ComputeProgram<IsoPush>,
     rest: ComputeProgram<IsoPush>,
     rest_aniso: ComputeProgram<IsoPush>,
+    fine: ComputeProgram<IsoPush>,
     grid: crate::passes::grid::Grid,
     gather: ComputeProgram<GatherPush>,
 }
@@ -185,12 +219,16 @@ declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform,
 // The second dispatches: the queued rays finished (the queue and its header read).
 declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
+// Coarse-to-fine (isotropic only): the pixels the first dispatches left, from their marched neighbours; those
+// it cannot trust are queued (round 1) for a second `rest`.
+declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
     /// One entry (pixel, march state: 16 bytes) per pixel.
     pub entries: Buffer,
-    /// {groups x, 1, 1, count}: the second dispatch's indirect arguments and the entry count.
+    /// Two rounds of {groups x, 1, 1, count}: the `rest` dispatches' indirect arguments and entry counts
+    /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks).
     pub header: Buffer,
 }
 
@@ -204,7 +242,7 @@ impl IsoQueue {
             header: Buffer::new(
                 gpu,
                 "iso_queue_header",
-                16,
+                32,
                 U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST,
                 gpu_only,
             )?,
@@ -221,6 +259,7 @@ impl Iso {
             cast_aniso: ComputeProgram::new(gpu, &CAST_ANISO)?,
             rest: ComputeProgram::new(gpu, &REST)?,
             rest_aniso: ComputeProgram::new(gpu, &REST_ANISO)?,
+            fine: ComputeProgram::new(gpu, &FINE)?,
             grid: crate::passes::grid::Grid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
         })
@@ -280,7 +319,10 @@ impl Iso {
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
             ctx.fill(&queue.header, 0);
-            let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
+            // Coarse-to-fine: one invocation per 2×2 block (iso_cast.glsl).
+            let block = if push.fine[0] > 0.0 { 2 } else { 1 };
+            let (w, h) = (depth.extent.width.div_ceil(block), depth.extent.height.div_ceil(block));
+            let g = groups_2d(w, h, super::LOCAL_2D);
             let (q, h) = ((&queue.entries).into(), (&queue.header).into());
             let mut all = vec![frame.into(), (&b.weighted).into(), (&b.cells).into(), depth.into(), back_img.into(), q, h];
             let (cast, rest) = match params.aniso {
@@ -292,7 +334,12 @@ impl Iso {
             };
             cast.dispatch(ctx, &all, &push, g);
             if push.steps[3] < push.steps[0] {
-                rest.dispatch_indirect(ctx, &all, &push, &queue.header);
+                rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0);
+            }
+            if push.fine[0] > 0.0 {
+                self.fine.dispatch(ctx, &all, &push, g);
+                let round1 = IsoPush { fine: [push.fine[0], 1.0, push.fine[2], push.fine[3]], ..push };
+                rest.dispatch_indirect(ctx, &all, &round1, &queue.header, 16);
             }
         });
     }

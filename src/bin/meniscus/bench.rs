@@ -418,8 +418,9 @@ pub struct BenchArgs {
     settings: Option<PathBuf>,
     /// Also measure these presets (comma-separated: default, fast, quality, moritz) on every workload and
     /// resolution, in the same run with their frames interleaved with the main preset's (one renderer each, so
-    /// all see the same host), and print each one's frame time as a ratio of the main preset's. (With
-    /// --async both, they run one after another.)
+    /// all see the same host), and print each one's frame time as a ratio of the main preset's. PRESET@FILE
+    /// takes FILE's settings over that preset instead of --settings (a variant measured against the main
+    /// preset, e.g. quality@half-steps.toml). (With --async both, they run one after another.)
     #[arg(long, value_delimiter = ',')]
     also_presets: Vec<String>,
     /// Frame the built-in workloads so the fluid covers about a quarter of the screen (Moritz's framing; implied
@@ -562,8 +563,13 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     r.always_render_background = !a.cache_background;
     let mut also = vec![];
     for p in &a.also_presets {
-        let mut s = Settings::preset(p)?;
-        if let Some(f) = &a.settings {
+        // PRESET, or PRESET@FILE: that preset with FILE's settings instead of --settings.
+        let (name, file) = match p.split_once('@') {
+            Some((n, f)) => (n, Some(PathBuf::from(f))),
+            None => (p.as_str(), a.settings.clone()),
+        };
+        let mut s = Settings::preset(name)?;
+        if let Some(f) = &file {
             s = s.with_toml(f)?;
         }
         also.push((p.clone(), s));
