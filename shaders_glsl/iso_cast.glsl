@@ -11,14 +11,19 @@
 //! count; the host zero-fills both before the first dispatch. Entries (binding 5): (pixel x | y << 16, d,
 //! previous d, φ there); round 0 (the first dispatch's rays, continued from sample pc.steps.w) from entry 0,
 //! round 1 (the fine dispatch's fallbacks, marched from the start) after round 0's.
-//! Coarse-to-fine (pc.fine.y > 0, isotropic kernels only): where a particle is at least pc.fine.y pixels in
-//! radius on screen, the first dispatch marches only the pixels with even x and y; a third dispatch (ISO_FINE,
-//! iso_fine.comp) gives every other such pixel the mean depth of its 2 or 4 marched neighbours and one Newton
-//! step of the field along its own ray (one field sum instead of a march), falling back to the march where a
-//! neighbour missed, the neighbours' depths spread more than pc.fine.z, or the step is longer than pc.fine.w.
-//! Those fallbacks (≈ 5 % of the fine pixels on the worst-case block: its silhouettes and edges) are queued as
-//! round 1 and marched by a second iso_rest dispatch, so they do not hold up the vectors of Newton steps.
-//! The issue's lever "march at reduced resolution, refine at full resolution".
+//! Coarse-to-fine (pc.fine.x > 0: the host turns it on for a frame whose nearest particle is at least
+//! [iso] fine_px pixels in radius on screen; isotropic kernels only). Where a particle is that large, only the
+//! pixels with even x and y march (iso_blocks.comp replaces iso.comp as the first dispatch, one invocation per
+//! 2×2 block). Then iso_fine.comp runs twice: phase 0 gives each marched pixel one Newton step of the field
+//! along its ray (φ and ∇φ in one sum); phase 1 gives every other pixel the mean depth of its 2 or 4 marched
+//! neighbours, kept as it is where their second differences say it lies within ISO_FINE_FLAT of a pixel of the
+//! surface, else improved by one Newton step. Where a neighbour missed, the neighbours' depths spread more than
+//! pc.fine.z or the step is longer than pc.fine.w, the pixel is queued as round 1 and marched from its start by
+//! a second iso_rest dispatch (≈ 5 % of the fine pixels on the worst-case block: its silhouettes and edges), so
+//! those marches do not hold up the vectors of Newton steps. The issue's lever "march at reduced resolution,
+//! refine at full resolution". Each step is its own dispatch because lavapipe paid for code beside the march
+//! even where it never ran: a loop over the block's pixels, or the Newton step, in iso.comp cost its march
+//! 35 % on the dam-break frame.
 #ifdef ISO_REST
 layout(local_size_x = LOCAL_1D) in;
 #else
@@ -124,16 +129,6 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
                 if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
             }
             result = a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
-#ifndef ISO_ANISO_BINDING
-            // Where coarse-to-fine applies, the marched depth gets the Newton step its fine neighbours get:
-            // the linear interpolation's error (up to 0.02 r) against their Newton-exact depths would otherwise
-            // show as a 2-pixel pattern in the normals.
-            if (fine_scale(result, r.focal)) {
-                bool ok;
-                float z = newton(r, result, ok);
-                if (ok && z >= a && z <= b) result = z;
-            }
-#endif
             return true;
         }
         prev = d;
@@ -150,13 +145,9 @@ bool fine_pixel(ivec2 p, float d, float F) {
     return ((p.x | p.y) & 1) != 0 && fine_scale(d, F);
 }
 
-/// With coarse-to-fine on, an invocation of the first and the fine dispatch owns a 2×2 block of pixels (the
-/// marched pixel at its even corner), so the 8 lanes of a SIMD vector stay busy in both; off, one pixel.
-uint block_pixels() { return pc.fine.x > 0.0 ? 4u : 1u; }
-ivec2 block_pixel(uint k) {
-    ivec2 g = ivec2(gl_GlobalInvocationID.xy);
-    return pc.fine.x > 0.0 ? 2 * g + ivec2(k & 1u, k >> 1) : g;
-}
+/// With coarse-to-fine on, an invocation of iso_blocks.comp and iso_fine.comp owns a 2×2 block of pixels (the
+/// marched pixel at its even corner, k = 0), so the 8 lanes of a SIMD vector stay busy.
+ivec2 block_pixel(uint k) { return 2 * ivec2(gl_GlobalInvocationID.xy) + ivec2(k & 1u, k >> 1); }
 
 #if defined(ISO_FINE)
 // Where the marched neighbours' second differences say their mean is within this fraction of a pixel's width
@@ -197,9 +188,23 @@ float fine_depth(ivec2 p, ivec2 size, float d) {
 }
 
 void main() {
-    // Round 1's indirect y and z.
-    if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[5] = 1u; iso_args[6] = 1u; }
     ivec2 size = imageSize(depth);
+    if (pc.fine.y == 0.0) {
+        // Phase 0: the marched pixel gets the Newton step its fine neighbours will get; the march's linear
+        // interpolation (errors up to 0.02 r) beside their Newton-exact depths would otherwise show as a
+        // 2-pixel pattern in the normals. (In its own dispatch: beside the march, in the same shader, a second
+        // field sum cost the cast 35 % on lavapipe even where it never ran.)
+        ivec2 p = block_pixel(0u);
+        if (any(greaterThanEqual(p, size))) return;
+        float z = imageLoad(depth, p).x;
+        if (!is_fluid(z) || !fine_scale(z, focal_for(float(size.y)))) return;
+        bool ok;
+        float n = newton(ray_through(p, size), z, ok);
+        if (ok) imageStore(depth, p, vec4(n));
+        return;
+    }
+    // Phase 1: the fine pixels. Round 1's indirect y and z.
+    if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[5] = 1u; iso_args[6] = 1u; }
     float F = focal_for(float(size.y));
     for (uint k = 1u; k < 4u; ++k) {
         ivec2 p = block_pixel(k);
@@ -211,25 +216,41 @@ void main() {
         else enqueue(1u, p, d, d, 0.0);
     }
 }
-#elif !defined(ISO_REST)
+#elif defined(ISO_BLOCKS)
 void main() {
-    // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
+    // The first dispatch with coarse-to-fine on (iso_blocks.comp): the block's marched pixel, and those of its
+    // other pixels whose particles are too small on screen for the fine dispatch.
     if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; }
     ivec2 size = imageSize(depth);
     float F = focal_for(float(size.y));
-    for (uint k = 0u; k < block_pixels(); ++k) {
+    for (uint k = 0u; k < 4u; ++k) {
         ivec2 p = block_pixel(k);
         if (any(greaterThanEqual(p, size))) continue;
         float d = imageLoad(depth, p).x;
         if (!is_fluid(d) || fine_pixel(p, d, F)) continue;
         Ray r = ray_through(p, size);
         float prev = d, phi_prev = 0.0, result;
-        if (march(r, 0u, min(pc.steps.w, pc.steps.x), d, prev, phi_prev, result)) {
-            imageStore(depth, p, vec4(result));
-            continue;
-        }
-        enqueue(0u, p, d, prev, phi_prev);
+        if (march(r, 0u, min(pc.steps.w, pc.steps.x), d, prev, phi_prev, result)) imageStore(depth, p, vec4(result));
+        else enqueue(0u, p, d, prev, phi_prev);
     }
+}
+#elif !defined(ISO_REST)
+void main() {
+    // One pixel per invocation (coarse-to-fine off: the shader is the lean march alone, see iso_blocks.comp).
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
+    if (p == ivec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; }
+    ivec2 size = imageSize(depth);
+    if (any(greaterThanEqual(p, size))) return;
+    float d = imageLoad(depth, p).x;
+    if (!is_fluid(d)) return;
+    Ray r = ray_through(p, size);
+    float prev = d, phi_prev = 0.0, result;
+    if (march(r, 0u, min(pc.steps.w, pc.steps.x), d, prev, phi_prev, result)) {
+        imageStore(depth, p, vec4(result));
+        return;
+    }
+    enqueue(0u, p, d, prev, phi_prev);
 }
 #else
 void main() {

@@ -30,9 +30,9 @@ layout(push_constant) uniform IsoPush {
                   // (1) or per 8×8 tile (2)
     vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
     vec4 aniso2;  // anisotropy: x: longest axis (units of h), z: neighbourhood radius (world units)
-    vec4 fine;    // coarse-to-fine (iso_fine.comp): x: particle radius (world), y: the least radius on screen in
-                  // pixels (0: off), z: the widest depth spread of the marched neighbours, w: the longest
-                  // Newton step (both world units)
+    vec4 fine;    // coarse-to-fine (iso_cast.glsl): x: particle radius ÷ its least radius on screen in pixels
+                  // (0: off), y: iso_fine's phase / iso_rest's round, z: the widest depth spread of the
+                  // marched neighbours, w: the longest Newton step (both world units)
 } pc;
 
 /// Cubic spline without its constant (it cancels in φ); q = distance / support.

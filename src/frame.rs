@@ -292,7 +292,7 @@ pub fn record_frame(
     };
     if let (Surface::Iso, Some(grid), Some(queue)) = (s.surface, grid, &t.iso_queue) {
         // The rasterised splats do not write a far bound: the march then runs to the grid's box.
-        p.iso.record(ctx, frame, grid, &params, &t.depth, back, queue);
+        p.iso.record(ctx, frame, grid, &params, &t.depth, back, queue, info);
     }
     let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, info);
     let fluid_depth = t.smoothed(smoothed);

@@ -166,7 +166,8 @@ impl IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
             steps: [p.max_steps, p.refine, back, if p.first_steps == 0 { p.max_steps } else { p.first_steps }],
             aniso2: [p.aniso.map_or(1.0, |a| a.stretch.max(1.0)), 0.0, 0.0, 0.0],
-            // No gradient of the anisotropic field: those casts march every pixel.
+            // No gradient of the anisotropic field: those casts march every pixel. `record` turns it off for a
+            // frame whose particles are all smaller on screen.
             fine: [
                 if p.aniso.is_none() && p.fine_px > 0.0 { p.radius / p.fine_px } else { 0.0 },
                 0.0,
@@ -187,6 +188,7 @@ impl IsoPush {
 pub struct Iso {
     density: ComputeProgram<IsoPush>,
     cast: ComputeProgram<IsoPush>,
+    cast_blocks: ComputeProgram<IsoPush>,
     cast_aniso: ComputeProgram<IsoPush>,
     rest: ComputeProgram<IsoPush>,
     rest_aniso: ComputeProgram<IsoPush>,
@@ -213,14 +215,17 @@ declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, 
 // Ray cast: frame, the weighted points, the cell table, depth (read as the start, written as the surface), back
 // depth, the queue of unfinished rays and its header (written).
 declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+// The first dispatch with coarse-to-fine on: one invocation per 2×2 block (iso_cast.glsl).
+declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
 // the isotropic cast's cost on lavapipe, 553 → 988 ms on the dam-break frame at 960×540).
 declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
 // The second dispatches: the queued rays finished (the queue and its header read).
 declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
-// Coarse-to-fine (isotropic only): the pixels the first dispatches left, from their marched neighbours; those
-// it cannot trust are queued (round 1) for a second `rest`.
+// Coarse-to-fine (isotropic only), twice: phase 0 (fine.y = 0) polishes the marched pixels with a Newton step;
+// phase 1 gives the pixels the first dispatches left their marched neighbours' depth (with a Newton step where
+// the surface curves) and queues those it cannot trust (round 1) for a second `rest`.
 declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
@@ -256,6 +261,7 @@ impl Iso {
         Ok(Iso {
             density: ComputeProgram::new(gpu, &DENSITY)?,
             cast: ComputeProgram::new(gpu, &CAST)?,
+            cast_blocks: ComputeProgram::new(gpu, &CAST_BLOCKS)?,
             cast_aniso: ComputeProgram::new(gpu, &CAST_ANISO)?,
             rest: ComputeProgram::new(gpu, &REST)?,
             rest_aniso: ComputeProgram::new(gpu, &REST_ANISO)?,
@@ -296,7 +302,8 @@ impl Iso {
 
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the far
     /// bound from the splat, per pixel or per 8×8 tile, where the march may stop (else it runs to the grid's box);
-    /// `queue`: where the first dispatch leaves the rays the second finishes.
+    /// `queue`: where the first dispatch leaves the rays the second finishes. Coarse-to-fine runs when the
+    /// nearest particle (`info.d_near`) is at least `[iso] fine_px` pixels in radius on screen.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -307,6 +314,7 @@ impl Iso {
         depth: &Image,
         back: Option<crate::passes::splat::BackBound>,
         queue: &IsoQueue,
+        info: &crate::frame::FrameInfo,
     ) {
         use crate::passes::splat::BackBound;
         let (mode, back) = match back {
@@ -314,7 +322,10 @@ impl Iso {
             Some(BackBound::Pixel(i)) => (1, Some(i)),
             Some(BackBound::Tile(i)) => (2, Some(i)),
         };
-        let push = b.shape.with(params, mode);
+        let mut push = b.shape.with(params, mode);
+        if params.radius * info.focal_px_fluid < params.fine_px * info.d_near {
+            push.fine[0] = 0.0;
+        }
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
@@ -332,14 +343,16 @@ impl Iso {
                 }
                 None => (&self.cast, &self.rest),
             };
-            cast.dispatch(ctx, &all, &push, g);
+            let fine = push.fine[0] > 0.0;
+            (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g);
             if push.steps[3] < push.steps[0] {
                 rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0);
             }
-            if push.fine[0] > 0.0 {
-                self.fine.dispatch(ctx, &all, &push, g);
-                let round1 = IsoPush { fine: [push.fine[0], 1.0, push.fine[2], push.fine[3]], ..push };
-                rest.dispatch_indirect(ctx, &all, &round1, &queue.header, 16);
+            if fine {
+                let phase = |k: f32| IsoPush { fine: [push.fine[0], k, push.fine[2], push.fine[3]], ..push };
+                self.fine.dispatch(ctx, &all, &phase(0.0), g);
+                self.fine.dispatch(ctx, &all, &phase(1.0), g);
+                rest.dispatch_indirect(ctx, &all, &phase(1.0), &queue.header, 16);
             }
         });
     }
