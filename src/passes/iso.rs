@@ -44,11 +44,12 @@ pub struct Params {
     /// instead of waiting on one long ray among short ones (0: one dispatch runs every ray to the end). The same
     /// surface either way; only the cost changes (see iso_cast.glsl).
     pub first_steps: u32,
-    /// Iso-surface, coarse-to-fine: where a particle's radius on screen is at least this many pixels, only the
-    /// pixels with even x and y march; every other pixel starts from its marched neighbours' mean depth and
-    /// takes one Newton step of the field (one field sum instead of a march), or marches where a neighbour
-    /// missed, the neighbours' depths spread more than 1 r, or the step is longer than ¼ r. Isotropic kernels
-    /// only (0: every pixel marches).
+    /// Iso-surface, coarse-to-fine: where a particle's radius on screen is at least this many pixels (the
+    /// frame's nearest particle decides whether it runs at all), only the pixels with even x and y march, then
+    /// take one Newton step of the field; every other pixel keeps its marched neighbours' mean depth where
+    /// their second differences say the surface is flat there, else takes one Newton step from it (one field
+    /// sum instead of a march), or marches where a neighbour missed, the neighbours' depths spread more than
+    /// 1 r, or the step is longer than ¼ r. Isotropic kernels only (0: every pixel marches).
     pub fine_px: f32,
 }
 
@@ -134,9 +135,10 @@ pub struct IsoPush {
     pub aniso: [f32; 4],
     /// x: the kernels' longest axis (units of h).
     pub aniso2: [f32; 4],
-    /// Coarse-to-fine: x: particle radius ÷ the least radius on screen in pixels (0: off), y: the queue round
-    /// iso_rest finishes (0: the first dispatch's rays, 1: the fine dispatch's fallbacks), z: the widest spread
-    /// of the marched neighbours' depths, w: the longest Newton step (world units).
+    /// Coarse-to-fine: x: particle radius ÷ the least radius on screen in pixels (0: off), y: iso_fine's phase
+    /// (0: the marched pixels' Newton step, 1: the other pixels) and the queue round iso_rest finishes (0: the
+    /// first dispatch's rays, 1: the fine dispatch's fallbacks), z: the widest spread of the marched neighbours'
+    /// depths, w: the longest Newton step (world units).
     pub fine: [f32; 4],
 }
 
