@@ -58,10 +58,10 @@ struct Ray {
 
 Ray ray_through(ivec2 p, ivec2 size) {
     Ray r;
-    r.dir = mat3(frame.inv_view) * pixel_dir(vec2(p), vec2(size), focal_for(float(size.y)));
+    r.focal = focal_for(float(size.y));
+    r.dir = mat3(frame.inv_view) * pixel_dir(vec2(p), vec2(size), r.focal);
     r.eye = frame.eye.xyz;
     r.len = length(r.dir);
-    r.focal = focal_for(float(size.y));
     // Where the ray leaves the grid's box grown by the support (no field beyond it).
     vec3 lo = pc.origin.xyz - pc.params.x;
     vec3 hi = pc.origin.xyz + vec3(pc.dims.xyz) * pc.origin.w + pc.params.x;
@@ -139,8 +139,7 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
 }
 
 /// Whether pixel p (depth d of the bound spheres, focal length F pixels) is left to the fine dispatch: off the
-/// even lattice, where a particle's radius on screen reaches 1 / pc.fine.x pixels per world unit of radius
-/// (pc.fine.x = radius / least pixels).
+/// even lattice, where a particle at depth d is large enough on screen (fine_scale).
 bool fine_pixel(ivec2 p, float d, float F) {
     return ((p.x | p.y) & 1) != 0 && fine_scale(d, F);
 }
