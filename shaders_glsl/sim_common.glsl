@@ -17,6 +17,7 @@ layout(std140, binding = 0) uniform Sim {
     uvec4 counts;        // particles; colliders; neighbour-list stride (capacity)
     vec4 sdf_lo;         // the mesh collider's distance lattice (src/sim/sdf.rs): first node (xyz), spacing (w)
     uvec4 sdf_dims;      // its nodes per axis (xyz); w: 1 when there is a mesh collider
+    vec4 wall;           // static friction μ_s of the container's faces (x); yzw unused
     vec4 colliders[2 * MAX_COLLIDERS]; // per collider: (a.xyz, kind), (b) — see collide()
 } sim;
 

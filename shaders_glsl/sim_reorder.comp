@@ -1,19 +1,30 @@
 #version 460
-//! sim_reorder — after the `grid` pass sorted the predicted positions into cells: gather the particles into
-//! grid order, so every neighbour loop reads contiguous memory (Green 2008).
-//! In: order (sorted place → particle), state, pred. Out: the same two arrays in grid order.
+//! sim_reorder — after the `grid` pass sorted the predicted positions into cells: move the particles into grid
+//! order, so every neighbour loop reads contiguous memory (Green 2008). Within a cell the particles are put in
+//! ascending order of their index before the move, not in the order the grid's atomic adds gave them, so a
+//! step is deterministic: the same start gives the same simulation, bit for bit, on one device (reproducible
+//! exports and tests; the neighbour sums keep one order).
+//! In: order (sorted place → particle), keys (particle → cell), start, counts (grid), state, pred.
+//! Out: the same two arrays in grid order.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, binding = 1) readonly buffer Order { uint order[]; };
+layout(binding = 1) uniform usamplerBuffer order;
 layout(std430, binding = 2) readonly buffer StateIn { State state_in[]; };
 layout(std430, binding = 3) readonly buffer PredIn { vec4 pred_in[]; };
 layout(std430, binding = 4) writeonly buffer StateOut { State state_out[]; };
 layout(std430, binding = 5) writeonly buffer PredOut { vec4 pred_out[]; };
+layout(std430, binding = 6) readonly buffer Keys { uvec2 keys[]; };
+layout(std430, binding = 7) readonly buffer Start { uint start[]; };
+layout(std430, binding = 8) readonly buffer Counts { uint counts[]; };
 
 void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= sim.counts.x) return;
-    uint i = order[k];
-    state_out[k] = state_in[i];
-    pred_out[k] = pred_in[i];
+    uint i = texelFetch(order, int(k)).x;
+    uint c = keys[i].x;
+    uint s = start[c];
+    uint place = s;
+    for (uint m = s; m < s + counts[c]; ++m) place += texelFetch(order, int(m)).x < i ? 1u : 0u;
+    state_out[place] = state_in[i];
+    pred_out[place] = pred_in[i];
 }

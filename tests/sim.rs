@@ -111,6 +111,13 @@ fn one_step_matches_the_cpu_reference() {
         let pushed = (0..n0).filter(|&i| (x[i] - x_free[i]).length() > 1e-4).count();
         eprintln!("{pushed} particles pushed by the mesh collider");
         assert!(pushed > 5, "only {pushed} particles met the mesh collider");
+        // The container's static friction did act: particles on the floor it stopped (free slip differs).
+        let mut slip = u;
+        slip.wall[0] = 0.0;
+        let (_, v_slip, _) = reference::step(&slip, scene.mesh_collider.as_deref(), iterations, &x0, &v0);
+        let held = (0..n0).filter(|&i| (v[i] - v_slip[i]).length() > 1e-4).count();
+        eprintln!("{held} particles held by the container's static friction");
+        assert!(held > 0, "no particle met the container's static friction");
         assert_eq!(sim.neighbour_overflow().unwrap(), 0, "the neighbour lists held everyone");
         eprintln!("{iterations} iterations: max |Δx| {ex:.2e} m, |Δv| {ev:.2e} m/s, |Δρ|/ρ0 {ed:.2e}");
         // f32 sums in another order; the step moves particles by up to ~1 cm.
@@ -118,6 +125,61 @@ fn one_step_matches_the_cpu_reference() {
         assert!(ev < 2e-4, "velocities differ by {ev}");
         assert!(ed < 4e-5, "densities differ by {ed}");
     }
+    common::assert_clean(&gpu);
+}
+
+/// sim_velocity.comp's static friction, by cases: water the floor pushes keeps no tangential velocity up to μ_s
+/// times that push, faster water slides on unchanged, and a particle off the faces or pulled away is free.
+#[test]
+fn static_friction_holds_slow_water_on_the_container_only() {
+    let scene = SimScene::new("pool", 1000).unwrap();
+    let sim_u = |mu: f32| {
+        let mut u: meniscus::sim::SimUniforms = bytemuck::Zeroable::zeroed();
+        u.lo_dt = [scene.container.0.x + 0.01, scene.container.0.y + 0.01, scene.container.0.z + 0.01, 0.005];
+        u.hi_h = [scene.container.1.x - 0.01, scene.container.1.y - 0.01, scene.container.1.z - 0.01, 0.04];
+        u.wall = [mu, 0.0, 0.0, 0.0];
+        u
+    };
+    let u = sim_u(1.0);
+    let floor = Vec3::new(0.0, u.lo_dt[1], 0.0);
+    let push = 9.81 * 0.005; // the floor stopped a particle falling at g·Δt
+    let vp = |vt: f32| Vec3::new(vt, -push, 0.0);
+    // Slow: held.
+    let v = reference::wall_friction(&u, floor, Vec3::new(0.04, 0.0, 0.0), vp(0.04));
+    assert_eq!(v, Vec3::ZERO);
+    // Faster than μ_s · push: slides on.
+    let v = reference::wall_friction(&u, floor, Vec3::new(0.06, 0.0, 0.0), vp(0.06));
+    assert_eq!(v, Vec3::new(0.06, 0.0, 0.0));
+    // μ_s = 0: free slip.
+    let v = reference::wall_friction(&sim_u(0.0), floor, Vec3::new(0.01, 0.0, 0.0), vp(0.01));
+    assert_eq!(v, Vec3::new(0.01, 0.0, 0.0));
+    // Off the floor, or on it but moving away from it (no push): free.
+    let above = floor + Vec3::new(0.0, 1e-4, 0.0);
+    assert_eq!(reference::wall_friction(&u, above, Vec3::new(0.01, 0.0, 0.0), vp(0.01)), Vec3::new(0.01, 0.0, 0.0));
+    let v = reference::wall_friction(&u, floor, Vec3::new(0.01, 0.2, 0.0), Vec3::new(0.01, 0.3, 0.0));
+    assert_eq!(v, Vec3::new(0.01, 0.2, 0.0));
+    // An upper face (x = hi) pushes towards −x: a particle there sliding slowly in z is held.
+    let wall = Vec3::new(u.hi_h[0], 0.2, 0.0);
+    let v = reference::wall_friction(&u, wall, Vec3::new(0.0, 0.0, 0.01), Vec3::new(0.05, 0.0, 0.01));
+    assert_eq!(v, Vec3::ZERO);
+}
+
+/// The same start gives the same simulation bit for bit (sim_reorder puts each cell's particles in index order,
+/// so the neighbour sums do not depend on the grid's atomic adds).
+#[test]
+fn a_simulation_is_deterministic() {
+    let gpu = common::gpu();
+    let run = || {
+        let mut sim = Simulation::new(&gpu, SimScene::new("dambreak", 3000).unwrap(), Params::default()).unwrap();
+        for _ in 0..8 {
+            sim.step_frame().unwrap();
+        }
+        sim.read().unwrap()
+    };
+    let (a, b) = (run(), run());
+    assert_eq!(a.positions, b.positions, "positions differ between two runs");
+    assert_eq!(a.velocities, b.velocities, "velocities differ between two runs");
+    assert_eq!(a.ids, b.ids);
     common::assert_clean(&gpu);
 }
 
@@ -156,10 +218,11 @@ fn a_resting_pool_stays_at_rest() {
     );
     eprintln!("rms speed after each second: {rms_at:?}");
     assert_eq!(outside.count(), 0, "particles outside the container");
-    // The issue asks for < 0.05 m/s. With ν = 0.01 m²/s and s_corr k = 0.02 (session 10) the maximum over 7,290
-    // particles after 2 s measured 0.038–0.057 m/s over 20 runs, 7 of them ≥ 0.05 (single particles at the floor, the walls or
-    // the surface; the grid's within-cell order comes from atomics, so runs differ): at the limit, not reliably
-    // below it — reported in NOTES.md. This bound catches a solver that regresses to the old 0.2–0.4 m/s jitter.
+    // The issue asks for < 0.05 m/s: at the limit, not met reliably (NOTES.md, session 13). The run is
+    // deterministic (sim_reorder), so this is one fixed outcome: 0.067 m/s here (an interior plume rising near
+    // a bottom edge). Pools of 5,000–12,000 particles measured 0.036–0.067 m/s after 2 s, 3 of 6 ≥ 0.05 (with
+    // free-slip walls 0.043–0.067, 5 of 6; the fastest then slide along the floor). This bound catches a solver
+    // that regresses to the old 0.2–0.4 m/s jitter.
     assert!(vmax < 0.1, "max speed {vmax} m/s");
     assert!(rms_at[1] < rms_at[0], "the pool is not settling: rms {rms_at:?}");
     assert!(err < 0.01, "density error {err}");

@@ -3,9 +3,9 @@
 //!
 //! One step (Δt = frame time / substeps), every stage a pass with its own name and GPU timestamp:
 //! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `passes::grid`: a
-//! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles gathered into grid order)
+//! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles moved into grid order, by index within a cell: deterministic)
 //! → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the tensile-instability term, collisions) →
-//! `sim_velocity` (v = (x* − x)/Δt) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity`
+//! `sim_velocity` (v = (x* − x)/Δt, static friction on the container's faces) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity`
 //! (vorticity confinement, XSPH, x = x*, and the renderer's particles).
 //!
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
@@ -13,7 +13,8 @@
 //! the resting-pool test. Constants (see [`Params`]): h = 4 r = 2 d, 4 iterations, relaxation ε = 1 % of the
 //! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s (dam
 //! break, pool; 0.001 for the splash scenes) as XSPH (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity
-//! confinement (ε = 0; the shared SPlisHSPlasH set-up has none either); the particle mass makes the initial
+//! confinement (ε = 0; the shared SPlisHSPlasH set-up has none either), static friction μ_s = 1 on the
+//! container's faces (session 13: water at rest stops creeping along the floor; flows slide freely); the particle mass makes the initial
 //! lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (NOTES.md, session 10). The time
 //! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
 //! 25 fps frame).
@@ -68,6 +69,8 @@ pub struct Params {
     pub xsph: Option<f32>,
     /// Vorticity confinement ε (m/s); 0 (the default) switches it off, and `sim_vorticity` is not recorded.
     pub vorticity: f32,
+    /// Static friction coefficient μ_s of the container's faces (0: free slip). See sim_velocity.comp.
+    pub wall_friction: f32,
     /// Gravity (m/s²).
     pub gravity: [f32; 3],
     /// Rest density (kg/m³).
@@ -89,6 +92,7 @@ impl Default for Params {
             viscosity: None,
             xsph: None,
             vorticity: 0.0,
+            wall_friction: 1.0,
             gravity: [0.0, -9.81, 0.0],
             rest_density: 1000.0,
         }
@@ -116,6 +120,9 @@ impl Params {
         }
         if self.viscosity.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
             return bad("viscosity must be zero or positive (m²/s)");
+        }
+        if !(self.wall_friction.is_finite() && (0.0..=10.0).contains(&self.wall_friction)) {
+            return bad("wall_friction must be 0..=10");
         }
         if let Some(c) = self.xsph {
             if !(0.0..=XSPH_MAX).contains(&c) {
@@ -153,6 +160,8 @@ pub struct SimUniforms {
     pub sdf_lo: [f32; 4],
     /// Its nodes per axis; w = 1 when there is one.
     pub sdf_dims: [u32; 4],
+    /// The container's static friction μ_s (x).
+    pub wall: [f32; 4],
     /// Two vec4 per collider.
     pub colliders: [[f32; 4]; 2 * MAX_COLLIDERS as usize],
 }
@@ -494,6 +503,7 @@ impl Simulation {
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, 0],
             sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
             sdf_dims: self.scene.mesh_collider.as_ref().map_or([0; 4], |m| m.dims.extend(1).to_array()),
+            wall: [self.params.wall_friction, 0.0, 0.0, 0.0],
             colliders,
         }
     }
@@ -505,7 +515,7 @@ impl Simulation {
         let (g, s) = (&self.stages, &self.grid);
         g.predict(ctx, u, a, &self.pred[0], &self.sdf, n);
         ctx.pass(crate::passes::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
-        g.reorder(ctx, u, &s.order, a, &self.pred[0], b, &self.pred[1], n);
+        g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], n);
         let nb = &self.neighbours;
         g.neighbours(ctx, u, s, &self.pred[1], nb, n);
         let mut cur = 1;

@@ -119,6 +119,28 @@ pub fn wall_density(u: &SimUniforms, x: Vec3) -> (f32, Vec3) {
     (f, g)
 }
 
+/// sim_velocity.comp's static friction against the container's faces: velocity `vel` of a particle ending at
+/// `xs`, whose velocity after gravity was `vp`.
+pub fn wall_friction(u: &SimUniforms, xs: Vec3, mut vel: Vec3, vp: Vec3) -> Vec3 {
+    let mu = u.wall[0];
+    for k in 0..3 {
+        let side = if xs[k] <= u.lo_dt[k] {
+            1.0
+        } else if xs[k] >= u.hi_h[k] {
+            -1.0
+        } else {
+            0.0
+        };
+        let mut vt = vel;
+        vt[k] = 0.0;
+        let push = side * (vel[k] - vp[k]);
+        if side != 0.0 && push > 0.0 && vt.length_squared() <= mu * mu * push * push {
+            vel -= vt;
+        }
+    }
+    vel
+}
+
 /// One step of `iterations` solver iterations from positions `x` and velocities `v`: the new positions,
 /// velocities and the densities of the last iteration.
 pub fn step(
@@ -169,7 +191,7 @@ pub fn step(
             })
             .collect();
     }
-    let vel: Vec<Vec3> = (0..n).map(|i| (p[i] - x[i]) / dt).collect();
+    let vel: Vec<Vec3> = (0..n).map(|i| wall_friction(u, p[i], (p[i] - x[i]) / dt, v[i])).collect();
     let omega: Vec<Vec3> = (0..n)
         .map(|i| {
             let mut w = Vec3::ZERO;

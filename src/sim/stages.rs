@@ -36,7 +36,10 @@ pub const STAGE_NAMES: &[&str] = &[
 ];
 
 declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite, BufRead]));
-declare_program!(pub REORDER: () = compute(shaders::SIM_REORDER, [Uniform, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+declare_program!(pub REORDER: () = compute(
+    shaders::SIM_REORDER,
+    [Uniform, TexelRead, BufRead, BufRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
+));
 declare_program!(pub NEIGHBOURS: () = compute(
     shaders::SIM_NEIGHBOURS,
     [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
@@ -109,20 +112,30 @@ impl Stages {
         self.run(ctx, "sim_predict", &self.predict, &[u.into(), state.into(), pred.into(), sdf.into()], n);
     }
 
-    /// `sim_reorder`: state and pred gathered into grid order.
+    /// `sim_reorder`: state and pred moved into grid order (ascending index within a cell).
     #[allow(clippy::too_many_arguments)]
     pub fn reorder(
         &self,
         ctx: &mut FrameCtx,
         u: &Buffer,
-        order: &Buffer,
+        g: &GridBuffers,
         state: &Buffer,
         pred: &Buffer,
         state_out: &Buffer,
         pred_out: &Buffer,
         n: u32,
     ) {
-        let res = [u.into(), order.into(), state.into(), pred.into(), state_out.into(), pred_out.into()];
+        let res = [
+            u.into(),
+            (&g.order).into(),
+            state.into(),
+            pred.into(),
+            state_out.into(),
+            pred_out.into(),
+            (&g.keys).into(),
+            (&g.start).into(),
+            (&g.counts).into(),
+        ];
         self.run(ctx, "sim_reorder", &self.reorder, &res, n);
     }
 
