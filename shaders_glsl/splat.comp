@@ -42,8 +42,12 @@ void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
     bool hit = pc.ellipsoid != 0u ? ray_ellipsoid(dir, c, ell_m, ell_rho, d_in, d_out) : ray_sphere(dir, c, r, d_in, d_out);
     if (!hit) return;
     if (d_out < near) return;
-    imageAtomicMin(depth_bits, q, floatBitsToUint(max(d_in, near)));
-    if (pc.back != 0u) imageAtomicMax(back_bits, q, floatBitsToUint(d_out));
+    // An atomic only where it can change the pixel (the values only ever decrease / increase, so a plain load
+    // that already beats this sphere proves the atomic a no-op): lavapipe runs an image atomic lane by lane.
+    uint din = floatBitsToUint(max(d_in, near));
+    if (imageLoad(depth_bits, q).x > din) imageAtomicMin(depth_bits, q, din);
+    uint dout = floatBitsToUint(d_out);
+    if (pc.back != 0u && imageLoad(back_bits, q).x < dout) imageAtomicMax(back_bits, q, dout);
 }
 
 void main() {
