@@ -122,7 +122,7 @@ impl GridBuffers {
             counts: buf("grid_counts", 4 * cells)?,
             start: buf("grid_start", 4 * cells)?,
             // Also read as texels: sim_reorder walks each cell's places (see `Buffer::with_texel_view`).
-            order: Buffer::texels(gpu, "grid_order", 4 * capacity.max(4) as u64, usage, vk::Format::R32_UINT)?,
+            order: Buffer::texels(gpu, "grid_order", (4 * capacity as u64).max(16), usage, vk::Format::R32_UINT)?,
             keys: buf("grid_keys", 8 * capacity as u64)?,
             sums: buf("grid_sums", 4 * cells.div_ceil(SCAN_BLOCK as u64))?,
             shape,

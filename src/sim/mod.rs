@@ -3,10 +3,11 @@
 //!
 //! One step (Δt = frame time / substeps), every stage a pass with its own name and GPU timestamp:
 //! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `passes::grid`: a
-//! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles moved into grid order, by index within a cell: deterministic)
-//! → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the tensile-instability term, collisions) →
-//! `sim_velocity` (v = (x* − x)/Δt, static friction on the container's faces) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity`
-//! (vorticity confinement, XSPH, x = x*, and the renderer's particles).
+//! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles moved into grid order, by
+//! index within a cell: deterministic) → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the
+//! tensile-instability term, collisions) → `sim_velocity` (v = (x* − x)/Δt, static friction on the container's
+//! faces) → `sim_vorticity` (ω; recorded only with confinement on) → `sim_viscosity` (vorticity confinement,
+//! XSPH, x = x*, and the renderer's particles).
 //!
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
 //! frame's cost is known in advance (the live demo needs that); the density error it leaves is measured by
@@ -14,8 +15,8 @@
 //! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s (dam
 //! break, pool; 0.001 for the splash scenes) as XSPH (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity
 //! confinement (ε = 0; the shared SPlisHSPlasH set-up has none either), static friction μ_s = 1 on the
-//! container's faces (session 13: water at rest stops creeping along the floor; flows slide freely); the particle mass makes the initial
-//! lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (NOTES.md, session 10). The time
+//! container's faces (session 13: water at rest stops creeping along the floor; flows slide freely); the
+//! particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (NOTES.md, session 10). The time
 //! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
 //! 25 fps frame).
 
@@ -599,5 +600,22 @@ impl Simulation {
             ids: Some(state.iter().map(|s| s[3].to_bits() as i64).collect()),
             ..Default::default()
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Params;
+
+    /// `[sim] wall_friction` outside 0..=10 (or not a number) is a settings error naming the key.
+    #[test]
+    fn wall_friction_out_of_range_is_an_error() {
+        for bad in [-1.0, 10.5, f32::NAN, f32::INFINITY] {
+            let e = Params { wall_friction: bad, ..Params::default() }.validate().unwrap_err().to_string();
+            assert!(e.contains("wall_friction"), "{bad}: {e}");
+        }
+        for good in [0.0, 1.0, 10.0] {
+            Params { wall_friction: good, ..Params::default() }.validate().unwrap();
+        }
     }
 }
