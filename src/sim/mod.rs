@@ -12,8 +12,8 @@
 //! Why PBF: it is unconditionally stable at the renderer's frame rate with a fixed small iteration count, so a
 //! frame's cost is known in advance (the live demo needs that); the density error it leaves is measured by
 //! the resting-pool test. Constants (see [`Params`]): h = 4 r = 2 d, 4 iterations, relaxation ε = 1 % of the
-//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.01 m²/s (dam
-//! break, pool; 0.001 for the splash scenes) as XSPH (c = 22 ν Δt / h²: 0.44 at the 59k dam break), no vorticity
+//! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.02 m²/s (dam
+//! break, pool; 0.001 for the splash scenes) as XSPH (c = 22 ν Δt / h²: 0.84 at the 59k dam break), no vorticity
 //! confinement (ε = 0; the shared SPlisHSPlasH set-up has none either), static friction μ_s = 1 on the
 //! container's faces (session 13: water at rest stops creeping along the floor; flows slide freely); the
 //! particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (NOTES.md, session 10). The time
@@ -61,9 +61,12 @@ pub struct Params {
     /// Tensile-instability reference distance Δq as a fraction of h.
     pub scorr_dq: f32,
     /// Kinematic viscosity ν (m²/s), applied as XSPH with c = 22 ν Δt / h² (see [`Constants::xsph`]); absent:
-    /// the scene's ([`SimScene::viscosity`]: 0.01 for `dambreak` — the shared SPlisHSPlasH set-up's "Standard
-    /// viscosity" — and `pool`, 0.001 for the splash scenes `drop` and `waterfall`, whose crown and spray 0.01
-    /// smears into a smooth ring).
+    /// the scene's ([`SimScene::viscosity`]: 0.02 for `dambreak` and `pool` — twice the shared SPlisHSPlasH
+    /// set-up's "Standard viscosity" 0.01, because 4 PBF iterations leave a slow stirring in water at rest that
+    /// DFSPH's converged solve does not (the resting pool after 2 s: 0.032–0.051 m/s at 0.01, 0.022–0.034 at
+    /// 0.02; the 59k dam-break front then trails SPlisHSPlasH's by ≤ 1.9 % of the tank instead of ≤ 0.9 %:
+    /// NOTES.md, session 14) — and 0.001 for the splash scenes `drop` and `waterfall`, whose crown and spray
+    /// 0.01 smears into a smooth ring).
     pub viscosity: Option<f32>,
     /// XSPH c used as it is instead of the one derived from `viscosity` (c per step, so its effect depends on Δt
     /// and h).

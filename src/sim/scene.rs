@@ -98,6 +98,12 @@ pub const SCENES: &[(&str, usize, &str)] = &[
     ("pool", 20_000, "a pool at rest"),
 ];
 
+/// The spacing nearest `d` that divides `width` into whole cells, so a lattice filling a container's floor
+/// touches its walls: a pool that left a sliver of a spacing free at one wall would collapse into it and slosh.
+fn fit(width: f32, d: f32) -> f32 {
+    width / (width / d).round().max(1.0)
+}
+
 /// Lattice points (cell centres) of spacing `d` in the box lo..hi, kept where `keep` holds.
 fn lattice(lo: Vec3, hi: Vec3, d: f32, keep: impl Fn(Vec3) -> bool) -> Vec<[f32; 3]> {
     let n = ((hi - lo) / d + 1e-3).floor().as_uvec3();
@@ -133,7 +139,7 @@ impl SimScene {
             "pool" => {
                 let (lo, hi) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 2.0, 0.5));
                 let depth = 0.4;
-                let d = (depth / n).cbrt();
+                let d = fit(1.0, (depth / n).cbrt());
                 let positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
                 SimScene::still("pool", (lo, hi), vec![], d, positions)
             }
@@ -141,7 +147,7 @@ impl SimScene {
                 let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
                 let (depth, centre, radius) = (0.25f32, Vec3::new(0.0, 0.9, 0.0), 0.22f32);
                 let volume = 4.0 * depth + 4.0 / 3.0 * std::f32::consts::PI * radius.powi(3);
-                let d = (volume / n).cbrt();
+                let d = fit(hi.x - lo.x, (volume / n).cbrt());
                 let mut positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
                 let ball = lattice(centre - radius, centre + radius, d, |p| p.distance(centre) <= radius);
                 let first_ball = positions.len();
@@ -198,7 +204,7 @@ impl SimScene {
             positions,
             capacity: n,
             emitter: None,
-            viscosity: 0.01,
+            viscosity: 0.02,
             mesh_collider: None,
         }
     }
