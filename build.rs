@@ -18,9 +18,18 @@ mod shader_constants {
 }
 
 /// Sources compiled more than once: (file, [(constant suffix, macro defined for that variant)]).
-/// `splat.frag` gives SPLAT_FRAGDEPTH_FRAG, SPLAT_CONSERVATIVE_FRAG and SPLAT_MIN_FRAG.
-const VARIANTS: &[(&str, &[(&str, &str)])] =
-    &[("splat.frag", &[("FRAGDEPTH", "FRAG_DEPTH"), ("CONSERVATIVE", "CONSERVATIVE_DEPTH"), ("MIN", "MIN_BLEND")])];
+/// `splat.frag` gives SPLAT_FRAGDEPTH_FRAG, SPLAT_CONSERVATIVE_FRAG and SPLAT_MIN_FRAG; a ("", "") entry keeps
+/// the plain program too (`sim_density.comp` gives SIM_DENSITY and SIM_DENSITY_NBR16).
+const VARIANTS: &[(&str, &[(&str, &str)])] = &[
+    ("splat.frag", &[("FRAGDEPTH", "FRAG_DEPTH"), ("CONSERVATIVE", "CONSERVATIVE_DEPTH"), ("MIN", "MIN_BLEND")]),
+    // The simulation's neighbour-list stages: 32-bit lists, and 16-bit pairs (src/sim/stages.rs).
+    ("sim_neighbours.comp", NBR),
+    ("sim_density.comp", NBR),
+    ("sim_solve.comp", NBR),
+    ("sim_vorticity.comp", NBR),
+    ("sim_viscosity.comp", NBR),
+];
+const NBR: &[(&str, &str)] = &[("", ""), ("NBR16", "NBR16")];
 
 fn main() {
     let src = Path::new("shaders_glsl");

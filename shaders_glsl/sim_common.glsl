@@ -14,7 +14,7 @@ layout(std140, binding = 0) uniform Sim {
     vec4 solver;         // rest density ρ0; relaxation ε; s_corr k; 1 / W_poly6(Δq)
     vec4 visc;           // XSPH c; vorticity ε; particle radius; s_corr exponent n
     vec4 kern;           // h²; poly6 coefficient; spiky gradient coefficient; particle volume m/ρ0
-    uvec4 counts;        // particles; colliders; neighbour-list stride (capacity)
+    uvec4 counts;        // particles; colliders; neighbour-list stride (capacity); unused
     vec4 sdf_lo;         // the mesh collider's distance lattice (src/sim/sdf.rs): first node (xyz), spacing (w)
     uvec4 sdf_dims;      // its nodes per axis (xyz); w: 1 when there is a mesh collider
     vec4 wall;           // static friction μ_s of the container's faces (x); yzw unused
@@ -169,10 +169,28 @@ vec3 collide(vec3 x) {
 // VISIT(j) for each of particle i's neighbours j in list order (within h of it when the list was made, itself
 // excluded), as listed by sim_neighbours at the step's predicted positions (Macklin & Müller, Alg. 1 line 6:
 // the neighbour set is found once per step). VISIT is the name of a one-argument macro the stage defines,
-// usually calling a function with its accumulators. Two neighbours per iteration, both indices loaded first:
-// on lavapipe each index load is a loop over the lanes, and the pair halves the loop's own cost (sim_density
-// −13 %, interleaved runs). The lists are slot-major (slot k of every particle contiguous), so the threads
-// of a warp read one run of words, not one word per 256-byte row. Needs `nbr_count` and `nbrs` declared.
+// usually calling a function with its accumulators. Two neighbours per iteration, loaded before either is
+// visited: on lavapipe each index load is a loop over the lanes (most of a stage's time: NOTES.md, session 14),
+// and the pair halves the loop's own cost (sim_density −13 %, session 11). The lists are slot-major (slot k of
+// every particle contiguous), so the threads of a warp read one run of words, not one word per 256-byte row.
+// Compiled with NBR16 (the programs of a simulation of at most 65,536 particles) a word holds two 16-bit indices,
+// low half first, so one load serves the pair; the visits and their order are the same either way. Needs
+// `nbr_count` and `nbrs` declared.
+#ifdef NBR16
+#define FOR_NEIGHBOURS(i, VISIT)                                                                \
+    {                                                                                          \
+        uint n_ = nbr_count[i], k_ = 0u;                                                       \
+        for (; k_ + 1u < n_; k_ += 2u) {                                                       \
+            uint p_ = nbrs[(k_ >> 1u) * sim.counts.z + (i)];                                   \
+            VISIT((p_ & 0xffffu));                                                             \
+            VISIT((p_ >> 16u));                                                                \
+        }                                                                                      \
+        if (k_ < n_) {                                                                         \
+            uint c_ = nbrs[(k_ >> 1u) * sim.counts.z + (i)] & 0xffffu;                         \
+            VISIT(c_);                                                                         \
+        }                                                                                      \
+    }
+#else
 #define FOR_NEIGHBOURS(i, VISIT)                                                                \
     {                                                                                          \
         uint n_ = nbr_count[i], k_ = 0u;                                                       \
@@ -187,6 +205,7 @@ vec3 collide(vec3 x) {
             VISIT(c_);                                                                         \
         }                                                                                      \
     }
+#endif
 
 // The neighbour-list bindings of the stages that read them (at 1 and 2). Storage buffers: as texel buffers, like
 // the particle arrays the loops read, they measured no faster (NOTES.md, session 11).

@@ -3,7 +3,8 @@
 //! the particles within h of it at the predicted positions (itself excluded), found through the `grid` pass's
 //! cells, at most MAX_NEIGHBOURS (a compressed particle past that keeps the nearest cells' first ones; the
 //! overflow count is reported). The solver's loops then visit ~30 neighbours instead of ~200 candidates.
-//! In: counts, start (grid), pred (grid order). Out: nbr_count, nbrs (MAX_NEIGHBOURS slots, slot-major: slot k of particle i at k × capacity + i),
+//! In: counts, start (grid), pred (grid order). Out: nbr_count, nbrs (MAX_NEIGHBOURS slots, slot-major: slot k of particle i at k × capacity + i; or,
+//! in a simulation of at most 65,536 particles, slots 2w and 2w + 1 as the low and high halves of word w × capacity + i),
 //! overflow.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
@@ -21,6 +22,13 @@ void main() {
     float h2 = sim.kern.x;
     uint n = 0u;
     bool full = false;
+    // 16-bit lists (compiled with NBR16: at most 65,536 particles): two indices per word, the even slot low.
+#ifdef NBR16
+    const bool packed = true;
+#else
+    const bool packed = false;
+#endif
+    uint low = 0u;
     // Candidates are tested 32 at a time into a bit mask, and only the mask's set bits are written. Why: a
     // store under a per-lane condition is a loop over the lanes on lavapipe, so writing inside the candidate
     // loop paid that loop for all ~200 candidates, not for the ~30 neighbours (13 of the pass's 21 ms at 59k).
@@ -32,18 +40,39 @@ void main() {
                 vec3 r = xi - texelFetch(pred, int(j)).xyz;
                 if (dot(r, r) < h2 && j != i) m |= 1u << (j - c);
             }
+            // One store site per iteration, so the lanes' stores are one loop: 32-bit lists store each index;
+            // 16-bit lists store a pair per iteration (two bits taken at once, or the odd one left over from the
+            // last mask completed), which halves the iterations and the stores.
             while (m != 0u) {
                 uint j = c + uint(findLSB(m));
                 m &= m - 1u;
-                if (n < MAX_NEIGHBOURS) {
-                    nbrs[n * sim.counts.z + i] = j;
-                    n++;
-                } else {
+                if (n >= MAX_NEIGHBOURS) {
                     full = true;
+                    break;
                 }
+                uint at = n, word = j;
+                bool store = true;
+                if (!packed) {
+                    n += 1u;
+                } else if ((n & 1u) == 1u) {
+                    at = n >> 1u;
+                    word = low | (j << 16u);
+                    n += 1u;
+                } else if (m != 0u) {
+                    at = n >> 1u;
+                    word = j | ((c + uint(findLSB(m))) << 16u);
+                    m &= m - 1u;
+                    n += 2u;
+                } else {
+                    low = j;
+                    n += 1u;
+                    store = false;
+                }
+                if (store) nbrs[at * sim.counts.z + i] = word;
             }
         }
     END_ROWS
+    if (packed && (n & 1u) == 1u) nbrs[(n >> 1u) * sim.counts.z + i] = low;
     nbr_count[i] = n;
     if (full) atomicAdd(overflow[0], 1u);
 }

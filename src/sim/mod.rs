@@ -381,6 +381,7 @@ impl Simulation {
                 count: buf("sim_nbr_count", 4 * cap)?,
                 list: buf("sim_nbrs", 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
                 overflow: buf("sim_nbr_overflow", 16)?,
+                packed: cap <= 1 << 16,
             },
             n: 0,
             pending: None,
@@ -415,6 +416,25 @@ impl Simulation {
     /// Particles after the next frame's uploads (the count the renderer draws).
     pub fn count(&self) -> u32 {
         self.n + self.pending.as_ref().map_or(0, |p| p.1.len() as u32)
+    }
+
+    /// Whether the neighbour lists hold 16-bit indices, two per word (the default up to 65,536 particles; see
+    /// [`stages::Neighbours::packed`]).
+    pub fn packed_neighbours(&self) -> bool {
+        self.neighbours.packed
+    }
+
+    /// Choose the neighbour lists' format for the next steps: 16-bit lists need a capacity of at most 65,536
+    /// particles. The step's result is the same either way (test `sixteen_bit_neighbour_lists_change_nothing`).
+    pub fn set_packed_neighbours(&mut self, packed: bool) -> Result<()> {
+        if packed && self.capacity() as u64 > 1 << 16 {
+            return Err(Error::Invalid(format!(
+                "16-bit neighbour lists hold at most 65,536 particles (this simulation holds {})",
+                self.capacity()
+            )));
+        }
+        self.neighbours.packed = packed;
+        Ok(())
     }
 
     /// Most particles.

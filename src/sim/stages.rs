@@ -18,6 +18,10 @@ pub struct Neighbours {
     pub list: Buffer,
     /// Particles that had more neighbours than fit (one counter).
     pub overflow: Buffer,
+    /// The lists' format: 16-bit indices, two per word (the NBR16 programs), or 32-bit ones. 16-bit lists need
+    /// at most 65,536 particles; on lavapipe every index load is a loop over the SIMD lanes, so one load per
+    /// pair takes ≈ 20 % off a step (NOTES.md, session 14). The same visits in the same order either way.
+    pub packed: bool,
 }
 use crate::shader_constants::LOCAL_1D;
 use crate::shaders;
@@ -40,29 +44,56 @@ declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
     [Uniform, TexelRead, BufRead, BufRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
 ));
+// The stages that write or read the neighbour lists, each twice: 32-bit lists, and 16-bit pairs (`_NBR16`).
 declare_program!(pub NEIGHBOURS: () = compute(
     shaders::SIM_NEIGHBOURS,
     [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
 ));
+declare_program!(pub NEIGHBOURS_NBR16: () = compute(
+    shaders::SIM_NEIGHBOURS_NBR16,
+    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
+));
 declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite]));
+declare_program!(pub DENSITY_NBR16: () = compute(
+    shaders::SIM_DENSITY_NBR16,
+    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite]
+));
 declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead]));
+declare_program!(pub SOLVE_NBR16: () = compute(
+    shaders::SIM_SOLVE_NBR16,
+    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead]
+));
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
 declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub VORTICITY_NBR16: () = compute(
+    shaders::SIM_VORTICITY_NBR16,
+    [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite]
+));
 declare_program!(pub VISCOSITY: () = compute(
     shaders::SIM_VISCOSITY,
     [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
 ));
+declare_program!(pub VISCOSITY_NBR16: () = compute(
+    shaders::SIM_VISCOSITY_NBR16,
+    [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
+));
+
+/// The programs of the list stages for one list format.
+struct Listed {
+    neighbours: ComputeProgram,
+    density: ComputeProgram,
+    solve: ComputeProgram,
+    vorticity: ComputeProgram,
+    viscosity: ComputeProgram,
+}
 
 /// The stages' programs.
 pub struct Stages {
     predict: ComputeProgram,
     reorder: ComputeProgram,
-    neighbours: ComputeProgram,
-    density: ComputeProgram,
-    solve: ComputeProgram,
     velocity: ComputeProgram,
-    vorticity: ComputeProgram,
-    viscosity: ComputeProgram,
+    /// By list format: [32-bit, 16-bit].
+    listed: [Listed; 2],
 }
 
 fn groups(n: u32) -> [u32; 3] {
@@ -75,12 +106,23 @@ impl Stages {
         Ok(Stages {
             predict: ComputeProgram::new(gpu, &PREDICT)?,
             reorder: ComputeProgram::new(gpu, &REORDER)?,
-            neighbours: ComputeProgram::new(gpu, &NEIGHBOURS)?,
-            density: ComputeProgram::new(gpu, &DENSITY)?,
-            solve: ComputeProgram::new(gpu, &SOLVE)?,
             velocity: ComputeProgram::new(gpu, &VELOCITY)?,
-            vorticity: ComputeProgram::new(gpu, &VORTICITY)?,
-            viscosity: ComputeProgram::new(gpu, &VISCOSITY)?,
+            listed: [
+                Listed {
+                    neighbours: ComputeProgram::new(gpu, &NEIGHBOURS)?,
+                    density: ComputeProgram::new(gpu, &DENSITY)?,
+                    solve: ComputeProgram::new(gpu, &SOLVE)?,
+                    vorticity: ComputeProgram::new(gpu, &VORTICITY)?,
+                    viscosity: ComputeProgram::new(gpu, &VISCOSITY)?,
+                },
+                Listed {
+                    neighbours: ComputeProgram::new(gpu, &NEIGHBOURS_NBR16)?,
+                    density: ComputeProgram::new(gpu, &DENSITY_NBR16)?,
+                    solve: ComputeProgram::new(gpu, &SOLVE_NBR16)?,
+                    vorticity: ComputeProgram::new(gpu, &VORTICITY_NBR16)?,
+                    viscosity: ComputeProgram::new(gpu, &VISCOSITY_NBR16)?,
+                },
+            ],
         })
     }
 
@@ -90,13 +132,19 @@ impl Stages {
         ctx.pass(name, |ctx| program.dispatch(ctx, res, &(), groups(n)));
     }
 
-    /// A stage that walks the neighbour lists: the uniform block, the lists (bindings 1, 2), then `rest`.
+    /// The list stages' programs for `g`'s format.
+    fn listed(&self, g: &Neighbours) -> &Listed {
+        &self.listed[g.packed as usize]
+    }
+
+    /// A stage that walks the neighbour lists: the uniform block, the lists (bindings 1, 2), then `rest`; its
+    /// program for `g`'s format.
     #[allow(clippy::too_many_arguments)]
     fn run_listed(
         &self,
         ctx: &mut FrameCtx,
         name: &str,
-        program: &ComputeProgram,
+        program: fn(&Listed) -> &ComputeProgram,
         u: &Buffer,
         g: &Neighbours,
         rest: &[&Buffer],
@@ -104,7 +152,7 @@ impl Stages {
     ) {
         let mut res: Vec<Res> = vec![u.into(), (&g.count).into(), (&g.list).into()];
         res.extend(rest.iter().map(|&b| Res::from(b)));
-        self.run(ctx, name, program, &res, n);
+        self.run(ctx, name, program(self.listed(g)), &res, n);
     }
 
     /// `sim_predict`: state (v += Δt g) → pred (x*); `sdf`: the mesh collider's distances.
@@ -150,7 +198,7 @@ impl Stages {
             (&nb.list).into(),
             (&nb.overflow).into(),
         ];
-        self.run(ctx, "sim_neighbours", &self.neighbours, &res, n);
+        self.run(ctx, "sim_neighbours", &self.listed(nb).neighbours, &res, n);
     }
 
     /// `sim_density`: pred → pos_lambda (x*, λ), density.
@@ -165,7 +213,7 @@ impl Stages {
         density: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_density", &self.density, u, g, &[pred, lambda, density], n);
+        self.run_listed(ctx, "sim_density", |l| &l.density, u, g, &[pred, lambda, density], n);
     }
 
     /// `sim_solve`: pos_lambda (and the mesh collider's distances) → the next iterate.
@@ -180,7 +228,7 @@ impl Stages {
         sdf: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_solve", &self.solve, u, g, &[pos_lambda, next, sdf], n);
+        self.run_listed(ctx, "sim_solve", |l| &l.solve, u, g, &[pos_lambda, next, sdf], n);
     }
 
     /// `sim_velocity`: (x* − x)/Δt → vel.
@@ -200,7 +248,7 @@ impl Stages {
         omega: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_vorticity", &self.vorticity, u, g, &[pred, vel, omega], n);
+        self.run_listed(ctx, "sim_vorticity", |l| &l.vorticity, u, g, &[pred, vel, omega], n);
     }
 
     /// `sim_viscosity`: confinement + XSPH → the new state and the render particles.
@@ -218,6 +266,6 @@ impl Stages {
         out: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_viscosity", &self.viscosity, u, g, &[pred, vel, omega, sorted, state, out], n);
+        self.run_listed(ctx, "sim_viscosity", |l| &l.viscosity, u, g, &[pred, vel, omega, sorted, state, out], n);
     }
 }
