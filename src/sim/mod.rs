@@ -63,8 +63,8 @@ pub struct Params {
     /// Kinematic viscosity ν (m²/s), applied as XSPH with c = 22 ν Δt / h² (see [`Constants::xsph`]); absent:
     /// the scene's ([`SimScene::viscosity`]: 0.02 for `dambreak` and `pool` — twice the shared SPlisHSPlasH
     /// set-up's "Standard viscosity" 0.01, because 4 PBF iterations leave a slow stirring in water at rest that
-    /// DFSPH's converged solve does not (the resting pool after 2 s: 0.032–0.051 m/s at 0.01, 0.022–0.034 at
-    /// 0.02; the 59k dam-break front then trails SPlisHSPlasH's by ≤ 1.9 % of the tank instead of ≤ 0.9 %:
+    /// DFSPH's converged solve does not (the resting pool after 2 s, 5,000–12,000 particles: 0.032–0.051 m/s at
+    /// 0.01, 0.022–0.034 at 0.02; the 59k dam-break front then trails SPlisHSPlasH's by ≤ 1.9 % of the tank instead of ≤ 0.9 %:
     /// NOTES.md, session 14) — and 0.001 for the splash scenes `drop` and `waterfall`, whose crown and spray
     /// 0.01 smears into a smooth ring).
     pub viscosity: Option<f32>,
