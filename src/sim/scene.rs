@@ -139,7 +139,7 @@ impl SimScene {
             "pool" => {
                 let (lo, hi) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 2.0, 0.5));
                 let depth = 0.4;
-                let d = fit(1.0, (depth / n).cbrt());
+                let d = fit(hi.x - lo.x, (depth / n).cbrt());
                 let positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
                 SimScene::still("pool", (lo, hi), vec![], d, positions)
             }

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
+use crate::gpu::pipeline::ProgramDecl;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
 use crate::passes::grid::GridBuffers;
 
@@ -44,39 +45,41 @@ declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
     [Uniform, TexelRead, BufRead, BufRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
 ));
-// The stages that write or read the neighbour lists, each twice: 32-bit lists, and 16-bit pairs (`_NBR16`).
-declare_program!(pub NEIGHBOURS: () = compute(
-    shaders::SIM_NEIGHBOURS,
-    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
-));
-declare_program!(pub NEIGHBOURS_NBR16: () = compute(
-    shaders::SIM_NEIGHBOURS_NBR16,
-    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
-));
-declare_program!(pub DENSITY: () = compute(shaders::SIM_DENSITY, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite]));
-declare_program!(pub DENSITY_NBR16: () = compute(
-    shaders::SIM_DENSITY_NBR16,
-    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite]
-));
-declare_program!(pub SOLVE: () = compute(shaders::SIM_SOLVE, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead]));
-declare_program!(pub SOLVE_NBR16: () = compute(
-    shaders::SIM_SOLVE_NBR16,
-    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead]
-));
+// The stages that write or read the neighbour lists, each twice from one slot list: 32-bit lists, and 16-bit
+// pairs (the shader compiled with NBR16, `_NBR16`).
+macro_rules! listed_program {
+    (($name:ident, $nbr16:ident) = compute($shader:ident, $shader16:ident, [$($slot:ident),*])) => {
+        declare_program!(pub $name: () = compute(shaders::$shader, [$($slot),*]));
+        declare_program!(pub $nbr16: () = compute(shaders::$shader16, [$($slot),*]));
+    };
+}
+listed_program!(
+    (NEIGHBOURS, NEIGHBOURS_NBR16) = compute(
+        SIM_NEIGHBOURS,
+        SIM_NEIGHBOURS_NBR16,
+        [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
+    )
+);
+listed_program!(
+    (DENSITY, DENSITY_NBR16) =
+        compute(SIM_DENSITY, SIM_DENSITY_NBR16, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite])
+);
+listed_program!(
+    (SOLVE, SOLVE_NBR16) =
+        compute(SIM_SOLVE, SIM_SOLVE_NBR16, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead])
+);
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
-declare_program!(pub VORTICITY: () = compute(shaders::SIM_VORTICITY, [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
-declare_program!(pub VORTICITY_NBR16: () = compute(
-    shaders::SIM_VORTICITY_NBR16,
-    [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite]
-));
-declare_program!(pub VISCOSITY: () = compute(
-    shaders::SIM_VISCOSITY,
-    [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
-));
-declare_program!(pub VISCOSITY_NBR16: () = compute(
-    shaders::SIM_VISCOSITY_NBR16,
-    [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
-));
+listed_program!(
+    (VORTICITY, VORTICITY_NBR16) =
+        compute(SIM_VORTICITY, SIM_VORTICITY_NBR16, [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite])
+);
+listed_program!(
+    (VISCOSITY, VISCOSITY_NBR16) = compute(
+        SIM_VISCOSITY,
+        SIM_VISCOSITY_NBR16,
+        [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
+    )
+);
 
 /// The programs of the list stages for one list format.
 struct Listed {
@@ -85,6 +88,19 @@ struct Listed {
     solve: ComputeProgram,
     vorticity: ComputeProgram,
     viscosity: ComputeProgram,
+}
+
+impl Listed {
+    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`.
+    fn new(gpu: &Arc<Gpu>, [nb, density, solve, vorticity, viscosity]: [&ProgramDecl<()>; 5]) -> Result<Listed> {
+        Ok(Listed {
+            neighbours: ComputeProgram::new(gpu, nb)?,
+            density: ComputeProgram::new(gpu, density)?,
+            solve: ComputeProgram::new(gpu, solve)?,
+            vorticity: ComputeProgram::new(gpu, vorticity)?,
+            viscosity: ComputeProgram::new(gpu, viscosity)?,
+        })
+    }
 }
 
 /// The stages' programs.
@@ -108,20 +124,11 @@ impl Stages {
             reorder: ComputeProgram::new(gpu, &REORDER)?,
             velocity: ComputeProgram::new(gpu, &VELOCITY)?,
             listed: [
-                Listed {
-                    neighbours: ComputeProgram::new(gpu, &NEIGHBOURS)?,
-                    density: ComputeProgram::new(gpu, &DENSITY)?,
-                    solve: ComputeProgram::new(gpu, &SOLVE)?,
-                    vorticity: ComputeProgram::new(gpu, &VORTICITY)?,
-                    viscosity: ComputeProgram::new(gpu, &VISCOSITY)?,
-                },
-                Listed {
-                    neighbours: ComputeProgram::new(gpu, &NEIGHBOURS_NBR16)?,
-                    density: ComputeProgram::new(gpu, &DENSITY_NBR16)?,
-                    solve: ComputeProgram::new(gpu, &SOLVE_NBR16)?,
-                    vorticity: ComputeProgram::new(gpu, &VORTICITY_NBR16)?,
-                    viscosity: ComputeProgram::new(gpu, &VISCOSITY_NBR16)?,
-                },
+                Listed::new(gpu, [&NEIGHBOURS, &DENSITY, &SOLVE, &VORTICITY, &VISCOSITY])?,
+                Listed::new(
+                    gpu,
+                    [&NEIGHBOURS_NBR16, &DENSITY_NBR16, &SOLVE_NBR16, &VORTICITY_NBR16, &VISCOSITY_NBR16],
+                )?,
             ],
         })
     }
