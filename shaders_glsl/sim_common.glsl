@@ -169,27 +169,48 @@ vec3 collide(vec3 x) {
 // VISIT(j) for each of particle i's neighbours j in list order (within h of it when the list was made, itself
 // excluded), as listed by sim_neighbours at the step's predicted positions (Macklin & Müller, Alg. 1 line 6:
 // the neighbour set is found once per step). VISIT is the name of a one-argument macro the stage defines,
-// usually calling a function with its accumulators. Two neighbours per iteration, loaded before either is
-// visited: on lavapipe each index load is a loop over the lanes (most of a stage's time: NOTES.md, session 14),
-// and the pair halves the loop's own cost (sim_density −13 %, session 11). The lists are slot-major (slot k of
-// every particle contiguous), so the threads of a warp read one run of words, not one word per 256-byte row.
-// Compiled with NBR16 (the programs of a simulation of at most 65,536 particles) a word holds two 16-bit indices,
-// low half first, so one load serves the pair; the visits and their order are the same either way. Needs
-// `nbr_count` and `nbrs` declared.
+// usually calling a function with its accumulators. On lavapipe a storage-buffer load whose index differs per
+// lane is a loop over the 8 lanes, each with its branches (NOTES.md, session 11): the index loads, not the
+// kernels, were most of a list stage's time (session 14). So the loads are made few:
+// - compiled with NBR16 (the programs of a simulation of at most 65,536 particles), the lists hold 16-bit
+//   indices, eight to a 16-byte texel (slots 8q … 8q + 7 of particle i in texel q × capacity + i, two to a word,
+//   low half first), read with one branch-free texelFetch per eight neighbours; the last, partial texel's pairs
+//   are picked from the fetched vector;
+// - otherwise two 32-bit indices are loaded before either is visited (the pair halves the loop's own cost,
+//   sim_density −13 %, session 11).
+// The visits and their order are the same either way, so the sums are too. The lists are slot-major (slot k of
+// every particle contiguous), so the threads of a warp read one run of memory, not one word per list. Needs
+// `nbr_count` and `nbrs` declared (NEIGHBOUR_BUFFERS).
 #ifdef NBR16
+#define NBR_LO(p) ((p) & 0xffffu)
+#define NBR_HI(p) ((p) >> 16u)
 #define FOR_NEIGHBOURS(i, VISIT)                                                                \
     {                                                                                          \
         uint n_ = nbr_count[i], k_ = 0u;                                                       \
-        for (; k_ + 1u < n_; k_ += 2u) {                                                       \
-            uint p_ = nbrs[(k_ >> 1u) * sim.counts.z + (i)];                                   \
-            VISIT((p_ & 0xffffu));                                                             \
-            VISIT((p_ >> 16u));                                                                \
+        for (; k_ + 8u <= n_; k_ += 8u) {                                                      \
+            uvec4 q_ = texelFetch(nbrs, int((k_ >> 3u) * sim.counts.z + (i)));                 \
+            VISIT(NBR_LO(q_.x)); VISIT(NBR_HI(q_.x));                                          \
+            VISIT(NBR_LO(q_.y)); VISIT(NBR_HI(q_.y));                                          \
+            VISIT(NBR_LO(q_.z)); VISIT(NBR_HI(q_.z));                                          \
+            VISIT(NBR_LO(q_.w)); VISIT(NBR_HI(q_.w));                                          \
         }                                                                                      \
         if (k_ < n_) {                                                                         \
-            uint c_ = nbrs[(k_ >> 1u) * sim.counts.z + (i)] & 0xffffu;                         \
-            VISIT(c_);                                                                         \
+            uvec4 q_ = texelFetch(nbrs, int((k_ >> 3u) * sim.counts.z + (i)));                 \
+            for (; k_ + 1u < n_; k_ += 2u) {                                                   \
+                uint p_ = q_[(k_ >> 1u) & 3u];                                                 \
+                VISIT(NBR_LO(p_));                                                             \
+                VISIT(NBR_HI(p_));                                                             \
+            }                                                                                  \
+            if (k_ < n_) {                                                                     \
+                uint c_ = NBR_LO(q_[(k_ >> 1u) & 3u]);                                         \
+                VISIT(c_);                                                                     \
+            }                                                                                  \
         }                                                                                      \
     }
+// The neighbour-list bindings of the stages that read them (at 1 and 2).
+#define NEIGHBOUR_BUFFERS                                                                       \
+    layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
+    layout(binding = 2) uniform usamplerBuffer nbrs;
 #else
 #define FOR_NEIGHBOURS(i, VISIT)                                                                \
     {                                                                                          \
@@ -205,13 +226,13 @@ vec3 collide(vec3 x) {
             VISIT(c_);                                                                         \
         }                                                                                      \
     }
-#endif
-
-// The neighbour-list bindings of the stages that read them (at 1 and 2). Storage buffers: as texel buffers, like
-// the particle arrays the loops read, they measured no faster (NOTES.md, session 11).
+// The neighbour-list bindings of the stages that read them (at 1 and 2). 32-bit lists stay storage buffers: as
+// texel buffers of one index each they measured no faster (NOTES.md, session 11), and a texel view of a list
+// of more than 65,536 particles could pass the devices' texel-buffer limit (2^27 texels) at a few million.
 #define NEIGHBOUR_BUFFERS                                                                       \
     layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
     layout(std430, binding = 2) readonly buffer Nbrs { uint nbrs[]; };
+#endif
 
 // (s_corr ratio)ⁿ, exact multiplication for the usual n = 4.
 float scorr_pow(float x) {

@@ -3,9 +3,10 @@
 //! the particles within h of it at the predicted positions (itself excluded), found through the `grid` pass's
 //! cells, at most MAX_NEIGHBOURS (a compressed particle past that keeps the nearest cells' first ones; the
 //! overflow count is reported). The solver's loops then visit ~30 neighbours instead of ~200 candidates.
-//! In: counts, start (grid), pred (grid order). Out: nbr_count, nbrs (MAX_NEIGHBOURS slots, slot-major: slot k of particle i at k × capacity + i; or,
-//! in a simulation of at most 65,536 particles, slots 2w and 2w + 1 as the low and high halves of word w × capacity + i),
-//! overflow.
+//! In: counts, start (grid), pred (grid order). Out: nbr_count, nbrs (MAX_NEIGHBOURS slots, slot-major: slot k of
+//! particle i in word k × capacity + i; or, in a simulation of at most 65,536 particles, 16-bit slots 8q … 8q + 7
+//! in the 16-byte texel q × capacity + i, word w = slot / 2 holding slots 2w and 2w + 1 as its low and high
+//! halves, which the readers fetch eight at a time: sim_common.glsl's FOR_NEIGHBOURS), overflow.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
@@ -14,6 +15,16 @@ layout(binding = 3) uniform samplerBuffer pred;
 layout(std430, binding = 4) writeonly buffer NbrCount { uint nbr_count[]; };
 layout(std430, binding = 5) writeonly buffer Nbrs { uint nbrs[]; };
 layout(std430, binding = 6) buffer Overflow { uint overflow[]; };
+
+// Where word w of particle i's list lies: 32-bit lists, word w × capacity + i; 16-bit ones, component w mod 4 of
+// texel ⌊w / 4⌋ × capacity + i.
+uint slot_word(uint w, uint i) {
+#ifdef NBR16
+    return ((w >> 2u) * sim.counts.z + i) * 4u + (w & 3u);
+#else
+    return w * sim.counts.z + i;
+#endif
+}
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -68,11 +79,11 @@ void main() {
                     n += 1u;
                     store = false;
                 }
-                if (store) nbrs[at * sim.counts.z + i] = word;
+                if (store) nbrs[slot_word(at, i)] = word;
             }
         }
     END_ROWS
-    if (packed && (n & 1u) == 1u) nbrs[(n >> 1u) * sim.counts.z + i] = low;
+    if (packed && (n & 1u) == 1u) nbrs[slot_word(n >> 1u, i)] = low;
     nbr_count[i] = n;
     if (full) atomicAdd(overflow[0], 1u);
 }

@@ -379,7 +379,16 @@ impl Simulation {
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
             neighbours: stages::Neighbours {
                 count: buf("sim_nbr_count", 4 * cap)?,
-                list: buf("sim_nbrs", 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64)?,
+                list: {
+                    let bytes = 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64;
+                    // With the 16-bit readers' texel view where 16-bit lists are possible; none past 65,536
+                    // particles (a view of millions could pass the device's texel-buffer limit).
+                    if cap <= 1 << 16 {
+                        Buffer::texels(gpu, "sim_nbrs", bytes, usage, vk::Format::R32G32B32A32_UINT)?
+                    } else {
+                        buf("sim_nbrs", bytes)?
+                    }
+                },
                 overflow: buf("sim_nbr_overflow", 16)?,
                 packed: cap <= 1 << 16,
             },

@@ -15,13 +15,15 @@ use crate::passes::grid::GridBuffers;
 pub struct Neighbours {
     /// Neighbours per particle.
     pub count: Buffer,
-    /// MAX_NEIGHBOURS indices per particle.
+    /// MAX_NEIGHBOURS indices per particle; where 16-bit lists are possible (at most 65,536 particles), with an
+    /// RGBA32UI texel view (eight 16-bit indices per texel) for the NBR16 readers.
     pub list: Buffer,
     /// Particles that had more neighbours than fit (one counter).
     pub overflow: Buffer,
     /// The lists' format: 16-bit indices, two per word (the NBR16 programs), or 32-bit ones. 16-bit lists need
-    /// at most 65,536 particles; on lavapipe every index load is a loop over the SIMD lanes, so one load per
-    /// pair takes 15–22 % off a 59k step (NOTES.md, session 14). The same visits in the same order either way.
+    /// at most 65,536 particles; on lavapipe every storage-buffer index load is a loop over the SIMD lanes,
+    /// while the 16-bit lists are read eight indices per branch-free texel fetch (NOTES.md, sessions 14, 15).
+    /// The same visits in the same order either way.
     pub packed: bool,
 }
 use crate::shader_constants::LOCAL_1D;
@@ -45,40 +47,33 @@ declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
     [Uniform, TexelRead, BufRead, BufRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
 ));
-// The stages that write or read the neighbour lists, each twice from one slot list: 32-bit lists, and 16-bit
-// pairs (the shader compiled with NBR16, `_NBR16`).
-macro_rules! listed_program {
+// The stages that write or read the neighbour lists, each twice: for 32-bit lists, and for 16-bit ones (the
+// shader compiled with NBR16, `_NBR16`). sim_neighbours writes either format as a storage buffer;
+// the readers get the lists at bindings 1 (counts) and 2 (the lists: a storage buffer of 32-bit indices, or
+// the 16-bit lists' texel view, eight indices per texel), then `rest`.
+declare_program!(pub NEIGHBOURS: () = compute(
+    shaders::SIM_NEIGHBOURS,
+    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
+));
+declare_program!(pub NEIGHBOURS_NBR16: () = compute(
+    shaders::SIM_NEIGHBOURS_NBR16,
+    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
+));
+macro_rules! list_reader {
     (($name:ident, $nbr16:ident) = compute($shader:ident, $shader16:ident, [$($slot:ident),*])) => {
-        declare_program!(pub $name: () = compute(shaders::$shader, [$($slot),*]));
-        declare_program!(pub $nbr16: () = compute(shaders::$shader16, [$($slot),*]));
+        declare_program!(pub $name: () = compute(shaders::$shader, [Uniform, BufRead, BufRead, $($slot),*]));
+        declare_program!(pub $nbr16: () = compute(shaders::$shader16, [Uniform, BufRead, TexelRead, $($slot),*]));
     };
 }
-listed_program!(
-    (NEIGHBOURS, NEIGHBOURS_NBR16) = compute(
-        SIM_NEIGHBOURS,
-        SIM_NEIGHBOURS_NBR16,
-        [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
-    )
-);
-listed_program!(
-    (DENSITY, DENSITY_NBR16) =
-        compute(SIM_DENSITY, SIM_DENSITY_NBR16, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite])
-);
-listed_program!(
-    (SOLVE, SOLVE_NBR16) =
-        compute(SIM_SOLVE, SIM_SOLVE_NBR16, [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufRead])
-);
+list_reader!((DENSITY, DENSITY_NBR16) = compute(SIM_DENSITY, SIM_DENSITY_NBR16, [TexelRead, BufWrite, BufWrite]));
+list_reader!((SOLVE, SOLVE_NBR16) = compute(SIM_SOLVE, SIM_SOLVE_NBR16, [TexelRead, BufWrite, BufRead]));
 declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
-listed_program!(
-    (VORTICITY, VORTICITY_NBR16) =
-        compute(SIM_VORTICITY, SIM_VORTICITY_NBR16, [Uniform, BufRead, BufRead, TexelRead, TexelRead, BufWrite])
+list_reader!(
+    (VORTICITY, VORTICITY_NBR16) = compute(SIM_VORTICITY, SIM_VORTICITY_NBR16, [TexelRead, TexelRead, BufWrite])
 );
-listed_program!(
-    (VISCOSITY, VISCOSITY_NBR16) = compute(
-        SIM_VISCOSITY,
-        SIM_VISCOSITY_NBR16,
-        [Uniform, BufRead, BufRead, TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite]
-    )
+list_reader!(
+    (VISCOSITY, VISCOSITY_NBR16) =
+        compute(SIM_VISCOSITY, SIM_VISCOSITY_NBR16, [TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite])
 );
 
 /// The programs of the list stages for one list format.
