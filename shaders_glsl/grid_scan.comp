@@ -1,6 +1,8 @@
 #version 460
-//! grid_scan — exclusive prefix sum of the cell counts (second stage of the `grid` pass), in three dispatches
-//! of this shader (mode in the push constants), Blelloch-style over blocks of SCAN_BLOCK cells:
+//! grid_scan — exclusive prefix sum in the `grid` pass, of the totals of runs of GRID_RUN cells (grid_run_sum's
+//! output; the "cells" and "counts" below are those runs and totals, and grid_run_place turns the result into
+//! every cell's start), in three dispatches of this shader (mode in the push constants), Blelloch-style over
+//! blocks of SCAN_BLOCK values:
 //!   mode 0: each work group scans its block (4 cells per thread, then the thread sums in shared memory),
 //!           writes block-local starts and the block's total into sums[block];
 //!   mode 1: one work group scans sums[] in place, SCAN_BLOCK at a time with a carry;

@@ -25,6 +25,8 @@ pub const MAX_NEIGHBOURS: u32 = 64;
 pub const SCAN_LOCAL: u32 = 256;
 /// Cells scanned by one work group of grid_scan.comp.
 pub const SCAN_BLOCK: u32 = 4 * SCAN_LOCAL;
+/// Consecutive cells summed by one thread before the `grid` pass's prefix sum (grid_run_sum.comp).
+pub const GRID_RUN: u32 = 32;
 
 /// Smallest steps the `iso` march may take back towards the eye when it starts inside the surface (the surface
 /// bulges past the bound sphere there), so a bound sphere tighter than every bulge stays exact.
@@ -53,4 +55,5 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("MC_BLOCK", MC_BLOCK),
     ("MC_MAX_TRIS", MC_MAX_TRIS),
     ("SCAN_BLOCK", SCAN_BLOCK),
+    ("GRID_RUN", GRID_RUN),
 ];

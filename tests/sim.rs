@@ -24,35 +24,40 @@ fn gpu_grid_matches_a_cpu_counting_sort() {
     // Points inside and outside the grid's box (those land in border cells).
     let pts: Vec<[f32; 4]> =
         (0..5000).map(|_| [rng.next() * 2.2 - 0.1, rng.next() * 1.1 - 0.05, rng.next() * 0.5, 0.0]).collect();
-    let shape = GridShape::covering(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.5), 0.07);
     let points = upload_buffer(&gpu, "points", bytemuck::cast_slice(&pts), None).unwrap();
-    let g = GridBuffers::new(&gpu, shape, pts.len() as u32).unwrap();
     let grid = Grid::new(&gpu).unwrap();
-    gpu.one_shot(|cmd| {
-        let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        grid.record_pass(&mut ctx, &points, pts.len() as u32, &g);
-        Ok(())
-    })
-    .unwrap();
-    let cells = shape.cells() as usize;
-    let counts: Vec<u32> = bytemuck::cast_slice(&read_buffer(&gpu, &g.counts, 4 * cells as u64).unwrap()).to_vec();
-    let start: Vec<u32> = bytemuck::cast_slice(&read_buffer(&gpu, &g.start, 4 * cells as u64).unwrap()).to_vec();
-    let order: Vec<u32> = bytemuck::cast_slice(&read_buffer(&gpu, &g.order, 4 * pts.len() as u64).unwrap()).to_vec();
-    // CPU counting sort: the same cells, the same members per cell.
-    let key: Vec<u32> = pts.iter().map(|p| shape.index(Vec3::new(p[0], p[1], p[2]))).collect();
-    let mut cpu_counts = vec![0u32; cells];
-    key.iter().for_each(|&k| cpu_counts[k as usize] += 1);
-    assert_eq!(counts, cpu_counts);
-    let mut run = 0;
-    for c in 0..cells {
-        assert_eq!(start[c], run, "start of cell {c}");
-        let mut members: Vec<u32> = order[run as usize..(run + counts[c]) as usize].to_vec();
-        members.sort();
-        let expected: Vec<u32> = (0..pts.len() as u32).filter(|&i| key[i as usize] == c as u32).collect();
-        assert_eq!(members, expected, "members of cell {c}");
-        run += counts[c];
+    // 3,480 cells (109 runs of GRID_RUN = 32, one scan block) and 133,926 (4,186 runs: five scan blocks); the last
+    // run is partial in both.
+    for cell in [0.07, 0.0199] {
+        let shape = GridShape::covering(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.5), cell);
+        let g = GridBuffers::new(&gpu, shape, pts.len() as u32).unwrap();
+        gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&gpu, cmd, None);
+            grid.record_pass(&mut ctx, &points, pts.len() as u32, &g);
+            Ok(())
+        })
+        .unwrap();
+        let cells = shape.cells() as usize;
+        let read = |b: &meniscus::gpu::Buffer, n: usize| -> Vec<u32> {
+            bytemuck::cast_slice(&read_buffer(&gpu, b, 4 * n as u64).unwrap()).to_vec()
+        };
+        let (counts, start, order) = (read(&g.counts, cells), read(&g.start, cells), read(&g.order, pts.len()));
+        // CPU counting sort: the same cells, the same members per cell.
+        let key: Vec<u32> = pts.iter().map(|p| shape.index(Vec3::new(p[0], p[1], p[2]))).collect();
+        let mut expected = vec![Vec::new(); cells];
+        key.iter().enumerate().for_each(|(i, &k)| expected[k as usize].push(i as u32));
+        let cpu_counts: Vec<u32> = expected.iter().map(|m| m.len() as u32).collect();
+        assert_eq!(counts, cpu_counts, "{cells} cells");
+        let mut run = 0;
+        for c in 0..cells {
+            assert_eq!(start[c], run, "start of cell {c} of {cells}");
+            let mut members: Vec<u32> = order[run as usize..(run + counts[c]) as usize].to_vec();
+            members.sort();
+            assert_eq!(members, expected[c], "members of cell {c} of {cells}");
+            run += counts[c];
+        }
+        assert_eq!(run as usize, pts.len());
     }
-    assert_eq!(run as usize, pts.len());
     common::assert_clean(&gpu);
 }
 

@@ -2,8 +2,10 @@
 //! device (count with atomics, exclusive prefix sum, scatter), so no CPU work per frame and GPU-resident
 //! particles (the live simulation) work too. Green 2008, "Particle simulation using CUDA"; the same layout as
 //! the CPU grid (`scene::grid::UniformGrid`: cells x fastest, a cell's points contiguous), which the tests hold
-//! it to. Shaders: shaders_glsl/grid_count.comp, grid_scan.comp, grid_scatter.comp (and grid.glsl, which the
-//! passes that query the grid include).
+//! it to. Shaders: shaders_glsl/grid_count.comp, grid_run_sum.comp, grid_scan.comp, grid_run_place.comp,
+//! grid_scatter.comp (and grid.glsl, which the passes that query the grid include). The prefix sum scans run
+//! totals of GRID_RUN cells, not every cell: lavapipe runs grid_scan's barriers as coroutines, which cost 15 of
+//! the pass's 17 ms at the 59k dam break when every cell went through it (NOTES.md, session 15).
 //!
 //! In: points (vec4, xyz used), their count, the grid's shape. Out: `counts[c]`, `start[c]` (first sorted place
 //! of cell c) and `order[k]` (the point at sorted place k). Within a cell the order is the atomics' order, so
@@ -17,7 +19,7 @@ use gpu_allocator::MemoryLocation;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
-use crate::shader_constants::{LOCAL_1D, SCAN_BLOCK, SCAN_LOCAL};
+use crate::shader_constants::{GRID_RUN, LOCAL_1D, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
 
 /// The pass's one name (module, shader stems `grid_*`, debug label, timestamp key, JSON key): `grid`.
@@ -77,6 +79,14 @@ pub struct ScanPush {
     pub mode: u32,
 }
 
+/// Push constants of grid_run_sum.comp and grid_run_place.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RunPush {
+    /// Cells.
+    pub cells: u32,
+}
+
 /// Push constants of grid_scatter.comp.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -87,14 +97,18 @@ pub struct ScatterPush {
 
 // Count: points → counts (atomics), keys.
 declare_program!(pub COUNT: CountPush = compute(shaders::GRID_COUNT, [BufRead, BufWrite, BufWrite]));
-// Scan: counts → start, sums.
+// Run sums: counts → run_counts.
+declare_program!(pub RUN_SUM: RunPush = compute(shaders::GRID_RUN_SUM, [TexelRead, BufWrite]));
+// Scan: run_counts → run_start, sums.
 declare_program!(pub SCAN: ScanPush = compute(shaders::GRID_SCAN, [BufRead, BufWrite, BufWrite]));
+// Places: counts, run_start → start.
+declare_program!(pub RUN_PLACE: RunPush = compute(shaders::GRID_RUN_PLACE, [TexelRead, BufRead, BufWrite]));
 // Scatter: keys, start → order.
 declare_program!(pub SCATTER: ScatterPush = compute(shaders::GRID_SCATTER, [BufRead, BufRead, BufWrite]));
 
 /// The device buffers of one grid (sized for a capacity of points and a shape).
 pub struct GridBuffers {
-    /// Points per cell.
+    /// Points per cell (also read as texels by the prefix sum's run stages).
     pub counts: Buffer,
     /// First sorted place of every cell.
     pub start: Buffer,
@@ -102,7 +116,11 @@ pub struct GridBuffers {
     pub order: Buffer,
     /// Per point: (cell, slot in the cell).
     pub keys: Buffer,
-    /// Per scan block: its total, then its offset.
+    /// Points per run of GRID_RUN cells.
+    pub run_counts: Buffer,
+    /// First sorted place of every run.
+    pub run_start: Buffer,
+    /// Per scan block of runs: its total, then its offset.
     pub sums: Buffer,
     /// The grid.
     pub shape: GridShape,
@@ -118,23 +136,28 @@ impl GridBuffers {
             | vk::BufferUsageFlags::TRANSFER_SRC;
         let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
         let cells = shape.cells() as u64;
+        let runs = cells.div_ceil(GRID_RUN as u64);
         Ok(GridBuffers {
-            counts: buf("grid_counts", 4 * cells)?,
+            counts: Buffer::texels(gpu, "grid_counts", (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
             start: buf("grid_start", 4 * cells)?,
             // Also read as texels: sim_reorder walks each cell's places (see `Buffer::with_texel_view`).
             order: Buffer::texels(gpu, "grid_order", (4 * capacity as u64).max(16), usage, vk::Format::R32_UINT)?,
             keys: buf("grid_keys", 8 * capacity as u64)?,
-            sums: buf("grid_sums", 4 * cells.div_ceil(SCAN_BLOCK as u64))?,
+            run_counts: buf("grid_run_counts", 4 * runs)?,
+            run_start: buf("grid_run_start", 4 * runs)?,
+            sums: buf("grid_sums", 4 * runs.div_ceil(SCAN_BLOCK as u64))?,
             shape,
             capacity,
         })
     }
 }
 
-/// The pass: its three programs.
+/// The pass: its five programs.
 pub struct Grid {
     count: ComputeProgram<CountPush>,
+    run_sum: ComputeProgram<RunPush>,
     scan: ComputeProgram<ScanPush>,
+    run_place: ComputeProgram<RunPush>,
     scatter: ComputeProgram<ScatterPush>,
 }
 
@@ -143,7 +166,9 @@ impl Grid {
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         Ok(Grid {
             count: ComputeProgram::new(gpu, &COUNT)?,
+            run_sum: ComputeProgram::new(gpu, &RUN_SUM)?,
             scan: ComputeProgram::new(gpu, &SCAN)?,
+            run_place: ComputeProgram::new(gpu, &RUN_PLACE)?,
             scatter: ComputeProgram::new(gpu, &SCATTER)?,
         })
     }
@@ -153,7 +178,8 @@ impl Grid {
     pub fn record(&self, ctx: &mut FrameCtx, points: &Buffer, n: u32, g: &GridBuffers) {
         debug_assert!(n <= g.capacity);
         let cells = g.shape.cells();
-        let blocks = cells.div_ceil(SCAN_BLOCK);
+        let runs = cells.div_ceil(GRID_RUN);
+        let blocks = runs.div_ceil(SCAN_BLOCK);
         ctx.fill(&g.counts, 0);
         let push = CountPush { shape: g.shape, n };
         self.count.dispatch(
@@ -162,10 +188,14 @@ impl Grid {
             &push,
             [n.div_ceil(LOCAL_1D), 1, 1],
         );
-        let res = [(&g.counts).into(), (&g.start).into(), (&g.sums).into()];
-        self.scan.dispatch(ctx, &res, &ScanPush { cells, blocks, mode: 0 }, [blocks, 1, 1]);
-        self.scan.dispatch(ctx, &res, &ScanPush { cells, blocks, mode: 1 }, [1, 1, 1]);
-        self.scan.dispatch(ctx, &res, &ScanPush { cells, blocks, mode: 2 }, [cells.div_ceil(SCAN_LOCAL), 1, 1]);
+        let run_groups = [runs.div_ceil(LOCAL_1D), 1, 1];
+        self.run_sum.dispatch(ctx, &[(&g.counts).into(), (&g.run_counts).into()], &RunPush { cells }, run_groups);
+        let res = [(&g.run_counts).into(), (&g.run_start).into(), (&g.sums).into()];
+        self.scan.dispatch(ctx, &res, &ScanPush { cells: runs, blocks, mode: 0 }, [blocks, 1, 1]);
+        self.scan.dispatch(ctx, &res, &ScanPush { cells: runs, blocks, mode: 1 }, [1, 1, 1]);
+        self.scan.dispatch(ctx, &res, &ScanPush { cells: runs, blocks, mode: 2 }, [runs.div_ceil(SCAN_LOCAL), 1, 1]);
+        let res = [(&g.counts).into(), (&g.run_start).into(), (&g.start).into()];
+        self.run_place.dispatch(ctx, &res, &RunPush { cells }, run_groups);
         let res = [(&g.keys).into(), (&g.start).into(), (&g.order).into()];
         self.scatter.dispatch(ctx, &res, &ScatterPush { n }, [n.div_ceil(LOCAL_1D), 1, 1]);
     }
