@@ -12,9 +12,9 @@ layout(std140, binding = 0) uniform Sim {
     vec4 hi_h;           // its upper corner (xyz); kernel radius h (w)
     vec4 gravity_mass;   // gravity (xyz); particle mass (w)
     vec4 solver;         // rest density ρ0; relaxation ε; s_corr k; 1 / W_poly6(Δq)
-    vec4 visc;           // XSPH c; vorticity ε; particle radius; s_corr exponent n
+    vec4 visc;           // XSPH c; vorticity ε; particle radius; unused
     vec4 kern;           // h²; poly6 coefficient; spiky gradient coefficient; particle volume m/ρ0
-    uvec4 counts;        // particles; colliders; neighbour-list stride (capacity); unused
+    uvec4 counts;        // particles; colliders; neighbour-list stride (capacity); s_corr exponent n
     vec4 sdf_lo;         // the mesh collider's distance lattice (src/sim/sdf.rs): first node (xyz), spacing (w)
     uvec4 sdf_dims;      // its nodes per axis (xyz); w: 1 when there is a mesh collider
     vec4 wall;           // static friction μ_s of the container's faces (x); yzw unused
@@ -234,8 +234,20 @@ vec3 collide(vec3 x) {
     layout(std430, binding = 2) readonly buffer Nbrs { uint nbrs[]; };
 #endif
 
-// (s_corr ratio)ⁿ, exact multiplication for the usual n = 4.
+// The s_corr exponent n = 1..15, a specialization constant (Stages::new sets it from Params::scorr_n), so the
+// bit tests below fold away: lavapipe runs both sides of a branch, so a `pow` beside the n = 4 case had cost
+// sim_solve 23 %, and the same power by squaring on a uniform's n still 15 % (NOTES.md, session 15). The
+// uniform block's counts.w carries n too, for the CPU reference.
+layout(constant_id = 0) const uint SCORR_N = 4u;
+
+// (s_corr ratio)ⁿ by squaring; for n = 4 exactly (x·x)·(x·x).
 float scorr_pow(float x) {
-    if (sim.visc.w == 4.0) { float x2 = x * x; return x2 * x2; }
-    return pow(x, sim.visc.w);
+    float p = (SCORR_N & 1u) != 0u ? x : 1.0;
+    float b = x * x;
+    p = (SCORR_N & 2u) != 0u ? p * b : p;
+    b *= b;
+    p = (SCORR_N & 4u) != 0u ? p * b : p;
+    b *= b;
+    p = (SCORR_N & 8u) != 0u ? p * b : p;
+    return p;
 }

@@ -360,6 +360,13 @@ pub struct ComputeProgram<P = ()> {
 impl<P: bytemuck::Pod> ComputeProgram<P> {
     /// Build from the declaration (checked against the shader's reflection again, with the details).
     pub fn new(gpu: &Arc<Gpu>, decl: &ProgramDecl<P>) -> Result<Self> {
+        Self::specialized(gpu, decl, &[])
+    }
+
+    /// [`ComputeProgram::new`] with the shader's specialization constants `constant_id = k` set to
+    /// `constants[k]` (32-bit each; the shader's defaults for the rest). The driver folds them like literals, so a
+    /// setting fixed for the program's life costs nothing in its loops (e.g. sim_solve's s_corr exponent).
+    pub fn specialized(gpu: &Arc<Gpu>, decl: &ProgramDecl<P>, constants: &[u32]) -> Result<Self> {
         decl.check()?;
         let push_size = decl.push_size();
         let file = decl.shader.file;
@@ -370,7 +377,14 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
         let module = shader_module(gpu, decl.shader.spirv)?;
         let stages = vk::ShaderStageFlags::COMPUTE;
         let (set_layout, layout) = layouts(gpu, decl.slots, stages, push_size)?;
-        let stage = vk::PipelineShaderStageCreateInfo::default().stage(stages).module(module).name(c"main");
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|k| vk::SpecializationMapEntry::default().constant_id(k).offset(4 * k).size(4))
+            .collect();
+        let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
+        let mut stage = vk::PipelineShaderStageCreateInfo::default().stage(stages).module(module).name(c"main");
+        if !constants.is_empty() {
+            stage = stage.specialization_info(&spec);
+        }
         let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
         let pipeline = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) }
             .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0];

@@ -56,8 +56,9 @@ pub struct Params {
     pub relaxation: f32,
     /// Tensile-instability strength k, in units of 1/Σ|∇C|² of the lattice (so it reads like a constraint value).
     pub scorr_k: f32,
-    /// Tensile-instability exponent n.
-    pub scorr_n: f32,
+    /// Tensile-instability exponent n, a whole number 1..=15 (the shader multiplies: a `pow` made sim_solve 23 %
+    /// slower on lavapipe, which runs both sides of a branch; NOTES.md, session 15).
+    pub scorr_n: u32,
     /// Tensile-instability reference distance Δq as a fraction of h.
     pub scorr_dq: f32,
     /// Kinematic viscosity ν (m²/s), applied as XSPH with c = 22 ν Δt / h² (see [`Constants::xsph`]); absent:
@@ -91,7 +92,7 @@ impl Default for Params {
             iterations: 4,
             relaxation: 0.01,
             scorr_k: 0.02,
-            scorr_n: 4.0,
+            scorr_n: 4,
             scorr_dq: 0.2,
             viscosity: None,
             xsph: None,
@@ -125,6 +126,9 @@ impl Params {
         if self.viscosity.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
             return bad("viscosity must be zero or positive (m²/s)");
         }
+        if !(1..=15).contains(&self.scorr_n) {
+            return bad("scorr_n must be 1..=15");
+        }
         if !(self.wall_friction.is_finite() && (0.0..=10.0).contains(&self.wall_friction)) {
             return bad("wall_friction must be 0..=10");
         }
@@ -153,12 +157,12 @@ pub struct SimUniforms {
     pub gravity_mass: [f32; 4],
     /// ρ0, ε, s_corr k, 1/W(Δq).
     pub solver: [f32; 4],
-    /// XSPH c, vorticity ε, particle radius, s_corr n.
+    /// XSPH c, vorticity ε, particle radius, unused.
     pub visc: [f32; 4],
     /// h², poly6 coefficient, spiky gradient coefficient, particle volume m/ρ0.
     pub kern: [f32; 4],
     /// Particles, colliders, the neighbour lists' stride (particle capacity: list k of every particle is one
-    /// contiguous run, so neighbouring threads read neighbouring words).
+    /// contiguous run, so neighbouring threads read neighbouring words), s_corr exponent n.
     pub counts: [u32; 4],
     /// The mesh collider's lattice: first node, spacing.
     pub sdf_lo: [f32; 4],
@@ -358,7 +362,7 @@ impl Simulation {
             .collect::<Result<Vec<_>>>()?;
         let mut sim = Simulation {
             gpu: gpu.clone(),
-            stages: stages::Stages::new(gpu)?,
+            stages: stages::Stages::new(gpu, params.scorr_n)?,
             grid_pass: Grid::new(gpu)?,
             params,
             constants,
@@ -531,9 +535,9 @@ impl Simulation {
             hi_h: (hi - r).extend(c.h).to_array(),
             gravity_mass: Vec3::from(self.params.gravity).extend(c.mass).to_array(),
             solver: [self.params.rest_density, c.eps, c.scorr_k, c.inv_w_dq],
-            visc: [c.xsph, self.params.vorticity, r, self.params.scorr_n],
+            visc: [c.xsph, self.params.vorticity, r, 0.0],
             kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
-            counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, 0],
+            counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, self.params.scorr_n],
             sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
             sdf_dims: self.scene.mesh_collider.as_ref().map_or([0; 4], |m| m.dims.extend(1).to_array()),
             wall: [self.params.wall_friction, 0.0, 0.0, 0.0],
@@ -637,7 +641,7 @@ impl Simulation {
 
 #[cfg(test)]
 mod tests {
-    use super::Params;
+    use super::{reference, Params};
 
     /// `[sim] wall_friction` outside 0..=10 (or not a number) is a settings error naming the key.
     #[test]
@@ -649,5 +653,32 @@ mod tests {
         for good in [0.0, 1.0, 10.0] {
             Params { wall_friction: good, ..Params::default() }.validate().unwrap();
         }
+    }
+
+    /// `[sim] scorr_n` is a whole number 1..=15 (the shader's powers by squaring); a fraction is a parse error.
+    #[test]
+    fn scorr_n_out_of_range_is_an_error() {
+        for bad in [0, 16] {
+            let e = Params { scorr_n: bad, ..Params::default() }.validate().unwrap_err().to_string();
+            assert!(e.contains("scorr_n"), "{bad}: {e}");
+        }
+        for good in [1, 4, 15] {
+            Params { scorr_n: good, ..Params::default() }.validate().unwrap();
+        }
+        assert!(toml::from_str::<Params>("scorr_n = 4.5").is_err());
+    }
+
+    /// The CPU reference's s_corr power (the shader's, product for product) is xⁿ for every allowed n, and
+    /// exactly (x·x)·(x·x) for the default n = 4.
+    #[test]
+    fn scorr_power_by_squaring() {
+        for n in 1..=15u32 {
+            for x in [0.0f32, 0.3, 0.77, 1.0, 1.9] {
+                let p = reference::scorr_pow_n(n, x);
+                let want = x.powi(n as i32);
+                assert!((p - want).abs() <= 1e-6 * want.abs().max(1e-30), "{x}^{n}: {p} vs {want}");
+            }
+        }
+        assert_eq!(reference::scorr_pow_n(4, 0.77), (0.77f32 * 0.77) * (0.77 * 0.77));
     }
 }

@@ -76,14 +76,27 @@ pub fn collide(u: &SimUniforms, sdf: Option<&Sdf>, mut x: Vec3) -> Vec3 {
     x.clamp(v3(u.lo_dt), v3(u.hi_h))
 }
 
-/// sim_common.glsl's scorr_pow.
+/// sim_common.glsl's scorr_pow (n = the uniform block's counts.w).
 fn scorr_pow(u: &SimUniforms, x: f32) -> f32 {
-    if u.visc[3] == 4.0 {
-        let x2 = x * x;
-        x2 * x2
-    } else {
-        x.powf(u.visc[3])
+    scorr_pow_n(u.counts[3], x)
+}
+
+/// xⁿ for n = 1..15 by squaring, the shader's products in the same order.
+pub fn scorr_pow_n(n: u32, x: f32) -> f32 {
+    let mut p = if n & 1 != 0 { x } else { 1.0 };
+    let mut b = x * x;
+    if n & 2 != 0 {
+        p *= b;
     }
+    b *= b;
+    if n & 4 != 0 {
+        p *= b;
+    }
+    b *= b;
+    if n & 8 != 0 {
+        p *= b;
+    }
+    p
 }
 
 /// sim_common.glsl's wall_f: the missing half-space mass F(y) and A(y) = −F'(y).

@@ -86,12 +86,17 @@ struct Listed {
 }
 
 impl Listed {
-    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`.
-    fn new(gpu: &Arc<Gpu>, [nb, density, solve, vorticity, viscosity]: [&ProgramDecl<()>; 5]) -> Result<Listed> {
+    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`; `scorr_n`: sim_solve's s_corr
+    /// exponent (a specialization constant).
+    fn new(
+        gpu: &Arc<Gpu>,
+        [nb, density, solve, vorticity, viscosity]: [&ProgramDecl<()>; 5],
+        scorr_n: u32,
+    ) -> Result<Listed> {
         Ok(Listed {
             neighbours: ComputeProgram::new(gpu, nb)?,
             density: ComputeProgram::new(gpu, density)?,
-            solve: ComputeProgram::new(gpu, solve)?,
+            solve: ComputeProgram::specialized(gpu, solve, &[scorr_n])?,
             vorticity: ComputeProgram::new(gpu, vorticity)?,
             viscosity: ComputeProgram::new(gpu, viscosity)?,
         })
@@ -112,17 +117,18 @@ fn groups(n: u32) -> [u32; 3] {
 }
 
 impl Stages {
-    /// Build the pipelines.
-    pub fn new(gpu: &Arc<Gpu>) -> Result<Stages> {
+    /// Build the pipelines; `scorr_n`: the s_corr exponent ([`super::Params::scorr_n`]), built into sim_solve.
+    pub fn new(gpu: &Arc<Gpu>, scorr_n: u32) -> Result<Stages> {
         Ok(Stages {
             predict: ComputeProgram::new(gpu, &PREDICT)?,
             reorder: ComputeProgram::new(gpu, &REORDER)?,
             velocity: ComputeProgram::new(gpu, &VELOCITY)?,
             listed: [
-                Listed::new(gpu, [&NEIGHBOURS, &DENSITY, &SOLVE, &VORTICITY, &VISCOSITY])?,
+                Listed::new(gpu, [&NEIGHBOURS, &DENSITY, &SOLVE, &VORTICITY, &VISCOSITY], scorr_n)?,
                 Listed::new(
                     gpu,
                     [&NEIGHBOURS_NBR16, &DENSITY_NBR16, &SOLVE_NBR16, &VORTICITY_NBR16, &VISCOSITY_NBR16],
+                    scorr_n,
                 )?,
             ],
         })
