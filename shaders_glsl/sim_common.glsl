@@ -28,8 +28,7 @@ struct State {
 
 // W_poly6 of a squared distance.
 float poly6(float r2) {
-    if (r2 >= sim.kern.x) return 0.0;
-    float d = sim.kern.x - r2;
+    float d = max(sim.kern.x - r2, 0.0);
     return sim.kern.y * d * d * d;
 }
 
@@ -37,10 +36,10 @@ float poly6(float r2) {
 vec3 spiky_grad(vec3 r) {
     float r2 = dot(r, r);
     float h = sim.hi_h.w;
-    if (r2 >= sim.kern.x || r2 < 1e-18 * sim.kern.x) return vec3(0.0);
-    float il = inversesqrt(r2);
+    bool inside = r2 < sim.kern.x && r2 >= 1e-18 * sim.kern.x;
+    float il = inversesqrt(max(r2, 1e-18 * sim.kern.x));
     float a = h - r2 * il;
-    return (sim.kern.z * a * a * il) * r;
+    return inside ? (sim.kern.z * a * a * il) * r : vec3(0.0);
 }
 
 // The container's walls as a continuum of rest-density fluid beyond each face (boundary handling without
