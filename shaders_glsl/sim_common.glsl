@@ -82,11 +82,15 @@ float wall_density(vec3 x, out vec3 grad) {
 // The mesh collider (src/sim/sdf.rs, whose Sdf::sample and push_out do the same arithmetic): a signed distance
 // on a node lattice, read trilinearly; a centre closer than r to the surface moves along the gradient to r.
 layout(std430, binding = SIM_SDF_BINDING) readonly buffer SdfValues { float sdf[]; };
+// Whether the scene has a mesh collider, a specialization constant (Stages::new): lavapipe runs a branch's body
+// even when no lane takes it, so without it every particle paid the lattice's eight loads and the trilinear
+// arithmetic in sim_predict and each sim_solve iteration (NOTES.md, session 15).
+layout(constant_id = 1) const bool SIM_MESH_COLLIDER = true;
 
 float sdf_node(uvec3 i) { return sdf[i.x + sim.sdf_dims.x * (i.y + sim.sdf_dims.y * i.z)]; }
 
 vec3 sdf_push(vec3 x, float r) {
-    if (sim.sdf_dims.w == 0u) return x;
+    if (!SIM_MESH_COLLIDER || sim.sdf_dims.w == 0u) return x;
     float cell = sim.sdf_lo.w;
     vec3 g = (x - sim.sdf_lo.xyz) / cell;
     vec3 top = vec3(sim.sdf_dims.xyz - 1u);

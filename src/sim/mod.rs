@@ -362,7 +362,7 @@ impl Simulation {
             .collect::<Result<Vec<_>>>()?;
         let mut sim = Simulation {
             gpu: gpu.clone(),
-            stages: stages::Stages::new(gpu, params.scorr_n)?,
+            stages: stages::Stages::new(gpu, params.scorr_n, scene.mesh_collider.is_some())?,
             grid_pass: Grid::new(gpu)?,
             params,
             constants,

@@ -86,17 +86,17 @@ struct Listed {
 }
 
 impl Listed {
-    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`; `scorr_n`: sim_solve's s_corr
-    /// exponent (a specialization constant).
+    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`; `spec`: sim_solve's
+    /// specialization constants ([`Stages::new`]).
     fn new(
         gpu: &Arc<Gpu>,
         [nb, density, solve, vorticity, viscosity]: [&ProgramDecl<()>; 5],
-        scorr_n: u32,
+        spec: &[u32],
     ) -> Result<Listed> {
         Ok(Listed {
             neighbours: ComputeProgram::new(gpu, nb)?,
             density: ComputeProgram::new(gpu, density)?,
-            solve: ComputeProgram::specialized(gpu, solve, &[scorr_n])?,
+            solve: ComputeProgram::specialized(gpu, solve, spec)?,
             vorticity: ComputeProgram::new(gpu, vorticity)?,
             viscosity: ComputeProgram::new(gpu, viscosity)?,
         })
@@ -117,18 +117,21 @@ fn groups(n: u32) -> [u32; 3] {
 }
 
 impl Stages {
-    /// Build the pipelines; `scorr_n`: the s_corr exponent ([`super::Params::scorr_n`]), built into sim_solve.
-    pub fn new(gpu: &Arc<Gpu>, scorr_n: u32) -> Result<Stages> {
+    /// Build the pipelines, with what stays fixed for a simulation's life built into them as specialization
+    /// constants (sim_common.glsl): 0, the s_corr exponent ([`super::Params::scorr_n`], sim_solve); 1, whether
+    /// the scene has a mesh collider (sim_predict, sim_solve).
+    pub fn new(gpu: &Arc<Gpu>, scorr_n: u32, mesh_collider: bool) -> Result<Stages> {
+        let spec = [scorr_n, mesh_collider as u32];
         Ok(Stages {
-            predict: ComputeProgram::new(gpu, &PREDICT)?,
+            predict: ComputeProgram::specialized(gpu, &PREDICT, &spec)?,
             reorder: ComputeProgram::new(gpu, &REORDER)?,
             velocity: ComputeProgram::new(gpu, &VELOCITY)?,
             listed: [
-                Listed::new(gpu, [&NEIGHBOURS, &DENSITY, &SOLVE, &VORTICITY, &VISCOSITY], scorr_n)?,
+                Listed::new(gpu, [&NEIGHBOURS, &DENSITY, &SOLVE, &VORTICITY, &VISCOSITY], &spec)?,
                 Listed::new(
                     gpu,
                     [&NEIGHBOURS_NBR16, &DENSITY_NBR16, &SOLVE_NBR16, &VORTICITY_NBR16, &VISCOSITY_NBR16],
-                    scorr_n,
+                    &spec,
                 )?,
             ],
         })
