@@ -5,12 +5,14 @@
 //! step is deterministic: the same start gives the same simulation, bit for bit, on one device (reproducible
 //! exports and tests; the neighbour sums keep one order).
 //! In: order (sorted place → particle), keys (particle → cell), start, counts (grid), state, pred.
-//! Out: the same two arrays in grid order.
+//! Out: the same two arrays in grid order. State and pred are read as texels (state as RGBA32UI, two per
+//! particle, so the id bits pass unchanged): on lavapipe a storage-buffer load of a vector is a loop over the
+//! lanes per component, a texel fetch one gather (NOTES.md, sessions 11, 15).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(binding = 1) uniform usamplerBuffer order;
-layout(std430, binding = 2) readonly buffer StateIn { State state_in[]; };
-layout(std430, binding = 3) readonly buffer PredIn { vec4 pred_in[]; };
+layout(binding = 2) uniform usamplerBuffer state_in;   // x, v of particle i at texels 2i, 2i + 1
+layout(binding = 3) uniform samplerBuffer pred_in;
 layout(std430, binding = 4) writeonly buffer StateOut { State state_out[]; };
 layout(std430, binding = 5) writeonly buffer PredOut { vec4 pred_out[]; };
 layout(std430, binding = 6) readonly buffer Keys { uvec2 keys[]; };
@@ -25,6 +27,7 @@ void main() {
     uint s = start[c];
     uint place = s;
     for (uint m = s; m < s + counts[c]; ++m) place += texelFetch(order, int(m)).x < i ? 1u : 0u;
-    state_out[place] = state_in[i];
-    pred_out[place] = pred_in[i];
+    state_out[place] = State(uintBitsToFloat(texelFetch(state_in, int(2u * i))),
+                             uintBitsToFloat(texelFetch(state_in, int(2u * i + 1u))));
+    pred_out[place] = texelFetch(pred_in, int(i));
 }

@@ -5,19 +5,20 @@
 //! velocity when that velocity is at most μ_s times the normal velocity change the step's constraints made
 //! (the face's push: g·Δt for water resting on the floor). Flowing water (a dam-break surge is 100× faster than
 //! that bound) slides freely, as on SPlisHSPlasH's free-slip walls; water at rest does not creep along the
-//! floor. In: state (x, and v after gravity from sim_predict), pred (final x*). Out: vel (grid order).
+//! floor. In: state (x, and v after gravity from sim_predict; RGBA32UI texels, two per particle), pred (final
+//! x*, texels). Out: vel (grid order).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, binding = 1) readonly buffer States { State state[]; };
-layout(std430, binding = 2) readonly buffer Pred { vec4 pred[]; };
+layout(binding = 1) uniform usamplerBuffer state;   // x, v of particle i at texels 2i, 2i + 1
+layout(binding = 2) uniform samplerBuffer pred;
 layout(std430, binding = 3) writeonly buffer Vel { vec4 vel[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xs = pred[i].xyz;
-    vec3 v = (xs - state[i].x.xyz) / sim.lo_dt.w;
-    vec3 vp = state[i].v.xyz;
+    vec3 xs = texelFetch(pred, int(i)).xyz;
+    vec3 v = (xs - uintBitsToFloat(texelFetch(state, int(2u * i)).xyz)) / sim.lo_dt.w;
+    vec3 vp = uintBitsToFloat(texelFetch(state, int(2u * i + 1u)).xyz);
     float mu = sim.wall.x;
     for (int k = 0; k < 3; ++k) {
         // +1 on a lower face, −1 on an upper one (the clamp in collide() leaves x* exactly on the bound).

@@ -347,6 +347,7 @@ impl Simulation {
         let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, usage, MemoryLocation::GpuOnly);
         // What the neighbour loops read at a per-lane index (Slot::TexelRead).
         let vec4s = |name: &str| Buffer::texels(gpu, name, 16 * cap, usage, vk::Format::R32G32B32A32_SFLOAT);
+        let state = |name: &str| Buffer::texels(gpu, name, 32 * cap, usage, vk::Format::R32G32B32A32_UINT);
         let (lo, hi) = scene.container;
         let shape = GridShape::covering(lo, hi, constants.h);
         let uniforms = (0..RING)
@@ -369,7 +370,8 @@ impl Simulation {
             uniforms,
             staging: (0..RING).map(|_| None).collect(),
             ring: 0,
-            state: [buf("sim_state", 32 * cap)?, buf("sim_state_sorted", 32 * cap)?],
+            // Read as RGBA32UI texels (two per particle, the id bits unchanged) by sim_reorder and sim_velocity.
+            state: [state("sim_state")?, state("sim_state_sorted")?],
             pred: [vec4s("sim_pred")?, vec4s("sim_pred_next")?],
             pos_lambda: vec4s("sim_pos_lambda")?,
             density: buf("sim_density", 4 * cap)?,

@@ -45,7 +45,7 @@ pub const STAGE_NAMES: &[&str] = &[
 declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite, BufRead]));
 declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
-    [Uniform, TexelRead, BufRead, BufRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
+    [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
 ));
 // The stages that write or read the neighbour lists, each twice: for 32-bit lists, and for 16-bit ones (the
 // shader compiled with NBR16, `_NBR16`). sim_neighbours writes either format as a storage buffer;
@@ -67,7 +67,7 @@ macro_rules! list_reader {
 }
 list_reader!((DENSITY, DENSITY_NBR16) = compute(SIM_DENSITY, SIM_DENSITY_NBR16, [TexelRead, BufWrite, BufWrite]));
 list_reader!((SOLVE, SOLVE_NBR16) = compute(SIM_SOLVE, SIM_SOLVE_NBR16, [TexelRead, BufWrite, BufRead]));
-declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, BufRead, BufRead, BufWrite]));
+declare_program!(pub VELOCITY: () = compute(shaders::SIM_VELOCITY, [Uniform, TexelRead, TexelRead, BufWrite]));
 list_reader!(
     (VORTICITY, VORTICITY_NBR16) = compute(SIM_VORTICITY, SIM_VORTICITY_NBR16, [TexelRead, TexelRead, BufWrite])
 );
