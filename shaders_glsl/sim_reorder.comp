@@ -5,7 +5,8 @@
 //! step is deterministic: the same start gives the same simulation, bit for bit, on one device (reproducible
 //! exports and tests; the neighbour sums keep one order).
 //! In: order (sorted place → particle), keys (particle → cell), start, counts (grid), state, pred.
-//! Out: the same two arrays in grid order. State and pred are read as texels (state as RGBA32UI, two per
+//! Out: the same two arrays in grid order, the state's velocity with gravity's Δt·g added (sim_predict's v,
+//! which that stage does not write back). State and pred are read as texels (state as RGBA32UI, two per
 //! particle, so the id bits pass unchanged): on lavapipe a storage-buffer load of a vector is a loop over the
 //! lanes per component, a texel fetch one gather (NOTES.md, sessions 11, 15).
 #include "sim_common.glsl"
@@ -27,7 +28,8 @@ void main() {
     uint s = start[c];
     uint place = s;
     for (uint m = s; m < s + counts[c]; ++m) place += texelFetch(order, int(m)).x < i ? 1u : 0u;
-    state_out[place] = State(uintBitsToFloat(texelFetch(state_in, int(2u * i))),
-                             uintBitsToFloat(texelFetch(state_in, int(2u * i + 1u))));
+    vec4 v = uintBitsToFloat(texelFetch(state_in, int(2u * i + 1u)));
+    v.xyz += sim.lo_dt.w * sim.gravity_mass.xyz;
+    state_out[place] = State(uintBitsToFloat(texelFetch(state_in, int(2u * i))), v);
     pred_out[place] = texelFetch(pred_in, int(i));
 }

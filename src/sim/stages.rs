@@ -42,7 +42,7 @@ pub const STAGE_NAMES: &[&str] = &[
     "sim_viscosity",
 ];
 
-declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, BufWrite, BufWrite, BufRead]));
+declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, TexelRead, BufWrite, BufRead]));
 declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
     [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
@@ -166,12 +166,13 @@ impl Stages {
         self.run(ctx, name, program(self.listed(g)), &res, n);
     }
 
-    /// `sim_predict`: state (v += Δt g) → pred (x*); `sdf`: the mesh collider's distances.
+    /// `sim_predict`: state → pred (x* from v + Δt g, which sim_reorder stores); `sdf`: the mesh collider's
+    /// distances.
     pub fn predict(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, sdf: &Buffer, n: u32) {
         self.run(ctx, "sim_predict", &self.predict, &[u.into(), state.into(), pred.into(), sdf.into()], n);
     }
 
-    /// `sim_reorder`: state and pred moved into grid order (ascending index within a cell).
+    /// `sim_reorder`: state (its v + Δt g) and pred moved into grid order (ascending index within a cell).
     #[allow(clippy::too_many_arguments)]
     pub fn reorder(
         &self,
