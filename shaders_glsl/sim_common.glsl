@@ -239,7 +239,7 @@ vec3 collide(vec3 x) {
 
 // The s_corr exponent n = 1..15, a specialization constant (Stages::new sets it from Params::scorr_n), so the
 // bit tests below fold away: lavapipe runs both sides of a branch, so a `pow` beside the n = 4 case had cost
-// sim_solve 23 %, and the same power by squaring on a uniform's n still 15 % (NOTES.md, session 15). The
+// sim_solve 23 %, and the same power by squaring on a uniform's n still about 10 % (NOTES.md, session 15). The
 // uniform block's counts.w carries n too, for the CPU reference.
 layout(constant_id = 0) const uint SCORR_N = 4u;
 

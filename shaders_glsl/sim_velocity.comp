@@ -5,8 +5,8 @@
 //! velocity when that velocity is at most μ_s times the normal velocity change the step's constraints made
 //! (the face's push: g·Δt for water resting on the floor). Flowing water (a dam-break surge is 100× faster than
 //! that bound) slides freely, as on SPlisHSPlasH's free-slip walls; water at rest does not creep along the
-//! floor. In: state (x, and v after gravity from sim_predict; RGBA32UI texels, two per particle), pred (final
-//! x*, texels). Out: vel (grid order).
+//! floor. In: the sorted state (x, and v after gravity as sim_reorder stored it; RGBA32UI texels, two per
+//! particle), pred (final x*, texels). Out: vel (grid order).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(binding = 1) uniform usamplerBuffer state;   // x, v of particle i at texels 2i, 2i + 1
