@@ -172,9 +172,8 @@ fn static_friction_holds_slow_water_on_the_container_only() {
 }
 
 /// Neighbour lists of 16-bit indices (eight per texel, read with one fetch; used up to 65,536 particles) give the
-/// same step as 32-bit ones,
-/// bit for bit, in every stage that reads them (vorticity confinement on, so `sim_vorticity` and the confined
-/// `sim_viscosity` loop run too).
+/// same step as 32-bit ones, bit for bit, in every stage that reads them (vorticity confinement on, so
+/// `sim_vorticity` and the confined `sim_viscosity` loop run too).
 #[test]
 fn sixteen_bit_neighbour_lists_change_nothing() {
     let gpu = common::gpu();

@@ -389,14 +389,14 @@ impl Simulation {
                     let bytes = 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64;
                     // With the 16-bit readers' texel view where 16-bit lists are possible; none past 65,536
                     // particles (a view of millions could pass the device's texel-buffer limit).
-                    if cap <= 1 << 16 {
+                    if stages::Neighbours::packable(cap) {
                         Buffer::texels(gpu, "sim_nbrs", bytes, usage, vk::Format::R32G32B32A32_UINT)?
                     } else {
                         buf("sim_nbrs", bytes)?
                     }
                 },
                 overflow: buf("sim_nbr_overflow", 16)?,
-                packed: cap <= 1 << 16,
+                packed: stages::Neighbours::packable(cap),
             },
             n: 0,
             pending: None,
@@ -442,7 +442,7 @@ impl Simulation {
     /// Choose the neighbour lists' format for the next steps: 16-bit lists need a capacity of at most 65,536
     /// particles. The step's result is the same either way (test `sixteen_bit_neighbour_lists_change_nothing`).
     pub fn set_packed_neighbours(&mut self, packed: bool) -> Result<()> {
-        if packed && self.capacity() as u64 > 1 << 16 {
+        if packed && !stages::Neighbours::packable(self.capacity() as u64) {
             return Err(Error::Invalid(format!(
                 "16-bit neighbour lists hold at most 65,536 particles (this simulation holds {})",
                 self.capacity()

@@ -26,6 +26,16 @@ pub struct Neighbours {
     /// The same visits in the same order either way.
     pub packed: bool,
 }
+
+impl Neighbours {
+    /// Most particles 16-bit lists can index.
+    pub const PACKED_MAX: u64 = 1 << 16;
+
+    /// Whether a simulation of `capacity` particles can use 16-bit lists (and its list buffer gets their view).
+    pub fn packable(capacity: u64) -> bool {
+        capacity <= Self::PACKED_MAX
+    }
+}
 use crate::shader_constants::LOCAL_1D;
 use crate::shaders;
 
