@@ -32,12 +32,15 @@ float poly6(float r2) {
     return sim.kern.y * d * d * d;
 }
 
+// The spiky gradient is taken as zero below r² = SPIKY_R2_MIN h² (coincident particles have no direction).
+const float SPIKY_R2_MIN = 1e-18;
+
 // ∇W_spiky at r = x_i − x_j (points from j to i, so it is negative along r).
 vec3 spiky_grad(vec3 r) {
     float r2 = dot(r, r);
     float h = sim.hi_h.w;
-    bool inside = r2 < sim.kern.x && r2 >= 1e-18 * sim.kern.x;
-    float il = inversesqrt(max(r2, 1e-18 * sim.kern.x));
+    bool inside = r2 < sim.kern.x && r2 >= SPIKY_R2_MIN * sim.kern.x;
+    float il = inversesqrt(max(r2, SPIKY_R2_MIN * sim.kern.x));
     float a = h - r2 * il;
     return inside ? (sim.kern.z * a * a * il) * r : vec3(0.0);
 }

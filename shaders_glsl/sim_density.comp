@@ -12,29 +12,38 @@ layout(binding = 3) uniform samplerBuffer pred;
 layout(std430, binding = 4) writeonly buffer PosLambda { vec4 pos_lambda[]; };
 layout(std430, binding = 5) writeonly buffer Density { float density[]; };
 
-// One neighbour's share of ρ_i (poly6), ∇_i C_i and Σ_k |∇_k C_i|².
-void visit(uint j, vec3 xi, float vol, inout float w, inout vec3 grad_i, inout float sum2) {
+// One neighbour's share of ρ_i and ∇_i C_i, with the kernels' constant factors taken out of the loop: wsum
+// gathers (h² − r²)³ (poly6 / its coefficient), gsum (h − |r|)² r/|r| (the spiky gradient / its coefficient), a4
+// (h − |r|)⁴ = |that|², so Σ_k |∇_k C_i|² needs no dot product per neighbour. Why: on lavapipe the kernels'
+// arithmetic, not the loads, was two thirds of this stage (NOTES.md, session 16).
+void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float a4) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
-    w += poly6(dot(r, r));
-    vec3 g = vol * spiky_grad(r);
-    grad_i += g;
-    sum2 += dot(g, g);
+    float r2 = dot(r, r);
+    float d = max(sim.kern.x - r2, 0.0);
+    wsum += d * d * d;
+    float il = inversesqrt(max(r2, SPIKY_R2_MIN * sim.kern.x));
+    float a = max(sim.hi_h.w - r2 * il, 0.0);
+    float a2 = r2 >= SPIKY_R2_MIN * sim.kern.x ? a * a : 0.0;
+    gsum += (a2 * il) * r;
+    a4 += a2 * a2;
 }
-#define VISIT(j) visit(j, xi, vol, w, grad_i, sum2)
+#define VISIT(j) visit(j, xi, wsum, gsum, a4)
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
     vec3 xi = texelFetch(pred, int(i)).xyz;
-    float vol = sim.kern.w;
-    float w = poly6(0.0);
-    vec3 grad_i = vec3(0.0);
-    float sum2 = 0.0;
+    float h2 = sim.kern.x;
+    float wsum = h2 * h2 * h2;
+    vec3 gsum = vec3(0.0);
+    float a4 = 0.0;
     FOR_NEIGHBOURS(i, VISIT)
+    float cg = sim.kern.w * sim.kern.z;  // (m/ρ0) × the spiky gradient's coefficient
     vec3 gw;
     float fw = wall_density(xi, gw);
-    grad_i += gw;
-    float rho = sim.gravity_mass.w * w + sim.solver.x * fw;
+    vec3 grad_i = cg * gsum + gw;
+    float sum2 = cg * cg * a4;
+    float rho = sim.gravity_mass.w * (sim.kern.y * wsum) + sim.solver.x * fw;
     float C = max(rho / sim.solver.x - 1.0, 0.0);
     pos_lambda[i] = vec4(xi, -C / (sum2 + dot(grad_i, grad_i) + sim.solver.y));
     density[i] = rho;

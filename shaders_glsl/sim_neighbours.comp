@@ -47,10 +47,13 @@ void main() {
     FOR_ROWS(xi, s, e)
         for (uint c = s; c < e; c += 32u) {
             uint m = 0u;
-            for (uint j = c; j < min(c + 32u, e); ++j) {
+            uint ce = min(c + 32u, e);
+            for (uint j = c; j < ce; ++j) {
                 vec3 r = xi - texelFetch(pred, int(j)).xyz;
-                if (dot(r, r) < h2 && j != i) m |= 1u << (j - c);
+                m |= (dot(r, r) < h2 ? 1u : 0u) << (j - c);
             }
+            // The particle itself, once per chunk rather than tested for every candidate.
+            m &= (i >= c && i < ce) ? ~(1u << (i - c)) : 0xffffffffu;
             // One store site per iteration, so the lanes' stores are one loop: 32-bit lists store each index;
             // 16-bit lists store a pair per iteration (two bits taken at once, or the odd one left over from the
             // last mask completed), which halves the iterations and the stores.

@@ -10,12 +10,18 @@ NEIGHBOUR_BUFFERS
 layout(binding = 3) uniform samplerBuffer pos_lambda;
 layout(std430, binding = 4) writeonly buffer PredOut { vec4 pred_out[]; };
 
-// One neighbour's share of Δp_i: (λ_i + λ_j + s_corr)·∇W_spiky.
+// One neighbour's share of Δp_i / ((m/ρ0) × the spiky gradient's coefficient): (λ_i + λ_j + s_corr)·(h − |r|)² r/|r|.
+// The constant factors are applied once after the loop, as in sim_density (NOTES.md, session 16).
 void visit(uint j, vec3 xi, float li, inout vec3 dp) {
     vec4 pj = texelFetch(pos_lambda, int(j));
     vec3 r = xi - pj.xyz;
-    float s = -sim.solver.z * scorr_pow(poly6(dot(r, r)) * sim.solver.w);
-    dp += (li + pj.w + s) * spiky_grad(r);
+    float r2 = dot(r, r);
+    float d = max(sim.kern.x - r2, 0.0);
+    float s = -sim.solver.z * scorr_pow(sim.kern.y * d * d * d * sim.solver.w);
+    float il = inversesqrt(max(r2, SPIKY_R2_MIN * sim.kern.x));
+    float a = max(sim.hi_h.w - r2 * il, 0.0);
+    float a2 = r2 >= SPIKY_R2_MIN * sim.kern.x ? a * a : 0.0;
+    dp += ((li + pj.w + s) * a2 * il) * r;
 }
 #define VISIT(j) visit(j, xi, li, dp)
 
@@ -29,5 +35,5 @@ void main() {
     FOR_NEIGHBOURS(i, VISIT)
     vec3 gw;
     wall_density(xi, gw);
-    pred_out[i] = vec4(collide(xi + sim.kern.w * dp + li * gw), 0.0);
+    pred_out[i] = vec4(collide(xi + (sim.kern.w * sim.kern.z) * dp + li * gw), 0.0);
 }

@@ -14,14 +14,18 @@ layout(std430, binding = 6) readonly buffer Sorted { State sorted[]; };
 layout(std430, binding = 7) writeonly buffer States { State state[]; };
 layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
 
+// Whether vorticity confinement is on (ε > 0), a specialization constant (Stages::new): lavapipe runs both sides of
+// a branch, so with a uniform's test every particle walked its list twice, once with confinement's fetches and
+// gradient (NOTES.md, session 16).
+layout(constant_id = 2) const bool SIM_CONFINE = true;
+
 // One neighbour's share of XSPH's Σ (v_j − v_i) W_poly6, and with confinement of η.
-void visit(uint j, vec3 xi, vec3 vi, float wi, bool confine, inout vec3 xsph, inout vec3 eta) {
+void visit(uint j, vec3 xi, vec3 vi, float wi, inout vec3 xsph, inout vec3 eta) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
-    if (confine) eta += (texelFetch(omega, int(j)).w - wi) * spiky_grad(r);
+    if (SIM_CONFINE) eta += (texelFetch(omega, int(j)).w - wi) * spiky_grad(r);
     xsph += (texelFetch(vel, int(j)).xyz - vi) * poly6(dot(r, r));
 }
-#define VISIT_CONFINED(j) visit(j, xi, vi, wi, true, xsph, eta)
-#define VISIT_XSPH(j) visit(j, xi, vi, 0.0, false, xsph, eta)
+#define VISIT(j) visit(j, xi, vi, wi, xsph, eta)
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -30,20 +34,14 @@ void main() {
     vec3 vi = texelFetch(vel, int(i)).xyz;
     float vol = sim.kern.w;
     vec3 xsph = vec3(0.0);
-    vec3 v;
-    if (sim.visc.y > 0.0) {
-        float wi = texelFetch(omega, int(i)).w;
-        vec3 eta = vec3(0.0);
-        FOR_NEIGHBOURS(i, VISIT_CONFINED)
+    float wi = SIM_CONFINE ? texelFetch(omega, int(i)).w : 0.0;
+    vec3 eta = vec3(0.0);
+    FOR_NEIGHBOURS(i, VISIT)
+    vec3 v = vi + sim.visc.x * vol * xsph;
+    if (SIM_CONFINE) {
         eta *= vol;
-        v = vi + sim.visc.x * vol * xsph;
         float le = length(eta);
         if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, texelFetch(omega, int(i)).xyz);
-    } else {
-        // No confinement (sim_vorticity did not run): XSPH alone.
-        vec3 eta = vec3(0.0);
-        FOR_NEIGHBOURS(i, VISIT_XSPH)
-        v = vi + sim.visc.x * vol * xsph;
     }
     state[i] = State(vec4(xi, sorted[i].x.w), vec4(v, 0.0));
     particles[i] = vec4(xi, 0.0);

@@ -363,7 +363,7 @@ impl Simulation {
             .collect::<Result<Vec<_>>>()?;
         let mut sim = Simulation {
             gpu: gpu.clone(),
-            stages: stages::Stages::new(gpu, params.scorr_n, scene.mesh_collider.is_some())?,
+            stages: stages::Stages::new(gpu, params.scorr_n, scene.mesh_collider.is_some(), params.vorticity > 0.0)?,
             grid_pass: Grid::new(gpu)?,
             params,
             constants,

@@ -96,8 +96,8 @@ struct Listed {
 }
 
 impl Listed {
-    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`; `spec`: sim_solve's
-    /// specialization constants ([`Stages::new`]).
+    /// The pipelines of `[neighbours, density, solve, vorticity, viscosity]`; `spec`: sim_solve's and
+    /// sim_viscosity's specialization constants ([`Stages::new`]).
     fn new(
         gpu: &Arc<Gpu>,
         [nb, density, solve, vorticity, viscosity]: [&ProgramDecl<()>; 5],
@@ -108,7 +108,7 @@ impl Listed {
             density: ComputeProgram::new(gpu, density)?,
             solve: ComputeProgram::specialized(gpu, solve, spec)?,
             vorticity: ComputeProgram::new(gpu, vorticity)?,
-            viscosity: ComputeProgram::new(gpu, viscosity)?,
+            viscosity: ComputeProgram::specialized(gpu, viscosity, spec)?,
         })
     }
 }
@@ -129,9 +129,10 @@ fn groups(n: u32) -> [u32; 3] {
 impl Stages {
     /// Build the pipelines, with what stays fixed for a simulation's life built into them as specialization
     /// constants (sim_common.glsl): 0, the s_corr exponent ([`super::Params::scorr_n`], sim_solve); 1, whether
-    /// the scene has a mesh collider (sim_predict, sim_solve).
-    pub fn new(gpu: &Arc<Gpu>, scorr_n: u32, mesh_collider: bool) -> Result<Stages> {
-        let spec = [scorr_n, mesh_collider as u32];
+    /// the scene has a mesh collider (sim_predict, sim_solve); 2, whether vorticity confinement is on
+    /// (sim_viscosity).
+    pub fn new(gpu: &Arc<Gpu>, scorr_n: u32, mesh_collider: bool, confine: bool) -> Result<Stages> {
+        let spec = [scorr_n, mesh_collider as u32, confine as u32];
         Ok(Stages {
             predict: ComputeProgram::specialized(gpu, &PREDICT, &spec)?,
             reorder: ComputeProgram::new(gpu, &REORDER)?,
