@@ -160,16 +160,17 @@ vec3 collide(vec3 x) {
 // Over the sorted places [S, E) of the particles in each row of cells around p: the 27 cells around p as 9
 // ranges, since cells are numbered x fastest and sorted in that order, so the three cells of a row (x − 1 …
 // x + 1) are one contiguous range. Close with END_ROWS. Needs `counts` and `start` (the grid pass's outputs)
-// declared by the shader. Only sim_neighbours walks cells; the other stages read its neighbour lists.
+// declared by the shader as texel buffers (usamplerBuffer): read per lane, two storage-buffer loads per row were
+// two loops over the lanes each on lavapipe (NOTES.md, session 16). Only sim_neighbours walks cells; the other stages read its neighbour lists.
 #define FOR_ROWS(p, S, E)                                                                       \
     ivec3 c0_ = grid_cell(sim.grid, p);                                                        \
     ivec3 d_ = ivec3(sim.grid.dims.xyz);                                                       \
     int x0_ = max(c0_.x - 1, 0), x1_ = min(c0_.x + 1, d_.x - 1);                               \
     for (int z_ = max(c0_.z - 1, 0); z_ <= min(c0_.z + 1, d_.z - 1); ++z_)                    \
     for (int y_ = max(c0_.y - 1, 0); y_ <= min(c0_.y + 1, d_.y - 1); ++y_) {                   \
-        uint S = start[grid_index(sim.grid, ivec3(x0_, y_, z_))];                              \
-        uint b_ = grid_index(sim.grid, ivec3(x1_, y_, z_));                                    \
-        uint E = start[b_] + counts[b_];
+        uint S = texelFetch(start, int(grid_index(sim.grid, ivec3(x0_, y_, z_)))).x;            \
+        int b_ = int(grid_index(sim.grid, ivec3(x1_, y_, z_)));                                \
+        uint E = texelFetch(start, b_).x + texelFetch(counts, b_).x;
 #define END_ROWS }
 
 // VISIT(j) for each of particle i's neighbours j in list order (within h of it when the list was made, itself

@@ -9,8 +9,8 @@
 //! halves, which the readers fetch eight at a time: sim_common.glsl's FOR_NEIGHBOURS), overflow.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, binding = 1) readonly buffer Counts { uint counts[]; };
-layout(std430, binding = 2) readonly buffer Start { uint start[]; };
+layout(binding = 1) uniform usamplerBuffer counts;
+layout(binding = 2) uniform usamplerBuffer start;
 layout(binding = 3) uniform samplerBuffer pred;
 layout(std430, binding = 4) writeonly buffer NbrCount { uint nbr_count[]; };
 layout(std430, binding = 5) writeonly buffer Nbrs { uint nbrs[]; };

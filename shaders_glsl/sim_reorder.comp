@@ -6,7 +6,7 @@
 //! exports and tests; the neighbour sums keep one order).
 //! In: order (sorted place → particle), keys (particle → cell), start, counts (grid), state, pred.
 //! Out: the same two arrays in grid order, the state's velocity with gravity's Δt·g added (sim_predict's v,
-//! which that stage does not write back). State and pred are read as texels (state as RGBA32UI, two per
+//! which that stage does not write back). Everything is read as texels (state as RGBA32UI, two per
 //! particle, so the id bits pass unchanged): on lavapipe a storage-buffer load of a vector is a loop over the
 //! lanes per component, a texel fetch one gather (NOTES.md, sessions 11, 15).
 #include "sim_common.glsl"
@@ -16,18 +16,18 @@ layout(binding = 2) uniform usamplerBuffer state_in;   // x, v of particle i at 
 layout(binding = 3) uniform samplerBuffer pred_in;
 layout(std430, binding = 4) writeonly buffer StateOut { State state_out[]; };
 layout(std430, binding = 5) writeonly buffer PredOut { vec4 pred_out[]; };
-layout(std430, binding = 6) readonly buffer Keys { uvec2 keys[]; };
-layout(std430, binding = 7) readonly buffer Start { uint start[]; };
-layout(std430, binding = 8) readonly buffer Counts { uint counts[]; };
+layout(binding = 6) uniform usamplerBuffer keys;     // (cell, slot) of particle i
+layout(binding = 7) uniform usamplerBuffer start;
+layout(binding = 8) uniform usamplerBuffer counts;
 
 void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= sim.counts.x) return;
     uint i = texelFetch(order, int(k)).x;
-    uint c = keys[i].x;
-    uint s = start[c];
+    int c = int(texelFetch(keys, int(i)).x);
+    uint s = texelFetch(start, c).x;
     uint place = s;
-    for (uint m = s; m < s + counts[c]; ++m) place += texelFetch(order, int(m)).x < i ? 1u : 0u;
+    for (uint m = s; m < s + texelFetch(counts, c).x; ++m) place += texelFetch(order, int(m)).x < i ? 1u : 0u;
     vec4 v = uintBitsToFloat(texelFetch(state_in, int(2u * i + 1u)));
     v.xyz += sim.lo_dt.w * sim.gravity_mass.xyz;
     state_out[place] = State(uintBitsToFloat(texelFetch(state_in, int(2u * i))), v);

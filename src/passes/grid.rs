@@ -104,7 +104,7 @@ declare_program!(pub SCAN: ScanPush = compute(shaders::GRID_SCAN, [BufRead, BufW
 // Places: counts, run_start → start.
 declare_program!(pub RUN_PLACE: RunPush = compute(shaders::GRID_RUN_PLACE, [TexelRead, BufRead, BufWrite]));
 // Scatter: keys, start → order.
-declare_program!(pub SCATTER: ScatterPush = compute(shaders::GRID_SCATTER, [BufRead, BufRead, BufWrite]));
+declare_program!(pub SCATTER: ScatterPush = compute(shaders::GRID_SCATTER, [TexelRead, TexelRead, BufWrite]));
 
 /// The device buffers of one grid (sized for a capacity of points and a shape).
 pub struct GridBuffers {
@@ -139,10 +139,11 @@ impl GridBuffers {
         let runs = cells.div_ceil(GRID_RUN as u64);
         Ok(GridBuffers {
             counts: Buffer::texels(gpu, "grid_counts", (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
-            start: buf("grid_start", 4 * cells)?,
-            // Also read as texels: sim_reorder walks each cell's places (see `Buffer::with_texel_view`).
+            // These three are also read as texels (see `Buffer::with_texel_view`): sim_neighbours reads a row's
+            // bounds, sim_reorder a particle's cell and that cell's places.
+            start: Buffer::texels(gpu, "grid_start", (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
             order: Buffer::texels(gpu, "grid_order", (4 * capacity as u64).max(16), usage, vk::Format::R32_UINT)?,
-            keys: buf("grid_keys", 8 * capacity as u64)?,
+            keys: Buffer::texels(gpu, "grid_keys", (8 * capacity as u64).max(16), usage, vk::Format::R32G32_UINT)?,
             run_counts: buf("grid_run_counts", 4 * runs)?,
             run_start: buf("grid_run_start", 4 * runs)?,
             sums: buf("grid_sums", 4 * runs.div_ceil(SCAN_BLOCK as u64))?,

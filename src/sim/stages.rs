@@ -55,7 +55,7 @@ pub const STAGE_NAMES: &[&str] = &[
 declare_program!(pub PREDICT: () = compute(shaders::SIM_PREDICT, [Uniform, TexelRead, BufWrite, BufRead]));
 declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
-    [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufRead, BufRead, BufRead]
+    [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, TexelRead, TexelRead, TexelRead]
 ));
 // The stages that write or read the neighbour lists, each twice: for 32-bit lists, and for 16-bit ones (the
 // shader compiled with NBR16, `_NBR16`). sim_neighbours writes either format as a storage buffer;
@@ -63,11 +63,11 @@ declare_program!(pub REORDER: () = compute(
 // the 16-bit lists' texel view, eight indices per texel), then `rest`.
 declare_program!(pub NEIGHBOURS: () = compute(
     shaders::SIM_NEIGHBOURS,
-    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
+    [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]
 ));
 declare_program!(pub NEIGHBOURS_NBR16: () = compute(
     shaders::SIM_NEIGHBOURS_NBR16,
-    [Uniform, BufRead, BufRead, TexelRead, BufWrite, BufWrite, BufWrite]
+    [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]
 ));
 macro_rules! list_reader {
     (($name:ident, $nbr16:ident) = compute($shader:ident, $shader16:ident, [$($slot:ident),*])) => {
