@@ -193,7 +193,7 @@ vec3 collide(vec3 x) {
 #define NBR_HI(p) ((p) >> 16u)
 #define FOR_NEIGHBOURS(i, VISIT)                                                                \
     {                                                                                          \
-        uint n_ = nbr_count[i], k_ = 0u;                                                       \
+        uint n_ = texelFetch(nbr_count, int(i)).x, k_ = 0u;                                    \
         for (; k_ + 8u <= n_; k_ += 8u) {                                                      \
             uvec4 q_ = texelFetch(nbrs, int((k_ >> 3u) * sim.counts.z + (i)));                 \
             VISIT(NBR_LO(q_.x)); VISIT(NBR_HI(q_.x));                                          \
@@ -216,12 +216,12 @@ vec3 collide(vec3 x) {
     }
 // The neighbour-list bindings of the stages that read them (at 1 and 2).
 #define NEIGHBOUR_BUFFERS                                                                       \
-    layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
+    layout(binding = 1) uniform usamplerBuffer nbr_count;                                      \
     layout(binding = 2) uniform usamplerBuffer nbrs;
 #else
 #define FOR_NEIGHBOURS(i, VISIT)                                                                \
     {                                                                                          \
-        uint n_ = nbr_count[i], k_ = 0u;                                                       \
+        uint n_ = texelFetch(nbr_count, int(i)).x, k_ = 0u;                                    \
         for (; k_ + 1u < n_; k_ += 2u) {                                                       \
             uint a_ = nbrs[k_ * sim.counts.z + (i)];                                           \
             uint b_ = nbrs[(k_ + 1u) * sim.counts.z + (i)];                                    \
@@ -237,7 +237,7 @@ vec3 collide(vec3 x) {
 // texel buffers of one index each they measured no faster (NOTES.md, session 11), and a texel view of a list
 // of more than 65,536 particles could pass the devices' texel-buffer limit (2^27 texels) at a few million.
 #define NEIGHBOUR_BUFFERS                                                                       \
-    layout(std430, binding = 1) readonly buffer NbrCount { uint nbr_count[]; };                \
+    layout(binding = 1) uniform usamplerBuffer nbr_count;                                      \
     layout(std430, binding = 2) readonly buffer Nbrs { uint nbrs[]; };
 #endif
 

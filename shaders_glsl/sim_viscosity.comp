@@ -10,7 +10,7 @@ NEIGHBOUR_BUFFERS
 layout(binding = 3) uniform samplerBuffer pred;
 layout(binding = 4) uniform samplerBuffer vel;
 layout(binding = 5) uniform samplerBuffer omega;
-layout(std430, binding = 6) readonly buffer Sorted { State sorted[]; };
+layout(binding = 6) uniform usamplerBuffer sorted;   // the sorted state: x (w: id bits), v of particle i at texels 2i, 2i + 1
 layout(std430, binding = 7) writeonly buffer States { State state[]; };
 layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
 
@@ -43,6 +43,6 @@ void main() {
         float le = length(eta);
         if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, texelFetch(omega, int(i)).xyz);
     }
-    state[i] = State(vec4(xi, sorted[i].x.w), vec4(v, 0.0));
+    state[i] = State(vec4(xi, uintBitsToFloat(texelFetch(sorted, int(2u * i)).w)), vec4(v, 0.0));
     particles[i] = vec4(xi, 0.0);
 }

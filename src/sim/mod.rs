@@ -384,7 +384,7 @@ impl Simulation {
             },
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
             neighbours: stages::Neighbours {
-                count: buf("sim_nbr_count", 4 * cap)?,
+                count: Buffer::texels(gpu, "sim_nbr_count", 4 * cap, usage, vk::Format::R32_UINT)?,
                 list: {
                     let bytes = 4 * cap * crate::shader_constants::MAX_NEIGHBOURS as u64;
                     // With the 16-bit readers' texel view where 16-bit lists are possible; none past 65,536

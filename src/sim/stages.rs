@@ -71,8 +71,8 @@ declare_program!(pub NEIGHBOURS_NBR16: () = compute(
 ));
 macro_rules! list_reader {
     (($name:ident, $nbr16:ident) = compute($shader:ident, $shader16:ident, [$($slot:ident),*])) => {
-        declare_program!(pub $name: () = compute(shaders::$shader, [Uniform, BufRead, BufRead, $($slot),*]));
-        declare_program!(pub $nbr16: () = compute(shaders::$shader16, [Uniform, BufRead, TexelRead, $($slot),*]));
+        declare_program!(pub $name: () = compute(shaders::$shader, [Uniform, TexelRead, BufRead, $($slot),*]));
+        declare_program!(pub $nbr16: () = compute(shaders::$shader16, [Uniform, TexelRead, TexelRead, $($slot),*]));
     };
 }
 list_reader!((DENSITY, DENSITY_NBR16) = compute(SIM_DENSITY, SIM_DENSITY_NBR16, [TexelRead, BufWrite, BufWrite]));
@@ -83,7 +83,7 @@ list_reader!(
 );
 list_reader!(
     (VISCOSITY, VISCOSITY_NBR16) =
-        compute(SIM_VISCOSITY, SIM_VISCOSITY_NBR16, [TexelRead, TexelRead, TexelRead, BufRead, BufWrite, BufWrite])
+        compute(SIM_VISCOSITY, SIM_VISCOSITY_NBR16, [TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite])
 );
 
 /// The programs of the list stages for one list format.
