@@ -35,6 +35,15 @@ float poly6(float r2) {
 // The spiky gradient is taken as zero below r² = SPIKY_R2_MIN h² (coincident particles have no direction).
 const float SPIKY_R2_MIN = 1e-18;
 
+// The spiky gradient without its coefficient, for loops that apply the coefficient once (sim_density,
+// sim_solve): ∇W_spiky(r) / coefficient = (a2 · il) r with a2 = (h − |r|)² (0 beyond h and for coincident
+// particles) and il = 1/|r|.
+void spiky_terms(float r2, out float a2, out float il) {
+    il = inversesqrt(max(r2, SPIKY_R2_MIN * sim.kern.x));
+    float a = max(sim.hi_h.w - r2 * il, 0.0);
+    a2 = r2 >= SPIKY_R2_MIN * sim.kern.x ? a * a : 0.0;
+}
+
 // ∇W_spiky at r = x_i − x_j (points from j to i, so it is negative along r).
 vec3 spiky_grad(vec3 r) {
     float r2 = dot(r, r);
@@ -160,8 +169,9 @@ vec3 collide(vec3 x) {
 // Over the sorted places [S, E) of the particles in each row of cells around p: the 27 cells around p as 9
 // ranges, since cells are numbered x fastest and sorted in that order, so the three cells of a row (x − 1 …
 // x + 1) are one contiguous range. Close with END_ROWS. Needs `counts` and `start` (the grid pass's outputs)
-// declared by the shader as texel buffers (usamplerBuffer): read per lane, two storage-buffer loads per row were
-// two loops over the lanes each on lavapipe (NOTES.md, session 16). Only sim_neighbours walks cells; the other stages read its neighbour lists.
+// declared by the shader as texel buffers (usamplerBuffer): as storage buffers, the two loads per row were two
+// loops over the lanes each on lavapipe (NOTES.md, session 16). Only sim_neighbours walks cells; the other
+// stages read its neighbour lists.
 #define FOR_ROWS(p, S, E)                                                                       \
     ivec3 c0_ = grid_cell(sim.grid, p);                                                        \
     ivec3 d_ = ivec3(sim.grid.dims.xyz);                                                       \

@@ -21,9 +21,8 @@ void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float a4) {
     float r2 = dot(r, r);
     float d = max(sim.kern.x - r2, 0.0);
     wsum += d * d * d;
-    float il = inversesqrt(max(r2, SPIKY_R2_MIN * sim.kern.x));
-    float a = max(sim.hi_h.w - r2 * il, 0.0);
-    float a2 = r2 >= SPIKY_R2_MIN * sim.kern.x ? a * a : 0.0;
+    float a2, il;
+    spiky_terms(r2, a2, il);
     gsum += (a2 * il) * r;
     a4 += a2 * a2;
 }

@@ -18,9 +18,8 @@ void visit(uint j, vec3 xi, float li, inout vec3 dp) {
     float r2 = dot(r, r);
     float d = max(sim.kern.x - r2, 0.0);
     float s = -sim.solver.z * scorr_pow(sim.kern.y * d * d * d * sim.solver.w);
-    float il = inversesqrt(max(r2, SPIKY_R2_MIN * sim.kern.x));
-    float a = max(sim.hi_h.w - r2 * il, 0.0);
-    float a2 = r2 >= SPIKY_R2_MIN * sim.kern.x ? a * a : 0.0;
+    float a2, il;
+    spiky_terms(r2, a2, il);
     dp += ((li + pj.w + s) * a2 * il) * r;
 }
 #define VISIT(j) visit(j, xi, li, dp)
