@@ -26,6 +26,11 @@ struct State {
     vec4 v;   // velocity
 };
 
+// A State read through its RGBA32UI texel view (the stages that read the state: two texels per particle, so
+// the id bits in x.w pass unchanged): x of particle i at texel 2i, v at 2i + 1.
+vec4 state_x(usamplerBuffer s, uint i) { return uintBitsToFloat(texelFetch(s, int(2u * i))); }
+vec4 state_v(usamplerBuffer s, uint i) { return uintBitsToFloat(texelFetch(s, int(2u * i + 1u))); }
+
 // W_poly6 of a squared distance.
 float poly6(float r2) {
     float d = max(sim.kern.x - r2, 0.0);

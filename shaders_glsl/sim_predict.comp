@@ -7,13 +7,13 @@
 #define SIM_SDF_BINDING 3
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(binding = 1) uniform usamplerBuffer state;   // x, v of particle i at texels 2i, 2i + 1
+layout(binding = 1) uniform usamplerBuffer state;   // read with state_x, state_v
 layout(std430, binding = 2) writeonly buffer Pred { vec4 pred[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
     float dt = sim.lo_dt.w;
-    vec3 v = uintBitsToFloat(texelFetch(state, int(2u * i + 1u)).xyz) + dt * sim.gravity_mass.xyz;
-    pred[i] = vec4(collide(uintBitsToFloat(texelFetch(state, int(2u * i)).xyz) + dt * v), 0.0);
+    vec3 v = state_v(state, i).xyz + dt * sim.gravity_mass.xyz;
+    pred[i] = vec4(collide(state_x(state, i).xyz + dt * v), 0.0);
 }

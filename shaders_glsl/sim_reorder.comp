@@ -12,7 +12,7 @@
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(binding = 1) uniform usamplerBuffer order;
-layout(binding = 2) uniform usamplerBuffer state_in;   // x, v of particle i at texels 2i, 2i + 1
+layout(binding = 2) uniform usamplerBuffer state_in;   // read with state_x, state_v
 layout(binding = 3) uniform samplerBuffer pred_in;
 layout(std430, binding = 4) writeonly buffer StateOut { State state_out[]; };
 layout(std430, binding = 5) writeonly buffer PredOut { vec4 pred_out[]; };
@@ -28,8 +28,8 @@ void main() {
     uint s = texelFetch(start, c).x;
     uint place = s;
     for (uint m = s; m < s + texelFetch(counts, c).x; ++m) place += texelFetch(order, int(m)).x < i ? 1u : 0u;
-    vec4 v = uintBitsToFloat(texelFetch(state_in, int(2u * i + 1u)));
+    vec4 v = state_v(state_in, i);
     v.xyz += sim.lo_dt.w * sim.gravity_mass.xyz;
-    state_out[place] = State(uintBitsToFloat(texelFetch(state_in, int(2u * i))), v);
+    state_out[place] = State(state_x(state_in, i), v);
     pred_out[place] = texelFetch(pred_in, int(i));
 }

@@ -10,14 +10,14 @@ NEIGHBOUR_BUFFERS
 layout(binding = 3) uniform samplerBuffer pos_lambda;
 layout(std430, binding = 4) writeonly buffer PredOut { vec4 pred_out[]; };
 
-// One neighbour's share of Δp_i / ((m/ρ0) × the spiky gradient's coefficient): (λ_i + λ_j + s_corr)·(h − |r|)² r/|r|.
-// The constant factors are applied once after the loop, as in sim_density (NOTES.md, session 16).
+// One neighbour's share of Δp_i / ((m/ρ0) × the spiky gradient's coefficient):
+// (λ_i + λ_j + s_corr)·(h − |r|)² r/|r|. The constant factors are applied once after the loop, as in
+// sim_density (NOTES.md, session 16).
 void visit(uint j, vec3 xi, float li, inout vec3 dp) {
     vec4 pj = texelFetch(pos_lambda, int(j));
     vec3 r = xi - pj.xyz;
     float r2 = dot(r, r);
-    float d = max(sim.kern.x - r2, 0.0);
-    float s = -sim.solver.z * scorr_pow(sim.kern.y * d * d * d * sim.solver.w);
+    float s = -sim.solver.z * scorr_pow(poly6(r2) * sim.solver.w);
     float a2, il;
     spiky_terms(r2, a2, il);
     dp += ((li + pj.w + s) * a2 * il) * r;

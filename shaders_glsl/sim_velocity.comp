@@ -9,7 +9,7 @@
 //! particle), pred (final x*, texels). Out: vel (grid order).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(binding = 1) uniform usamplerBuffer state;   // x, v of particle i at texels 2i, 2i + 1
+layout(binding = 1) uniform usamplerBuffer state;   // read with state_x, state_v
 layout(binding = 2) uniform samplerBuffer pred;
 layout(std430, binding = 3) writeonly buffer Vel { vec4 vel[]; };
 
@@ -17,8 +17,8 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
     vec3 xs = texelFetch(pred, int(i)).xyz;
-    vec3 v = (xs - uintBitsToFloat(texelFetch(state, int(2u * i)).xyz)) / sim.lo_dt.w;
-    vec3 vp = uintBitsToFloat(texelFetch(state, int(2u * i + 1u)).xyz);
+    vec3 v = (xs - state_x(state, i).xyz) / sim.lo_dt.w;
+    vec3 vp = state_v(state, i).xyz;
     float mu = sim.wall.x;
     for (int k = 0; k < 3; ++k) {
         // +1 on a lower face, −1 on an upper one (the clamp in collide() leaves x* exactly on the bound).

@@ -10,7 +10,7 @@ NEIGHBOUR_BUFFERS
 layout(binding = 3) uniform samplerBuffer pred;
 layout(binding = 4) uniform samplerBuffer vel;
 layout(binding = 5) uniform samplerBuffer omega;
-layout(binding = 6) uniform usamplerBuffer sorted;   // the sorted state: x (w: id bits), v of particle i at texels 2i, 2i + 1
+layout(binding = 6) uniform usamplerBuffer sorted;   // the sorted state (state_x: its id bits)
 layout(std430, binding = 7) writeonly buffer States { State state[]; };
 layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
 
@@ -34,15 +34,16 @@ void main() {
     vec3 vi = texelFetch(vel, int(i)).xyz;
     float vol = sim.kern.w;
     vec3 xsph = vec3(0.0);
-    float wi = SIM_CONFINE ? texelFetch(omega, int(i)).w : 0.0;
+    vec4 omega_i = SIM_CONFINE ? texelFetch(omega, int(i)) : vec4(0.0);  // ω_i (xyz), |ω_i| (w)
+    float wi = omega_i.w;
     vec3 eta = vec3(0.0);
     FOR_NEIGHBOURS(i, VISIT)
     vec3 v = vi + sim.visc.x * vol * xsph;
     if (SIM_CONFINE) {
         eta *= vol;
         float le = length(eta);
-        if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, texelFetch(omega, int(i)).xyz);
+        if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega_i.xyz);
     }
-    state[i] = State(vec4(xi, uintBitsToFloat(texelFetch(sorted, int(2u * i)).w)), vec4(v, 0.0));
+    state[i] = State(vec4(xi, state_x(sorted, i).w), vec4(v, 0.0));
     particles[i] = vec4(xi, 0.0);
 }
