@@ -170,9 +170,12 @@ def main():
         subprocess.run(["cargo", "build", "--release", "--quiet", "--manifest-path",
                         os.path.join(SHARED, "tools/quality/Cargo.toml")],
                        check=True, env=dict(os.environ, CARGO_TARGET_DIR="/tmp/meniscus-quality"))
+    meniscus = os.path.join(ROOT, "target/release/meniscus")
+    if not os.access(meniscus, os.X_OK):
+        sys.exit(f"quality-volume.py: {meniscus} is missing: cargo build --release first")
     tmp = tempfile.mkdtemp()
     exact = os.path.join(tmp, "iso")
-    subprocess.run([os.path.join(ROOT, "target/release/meniscus"), "render", FRAME, "--radius", str(R), "--camera",
+    subprocess.run([meniscus, "render", FRAME, "--radius", str(R), "--camera",
                     ":".join([CAMERA[0], CAMERA[1], str(int(CAMERA[2]))]), "--width", str(WIDTH), "--height",
                     str(HEIGHT), "--surface", "iso", "--filter", "none", "--out", exact + ".png", "--dump", "smoothed"],
                    check=True, capture_output=True)
