@@ -157,7 +157,7 @@ def compare(quality, depth_npy, ref):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description="#15 prototype: the colour field smoothed in 3D where the water is bulk, measured against both splashsurf references (see the file header).")
     ap.add_argument("--voxel", type=float, default=1.0, help="lattice spacing in particle radii")
     ap.add_argument("--configs", default="0,0,0;1.5,0,0;1.5,4,9;1.5,5,9;1.25,5,9;1.5,5,10",
                     help="σ (r), c0, c1 per configuration; c1 0: blur everywhere")
