@@ -11,8 +11,8 @@ What it does, as splashsurf's mesh smoothing does on a mesh but on the field ins
 3. F = φ + w(c̄) (G_σ ∗ φ − φ), w = smoothstep((c̄ − c0) / (c1 − c0)): a Gaussian blur of the field where the
    particles' neighbourhoods are full (calm water), none where they are sparse (spray keeps its droplets);
 4. a ray cast of F = 0.6 (trilinear samples every ¼ r, linear interpolation at the crossing) through every pixel
-   the exact `iso` render covers, from 4 r in front of its depth to 8 r behind it (so pixels the smoothed
-   surface would add outside the exact silhouette are not cast: the IoU is the exact surface's or lower);
+   the exact `iso` render covers or that lies within 2 px of one, from 4 r in front of its (or its nearest
+   covered neighbour's) depth to 8 r behind it (the smoothed surface cannot grow further than that);
 5. `../shared/tools/quality compare` (normals from depth) against the raw and the smoothed reference.
 
 Usage: tools/quality-volume.py [--voxel 1.0] [--configs "σ,c0,c1;…"] [--png P]   (σ in r; σ 0 = no blur)
@@ -31,7 +31,7 @@ import tempfile
 
 try:
     import numpy as np
-    from scipy.ndimage import gaussian_filter, map_coordinates
+    from scipy.ndimage import gaussian_filter, grey_erosion, map_coordinates
     from scipy.spatial import cKDTree
 except ImportError as e:
     sys.exit(f"quality-volume.py: {e}: pip install numpy scipy")
@@ -114,6 +114,11 @@ def cast(lo, v, field, start):
     right /= np.linalg.norm(right)
     up = np.cross(right, fwd)
     f = (HEIGHT / 2) / np.tan(np.radians(CAMERA[2]) / 2)
+    covered = np.isfinite(start) & (start > 0) & (start < 1e3)
+    # Pixels up to 2 px outside the exact silhouette start from their nearest covered neighbour's depth, so the
+    # smoothed surface may also grow there.
+    nearest = grey_erosion(np.where(covered, start, np.inf), size=5)
+    start = np.where(covered, start, nearest)
     ys, xs = np.nonzero(np.isfinite(start) & (start > 0) & (start < 1e3))
     ray = fwd[None] + ((xs + 0.5 - WIDTH / 2) / f)[:, None] * right[None] - ((ys + 0.5 - HEIGHT / 2) / f)[:, None] * up[None]
     d0 = start[ys, xs]
