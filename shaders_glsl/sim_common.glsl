@@ -31,6 +31,13 @@ struct State {
 vec4 state_x(usamplerBuffer s, uint i) { return uintBitsToFloat(texelFetch(s, int(2u * i))); }
 vec4 state_v(usamplerBuffer s, uint i) { return uintBitsToFloat(texelFetch(s, int(2u * i + 1u))); }
 
+// W_poly6 without its coefficient, (h² − r²)³ (0 beyond h), for loops that apply the coefficient once
+// (sim_density).
+float poly6_terms(float r2) {
+    float d = max(sim.kern.x - r2, 0.0);
+    return d * d * d;
+}
+
 // W_poly6 of a squared distance.
 float poly6(float r2) {
     float d = max(sim.kern.x - r2, 0.0);

@@ -19,8 +19,7 @@ layout(std430, binding = 5) writeonly buffer Density { float density[]; };
 void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float a4) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
     float r2 = dot(r, r);
-    float d = max(sim.kern.x - r2, 0.0);
-    wsum += d * d * d;
+    wsum += poly6_terms(r2);
     float a2, il;
     spiky_terms(r2, a2, il);
     gsum += (a2 * il) * r;
@@ -32,8 +31,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
     vec3 xi = texelFetch(pred, int(i)).xyz;
-    float h2 = sim.kern.x;
-    float wsum = h2 * h2 * h2;
+    float wsum = poly6_terms(0.0);
     vec3 gsum = vec3(0.0);
     float a4 = 0.0;
     FOR_NEIGHBOURS(i, VISIT)
