@@ -29,14 +29,18 @@ layout(local_size_x = LOCAL_1D) in;
 #else
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 #endif
-layout(set = 0, binding = 3, r32f) uniform image2D depth;
-layout(set = 0, binding = 4, r32f) uniform readonly image2D back;
+// The cast's own bindings follow the field's: 3 … 6 after the points and cells, 2 … 5 after the volume.
+#ifndef ISO_CAST_BINDING
+#define ISO_CAST_BINDING 3
+#endif
+layout(set = 0, binding = ISO_CAST_BINDING, r32f) uniform image2D depth;
+layout(set = 0, binding = ISO_CAST_BINDING + 1, r32f) uniform readonly image2D back;
 #ifdef ISO_REST
-layout(std430, set = 0, binding = 5) readonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = 6) readonly buffer IsoArgs { uint iso_args[8]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 2) readonly buffer IsoQueue { uvec4 iso_queue[]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) readonly buffer IsoArgs { uint iso_args[8]; };
 #else
-layout(std430, set = 0, binding = 5) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = 6) buffer IsoArgs { uint iso_args[8]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 2) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) buffer IsoArgs { uint iso_args[8]; };
 
 /// Append pixel p's march state to the queue's round (0 or 1).
 void enqueue(uint round, ivec2 p, float d, float prev, float phi_prev) {
@@ -80,7 +84,7 @@ Ray ray_through(ivec2 p, ivec2 size) {
 /// least pixels).
 bool fine_scale(float d, float focal) { return pc.fine.x > 0.0 && pc.fine.x * focal >= d; }
 
-#ifndef ISO_ANISO_BINDING
+#if !defined(ISO_ANISO_BINDING) && !defined(ISO_VOLUME)
 /// One Newton step of φ along the ray from depth z (φ and ∇φ in one sum); ok: the field rises into the water
 /// there and the step is at most pc.fine.w.
 float newton(Ray r, float z, out bool ok) {

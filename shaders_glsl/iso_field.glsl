@@ -8,11 +8,17 @@
 //! storage-buffer load there is a loop over the lanes). ISO_NO_WEIGHTS: no iso_sum (the anisotropy pass).
 //! With ISO_ANISO_BINDING defined (iso_aniso.comp), each point's anisotropic kernel (the `anisotropy` pass,
 //! Yu & Turk 2013): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j.
+//! With ISO_VOLUME defined (iso_vol.comp: `[iso] smoothing` > 0), the field is instead sampled trilinearly from
+//! the smoothed lattice `iso_blur` wrote (binding 1, R32F per voxel; no cell table): 8 fetches per sample.
 
+#ifdef ISO_VOLUME
+layout(set = 0, binding = 1) uniform samplerBuffer iso_volume_t;   // R32F, one per voxel, x fastest
+#else
 layout(set = 0, binding = 1) uniform samplerBuffer iso_points_t;   // RGBA32F
 layout(set = 0, binding = 2) uniform usamplerBuffer iso_cells_t;   // RG32UI
 #define ISO_POINT(i) texelFetch(iso_points_t, int(i))
 #define ISO_CELL(i) texelFetch(iso_cells_t, int(i)).xy
+#endif
 #ifdef ISO_WRITES_WEIGHTS
 layout(std430, set = 0, binding = 3) writeonly buffer IsoWeighted { vec4 iso_weighted_out[]; };
 #endif
@@ -28,8 +34,10 @@ layout(push_constant) uniform IsoPush {
     vec4 params;  // x: kernel support h, y: iso threshold, z: smallest step, w: bound radius (world units)
     uvec4 steps;  // x: most march steps, y: bisection iterations, z: the back image bounds the march per pixel
                   // (1) or per 8×8 tile (2)
-    vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units)
-    vec4 aniso2;  // anisotropy: x: longest axis (units of h), z: neighbourhood radius (world units)
+    vec4 aniso;   // anisotropy: x: k_r, y: N_ε, z: centre blend λ, w: longest centre move (world units);
+                  // the smoothed field's lattice (iso_volume, iso_vol): xyz origin, w: voxel spacing
+    vec4 aniso2;  // anisotropy: x: longest axis (units of h), z: neighbourhood radius (world units); the
+                  // lattice: yzw voxels per axis (exact as floats)
     vec4 fine;    // coarse-to-fine (iso_cast.glsl): x: particle radius ÷ its least radius on screen in pixels
                   // (0: off), y: iso_fine's phase / iso_rest's round, z: the widest depth spread of the
                   // marched neighbours, w: the longest Newton step (both world units)
@@ -42,7 +50,30 @@ float iso_kernel(float q) {
     return 0.0;
 }
 
-#ifndef ISO_NO_WEIGHTS
+#ifdef ISO_VOLUME
+/// The smoothed field at x: trilinear between the 8 voxels around it (0 outside the lattice; CPU reference
+/// VolumeShape::sample in src/iso.rs).
+float iso_volume_at(vec3 x) {
+    vec3 u = (x - pc.aniso.xyz) / pc.aniso.w;
+    ivec3 d = ivec3(pc.aniso2.yzw);
+    vec3 i = floor(u);
+    vec3 f = u - i;
+    ivec3 c = ivec3(i);
+    if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, d - 1))) return 0.0;
+    int b = c.x + d.x * (c.y + d.y * c.z), sy = d.x, sz = d.x * d.y;
+#define V_(o) texelFetch(iso_volume_t, b + (o)).x
+    float r00 = mix(V_(0), V_(1), f.x), r10 = mix(V_(sy), V_(sy + 1), f.x);
+    float r01 = mix(V_(sz), V_(sz + 1), f.x), r11 = mix(V_(sz + sy), V_(sz + sy + 1), f.x);
+#undef V_
+    return mix(mix(r00, r10, f.y), mix(r01, r11, f.y), f.z);
+}
+
+/// The cast's field sample; no nearest-point distance (0: the march takes its smallest steps).
+float iso_sum(vec3 x, bool weighted, out float dmin) {
+    dmin = 0.0;
+    return iso_volume_at(x);
+}
+#elif !defined(ISO_NO_WEIGHTS)
 /// Runs VISIT(i, pt, v, d2) for every point i of the 3×3×3 cells around x: pt its texel (xyz, 1/n_j), v = pt.xyz
 /// − x, d2 = |v|². Cells are x fastest and their points contiguous, so each of the 9 rows of 3 cells is one range
 /// of points (9 cell-table pairs of reads instead of 27 lookups: the `iso` pass 198 → 127 ms on lavapipe, dam

@@ -256,6 +256,9 @@ pub fn record_frame(
         p.iso.record_grid(ctx, particles, count, grid);
         if s.surface == Surface::Iso {
             p.iso.record_density(ctx, frame, grid);
+            if let Some(v) = &params.volume {
+                p.iso.record_volume(ctx, frame, grid, v);
+            }
         }
         if let Some(a) = &params.aniso {
             p.anisotropy.record(ctx, frame, grid, a);

@@ -304,6 +304,9 @@ pub struct IsoParams {
     pub fine_px: f32,
     /// The camera's near plane (linear depth): a march that starts inside steps back no nearer.
     pub near: f32,
+    /// The field smoothed in 3D where the water is bulk, sampled from a lattice (`[iso] smoothing` > 0,
+    /// isotropic kernels; `None`: the exact field, summed over the neighbours at every sample).
+    pub volume: Option<VolumeParams>,
 }
 
 /// Depth at which the ray `origin + d·dir` leaves the grid's box grown by the support (as `iso.comp`).
@@ -346,13 +349,26 @@ pub fn cast_with(
     d_start: f32,
     d_end: f32,
 ) -> Option<f32> {
+    march(|x| grid.field_with(x, inv_n, aniso), p, origin, dir, d_start, d_end)
+}
+
+/// The march of `cast` over any field: `field(x)` gives the field and the distance to the nearest point (0
+/// where unknown: the march then takes its smallest steps).
+pub fn march(
+    field: impl Fn(Vec3) -> (f32, f32),
+    p: &IsoParams,
+    origin: Vec3,
+    dir: Vec3,
+    d_start: f32,
+    d_end: f32,
+) -> Option<f32> {
     let len = dir.length();
     let (mut d, mut prev, mut phi_prev) = (d_start, d_start, 0.0);
     for k in 0..p.max_steps {
         if d > d_end {
             return None;
         }
-        let (phi, dmin) = grid.field_with(origin + dir * d, inv_n, aniso);
+        let (phi, dmin) = field(origin + dir * d);
         if phi >= p.threshold {
             let (mut a, mut b, mut fa, mut fb) = (prev, d, phi_prev, phi);
             if k == 0 {
@@ -362,7 +378,7 @@ pub fn cast_with(
                 while j < crate::shader_constants::ISO_BACK_STEPS && fa >= p.threshold && a > p.near {
                     (b, fb) = (a, fa);
                     a = (a - p.step / len).max(p.near);
-                    fa = grid.field_with(origin + dir * a, inv_n, aniso).0;
+                    fa = field(origin + dir * a).0;
                     j += 1;
                 }
                 if fa >= p.threshold {
@@ -371,7 +387,7 @@ pub fn cast_with(
             }
             for _ in 0..p.refine {
                 let m = 0.5 * (a + b);
-                let fm = grid.field_with(origin + dir * m, inv_n, aniso).0;
+                let fm = field(origin + dir * m).0;
                 if fm >= p.threshold {
                     (b, fb) = (m, fm);
                 } else {
@@ -386,6 +402,185 @@ pub fn cast_with(
         d += (dmin - p.bound).max(step) / len;
     }
     None
+}
+
+/// The smoothed field's parameters (`[iso] smoothing`, `bulk`, `voxel`), world units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeParams {
+    /// σ of the 3D Gaussian blur of φ (world units; > 0).
+    pub sigma: f32,
+    /// The blur's weight ramps from 0 to 1 as the interpolated neighbour count c̄ goes from bulk[0] to bulk[1]
+    /// (smoothstep; bulk[1] ≤ bulk[0]: the blur everywhere).
+    pub bulk: [f32; 2],
+    /// The lattice's spacing (world units), unless the box needs more than ISO_VOLUME_MAX_VOXELS voxels.
+    pub spacing: f32,
+}
+
+impl VolumeParams {
+    /// Taps either side of the blur's separable kernel at lattice spacing `spacing`: 4 σ, rounded (as scipy's
+    /// `gaussian_filter`, which the prototype tools/quality-volume.py used).
+    pub fn taps(&self, spacing: f32) -> u32 {
+        (4.0 * self.sigma / spacing + 0.5) as u32
+    }
+
+    /// The normalised weights of the blur's taps 0 ..= taps (symmetric).
+    pub fn weights(&self, spacing: f32) -> Vec<f32> {
+        let s = self.sigma / spacing;
+        let k = self.taps(spacing) as i32;
+        let g: Vec<f32> = (0..=k).map(|i| (-(i * i) as f32 / (2.0 * s * s)).exp()).collect();
+        let total = g[0] + 2.0 * g[1..].iter().sum::<f32>();
+        g.iter().map(|w| w / total).collect()
+    }
+}
+
+/// The lattice the smoothed field is sampled on: voxel (i, j, k) at origin + (i, j, k)·spacing, x fastest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeShape {
+    /// World position of voxel (0, 0, 0).
+    pub origin: Vec3,
+    /// Voxel spacing (world units).
+    pub spacing: f32,
+    /// Voxels per axis.
+    pub dims: [u32; 3],
+}
+
+impl VolumeShape {
+    /// The lattice over the box `lo`…`hi` that holds every particle, grown by the kernel support and the blur's
+    /// reach, at `p.spacing`, or coarser where that would exceed ISO_VOLUME_MAX_VOXELS.
+    pub fn around(lo: Vec3, hi: Vec3, support: f32, p: &VolumeParams) -> VolumeShape {
+        let max = crate::shader_constants::ISO_VOLUME_MAX_VOXELS as f64;
+        let mut spacing = p.spacing.max(1e-6);
+        loop {
+            let margin = support + (p.taps(spacing) + 1) as f32 * spacing;
+            let (a, b) = (lo - Vec3::splat(margin), hi + Vec3::splat(margin));
+            let d = ((b - a) / spacing).ceil() + Vec3::ONE;
+            let dims = [d.x as u32, d.y as u32, d.z as u32].map(|n| n.max(2));
+            let voxels = dims.iter().map(|&n| n as f64).product::<f64>();
+            if voxels <= max {
+                return VolumeShape { origin: a, spacing, dims };
+            }
+            spacing *= ((voxels / max).cbrt() * 1.01) as f32;
+        }
+    }
+
+    /// Voxels in all.
+    pub fn voxels(&self) -> usize {
+        self.dims.iter().map(|&n| n as usize).product()
+    }
+
+    /// Index of voxel (x, y, z).
+    pub fn index(&self, x: u32, y: u32, z: u32) -> usize {
+        x as usize + self.dims[0] as usize * (y as usize + self.dims[1] as usize * z as usize)
+    }
+
+    /// Trilinear sample of `field` (one value per voxel) at x; 0 outside the lattice (as iso_field.glsl's
+    /// ISO_VOLUME sampler).
+    pub fn sample(&self, field: &[f32], x: Vec3) -> f32 {
+        let u = (x - self.origin) / self.spacing;
+        let i = u.floor();
+        let f = u - i;
+        let d = self.dims.map(|n| n as f32);
+        if i.x < 0.0 || i.y < 0.0 || i.z < 0.0 || i.x >= d[0] - 1.0 || i.y >= d[1] - 1.0 || i.z >= d[2] - 1.0 {
+            return 0.0;
+        }
+        let (x0, y0, z0) = (i.x as u32, i.y as u32, i.z as u32);
+        let at = |dx, dy, dz| field[self.index(x0 + dx, y0 + dy, z0 + dz)];
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let row = |dy, dz| lerp(at(0, dy, dz), at(1, dy, dz), f.x);
+        let plane = |dz| lerp(row(0, dz), row(1, dz), f.y);
+        lerp(plane(0), plane(1), f.z)
+    }
+}
+
+impl IsoGrid {
+    /// Each sorted point's neighbour count c_j = Σ_{k ≠ j} max(0, 1 − |x_j − x_k|² / h²): splashsurf's feature
+    /// weight, high in the bulk, low at the surface and in spray.
+    pub fn neighbour_weights(&self) -> Vec<f32> {
+        use rayon::prelude::*;
+        let inv_h2 = 1.0 / (self.support * self.support);
+        self.points
+            .par_iter()
+            .map(|p| {
+                let x = Vec3::new(p[0], p[1], p[2]);
+                let mut c = 0.0;
+                self.for_each_near(x, |_, y| c += (1.0 - x.distance_squared(y) * inv_h2).max(0.0));
+                c - 1.0
+            })
+            .collect()
+    }
+
+    /// The `iso_volume` pass's sums on the lattice `shape`: per voxel v, Σ_j W_j(v) / n_j (φ) and Σ_j W_j(v)
+    /// c_j / n_j, each term rounded to ISO_VOLUME_FIX_BITS fixed-point bits (as the shader's integer atomics).
+    pub fn volume_sums(&self, inv_n: &[f32], shape: &VolumeShape) -> Vec<[u32; 2]> {
+        let c = self.neighbour_weights();
+        let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
+        let mut acc = vec![[0u32; 2]; shape.voxels()];
+        let (h, s) = (self.support, shape.spacing);
+        let rv = h / s;
+        let dims = shape.dims.map(|n| n as i64);
+        for (j, p) in self.points.iter().enumerate() {
+            let u = (Vec3::new(p[0], p[1], p[2]) - shape.origin) / s;
+            let lo = [u.x, u.y, u.z].map(|a| (a - rv).ceil().max(0.0) as i64);
+            let hi = [u.x, u.y, u.z].map(|a| (a + rv).floor() as i64);
+            for z in lo[2]..=hi[2].min(dims[2] - 1) {
+                for y in lo[1]..=hi[1].min(dims[1] - 1) {
+                    for x in lo[0]..=hi[0].min(dims[0] - 1) {
+                        let q = ((Vec3::new(x as f32, y as f32, z as f32) - u) * s).length() / h;
+                        if q < 1.0 {
+                            let w = kernel(q) * inv_n[j];
+                            let a = &mut acc[shape.index(x as u32, y as u32, z as u32)];
+                            a[0] = a[0].wrapping_add((w * fix + 0.5) as u32);
+                            a[1] = a[1].wrapping_add((w * c[j] * fix + 0.5) as u32);
+                        }
+                    }
+                }
+            }
+        }
+        acc
+    }
+}
+
+/// The smoothed field from the `iso_volume` sums (the `iso_blur` pass's CPU reference): φ blurred by the
+/// separable Gaussian (zero outside the lattice), blended into φ by smoothstep of c̄ = Σ W c / n ÷ Σ W / n
+/// over `p.bulk`: F = φ + w(c̄) (G_σ ∗ φ − φ).
+pub fn smooth_volume(acc: &[[u32; 2]], shape: &VolumeShape, p: &VolumeParams) -> Vec<f32> {
+    let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
+    let phi: Vec<f32> = acc.iter().map(|a| a[0] as f32 / fix).collect();
+    let g = p.weights(shape.spacing);
+    let k = g.len() as i64 - 1;
+    let strides = [1usize, shape.dims[0] as usize, (shape.dims[0] * shape.dims[1]) as usize];
+    let mut cur = phi.clone();
+    for axis in 0..3 {
+        let mut next = vec![0.0f32; cur.len()];
+        for (v, out) in next.iter_mut().enumerate() {
+            let c = (v / strides[axis]) as i64 % shape.dims[axis] as i64;
+            let mut sum = 0.0;
+            for t in -k..=k {
+                if (0..shape.dims[axis] as i64).contains(&(c + t)) {
+                    sum += g[t.unsigned_abs() as usize] * cur[(v as i64 + t * strides[axis] as i64) as usize];
+                }
+            }
+            *out = sum;
+        }
+        cur = next;
+    }
+    cur.iter()
+        .zip(&phi)
+        .zip(acc)
+        .map(|((&blur, &f), a)| {
+            let cbar = if a[0] > 0 { a[1] as f32 / a[0] as f32 } else { 0.0 };
+            f + bulk_weight(cbar, p.bulk) * (blur - f)
+        })
+        .collect()
+}
+
+/// The blur's weight at interpolated neighbour count c̄: smoothstep over `bulk` (1 when bulk[1] ≤ bulk[0]).
+pub fn bulk_weight(cbar: f32, bulk: [f32; 2]) -> f32 {
+    if bulk[1] <= bulk[0] {
+        return 1.0;
+    }
+    let t = ((cbar - bulk[0]) / (bulk[1] - bulk[0])).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 #[cfg(test)]
@@ -410,6 +605,7 @@ mod tests {
             radius: 0.0,
             fine_px: 0.0,
             near: 0.01,
+            volume: None,
         };
         // Ray along −z through the centre, from 1 unit in front.
         let d = cast(&g, &inv, &p, Vec3::new(0.3, 0.2, 1.1), Vec3::new(0.0, 0.0, -1.0), 1.0 - 2.0 * r, 2.0).unwrap();

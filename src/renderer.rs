@@ -506,6 +506,9 @@ impl Renderer {
         }
         let iso = if s.surface == crate::settings::Surface::Iso || s.ellipsoid_splats() {
             self.ensure_iso(s.iso.support * s.radius, s.iso_reach())?;
+            if s.surface == crate::settings::Surface::Iso {
+                self.ensure_iso_volume(s)?;
+            }
             true
         } else {
             false
@@ -788,6 +791,8 @@ impl Renderer {
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),
+                volume: None,
+                volume_for: std::cell::Cell::new(None),
             });
             self.iso_stale = false;
             return Ok(());
@@ -828,8 +833,39 @@ impl Renderer {
             rebuild: std::cell::Cell::new(false),
             weights_stale: std::cell::Cell::new(true),
             kernels_for: std::cell::Cell::new(None),
+            volume: None,
+            volume_for: std::cell::Cell::new(None),
         });
         self.iso_stale = false;
+        Ok(())
+    }
+
+    /// The smoothed field's lattice for the iso grid's box, when `[iso] smoothing` asks for it: (re)allocated
+    /// when the box or the spacing changed (its field is then stale); dropped when smoothing is off.
+    fn ensure_iso_volume(&mut self, s: &Settings) -> Result<()> {
+        let Some(b) = &self.iso else { return Ok(()) };
+        let Some(p) = s.iso_params().volume else {
+            if b.volume.is_some() {
+                self.executor.wait_idle()?;
+                if let Some(b) = &mut self.iso {
+                    b.volume = None;
+                }
+            }
+            return Ok(());
+        };
+        let (o, d) = (b.shape.origin, b.shape.dims);
+        let lo = glam::Vec3::new(o[0], o[1], o[2]);
+        let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
+        let shape = crate::iso::VolumeShape::around(lo, hi, b.shape.support(), &p);
+        if b.volume.as_ref().is_some_and(|v| v.shape == shape) {
+            return Ok(());
+        }
+        self.executor.wait_idle()?;
+        let volume = crate::passes::iso::IsoVolume::new(&self.gpu, shape)?;
+        if let Some(b) = &mut self.iso {
+            b.volume = Some(volume);
+            b.volume_for.set(None);
+        }
         Ok(())
     }
 

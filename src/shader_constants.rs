@@ -38,6 +38,13 @@ pub const MC_BLOCK: u32 = 8;
 /// Most triangles of one cube in the generated case table (mc_emit.comp's table stride).
 pub const MC_MAX_TRIS: u32 = 12;
 
+/// Fixed-point bits of the `iso_volume` pass's sums (integer atomics: the same sums in any order, no float-atomic
+/// extension needed; 2^-20 per term, sums up to 4096).
+pub const ISO_VOLUME_FIX_BITS: u32 = 20;
+/// Most voxels of the smoothed iso field's lattice (8 bytes each in the sums' buffer: 128 MiB, lavapipe's
+/// storage-buffer range; 16 bytes in all); past it the voxels grow.
+pub const ISO_VOLUME_MAX_VOXELS: u32 = 1 << 24;
+
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
@@ -49,6 +56,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("SPLAT_TILE", SPLAT_TILE),
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
+    ("ISO_VOLUME_FIX_BITS", ISO_VOLUME_FIX_BITS),
     ("MAX_COLLIDERS", MAX_COLLIDERS),
     ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),

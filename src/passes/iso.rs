@@ -18,6 +18,11 @@ use crate::shaders;
 pub const NAME: &str = "iso";
 /// The weights' pass (shaders_glsl/iso_density.comp), recorded only when the particles changed.
 pub const DENSITY_NAME: &str = "iso_density";
+/// The smoothed field's sums (shaders_glsl/iso_volume.comp), recorded when the particles or `[iso] smoothing`,
+/// `bulk` or `voxel` changed.
+pub const VOLUME_NAME: &str = "iso_volume";
+/// The smoothed field's blur and blend (shaders_glsl/iso_blur.comp), recorded with `iso_volume`.
+pub const BLUR_NAME: &str = "iso_blur";
 
 /// Settings of the `iso` pass: the `[iso]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -51,6 +56,18 @@ pub struct Params {
     /// sum instead of a march), or marches where a neighbour missed, the neighbours' depths spread more than
     /// 1 r, or the step is longer than ¼ r. Isotropic kernels only (0: every pixel marches).
     pub fine_px: f32,
+    /// Iso-surface: σ of a 3D Gaussian blur of the field where the water is bulk, particle radii (0: the exact
+    /// field). The field is then built once per set of particles on a lattice of `voxel` radii (`iso_volume`),
+    /// blurred (`iso_blur`) and ray-cast with trilinear samples: calm water loses the particle-scale bumps the
+    /// raw field has, spray keeps its droplets (see `bulk`). Isotropic kernels only.
+    pub smoothing: f32,
+    /// Iso-surface smoothing: the blur's weight ramps (smoothstep) from 0 to 1 as the neighbour count c_j =
+    /// Σ_k (1 − d²/h²) (splashsurf's feature weight), interpolated to the lattice, goes from bulk[0] to bulk[1]
+    /// (bulk[1] ≤ bulk[0]: blur everywhere).
+    pub bulk: [f32; 2],
+    /// Iso-surface smoothing: the lattice's spacing, particle radii (coarser where the box would need more than
+    /// 8 M voxels).
+    pub voxel: f32,
 }
 
 impl Default for Params {
@@ -64,6 +81,9 @@ impl Default for Params {
             refine: 0,
             first_steps: 8,
             fine_px: 4.0,
+            smoothing: 0.0,
+            bulk: [4.0, 9.0],
+            voxel: 1.0,
         }
     }
 }
@@ -99,13 +119,59 @@ pub struct IsoBuffers {
     /// The parameters `aniso` was computed with for the current particles (`None`: stale). The kernels, like the
     /// weights, depend on the particles, not the view: the `anisotropy` pass runs when either changes.
     pub kernels_for: std::cell::Cell<Option<crate::iso::AnisoParams>>,
+    /// The smoothed field's lattice (`[iso] smoothing` > 0; allocated by the renderer for the grid's box).
+    pub volume: Option<IsoVolume>,
+    /// The parameters `volume` holds the field for, for the current particles (`None`: stale).
+    pub volume_for: std::cell::Cell<Option<crate::iso::VolumeParams>>,
+}
+
+/// The smoothed iso field on its lattice (`iso_volume`, `iso_blur`), read by the volume cast.
+pub struct IsoVolume {
+    /// The lattice.
+    pub shape: crate::iso::VolumeShape,
+    /// Two fixed-point sums per voxel (φ, Σ W c / n), R32UI texels.
+    pub acc: Buffer,
+    /// The x blur's output, then the smoothed field F (R32F texels): what the cast samples.
+    pub field: Buffer,
+    /// The y blur's output (R32F texels).
+    pub tmp: Buffer,
+}
+
+impl IsoVolume {
+    /// Buffers for the lattice `shape`.
+    pub fn new(gpu: &Arc<Gpu>, shape: crate::iso::VolumeShape) -> Result<IsoVolume> {
+        // TRANSFER_DST: zeroed before each build; TRANSFER_SRC: the tests read the field back.
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC;
+        let n = shape.voxels() as u64;
+        Ok(IsoVolume {
+            shape,
+            acc: Buffer::texels(gpu, "iso_volume_acc", 8 * n, usage, vk::Format::R32_UINT)?,
+            field: Buffer::texels(gpu, "iso_volume_field", 4 * n, usage, vk::Format::R32_SFLOAT)?,
+            tmp: Buffer::texels(gpu, "iso_volume_tmp", 4 * n, usage, vk::Format::R32_SFLOAT)?,
+        })
+    }
+
+    /// `push` with this lattice in `aniso` (origin, spacing) and `aniso2.yzw` (voxels per axis), as
+    /// iso_field.glsl reads it.
+    pub fn push(&self, push: IsoPush) -> IsoPush {
+        let (o, d) = (self.shape.origin, self.shape.dims);
+        IsoPush {
+            aniso: [o.x, o.y, o.z, self.shape.spacing],
+            aniso2: [0.0, d[0] as f32, d[1] as f32, d[2] as f32],
+            ..push
+        }
+    }
 }
 
 impl IsoBuffers {
-    /// The particles (or the support) changed: the weights and the kernels must be computed again.
+    /// The particles (or the support) changed: the weights, the kernels and the smoothed field must be
+    /// computed again.
     pub fn mark_stale(&self) {
         self.weights_stale.set(true);
         self.kernels_for.set(None);
+        self.volume_for.set(None);
     }
 
     /// The texel formats iso_field.glsl reads them in: points xyzw, cells (first, count), weights, kernels.
@@ -197,6 +263,20 @@ pub struct Iso {
     fine: ComputeProgram<IsoPush>,
     grid: crate::passes::grid::Grid,
     gather: ComputeProgram<GatherPush>,
+    volume: ComputeProgram<IsoPush>,
+    blur: [ComputeProgram<BlurPush>; 3],
+    cast_vol: ComputeProgram<IsoPush>,
+    rest_vol: ComputeProgram<IsoPush>,
+}
+
+/// Push constants of iso_blur.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BlurPush {
+    /// Voxels per axis, w: the axis blurred.
+    pub dims: [u32; 4],
+    /// x: 1 / (2 σ²) in voxels², y: taps either side, z, w: the bulk ramp.
+    pub params: [f32; 4],
 }
 
 /// Push constants of iso_gather.comp.
@@ -229,6 +309,16 @@ declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uni
 // phase 1 gives the pixels the first dispatches left their marched neighbours' depth (with a Newton step where
 // the surface curves) and queues those it cannot trust (round 1) for a second `rest`.
 declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+
+// The smoothed field: frame, weighted points, cells → the fixed-point sums (atomics).
+declare_program!(pub VOLUME: IsoPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, BufWrite]));
+// Its blur, one axis per dispatch: the sums → x; x → y; y and the sums → the field.
+declare_program!(pub BLUR_FIRST: BlurPush = compute(shaders::ISO_BLUR_FIRST, [Uniform, TexelRead, BufWrite]));
+declare_program!(pub BLUR: BlurPush = compute(shaders::ISO_BLUR, [Uniform, TexelRead, BufWrite]));
+declare_program!(pub BLUR_LAST: BlurPush = compute(shaders::ISO_BLUR_LAST, [Uniform, TexelRead, TexelRead, BufWrite]));
+// The casts over the smoothed field: frame, field, depth, back, queue, header.
+declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
@@ -270,6 +360,14 @@ impl Iso {
             fine: ComputeProgram::new(gpu, &FINE)?,
             grid: crate::passes::grid::Grid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
+            volume: ComputeProgram::new(gpu, &VOLUME)?,
+            blur: [
+                ComputeProgram::new(gpu, &BLUR_FIRST)?,
+                ComputeProgram::new(gpu, &BLUR)?,
+                ComputeProgram::new(gpu, &BLUR_LAST)?,
+            ],
+            cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,
+            rest_vol: ComputeProgram::new(gpu, &REST_VOL)?,
         })
     }
 
@@ -302,6 +400,40 @@ impl Iso {
         });
     }
 
+    /// When `b`'s smoothed field is stale for `p` (new particles or parameters): `iso_volume` (the sums on the
+    /// lattice) and `iso_blur` (three axes, the last blending by c̄), each with its own timestamp. Like the
+    /// weights, the field depends on the particles alone: a static set builds it once.
+    pub fn record_volume(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::iso::VolumeParams) {
+        let Some(v) = &b.volume else { return };
+        if b.volume_for.get() == Some(*p) {
+            return;
+        }
+        b.volume_for.set(Some(*p));
+        ctx.pass(VOLUME_NAME, |ctx| {
+            ctx.fill(&v.acc, 0);
+            let n = b.shape.dims[3];
+            let bufs = [frame.into(), (&b.weighted).into(), (&b.cells).into(), (&v.acc).into()];
+            self.volume.dispatch(ctx, &bufs, &v.push(b.shape), [n.div_ceil(super::LOCAL_1D), 1, 1]);
+        });
+        ctx.pass(BLUR_NAME, |ctx| {
+            let d = v.shape.dims;
+            let s = p.sigma / v.shape.spacing;
+            let taps = p.taps(v.shape.spacing) as f32;
+            let push = |axis| BlurPush {
+                dims: [d[0], d[1], d[2], axis],
+                params: [1.0 / (2.0 * s * s), taps, p.bulk[0], p.bulk[1]],
+            };
+            // Rows of at most 65535 groups (the guaranteed limit per axis; iso_blur.comp rebuilds the index).
+            let g = (v.shape.voxels() as u32).div_ceil(super::LOCAL_1D);
+            let rows = g.div_ceil(65535);
+            let groups = [g.div_ceil(rows), rows, 1];
+            self.blur[0].dispatch(ctx, &[frame.into(), (&v.acc).into(), (&v.field).into()], &push(0), groups);
+            self.blur[1].dispatch(ctx, &[frame.into(), (&v.field).into(), (&v.tmp).into()], &push(1), groups);
+            let last = [frame.into(), (&v.tmp).into(), (&v.acc).into(), (&v.field).into()];
+            self.blur[2].dispatch(ctx, &last, &push(2), groups);
+        });
+    }
+
     /// Ray-cast the iso-surface into `depth` (which holds the bound spheres' depth on entry); `back`: the far
     /// bound from the splat, per pixel or per 8×8 tile, where the march may stop (else it runs to the grid's box);
     /// `queue`: where the first dispatch leaves the rays the second finishes. Coarse-to-fine runs when the
@@ -328,6 +460,12 @@ impl Iso {
         if params.radius * info.focal_px_fluid < params.fine_px * info.d_near {
             push.fine[0] = 0.0;
         }
+        // The smoothed field: its lattice in the push constants; no coarse-to-fine (no field gradient there).
+        let volume = b.volume.as_ref().filter(|_| params.volume.is_some());
+        if let Some(v) = volume {
+            push = v.push(push);
+            push.fine[0] = 0.0;
+        }
         // Without a back image the binding still needs an image: the depth itself (never read then).
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
@@ -338,12 +476,16 @@ impl Iso {
             let g = groups_2d(w, h, super::LOCAL_2D);
             let (q, h) = ((&queue.entries).into(), (&queue.header).into());
             let mut all = vec![frame.into(), (&b.weighted).into(), (&b.cells).into(), depth.into(), back_img.into(), q, h];
-            let (cast, rest) = match params.aniso {
-                Some(_) => {
+            let (cast, rest) = match (params.aniso, volume) {
+                (Some(_), _) => {
                     all.push((&b.aniso).into());
                     (&self.cast_aniso, &self.rest_aniso)
                 }
-                None => (&self.cast, &self.rest),
+                (None, Some(v)) => {
+                    all = vec![frame.into(), (&v.field).into(), depth.into(), back_img.into(), q, h];
+                    (&self.cast_vol, &self.rest_vol)
+                }
+                (None, None) => (&self.cast, &self.rest),
             };
             let fine = push.fine[0] > 0.0;
             (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g);
