@@ -321,11 +321,13 @@ impl Settings {
             aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support)),
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
-            volume: (self.iso.smoothing > 0.0 && self.kernel == Kernel::Isotropic).then(|| crate::iso::VolumeParams {
-                sigma: self.iso.smoothing * self.radius,
-                bulk: self.iso.bulk,
-                spacing: self.iso.voxel * self.radius,
-            }),
+            volume: (self.iso.smoothing > 0.0 && self.kernel == Kernel::Isotropic).then_some(
+                crate::iso::VolumeParams {
+                    sigma: self.iso.smoothing * self.radius,
+                    bulk: self.iso.bulk,
+                    spacing: self.iso.voxel * self.radius,
+                },
+            ),
         }
     }
 
