@@ -92,7 +92,8 @@ named_enum! {
         Bilateral2d = "bilateral2d",
         /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
         CurvatureFlow = "curvature-flow",
-        /// Narrow-range filter (Truong & Yuksel 2018); the default: smoothest surface at bilateral cost.
+        /// Narrow-range filter (Truong & Yuksel 2018); the default on spheres (`--preset fast`): smoothest
+        /// surface at bilateral cost.
         NarrowRange = "narrow-range",
     }
 }
@@ -102,8 +103,8 @@ named_enum! {
     pub enum Surface {
         /// The nearest particle sphere (van der Laan et al. 2009), smoothed by the filter.
         Spheres = "spheres",
-        /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass), then
-        /// filtered like the spheres.
+        /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass; the
+        /// default, its field smoothed where the water is calm: `[iso] smoothing`), unfiltered by default.
         Iso = "iso",
         /// The same iso-surface extracted as a triangle mesh (marching cubes, `crate::extract`) and ray-cast
         /// through its BVH (`mesh` pass).
@@ -207,7 +208,10 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             radius: 0.0,
-            surface: Surface::Spheres,
+            // The SPH iso-surface, smoothed in 3D where the water is calm ([iso] smoothing): issue #15's
+            // default, as close to splashsurf's smoothed surface as measured (tools/quality.sh) at the cost of
+            // the spheres + narrow-range frame (`--preset fast`) for a static set of particles.
+            surface: Surface::Iso,
             kernel: Kernel::Isotropic,
             fluid_scale: 1.0,
             background: Default::default(),
@@ -217,7 +221,9 @@ impl Default for Settings {
             anisotropy: Default::default(),
             mesh: Default::default(),
             thickness: Default::default(),
-            smooth: Default::default(),
+            // No screen-space filter on the default iso surface (a filter only blurs it); `--surface spheres`
+            // without `--filter` gets narrow-range (src/bin/meniscus/args.rs).
+            smooth: crate::passes::smooth::Params { filter: Filter::None, ..Default::default() },
             normals: Default::default(),
             ssr: Default::default(),
             composite: Default::default(),
@@ -231,19 +237,25 @@ impl Default for Settings {
 pub const PRESETS: &[&str] = &["default", "fast", "quality", "moritz", "smooth"];
 
 impl Settings {
-    /// A named preset (one of [`PRESETS`]): `default` (spheres + narrow-range), `fast`, `quality` (the ray-cast
-    /// SPH iso-surface, unfiltered), `moritz` (the thesis' curvature flow) or `smooth` (the smoothed mesh).
+    /// A named preset (one of [`PRESETS`]): `default` (the ray-cast SPH iso-surface, its field smoothed where
+    /// the water is calm), `fast` (spheres + narrow-range), `quality` (the exact SPH iso-surface, unsmoothed),
+    /// `moritz` (the thesis' curvature flow on spheres) or `smooth` (the smoothed mesh).
     pub fn preset(name: &str) -> Result<Settings> {
         let mut s = Settings::default();
         match name {
             "default" => {}
-            // The SPH iso-surface itself (what splashsurf reconstructs), unfiltered: the closest match to a
-            // reconstructed reference surface, at the cost of the `iso` ray cast.
+            // The SPH iso-surface exactly (what splashsurf reconstructs before its mesh smoothing): the field
+            // summed over the neighbours at every sample, no 3D smoothing, no filter.
             "quality" => {
                 s.surface = Surface::Iso;
                 s.smooth.filter = Filter::None;
+                s.iso.smoothing = 0.0;
             }
+            // The cheapest picture: the particles' spheres, depth smoothed by the narrow-range filter, fewer
+            // filter and blur pixels.
             "fast" => {
+                s.surface = Surface::Spheres;
+                s.smooth.filter = Filter::NarrowRange;
                 s.smooth.bilateral.iterations = 1;
                 s.smooth.max_px = 12;
                 s.thickness.blur_px = 2;
@@ -258,6 +270,7 @@ impl Settings {
             }
             // Moritz 2016 (thesis values): curvature flow, Δt = 0.005, ≤ 60 iterations, κ = 3.
             "moritz" => {
+                s.surface = Surface::Spheres;
                 s.smooth.filter = Filter::CurvatureFlow;
                 s.smooth.curvature.dt = 0.005;
                 s.smooth.curvature.it_max = 60;

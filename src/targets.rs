@@ -192,7 +192,7 @@ mod tests {
     /// The description alone decides which optional images exist; equal settings give equal descriptions.
     #[test]
     fn optional_images_follow_the_settings() {
-        let s = Settings::default();
+        let s = Settings { surface: Surface::Spheres, ..Settings::default() };
         let d = TargetsDesc::new(640, 360, &s, false);
         assert!(!d.back && !d.zbuffer && !d.keep_raw && !d.upsampled());
         assert_eq!(d, TargetsDesc::new(640, 360, &s.clone(), false));

@@ -35,7 +35,7 @@ fn render_builtin_scene_writes_png_and_timings() {
     let out = d.join("f.png");
     let o = meniscus()
         .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--validation"])
-        .args(["--dump", "depth,smoothed,thickness,normals,ssr"])
+        .args(["--surface", "spheres", "--dump", "depth,smoothed,thickness,normals,ssr"])
         .arg("--out")
         .arg(&out)
         .output()
@@ -160,8 +160,10 @@ fn bad_flags_are_errors_not_panics() {
 /// CI smoke test of the benchmark: tiny workload, valid JSON with every pass; no timing is asserted.
 #[test]
 fn tiny_bench_writes_valid_json() {
-    let (o, v) =
-        bench_json("bench", &["--scenes", "block:2000", "--resolutions", "64x64", "--warmup", "1", "--frames", "3"]);
+    let (o, v) = bench_json(
+        "bench",
+        &["--scenes", "block:2000", "--preset", "fast", "--resolutions", "64x64", "--warmup", "1", "--frames", "3"],
+    );
     assert_eq!(v["schema"], 1);
     assert!(!v["device"]["name"].as_str().unwrap().is_empty());
     let e = &v["entries"][0];
@@ -190,8 +192,9 @@ fn tiny_bench_writes_valid_json() {
 }
 
 /// `bench --also-presets` measures the main preset and the others with their frames interleaved (one renderer
-/// each): one entry per preset in order, each with its own passes (iso only in `quality`, whose weights ran in
-/// a warm-up frame and so are not in the measured ones), and the ratio lines. No timing is asserted.
+/// each): one entry per preset in order, each with its own passes (iso in `default` and `quality`, the depth
+/// filter in `fast`; the weights and the smoothed field of a static frame were built in a warm-up frame and so
+/// are not in the measured ones), and the ratio lines. No timing is asserted.
 #[test]
 fn bench_also_presets_interleaves_every_preset() {
     let (o, v) = bench_json(
@@ -215,9 +218,11 @@ fn bench_also_presets_interleaves_every_preset() {
     let has = |e: &serde_json::Value, pass: &str| e["passes"].as_array().unwrap().iter().any(|p| p[0] == pass);
     for e in entries {
         assert_eq!(e["frames"], 2);
-        assert_eq!(has(e, "iso"), e["variant"] == "quality", "{}", e["variant"]);
-        assert_eq!(has(e, "smooth"), e["variant"] != "quality", "{}", e["variant"]);
-        assert!(!has(e, "iso_density"), "the weights of a static frame are computed once, in warm-up");
+        assert_eq!(has(e, "iso"), e["variant"] != "fast", "{}", e["variant"]);
+        assert_eq!(has(e, "smooth"), e["variant"] == "fast", "{}", e["variant"]);
+        for once in ["iso_density", "iso_volume", "iso_blur"] {
+            assert!(!has(e, once), "{once} of a static frame runs once, in warm-up");
+        }
     }
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("quality") && out.contains("÷ default"), "{out}");

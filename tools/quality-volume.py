@@ -182,7 +182,7 @@ def main():
     exact = os.path.join(tmp, "iso")
     subprocess.run([meniscus, "render", FRAME, "--radius", str(R), "--camera",
                     ":".join([CAMERA[0], CAMERA[1], str(int(CAMERA[2]))]), "--width", str(WIDTH), "--height",
-                    str(HEIGHT), "--surface", "iso", "--filter", "none", "--out", exact + ".png", "--dump", "smoothed"],
+                    str(HEIGHT), "--preset", "quality", "--out", exact + ".png", "--dump", "smoothed"],
                    check=True, capture_output=True)
     start = np.load(exact + ".smoothed.npy").astype(np.float64).reshape(HEIGHT, WIDTH)
     rows = {"ref": [], "smooth_ref": []}

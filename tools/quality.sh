@@ -18,18 +18,25 @@ frame="$shared/data/splishsplash/dambreak_59k/partio/ParticleData_Fluid_20.bgeo"
 [ -f "$frame" ] || { echo "quality.sh: missing $frame" >&2; exit 1; }
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-default_configs="spheres + none|--filter none;spheres + gaussian|--filter gaussian;spheres + bilateral|--filter bilateral;\
-spheres + bilateral2d|--filter bilateral2d;spheres + curvature-flow|--filter curvature-flow;\
-spheres + narrow-range (default)|--filter narrow-range;ellipsoids + none|--filter none --kernel anisotropic;\
-ellipsoids + narrow-range|--filter narrow-range --kernel anisotropic;\
-ellipsoids + curvature-flow|--filter curvature-flow --kernel anisotropic;iso isotropic|--surface iso --filter none;\
-iso anisotropic|--surface iso --filter none --kernel anisotropic;\
-iso anisotropic stretch 1.5|--surface iso --filter none --kernel anisotropic --settings $out/stretch.toml;\
-iso anisotropic centres 0.3|--surface iso --filter none --kernel anisotropic --settings $out/centres.toml;\
-iso + narrow-range|--surface iso --filter narrow-range;iso + bilateral|--surface iso --filter bilateral;\
-iso + curvature-flow|--surface iso --filter curvature-flow;mesh (cubes 0.5 r)|--surface mesh --filter none;\
+default_configs="spheres + none|--surface spheres --filter none;spheres + gaussian|--surface spheres --filter gaussian;\
+spheres + bilateral|--surface spheres --filter bilateral;spheres + bilateral2d|--surface spheres --filter bilateral2d;\
+spheres + curvature-flow|--surface spheres --filter curvature-flow;\
+spheres + narrow-range (--preset fast)|--surface spheres --filter narrow-range;\
+ellipsoids + none|--surface spheres --filter none --kernel anisotropic;\
+ellipsoids + narrow-range|--surface spheres --filter narrow-range --kernel anisotropic;\
+ellipsoids + curvature-flow|--surface spheres --filter curvature-flow --kernel anisotropic;\
+iso smoothed σ 1.5 r, bulk c̄ 4…9 (default)|;iso smoothed, bulk c̄ 5…9|--settings $out/bulk59.toml;\
+iso smoothed σ 1.25 r|--settings $out/sigma125.toml;iso smoothed everywhere (no bulk weight)|--settings $out/everywhere.toml;\
+iso exact (--preset quality)|--preset quality;iso exact, anisotropic|--preset quality --kernel anisotropic;\
+iso exact, anisotropic stretch 1.5|--preset quality --kernel anisotropic --settings $out/stretch.toml;\
+iso exact, anisotropic centres 0.3|--preset quality --kernel anisotropic --settings $out/centres.toml;\
+iso exact + narrow-range|--preset quality --filter narrow-range;iso exact + bilateral|--preset quality --filter bilateral;\
+iso exact + curvature-flow|--preset quality --filter curvature-flow;mesh (cubes 0.5 r)|--surface mesh --filter none;\
 mesh + 10 smoothing iterations|--surface mesh --filter none --settings $out/smooth10.toml;\
 mesh + 25 smoothing iterations (as the smoothed reference)|--surface mesh --filter none --settings $out/smooth25.toml"
+printf '[iso]\nbulk = [5.0, 9.0]\n' > "$out/bulk59.toml"
+printf '[iso]\nsmoothing = 1.25\n' > "$out/sigma125.toml"
+printf '[iso]\nbulk = [0.0, 0.0]\n' > "$out/everywhere.toml"
 printf '[anisotropy]\nstretch = 1.5\n' > "$out/stretch.toml"
 printf '[anisotropy]\ncentre_blend = 0.3\n' > "$out/centres.toml"
 printf '[mesh]\nsmoothing_iters = 10\n' > "$out/smooth10.toml"

@@ -4,6 +4,10 @@
 //! (`grid` pass, or uploaded with spray) and the `iso_density` pass (1/n_j per point, its own timestamp) runs
 //! when the particles change; every frame, the march from the bound spheres' depth (two dispatches: the first
 //! samples of every ray, then the queued long rays).
+//! With `[iso] smoothing` > 0 (the default) the field is smoothed in 3D where the water is bulk: when the
+//! particles change, `iso_volume` (iso_volume.comp) scatters φ and the neighbour counts onto a lattice and
+//! `iso_blur` (iso_blur.comp) blurs φ and blends by the counts; the cast (iso_vol.comp) then samples that
+//! lattice trilinearly. CPU reference: IsoGrid::volume_sums, smooth_volume, VolumeShape::sample in src/iso.rs.
 use std::sync::Arc;
 
 use ash::vk;
@@ -81,7 +85,7 @@ impl Default for Params {
             refine: 0,
             first_steps: 8,
             fine_px: 4.0,
-            smoothing: 0.0,
+            smoothing: 1.5,
             bulk: [4.0, 9.0],
             voxel: 1.0,
         }

@@ -67,10 +67,14 @@ pub fn view(eye: [f32; 3], target: [f32; 3], w: u32, h: u32, fovy: f32) -> View 
     }
 }
 
-/// Settings with the given radius and nothing extra.
+/// Settings with the given radius and nothing extra: spheres + narrow-range (the `fast` preset's surface and
+/// filter, which most pass tests look at); with `surface = Iso` the exact field (no `[iso] smoothing`).
 pub fn settings(radius: f32) -> Settings {
     Settings::default().with(|s| {
         s.radius = radius;
+        s.surface = meniscus::settings::Surface::Spheres;
+        s.smooth.filter = meniscus::settings::Filter::NarrowRange;
+        s.iso.smoothing = 0.0;
         s.background.boxes = false;
         s.background.ground = false;
         s.splat.radius_scale = 1.0;

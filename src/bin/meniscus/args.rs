@@ -104,8 +104,8 @@ fn input_help() -> String {
 /// Settings: a preset, a TOML file over it, and the most used fields as flags.
 #[derive(Args, Clone, Debug)]
 pub struct SettingsArgs {
-    /// Settings preset: default (spheres + narrow-range), fast, quality (ray-cast SPH iso-surface, unfiltered),
-    /// smooth (the marching-cubes mesh with 25 Laplacian smoothing iterations, as splashsurf users finish it;
+    /// Settings preset: default (ray-cast SPH iso-surface, its field smoothed in 3D where the water is calm),
+    /// fast (particle spheres + narrow-range filter), quality (the exact SPH iso-surface, unsmoothed), smooth (the marching-cubes mesh with 25 Laplacian smoothing iterations, as splashsurf users finish it;
     /// offline: re-extracted on the CPU whenever the particles change), moritz (the thesis' curvature flow).
     #[arg(long, default_value = "default")]
     pub preset: String,
@@ -119,8 +119,9 @@ pub struct SettingsArgs {
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
     #[arg(long, allow_negative_numbers = true)]
     pub fluid_scale: Option<f32>,
-    /// Fluid depth: nearest particle spheres (fast), or the ray-cast SPH iso-surface (the surface splashsurf
-    /// reconstructs; a filter only blurs it: use --filter none, or --preset quality).
+    /// Fluid depth: the ray-cast SPH iso-surface (the default: the surface splashsurf reconstructs; `[iso]
+    /// smoothing` in a settings file), nearest particle spheres (then narrow-range unless --filter says
+    /// otherwise), or the marching-cubes mesh.
     #[arg(long, value_parser = named::<Surface>())]
     pub surface: Option<Surface>,
     /// The iso field's kernel: isotropic (splashsurf's spheres) or anisotropic (Yu & Turk 2013: ellipsoids from
@@ -150,6 +151,11 @@ impl SettingsArgs {
         }
         if let Some(m) = self.surface {
             s.surface = m;
+            // Spheres unfiltered are bumpy: --surface spheres alone on an unfiltered preset gets the default
+            // filter of spheres (--filter none shows them raw).
+            if m == Surface::Spheres && self.filter.is_none() && s.smooth.filter == Filter::None {
+                s.smooth.filter = Filter::NarrowRange;
+            }
         }
         if let Some(k) = self.kernel {
             s.kernel = k;
