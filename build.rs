@@ -30,7 +30,10 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_viscosity.comp", NBR),
     // The smoothed iso field (src/passes/iso.rs): the blur's first, middle and last axis; the cast over the
     // volume and its queued rays.
-    ("iso_blur.comp", &[("FIRST", "ISO_BLUR_FIRST"), ("", ""), ("LAST", "ISO_BLUR_LAST")]),
+    (
+        "iso_blur.comp",
+        &[("BRICKS", "ISO_BLUR_BRICKS"), ("FIRST", "ISO_BLUR_FIRST"), ("", ""), ("LAST", "ISO_BLUR_LAST")],
+    ),
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
 ];
 const NBR: &[(&str, &str)] = &[("", ""), ("NBR16", "NBR16")];

@@ -8,11 +8,15 @@
 //! iso_blur then blurs φ where c̄ says the water is bulk. The field smoothing follows the mesh smoothing that
 //! splashsurf weights by c_j (Löschner et al. 2023), moved from the mesh to the field so a ray cast can draw it.
 //! CPU reference: IsoGrid::volume_sums in src/iso.rs.
-//! In: the weighted points (xyz, 1/n_j), cells. Out: acc (binding 3, zeroed by the host before).
+//! Each point also marks the bricks (ISO_VOLUME_BRICK³ voxels) its support's box touches, so iso_blur can skip
+//! the rest.
+//! In: the weighted points (xyz, 1/n_j), cells. Out: acc (binding 3), the bricks' occupied flags (binding 4,
+//! the first half; both zeroed by the host before).
 #include "common.glsl"
 #include "iso_field.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 3) buffer IsoVolumeAcc { uint acc[]; };
+layout(std430, set = 0, binding = 4) writeonly buffer IsoVolumeBricks { uint bricks[]; };
 
 void main() {
     uint j = gl_GlobalInvocationID.x;
@@ -34,6 +38,11 @@ void main() {
     ivec3 lo = max(ivec3(ceil(u - rv)), ivec3(0));
     ivec3 hi = min(ivec3(floor(u + rv)), dims - 1);
     float inv_h = 1.0 / h;
+    ivec3 bd = (dims + int(ISO_VOLUME_BRICK) - 1) / int(ISO_VOLUME_BRICK);
+    ivec3 b0 = lo / int(ISO_VOLUME_BRICK), b1 = hi / int(ISO_VOLUME_BRICK);
+    for (int z = b0.z; z <= b1.z; ++z)
+        for (int y = b0.y; y <= b1.y; ++y)
+            for (int x = b0.x; x <= b1.x; ++x) bricks[x + bd.x * (y + bd.y * z)] = 1u;
     for (int z = lo.z; z <= hi.z; ++z) {
         for (int y = lo.y; y <= hi.y; ++y) {
             int row = dims.x * (y + dims.y * z);

@@ -468,6 +468,12 @@ impl VolumeShape {
         self.dims.iter().map(|&n| n as usize).product()
     }
 
+    /// Bricks of ISO_VOLUME_BRICK³ voxels in all (`iso_blur` skips the empty ones).
+    pub fn bricks(&self) -> usize {
+        let b = crate::shader_constants::ISO_VOLUME_BRICK;
+        self.dims.iter().map(|&n| n.div_ceil(b) as usize).product()
+    }
+
     /// Index of voxel (x, y, z).
     pub fn index(&self, x: u32, y: u32, z: u32) -> usize {
         x as usize + self.dims[0] as usize * (y as usize + self.dims[1] as usize * z as usize)

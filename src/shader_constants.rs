@@ -45,6 +45,10 @@ pub const ISO_VOLUME_FIX_BITS: u32 = 20;
 /// storage-buffer range; 16 bytes in all); past it the voxels grow.
 pub const ISO_VOLUME_MAX_VOXELS: u32 = 1 << 24;
 
+/// Voxels per edge of a brick of that lattice: `iso_blur` skips the bricks no particle reaches within the blur's
+/// reach (most of a splash's box is air).
+pub const ISO_VOLUME_BRICK: u32 = 8;
+
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
@@ -57,6 +61,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
     ("ISO_VOLUME_FIX_BITS", ISO_VOLUME_FIX_BITS),
+    ("ISO_VOLUME_BRICK", ISO_VOLUME_BRICK),
     ("MAX_COLLIDERS", MAX_COLLIDERS),
     ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),

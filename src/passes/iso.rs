@@ -139,6 +139,8 @@ pub struct IsoVolume {
     pub field: Buffer,
     /// The y blur's output (R32F texels).
     pub tmp: Buffer,
+    /// Per brick of ISO_VOLUME_BRICK³ voxels: occupied flags, then active flags (R32UI texels).
+    pub bricks: Buffer,
 }
 
 impl IsoVolume {
@@ -154,6 +156,7 @@ impl IsoVolume {
             acc: Buffer::texels(gpu, "iso_volume_acc", 8 * n, usage, vk::Format::R32_UINT)?,
             field: Buffer::texels(gpu, "iso_volume_field", 4 * n, usage, vk::Format::R32_SFLOAT)?,
             tmp: Buffer::texels(gpu, "iso_volume_tmp", 4 * n, usage, vk::Format::R32_SFLOAT)?,
+            bricks: Buffer::texels(gpu, "iso_volume_bricks", 8 * shape.bricks() as u64, usage, vk::Format::R32_UINT)?,
         })
     }
 
@@ -268,7 +271,7 @@ pub struct Iso {
     grid: crate::passes::grid::Grid,
     gather: ComputeProgram<GatherPush>,
     volume: ComputeProgram<IsoPush>,
-    blur: [ComputeProgram<BlurPush>; 3],
+    blur: [ComputeProgram<BlurPush>; 4],
     cast_vol: ComputeProgram<IsoPush>,
     rest_vol: ComputeProgram<IsoPush>,
 }
@@ -315,11 +318,14 @@ declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uni
 declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 
 // The smoothed field: frame, weighted points, cells → the fixed-point sums (atomics).
-declare_program!(pub VOLUME: IsoPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, BufWrite]));
-// Its blur, one axis per dispatch: the sums → x; x → y; y and the sums → the field.
-declare_program!(pub BLUR_FIRST: BlurPush = compute(shaders::ISO_BLUR_FIRST, [Uniform, TexelRead, BufWrite]));
-declare_program!(pub BLUR: BlurPush = compute(shaders::ISO_BLUR, [Uniform, TexelRead, BufWrite]));
-declare_program!(pub BLUR_LAST: BlurPush = compute(shaders::ISO_BLUR_LAST, [Uniform, TexelRead, TexelRead, BufWrite]));
+// … and the bricks' occupied flags.
+declare_program!(pub VOLUME: IsoPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, BufWrite, BufWrite]));
+// Its blur: the bricks' occupied flags → active flags; then one axis per dispatch (each skipping the inactive
+// bricks): the sums → x; x → y; y and the sums → the field.
+declare_program!(pub BLUR_BRICKS: BlurPush = compute(shaders::ISO_BLUR_BRICKS, [Uniform, BufWrite]));
+declare_program!(pub BLUR_FIRST: BlurPush = compute(shaders::ISO_BLUR_FIRST, [Uniform, TexelRead, BufWrite, TexelRead]));
+declare_program!(pub BLUR: BlurPush = compute(shaders::ISO_BLUR, [Uniform, TexelRead, BufWrite, TexelRead]));
+declare_program!(pub BLUR_LAST: BlurPush = compute(shaders::ISO_BLUR_LAST, [Uniform, TexelRead, TexelRead, BufWrite, TexelRead]));
 // The casts over the smoothed field: frame, field, depth, back, queue, header.
 declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
@@ -366,6 +372,7 @@ impl Iso {
             gather: ComputeProgram::new(gpu, &GATHER)?,
             volume: ComputeProgram::new(gpu, &VOLUME)?,
             blur: [
+                ComputeProgram::new(gpu, &BLUR_BRICKS)?,
                 ComputeProgram::new(gpu, &BLUR_FIRST)?,
                 ComputeProgram::new(gpu, &BLUR)?,
                 ComputeProgram::new(gpu, &BLUR_LAST)?,
@@ -415,8 +422,9 @@ impl Iso {
         b.volume_for.set(Some(*p));
         ctx.pass(VOLUME_NAME, |ctx| {
             ctx.fill(&v.acc, 0);
+            ctx.fill(&v.bricks, 0);
             let n = b.shape.dims[3];
-            let bufs = [frame.into(), (&b.weighted).into(), (&b.cells).into(), (&v.acc).into()];
+            let bufs = [frame.into(), (&b.weighted).into(), (&b.cells).into(), (&v.acc).into(), (&v.bricks).into()];
             self.volume.dispatch(ctx, &bufs, &v.push(b.shape), [n.div_ceil(super::LOCAL_1D), 1, 1]);
         });
         ctx.pass(BLUR_NAME, |ctx| {
@@ -427,14 +435,14 @@ impl Iso {
                 dims: [d[0], d[1], d[2], axis],
                 params: [1.0 / (2.0 * s * s), taps, p.bulk[0], p.bulk[1]],
             };
-            // Rows of at most 65535 groups (the guaranteed limit per axis; iso_blur.comp rebuilds the index).
-            let g = (v.shape.voxels() as u32).div_ceil(super::LOCAL_1D);
-            let rows = g.div_ceil(65535);
-            let groups = [g.div_ceil(rows), rows, 1];
-            self.blur[0].dispatch(ctx, &[frame.into(), (&v.acc).into(), (&v.field).into()], &push(0), groups);
-            self.blur[1].dispatch(ctx, &[frame.into(), (&v.field).into(), (&v.tmp).into()], &push(1), groups);
-            let last = [frame.into(), (&v.tmp).into(), (&v.acc).into(), (&v.field).into()];
-            self.blur[2].dispatch(ctx, &last, &push(2), groups);
+            let groups = [d[0].div_ceil(super::LOCAL_1D), d[1], d[2]];
+            let bricks = [(v.shape.bricks() as u32).div_ceil(super::LOCAL_1D), 1, 1];
+            self.blur[0].dispatch(ctx, &[frame.into(), (&v.bricks).into()], &push(0), bricks);
+            let br = (&v.bricks).into();
+            self.blur[1].dispatch(ctx, &[frame.into(), (&v.acc).into(), (&v.field).into(), br], &push(0), groups);
+            self.blur[2].dispatch(ctx, &[frame.into(), (&v.field).into(), (&v.tmp).into(), br], &push(1), groups);
+            let last = [frame.into(), (&v.tmp).into(), (&v.acc).into(), (&v.field).into(), br];
+            self.blur[3].dispatch(ctx, &last, &push(2), groups);
         });
     }
 
