@@ -776,7 +776,8 @@ impl Renderer {
                 }
             }
             self.executor.wait_idle()?;
-            self.iso = None;
+            // The smoothed field's buffers outlive the grid's (ensure_iso_volume reuses them if they fit).
+            let volume = self.iso.take().and_then(|b| b.volume);
             let cap = n.max(1);
             // TRANSFER_SRC: the tests read the grid and kernels back.
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
@@ -791,7 +792,7 @@ impl Renderer {
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),
-                volume: None,
+                volume,
                 volume_for: std::cell::Cell::new(None),
             });
             self.iso_stale = false;
@@ -811,7 +812,7 @@ impl Renderer {
         };
         let grid = crate::iso::IsoGrid::build_reaching(&pts, support, reach);
         self.executor.wait_idle()?;
-        self.iso = None;
+        let volume = self.iso.take().and_then(|b| b.volume);
         let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?
             .with_texel_view(crate::passes::iso::IsoBuffers::POINTS)?;
         let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?
@@ -833,7 +834,7 @@ impl Renderer {
             rebuild: std::cell::Cell::new(false),
             weights_stale: std::cell::Cell::new(true),
             kernels_for: std::cell::Cell::new(None),
-            volume: None,
+            volume,
             volume_for: std::cell::Cell::new(None),
         });
         self.iso_stale = false;
@@ -859,6 +860,15 @@ impl Renderer {
         let shape = crate::iso::VolumeShape::around(lo, hi, b.shape.support(), &p);
         if b.volume.as_ref().is_some_and(|v| v.shape == shape) {
             return Ok(());
+        }
+        // A sequence's box moves every frame: the buffers are kept while they hold the new lattice (their field
+        // is rebuilt for the new particles anyway), and grow by a quarter when they do not.
+        if let Some(b) = self.iso.as_mut() {
+            if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape)) {
+                v.shape = shape;
+                b.volume_for.set(None);
+                return Ok(());
+            }
         }
         self.executor.wait_idle()?;
         let volume = crate::passes::iso::IsoVolume::new(&self.gpu, shape)?;

@@ -146,18 +146,27 @@ pub struct IsoVolume {
 impl IsoVolume {
     /// Buffers for the lattice `shape`.
     pub fn new(gpu: &Arc<Gpu>, shape: crate::iso::VolumeShape) -> Result<IsoVolume> {
+        // A quarter to spare for the next frames of a sequence, within ISO_VOLUME_MAX_VOXELS.
+        let max = crate::shader_constants::ISO_VOLUME_MAX_VOXELS as u64;
+        let spare = |n: u64, cap: u64| (n + n / 4).min(cap.max(n));
+        let n = spare(shape.voxels() as u64, max);
+        let bricks = spare(shape.bricks() as u64, max);
         // TRANSFER_DST: zeroed before each build; TRANSFER_SRC: the tests read the field back.
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
-        let n = shape.voxels() as u64;
         Ok(IsoVolume {
             shape,
             acc: Buffer::texels(gpu, "iso_volume_acc", 8 * n, usage, vk::Format::R32_UINT)?,
             field: Buffer::texels(gpu, "iso_volume_field", 4 * n, usage, vk::Format::R32_SFLOAT)?,
             tmp: Buffer::texels(gpu, "iso_volume_tmp", 4 * n, usage, vk::Format::R32_SFLOAT)?,
-            bricks: Buffer::texels(gpu, "iso_volume_bricks", 8 * shape.bricks() as u64, usage, vk::Format::R32_UINT)?,
+            bricks: Buffer::texels(gpu, "iso_volume_bricks", 8 * bricks, usage, vk::Format::R32_UINT)?,
         })
+    }
+
+    /// Whether these buffers hold the lattice `shape`.
+    pub fn fits(&self, shape: &crate::iso::VolumeShape) -> bool {
+        self.field.size >= 4 * shape.voxels() as u64 && self.bricks.size >= 8 * shape.bricks() as u64
     }
 
     /// `push` with this lattice in `aniso` (origin, spacing) and `aniso2.yzw` (voxels per axis), as
