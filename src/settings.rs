@@ -286,6 +286,16 @@ impl Settings {
         Ok(s)
     }
 
+    /// Switch the surface. Spheres unfiltered are bumpy: switching to spheres on unfiltered settings (the
+    /// default iso surface's) also turns on their default filter, narrow-range (`--filter none` after this
+    /// shows them raw). Used by the CLI's `--surface` and the demo's `I` key.
+    pub fn set_surface(&mut self, surface: Surface) {
+        if surface == Surface::Spheres && self.surface != Surface::Spheres && self.smooth.filter == Filter::None {
+            self.smooth.filter = Filter::NarrowRange;
+        }
+        self.surface = surface;
+    }
+
     /// A copy with `f` applied (variants of one base: `base.with(|s| s.smooth.filter = Filter::None)`).
     pub fn with(&self, f: impl FnOnce(&mut Settings)) -> Settings {
         let mut s = self.clone();
@@ -408,9 +418,12 @@ impl Settings {
             && (1..=65536).contains(&self.iso.max_steps)
             && self.iso.refine <= 32
             && self.iso.first_steps <= 65536
-            && (self.iso.fine_px == 0.0 || (1.0..=64.0).contains(&self.iso.fine_px));
+            && (self.iso.fine_px == 0.0 || (1.0..=64.0).contains(&self.iso.fine_px))
+            && (0.0..=8.0).contains(&self.iso.smoothing)
+            && (0.25..=4.0).contains(&self.iso.voxel)
+            && self.iso.bulk.iter().all(|c| (0.0..=1000.0).contains(c));
         if !iso_ok {
-            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements, first_steps ≤ 65536, fine_px 0 or 1 … 64)");
+            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements, first_steps ≤ 65536, fine_px 0 or 1 … 64, smoothing 0 … 8, voxel 0.25 … 4, bulk 0 … 1000)");
         }
         if self.smooth.bilateral.iterations > 64 {
             return bad("[smooth.bilateral] iterations (≤ 64)");
@@ -492,6 +505,28 @@ mod tests {
         check("type.toml", "[ssr]\nstride = \"far\"\n", 15, "");
         check("name.toml", "[smooth]\nfilter = \"gaussien\"\n", 18, "gaussien");
         check("syntax.toml", "[ssr]\nstride = = 8\n", 15, "");
+    }
+
+    #[test]
+    fn presets_pick_their_surfaces() {
+        // #15: the default is the smoothed iso surface; fast keeps spheres + narrow-range; quality the exact field.
+        let d = Settings::preset("default").unwrap();
+        assert_eq!((d.surface, d.smooth.filter), (Surface::Iso, Filter::None));
+        assert!(Settings { radius: 0.01, ..d.clone() }.iso_params().volume.is_some());
+        let f = Settings::preset("fast").unwrap();
+        assert_eq!((f.surface, f.smooth.filter), (Surface::Spheres, Filter::NarrowRange));
+        let q = Settings { radius: 0.01, ..Settings::preset("quality").unwrap() };
+        assert_eq!(q.surface, Surface::Iso);
+        assert!(q.iso_params().volume.is_none());
+        // The smoothed field is isotropic: anisotropic kernels cast the exact field.
+        assert!(Settings { kernel: Kernel::Anisotropic, radius: 0.01, ..d.clone() }.iso_params().volume.is_none());
+        // Spheres from unfiltered settings get narrow-range; a filter already chosen stays.
+        let mut s = d.clone();
+        s.set_surface(Surface::Spheres);
+        assert_eq!(s.smooth.filter, Filter::NarrowRange);
+        let mut s = d.with(|s| s.smooth.filter = Filter::Bilateral);
+        s.set_surface(Surface::Spheres);
+        assert_eq!(s.smooth.filter, Filter::Bilateral);
     }
 
     #[test]

@@ -150,11 +150,10 @@ impl SettingsArgs {
             s.splat.mode = m;
         }
         if let Some(m) = self.surface {
-            s.surface = m;
-            // Spheres unfiltered are bumpy: --surface spheres alone on an unfiltered preset gets the default
-            // filter of spheres (--filter none shows them raw).
-            if m == Surface::Spheres && self.filter.is_none() && s.smooth.filter == Filter::None {
-                s.smooth.filter = Filter::NarrowRange;
+            // --surface spheres alone on an unfiltered preset gets narrow-range; an explicit --filter wins.
+            s.set_surface(m);
+            if let Some(f) = self.filter {
+                s.smooth.filter = f;
             }
         }
         if let Some(k) = self.kernel {

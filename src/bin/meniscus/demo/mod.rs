@@ -488,11 +488,12 @@ impl App {
             }
             KeyCode::KeyX => self.settings.ssr.enabled = !self.settings.ssr.enabled,
             KeyCode::KeyI => {
-                self.settings.surface = match self.settings.surface {
+                let next = match self.settings.surface {
                     Surface::Spheres => Surface::Iso,
                     Surface::Iso => Surface::Mesh,
                     Surface::Mesh => Surface::Spheres,
-                }
+                };
+                self.settings.set_surface(next);
             }
             KeyCode::KeyO => {
                 // Every preset, in the library's order (`smooth` last).
