@@ -227,7 +227,8 @@ impl<'t> Recording<'_, 't> {
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. Optional steps: `background`
 /// (skipped while the view and scene stand), `splat` or `mesh` (`surface = "mesh"`), `iso` (`surface =
 /// "iso"`, after `anisotropy` with `kernel = "anisotropic"`, which also turns the spheres of the compute splat
-/// into ellipsoids), `upsample` (`fluid_scale` < 1).
+/// into ellipsoids, or after `iso_volume` and `iso_blur` with `[iso] smoothing` > 0, which build the smoothed
+/// field when the particles changed), `upsample` (`fluid_scale` < 1).
 #[allow(clippy::too_many_arguments)]
 pub fn record_frame(
     rec: &mut Recording,

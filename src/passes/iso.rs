@@ -69,8 +69,8 @@ pub struct Params {
     /// Σ_k (1 − d²/h²) (splashsurf's feature weight), interpolated to the lattice, goes from bulk[0] to bulk[1]
     /// (bulk[1] ≤ bulk[0]: blur everywhere).
     pub bulk: [f32; 2],
-    /// Iso-surface smoothing: the lattice's spacing, particle radii (coarser where the box would need more than
-    /// 8 M voxels).
+    /// Iso-surface smoothing: the lattice's spacing, particle radii (coarser where the grid's box would need more
+    /// than ISO_VOLUME_MAX_VOXELS, 16 M, voxels).
     pub voxel: f32,
 }
 
