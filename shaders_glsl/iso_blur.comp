@@ -88,8 +88,7 @@ void main() {
     float phi = float(a.x) * (1.0 / float(1u << ISO_VOLUME_FIX_BITS));
     float cbar = a.x > 0u ? float(a.y) / float(a.x) : 0.0;
     float b0 = pc.params.z, b1 = pc.params.w;
-    float t = b1 > b0 ? clamp((cbar - b0) / (b1 - b0), 0.0, 1.0) : 1.0;
-    dst[v] = phi + t * t * (3.0 - 2.0 * t) * (blurred - phi);
+    dst[v] = phi + (b1 > b0 ? smoothstep(b0, b1, cbar) : 1.0) * (blurred - phi);
 #else
     dst[v] = blurred;
 #endif

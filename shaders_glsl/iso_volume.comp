@@ -40,9 +40,9 @@ void main() {
     float inv_h = 1.0 / h;
     ivec3 bd = (dims + int(ISO_VOLUME_BRICK) - 1) / int(ISO_VOLUME_BRICK);
     ivec3 b0 = lo / int(ISO_VOLUME_BRICK), b1 = hi / int(ISO_VOLUME_BRICK);
-    for (int z = b0.z; z <= b1.z; ++z)
-        for (int y = b0.y; y <= b1.y; ++y)
-            for (int x = b0.x; x <= b1.x; ++x) bricks[x + bd.x * (y + bd.y * z)] = 1u;
+    for (int bz = b0.z; bz <= b1.z; ++bz)
+        for (int by = b0.y; by <= b1.y; ++by)
+            for (int bx = b0.x; bx <= b1.x; ++bx) bricks[bx + bd.x * (by + bd.y * bz)] = 1u;
     for (int z = lo.z; z <= hi.z; ++z) {
         for (int y = lo.y; y <= hi.y; ++y) {
             int row = dims.x * (y + dims.y * z);

@@ -500,17 +500,23 @@ impl VolumeShape {
 
 impl IsoGrid {
     /// Each sorted point's neighbour count c_j = Σ_{k ≠ j} max(0, 1 − |x_j − x_k|² / h²): splashsurf's feature
-    /// weight, high in the bulk, low at the surface and in spray.
+    /// weight, high in the bulk, low at the surface and in spray (the smoothed field's c̄, and the mesh
+    /// smoothing's feature weights in src/smooth_mesh.rs).
     pub fn neighbour_weights(&self) -> Vec<f32> {
         use rayon::prelude::*;
-        let inv_h2 = 1.0 / (self.support * self.support);
+        let h = self.support;
         self.points
             .par_iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 let x = Vec3::new(p[0], p[1], p[2]);
                 let mut c = 0.0;
-                self.for_each_near(x, |_, y| c += (1.0 - x.distance_squared(y) * inv_h2).max(0.0));
-                c - 1.0
+                self.for_each_near(x, |j, y| {
+                    if j != i {
+                        c += (1.0 - x.distance_squared(y) / (h * h)).max(0.0);
+                    }
+                });
+                c
             })
             .collect()
     }

@@ -81,21 +81,7 @@ pub fn vertex_neighbours(m: &TriMesh) -> (Vec<u32>, Vec<u32>) {
 /// The feature weight of every vertex (see the module doc).
 pub fn feature_weights(m: &TriMesh, grid: &IsoGrid, inv_n: &[f32], normalization: f32) -> Vec<f32> {
     let h = grid.support;
-    let counts: Vec<f32> = grid
-        .points
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let x = Vec3::new(p[0], p[1], p[2]);
-            let mut c = 0.0;
-            grid.for_each_near(x, |j, y| {
-                if j != i {
-                    c += (1.0 - x.distance_squared(y) / (h * h)).max(0.0);
-                }
-            });
-            c
-        })
-        .collect();
+    let counts = grid.neighbour_weights();
     m.vertices
         .par_iter()
         .map(|v| {

@@ -140,6 +140,11 @@ impl SettingsArgs {
         if let Some(f) = &self.settings {
             s = s.with_toml(f)?;
         }
+        // The surface before the filter: --surface spheres alone on an unfiltered preset gets narrow-range
+        // (Settings::set_surface); an explicit --filter wins.
+        if let Some(m) = self.surface {
+            s.set_surface(m);
+        }
         if let Some(f) = self.filter {
             s.smooth.filter = f;
         }
@@ -148,13 +153,6 @@ impl SettingsArgs {
         }
         if let Some(m) = self.splat {
             s.splat.mode = m;
-        }
-        if let Some(m) = self.surface {
-            // --surface spheres alone on an unfiltered preset gets narrow-range; an explicit --filter wins.
-            s.set_surface(m);
-            if let Some(f) = self.filter {
-                s.smooth.filter = f;
-            }
         }
         if let Some(k) = self.kernel {
             s.kernel = k;
