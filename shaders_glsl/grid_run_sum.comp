@@ -3,7 +3,7 @@
 //! cells, one run per thread, so the prefix sum that follows (grid_scan) works on GRID_RUN times fewer values.
 //! Why: grid_scan's work groups share memory across barriers, which lavapipe runs as one coroutine per 8 lanes
 //! (created and switched per work group), and that, not the arithmetic, was most of the pass: scanning every
-//! cell took 15 of the 59k dam break's 17 ms (NOTES.md, session 15). This stage and grid_run_place have no
+//! cell took 15 of the 59k dam break's 17 ms (docs/simulation.md, commit 434fdd1). This stage and grid_run_place have no
 //! barriers; a GPU reads the runs through its caches.
 //! In: counts (texels). Out: run_counts[r] = Σ counts over cells [r·GRID_RUN, (r + 1)·GRID_RUN).
 layout(local_size_x = LOCAL_1D) in;

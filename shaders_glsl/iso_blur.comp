@@ -9,7 +9,7 @@
 //! the blur's reach on any axis is 0 after every pass, exactly, so it is written without reading anything; the
 //! ISO_BLUR_BRICKS dispatch (first) turns the occupied flags into those active flags (most of a splash's box is
 //! air: the dam-break frame's blur 1.13 → 0.54–0.62 s on lavapipe together with the division-free indexing,
-//! NOTES session 18).
+//! docs/iso-surface.md, commit e679baa).
 //! ISO_BLUR_BRICKS: in/out: bricks (binding 1: occupied flags, then the active flags written after them).
 //! ISO_BLUR_FIRST (x): in: acc (binding 1, R32UI: φ fixed point at 2v), bricks (3, R32UI); out: binding 2.
 //! Middle (y): in: binding 1 (R32F), bricks (3); out: binding 2.

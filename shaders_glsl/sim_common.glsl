@@ -108,7 +108,7 @@ float wall_density(vec3 x, out vec3 grad) {
 layout(std430, binding = SIM_SDF_BINDING) readonly buffer SdfValues { float sdf[]; };
 // Whether the scene has a mesh collider, a specialization constant (Stages::new): lavapipe runs a branch's body
 // even when no lane takes it, so without it every particle paid the lattice's eight loads and the trilinear
-// arithmetic in sim_predict and each sim_solve iteration (NOTES.md, session 15).
+// arithmetic in sim_predict and each sim_solve iteration (docs/simulation.md, commit 434fdd1).
 layout(constant_id = 1) const bool SIM_MESH_COLLIDER = true;
 
 float sdf_node(uvec3 i) { return sdf[i.x + sim.sdf_dims.x * (i.y + sim.sdf_dims.y * i.z)]; }
@@ -182,7 +182,7 @@ vec3 collide(vec3 x) {
 // ranges, since cells are numbered x fastest and sorted in that order, so the three cells of a row (x − 1 …
 // x + 1) are one contiguous range. Close with END_ROWS. Needs `counts` and `start` (the grid pass's outputs)
 // declared by the shader as texel buffers (usamplerBuffer): as storage buffers, the two loads per row were two
-// loops over the lanes each on lavapipe (NOTES.md, session 16). Only sim_neighbours walks cells; the other
+// loops over the lanes each on lavapipe (docs/simulation.md, commit 961bada). Only sim_neighbours walks cells; the other
 // stages read its neighbour lists.
 #define FOR_ROWS(p, S, E)                                                                       \
     ivec3 c0_ = grid_cell(sim.grid, p);                                                        \
@@ -199,14 +199,14 @@ vec3 collide(vec3 x) {
 // excluded), as listed by sim_neighbours at the step's predicted positions (Macklin & Müller, Alg. 1 line 6:
 // the neighbour set is found once per step). VISIT is the name of a one-argument macro the stage defines,
 // usually calling a function with its accumulators. On lavapipe a storage-buffer load whose index differs per
-// lane is a loop over the 8 lanes, each with its branches (NOTES.md, session 11): the index loads, not the
-// kernels, were most of a list stage's time (session 14). So the loads are made few:
+// lane is a loop over the 8 lanes, each with its branches (docs/simulation.md, commit a4c867b): the index loads, not the
+// kernels, were most of a list stage's time (commit c680c5d). So the loads are made few:
 // - compiled with NBR16 (the programs of a simulation of at most 65,536 particles), the lists hold 16-bit
 //   indices, eight to a 16-byte texel (slots 8q … 8q + 7 of particle i in texel q × capacity + i, two to a word,
 //   low half first), read with one branch-free texelFetch per eight neighbours; the last, partial texel's pairs
 //   are picked from the fetched vector;
 // - otherwise two 32-bit indices are loaded before either is visited (the pair halves the loop's own cost,
-//   sim_density −13 %, session 11).
+//   sim_density −13 %, commit a4c867b).
 // The visits and their order are the same either way, so the sums are too. The lists are slot-major (slot k of
 // every particle contiguous), so the threads of a warp read one run of memory, not one word per list. Needs
 // `nbr_count` and `nbrs` declared (NEIGHBOUR_BUFFERS).
@@ -256,7 +256,7 @@ vec3 collide(vec3 x) {
         }                                                                                      \
     }
 // The neighbour-list bindings of the stages that read them (at 1 and 2). 32-bit lists stay storage buffers: as
-// texel buffers of one index each they measured no faster (NOTES.md, session 11), and a texel view of a list
+// texel buffers of one index each they measured no faster (docs/simulation.md, commit a4c867b), and a texel view of a list
 // of more than 65,536 particles could pass the devices' texel-buffer limit (2^27 texels) at a few million.
 #define NEIGHBOUR_BUFFERS                                                                       \
     layout(binding = 1) uniform usamplerBuffer nbr_count;                                      \
@@ -265,7 +265,7 @@ vec3 collide(vec3 x) {
 
 // The s_corr exponent n = 1..15, a specialization constant (Stages::new sets it from Params::scorr_n), so the
 // bit tests below fold away: lavapipe runs both sides of a branch, so a `pow` beside the n = 4 case had cost
-// sim_solve 23 %, and the same power by squaring on a uniform's n still about 10 % (NOTES.md, session 15). The
+// sim_solve 23 %, and the same power by squaring on a uniform's n still about 10 % (docs/simulation.md, commit 434fdd1). The
 // uniform block's counts.w carries n too, for the CPU reference.
 layout(constant_id = 0) const uint SCORR_N = 4u;
 

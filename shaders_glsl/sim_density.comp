@@ -15,7 +15,7 @@ layout(std430, binding = 5) writeonly buffer Density { float density[]; };
 // One neighbour's share of ρ_i and ∇_i C_i, with the kernels' constant factors taken out of the loop: wsum
 // gathers (h² − r²)³ (poly6 / its coefficient), gsum (h − |r|)² r/|r| (the spiky gradient / its coefficient), a4
 // (h − |r|)⁴ = |that|², so Σ_k |∇_k C_i|² needs no dot product per neighbour. Why: on lavapipe the kernels'
-// arithmetic, not the loads, was two thirds of this stage (NOTES.md, session 16).
+// arithmetic, not the loads, was two thirds of this stage (docs/simulation.md, commit 961bada).
 void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float a4) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
     float r2 = dot(r, r);

@@ -8,7 +8,7 @@
 //! Out: the same two arrays in grid order, the state's velocity with gravity's Δt·g added (sim_predict's v,
 //! which that stage does not write back). Everything is read as texels (state as RGBA32UI, two per
 //! particle, so the id bits pass unchanged): on lavapipe a storage-buffer load of a vector is a loop over the
-//! lanes per component, a texel fetch one gather (NOTES.md, sessions 11, 15).
+//! lanes per component, a texel fetch one gather (docs/simulation.md, commits a4c867b and 434fdd1).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(binding = 1) uniform usamplerBuffer order;

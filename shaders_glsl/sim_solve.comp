@@ -12,7 +12,7 @@ layout(std430, binding = 4) writeonly buffer PredOut { vec4 pred_out[]; };
 
 // One neighbour's share of Δp_i / ((m/ρ0) × the spiky gradient's coefficient):
 // (λ_i + λ_j + s_corr)·(h − |r|)² r/|r|. The constant factors are applied once after the loop, as in
-// sim_density (NOTES.md, session 16).
+// sim_density (docs/simulation.md, commit 961bada).
 void visit(uint j, vec3 xi, float li, inout vec3 dp) {
     vec4 pj = texelFetch(pos_lambda, int(j));
     vec3 r = xi - pj.xyz;

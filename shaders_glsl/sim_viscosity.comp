@@ -16,7 +16,7 @@ layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
 
 // Whether vorticity confinement is on (ε > 0), a specialization constant (Stages::new): lavapipe runs both sides of
 // a branch, so with a uniform's test every particle walked its list twice, once with confinement's fetches and
-// gradient (NOTES.md, session 16).
+// gradient (docs/simulation.md, commit 961bada).
 layout(constant_id = 2) const bool SIM_CONFINE = true;
 
 // One neighbour's share of XSPH's Σ (v_j − v_i) W_poly6, and with confinement of η.

@@ -1565,7 +1565,7 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
                 .map(|(a, b)| (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0).acos().to_degrees())
                 .fold(0f32, f32::max);
             assert!(worst < 1.0, "{what}: normals up to {worst}° apart");
-            // The CPU path's own count (the same triangles): 0 on the random clouds; see NOTES.md on the frame.
+            // The CPU path's own count (the same triangles): 0 on the random clouds; see docs/mesh-extraction.md on the frame.
             let (open, open_cpu) = (open_or_flipped_edges(&m), open_or_flipped_edges(&cpu));
             assert_eq!(open, open_cpu, "{what}: open or flipped edges");
             if label.starts_with("random") {

@@ -265,10 +265,10 @@ fn a_resting_pool_stays_at_rest() {
     eprintln!("rms speed after each second: {rms_at:?}");
     assert_eq!(outside.count(), 0, "particles outside the container");
     // The bound. Deterministic (sim_reorder), so this is one fixed outcome on one device: 0.0445 m/s
-    // here since session 16 (0.0266 before). The fastest particle of a settled pool is a chaotic statistic: the
+    // here since commit 961bada (0.0266 before). The fastest particle of a settled pool is a chaotic statistic: the
     // same equations with the kernels' constants factored out of the loops (rounding only; the CPU reference
     // still agrees to 3e-8 m) gave 0.024–0.045 m/s over 11 pool sizes of 4,761–14,157 particles, against
-    // 0.018–0.047 before (NOTES.md, sessions 14, 16).
+    // 0.018–0.047 before (docs/simulation.md, commits c680c5d and 961bada).
     assert!(vmax < 0.05, "max speed {vmax} m/s");
     assert!(rms_at[1] < rms_at[0], "the pool is not settling: rms {rms_at:?}");
     assert!(err < 0.01, "density error {err}");

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # tools/quality-blur.py DEPTH.npy SIGMA_PX CUT_R OUT.npy — a normalised Gaussian of a dumped depth image over its
 # fluid pixels (neighbours further than CUT_R particle radii in depth left out), for measuring screen-space
-# smoothing of the iso surface with ../shared/tools/quality (NOTES.md, session 13). Needs numpy. Radius 0.0125 m
+# smoothing of the iso surface with ../shared/tools/quality (docs/iso-surface.md, commit 14600b6). Needs numpy. Radius 0.0125 m
 # (the shared dam break). Example:
 #   meniscus render F --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --surface iso --filter none --out i.png --dump smoothed
 #   tools/quality-blur.py i.smoothed.npy 0.7 2 b.npy

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Prototype (issue #15, session 17): the SPH colour field smoothed in 3D where the water is bulk, measured on the
+"""Prototype (issue #15, commit df4de40): the SPH colour field smoothed in 3D where the water is bulk, measured on the
 shared dam-break frame 20 against both splashsurf references. A CPU/numpy experiment to decide what to build on
 the GPU; nothing in meniscus uses it.
 

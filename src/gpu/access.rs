@@ -208,7 +208,7 @@ impl AccessState {
         }
     }
 
-    /// [`AccessState::transition`] for a buffer, which has no layout. (Before session 12 buffers went through
+    /// [`AccessState::transition`] for a buffer, which has no layout. (Before commit 49486fa buffers went through
     /// the image rule with the layout forgotten each time, so every read looked like a layout transition and
     /// replaced the reads before it: a buffer read by a shader and then as indirect arguments lost the shader
     /// read, and the next write waited for the indirect read alone — the write-after-read hazard sync

@@ -5,7 +5,7 @@
 //! it to. Shaders: shaders_glsl/grid_count.comp, grid_run_sum.comp, grid_scan.comp, grid_run_place.comp,
 //! grid_scatter.comp (and grid.glsl, which the passes that query the grid include). The prefix sum scans run
 //! totals of GRID_RUN cells, not every cell: lavapipe runs grid_scan's barriers as coroutines, which cost 15 of
-//! the pass's 17 ms at the 59k dam break when every cell went through it (NOTES.md, session 15).
+//! the pass's 17 ms at the 59k dam break when every cell went through it (docs/simulation.md, commit 434fdd1).
 //!
 //! In: points (vec4, xyz used), their count, the grid's shape. Out: `counts[c]`, `start[c]` (first sorted place
 //! of cell c) and `order[k]` (the point at sorted place k). Within a cell the order is the atomics' order, so

@@ -238,7 +238,7 @@ impl Mc {
 
 /// Shared vertices on global edge keys (vertices in key order, triangles in cube order, then table order: the
 /// CPU block path's order). Ranks (edge key, corner) pairs (`extract::rank_by_key`, as the CPU path), not whole
-/// vertices, with no searches (session 8; the weld was 0.39 s of the H200's 0.81 s).
+/// vertices, with no searches (commit 0b5cc2b; the weld was 0.39 s of the H200's 0.81 s).
 fn weld(lat: &Lattice, pos: &[[f32; 4]], nrm: &[[f32; 4]], tri: &[[i32; 4]]) -> TriMesh {
     let key_of = |t: &[i32; 4], v: usize| -> i64 {
         let e = (t[3] as u32 >> (8 + 4 * v) & 15) as usize;

@@ -15,8 +15,8 @@
 //! lattice's Σ|∇C|², s_corr k = 0.02 (in units of that sum), n = 4, Δq = 0.2 h, viscosity ν = 0.02 m²/s (dam
 //! break, pool; 0.001 for the splash scenes) as XSPH (c = 22 ν Δt / h²: 0.84 at the 59k dam break), no vorticity
 //! confinement (ε = 0; the shared SPlisHSPlasH set-up has none either), static friction μ_s = 1 on the
-//! container's faces (session 13: water at rest stops creeping along the floor; flows slide freely); the
-//! particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (NOTES.md, session 10). The time
+//! container's faces (commit 14600b6: water at rest stops creeping along the floor; flows slide freely); the
+//! particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (docs/simulation.md, commit 2944c1b). The time
 //! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
 //! 25 fps frame).
 
@@ -57,7 +57,7 @@ pub struct Params {
     /// Tensile-instability strength k, in units of 1/Σ|∇C|² of the lattice (so it reads like a constraint value).
     pub scorr_k: f32,
     /// Tensile-instability exponent n, a whole number 1..=15 (the shader multiplies: a `pow` made sim_solve 23 %
-    /// slower on lavapipe, which runs both sides of a branch; NOTES.md, session 15).
+    /// slower on lavapipe, which runs both sides of a branch; docs/simulation.md, commit 434fdd1).
     pub scorr_n: u32,
     /// Tensile-instability reference distance Δq as a fraction of h.
     pub scorr_dq: f32,
@@ -66,7 +66,7 @@ pub struct Params {
     /// set-up's "Standard viscosity" 0.01, because 4 PBF iterations leave a slow stirring in water at rest that
     /// DFSPH's converged solve does not (the resting pool after 2 s, 5,000–12,000 particles: 0.032–0.051 m/s at
     /// 0.01, 0.022–0.034 at 0.02; the 59k dam-break front then trails SPlisHSPlasH's by ≤ 1.9 % of the tank instead of ≤ 0.9 %:
-    /// NOTES.md, session 14) — and 0.001 for the splash scenes `drop` and `waterfall`, whose crown and spray
+    /// docs/simulation.md, commit c680c5d) — and 0.001 for the splash scenes `drop` and `waterfall`, whose crown and spray
     /// 0.01 smears into a smooth ring).
     pub viscosity: Option<f32>,
     /// XSPH c used as it is instead of the one derived from `viscosity` (c per step, so its effect depends on Δt

@@ -22,7 +22,7 @@ pub struct Neighbours {
     pub overflow: Buffer,
     /// The lists' format: 16-bit indices, two per word (the NBR16 programs), or 32-bit ones. 16-bit lists need
     /// at most 65,536 particles; on lavapipe every storage-buffer index load is a loop over the SIMD lanes,
-    /// while the 16-bit lists are read eight indices per branch-free texel fetch (NOTES.md, sessions 14, 15).
+    /// while the 16-bit lists are read eight indices per branch-free texel fetch (docs/simulation.md, commits c680c5d and 434fdd1).
     /// The same visits in the same order either way.
     pub packed: bool,
 }
