@@ -47,6 +47,14 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// An output path that would destroy something (an input, a file of another kind) or has the wrong name.
+    #[error("{}: refusing to write: {reason}", path.display())]
+    Output {
+        /// The output path.
+        path: PathBuf,
+        /// Why it is refused.
+        reason: String,
+    },
     /// A value the user gave (flag, scene name, settings) is not acceptable.
     #[error("{0}")]
     Invalid(String),

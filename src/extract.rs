@@ -188,15 +188,65 @@ pub fn check_lattice(grid: &IsoGrid, cube: f32) -> crate::error::Result<()> {
     if grid.points.is_empty() {
         return Ok(());
     }
-    let lat = Lattice::of(grid, cube.max(1e-6));
-    let corners = lat.dims.as_dvec3();
-    if corners.x * corners.y * corners.z * 3.0 < 2f64.powi(62) && lat.dims.min_element() > 0 {
+    // In f64: a lattice too large for i32 indices must be reported, not wrapped round.
+    let (lo, hi) = grid.points.iter().fold((glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY), |(a, b), q| {
+        let q = glam::DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
+        (a.min(q), b.max(q))
+    });
+    let corners = ((hi - lo + 2.0 * grid.support as f64) / cube.max(1e-6) as f64).ceil() + 1.0;
+    if corners.max_element() < i32::MAX as f64 / 2.0 && corners.x * corners.y * corners.z * 3.0 < 2f64.powi(62) {
         return Ok(());
     }
-    Err(crate::error::Error::Invalid(format!(
-        "the particles span {:.0} × {:.0} × {:.0} cubes of {cube}: too many for one marching-cubes lattice; use a \
-         larger --cube-size",
-        corners.x, corners.y, corners.z
+    Err(crate::error::Error::Limit(format!(
+        "the particles span {:.3e} × {:.3e} × {:.3e} (world units): {:.3e} × {:.3e} × {:.3e} cubes of {cube}, too \
+         many for one marching-cubes lattice; if they really span this much, mesh them with a larger --cube-size \
+         or in parts",
+        hi.x - lo.x,
+        hi.y - lo.y,
+        hi.z - lo.z,
+        corners.x,
+        corners.y,
+        corners.z
+    )))
+}
+
+/// The memory (bytes) an extraction of `grid` with `p` on `threads` threads needs at least, estimated before
+/// anything is allocated: the block path's per-thread scratch ((b + 3)³ corners × 17 bytes) and block list,
+/// or the per-corner paths' bitset over the lattice and their per-cube lists over the occupied 16³ blocks.
+pub fn memory_estimate(grid: &IsoGrid, p: &ExtractParams, threads: usize) -> u64 {
+    if grid.points.is_empty() {
+        return 0;
+    }
+    let lat = Lattice::of(grid, p.cube.max(1e-6));
+    if (p.block > 0 && !p.dense) || p.metaball {
+        let n = p.block.max(1) as u64 + 3;
+        let (blocks, _) = occupied_blocks(grid, &lat, p.block.max(1) as i32);
+        return threads.max(1) as u64 * n * n * n * 17 + blocks.len() as u64 * 8;
+    }
+    let total = lat.dims.as_dvec3();
+    let bitset = (total.x * total.y * total.z / 8.0) as u64;
+    let (blocks, _) = occupied_blocks(grid, &lat, 16);
+    let cubes = blocks.len() as u64 * 4096;
+    bitset + cubes * if p.dense { 104 } else { 40 }
+}
+
+/// [`memory_estimate`] against what the machine has ([`crate::input::available_memory`]): an error with both
+/// numbers, and what to change, when the estimate exceeds it.
+pub fn check_memory(grid: &IsoGrid, p: &ExtractParams, threads: usize) -> crate::error::Result<()> {
+    let need = memory_estimate(grid, p, threads);
+    let Some(have) = crate::input::available_memory() else { return Ok(()) };
+    if need <= have {
+        return Ok(());
+    }
+    Err(crate::error::Error::Limit(format!(
+        "this extraction needs about {:.1} GB of memory, more than the {:.1} GB available (cube {}, block {}{}, {} \
+         thread(s)); use a larger --cube-size, the default --block 64, or fewer --threads",
+        need as f64 / 1e9,
+        have as f64 / 1e9,
+        p.cube,
+        p.block,
+        if p.dense { ", dense" } else { "" },
+        threads
     )))
 }
 
@@ -380,7 +430,7 @@ pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64
 /// it, so blocks that share a face agree bit for bit: the mesh is watertight, and the same for any block size
 /// and thread count (vertices in edge-key order, triangles in cube order).
 ///
-/// Speed (session 8, dam break 59k frame 20 at 0.5 r, 1 thread): 2.2 s → 1.0 s, as fast as splashsurf 0.14,
+/// Speed (commit 0b5cc2b, dam break 59k frame 20 at 0.5 r, 1 thread): 2.2 s → 1.0 s, as fast as splashsurf 0.14,
 /// from making each vertex once per block instead of once per triangle corner (and sorting 4.3 M of them),
 /// skipping uniform rows of cubes, blocks of 64³ (the one-corner margin costs (67/64)³ instead of (35/32)³),
 /// reusing each thread's block arrays, and floor/ceil without libm calls. Peak memory 290 → 140 MB.
@@ -410,7 +460,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     let (blocks, nb) = occupied_blocks(grid, &lat, b);
     // Per-thread scratch (corner values, inside flags, edge → vertex slots), reused from block to block.
     let n = b + 3;
-    let cells = (n * n * n) as usize;
+    let cells = (n as usize).pow(3);
     let (scatter_ns, march_ns) = (AtomicU64::new(0), AtomicU64::new(0));
     let outs: Vec<BlockMesh> = blocks
         .par_iter()

@@ -11,6 +11,7 @@ pub mod error;
 pub mod extract;
 pub mod frame;
 pub mod gpu;
+pub mod input;
 pub mod iso;
 pub mod mesh;
 pub mod output;

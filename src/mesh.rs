@@ -44,7 +44,7 @@ impl Mesh {
 
     /// Read an OBJ file.
     pub fn load_obj(path: &Path) -> Result<Mesh> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = crate::input::read(path)?;
         Mesh::parse_obj(&bytes).map_err(|(offset, reason)| Error::Parse { path: path.to_path_buf(), offset, reason })
     }
 

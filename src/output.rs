@@ -1,38 +1,275 @@
-//! Writers that never leave a half-written file: each writes `NAME.partial` and renames it into place.
+//! Every file Meniscus writes goes through [`write_atomic`], the one writer that never destroys anything:
+//! - it refuses a path that is one of this process's inputs ([`crate::input::is_input`], canonical paths), an
+//!   extension that does not match what is written ([`Kind`]), and an existing file whose bytes are not of that
+//!   kind (a PNG is never written over particles or notes);
+//! - it writes `NAME.PID.partial` and renames it into place when complete, so an interrupted or failing run leaves
+//!   the old file or the new one, never a partial one; a signal handler in the binary removes the partial files
+//!   in flight ([`remove_partials`]), and a later write of the same name removes those of dead processes.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use crate::error::{Error, Result};
 
-/// Write `bytes` to `path` atomically (via `path.partial`).
+/// What a writer writes: the extensions its file may have and how its bytes begin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A PNG image.
+    Png,
+    /// A NumPy array.
+    Npy,
+    /// A PLY mesh.
+    Ply,
+    /// A Wavefront OBJ mesh.
+    Obj,
+    /// Legacy VTK (a mesh or particles).
+    Vtk,
+    /// Houdini classic BGEO particles (gzip or plain).
+    Bgeo,
+    /// JSON (bench reports, a SPlisHSPlasH scene).
+    Json,
+    /// A markdown table.
+    Markdown,
+    /// An MP4 movie.
+    Mp4,
+    /// A WebM movie.
+    Webm,
+    /// An animated GIF.
+    Gif,
+}
+
+impl Kind {
+    /// The extensions (lower case) a file of this kind may have.
+    pub fn extensions(self) -> &'static [&'static str] {
+        match self {
+            Kind::Png => &["png"],
+            Kind::Npy => &["npy"],
+            Kind::Ply => &["ply"],
+            Kind::Obj => &["obj"],
+            Kind::Vtk => &["vtk"],
+            Kind::Bgeo => &["bgeo", "bgeo.gz"],
+            Kind::Json => &["json"],
+            Kind::Markdown => &["md"],
+            Kind::Mp4 => &["mp4"],
+            Kind::Webm => &["webm"],
+            Kind::Gif => &["gif"],
+        }
+    }
+
+    /// A name for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Png => "PNG image",
+            Kind::Npy => "NumPy array",
+            Kind::Ply => "PLY mesh",
+            Kind::Obj => "OBJ mesh",
+            Kind::Vtk => "VTK file",
+            Kind::Bgeo => "BGEO particle file",
+            Kind::Json => "JSON file",
+            Kind::Markdown => "markdown file",
+            Kind::Mp4 => "MP4 movie",
+            Kind::Webm => "WebM movie",
+            Kind::Gif => "GIF",
+        }
+    }
+
+    /// Whether a file beginning with `head` is of this kind (so that writing over it loses nothing of another kind).
+    pub fn recognises(self, head: &[u8]) -> bool {
+        // UTF-8, allowing a character cut at the end of the head.
+        let text =
+            || std::str::from_utf8(head).map(|_| ()).or_else(|e| e.error_len().map_or(Ok(()), |_| Err(()))).is_ok();
+        let first_char = || head.iter().copied().find(|b| !b.is_ascii_whitespace());
+        match self {
+            Kind::Png => head.starts_with(b"\x89PNG\r\n\x1a\n"),
+            Kind::Npy => head.starts_with(b"\x93NUMPY"),
+            Kind::Ply => head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n"),
+            Kind::Obj => {
+                let lossy = String::from_utf8_lossy(head);
+                let mut lines: Vec<&str> = lossy.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+                if !head.ends_with(b"\n") && lines.len() > 1 {
+                    lines.pop(); // the head may end inside a line
+                }
+                const KEYS: [&str; 12] = ["v", "vn", "vt", "vp", "f", "l", "p", "o", "g", "s", "mtllib", "usemtl"];
+                text()
+                    && lines.iter().all(|l| {
+                        let key = l.split_whitespace().next().unwrap_or("");
+                        key.starts_with('#') || KEYS.contains(&key)
+                    })
+            }
+            Kind::Vtk => head.starts_with(b"# vtk DataFile"),
+            Kind::Bgeo => head.starts_with(b"Bgeo") || head.starts_with(&[0x1f, 0x8b]),
+            Kind::Json => text() && matches!(first_char(), Some(b'{') | Some(b'[')),
+            Kind::Markdown => text() && !head.contains(&0),
+            Kind::Mp4 => head.len() >= 8 && &head[4..8] == b"ftyp",
+            Kind::Webm => head.starts_with(&[0x1a, 0x45, 0xdf, 0xa3]),
+            Kind::Gif => head.starts_with(b"GIF8"),
+        }
+    }
+
+    /// The kind among `choices` that `path`'s extension names, or an error listing the extensions accepted.
+    pub fn by_extension(path: &Path, choices: &[Kind]) -> Result<Kind> {
+        let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        choices.iter().copied().find(|k| k.extensions().iter().any(|e| name.ends_with(&format!(".{e}")))).ok_or_else(
+            || {
+                let exts: Vec<String> = choices.iter().map(|k| format!(".{}", k.extensions()[0])).collect();
+                Error::Output { path: path.to_path_buf(), reason: format!("the name must end in {}", one_of(&exts)) }
+            },
+        )
+    }
+}
+
+/// "a", "a or b", "a, b or c".
+fn one_of(items: &[String]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.clone(),
+        [rest @ .., last] => format!("{} or {last}", rest.join(", ")),
+    }
+}
+
+/// Check that writing a file of `kind` at `path` destroys nothing: the extension matches `kind`, the path is
+/// not an input of this process, and an existing file there is empty or of the same kind.
+pub fn check_output(path: &Path, kind: Kind) -> Result<()> {
+    let refuse = |reason: String| Err(Error::Output { path: path.to_path_buf(), reason });
+    if Kind::by_extension(path, &[kind]).is_err() {
+        let exts: Vec<String> = kind.extensions().iter().map(|e| format!(".{e}")).collect();
+        return refuse(format!("a {} is written here: the name must end in {}", kind.name(), one_of(&exts)));
+    }
+    if crate::input::is_input(path) {
+        return refuse("it is an input of this run; choose another output name".into());
+    }
+    match std::fs::symlink_metadata(path) {
+        Err(_) => Ok(()),
+        Ok(m) if m.is_dir() => refuse("it is a folder".into()),
+        Ok(m) if !m.is_file() && !m.file_type().is_symlink() => refuse("it exists and is not a regular file".into()),
+        Ok(_) => {
+            let mut head = vec![0u8; 4096];
+            let n = std::fs::File::open(path)
+                .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+                .map_err(|e| Error::io(path, e))?;
+            if n == 0 || kind.recognises(&head[..n]) {
+                Ok(())
+            } else {
+                refuse(format!(
+                    "it exists and is not a {}; refusing to overwrite it (remove it or choose another name)",
+                    kind.name()
+                ))
+            }
+        }
+    }
+}
+
+/// The partial files being written now, removed by [`remove_partials`] when the process is interrupted.
+static PARTIALS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Remove every partial file this process is writing, and keep new ones from starting: for a SIGINT/SIGTERM
+/// handler, which exits right after. Returns how many were removed.
+pub fn remove_partials() -> usize {
+    let mut g = PARTIALS.lock().unwrap_or_else(|e| e.into_inner());
+    let n = g.iter().filter(|p| std::fs::remove_file(p).is_ok()).count();
+    g.clear();
+    // Keep the lock held: a writer that starts after this waits until the process exits.
+    std::mem::forget(g);
+    n
+}
+
+/// The partial file of `path` for this process: `NAME.PID.partial` beside it.
+fn partial_name(path: &Path, pid: u32) -> PathBuf {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".{pid}.partial"));
+    PathBuf::from(tmp)
+}
+
+/// Remove `NAME.PID.partial` files beside `path` left by processes that no longer run (a killed run).
+fn remove_stale_partials(path: &Path) {
+    let (Some(name), dir) = (path.file_name(), path.parent().filter(|d| !d.as_os_str().is_empty())) else { return };
+    let dir = dir.unwrap_or(Path::new("."));
+    let prefix = format!("{}.", name.to_string_lossy());
+    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    for e in rd.flatten() {
+        let f = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = f.strip_prefix(&prefix).and_then(|r| r.strip_suffix(".partial")) else { continue };
+        let Ok(pid) = pid.parse::<u32>() else { continue };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// A file being written under its partial name `NAME.PID.partial`, renamed into place by [`Partial::commit`] and
+/// removed if dropped uncommitted (a failed write) or on SIGINT/SIGTERM ([`remove_partials`]). For writers whose
+/// bytes come from elsewhere (ffmpeg writes a movie to [`Partial::tmp`]); [`write_atomic`] is built on it.
+pub struct Partial {
+    path: PathBuf,
+    tmp: PathBuf,
+    committed: bool,
+}
+
+impl Partial {
+    /// Begin writing a file of `kind` at `path`: [`check_output`], the stale partial files of dead processes
+    /// removed, the folder created, the partial name registered for signal clean-up.
+    pub fn begin(path: &Path, kind: Kind) -> Result<Partial> {
+        check_output(path, kind)?;
+        remove_stale_partials(path);
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if dir.is_file() {
+                return Err(Error::Output {
+                    path: path.to_path_buf(),
+                    reason: format!("{} is a file, not a folder", dir.display()),
+                });
+            }
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        let tmp = partial_name(path, std::process::id());
+        PARTIALS.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+        Ok(Partial { path: path.to_path_buf(), tmp, committed: false })
+    }
+
+    /// Where the bytes go until the file is complete.
+    pub fn tmp(&self) -> &Path {
+        &self.tmp
+    }
+
+    /// The file is complete: rename it into place.
+    pub fn commit(mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for Partial {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        PARTIALS.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| p != &self.tmp);
+    }
+}
+
+/// Write a file of `kind` to `path` after [`check_output`], atomically: the bytes go to `NAME.PID.partial`,
+/// which is synced and renamed into place only when complete.
 pub fn write_atomic(
     path: &Path,
+    kind: Kind,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<()> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    let tmp = std::path::PathBuf::from(tmp);
+    let partial = Partial::begin(path, kind)?;
     let res = (|| {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)?;
-        }
-        let f = std::fs::File::create(&tmp)?;
+        let f = std::fs::File::create(partial.tmp())?;
         let mut w = std::io::BufWriter::new(f);
         write(&mut w)?;
         w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()
     })();
-    res.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
+    res.map_err(|e| Error::io(path, e))?;
+    partial.commit()
 }
 
 /// Write an RGBA image as PNG.
 pub fn write_png(path: &Path, img: &image::RgbaImage) -> Result<()> {
-    write_atomic(path, |w| img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other))
+    write_atomic(path, Kind::Png, |w| img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other))
 }
 
 /// Write a float32 array as NumPy `.npy` (C order, little-endian) with the given shape.
@@ -44,7 +281,7 @@ pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
     let total = 10 + header.len() + 1;
     header.push_str(&" ".repeat((64 - total % 64) % 64));
     header.push('\n');
-    write_atomic(path, |w| {
+    write_atomic(path, Kind::Npy, |w| {
         w.write_all(b"\x93NUMPY\x01\x00")?;
         w.write_all(&(header.len() as u16).to_le_bytes())?;
         w.write_all(header.as_bytes())?;
@@ -79,13 +316,17 @@ pub fn f16_to_f32(h: u16) -> f32 {
     f32::from_bits(bits)
 }
 
+/// The formats a fluid mesh is written in ([`write_mesh`]).
+pub const MESH_KINDS: [Kind; 3] = [Kind::Ply, Kind::Obj, Kind::Vtk];
+/// The formats a particle cache is written in ([`write_particles`]).
+pub const PARTICLE_KINDS: [Kind; 2] = [Kind::Bgeo, Kind::Vtk];
+
 /// Write a triangle mesh: binary little-endian PLY (`.ply`, positions + normals) or Wavefront OBJ (`.obj`,
 /// `v`/`vn`/`f`), chosen by the extension; atomically (no half-written file on failure).
 pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
     use std::io::Write;
-    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("ply") => write_atomic(path, |w| {
+    match Kind::by_extension(path, &MESH_KINDS)? {
+        Kind::Ply => write_atomic(path, Kind::Ply, |w| {
             write!(
                 w,
                 "ply\nformat binary_little_endian 1.0\ncomment meniscus mesh\nelement vertex {}\n\
@@ -111,7 +352,7 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
             w.write_all(&body)?;
             Ok(())
         }),
-        Some("obj") => write_atomic(path, |w| {
+        Kind::Obj => write_atomic(path, Kind::Obj, |w| {
             writeln!(w, "# meniscus mesh: {} vertices, {} triangles", m.vertices.len(), m.triangles.len())?;
             for v in &m.vertices {
                 writeln!(w, "v {} {} {}", v[0], v[1], v[2])?;
@@ -127,7 +368,7 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
         }),
         // Legacy VTK POLYDATA, binary (big-endian, as the format requires), with point normals: what splashsurf
         // writes by default and ParaView opens.
-        Some("vtk") => write_atomic(path, |w| {
+        _ => write_atomic(path, Kind::Vtk, |w| {
             write!(w, "# vtk DataFile Version 4.2\nmeniscus mesh\nBINARY\nDATASET POLYDATA\n")?;
             let be3 = |a: &[[f32; 3]]| -> Vec<u8> { a.iter().flatten().flat_map(|x| x.to_be_bytes()).collect() };
             writeln!(w, "POINTS {} float", m.vertices.len())?;
@@ -148,10 +389,6 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
             writeln!(w)?;
             Ok(())
         }),
-        _ => Err(Error::Invalid(format!(
-            "{}: the mesh format is chosen by the extension: .ply, .obj or .vtk",
-            path.display()
-        ))),
     }
 }
 
@@ -159,13 +396,10 @@ pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
 /// extension: `.bgeo` (gzip-compressed classic BGEO, as Partio and SPlisHSPlasH write it) or `.vtk` (legacy
 /// binary VTK, as SPlisHSPlasH writes it). Both are read back by `meniscus` and by splashsurf.
 pub fn write_particles(path: &Path, p: &crate::scene::Particles) -> Result<()> {
-    let name = path.to_string_lossy().to_ascii_lowercase();
-    let bytes = if name.ends_with(".bgeo") || name.ends_with(".bgeo.gz") {
-        crate::scene::bgeo::write(&p.to_raw(), true)
-    } else if name.ends_with(".vtk") {
-        crate::scene::vtk::write(&p.to_raw(), true)
-    } else {
-        return Err(Error::Invalid(format!("{}: particle caches are written as .bgeo or .vtk", path.display())));
+    let kind = Kind::by_extension(path, &PARTICLE_KINDS)?;
+    let bytes = match kind {
+        Kind::Bgeo => crate::scene::bgeo::write(&p.to_raw(), true),
+        _ => crate::scene::vtk::write(&p.to_raw(), true),
     };
-    write_atomic(path, |w| w.write_all(&bytes))
+    write_atomic(path, kind, |w| w.write_all(&bytes))
 }

@@ -711,6 +711,8 @@ impl Renderer {
             Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
             None => self.positions.clone(),
         };
+        // As on the GPU path: the grid spans the fluid, strays far from it are left out.
+        let pts = crate::scene::without_strays(&pts, field[0]).0.into_owned();
         let grid = crate::iso::IsoGrid::build(&pts, field[0]);
         let inv = grid.inv_density();
         let params = crate::extract::ExtractParams::new(field[1], field[2]);
@@ -745,14 +747,21 @@ impl Renderer {
     fn ensure_iso(&mut self, support: f32, reach: f32) -> Result<()> {
         let spray = self.spray.as_ref().is_some_and(|s| s.iter().any(|&x| x));
         if !spray {
-            let (lo, hi) = self.positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(a, b), p| {
-                let p = glam::Vec3::from(*p);
-                if p.is_finite() {
-                    (a.min(p), b.max(p))
-                } else {
-                    (a, b)
+            // The grid spans the fluid, not a stray particle far from it (the grid clamps such a particle into
+            // its edge cell, where its kernel reaches nothing: it is left out of the surface, and said so).
+            let (lo, hi) = match crate::scene::fluid_bounds(&self.positions, reach) {
+                Some((b, strays)) => {
+                    if strays > 0 && !self.external {
+                        eprintln!(
+                            "warning: {strays} particle{} far from the fluid (beyond its 1st–99th percentile box \
+                             grown by its own size) left out of the iso surface",
+                            if strays == 1 { " is" } else { "s are" }
+                        );
+                    }
+                    (b.lo, b.hi)
                 }
-            });
+                None => (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+            };
             let n = self.count;
             let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
             let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, reach, n as usize);
@@ -810,6 +819,8 @@ impl Renderer {
             Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
             None => self.positions.clone(),
         };
+        // As on the GPU path: the grid spans the fluid, strays far from it are left out.
+        let pts = crate::scene::without_strays(&pts, reach).0.into_owned();
         let grid = crate::iso::IsoGrid::build_reaching(&pts, support, reach);
         self.executor.wait_idle()?;
         let volume = self.iso.take().and_then(|b| b.volume);

@@ -44,6 +44,25 @@ macro_rules! named_enum {
     };
 }
 
+/// The dotted key of the first non-finite float in a TOML table (inf, nan), if any.
+fn non_finite(t: &toml::Table) -> Option<String> {
+    fn walk(v: &toml::Value, key: &str) -> Option<String> {
+        match v {
+            toml::Value::Float(x) if !x.is_finite() => Some(key.to_string()),
+            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &join(key, k))),
+            toml::Value::Array(a) => a.iter().find_map(|v| walk(v, key)),
+            _ => None,
+        }
+    }
+    fn join(a: &str, b: &str) -> String {
+        if a.is_empty() {
+            b.to_string()
+        } else {
+            format!("{a}.{b}")
+        }
+    }
+    t.iter().find_map(|(k, v)| walk(v, k))
+}
 /// Replace the leaves of `base` that `over` sets, keeping the rest of every section.
 fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
     match (base, over) {
@@ -311,7 +330,7 @@ impl Settings {
     /// These settings with the fields a TOML file sets replaced, section by section (unknown keys and
     /// sections, wrong types and bad enum names are errors that name the file and the byte offset).
     pub fn with_toml(&self, path: &std::path::Path) -> Result<Settings> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::input::read_text(path)?;
         let parse_err = |e: toml::de::Error| Error::Parse {
             path: path.to_path_buf(),
             offset: e.span().map(|s| s.start as u64).unwrap_or(0),
@@ -320,6 +339,19 @@ impl Settings {
         // The file alone over the defaults: every key and value checked, with its position.
         toml::from_str::<Settings>(&text).map_err(parse_err)?;
         let table: toml::Table = toml::from_str(&text).map_err(parse_err)?;
+        if let Some(key) = non_finite(&table) {
+            // The offset of the key's last name where it is assigned (TOML keeps no spans in a Table).
+            let name = key.rsplit('.').next().unwrap_or(&key);
+            let offset = text
+                .match_indices(name)
+                .find(|(i, _)| text[i + name.len()..].trim_start().starts_with('='))
+                .map_or(0, |(i, _)| i as u64);
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                offset,
+                reason: format!("{key}: settings are finite numbers (inf and nan are not)"),
+            });
+        }
         let mut merged = serde_json::to_value(self).map_err(|e| Error::Invalid(e.to_string()))?;
         let over = serde_json::to_value(&table).map_err(|e| Error::Invalid(e.to_string()))?;
         merge(&mut merged, over);
@@ -505,6 +537,8 @@ mod tests {
         check("type.toml", "[ssr]\nstride = \"far\"\n", 15, "");
         check("name.toml", "[smooth]\nfilter = \"gaussien\"\n", 18, "gaussien");
         check("syntax.toml", "[ssr]\nstride = = 8\n", 15, "");
+        check("inf.toml", "[iso]\nsmoothing = inf\n", 6, "iso.smoothing: settings are finite numbers");
+        check("nan.toml", "[smooth.narrow]\nradius = nan\n", 16, "smooth.narrow.radius");
     }
 
     #[test]

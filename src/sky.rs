@@ -28,6 +28,8 @@ pub fn load_faces(dir: &Path) -> Result<(u32, Vec<u8>)> {
                 names[2]
             ))
         })?;
+        crate::input::check(&path)?;
+        crate::input::note(&path);
         let img = image::open(&path)
             .map_err(|e| Error::Parse { path: path.clone(), offset: 0, reason: format!("cannot read the image: {e}") })?
             .to_rgba8();

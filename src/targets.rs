@@ -120,32 +120,49 @@ impl Targets {
             width: fluid.width.div_ceil(crate::passes::splat::TILE),
             height: fluid.height.div_ceil(crate::passes::splat::TILE),
         };
-        Ok(Targets {
-            desc: d,
-            width: d.width,
-            height: d.height,
-            scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
-            scene_depth: img("scene_depth", full, r32, storage, None)?,
-            depth: img("depth", fluid, r32, storage | U::COLOR_ATTACHMENT, bits)?,
-            depth_back: d.back.then(|| img("depth_back", fluid, r32, storage, bits)).transpose()?,
-            depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
-            iso_queue: d
-                .back
-                .then(|| crate::passes::iso::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
-                .transpose()?,
-            depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
-            zbuffer: d
-                .zbuffer
-                .then(|| img("zbuffer", fluid, vk::Format::D32_SFLOAT, U::DEPTH_STENCIL_ATTACHMENT, None))
-                .transpose()?,
-            smooth_a: img("smooth_a", fluid, r32, storage, None)?,
-            smooth_b: d.keep_raw.then(|| img("smooth_b", fluid, r32, storage, None)).transpose()?,
-            depth_full: d.upsampled().then(|| img("depth_full", full, r32, storage, None)).transpose()?,
-            thickness_accum: img("thickness_accum", d.thickness, vk::Format::R32_UINT, storage, None)?,
-            thickness: img("thickness", d.thickness, r32, storage | U::SAMPLED, None)?,
-            normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
-            ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
-            final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
+        let made = (|| -> Result<Targets> {
+            Ok(Targets {
+                desc: d,
+                width: d.width,
+                height: d.height,
+                scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
+                scene_depth: img("scene_depth", full, r32, storage, None)?,
+                depth: img("depth", fluid, r32, storage | U::COLOR_ATTACHMENT, bits)?,
+                depth_back: d.back.then(|| img("depth_back", fluid, r32, storage, bits)).transpose()?,
+                depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
+                iso_queue: d
+                    .back
+                    .then(|| crate::passes::iso::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
+                    .transpose()?,
+                depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
+                zbuffer: d
+                    .zbuffer
+                    .then(|| img("zbuffer", fluid, vk::Format::D32_SFLOAT, U::DEPTH_STENCIL_ATTACHMENT, None))
+                    .transpose()?,
+                smooth_a: img("smooth_a", fluid, r32, storage, None)?,
+                smooth_b: d.keep_raw.then(|| img("smooth_b", fluid, r32, storage, None)).transpose()?,
+                depth_full: d.upsampled().then(|| img("depth_full", full, r32, storage, None)).transpose()?,
+                thickness_accum: img("thickness_accum", d.thickness, vk::Format::R32_UINT, storage, None)?,
+                thickness: img("thickness", d.thickness, r32, storage | U::SAMPLED, None)?,
+                normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
+                ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
+                final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
+            })
+        })();
+        // A frame larger than the device holds is the user's size, not a Vulkan failure: say so with the size.
+        made.map_err(|e| match e {
+            crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } => {
+                let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
+                // 24 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 28 per fluid
+                // pixel (depth, smoothing, back depth, thickness, iso queue).
+                let mb = (24 * px(full) + 28 * px(fluid)) as f64 / 1e6;
+                crate::error::Error::Limit(format!(
+                    "a {}×{} frame needs about {mb:.0} MB of images, more than this device could allocate ({e}); \
+                     choose a smaller --width/--height or --fluid-scale",
+                    d.width, d.height
+                ))
+            }
+            e => e,
         })
     }
 

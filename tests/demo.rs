@@ -41,6 +41,28 @@ fn demo_runs_under_x_and_screenshot_shows_fluid() {
     assert!(err.contains("6 frames in"), "{err}");
 }
 
+/// `--record` writes the drawn frames into a movie through ffmpeg; it refuses a name that is not a movie.
+#[test]
+fn demo_records_a_movie() {
+    let dir = x_dir("record");
+    let movie = dir.join("demo.mp4");
+    let args = "demo drop --particles 2000 --width 160 --height 100 --frames 5 --validation --record";
+    let mut args: Vec<&std::ffi::OsStr> = args.split_whitespace().map(std::ffi::OsStr::new).collect();
+    args.push(movie.as_os_str());
+    let (o, err) = meniscus_in(&dir, &args);
+    assert!(o.status.success(), "demo failed: {err}");
+    assert!(err.contains("recorded 5 frames"), "{err}");
+    let probe = Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+        .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
+        .arg(&movie)
+        .output()
+        .expect("ffprobe (tools/dev installs ffmpeg)");
+    assert_eq!(String::from_utf8_lossy(&probe.stdout).trim(), "160,100,5");
+    let (o, err) = meniscus_in(&dir, &["demo".as_ref(), "--record".as_ref(), dir.join("x.png").as_os_str()]);
+    assert!(!o.status.success() && err.contains("--record") && err.contains(".mp4"), "{err}");
+}
+
 #[test]
 fn demo_without_a_display_is_a_clear_error() {
     let o = Command::new(env!("CARGO_BIN_EXE_meniscus"))

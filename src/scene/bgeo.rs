@@ -30,19 +30,73 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let compressed = bytes.starts_with(&[0x1f, 0x8b]);
     let owned;
     let data: &[u8] = if compressed {
-        let mut v = Vec::new();
-        flate2::read::MultiGzDecoder::new(bytes).read_to_end(&mut v).map_err(|e| Error::Parse {
-            path: path.to_path_buf(),
-            offset: 0,
-            reason: format!("gzip stream is corrupt: {e} ({} bytes decompressed before the error)", v.len()),
-        })?;
-        owned = v;
+        owned = inflate_bounded(path, bytes)?;
         &owned
     } else {
         bytes
     };
     let mut r =
         Reader::new(path, data).with_note(if compressed { " (offset in the gzip-decompressed data)" } else { "" });
+    let (n_points, nprims, attrs) = header(&mut r)?;
+    let record = 16 + 4 * attrs.iter().map(|a| a.size).sum::<usize>();
+    let need = n_points.checked_mul(record).ok_or_else(|| r.err(5, "point count overflows"))?;
+    if need > r.remaining() {
+        return Err(r.err(
+            r.pos,
+            format!(
+                "header claims {n_points} points ({need} bytes of {record}-byte records) but only {} bytes remain",
+                r.remaining()
+            ),
+        ));
+    }
+    // After the points: Partio's end marker (0x00 0xff) and nothing else in a particle file (no primitives).
+    let end = r.pos + need;
+    let rest = &data[end..];
+    if nprims == 0 && rest.len() > TRAILER.len() {
+        return Err(r.err(
+            end,
+            format!(
+                "{} bytes follow the {n_points} points the header declares (a header that under-counts them?)",
+                rest.len()
+            ),
+        ));
+    }
+    let mut offsets = vec![];
+    let mut o = 16;
+    for a in &attrs {
+        offsets.push(o);
+        o += 4 * a.size;
+    }
+    let body = &data[r.pos..r.pos + need];
+    let f = |rec: &[u8], off: usize| f32::from_be_bytes(rec[off..off + 4].try_into().unwrap());
+    let positions = body.chunks_exact(record).map(|rec| [f(rec, 0), f(rec, 4), f(rec, 8)]).collect();
+    let arrays = attrs
+        .iter()
+        .zip(&offsets)
+        .map(|(a, &off)| {
+            let mut v = Vec::with_capacity(n_points * a.size);
+            for rec in body.chunks_exact(record) {
+                for c in 0..a.size {
+                    let b: [u8; 4] = rec[off + 4 * c..off + 4 * c + 4].try_into().unwrap();
+                    v.push(if a.ty == T_FLOAT || a.ty == T_VECTOR {
+                        f32::from_be_bytes(b) as f64
+                    } else {
+                        i32::from_be_bytes(b) as f64
+                    });
+                }
+            }
+            Attribute { name: a.name.clone(), components: a.size, data: v }
+        })
+        .collect();
+    Ok(Raw { positions, arrays })
+}
+
+/// Partio's end of a particle file.
+const TRAILER: [u8; 2] = [0x00, 0xff];
+
+/// The header: magic, version, counts and the point attribute definitions; returns (points, primitives,
+/// attributes) with the cursor at the first point record.
+fn header(r: &mut Reader) -> Result<(usize, usize, Vec<Attr>)> {
     let magic = r.take(4, "magic")?;
     if magic != b"Bgeo" {
         return Err(r.err(
@@ -76,7 +130,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             return Err(r.err(at, format!("{n} is negative ({})", h[k])));
         }
     }
-    let n_points = h[0] as usize;
+    let (n_points, nprims) = (h[0] as usize, h[1] as usize);
     let n_attr = h[4] as usize;
     // Each attribute definition takes at least 8 bytes.
     if n_attr > r.remaining() / 8 {
@@ -110,45 +164,45 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         }
         attrs.push(Attr { name, size, ty });
     }
+    Ok((n_points, nprims, attrs))
+}
+
+/// The largest a decompressed file may be before its header is read (the header of a particle file is tiny).
+const HEAD_BYTES: u64 = 1 << 20;
+
+/// Inflate a gzip'ed BGEO no further than its header says it holds: the first MiB, then the header's points ×
+/// record size plus the end marker. A stream that inflates past that (a gzip bomb: 7 MB that inflate to 7 GiB)
+/// is refused at the point where it passes it, without allocating the rest.
+fn inflate_bounded(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
+    let corrupt = |e: std::io::Error, n: usize| Error::Parse {
+        path: path.to_path_buf(),
+        offset: 0,
+        reason: format!("gzip stream is corrupt: {e} ({n} bytes decompressed before the error)"),
+    };
+    let mut dec = flate2::read::MultiGzDecoder::new(bytes);
+    let mut v = Vec::new();
+    (&mut dec).take(HEAD_BYTES).read_to_end(&mut v).map_err(|e| corrupt(e, v.len()))?;
+    let mut r = Reader::new(path, &v);
+    let Ok((n, _, attrs)) = header(&mut r) else {
+        return Ok(v); // the parse reports what is wrong with the header
+    };
     let record = 16 + 4 * attrs.iter().map(|a| a.size).sum::<usize>();
-    let need = n_points.checked_mul(record).ok_or_else(|| r.err(5, "point count overflows"))?;
-    if need > r.remaining() {
-        return Err(r.err(
-            r.pos,
-            format!(
-                "header claims {n_points} points ({need} bytes of {record}-byte records) but only {} bytes remain",
-                r.remaining()
+    let limit = n.checked_mul(record).and_then(|b| b.checked_add(r.pos + TRAILER.len())).unwrap_or(usize::MAX) as u64;
+    if limit > v.len() as u64 {
+        let at = v.len();
+        (&mut dec).take(limit - at as u64 + 1).read_to_end(&mut v).map_err(|e| corrupt(e, v.len()))?;
+    }
+    if v.len() as u64 > limit {
+        return Err(Error::Parse {
+            path: path.to_path_buf(),
+            offset: limit,
+            reason: format!(
+                "the gzip stream inflates past the {limit} bytes its header declares ({n} points of {record} bytes); \
+                 refusing to inflate further (offset in the gzip-decompressed data)"
             ),
-        ));
+        });
     }
-    let mut offsets = vec![];
-    let mut o = 16;
-    for a in &attrs {
-        offsets.push(o);
-        o += 4 * a.size;
-    }
-    let body = &data[r.pos..r.pos + need];
-    let f = |rec: &[u8], off: usize| f32::from_be_bytes(rec[off..off + 4].try_into().unwrap());
-    let positions = body.chunks_exact(record).map(|rec| [f(rec, 0), f(rec, 4), f(rec, 8)]).collect();
-    let arrays = attrs
-        .iter()
-        .zip(&offsets)
-        .map(|(a, &off)| {
-            let mut v = Vec::with_capacity(n_points * a.size);
-            for rec in body.chunks_exact(record) {
-                for c in 0..a.size {
-                    let b: [u8; 4] = rec[off + 4 * c..off + 4 * c + 4].try_into().unwrap();
-                    v.push(if a.ty == T_FLOAT || a.ty == T_VECTOR {
-                        f32::from_be_bytes(b) as f64
-                    } else {
-                        i32::from_be_bytes(b) as f64
-                    });
-                }
-            }
-            Attribute { name: a.name.clone(), components: a.size, data: v }
-        })
-        .collect();
-    Ok(Raw { positions, arrays })
+    Ok(v)
 }
 
 /// Write classic BGEO v5 the way Partio does: every array (`id`-like names as int, 3-component ones as vector,

@@ -21,9 +21,44 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// World → view (glam's look_at_rh: the camera looks down −z).
+    /// World → view (glam's look_at_rh: the camera looks down −z), with [`Camera::basis_up`].
     pub fn view(&self) -> Mat4 {
-        Mat4::look_at_rh(self.eye, self.target, self.up)
+        Mat4::look_at_rh(self.eye, self.target, self.basis_up())
+    }
+
+    /// The up vector of the view basis: `up`, unless the camera looks along it (straight down or up, where
+    /// `up` gives no basis), then −z looking down and +z looking up (x stays to the right of the image).
+    pub fn basis_up(&self) -> Vec3 {
+        let f = (self.target - self.eye).normalize_or_zero();
+        if f.cross(self.up.normalize_or_zero()).length() > 1e-3 {
+            self.up
+        } else if f.dot(self.up) < 0.0 {
+            -Vec3::Z
+        } else {
+            Vec3::Z
+        }
+    }
+
+    /// Refuse a camera that cannot render: non-finite numbers (a fit to coordinates too large for 32-bit
+    /// floats), eye on the target, or a field of view outside (1°, 170°).
+    pub fn check(&self) -> Result<()> {
+        // Coordinates up to 1e15: their squares (distances) stay within 32-bit floats.
+        let small = self.eye.abs().max_element() <= 1e15 && self.target.abs().max_element() <= 1e15;
+        let finite = self.eye.is_finite()
+            && self.target.is_finite()
+            && self.fovy_deg.is_finite()
+            && self.near.is_finite()
+            && self.view().is_finite();
+        if !(finite && small)
+            || (self.eye - self.target).length() < 1e-6
+            || !(self.fovy_deg > 1.0 && self.fovy_deg < 170.0)
+        {
+            return Err(Error::Invalid(format!(
+                "camera {} cannot render (non-finite, eye on the target, or field of view outside 1…170°)",
+                self.to_arg()
+            )));
+        }
+        Ok(())
     }
 
     /// Focal length in pixels for an image `height` pixels tall: F = H / (2 tan(fovy/2)).
@@ -57,7 +92,9 @@ impl Camera {
             return Err(err());
         }
         let dist = (eye - target).length();
-        Ok(Camera { eye, target, up: Vec3::Y, fovy_deg, near: (dist * 1e-3).max(1e-4) })
+        let c = Camera { eye, target, up: Vec3::Y, fovy_deg, near: (dist * 1e-3).max(1e-4) };
+        c.check().map_err(|_| err())?;
+        Ok(c)
     }
 
     /// The `--camera` argument that reproduces this camera.
@@ -103,9 +140,34 @@ mod tests {
 
     #[test]
     fn parse_rejects_garbage() {
-        for s in ["", "1,2:3,4,5", "1,2,3", "a,b,c:1,2,3", "0,0,0:0,0,0", "0,0,1:0,0,0:400"] {
+        for s in
+            ["", "1,2:3,4,5", "1,2,3", "a,b,c:1,2,3", "0,0,0:0,0,0", "0,0,1:0,0,0:400", "1e30,1e30,1e30:1e30,1e30,0"]
+        {
             assert!(Camera::parse(s).is_err(), "{s}");
         }
+    }
+
+    #[test]
+    fn a_top_down_view_has_a_basis() {
+        for (arg, f) in [("-1,5,0:-1,0,0", -1.0), ("-1,-5,0:-1,0,0", 1.0)] {
+            let c = Camera::parse(arg).unwrap();
+            let m = c.view();
+            assert!(m.is_finite(), "{arg}: {m}");
+            // The target is straight ahead (−z in view space); world x is the image's right.
+            let t = m.transform_point3(c.target);
+            assert!(t.x.abs() < 1e-5 && t.y.abs() < 1e-5 && (t.z + 5.0).abs() < 1e-4, "{arg}: {t}");
+            assert!((m.transform_vector3(Vec3::X).x - 1.0).abs() < 1e-5, "{arg}");
+            assert_eq!(c.basis_up().z, f);
+        }
+        let side = Camera::parse("0,0,5:0,0,0").unwrap();
+        assert_eq!(side.basis_up(), Vec3::Y);
+    }
+
+    #[test]
+    fn non_finite_cameras_are_refused() {
+        let huge = crate::scene::Bounds { lo: Vec3::splat(-1e30), hi: Vec3::splat(1e30) };
+        assert!(Camera::fit(&huge, 1.0).check().is_err());
+        assert!(Camera::parse("0,0,5:0,0,0").unwrap().check().is_ok());
     }
 
     #[test]

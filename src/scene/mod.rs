@@ -83,6 +83,9 @@ pub struct LoadOptions {
     pub z_up: bool,
     /// Multiply positions (and radii, velocities) by this.
     pub scale: f32,
+    /// Attributes the user named (flag, name, components): each must exist with that many components, and a
+    /// radius must be positive, or the load fails saying so (instead of silently using none).
+    pub required: Vec<(&'static str, String, usize)>,
 }
 
 impl Default for LoadOptions {
@@ -95,6 +98,7 @@ impl Default for LoadOptions {
             radius: v(&["radius", "pscale", "radii"]),
             z_up: false,
             scale: 1.0,
+            required: vec![],
         }
     }
 }
@@ -268,6 +272,48 @@ pub fn percentile_bounds(pos: &[[f32; 3]], p: f64) -> Option<Bounds> {
     Some(Bounds { lo: Vec3::from(lo), hi: Vec3::from(hi) })
 }
 
+/// The box of the fluid, and how many particles lie outside it: the bounding box of the particles within the
+/// 1st–99th percentile box grown on every side by [`STRAY_REACH`] times its own size (and at least `margin`). A
+/// stray particle (one at x = 1e6 in a tank of a metre) is left out, so it cannot stretch a grid or lattice
+/// built over the box until the water vanishes; splashes and droplets around the water stay in.
+/// `None` without finite positions.
+pub fn fluid_bounds(pos: &[[f32; 3]], margin: f32) -> Option<(Bounds, usize)> {
+    let core = percentile_bounds(pos, 0.01)?;
+    let grow = ((core.hi - core.lo) * STRAY_REACH).max(Vec3::splat(margin.max(0.0)));
+    let (reach_lo, reach_hi) = (core.lo - grow, core.hi + grow);
+    let mut b = Bounds { lo: Vec3::INFINITY, hi: Vec3::NEG_INFINITY };
+    let mut out = 0;
+    for p in pos {
+        let v = Vec3::from(*p);
+        if !v.is_finite() {
+            continue;
+        }
+        if v.cmplt(reach_lo).any() || v.cmpgt(reach_hi).any() {
+            out += 1;
+        } else {
+            b.lo = b.lo.min(v);
+            b.hi = b.hi.max(v);
+        }
+    }
+    Some((b, out))
+}
+
+/// How far from the fluid's 1st–99th percentile box a particle still belongs to the water, in multiples of
+/// the box's size per axis: a sheet that ran up a wall or a splash's droplets are within it; a particle a
+/// thousand tank-lengths away is not.
+pub const STRAY_REACH: f32 = 4.0;
+
+/// The positions inside [`fluid_bounds`] (in order), and how many strays were left out.
+pub fn without_strays(pos: &[[f32; 3]], margin: f32) -> (std::borrow::Cow<'_, [[f32; 3]]>, usize) {
+    match fluid_bounds(pos, margin) {
+        Some((b, strays)) if strays > 0 => {
+            let inside = |p: &&[f32; 3]| Vec3::from(**p).cmpge(b.lo).all() && Vec3::from(**p).cmple(b.hi).all();
+            (pos.iter().filter(inside).copied().collect::<Vec<_>>().into(), strays)
+        }
+        _ => (pos.into(), 0),
+    }
+}
+
 /// Median nearest-neighbour distance over (up to) 4,096 sample particles. SPH samplers start particles on a
 /// lattice one spacing (2 r) apart; once the fluid moves, neighbours crowd in a disordered packing and this
 /// distance shrinks (dam break 59k: 2 r at frame 1, 1.75 r at frame 20), so it is only a length scale here:
@@ -406,7 +452,7 @@ pub fn load(path: &Path) -> Result<Particles> {
 
 /// Load a particle file, detecting its format, mapping attributes by `o`.
 pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::input::read(path)?;
     let format = detect_format(path, &bytes).ok_or_else(|| Error::Parse {
         path: path.to_path_buf(),
         offset: 0,
@@ -416,6 +462,7 @@ pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
     if raw.positions.is_empty() {
         return Err(Error::Parse { path: path.to_path_buf(), offset: 0, reason: "the file holds no particles".into() });
     }
+    check_required(path, &raw, o)?;
     let p = raw.into_particles(o);
     if p.dropped_non_finite > 0 {
         // The one warning a user sees: such particles are never rendered.
@@ -434,6 +481,32 @@ pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
         });
     }
     Ok(p)
+}
+
+/// The attributes the user named exist, with the components they need; a radius is positive and finite.
+fn check_required(path: &Path, raw: &Raw, o: &LoadOptions) -> Result<()> {
+    let invalid = |reason: String| Err(Error::Invalid(format!("{}: {reason}", path.display())));
+    for (flag, name, comps) in &o.required {
+        let Some(a) = raw.arrays.iter().find(|a| a.name.eq_ignore_ascii_case(name)) else {
+            let have: Vec<&str> = raw.arrays.iter().map(|a| a.name.as_str()).collect();
+            return invalid(format!(
+                "{flag} {name}: no such attribute (the file has: {})",
+                if have.is_empty() { "positions only".to_string() } else { have.join(", ") }
+            ));
+        };
+        if a.components != *comps || Some(a.data.len()) != raw.positions.len().checked_mul(*comps) {
+            return invalid(format!(
+                "{flag} {name}: the attribute has {} component(s) per particle, {comps} are needed",
+                a.components
+            ));
+        }
+        if *flag == "--radius-attr" {
+            if let Some((i, x)) = a.data.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x > 0.0)) {
+                return invalid(format!("{flag} {name}: a radius must be positive; particle {i} has {x}"));
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -526,6 +599,17 @@ mod tests {
         assert!(nn_half < 0.0115, "the nearest-neighbour estimate should be fooled here: {nn_half}");
         // A random jitter is less uniform than an SPH fluid (the shared frames come within 1 %).
         assert!((r - 0.0125).abs() < 0.025 * 0.0125, "number-density radius {r}");
+    }
+
+    #[test]
+    fn the_fluid_box_leaves_strays_out() {
+        let mut pos: Vec<[f32; 3]> = (0..1000).map(|i| [(i % 10) as f32 * 0.1, (i / 100) as f32 * 0.1, 0.0]).collect();
+        pos.push([4.5, 0.2, 0.0]); // a droplet beside the water stays
+        pos.push([1e6, 0.0, 0.0]); // a stray does not
+        let (b, out) = fluid_bounds(&pos, 0.0).unwrap();
+        assert_eq!(out, 1);
+        assert_eq!(b.hi.x, 4.5);
+        assert_eq!(b.lo, Vec3::new(0.0, 0.0, 0.0));
     }
 
     #[test]

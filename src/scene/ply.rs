@@ -96,10 +96,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     }
     let mut tokens = if enc == Enc::Ascii { Some(AsciiTokens { b: bytes, pos }) } else { None };
     let mut values: Vec<Vec<f64>> = vec![];
+    // Every element is read (only the vertices are kept), so that data beyond what the header declares shows.
     for (k, el) in elements.iter().enumerate() {
-        if k > vi {
-            break;
-        }
         let keep = k == vi;
         if keep {
             values = vec![Vec::with_capacity(el.count); el.props.len()];
@@ -157,6 +155,24 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                     }
                 }
             }
+        }
+    }
+    // Nothing may follow the last element (a header that under-counts its vertices or faces).
+    {
+        let rest = match &tokens {
+            Some(t) => t.pos + t.b[t.pos..].iter().take_while(|b| b.is_ascii_whitespace()).count(),
+            None => pos,
+        };
+        if rest < bytes.len() {
+            return Err(err(
+                rest,
+                format!(
+                    "{} bytes follow the {} vertices{} the header declares (a header that under-counts them?)",
+                    bytes.len() - rest,
+                    v.count,
+                    if vi + 1 < elements.len() { " and the elements after them" } else { "" }
+                ),
+            ));
         }
     }
     let names: Vec<Option<&str>> =

@@ -101,7 +101,7 @@ fn is_pvd(spec: &str) -> bool {
 /// not supported (an error says so).
 pub fn read_pvd(path: &Path) -> Result<Vec<Frame>> {
     use quick_xml::events::Event;
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::input::read(path)?;
     let err = |at: usize, r: String| super::bytes::err_at(path, at, r);
     let dir =
         path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }).unwrap_or(Path::new("."));
@@ -154,6 +154,12 @@ pub fn read_pvd(path: &Path) -> Result<Vec<Frame>> {
 
 /// Resolve a pattern, folder or glob to frames sorted by number, filtered by `range` and `shard`.
 pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usize)>) -> Result<Vec<Frame>> {
+    select(spec, resolve_all(spec)?, range, shard)
+}
+
+/// Every frame of a pattern, folder or glob, sorted by number; each file is recorded as an input of this
+/// process ([`crate::input::note`]), so no output of the run can overwrite a frame.
+pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
     let mut frames: Vec<Frame> = if is_pvd(spec) {
         read_pvd(Path::new(spec))?
     } else if let Some((pre, post)) = spec.split_once("{}") {
@@ -204,6 +210,19 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
         return Err(Error::Invalid(format!("{spec}: no particle files match")));
     }
     frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
+    for f in &frames {
+        crate::input::note(&f.path);
+    }
+    Ok(frames)
+}
+
+/// The frames of `frames` (all of a sequence, sorted) that `range` and `shard` select.
+pub fn select(
+    spec: &str,
+    mut frames: Vec<Frame>,
+    range: Option<FrameRange>,
+    shard: Option<(usize, usize)>,
+) -> Result<Vec<Frame>> {
     if let Some(r) = range {
         frames.retain(|f| r.contains(f.number));
     }
@@ -214,6 +233,26 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
         return Err(Error::Invalid(format!("{spec}: no frames left after --frames/--shard")));
     }
     Ok(frames)
+}
+
+/// The frame numbers missing from a sequence (sorted by number) that steps regularly: with the step the
+/// greatest common divisor of the differences between consecutive numbers, the numbers between the first and
+/// the last that no file has. Empty when the numbering is too irregular to tell (more gaps than frames).
+pub fn missing(frames: &[Frame]) -> Vec<u64> {
+    fn gcd(a: u64, b: u64) -> u64 {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
+    let step = frames.windows(2).map(|w| w[1].number - w[0].number).fold(0, gcd);
+    let (Some(first), Some(last)) = (frames.first(), frames.last()) else { return vec![] };
+    if step == 0 || (last.number - first.number) / step + 1 > 2 * frames.len() as u64 {
+        return vec![];
+    }
+    let have: std::collections::BTreeSet<u64> = frames.iter().map(|f| f.number).collect();
+    (first.number..=last.number).step_by(step as usize).filter(|n| !have.contains(n)).collect()
 }
 
 /// Number files by the digits in their names (or their position when a name has none).
@@ -299,5 +338,15 @@ mod tests {
         assert_eq!(frame_number("ParticleData_Fluid_20.bgeo"), Some(20));
         assert_eq!(frame_number("a7b_0012.vtk"), Some(12));
         assert_eq!(frame_number("none.vtk"), None);
+    }
+
+    #[test]
+    fn missing_frames_are_found() {
+        let f = |ns: &[u64]| -> Vec<Frame> { ns.iter().map(|&n| Frame { number: n, path: PathBuf::new() }).collect() };
+        assert_eq!(missing(&f(&[1, 2, 3, 5, 6])), vec![4]);
+        assert_eq!(missing(&f(&[0, 2, 4, 8])), vec![6]);
+        assert!(missing(&f(&[0, 10, 20])).is_empty());
+        assert!(missing(&f(&[7])).is_empty());
+        assert!(missing(&f(&[1, 1000, 100000])).is_empty(), "too irregular to tell");
     }
 }

@@ -24,6 +24,8 @@ pub struct SceneJson {
     pub path: PathBuf,
     /// `Configuration.particleRadius`.
     pub radius: Option<f32>,
+    /// `Configuration.dataExportFPS`: the frame rate of the exported sequence.
+    pub fps: Option<f32>,
     /// Interiors (lo, hi) of the containers (`isWall` unit boxes).
     pub containers: Vec<(Vec3, Vec3)>,
     /// Solid boxes (lo, hi).
@@ -68,6 +70,9 @@ impl SceneMesh {
 struct Configuration {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     particle_radius: Option<f32>,
+    /// Frames written per simulated second: a sequence's own frame rate (a movie's default --fps).
+    #[serde(rename = "dataExportFPS", default, skip_serializing_if = "Option::is_none")]
+    data_export_fps: Option<f32>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -124,6 +129,7 @@ impl SceneJson {
         let mut s = SceneJson {
             path: path.to_path_buf(),
             radius: f.configuration.particle_radius,
+            fps: f.configuration.data_export_fps.filter(|f| f.is_finite() && *f > 0.0),
             by_meniscus: f.meniscus.is_some(),
             ..Default::default()
         };
@@ -164,9 +170,16 @@ impl SceneJson {
         Ok(s)
     }
 
+    /// Whether `path` is a scene.json that `meniscus sim --export` wrote (so an export may replace it). It is
+    /// read to be replaced, not as an input of the run: it is not recorded as one.
+    pub fn is_ours(path: &Path) -> bool {
+        crate::input::check(path).is_ok()
+            && std::fs::read_to_string(path).is_ok_and(|t| SceneJson::parse(path, &t).is_ok_and(|s| s.by_meniscus))
+    }
+
     /// Read and parse `path`.
     pub fn load(path: &Path) -> Result<SceneJson> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::input::read_text(path)?;
         SceneJson::parse(path, &text)
     }
 
@@ -234,12 +247,12 @@ pub fn write_scene_json(
         meshes.iter().map(|m| body(m.to_string_lossy().into_owned(), Vec3::splat(-0.5), Vec3::splat(0.5), false)),
     );
     let f = File {
-        configuration: Configuration { particle_radius: Some(radius) },
+        configuration: Configuration { particle_radius: Some(radius), data_export_fps: None },
         rigid_bodies: bodies,
         meniscus: Some(serde_json::json!({ "writtenBy": concat!("meniscus ", env!("CARGO_PKG_VERSION")) })),
     };
     let text = serde_json::to_string_pretty(&f).map_err(|e| Error::Invalid(e.to_string()))?;
-    crate::output::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))
+    crate::output::write_atomic(path, crate::output::Kind::Json, |w| std::io::Write::write_all(w, text.as_bytes()))
 }
 
 #[cfg(test)]

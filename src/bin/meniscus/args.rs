@@ -2,14 +2,15 @@
 //! render ([`SceneArgs`]), how to read files ([`LoadArgs`]), settings ([`SettingsArgs`]) and the GPU
 //! ([`GpuArgs`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 
 use meniscus::gpu::{Gpu, GpuOptions};
+use meniscus::output::Kind;
 use meniscus::scene;
 use meniscus::settings::{from_name, Filter, Kernel, Named, Settings, SplatMode, Surface};
 
@@ -45,15 +46,18 @@ impl LoadArgs {
     /// The library's load options.
     pub fn options(&self) -> Result<scene::LoadOptions> {
         let mut o = scene::LoadOptions::default();
-        let set = |v: &mut Vec<String>, name: &Option<String>| {
+        let mut o_required = vec![];
+        let mut set = |v: &mut Vec<String>, name: &Option<String>, flag: &'static str, comps: usize| {
             if let Some(n) = name {
                 *v = vec![n.clone()];
+                o_required.push((flag, n.clone(), comps));
             }
         };
-        set(&mut o.velocity, &self.velocity_attr);
-        set(&mut o.density, &self.density_attr);
-        set(&mut o.id, &self.id_attr);
-        set(&mut o.radius, &self.radius_attr);
+        set(&mut o.velocity, &self.velocity_attr, "--velocity-attr", 3);
+        set(&mut o.density, &self.density_attr, "--density-attr", 1);
+        set(&mut o.id, &self.id_attr, "--id-attr", 1);
+        set(&mut o.radius, &self.radius_attr, "--radius-attr", 1);
+        o.required = o_required;
         o.z_up = self.up == "z";
         if !(self.scale.is_finite() && self.scale > 0.0) {
             bail!("--scale must be a positive number");
@@ -195,7 +199,6 @@ pub fn finish(gpu: &Gpu) -> Result<()> {
 
 /// `WIDTHxHEIGHT`, each 1 … 16384.
 pub fn parse_resolution(r: &str) -> Result<(u32, u32)> {
-    use anyhow::Context;
     let (w, h) = r.split_once(['x', 'X']).with_context(|| format!("bad resolution {r:?}: expected WIDTHxHEIGHT"))?;
     let w: u32 = w.trim().parse().with_context(|| format!("bad width in {r:?}"))?;
     let h: u32 = h.trim().parse().with_context(|| format!("bad height in {r:?}"))?;
@@ -209,4 +212,64 @@ pub fn check_size(w: u32, h: u32) -> Result<()> {
         bail!("size {w}×{h} is out of range (1 … 16384 each)");
     }
     Ok(())
+}
+
+/// Check an output flag's path before any work is done: what [`meniscus::output::check_output`] refuses (an
+/// input of the run, an extension that is not `kind`'s, an existing file of another kind), named by the flag.
+pub fn check_out(flag: &str, path: &Path, kind: Kind) -> Result<()> {
+    meniscus::output::check_output(path, kind).with_context(|| flag.to_string())
+}
+
+/// The kind among `choices` that an output flag's extension names, or an error naming the flag.
+pub fn out_kind(flag: &str, path: &Path, choices: &[Kind]) -> Result<Kind> {
+    Kind::by_extension(path, choices).with_context(|| flag.to_string())
+}
+
+/// The numbered outputs of a sequence: `{}` in `out` is the frame number (4 digits); a folder (an existing one,
+/// or a name ending in `/`) gets `frame_{}.EXT` inside; otherwise `_NNNN` goes before the extension.
+pub struct Numbered {
+    pattern: String,
+}
+
+impl Numbered {
+    /// The pattern of `out`, with `ext` (e.g. "png") for a folder or a name without an extension.
+    pub fn new(out: &Path, ext: &str) -> Numbered {
+        let s = out.to_string_lossy();
+        let pattern = if s.contains("{}") {
+            s.into_owned()
+        } else if s.ends_with('/') || out.is_dir() {
+            out.join(format!("frame_{{}}.{ext}")).to_string_lossy().into_owned()
+        } else {
+            let e = out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| ext.into());
+            format!("{}_{{}}.{e}", out.with_extension("").display())
+        };
+        Numbered { pattern }
+    }
+
+    /// The output of frame `n`.
+    pub fn path(&self, n: u64) -> PathBuf {
+        PathBuf::from(self.pattern.replace("{}", &format!("{n:04}")))
+    }
+}
+
+/// A single output given as a folder (an existing one, or a name ending in `/`) gets `name` inside it.
+pub fn single_out(out: &Path, name: &str) -> PathBuf {
+    if out.to_string_lossy().ends_with('/') || out.is_dir() {
+        out.join(name)
+    } else {
+        out.to_path_buf()
+    }
+}
+
+/// The progress bar of long work: count, rate, elapsed and the estimated time left (hidden when stderr is not
+/// a terminal; the commands print a summary line either way).
+pub fn progress(len: u64, unit: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {unit}  {{per_sec:.2}}  {{msg}}  [{{elapsed}} < {{eta}}]"
+        ))
+        .expect("template"),
+    );
+    bar
 }

@@ -528,6 +528,17 @@ fn overlap_report(entries: &[Entry]) -> String {
 /// Run the benchmark.
 pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
+    use meniscus::output::Kind;
+    for f in &a.scenes {
+        meniscus::input::note(std::path::Path::new(f));
+    }
+    for (flag, path, kind) in
+        [("--json", &a.json, Kind::Json), ("--markdown", &a.markdown, Kind::Markdown), ("--chart", &a.chart, Kind::Png)]
+    {
+        if let Some(p) = path {
+            crate::args::check_out(flag, p, kind)?;
+        }
+    }
     let table43 = a.preset == "table43";
     let moritz = a.preset == "moritz" || table43;
     let quarter = moritz || a.quarter_framing;
@@ -757,11 +768,15 @@ fn write_reports(
     };
     if let Some(p) = &a.json {
         let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        meniscus::output::write_atomic(p, meniscus::output::Kind::Json, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })?;
         eprintln!("wrote {}", p.display());
     }
     if let Some(p) = &a.markdown {
-        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, table.as_bytes()))?;
+        meniscus::output::write_atomic(p, meniscus::output::Kind::Markdown, |w| {
+            std::io::Write::write_all(w, table.as_bytes())
+        })?;
     }
     Ok(())
 }

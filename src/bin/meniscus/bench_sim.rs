@@ -242,7 +242,9 @@ pub fn run(
             combined,
         };
         let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        meniscus::output::write_atomic(p, meniscus::output::Kind::Json, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })?;
         eprintln!("wrote {}", p.display());
     }
     crate::args::finish(gpu)

@@ -61,7 +61,7 @@ pub fn run(a: &InfoArgs) -> Result<()> {
     };
     let p = &job.first;
     if file.exists() {
-        let bytes = std::fs::read(&file).with_context(|| format!("{}", file.display()))?;
+        let bytes = meniscus::input::read(&file)?;
         let format = scene::detect_format(&file, &bytes);
         println!("file:        {} ({} bytes, loaded and analysed in {ms:.1} ms)", file.display(), bytes.len());
         println!(

@@ -39,7 +39,8 @@ pub enum RadiusFrom {
 pub struct Job {
     /// "scene wave", a file path, or the sequence pattern.
     pub label: String,
-    /// The particles of a single input, or the first frame of a sequence.
+    /// The particles of a single input, or the first frame of the whole sequence (what the radius, camera and
+    /// background are fitted to, whatever range or shard is rendered).
     pub first: Particles,
     /// The frames of a sequence (`None` for a single file or scene).
     pub frames: Option<Vec<Frame>>,
@@ -58,6 +59,8 @@ pub struct Job {
     pub walls: Vec<(glam::Vec3, glam::Vec3)>,
     /// The ground height under the walls (the container's floor), when they come with one.
     pub floor: Option<f32>,
+    /// The sequence's own frame rate, when its scene.json says it (a movie's default --fps).
+    pub fps: Option<f32>,
 }
 
 /// The `scene.json` describing the particle file `path`, if any, with one line about what it gives; one that
@@ -102,11 +105,26 @@ impl Job {
                 bail!("--particles applies to built-in scenes only");
             }
             if sequence::is_sequence(input) {
-                let frames = sequence::resolve(input, select.range, select.shard)?;
-                let first = scene::load_with(&frames[0].path, &load)?;
-                if !scene_args.no_scene_json {
-                    scene_json = find_scene_json(&frames[0].path);
+                // Everything fitted to the data (radius, camera, background) comes from the first frame of the
+                // WHOLE sequence, never from the first frame a range or shard happens to start with: frame k
+                // renders byte-identically however the sequence is split (--frames, --shard, --resume).
+                let all = sequence::resolve_all(input)?;
+                let gaps = sequence::missing(&all);
+                if !gaps.is_empty() {
+                    let shown: Vec<String> = gaps.iter().take(10).map(|n| n.to_string()).collect();
+                    eprintln!(
+                        "warning: {input}: {} frame{} missing from the numbering: {}{}",
+                        gaps.len(),
+                        if gaps.len() == 1 { " is" } else { "s are" },
+                        shown.join(", "),
+                        if gaps.len() > 10 { ", …" } else { "" }
+                    );
                 }
+                let first = scene::load_with(&all[0].path, &load)?;
+                if !scene_args.no_scene_json {
+                    scene_json = find_scene_json(&all[0].path);
+                }
+                let frames = sequence::select(input, all, select.range, select.shard)?;
                 let r = scene_json.as_ref().and_then(|s| s.radius).map(|r| (r, RadiusFrom::SceneJson));
                 (first, r, Some(frames), input.to_string())
             } else {
@@ -114,6 +132,7 @@ impl Job {
                     bail!("--frames and --shard apply to sequences (a pattern with {{}}, a folder or a glob)");
                 }
                 let path = Path::new(input);
+                meniscus::input::note(path);
                 if !path.exists() {
                     let known: Vec<&str> = procedural::SCENES.iter().map(|s| s.0).collect();
                     bail!("{input}: no such file, and not a built-in scene ({})", known.join(", "));
@@ -125,6 +144,14 @@ impl Job {
                 (scene::load_with(path, &load)?, r, None, input.to_string())
             }
         };
+        // Coordinates whose squares overflow 32-bit floats cannot be rendered or meshed (distances are squared).
+        let largest = first.positions.iter().flatten().fold(0f32, |m, x| m.max(x.abs()));
+        if largest > 1e15 {
+            bail!(
+                "{label}: particle coordinates reach {largest:e}, beyond the 1e15 that 32-bit rendering can square; \
+                 check the units and --scale"
+            );
+        }
         let mut settings = settings;
         let (radius, radius_from) = match (scene_args.radius, scene_radius) {
             (Some(r), _) => (r, RadiusFrom::Flag),
@@ -139,6 +166,7 @@ impl Job {
         settings.validate()?;
         let bounds = scene::percentile_bounds(&first.positions, 0.01).context("no finite particle positions")?;
         let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
+        camera.unwrap_or_else(|| Camera::fit(&bounds, 16.0 / 9.0)).check()?;
         let mut mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
         // A scene.json's mesh bodies join the background mesh; one that cannot be read is reported and left out.
         if let Some(sj) = &scene_json {
@@ -160,7 +188,8 @@ impl Job {
             }
             _ => (vec![], None),
         };
-        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls, floor })
+        let fps = scene_json.as_ref().and_then(|s| s.fps);
+        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls, floor, fps })
     }
 
     /// The job of a live simulation (`demo --sim`): the scene's initial particles, its radius, its container as
@@ -193,6 +222,7 @@ impl Job {
             mesh,
             walls: scene.wall_boxes(),
             floor: Some(lo.y),
+            fps: None,
         })
     }
 

@@ -10,6 +10,7 @@ pub(crate) mod demo;
 mod info;
 mod job;
 mod mesh;
+mod movie;
 mod render;
 mod sim;
 
@@ -26,8 +27,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Render one frame headless to a PNG, or a sequence to numbered PNGs.
+    /// Render one frame headless to a PNG, or a sequence to numbered PNGs or a movie (.mp4, .webm, .gif).
     Render(render::RenderArgs),
+    /// Encode numbered PNG frames into a movie with ffmpeg (the last step of a render split over a cluster).
+    Encode(movie::EncodeArgs),
     /// Describe a particle file: format, count, attributes, bounds, spacing and the radius a job would use.
     Info(info::InfoArgs),
     /// List the built-in procedural scenes.
@@ -43,10 +46,43 @@ enum Cmd {
     Demo(demo::DemoArgs),
 }
 
+/// A closed stdout or stderr (`meniscus info FILE | head -1`) is a normal end, not a crash: Rust's print
+/// macros panic on a broken pipe, so the panic hook ends the process quietly in that one case (exit 0 when the
+/// reader of stdout has all it wanted, 1 when stderr is gone and nothing more can be reported), and leaves
+/// every other panic to the default hook.
+fn quiet_on_closed_pipes() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe") {
+            meniscus::output::remove_partials();
+            std::process::exit(0);
+        }
+        if msg.starts_with("failed printing to stderr") {
+            meniscus::output::remove_partials();
+            std::process::exit(1);
+        }
+        default(info);
+    }));
+}
+
 fn main() {
+    quiet_on_closed_pipes();
+    // SIGINT / SIGTERM: the partial files being written are removed, so an interrupted run leaves only
+    // complete outputs (a SIGKILL leaves NAME.PID.partial, which the next write of NAME removes).
+    let _ = ctrlc::set_handler(|| {
+        meniscus::output::remove_partials();
+        std::process::exit(130);
+    });
     let cli = Cli::parse();
     let r = match cli.cmd {
         Cmd::Render(a) => render::run(&a),
+        Cmd::Encode(a) => movie::encode(&a),
         Cmd::Info(a) => info::run(&a),
         Cmd::Bench(a) => bench::run(&a),
         Cmd::Demo(a) => demo::main(&a),

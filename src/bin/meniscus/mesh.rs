@@ -13,7 +13,9 @@ use meniscus::iso::IsoGrid;
 use meniscus::scene::sequence::{FrameRange, Prefetch};
 use meniscus::scene::{self, Particles};
 
-use crate::args::{LoadArgs, SceneArgs};
+use meniscus::output::Kind;
+
+use crate::args::{check_out, out_kind, LoadArgs, SceneArgs};
 use crate::job::{Job, Select};
 
 /// `meniscus mesh`.
@@ -66,7 +68,7 @@ pub struct MeshArgs {
     /// cubes, in parallel. 0: the per-corner paths (every corner gathers its particles), surface following
     /// unless --dense. Changes nothing but the time (measured on the dam-break frames, 1 and 2 threads: 64 is
     /// 3–20 % faster than 32; benches/results/llvmpipe-race-splashsurf.md).
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(0..=1024))]
     block: u32,
     /// With --block 0: evaluate the field at every cube corner within the kernel support (the reference)
     /// instead of following the surface in from the outside (which skips closed cavities inside the fluid).
@@ -90,6 +92,14 @@ pub struct MeshArgs {
 
 /// Run the extraction.
 pub fn run(a: &MeshArgs) -> Result<()> {
+    // Outputs first: a misplaced argument (`--compare FILE.bgeo`) must not cost the user a file.
+    if let Some(p) = &a.compare {
+        check_out("--compare", p, Kind::Png)?;
+    }
+    let out_kind = match &a.out {
+        Some(p) => out_kind("--out", p, &meniscus::output::MESH_KINDS)?,
+        None => Kind::Ply,
+    };
     if !(a.cube_size.is_finite() && a.cube_size > 0.05 && a.cube_size <= 8.0) {
         bail!("--cube-size must be in (0.05, 8] particle radii");
     }
@@ -123,6 +133,10 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let select = Select { range: a.frames_range.as_deref().map(FrameRange::parse).transpose()?, shard: None };
     let job = Job::open(&a.scene, &a.load, meniscus::settings::Settings::default(), select)?;
     eprintln!("{}", job.summary(a.compare.as_ref().map(|_| (a.width, a.height))));
+    // Again now that the inputs are known (the job records every file it reads).
+    if let Some(p) = &a.compare {
+        check_out("--compare", p, Kind::Png)?;
+    }
     if let Some(png) = &a.compare {
         if job.frames.is_some() {
             bail!("--compare takes one file, not a sequence");
@@ -134,6 +148,9 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         }
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("mesh.ply"));
+    if job.frames.is_none() {
+        check_out("--out", &out, out_kind)?;
+    }
     let r = job.settings.radius;
     let params = ExtractParams { cube: a.cube_size * r, threshold, dense: a.dense, block: a.block, metaball };
     let support = if metaball { a.rc } else { a.support };
@@ -147,8 +164,18 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
         let t0 = std::time::Instant::now();
         let (m, how) = pool.install(|| -> Result<_> {
-            let grid = IsoGrid::build(&p.positions, support * r);
+            // The one stray-particle policy: particles far from the fluid are left out, and counted.
+            let (kept, strays) = scene::without_strays(&p.positions, support * r);
+            if strays > 0 {
+                eprintln!(
+                    "warning: {strays} particle{} far from the fluid (beyond its 1st–99th percentile box grown by its \
+                     own size) left out of the mesh",
+                    if strays == 1 { " is" } else { "s are" }
+                );
+            }
+            let grid = IsoGrid::build(&kept, support * r);
             meniscus::extract::check_lattice(&grid, params.cube)?;
+            meniscus::extract::check_memory(&grid, &params, rayon::current_num_threads())?;
             let inv = grid.inv_density();
             let t_field = t0.elapsed().as_secs_f64();
             let (mut m, how) = match &gpu_mc {
@@ -218,16 +245,10 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         eprintln!("{}", one(&job.first, &out).with_context(|| job.label.clone())?);
         return done();
     };
-    let out_name = |n: u64| -> PathBuf {
-        let s = out.to_string_lossy();
-        if s.contains("{}") {
-            PathBuf::from(s.replace("{}", &format!("{n:04}")))
-        } else {
-            let stem = out.with_extension("");
-            let ext = out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "ply".into());
-            PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
-        }
-    };
+    let names = crate::args::Numbered::new(&out, "ply");
+    for f in &frames {
+        check_out("--out", &names.path(f.number), out_kind)?;
+    }
     let bar = indicatif::ProgressBar::new(frames.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -238,7 +259,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let (t0, mut last) = (std::time::Instant::now(), String::new());
     for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
         let p: scene::Particles = loaded?;
-        last = one(&p, &out_name(frame.number)).with_context(|| frame.path.display().to_string())?;
+        last = one(&p, &names.path(frame.number)).with_context(|| frame.path.display().to_string())?;
         bar.set_message(last.clone());
         bar.inc(1);
     }

@@ -10,18 +10,33 @@ use meniscus::frame::View;
 use meniscus::renderer::{read_f32, Renderer};
 use meniscus::scene::sequence::{self, FrameRange, Prefetch};
 
-use crate::args::{check_size, finish, GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
+use meniscus::output::Kind;
+
+use crate::args::{check_out, check_size, finish, single_out, GpuArgs, LoadArgs, Numbered, SceneArgs, SettingsArgs};
 use crate::job::{Job, Select};
+use crate::movie::MOVIE_KINDS;
 
 /// `meniscus render`.
 #[derive(Args, Clone, Debug)]
 pub struct RenderArgs {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Output PNG (written atomically: no half-written file on failure). For a sequence, {} in the name is the
-    /// frame number (4 digits), else _NNNN is added before the extension.
+    /// Output PNG (written atomically: no half-written file on failure; never over an input or a file of
+    /// another kind). For a sequence, {} in the name is the frame number (4 digits); a folder (`frames/`) gets
+    /// frame_NNNN.png inside; else _NNNN is added before the extension. A sequence to .mp4, .webm or .gif is
+    /// encoded as a movie by ffmpeg while it renders (--fps, --crf, --ffmpeg-args).
     #[arg(short, long, default_value = "frame.png")]
     out: PathBuf,
+    #[command(flatten)]
+    movie: crate::movie::MovieArgs,
+    /// Sequence: skip the frames whose output already exists (outputs are written whole or not at all, so an
+    /// interrupted run resumes where it stopped); the frames rendered are byte-identical either way.
+    #[arg(long)]
+    resume: bool,
+    /// Sequence: a frame that cannot be read is reported and skipped instead of ending the run (the count of
+    /// skipped frames is printed at the end, and the exit status is 1 if any was skipped).
+    #[arg(long)]
+    skip_bad_frames: bool,
     /// Sequence: frames FIRST..LAST[:STEP] (inclusive, by the numbers in the file names), e.g. 10..40:2.
     #[arg(long = "frames", value_name = "RANGE")]
     frames_range: Option<String>,
@@ -72,6 +87,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if job.frames.is_some() {
         return render_sequence(a, &job);
     }
+    if a.resume || a.skip_bad_frames {
+        bail!("--resume and --skip-bad-frames apply to sequences");
+    }
+    if Kind::by_extension(&a.out, &MOVIE_KINDS).is_ok() {
+        bail!("--out {}: a movie is made from a sequence (a pattern with {{}}, a folder or a glob)", a.out.display());
+    }
+    let out = single_out(&a.out, "frame.png");
+    check_out("--out", &out, Kind::Png)?;
+    for (d, path) in dump_paths(a, &out) {
+        check_out(&format!("--dump {d}"), &path, Kind::by_extension(&path, &[Kind::Npy, Kind::Png])?)?;
+    }
     let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
     let s = &job.settings;
     let mut view = job.view(a.width, a.height);
@@ -100,7 +126,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         times = meniscus::gpu::timer::median_times(&runs);
     }
     let img = r.read_final()?;
-    meniscus::output::write_png(&a.out, &img)?;
+    meniscus::output::write_png(&out, &img)?;
     eprintln!(
         "{}: {} particles, radius {}, {}×{} on {} → {}",
         job.label,
@@ -109,7 +135,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         a.width,
         a.height,
         gpu.info.name,
-        a.out.display()
+        out.display()
     );
     eprintln!("camera: --camera {}", view.camera.to_arg());
     if a.timings {
@@ -124,7 +150,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             println!("| {name} (first frame only: runs when the particles change) | {ms:.3} |");
         }
     }
-    dump(&r, a, &view)?;
+    dump(&r, a, &out, &view)?;
     finish(&gpu)
 }
 
@@ -137,22 +163,37 @@ fn check_dumps(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Render a sequence to numbered PNGs: background prefetch, progress bar, camera fitted once on the first frame.
+/// Render a sequence to numbered PNGs: background prefetch, progress bar, camera fitted once to the sequence.
 fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
-    let frames = job.frames.clone().expect("a sequence");
+    let all = job.frames.clone().expect("a sequence");
     if !a.dump.is_empty() {
         bail!("--dump applies to single frames");
     }
-    let out_name = |n: u64| -> PathBuf {
-        let s = a.out.to_string_lossy();
-        if s.contains("{}") {
-            PathBuf::from(s.replace("{}", &format!("{n:04}")))
-        } else {
-            let stem = a.out.with_extension("");
-            let ext = a.out.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "png".into());
-            PathBuf::from(format!("{}_{n:04}.{ext}", stem.display()))
+    let movie = Kind::by_extension(&a.out, &MOVIE_KINDS).ok();
+    let names = Numbered::new(&a.out, "png");
+    match movie {
+        Some(kind) => {
+            if a.resume || a.shard.is_some() {
+                bail!(
+                    "--out {}: a movie is one file; for --shard or --resume render PNG frames, then `meniscus \
+                     encode` them (README: On a cluster)",
+                    a.out.display()
+                );
+            }
+            check_out("--out", &a.out, kind)?;
         }
-    };
+        None => {
+            for f in &all {
+                check_out("--out", &names.path(f.number), Kind::Png)?;
+            }
+        }
+    }
+    let frames: Vec<_> =
+        if a.resume { all.iter().filter(|f| !names.path(f.number).is_file()).cloned().collect() } else { all.clone() };
+    if frames.is_empty() {
+        eprintln!("--resume: all {} frames are already written", all.len());
+        return Ok(());
+    }
     let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
     let gpu = a.gpu.open()?;
     let mut r = Renderer::with_frames(&gpu, a.frames_in_flight as usize)?;
@@ -166,74 +207,146 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     eprintln!("{}", job.summary(Some((a.width, a.height))));
     let total = frames.len();
     eprintln!(
-        "{}: {total} frames ({} … {}) on {}",
+        "{}: {total} frames ({} … {}) on {}{}",
         a.scene.input,
         frames[0].number,
         frames[total - 1].number,
-        gpu.info.name
+        gpu.info.name,
+        if total < all.len() { format!(" ({} already written: --resume)", all.len() - total) } else { String::new() }
     );
-    let bar = indicatif::ProgressBar::new(total as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} frames  {per_sec:.2}  {msg}  [{elapsed} < {eta}]",
-        )
-        .expect("template"),
-    );
+    let mut sink = match movie {
+        Some(kind) => {
+            let fps = a.movie.fps.or(job.fps).unwrap_or(25.0);
+            eprintln!("encoding {} at {fps} frames/s with ffmpeg", a.out.display());
+            Some(crate::movie::Movie::start(&a.out, kind, a.width, a.height, fps, &a.movie)?)
+        }
+        None => None,
+    };
+    let bar = crate::args::progress(total as u64, "frames");
     let t0 = std::time::Instant::now();
     let mut gpu_ms = 0.0;
     // The overlap: frame n+1 loads on the prefetch thread and frame n−1's PNG encodes on the writer thread
     // while frame n renders; up to `frames_in_flight` frames are on the GPU at once (each copies its image
     // into its slot's readback buffer, taken before the slot is reused). The camera was fitted once.
     let (tx, rx) = std::sync::mpsc::sync_channel::<(PathBuf, image::RgbaImage)>(2);
-    let writer = std::thread::spawn(move || -> meniscus::Result<()> {
+    // The writer: PNGs, or the movie's frames into ffmpeg (which encodes beside the rendering).
+    let writer = std::thread::spawn(move || -> Result<usize> {
+        let mut n = 0;
         for (path, img) in rx {
-            meniscus::output::write_png(&path, &img)?;
+            match sink.as_mut() {
+                Some(m) => m.push(&img)?,
+                None => meniscus::output::write_png(&path, &img)?,
+            }
+            n += 1;
         }
-        Ok(())
+        if let Some(m) = sink.take() {
+            m.finish()?;
+        }
+        Ok(n)
     });
     let mut pending = std::collections::VecDeque::new();
+    let mut skipped = vec![];
+    let mut rendered = 0usize;
     let mut take =
-        |r: &mut Renderer, (sub, path, name): (meniscus::gpu::executor::Submitted, PathBuf, String)| -> Result<()> {
+        |r: &mut Renderer, (sub, path, name): (meniscus::gpu::executor::Submitted, PathBuf, String)| -> Result<bool> {
             let img = r.read_submitted(sub)?;
             gpu_ms += r.finish(sub)?.total();
+            rendered += 1;
             bar.set_message(format!("{name} → {}", path.display()));
-            tx.send((path, img)).map_err(|_| anyhow::anyhow!("the PNG writer stopped"))?;
             bar.inc(1);
-            Ok(())
+            // A closed channel means the writer failed: its error is reported below.
+            Ok(tx.send((path, img)).is_ok())
         };
     let run = (|| -> Result<()> {
         for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
-            let particles = loaded?;
+            let particles = match loaded {
+                Ok(p) => p,
+                Err(e) if a.skip_bad_frames => {
+                    bar.suspend(|| eprintln!("warning: skipping frame {}: {e}", frame.number));
+                    skipped.push(frame.number);
+                    continue;
+                }
+                Err(e) => return Err(e.into()),
+            };
             job.upload(&mut r, &particles)?;
             let sub = r.submit(&view, s, true)?;
             let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
-            pending.push_back((sub, out_name(frame.number), name));
-            if pending.len() >= r.frames_in_flight() {
-                take(&mut r, pending.pop_front().expect("non-empty"))?;
+            pending.push_back((sub, names.path(frame.number), name));
+            if pending.len() >= r.frames_in_flight() && !take(&mut r, pending.pop_front().expect("non-empty"))? {
+                return Ok(());
             }
-        }
-        while let Some(p) = pending.pop_front() {
-            take(&mut r, p)?;
         }
         Ok(())
     })();
+    // Frames already on the GPU are finished and written even when a later frame failed.
+    while let Some(p) = pending.pop_front() {
+        if !take(&mut r, p)? {
+            break;
+        }
+    }
     drop(tx);
     let written = writer.join().map_err(|_| anyhow::anyhow!("the PNG writer panicked"))?;
-    run?;
-    written?;
-    bar.finish();
+    bar.finish_and_clear();
     let secs = t0.elapsed().as_secs_f64();
-    eprintln!(
-        "{total} frames in {secs:.1} s ({:.2} frames/s, mean GPU frame {:.1} ms)",
-        total as f64 / secs,
-        gpu_ms / total as f64
+    let n_written = *written.as_ref().unwrap_or(&0);
+    let place = match movie {
+        Some(_) => a.out.display().to_string(),
+        None => names
+            .path(all[0].number)
+            .parent()
+            .map(|p| p.display().to_string())
+            .filter(|p| !p.is_empty())
+            .unwrap_or(".".into()),
+    };
+    let summary = format!(
+        "{n_written} of {} frames written to {place} in {secs:.1} s ({:.2} frames/s, mean GPU frame {:.1} ms)",
+        all.len(),
+        rendered as f64 / secs,
+        gpu_ms / rendered.max(1) as f64
     );
-    finish(&gpu)
+    match (run, written) {
+        (Err(e), _) => {
+            eprintln!("{summary}");
+            Err(e)
+        }
+        (Ok(()), Err(e)) => {
+            eprintln!("{summary}");
+            Err(e.context("writing the frames"))
+        }
+        (Ok(()), Ok(_)) => {
+            eprintln!("{summary}");
+            finish(&gpu)?;
+            if !skipped.is_empty() {
+                let list: Vec<String> = skipped.iter().map(|n| n.to_string()).collect();
+                bail!("{} frame(s) could not be read and were skipped: {}", skipped.len(), list.join(", "));
+            }
+            Ok(())
+        }
+    }
 }
 
-fn dump(r: &Renderer, a: &RenderArgs, view: &View) -> Result<()> {
+/// The files `--dump` writes beside the output PNG `out`, each with the dump's name.
+fn dump_paths(a: &RenderArgs, out: &std::path::Path) -> Vec<(String, PathBuf)> {
+    let stem = out.with_extension("");
+    let path = |n: &str, ext: &str| PathBuf::from(format!("{}.{n}.{ext}", stem.display()));
+    let mut v = vec![];
+    for d in &a.dump {
+        match d.as_str() {
+            "depth" | "smoothed" | "thickness" => v.push((d.clone(), path(d, "npy"))),
+            "normals" => {
+                v.push((d.clone(), path(d, "npy")));
+                v.push((d.clone(), path(d, "png")));
+            }
+            "ssr" => v.push((d.clone(), path(d, "png"))),
+            _ => {}
+        }
+    }
+    v
+}
+
+fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Result<()> {
     let Some(t) = r.targets.as_ref() else { return Ok(()) };
-    let stem = a.out.with_extension("");
+    let stem = out.with_extension("");
     let path = |n: &str, ext: &str| PathBuf::from(format!("{}.{n}.{ext}", stem.display()));
     for d in &a.dump {
         match d.as_str() {

@@ -76,9 +76,9 @@ impl SimArgs {
 pub fn run(a: &SimArgs) -> Result<()> {
     let (scene, params) = a.resolve()?;
     if let Some(e) = &a.export {
-        let l = e.to_ascii_lowercase();
-        if !(l.ends_with(".bgeo") || l.ends_with(".vtk")) {
-            bail!("--export {e:?}: the cache is written as .bgeo or .vtk");
+        let kind = crate::args::out_kind("--export", std::path::Path::new(e), &meniscus::output::PARTICLE_KINDS)?;
+        for n in 1..=a.frames.max(1) {
+            crate::args::check_out("--export", std::path::Path::new(&e.replace("{}", &n.to_string())), kind)?;
         }
         if !e.contains("{}") {
             bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
@@ -115,7 +115,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
         // --radius; a scene.json that meniscus did not write is left alone.
         let dir = std::path::Path::new(e).parent().unwrap_or(std::path::Path::new(""));
         let path = dir.join("scene.json");
-        let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::load(&path).is_ok_and(|s| s.by_meniscus);
+        let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::is_ours(&path);
         if ours {
             let s = &sim.scene;
             // The collider mesh by its absolute path, so `render` of the export draws it from any folder.

@@ -52,7 +52,7 @@ Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
 F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
-V: vsync on/off | P: screenshot (PNG) | H: help on/off | Esc: quit
+V: vsync on/off | P: screenshot (PNG) | M: record a movie on/off (--record FILE, else meniscus-recording-NNNN.mp4) | H: help on/off | Esc: quit
 --sim: Space pause | Right: one frame | Backspace: restart | hold Ctrl + move the mouse: push the water";
 
 /// `meniscus demo`.
@@ -78,6 +78,10 @@ pub struct DemoArgs {
     /// With --frames: write the last frame here (PNG).
     #[arg(long)]
     screenshot: Option<PathBuf>,
+    /// Record the window into this movie (.mp4, .webm or .gif, through ffmpeg) from the start; M stops and
+    /// starts recording (one frame per drawn frame, played back at --fps).
+    #[arg(long, value_name = "MOVIE")]
+    record: Option<PathBuf>,
     /// With --frames: resize the window to ¾ after a third of the frames and back after two thirds (tests the
     /// swapchain's recreation with frames in flight).
     #[arg(long, hide = true)]
@@ -104,6 +108,10 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
         anyhow::bail!("--screenshot needs --frames N (or press P in the window)");
     }
     crate::args::check_size(a.width, a.height)?;
+    if let Some(p) = &a.record {
+        let kind = crate::args::out_kind("--record", p, &crate::movie::MOVIE_KINDS)?;
+        crate::args::check_out("--record", p, kind)?;
+    }
     let settings = a.set.resolve()?;
     let (sim, job) = match &a.sim {
         Some(name) => {
@@ -134,6 +142,7 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             device: a.gpu.device.clone(),
             frames: a.frames,
             screenshot: a.screenshot.clone(),
+            record: a.record.clone(),
             exercise_resize: a.exercise_resize,
             fps: a.fps.max(0.1),
             sim,
@@ -154,6 +163,8 @@ pub struct DemoOptions {
     /// Run this many frames, then exit (after writing `screenshot` if given).
     pub frames: Option<u64>,
     pub screenshot: Option<PathBuf>,
+    /// Record the window into this movie from the start.
+    pub record: Option<PathBuf>,
     /// Scripted resizes (see `--exercise-resize`).
     pub exercise_resize: bool,
     pub fps: f32,
@@ -217,6 +228,9 @@ struct App {
     last_frame: Instant,
     last_times: PassTimes,
     screenshot_count: u32,
+    /// The movie being recorded (M, `--record`) and how many were started.
+    recorder: Option<(crate::movie::Movie, PathBuf)>,
+    recordings: u32,
     resized: bool,
     /// Simulation: one frame requested while paused; the last particles read back (particle view, iso, mesh).
     sim_step: bool,
@@ -271,6 +285,8 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         last_frame: Instant::now(),
         last_times: PassTimes::default(),
         screenshot_count: 0,
+        recorder: None,
+        recordings: 0,
         resized: false,
         sim_step: o.sim.is_some(),
         sim_particles: None,
@@ -284,6 +300,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
     if let Some(e) = app.error.take() {
         return Err(e);
     }
+    app.stop_recording().map_err(|e| Error::Invalid(format!("{e:#}")))?;
     let secs = app.started.elapsed().as_secs_f64();
     eprintln!("{} frames in {secs:.1} s ({:.2} frames/s)", app.frames_drawn, app.frames_drawn as f64 / secs.max(1e-9));
     if let Some(st) = &app.state {
@@ -512,6 +529,17 @@ impl App {
             KeyCode::KeyV => {
                 self.o.vsync = !self.o.vsync;
                 self.resized = true;
+            }
+            KeyCode::KeyM => {
+                let size = self.state.as_ref().and_then(|st| st.renderer.targets.as_ref().map(|t| (t.width, t.height)));
+                let r = if self.recorder.is_some() {
+                    self.stop_recording()
+                } else {
+                    self.start_recording(None, size.unwrap_or((self.o.width, self.o.height)))
+                };
+                if let Err(e) = r {
+                    eprintln!("recording failed: {e:#}");
+                }
             }
             KeyCode::KeyP => {
                 self.screenshot_count += 1;
@@ -773,6 +801,22 @@ impl App {
         }
         self.frames_drawn += 1;
         self.fps_window.1 += 1;
+        if self.recorder.is_none() && self.recordings == 0 && self.o.record.is_some() {
+            let p = self.o.record.clone();
+            let size = st.renderer.targets.as_ref().map_or((self.o.width, self.o.height), |t| (t.width, t.height));
+            self.start_recording(p, size).map_err(|e| Error::Invalid(format!("{e:#}")))?;
+        }
+        if let Some((movie, _)) = self.recorder.as_mut() {
+            // The movie keeps the window's first size: a resized window's frames are scaled to it.
+            let img = st.renderer.read_final()?;
+            let (w, h) = movie.size();
+            let img = if img.dimensions() == (w, h) {
+                img
+            } else {
+                image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle)
+            };
+            movie.push(&img).map_err(|e| Error::Invalid(format!("{e:#}")))?;
+        }
         let el_s = now.duration_since(self.fps_window.0).as_secs_f32();
         if el_s >= 0.5 {
             self.fps_window = (now, 0, self.fps_window.1 as f32 / el_s);
@@ -851,6 +895,26 @@ impl App {
             t.push("H: help".into());
         }
         t
+    }
+
+    /// Start recording the window into `path` (default: the next free meniscus-recording-NNNN.mp4).
+    fn start_recording(&mut self, path: Option<PathBuf>, size: (u32, u32)) -> anyhow::Result<()> {
+        self.recordings += 1;
+        let path = path.unwrap_or_else(|| PathBuf::from(format!("meniscus-recording-{:04}.mp4", self.recordings)));
+        let kind = crate::args::out_kind("--record", &path, &crate::movie::MOVIE_KINDS)?;
+        let movie = crate::movie::Movie::start(&path, kind, size.0, size.1, self.o.fps, &Default::default())?;
+        eprintln!("recording {} (M stops)", path.display());
+        self.recorder = Some((movie, path));
+        Ok(())
+    }
+
+    /// Finish the movie being recorded, if any.
+    fn stop_recording(&mut self) -> anyhow::Result<()> {
+        if let Some((movie, path)) = self.recorder.take() {
+            let n = movie.finish()?;
+            eprintln!("recorded {n} frames → {}", path.display());
+        }
+        Ok(())
     }
 
     fn save_screenshot(&mut self, p: &std::path::Path) -> Result<()> {
