@@ -752,11 +752,7 @@ impl Renderer {
             let (lo, hi) = match crate::scene::fluid_bounds(&self.positions, reach) {
                 Some((b, strays)) => {
                     if strays > 0 && !self.external {
-                        eprintln!(
-                            "warning: {strays} particle{} far from the fluid (beyond its 1st–99th percentile box \
-                             grown by its own size) left out of the iso surface",
-                            if strays == 1 { " is" } else { "s are" }
-                        );
+                        eprintln!("{}", crate::scene::stray_warning(strays, "the iso surface"));
                     }
                     (b.lo, b.hi)
                 }

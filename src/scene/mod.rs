@@ -273,13 +273,14 @@ pub fn percentile_bounds(pos: &[[f32; 3]], p: f64) -> Option<Bounds> {
 }
 
 /// The box of the fluid, and how many particles lie outside it: the bounding box of the particles within the
-/// 1st–99th percentile box grown on every side by [`STRAY_REACH`] times its own size (and at least `margin`). A
+/// 1st–99th percentile box grown on every side by [`STRAY_REACH`] times its largest side (and at least `margin`). A
 /// stray particle (one at x = 1e6 in a tank of a metre) is left out, so it cannot stretch a grid or lattice
 /// built over the box until the water vanishes; splashes and droplets around the water stay in.
 /// `None` without finite positions.
 pub fn fluid_bounds(pos: &[[f32; 3]], margin: f32) -> Option<(Bounds, usize)> {
     let core = percentile_bounds(pos, 0.01)?;
-    let grow = ((core.hi - core.lo) * STRAY_REACH).max(Vec3::splat(margin.max(0.0)));
+    // The largest side, on every axis: water that spread flat still has its splashes above it.
+    let grow = Vec3::splat(((core.hi - core.lo).max_element() * STRAY_REACH).max(margin.max(0.0)));
     let (reach_lo, reach_hi) = (core.lo - grow, core.hi + grow);
     let mut b = Bounds { lo: Vec3::INFINITY, hi: Vec3::NEG_INFINITY };
     let mut out = 0;
@@ -299,9 +300,19 @@ pub fn fluid_bounds(pos: &[[f32; 3]], margin: f32) -> Option<(Bounds, usize)> {
 }
 
 /// How far from the fluid's 1st–99th percentile box a particle still belongs to the water, in multiples of
-/// the box's size per axis: a sheet that ran up a wall or a splash's droplets are within it; a particle a
+/// the box's largest side: a sheet that ran up a wall or a splash's droplets are within it (the shared dam
+/// break's highest droplets, over water spread 0.5 m deep, are 1.9 m above it: half a side), a particle a
 /// thousand tank-lengths away is not.
 pub const STRAY_REACH: f32 = 4.0;
+
+/// The one warning about strays left out of `what` (the iso surface, the mesh).
+pub fn stray_warning(strays: usize, what: &str) -> String {
+    format!(
+        "warning: {strays} particle{} far from the fluid (more than {STRAY_REACH} box sides beyond its 1st–99th \
+         percentile box) left out of {what}",
+        if strays == 1 { " is" } else { "s are" }
+    )
+}
 
 /// The positions inside [`fluid_bounds`] (in order), and how many strays were left out.
 pub fn without_strays(pos: &[[f32; 3]], margin: f32) -> (std::borrow::Cow<'_, [[f32; 3]]>, usize) {

@@ -167,11 +167,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             // The one stray-particle policy: particles far from the fluid are left out, and counted.
             let (kept, strays) = scene::without_strays(&p.positions, support * r);
             if strays > 0 {
-                eprintln!(
-                    "warning: {strays} particle{} far from the fluid (beyond its 1st–99th percentile box grown by its \
-                     own size) left out of the mesh",
-                    if strays == 1 { " is" } else { "s are" }
-                );
+                eprintln!("{}", scene::stray_warning(strays, "the mesh"));
             }
             let grid = IsoGrid::build(&kept, support * r);
             meniscus::extract::check_lattice(&grid, params.cube)?;
