@@ -8,24 +8,20 @@
 #![warn(missing_docs)]
 
 pub mod error;
-pub mod extract;
 pub mod frame;
 pub mod gpu;
 pub mod input;
-pub mod iso;
-pub mod mesh;
 pub mod output;
 pub mod passes;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
 pub mod sim;
+pub mod surface;
 /// Constants shared by Rust and GLSL, defined once (build.rs passes them to every shader as macros).
 pub mod shader_constants {
     include!("shader_constants.rs");
 }
-pub mod sky;
-pub mod smooth_mesh;
 pub mod targets;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.

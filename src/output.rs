@@ -323,7 +323,7 @@ pub const PARTICLE_KINDS: [Kind; 2] = [Kind::Bgeo, Kind::Vtk];
 
 /// Write a triangle mesh: binary little-endian PLY (`.ply`, positions + normals) or Wavefront OBJ (`.obj`,
 /// `v`/`vn`/`f`), chosen by the extension; atomically (no half-written file on failure).
-pub fn write_mesh(path: &Path, m: &crate::extract::TriMesh) -> Result<()> {
+pub fn write_mesh(path: &Path, m: &crate::surface::mesh::extract::TriMesh) -> Result<()> {
     use std::io::Write;
     match Kind::by_extension(path, &MESH_KINDS)? {
         Kind::Ply => write_atomic(path, Kind::Ply, |w| {

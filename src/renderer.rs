@@ -64,7 +64,8 @@ pub struct Renderer {
     mesh: crate::passes::background::MeshBuffers,
     /// The extracted iso-surface mesh of the current particles (BVH on the GPU), built on first use with
     /// `surface = "mesh"`, and the ([support, cube, threshold], smoothing) it was made for.
-    fluid_mesh: Option<(crate::passes::background::MeshBuffers, ([f32; 3], crate::smooth_mesh::SmoothParams))>,
+    fluid_mesh:
+        Option<(crate::passes::background::MeshBuffers, ([f32; 3], crate::surface::mesh::smooth::SmoothParams))>,
     /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
     iso: Option<crate::passes::iso::IsoBuffers>,
     /// The particles changed since the iso grid was built.
@@ -307,9 +308,9 @@ impl Renderer {
     }
 
     /// Add a triangle mesh (world coordinates) to the background scene.
-    pub fn set_background_mesh(&mut self, mesh: &crate::mesh::Mesh) -> Result<()> {
+    pub fn set_background_mesh(&mut self, mesh: &crate::scene::geometry::Geometry) -> Result<()> {
         self.executor.wait_idle()?;
-        let bvh = crate::mesh::GpuBvh::build(mesh);
+        let bvh = crate::scene::geometry::GpuBvh::build(mesh);
         self.mesh = crate::passes::background::MeshBuffers {
             nodes: upload_buffer(&self.gpu, "bvh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
             triangles: upload_buffer(&self.gpu, "bvh_triangles", bytemuck::cast_slice(&bvh.triangles), None)?,
@@ -319,7 +320,7 @@ impl Renderer {
         Ok(())
     }
 
-    /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::sky`). Set
+    /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::scene::sky`). Set
     /// `Environment::sky_cube` to use it.
     pub fn set_skybox(&mut self, size: u32, faces: &[u8]) -> Result<()> {
         self.executor.wait_idle()?;
@@ -696,7 +697,7 @@ impl Renderer {
     /// Extract the iso-surface mesh of the current particles (spray left out) with the `[iso]` field and the
     /// `[mesh]` cube size, and upload its BVH, unless it is there already.
     fn ensure_fluid_mesh(&mut self, s: &Settings) -> Result<()> {
-        let smoothing = crate::smooth_mesh::SmoothParams {
+        let smoothing = crate::surface::mesh::smooth::SmoothParams {
             iterations: s.mesh.smoothing_iters,
             weights: s.mesh.smoothing_weights,
             ..Default::default()
@@ -713,14 +714,14 @@ impl Renderer {
         };
         // As on the GPU path: the grid spans the fluid, strays far from it are left out.
         let pts = crate::scene::without_strays(&pts, field[0]).0.into_owned();
-        let grid = crate::iso::IsoGrid::build(&pts, field[0]);
+        let grid = crate::surface::iso::field::IsoGrid::build(&pts, field[0]);
         let inv = grid.inv_density();
-        let params = crate::extract::ExtractParams::new(field[1], field[2]);
-        crate::extract::check_lattice(&grid, field[1])?;
-        let mut m = crate::extract::extract(&grid, &inv, &params);
-        crate::smooth_mesh::smooth(&mut m, &grid, &inv, &smoothing);
+        let params = crate::surface::mesh::extract::ExtractParams::new(field[1], field[2]);
+        crate::surface::mesh::extract::check_lattice(&grid, field[1])?;
+        let mut m = crate::surface::mesh::extract::extract(&grid, &inv, &params);
+        crate::surface::mesh::smooth::smooth(&mut m, &grid, &inv, &smoothing);
         let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
-        let bvh = crate::mesh::GpuBvh::build(&crate::mesh::Mesh { triangles: tris });
+        let bvh = crate::scene::geometry::GpuBvh::build(&crate::scene::geometry::Geometry { triangles: tris });
         self.fluid_mesh_stats = Some((t0.elapsed().as_secs_f64(), m.vertices.len(), m.triangles.len()));
         self.executor.wait_idle()?;
         self.fluid_mesh = Some((
@@ -817,7 +818,7 @@ impl Renderer {
         };
         // As on the GPU path: the grid spans the fluid, strays far from it are left out.
         let pts = crate::scene::without_strays(&pts, reach).0.into_owned();
-        let grid = crate::iso::IsoGrid::build_reaching(&pts, support, reach);
+        let grid = crate::surface::iso::field::IsoGrid::build_reaching(&pts, support, reach);
         self.executor.wait_idle()?;
         let volume = self.iso.take().and_then(|b| b.volume);
         let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?
@@ -864,7 +865,7 @@ impl Renderer {
         let (o, d) = (b.shape.origin, b.shape.dims);
         let lo = glam::Vec3::new(o[0], o[1], o[2]);
         let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
-        let shape = crate::iso::VolumeShape::around(lo, hi, b.shape.support(), &p);
+        let shape = crate::surface::iso::field::VolumeShape::around(lo, hi, b.shape.support(), &p);
         if b.volume.as_ref().is_some_and(|v| v.shape == shape) {
             return Ok(());
         }

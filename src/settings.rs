@@ -125,7 +125,7 @@ named_enum! {
         /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass; the
         /// default, its field smoothed where the water is calm: `[iso] smoothing`), unfiltered by default.
         Iso = "iso",
-        /// The same iso-surface extracted as a triangle mesh (marching cubes, `crate::extract`) and ray-cast
+        /// The same iso-surface extracted as a triangle mesh (marching cubes, `crate::surface::mesh::extract`) and ray-cast
         /// through its BVH (`mesh` pass).
         Mesh = "mesh",
     }
@@ -363,8 +363,8 @@ impl Settings {
     }
 
     /// The ray-cast parameters in world units (`near` is the view's: 0 here).
-    pub fn iso_params(&self) -> crate::iso::IsoParams {
-        crate::iso::IsoParams {
+    pub fn iso_params(&self) -> crate::surface::iso::field::IsoParams {
+        crate::surface::iso::field::IsoParams {
             threshold: self.iso.threshold,
             step: self.iso.step * self.radius,
             bound: self.iso.bound * self.radius,
@@ -377,7 +377,7 @@ impl Settings {
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
             volume: (self.iso.smoothing > 0.0 && self.kernel == Kernel::Isotropic).then_some(
-                crate::iso::VolumeParams {
+                crate::surface::iso::field::VolumeParams {
                     sigma: self.iso.smoothing * self.radius,
                     bulk: self.iso.bulk,
                     spacing: self.iso.voxel * self.radius,

@@ -83,7 +83,8 @@ fn one_step_matches_the_cpu_reference() {
     for iterations in [1, 3] {
         let mut scene = blob(350, 11 + iterations as u64);
         // A mesh collider too (a box as triangles: its signed distance field), where the blob moves into it.
-        let block = meniscus::mesh::Mesh::cuboid(Vec3::new(-0.05, 0.0, 0.02), Vec3::new(0.05, 0.12, 0.12));
+        let block =
+            meniscus::scene::geometry::Geometry::cuboid(Vec3::new(-0.05, 0.0, 0.02), Vec3::new(0.05, 0.12, 0.12));
         scene.add_mesh_collider(&block).unwrap();
         let n0 = scene.positions.len();
         assert!(n0 < 350, "the block displaced some water");
@@ -282,7 +283,7 @@ fn water_stays_out_of_a_mesh_collider() {
     let gpu = common::gpu();
     let mut scene = SimScene::new("drop", 6000).unwrap();
     let (lo, hi) = (Vec3::new(-0.15, 0.0, -0.15), Vec3::new(0.15, 0.45, 0.15));
-    scene.add_mesh_collider(&meniscus::mesh::Mesh::cuboid(lo, hi)).unwrap();
+    scene.add_mesh_collider(&meniscus::scene::geometry::Geometry::cuboid(lo, hi)).unwrap();
     let n = scene.positions.len();
     let r = scene.radius();
     let sdf = scene.mesh_collider.clone().unwrap();

@@ -1,5 +1,5 @@
 //! `background` pass: the scene behind the fluid — ground plane, boxes, an optional OBJ mesh (through its
-//! BVH, src/mesh.rs), sky — into colour + linear depth. Shader: shaders_glsl/background.comp.
+//! BVH, src/scene/geometry.rs), sky — into colour + linear depth. Shader: shaders_glsl/background.comp.
 use std::sync::Arc;
 
 use crate::declare_program;

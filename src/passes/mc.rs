@@ -1,5 +1,5 @@
 //! `mc` pass: marching cubes on the GPU (the GPU path of `meniscus mesh --gpu`; Janisz §2.2, method.md §10),
-//! sparse over the same blocks and lattice as the CPU block extraction (src/extract.rs), so the two meshes are
+//! sparse over the same blocks and lattice as the CPU block extraction (src/surface/mesh/extract.rs), so the two meshes are
 //! the same mesh up to float rounding (the tests hold them to it):
 //! 1. `mc_field`: every corner of every occupied block gathers the field from the neighbour grid;
 //! 2. `mc_count`: triangles per cube from the case table;
@@ -20,12 +20,14 @@ use rayon::prelude::*;
 
 use crate::declare_program;
 use crate::error::Result;
-use crate::extract::{case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
-use crate::iso::IsoGrid;
 use crate::passes::grid::{ScanPush, SCAN};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
+use crate::surface::iso::field::IsoGrid;
+use crate::surface::mesh::extract::{
+    case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES,
+};
 
 /// The pass's one name (module, shader stems `mc_*`, debug label, timestamp keys `mc_*`).
 pub const NAME: &str = "mc";
@@ -115,7 +117,7 @@ impl Mc {
     }
 
     /// Extract the iso-surface of `grid`'s field (weights `inv_n`, see [`IsoGrid::inv_density`]) on the GPU:
-    /// the same lattice, threshold and field as [`crate::extract::extract_blocks`] (`p.block` is ignored: the
+    /// the same lattice, threshold and field as [`crate::surface::mesh::extract::extract_blocks`] (`p.block` is ignored: the
     /// GPU's blocks are MC_BLOCK³ cubes; `p.dense` too).
     pub fn extract(
         &self,
@@ -247,7 +249,7 @@ fn weld(lat: &Lattice, pos: &[[f32; 4]], nrm: &[[f32; 4]], tri: &[[i32; 4]]) -> 
     };
     let keys: Vec<(i64, u32)> =
         (0..tri.len() * 3).into_par_iter().map(|k| (key_of(&tri[k / 3], k % 3), k as u32)).collect();
-    let (rank, first) = crate::extract::rank_by_key(keys, tri.len() * 3);
+    let (rank, first) = crate::surface::mesh::extract::rank_by_key(keys, tri.len() * 3);
     let (vertices, normals) = first
         .par_iter()
         .map(|&k| (pos[k as usize], nrm[k as usize]))

@@ -53,8 +53,8 @@ pub struct SceneMesh {
 
 impl SceneMesh {
     /// Read the file and place its triangles in the world.
-    pub fn load(&self) -> Result<crate::mesh::Mesh> {
-        let mut m = crate::mesh::Mesh::load_obj(&self.file)?;
+    pub fn load(&self) -> Result<crate::scene::geometry::Geometry> {
+        let mut m = crate::scene::geometry::Geometry::load_obj(&self.file)?;
         let q = glam::Quat::from_axis_angle(self.rotation.0, self.rotation.1);
         for t in m.triangles.iter_mut() {
             for v in t.iter_mut() {

@@ -13,7 +13,7 @@ use glam::Vec3;
 
 use super::sdf::Sdf;
 use crate::error::{Error, Result};
-use crate::mesh::Mesh;
+use crate::scene::geometry::Geometry;
 
 /// A solid the water cannot enter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -212,7 +212,7 @@ impl SimScene {
     /// Make `mesh` (world coordinates, closed for inside/outside; see src/sim/sdf.rs) a collider: its signed
     /// distance ([`Sdf::for_particles`]). Water that starts inside it (closer than r) is removed — the solid displaces it;
     /// returns how many particles that was.
-    pub fn add_mesh_collider(&mut self, mesh: &Mesh) -> Result<usize> {
+    pub fn add_mesh_collider(&mut self, mesh: &Geometry) -> Result<usize> {
         let r = self.radius();
         let sdf = Sdf::for_particles(mesh, r, self.container)?;
         let keep: Vec<bool> = self.positions.iter().map(|p| sdf.sample(Vec3::from(*p)).0 >= r).collect();

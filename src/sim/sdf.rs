@@ -15,7 +15,7 @@ use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::mesh::Mesh;
+use crate::scene::geometry::Geometry;
 
 /// Most lattice nodes (64 MiB of f32).
 pub const MAX_NODES: usize = 16 << 20;
@@ -102,7 +102,7 @@ fn cross_x(y: f32, z: f32, t: &[Vec3; 3]) -> Option<f32> {
 impl Sdf {
     /// The field of `mesh` with node spacing `cell` and exact distances up to `band`, over the mesh's bounds grown
     /// by `band` and clipped to `clip` (the container: nothing outside it is ever sampled).
-    pub fn build(mesh: &Mesh, cell: f32, band: f32, clip: (Vec3, Vec3)) -> Result<Sdf> {
+    pub fn build(mesh: &Geometry, cell: f32, band: f32, clip: (Vec3, Vec3)) -> Result<Sdf> {
         if !(cell > 0.0 && band > 0.0) {
             return Err(Error::Invalid("a mesh collider needs a positive cell and band".into()));
         }
@@ -188,7 +188,7 @@ impl Sdf {
 
     /// The field of `mesh` for particles of radius `r` in the container `clip`: nodes a radius apart (coarser when
     /// that would pass [`MAX_NODES`]), exact within a band of 4 cells + r.
-    pub fn for_particles(mesh: &Mesh, r: f32, clip: (Vec3, Vec3)) -> Result<Sdf> {
+    pub fn for_particles(mesh: &Geometry, r: f32, clip: (Vec3, Vec3)) -> Result<Sdf> {
         let (lo, hi) = mesh.bounds();
         let extent = (hi.min(clip.1) - lo.max(clip.0)).max(Vec3::splat(r)) + 10.0 * r;
         let fit = (extent.x * extent.y * extent.z / (MAX_NODES as f32 * 0.9)).cbrt();
@@ -264,7 +264,7 @@ mod tests {
         let (lo, hi) = (Vec3::new(-0.2, 0.1, -0.15), Vec3::new(0.25, 0.4, 0.1));
         let cell = 0.02;
         let band = 0.1;
-        let sdf = Sdf::build(&Mesh::cuboid(lo, hi), cell, band, (Vec3::splat(-1.0), Vec3::splat(1.0))).unwrap();
+        let sdf = Sdf::build(&Geometry::cuboid(lo, hi), cell, band, (Vec3::splat(-1.0), Vec3::splat(1.0))).unwrap();
         // Every node: the exact distance within the band, clamped beyond, the right sign everywhere.
         let mut worst = 0f32;
         for k in 0..sdf.dims.z {
@@ -295,7 +295,7 @@ mod tests {
 
     #[test]
     fn an_open_mesh_has_no_inside() {
-        let quad = Mesh {
+        let quad = Geometry {
             triangles: vec![
                 [Vec3::new(-0.1, 0.0, -0.1), Vec3::new(0.1, 0.0, -0.1), Vec3::new(0.1, 0.0, 0.1)],
                 [Vec3::new(-0.1, 0.0, -0.1), Vec3::new(0.1, 0.0, 0.1), Vec3::new(-0.1, 0.0, 0.1)],
@@ -309,9 +309,9 @@ mod tests {
 
     #[test]
     fn a_mesh_outside_the_container_or_too_fine_is_an_error() {
-        let m = Mesh::cuboid(Vec3::splat(5.0), Vec3::splat(6.0));
+        let m = Geometry::cuboid(Vec3::splat(5.0), Vec3::splat(6.0));
         assert!(Sdf::build(&m, 0.02, 0.1, (Vec3::splat(-1.0), Vec3::splat(1.0))).is_err());
-        let m = Mesh::cuboid(Vec3::splat(-1.0), Vec3::splat(1.0));
+        let m = Geometry::cuboid(Vec3::splat(-1.0), Vec3::splat(1.0));
         assert!(matches!(Sdf::build(&m, 1e-4, 0.1, (Vec3::splat(-1.0), Vec3::splat(1.0))), Err(Error::Limit(_))));
     }
 }

@@ -10,8 +10,8 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 
 use meniscus::frame::{Environment, View};
-use meniscus::mesh::Mesh;
 use meniscus::renderer::Renderer;
+use meniscus::scene::geometry::Geometry;
 use meniscus::scene::sequence::{self, Frame, FrameRange};
 use meniscus::scene::{self, procedural, Bounds, Camera, LoadOptions, Particles};
 use meniscus::settings::Settings;
@@ -53,7 +53,7 @@ pub struct Job {
     /// The `--camera` flag, if given.
     pub camera: Option<Camera>,
     /// `--background-obj`, read and checked before any GPU work.
-    pub mesh: Option<Mesh>,
+    pub mesh: Option<Geometry>,
     /// A simulated scene's container walls (drawn as background boxes instead of the default ones), from the
     /// live scene or a `scene.json` beside the files.
     pub walls: Vec<(glam::Vec3, glam::Vec3)>,
@@ -167,12 +167,12 @@ impl Job {
         let bounds = scene::percentile_bounds(&first.positions, 0.01).context("no finite particle positions")?;
         let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
         camera.unwrap_or_else(|| Camera::fit(&bounds, 16.0 / 9.0)).check()?;
-        let mut mesh = scene_args.background_obj.as_deref().map(Mesh::load_obj).transpose()?;
+        let mut mesh = scene_args.background_obj.as_deref().map(Geometry::load_obj).transpose()?;
         // A scene.json's mesh bodies join the background mesh; one that cannot be read is reported and left out.
         if let Some(sj) = &scene_json {
             for m in &sj.meshes {
                 match m.load() {
-                    Ok(placed) => mesh.get_or_insert_with(Mesh::default).triangles.extend(placed.triangles),
+                    Ok(placed) => mesh.get_or_insert_with(Geometry::default).triangles.extend(placed.triangles),
                     Err(e) => eprintln!("{}: not drawn: {e}", sj.path.display()),
                 }
             }
@@ -198,7 +198,7 @@ impl Job {
     pub fn simulated(
         scene: &meniscus::sim::SimScene,
         scene_args: &SceneArgs,
-        mesh: Option<Mesh>,
+        mesh: Option<Geometry>,
         settings: Settings,
     ) -> Result<Job> {
         let mut settings = settings;

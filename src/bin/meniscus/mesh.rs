@@ -1,5 +1,5 @@
 //! `meniscus mesh`: extract the SPH iso-surface of a particle file (or of every frame of a sequence) as a
-//! triangle mesh — marching cubes over the colour field the `iso` pass ray-casts (`meniscus::extract`) — and
+//! triangle mesh — marching cubes over the colour field the `iso` pass ray-casts (`meniscus::surface::mesh::extract`) — and
 //! write it as PLY, OBJ or VTK. On the CPU (rayon; `--threads` changes nothing but the time) or, with `--gpu`, on
 //! the GPU (the `mc` pass, src/passes/mc.rs: the same mesh up to float rounding).
 
@@ -8,10 +8,10 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::extract::ExtractParams;
-use meniscus::iso::IsoGrid;
 use meniscus::scene::sequence::{FrameRange, Prefetch};
 use meniscus::scene::{self, Particles};
+use meniscus::surface::iso::field::IsoGrid;
+use meniscus::surface::mesh::extract::ExtractParams;
 
 use meniscus::output::Kind;
 
@@ -74,7 +74,7 @@ pub struct MeshArgs {
     /// instead of following the surface in from the outside (which skips closed cavities inside the fluid).
     #[arg(long)]
     dense: bool,
-    /// Laplacian smoothing iterations after extraction (splashsurf's finishing, e.g. 25; src/smooth_mesh.rs).
+    /// Laplacian smoothing iterations after extraction (splashsurf's finishing, e.g. 25; src/surface/mesh/smooth.rs).
     #[arg(long, default_value_t = 0)]
     smoothing_iters: u32,
     /// With --smoothing-iters: every vertex moves fully (no feature weights; isolated droplets shrink).
@@ -113,8 +113,11 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if metaball && !(a.rc.is_finite() && (1.0..=16.0).contains(&a.rc)) {
         bail!("--rc must be in [1, 16] particle radii");
     }
-    let threshold =
-        a.threshold.unwrap_or(if metaball { meniscus::extract::metaball_threshold(1.0, a.rc) } else { 0.6 });
+    let threshold = a.threshold.unwrap_or(if metaball {
+        meniscus::surface::mesh::extract::metaball_threshold(1.0, a.rc)
+    } else {
+        0.6
+    });
     let top = if metaball { 0.25 } else { 1.0 };
     if !(threshold > 0.0 && threshold < top) {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
@@ -170,8 +173,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                 eprintln!("{}", scene::stray_warning(strays, "the mesh"));
             }
             let grid = IsoGrid::build(&kept, support * r);
-            meniscus::extract::check_lattice(&grid, params.cube)?;
-            meniscus::extract::check_memory(&grid, &params, rayon::current_num_threads())?;
+            meniscus::surface::mesh::extract::check_lattice(&grid, params.cube)?;
+            meniscus::surface::mesh::extract::check_memory(&grid, &params, rayon::current_num_threads())?;
             let inv = grid.inv_density();
             let t_field = t0.elapsed().as_secs_f64();
             let (mut m, how) = match &gpu_mc {
@@ -191,7 +194,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                     (m, how)
                 }
                 None => {
-                    let (m, t) = meniscus::extract::extract_timed(&grid, &inv, &params);
+                    let (m, t) = meniscus::surface::mesh::extract::extract_timed(&grid, &inv, &params);
                     let threads = pool.current_num_threads();
                     let how = match t {
                         // Where the time goes: scatter and march are summed over the threads.
@@ -205,13 +208,13 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                     (m, how)
                 }
             };
-            let smoothing = meniscus::smooth_mesh::SmoothParams {
+            let smoothing = meniscus::surface::mesh::smooth::SmoothParams {
                 iterations: a.smoothing_iters,
                 weights: !a.no_smoothing_weights,
                 ..Default::default()
             };
             let t_smooth = std::time::Instant::now();
-            meniscus::smooth_mesh::smooth(&mut m, &grid, &inv, &smoothing);
+            meniscus::surface::mesh::smooth::smooth(&mut m, &grid, &inv, &smoothing);
             let how = if smoothing.iterations > 0 {
                 format!(
                     "{how}, smoothed ({} iterations) in {:.3} s",

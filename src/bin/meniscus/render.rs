@@ -98,7 +98,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     for (d, path) in dump_paths(a, &out) {
         check_out(&format!("--dump {d}"), &path, Kind::by_extension(&path, &[Kind::Npy, Kind::Png])?)?;
     }
-    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
+    let sky = a.skybox.as_deref().map(meniscus::scene::sky::load_faces).transpose()?;
     let s = &job.settings;
     let mut view = job.view(a.width, a.height);
     let gpu = a.gpu.open()?;
@@ -194,7 +194,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
         eprintln!("--resume: all {} frames are already written", all.len());
         return Ok(());
     }
-    let sky = a.skybox.as_deref().map(meniscus::sky::load_faces).transpose()?;
+    let sky = a.skybox.as_deref().map(meniscus::scene::sky::load_faces).transpose()?;
     let gpu = a.gpu.open()?;
     let mut r = Renderer::with_frames(&gpu, a.frames_in_flight as usize)?;
     job.apply_background(&mut r)?;

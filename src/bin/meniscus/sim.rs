@@ -53,7 +53,7 @@ impl SimArgs {
         let default = SCENES.iter().find(|s| s.0 == self.scene).map_or(10_000, |s| s.1);
         let mut scene = SimScene::new(&self.scene, self.particles.unwrap_or(default))?;
         if let Some(path) = &self.collider {
-            let mesh = meniscus::mesh::Mesh::load_obj(path)?;
+            let mesh = meniscus::scene::geometry::Geometry::load_obj(path)?;
             let removed = scene.add_mesh_collider(&mesh).with_context(|| format!("--collider {}", path.display()))?;
             eprintln!("{}", collider_line(path, &mesh, &scene, removed));
         }
@@ -174,7 +174,12 @@ pub fn run(a: &SimArgs) -> Result<()> {
 }
 
 /// The log line for a mesh collider (`sim --collider`, `demo --sim --background-obj`).
-pub fn collider_line(path: &std::path::Path, mesh: &meniscus::mesh::Mesh, scene: &SimScene, removed: usize) -> String {
+pub fn collider_line(
+    path: &std::path::Path,
+    mesh: &meniscus::scene::geometry::Geometry,
+    scene: &SimScene,
+    removed: usize,
+) -> String {
     let lattice = scene.mesh_collider.as_ref().map_or(String::new(), |m| m.describe());
     format!(
         "mesh collider {}: {} triangles, {lattice}; {removed} particles that started inside it removed",

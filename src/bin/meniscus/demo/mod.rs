@@ -119,7 +119,8 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             let mut scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
             // The background mesh (read once, for the job too) is also a collider of the live water — when it can
             // be one (scenery outside the tank, or one too fine for the lattice, is still drawn).
-            let mesh = a.scene.background_obj.as_deref().map(meniscus::mesh::Mesh::load_obj).transpose()?;
+            let mesh =
+                a.scene.background_obj.as_deref().map(meniscus::scene::geometry::Geometry::load_obj).transpose()?;
             if let (Some(path), Some(mesh)) = (&a.scene.background_obj, &mesh) {
                 match scene.add_mesh_collider(mesh) {
                     Ok(removed) => eprintln!("{}", crate::sim::collider_line(path, mesh, &scene, removed)),
@@ -197,7 +198,7 @@ struct App {
     settings: Settings,
     load: LoadOptions,
     /// Background mesh (`--background-obj`).
-    mesh: Option<meniscus::mesh::Mesh>,
+    mesh: Option<meniscus::scene::geometry::Geometry>,
     /// The sequence frame whose particles are on the GPU (uploads happen only when it changes).
     uploaded: Option<usize>,
     src: playback::Source,

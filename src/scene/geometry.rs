@@ -20,18 +20,18 @@ pub const MAX_DEPTH: usize = 32;
 
 /// Triangles in world space.
 #[derive(Clone, Debug, Default)]
-pub struct Mesh {
+pub struct Geometry {
     /// The triangles, as three corners each (world).
     pub triangles: Vec<[Vec3; 3]>,
 }
 
-impl Mesh {
+impl Geometry {
     /// An axis-aligned box lo..hi as 12 triangles (tests and examples).
-    pub fn cuboid(lo: Vec3, hi: Vec3) -> Mesh {
+    pub fn cuboid(lo: Vec3, hi: Vec3) -> Geometry {
         let c = |i: usize| Vec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][(i >> 1) & 1], [lo.z, hi.z][i >> 2]);
         let quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
         let triangles = quads.iter().flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]]).collect();
-        Mesh { triangles }
+        Geometry { triangles }
     }
 
     /// The corners of the box around every triangle (lo > hi without triangles).
@@ -43,13 +43,17 @@ impl Mesh {
     }
 
     /// Read an OBJ file.
-    pub fn load_obj(path: &Path) -> Result<Mesh> {
+    pub fn load_obj(path: &Path) -> Result<Geometry> {
         let bytes = crate::input::read(path)?;
-        Mesh::parse_obj(&bytes).map_err(|(offset, reason)| Error::Parse { path: path.to_path_buf(), offset, reason })
+        Geometry::parse_obj(&bytes).map_err(|(offset, reason)| Error::Parse {
+            path: path.to_path_buf(),
+            offset,
+            reason,
+        })
     }
 
     /// Parse OBJ text; errors are (byte offset, reason).
-    pub fn parse_obj(bytes: &[u8]) -> std::result::Result<Mesh, (u64, String)> {
+    pub fn parse_obj(bytes: &[u8]) -> std::result::Result<Geometry, (u64, String)> {
         let text = std::str::from_utf8(bytes).map_err(|e| (e.valid_up_to() as u64, "not UTF-8 text".to_string()))?;
         let mut verts: Vec<Vec3> = vec![];
         let mut triangles = vec![];
@@ -96,7 +100,7 @@ impl Mesh {
         if triangles.is_empty() {
             return Err((0, "no faces (f lines) in the file".to_string()));
         }
-        Ok(Mesh { triangles })
+        Ok(Geometry { triangles })
     }
 
     /// Nearest hit t > 0 of `o + t·d` and the geometric normal facing the ray (brute force, the reference).
@@ -154,12 +158,12 @@ pub struct GpuBvh {
 
 impl GpuBvh {
     /// Build the BVH of `mesh` and flatten it for the GPU.
-    pub fn build(mesh: &Mesh) -> GpuBvh {
+    pub fn build(mesh: &Geometry) -> GpuBvh {
         let mut order: Vec<usize> = (0..mesh.triangles.len()).collect();
         let centroid = |i: usize| (mesh.triangles[i][0] + mesh.triangles[i][1] + mesh.triangles[i][2]) / 3.0;
         let mut out = GpuBvh::default();
         fn node(
-            mesh: &Mesh,
+            mesh: &Geometry,
             order: &mut [usize],
             first: usize,
             depth: usize,
@@ -271,19 +275,19 @@ mod tests {
 
     #[test]
     fn obj_faces_quads_negative_indices_and_errors() {
-        let m = Mesh::parse_obj(
+        let m = Geometry::parse_obj(
             b"# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\nf -4 -3 -2\n",
         )
         .unwrap();
         assert_eq!(m.triangles.len(), 3);
         assert_eq!(m.triangles[2], [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)]);
-        let e = Mesh::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap_err();
+        let e = Geometry::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap_err();
         assert_eq!(e.0, 16, "{e:?}");
         assert!(e.1.contains("index 7"));
-        assert_eq!(Mesh::parse_obj(b"v 0 0 x\n").unwrap_err().0, 0);
-        assert!(Mesh::parse_obj(b"v 0 0 0\n").unwrap_err().1.contains("no faces"));
-        assert!(Mesh::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2\n").is_err());
-        assert!(Mesh::parse_obj(&[b'v', b' ', 0xff]).is_err());
+        assert_eq!(Geometry::parse_obj(b"v 0 0 x\n").unwrap_err().0, 0);
+        assert!(Geometry::parse_obj(b"v 0 0 0\n").unwrap_err().1.contains("no faces"));
+        assert!(Geometry::parse_obj(b"v 0 0 0\nv 1 0 0\nf 1 2\n").is_err());
+        assert!(Geometry::parse_obj(&[b'v', b' ', 0xff]).is_err());
     }
 
     #[test]
@@ -299,7 +303,7 @@ mod tests {
             let c = Vec3::new(rnd() * 4.0 - 2.0, rnd() * 2.0, rnd() * 4.0 - 2.0);
             tris.push([c, c + Vec3::new(rnd(), rnd(), rnd()) * 0.4, c + Vec3::new(rnd(), rnd(), rnd()) * 0.4]);
         }
-        let mesh = Mesh { triangles: tris };
+        let mesh = Geometry { triangles: tris };
         let bvh = GpuBvh::build(&mesh);
         assert_eq!(bvh.triangles.len(), 900);
         let mut hits = 0;
