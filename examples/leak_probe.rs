@@ -125,7 +125,7 @@ fn main() -> meniscus::Result<()> {
                     normals: &t.normals,
                     thickness: if sampled_only { &tex } else { &t.thickness },
                     ssr: &t.ssr,
-                    sky: &r.sky,
+                    sky: &r.background.sky,
                 };
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);
@@ -137,7 +137,7 @@ fn main() -> meniscus::Result<()> {
         m if m.starts_with("frame") => {
             // frame, frame-cachedbg (static background reused), frame-nofilter (filter none)
             let (mut r, view, s) = wave_frame(&gpu, m.contains("nofilter"))?;
-            r.always_render_background = !m.contains("cachedbg");
+            r.background.always_render = !m.contains("cachedbg");
             Box::new(move || r.render(&view, &s).map(|_| ()))
         }
         m => return Err(meniscus::Error::Invalid(format!("unknown mode {m}"))),

@@ -1,17 +1,16 @@
 //! The frame: its uniform block, its view, and `record_frame` — the table of contents of Meniscus (the images
-//! are in `targets`, the passes in `passes`).
+//! are in `targets`, the passes in `passes`, the surface techniques in `surface`).
 //! Each pass derives its own barriers from the resources' last accesses; nothing here synchronises by hand.
 
 use glam::{Mat4, Vec3};
 
+use crate::background::Background;
 use crate::error::Result;
-use crate::gpu::{Buffer, FrameCtx, Image};
-use crate::passes::background::MeshBuffers;
+use crate::gpu::{Buffer, FrameCtx};
 use crate::passes::composite::CompositeInputs;
-use crate::passes::iso::IsoBuffers;
-use crate::passes::splat::BackBound;
 use crate::scene::{Bounds, Camera};
-use crate::settings::{Settings, SplatMode, Surface};
+use crate::settings::Settings;
+use crate::surface::{SurfaceFrame, Technique};
 use crate::targets::Targets;
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
@@ -157,21 +156,7 @@ impl FrameUniforms {
     }
 }
 
-pub use crate::passes::Passes;
-
-/// Facts about this frame's camera that passes base their own per-frame decisions on (the smoothing's
-/// dispatch count, the splat's occlusion pre-pass).
-#[derive(Clone, Copy, Debug)]
-pub struct FrameInfo {
-    /// Focal length in output pixels.
-    pub focal_px: f32,
-    /// Focal length in fluid pixels (`fluid_scale` < 1 makes it smaller).
-    pub focal_px_fluid: f32,
-    /// Nearest eye depth of any particle (bounded below by the near plane).
-    pub d_near: f32,
-    /// Distance from the eye to the camera's target.
-    pub target_distance: f32,
-}
+pub use crate::passes::{FrameInfo, Passes};
 
 /// What `record_frame` produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -222,98 +207,77 @@ impl<'t> Recording<'_, 't> {
     }
 }
 
+/// Everything one frame is recorded from.
+pub struct FrameInputs<'a> {
+    /// Every pass.
+    pub passes: &'a Passes,
+    /// The frame's images.
+    pub targets: &'a Targets,
+    /// The frame uniform block.
+    pub frame: &'a Buffer,
+    /// The particle buffer and its count.
+    pub particles: (&'a Buffer, u32),
+    /// The surface technique the settings name, its resources prepared.
+    pub surface: &'a dyn Technique,
+    /// The scene behind the fluid.
+    pub background: &'a Background,
+    /// The background images still show this view: the `background` pass is skipped.
+    pub background_cached: bool,
+    /// The frame's settings.
+    pub settings: &'a Settings,
+    /// Facts about this frame's camera.
+    pub info: &'a FrameInfo,
+}
+
 /// THE FRAME: every pass in order, with the part (queue) beside it, each given the images it reads and writes;
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
-/// from what each part touched (`gpu::schedule`), so nothing here synchronises. Optional steps: `background`
-/// (skipped while the view and scene stand), `splat` or `mesh` (`surface = "mesh"`), `iso` (`surface =
-/// "iso"`, after `anisotropy` with `kernel = "anisotropic"`, which also turns the spheres of the compute splat
-/// into ellipsoids, or after `iso_volume` and `iso_blur` with `[iso] smoothing` > 0, which build the smoothed
-/// field when the particles changed), `upsample` (`fluid_scale` < 1).
-#[allow(clippy::too_many_arguments)]
-pub fn record_frame(
-    rec: &mut Recording,
-    p: &Passes,
-    t: &Targets,
-    frame: &Buffer,
-    particles: &Buffer,
-    count: u32,
-    iso: Option<&IsoBuffers>,
-    s: &Settings,
-    info: &FrameInfo,
-    (sky, mesh, fluid_mesh): (&Image, &MeshBuffers, Option<&MeshBuffers>),
-    background_cached: bool,
-) -> Result<Frame> {
+/// from what each part touched (`gpu::schedule`), so nothing here synchronises. The surface technique records
+/// its own passes (`crate::surface`): what `thickness` needs first (grids, kernels), then the fluid's depth.
+/// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1).
+pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     use Part::*;
-    if !background_cached {
-        p.background.record(rec.part(Async), frame, sky, mesh, &t.scene_color, &t.scene_depth);
+    let (p, t, s, frame) = (f.passes, f.targets, f.settings, f.frame);
+    let sky = &f.background.sky;
+    if !f.background_cached {
+        p.background.record(rec.part(Async), frame, sky, f.background.geometry(), &t.scene_color, &t.scene_depth);
     }
-    // The iso grid (and the anisotropic kernels) feed the iso surface, and with `kernel = "anisotropic"` on
-    // spheres the ellipsoids of `thickness` and `splat`: then they are recorded before `thickness`, in its part.
-    let ellipsoids = s.ellipsoid_splats();
-    let params = s.iso_params();
-    let grid = iso.filter(|_| s.surface == Surface::Iso || ellipsoids);
-    if let Some(grid) = grid {
-        let ctx = rec.part(if ellipsoids { Async } else { Fluid });
-        p.iso.record_grid(ctx, particles, count, grid);
-        if s.surface == Surface::Iso {
-            p.iso.record_density(ctx, frame, grid);
-            if let Some(v) = &params.volume {
-                p.iso.record_volume(ctx, frame, grid, v);
-            }
-        }
-        if let Some(a) = &params.aniso {
-            p.anisotropy.record(ctx, frame, grid, a);
-        }
-    }
-    let kernels =
-        grid.filter(|_| ellipsoids).map(|g| (&g.points, g.shape.dims[3], (&g.aniso, s.anisotropy.stretch.max(1.0))));
+    let surface = SurfaceFrame { passes: p, targets: t, frame, particles: f.particles, settings: s, info: f.info };
+    let kernels = f.surface.record_kernels(rec, &surface);
     // Spray still adds thickness: with spray the grid (built on the CPU then) leaves it out, so the thickness
     // keeps the spheres of every particle.
-    let th_kernels = kernels.filter(|_| grid.is_some_and(|g| g.gpu.is_some()));
-    let (th_particles, th_count) = th_kernels.map_or((particles, count), |k| (k.0, k.1));
+    let th = kernels.filter(|k| k.all_particles);
+    let (th_particles, th_count) = th.map_or(f.particles, |k| (k.points, k.count));
+    let th_kernels = th.map(|k| (k.aniso, k.stretch));
+    let (accum, blur) = (&t.thickness_accum, s.thickness.blur_px);
     p.thickness.record(
         rec.part(Async),
         frame,
         th_particles,
         th_count,
         &t.scene_depth,
-        &t.thickness_accum,
+        accum,
         &t.thickness,
-        s.thickness.blur_px,
-        th_kernels.map(|k| k.2),
+        blur,
+        th_kernels,
     );
     let ctx = rec.part(Fluid);
-    let back = match (s.surface, fluid_mesh, kernels) {
-        (Surface::Mesh, Some(m), _) => {
-            p.mesh.record(ctx, frame, m, &t.depth);
-            None
-        }
-        (_, _, Some((points, n, k))) => {
-            let spheres = (s.radius, s.splat_scale());
-            p.splat.record(ctx, frame, points, n, &t.depth, None, &t.depth_tiles, spheres, Some(k), info)
-        }
-        _ => record_splat(ctx, p, t, frame, particles, count, s, info)?,
-    };
-    if let (Surface::Iso, Some(grid), Some(queue)) = (s.surface, grid, &t.iso_queue) {
-        // The rasterised splats do not write a far bound: the march then runs to the grid's box.
-        p.iso.record(ctx, frame, grid, &params, &t.depth, back, queue, info);
-    }
-    let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, info);
+    f.surface.record_depth(ctx, &surface, kernels)?;
+    let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, f.info);
     let fluid_depth = t.smoothed(smoothed);
-    let surface = match &t.depth_full {
+    let depth = match &t.depth_full {
         Some(full) => {
             p.upsample.record(ctx, frame, fluid_depth, full, s.normals.edge * s.radius);
             full
         }
         None => fluid_depth,
     };
-    p.normals.record(ctx, frame, surface, &t.normals, s.normals.edge * s.radius);
+    p.normals.record(ctx, frame, depth, &t.normals, s.normals.edge * s.radius);
     let ctx = rec.part(Shade);
-    p.ssr.record(ctx, frame, surface, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
+    p.ssr.record(ctx, frame, depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {
         scene_color: &t.scene_color,
         scene_depth: &t.scene_depth,
-        depth: surface,
+        depth,
         normals: &t.normals,
         thickness: &t.thickness,
         ssr: &t.ssr,
@@ -321,30 +285,4 @@ pub fn record_frame(
     };
     p.composite.record(ctx, frame, &inputs, &t.final_color);
     Ok(Frame { smoothed })
-}
-
-/// The `splat` pass in the chosen mode (compute, or a rasterised variant).
-#[allow(clippy::too_many_arguments)]
-/// Returns where the `iso` march's far bound was written (the compute splat only).
-fn record_splat<'t>(
-    ctx: &mut FrameCtx,
-    p: &Passes,
-    t: &'t Targets,
-    frame: &Buffer,
-    particles: &Buffer,
-    count: u32,
-    s: &Settings,
-    info: &FrameInfo,
-) -> Result<Option<BackBound<'t>>> {
-    match s.splat.mode {
-        SplatMode::Compute => {
-            let spheres = (s.radius, s.splat_scale());
-            let back = t.depth_back.as_ref().zip(t.depth_back_tiles.as_ref());
-            Ok(p.splat.record(ctx, frame, particles, count, &t.depth, back, &t.depth_tiles, spheres, None, info))
-        }
-        mode => {
-            p.splat.record_raster(ctx, frame, particles, count, &t.depth, t.zbuffer.as_ref(), s.splat_scale(), mode)?;
-            Ok(None)
-        }
-    }
 }

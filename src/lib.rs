@@ -7,11 +7,13 @@
 
 #![warn(missing_docs)]
 
+pub mod background;
 pub mod error;
 pub mod frame;
 pub mod gpu;
 pub mod input;
 pub mod output;
+pub mod particles;
 pub mod passes;
 pub mod renderer;
 pub mod scene;

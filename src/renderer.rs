@@ -9,12 +9,16 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use crate::background::Background;
 use crate::error::{Error, Result};
-use crate::frame::{record_frame, FrameInfo, FrameUniforms, Passes, Recording, View};
+use crate::frame::{record_frame, FrameInputs, FrameUniforms, Passes, Recording, View};
 use crate::gpu::executor::{Executor, Submitted};
 use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Use};
+use crate::particles::ParticleSet;
 use crate::passes::smooth::Output as Smoothed;
+use crate::passes::FrameInfo;
 use crate::settings::Settings;
+use crate::surface::{Prepare, Surfaces};
 use crate::targets::{Targets, TargetsDesc};
 
 /// Renders frames on one device.
@@ -27,15 +31,8 @@ pub struct Renderer {
     pub targets: Option<Targets>,
     /// The frame uniform block.
     pub uniforms: Buffer,
-    /// Two particle buffers: a split frame uploads into the one the frame before did not read (on the async
-    /// queue, beside that frame's passes); `current` is the one this frame's passes read.
-    particles: [Option<Buffer>; 2],
-    current: usize,
-    count: u32,
-    /// Particles set but not yet copied to the GPU: the next frame's command buffer records the copy.
-    staged: Option<Vec<[f32; 4]>>,
-    /// The next frame's particles are written on the GPU by `Hooks::produce`.
-    external: bool,
+    /// The particles on the device (and their host copy).
+    particles: ParticleSet,
     executor: Executor,
     /// Per slot: the frame uniform block, the particle staging buffer, the final-colour readback buffer.
     slots: Vec<SlotMemory>,
@@ -43,54 +40,17 @@ pub struct Renderer {
     /// Keep the raw splatted depth through smoothing (costs one more screen-sized image); set before rendering
     /// when the raw depth will be read back.
     pub keep_raw_depth: bool,
-    /// Sky cube map (a 1×1 placeholder until `set_skybox`).
-    pub sky: Image,
+    /// The scene behind the fluid: sky, geometry, and whether its images still hold.
+    pub background: Background,
     /// The demo's passes: debug views, the particle view and the text overlay.
     demo_passes: DemoPasses,
-    /// What the background images show (camera, size, scene); the `background` pass is skipped while it holds.
-    background_key: Option<String>,
-    /// Re-render the background every frame even when nothing changed (for measuring the pass).
-    pub always_render_background: bool,
     /// GPU times of the frame a slot ran before the latest submission (read when the slot was reused).
     late_times: Option<PassTimes>,
     /// Split each frame over two queues: the background and the thickness on the async compute queue, beside
     /// the fluid passes on the main queue (on a device with one queue both parts go to it, in order).
     pub async_compute: bool,
-    /// CPU copy of the positions (for per-frame bounds such as the nearest depth, and the iso grid).
-    positions: Vec<[f32; 3]>,
-    /// Particles marked as spray (left out of the surface), if any.
-    spray: Option<Vec<bool>>,
-    /// The background mesh's BVH (placeholders and node count 0 without one).
-    mesh: crate::passes::background::MeshBuffers,
-    /// The extracted iso-surface mesh of the current particles (BVH on the GPU), built on first use with
-    /// `surface = "mesh"`, and the ([support, cube, threshold], smoothing) it was made for.
-    fluid_mesh:
-        Option<(crate::passes::background::MeshBuffers, ([f32; 3], crate::surface::mesh::smooth::SmoothParams))>,
-    /// The iso-surface grid of the current particles, built on first use with `surface = "iso"`.
-    iso: Option<crate::passes::iso::IsoBuffers>,
-    /// The particles changed since the iso grid was built.
-    iso_stale: bool,
-    /// Seconds the last mesh extraction + BVH build took (CPU), and the mesh's vertex and triangle counts.
-    fluid_mesh_stats: Option<(f64, usize, usize)>,
-}
-
-/// The arguments of `record_frame` after the recording.
-type FrameArgs<'a> = (
-    &'a Passes,
-    &'a Targets,
-    &'a Buffer,
-    &'a Buffer,
-    u32,
-    Option<&'a crate::passes::iso::IsoBuffers>,
-    &'a Settings,
-    &'a FrameInfo,
-    (&'a Image, &'a crate::passes::background::MeshBuffers, Option<&'a crate::passes::background::MeshBuffers>),
-    bool,
-);
-
-/// `record_frame` with its arguments in one tuple (the one-queue and the split path share them).
-fn record_one(rec: &mut Recording, (p, t, u, parts, n, iso, s, info, bg, cached): FrameArgs) -> Result<Smoothed> {
-    Ok(record_frame(rec, p, t, u, parts, n, iso, s, info, bg, cached)?.smoothed)
+    /// The surface techniques, each with its resources (grids, lattice, mesh).
+    pub surfaces: Surfaces,
 }
 
 /// Recording work given the frame context and the frame's final image.
@@ -153,28 +113,12 @@ impl Renderer {
             passes: Passes::new(gpu)?,
             targets: None,
             uniforms,
-            particles: [None, None],
-            current: 0,
-            count: 0,
-            staged: None,
-            external: false,
+            particles: ParticleSet::default(),
             executor,
             slots,
             smoothed: Smoothed::Input,
-            positions: vec![],
-            spray: None,
-            iso: None,
-            iso_stale: true,
-            fluid_mesh: None,
-            fluid_mesh_stats: None,
-            // Never read (node count 0): empty placeholders, no upload at start-up.
-            mesh: crate::passes::background::MeshBuffers {
-                nodes: upload_buffer(gpu, "bvh_nodes", &[], None)?,
-                triangles: upload_buffer(gpu, "bvh_triangles", &[], None)?,
-                node_count: 0,
-            },
-            background_key: None,
-            always_render_background: false,
+            surfaces: Surfaces::new(),
+            background: Background::new(gpu)?,
             async_compute: false,
             late_times: None,
             keep_raw_depth: false,
@@ -183,65 +127,19 @@ impl Renderer {
                 particles: crate::passes::particles::Particles::new(gpu)?,
                 overlay: crate::passes::overlay::Overlay::new(gpu)?,
             },
-            sky: {
-                let sky = Image::new_cube(
-                    gpu,
-                    "sky",
-                    1,
-                    vk::Format::R8G8B8A8_UNORM,
-                    vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
-                )?;
-                upload_image(gpu, &sky, &[150, 190, 235, 255].repeat(6))?;
-                sky
-            },
         })
     }
 
     /// Upload particles: 16 bytes each (world xyz + w), GPU-local. w = the particle's radius from `radii`, else 0
-    /// (the frame's radius); negated for particles marked in `spray` (kept out of the surface).
+    /// (the frame's radius); negated for particles marked in `spray` (kept out of the surface). The copy is
+    /// recorded into the next frame's command buffers.
     pub fn set_particles_with(
         &mut self,
         positions: &[[f32; 3]],
         radii: Option<&[f32]>,
         spray: Option<&[bool]>,
     ) -> Result<()> {
-        let n = positions.len();
-        let bytes = n as u64 * 16;
-        if bytes > self.gpu.info.max_storage_buffer_range {
-            return Err(Error::Limit(format!(
-                "{n} particles need {bytes} bytes, more than this device's storage buffer limit of {} bytes ({} particles)",
-                self.gpu.info.max_storage_buffer_range,
-                self.gpu.info.max_storage_buffer_range / 16
-            )));
-        }
-        let data: Vec<[f32; 4]> = positions
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let r = radii.map(|r| r[i]).unwrap_or(0.0);
-                let spray = spray.is_some_and(|s| s[i]);
-                // Spray without its own radius: −1 means "frame radius" for the thickness pass.
-                let w = if spray {
-                    if r > 0.0 {
-                        -r
-                    } else {
-                        -f32::MIN_POSITIVE
-                    }
-                } else {
-                    r
-                };
-                [p[0], p[1], p[2], w]
-            })
-            .collect();
-        // The copy is recorded into the next frame's command buffers (see `record_and_submit_with`).
-        self.staged = Some(data);
-        self.external = false;
-        self.count = n as u32;
-        self.positions = positions.to_vec();
-        self.spray = spray.map(|s| s.to_vec());
-        self.iso_stale = true;
-        self.fluid_mesh = None;
-        Ok(())
+        self.particles.set(self.gpu.info.max_storage_buffer_range, positions, radii, spray)
     }
 
     /// Upload a frame of particles the way every application does: spray flags from `s` (`spray_density`,
@@ -257,27 +155,7 @@ impl Renderer {
     /// (the near plane and the iso surface's GPU grid are fitted to it). The mesh surface needs host positions:
     /// use [`Renderer::set_particles`] for it.
     pub fn set_gpu_particles(&mut self, count: u32, bounds: (glam::Vec3, glam::Vec3)) -> Result<()> {
-        let bytes = count as u64 * 16;
-        if bytes > self.gpu.info.max_storage_buffer_range {
-            return Err(Error::Limit(format!("{count} particles exceed this device's storage buffer limit")));
-        }
-        let (lo, hi) = bounds;
-        self.positions = (0..8)
-            .map(|k| {
-                [
-                    if k & 1 == 0 { lo.x } else { hi.x },
-                    if k & 2 == 0 { lo.y } else { hi.y },
-                    if k & 4 == 0 { lo.z } else { hi.z },
-                ]
-            })
-            .collect();
-        self.staged = None;
-        self.external = true;
-        self.count = count;
-        self.spray = None;
-        self.iso_stale = true;
-        self.fluid_mesh = None;
-        Ok(())
+        self.particles.set_gpu(self.gpu.info.max_storage_buffer_range, count, bounds)
     }
 
     /// Upload particles (no per-particle radius, no spray); see [`Renderer::set_particles_with`].
@@ -285,61 +163,20 @@ impl Renderer {
         self.set_particles_with(positions, radii, None)
     }
 
-    /// Whether this frame can reuse last frame's background, and remember this frame's.
-    fn background_cached(&mut self, view: &View, s: &Settings) -> bool {
-        let key = format!(
-            "{:?}|{}x{}|{:?}|{:?}|{:?}|{}",
-            view.camera,
-            view.width,
-            view.height,
-            view.env,
-            s.background.sun_dir,
-            s.background.sun_intensity,
-            s.composite.ambient
-        );
-        let hit = !self.always_render_background && self.background_key.as_deref() == Some(key.as_str());
-        self.background_key = Some(key);
-        hit
-    }
-
-    /// The background mesh's buffers (placeholders when none is set).
-    pub fn background_mesh(&self) -> &crate::passes::background::MeshBuffers {
-        &self.mesh
-    }
-
     /// Add a triangle mesh (world coordinates) to the background scene.
-    pub fn set_background_mesh(&mut self, mesh: &crate::scene::geometry::Geometry) -> Result<()> {
-        self.executor.wait_idle()?;
-        let bvh = crate::scene::geometry::GpuBvh::build(mesh);
-        self.mesh = crate::passes::background::MeshBuffers {
-            nodes: upload_buffer(&self.gpu, "bvh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
-            triangles: upload_buffer(&self.gpu, "bvh_triangles", bytemuck::cast_slice(&bvh.triangles), None)?,
-            node_count: bvh.len() as u32,
-        };
-        self.background_key = None;
-        Ok(())
+    pub fn set_background_mesh(&mut self, g: &crate::scene::geometry::Geometry) -> Result<()> {
+        self.background.set_geometry(&self.gpu, &self.executor, g)
     }
 
     /// Load a sky cube map: six RGBA8 faces of `size`², order +X −X +Y −Y +Z −Z (see `crate::scene::sky`). Set
     /// `Environment::sky_cube` to use it.
     pub fn set_skybox(&mut self, size: u32, faces: &[u8]) -> Result<()> {
-        self.executor.wait_idle()?;
-        let sky = Image::new_cube(
-            &self.gpu,
-            "sky",
-            size,
-            vk::Format::R8G8B8A8_UNORM,
-            vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
-        )?;
-        upload_image(&self.gpu, &sky, faces)?;
-        self.sky = sky;
-        self.background_key = None;
-        Ok(())
+        self.background.set_skybox(&self.gpu, &self.executor, size, faces)
     }
 
     /// Particles on the device.
     pub fn particle_count(&self) -> u32 {
-        self.count
+        self.particles.count()
     }
 
     /// Make sure the images fit `width`×`height` and the settings' scales.
@@ -351,7 +188,7 @@ impl Renderer {
         if self.targets.as_ref().map(|t| t.desc) != Some(want) {
             self.executor.wait_idle()?;
             self.targets = None;
-            self.background_key = None;
+            self.background.invalidate();
             self.targets = Some(Targets::new(&self.gpu, want)?);
         }
         Ok(())
@@ -359,7 +196,7 @@ impl Renderer {
 
     /// Write the frame uniform block.
     pub fn write_uniforms(&mut self, view: &View, s: &Settings) -> Result<()> {
-        let u = FrameUniforms::new(view, s, self.count);
+        let u = FrameUniforms::new(view, s, self.particles.count());
         self.uniforms.write(0, bytemuck::bytes_of(&u))
     }
 
@@ -501,52 +338,23 @@ impl Renderer {
             )));
         }
         self.ensure_targets(view.width, view.height, s)?;
-        let cached = self.background_cached(view, s);
-        if s.surface == crate::settings::Surface::Mesh {
-            self.ensure_fluid_mesh(s)?;
-        }
-        let iso = if s.surface == crate::settings::Surface::Iso || s.ellipsoid_splats() {
-            self.ensure_iso(s.iso.support * s.radius, s.iso_reach())?;
-            if s.surface == crate::settings::Surface::Iso {
-                self.ensure_iso_volume(s)?;
-            }
-            true
-        } else {
-            false
-        };
+        let cached = self.background.cached(view, s);
+        // The surface brings its resources up to date (grids, lattice, mesh) for these particles and settings.
+        let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s };
+        self.surfaces.get_mut(s.surface).prepare(&prep)?;
         let split = self.async_compute;
-        if self.external && hooks.produce.is_none() {
+        if self.particles.is_external() && hooks.produce.is_none() {
             return Err(Error::Invalid("set_gpu_particles needs a frame with Hooks::produce".into()));
         }
-        let new_particles = self.staged.as_ref().map(|d| d.len() as u64).or(self.external.then_some(self.count as u64));
-        if let Some(len) = new_particles {
-            // A split frame uploads into the other buffer (the frame before may still read this one); a
-            // one-queue frame into the same (queue order keeps it after the readers). A buffer is replaced
-            // only when it is too small, after every frame that may still read it.
-            let target = if split { 1 - self.current } else { self.current };
-            let size = (len * 16).max(16);
-            if self.particles[target].as_ref().is_none_or(|b| b.size < size) {
-                self.executor.wait_idle()?;
-                self.particles[target] = Some(Buffer::new(
-                    &self.gpu,
-                    if target == 0 { "particles" } else { "particles (second)" },
-                    size,
-                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-                    MemoryLocation::GpuOnly,
-                )?);
-            }
-            self.current = target;
-        }
-        if self.particles[self.current].is_none() {
-            return Err(Error::Invalid("no particles uploaded".into()));
-        }
-        let d_near = self.nearest_depth(view, s);
+        self.particles.prepare(&self.gpu, &self.executor, split)?;
+        let d_near = self.particles.nearest_depth(view, s.radius);
         // The slot: its previous frame is complete from here on, so its host memory may be rewritten.
         let (k, late) = self.executor.begin()?;
         self.late_times = late;
         let gpu = self.gpu.clone();
         let mem = &mut self.slots[k];
-        let u = FrameUniforms::new(view, s, self.count);
+        let count = self.particles.count();
+        let u = FrameUniforms::new(view, s, count);
         if mem.uniforms.is_none() {
             mem.uniforms = Some(Buffer::new(
                 &gpu,
@@ -557,8 +365,7 @@ impl Renderer {
             )?);
         }
         mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
-        let staged = self.staged.take();
-        let external = std::mem::take(&mut self.external);
+        let (staged, external) = self.particles.take_pending();
         if let Some(data) = &staged {
             let bytes: &[u8] = bytemuck::cast_slice(data);
             if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
@@ -589,9 +396,8 @@ impl Renderer {
             d_near,
             target_distance: (view.camera.eye - view.camera.target).length().max(view.camera.near),
         };
-        let particles = self.particles[self.current].as_ref().expect("checked");
-        let iso = if iso { self.iso.as_ref() } else { None };
-        let (passes, views, sky, mesh, count) = (&self.passes, &self.demo_passes, &self.sky, &self.mesh, self.count);
+        let particles = self.particles.buffer();
+        let (passes, views) = (&self.passes, &self.demo_passes);
         let uniforms = mem.uniforms.as_ref().expect("set");
         if split {
             self.executor.begin_split(k)?;
@@ -643,15 +449,24 @@ impl Renderer {
                 h(ctx, &t.final_color);
             }
         };
-        let fluid_mesh = self.fluid_mesh.as_ref().map(|m| &m.0).filter(|_| s.surface == crate::settings::Surface::Mesh);
-        let frame_args = (passes, t, uniforms, particles, count, iso, s, &info, (sky, mesh, fluid_mesh), cached);
+        let inputs = FrameInputs {
+            passes,
+            targets: t,
+            frame: uniforms,
+            particles: (particles, count),
+            surface: self.surfaces.get(s.surface),
+            background: &self.background,
+            background_cached: cached,
+            settings: s,
+            info: &info,
+        };
         if !split {
             let mut ctx = FrameCtx::new(&gpu, slot.cmd, Some(&mut slot.timer));
             upload(&mut ctx);
             if let Some(h) = hooks.before {
                 h(&mut ctx);
             }
-            let sm = record_one(&mut Recording::One(&mut ctx), frame_args)?;
+            let sm = record_frame(&mut Recording::One(&mut ctx), &inputs)?.smoothed;
             finish_frame(&mut ctx, sm);
             let touches = std::mem::take(&mut ctx.touches);
             drop(ctx);
@@ -680,7 +495,8 @@ impl Renderer {
         let mut a = FrameCtx::continuing(&gpu, compute_cmds[1], Some(ta));
         let mut f = FrameCtx::new(&gpu, main_cmds[1], Some(tf));
         let mut sh = FrameCtx::new(&gpu, main_cmds[2], Some(tsh));
-        let sm = record_one(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, frame_args)?;
+        let sm = record_frame(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, &inputs)?
+            .smoothed;
         finish_frame(&mut sh, sm);
         let segments = vec![
             Segment { queue: QueueId::Main, cmd: main_cmds[0], touches: std::mem::take(&mut first.touches) },
@@ -694,220 +510,20 @@ impl Renderer {
         self.executor.submit_segments(k, segments, &binary)
     }
 
-    /// Extract the iso-surface mesh of the current particles (spray left out) with the `[iso]` field and the
-    /// `[mesh]` cube size, and upload its BVH, unless it is there already.
-    fn ensure_fluid_mesh(&mut self, s: &Settings) -> Result<()> {
-        let smoothing = crate::surface::mesh::smooth::SmoothParams {
-            iterations: s.mesh.smoothing_iters,
-            weights: s.mesh.smoothing_weights,
-            ..Default::default()
-        };
-        let field = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
-        let key = (field, smoothing);
-        if self.fluid_mesh.as_ref().is_some_and(|m| m.1 == key) {
-            return Ok(());
-        }
-        let t0 = std::time::Instant::now();
-        let pts: Vec<[f32; 3]> = match &self.spray {
-            Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
-            None => self.positions.clone(),
-        };
-        // As on the GPU path: the grid spans the fluid, strays far from it are left out.
-        let pts = crate::scene::without_strays(&pts, field[0]).0.into_owned();
-        let grid = crate::surface::iso::field::IsoGrid::build(&pts, field[0]);
-        let inv = grid.inv_density();
-        let params = crate::surface::mesh::extract::ExtractParams::new(field[1], field[2]);
-        crate::surface::mesh::extract::check_lattice(&grid, field[1])?;
-        let mut m = crate::surface::mesh::extract::extract(&grid, &inv, &params);
-        crate::surface::mesh::smooth::smooth(&mut m, &grid, &inv, &smoothing);
-        let tris = m.triangles.iter().map(|t| t.map(|i| glam::Vec3::from(m.vertices[i as usize]))).collect();
-        let bvh = crate::scene::geometry::GpuBvh::build(&crate::scene::geometry::Geometry { triangles: tris });
-        self.fluid_mesh_stats = Some((t0.elapsed().as_secs_f64(), m.vertices.len(), m.triangles.len()));
-        self.executor.wait_idle()?;
-        self.fluid_mesh = Some((
-            crate::passes::background::MeshBuffers {
-                nodes: upload_buffer(&self.gpu, "fluid_mesh_nodes", bytemuck::cast_slice(&bvh.nodes), None)?,
-                triangles: upload_buffer(
-                    &self.gpu,
-                    "fluid_mesh_triangles",
-                    bytemuck::cast_slice(&bvh.triangles),
-                    None,
-                )?,
-                node_count: bvh.len() as u32,
-            },
-            key,
-        ));
-        Ok(())
-    }
-
-    /// The iso-surface grid of the current particles for kernel `support` (world units), unless it is there
-    /// already. Without spray the grid is built on the GPU from the particle buffer (the `grid` pass in the frame:
-    /// no CPU work per frame, and GPU-resident particles work too; the buffers are kept while the shape holds);
-    /// with spray the CPU builds it without the spray and uploads it. The cells are at least `reach` (≥ the
-    /// kernel `support`) wide: the farthest a kernel reaches from its particle.
-    fn ensure_iso(&mut self, support: f32, reach: f32) -> Result<()> {
-        let spray = self.spray.as_ref().is_some_and(|s| s.iter().any(|&x| x));
-        if !spray {
-            // The grid spans the fluid, not a stray particle far from it (the grid clamps such a particle into
-            // its edge cell, where its kernel reaches nothing: it is left out of the surface, and said so).
-            let (lo, hi) = match crate::scene::fluid_bounds(&self.positions, reach) {
-                Some((b, strays)) => {
-                    if strays > 0 && !self.external {
-                        eprintln!("{}", crate::scene::stray_warning(strays, "the iso surface"));
-                    }
-                    (b.lo, b.hi)
-                }
-                None => (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
-            };
-            let n = self.count;
-            let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
-            let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, reach, n as usize);
-            let shape = crate::passes::grid::GridShape {
-                origin_cell: [lo.x, lo.y, lo.z, cell],
-                dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
-            };
-            let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
-            if let Some(b) = &mut self.iso {
-                if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
-                    if self.iso_stale {
-                        b.rebuild.set(true);
-                        b.mark_stale();
-                        self.iso_stale = false;
-                    }
-                    if b.shape.support() != push.support() {
-                        b.mark_stale();
-                    }
-                    b.shape = push;
-                    return Ok(());
-                }
-            }
-            self.executor.wait_idle()?;
-            // The smoothed field's buffers outlive the grid's (ensure_iso_volume reuses them if they fit).
-            let volume = self.iso.take().and_then(|b| b.volume);
-            let cap = n.max(1);
-            // TRANSFER_SRC: the tests read the grid and kernels back.
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-            let buf = |name: &str, bytes: u64, format| Buffer::texels(&self.gpu, name, bytes.max(16), usage, format);
-            self.iso = Some(crate::passes::iso::IsoBuffers {
-                points: buf("iso_points", cap as u64 * 16, crate::passes::iso::IsoBuffers::POINTS)?,
-                cells: buf("iso_cells", shape.cells() as u64 * 8, crate::passes::iso::IsoBuffers::CELLS)?,
-                weighted: buf("iso_weighted", cap as u64 * 16, crate::passes::iso::IsoBuffers::WEIGHTED)?,
-                aniso: buf("iso_aniso", cap as u64 * 48, crate::passes::iso::IsoBuffers::ANISO)?,
-                shape: push,
-                gpu: Some(crate::passes::grid::GridBuffers::new(&self.gpu, shape, cap)?),
-                rebuild: std::cell::Cell::new(true),
-                weights_stale: std::cell::Cell::new(true),
-                kernels_for: std::cell::Cell::new(None),
-                volume,
-                volume_for: std::cell::Cell::new(None),
-            });
-            self.iso_stale = false;
-            return Ok(());
-        }
-        if !self.iso_stale
-            && self
-                .iso
-                .as_ref()
-                .is_some_and(|b| b.gpu.is_none() && b.shape.support() == support && b.shape.origin[3] >= reach)
-        {
-            return Ok(());
-        }
-        let pts: Vec<[f32; 3]> = match &self.spray {
-            Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
-            None => self.positions.clone(),
-        };
-        // As on the GPU path: the grid spans the fluid, strays far from it are left out.
-        let pts = crate::scene::without_strays(&pts, reach).0.into_owned();
-        let grid = crate::surface::iso::field::IsoGrid::build_reaching(&pts, support, reach);
-        self.executor.wait_idle()?;
-        let volume = self.iso.take().and_then(|b| b.volume);
-        let points = upload_buffer(&self.gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?
-            .with_texel_view(crate::passes::iso::IsoBuffers::POINTS)?;
-        let cells = upload_buffer(&self.gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?
-            .with_texel_view(crate::passes::iso::IsoBuffers::CELLS)?;
-        let buf = |name: &str, per_point: u64, format| {
-            let bytes = (grid.points.len() as u64 * per_point).max(per_point.max(16));
-            Buffer::texels(&self.gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, format)
-        };
-        let weighted = buf("iso_weighted", 16, crate::passes::iso::IsoBuffers::WEIGHTED)?;
-        let aniso = buf("iso_aniso", 48, crate::passes::iso::IsoBuffers::ANISO)?;
-        let shape = crate::passes::iso::IsoPush::shape(&grid);
-        self.iso = Some(crate::passes::iso::IsoBuffers {
-            points,
-            cells,
-            weighted,
-            aniso,
-            shape,
-            gpu: None,
-            rebuild: std::cell::Cell::new(false),
-            weights_stale: std::cell::Cell::new(true),
-            kernels_for: std::cell::Cell::new(None),
-            volume,
-            volume_for: std::cell::Cell::new(None),
-        });
-        self.iso_stale = false;
-        Ok(())
-    }
-
-    /// The smoothed field's lattice for the iso grid's box, when `[iso] smoothing` asks for it: (re)allocated
-    /// when the box or the spacing changed (its field is then stale); dropped when smoothing is off.
-    fn ensure_iso_volume(&mut self, s: &Settings) -> Result<()> {
-        let Some(b) = &self.iso else { return Ok(()) };
-        let Some(p) = s.iso_params().volume else {
-            if b.volume.is_some() {
-                self.executor.wait_idle()?;
-                if let Some(b) = &mut self.iso {
-                    b.volume = None;
-                }
-            }
-            return Ok(());
-        };
-        let (o, d) = (b.shape.origin, b.shape.dims);
-        let lo = glam::Vec3::new(o[0], o[1], o[2]);
-        let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
-        let shape = crate::surface::iso::field::VolumeShape::around(lo, hi, b.shape.support(), &p);
-        if b.volume.as_ref().is_some_and(|v| v.shape == shape) {
-            return Ok(());
-        }
-        // A sequence's box moves every frame: the buffers are kept while they hold the new lattice (their field
-        // is rebuilt for the new particles anyway), and grow by a quarter when they do not.
-        if let Some(b) = self.iso.as_mut() {
-            if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape)) {
-                v.shape = shape;
-                b.volume_for.set(None);
-                return Ok(());
-            }
-        }
-        self.executor.wait_idle()?;
-        let volume = crate::passes::iso::IsoVolume::new(&self.gpu, shape)?;
-        if let Some(b) = &mut self.iso {
-            b.volume = Some(volume);
-            b.volume_for.set(None);
-        }
-        Ok(())
-    }
-
-    /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
-    pub fn nearest_depth(&self, view: &View, s: &Settings) -> f32 {
-        let m = view.camera.view();
-        let near = view.camera.near;
-        self.positions
-            .iter()
-            .map(|p| -(m.transform_point3(glam::Vec3::from(*p)).z) - s.radius)
-            .filter(|d| *d > -s.radius)
-            .fold(f32::INFINITY, f32::min)
-            .max(near)
-    }
-
     /// The iso surface's grid and kernels on the device (after a frame with `surface = "iso"`), for tests.
     pub fn iso_buffers(&self) -> Option<&crate::passes::iso::IsoBuffers> {
-        self.iso.as_ref()
+        self.surfaces.iso.grid.buffers()
     }
 
     /// Seconds (CPU) the last extraction of the fluid mesh took with its BVH, and its vertex and triangle counts
     /// (`surface = "mesh"`).
     pub fn fluid_mesh_stats(&self) -> Option<(f64, usize, usize)> {
-        self.fluid_mesh_stats
+        self.surfaces.mesh.stats()
+    }
+
+    /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
+    pub fn nearest_depth(&self, view: &View, s: &Settings) -> f32 {
+        self.particles.nearest_depth(view, s.radius)
     }
 
     /// The image that holds the smoothed depth of the last frame.

@@ -425,7 +425,14 @@ fn ssr_hits_match_cpu_ray_tracer() {
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.background.record(&mut ctx, &r.uniforms, &r.sky, r.background_mesh(), &t.scene_color, &t.scene_depth);
+        r.passes.background.record(
+            &mut ctx,
+            &r.uniforms,
+            &r.background.sky,
+            r.background.geometry(),
+            &t.scene_color,
+            &t.scene_depth,
+        );
         r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
         r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
         Ok(())
@@ -1319,7 +1326,7 @@ fn composite_matches_cpu_reference() {
             normals: &t.normals,
             thickness: &t.thickness,
             ssr: &t.ssr,
-            sky: &r.sky,
+            sky: &r.background.sky,
         };
         r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &t.final_color);
         Ok(())

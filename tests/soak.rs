@@ -24,7 +24,7 @@ fn rss_stays_flat_over_hundreds_of_frames() {
     let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).unwrap();
     let mut r = Renderer::new(&gpu).unwrap();
     r.set_particles_with(&gen.particles.positions, None, None).unwrap();
-    r.always_render_background = true;
+    r.background.always_render = true;
     for surface in [Surface::Spheres, Surface::Iso] {
         let s = Settings { radius: gen.radius, surface, ..Settings::default() };
         let view = View {

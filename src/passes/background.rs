@@ -55,7 +55,7 @@ impl Background {
         ctx: &mut FrameCtx,
         frame: &Buffer,
         sky: &Image,
-        mesh: &MeshBuffers,
+        mesh: &BvhBuffers,
         color: &Image,
         depth: &Image,
     ) {
@@ -68,8 +68,8 @@ impl Background {
     }
 }
 
-/// The background mesh on the device.
-pub struct MeshBuffers {
+/// A triangle BVH on the device (the background geometry, or the fluid mesh).
+pub struct BvhBuffers {
     /// BVH nodes.
     pub nodes: Buffer,
     /// Triangles in BVH order.

@@ -469,7 +469,7 @@ impl Iso {
         depth: &Image,
         back: Option<crate::passes::splat::BackBound>,
         queue: &IsoQueue,
-        info: &crate::frame::FrameInfo,
+        info: &crate::passes::FrameInfo,
     ) {
         use crate::passes::splat::BackBound;
         let (mode, back) = match back {

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::passes::background::MeshBuffers;
+use crate::passes::background::BvhBuffers;
 use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `mesh`.
@@ -46,7 +46,7 @@ impl Mesh {
     }
 
     /// Write the mesh's linear eye depth into all of `depth` (+inf where the ray misses it).
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, mesh: &MeshBuffers, depth: &Image) {
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, mesh: &BvhBuffers, depth: &Image) {
         ctx.pass(NAME, |ctx| {
             let g = groups_2d(depth.extent.width, depth.extent.height, super::LOCAL_2D);
             let res = [frame.into(), depth.into(), (&mesh.nodes).into(), (&mesh.triangles).into()];

@@ -59,3 +59,17 @@ pub mod particles;
 pub mod view;
 
 pub(crate) use crate::shader_constants::{LOCAL_1D, LOCAL_2D};
+
+/// Facts about this frame's camera that passes base their own per-frame decisions on (the smoothing's
+/// dispatch count, the splat's occlusion pre-pass).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameInfo {
+    /// Focal length in output pixels.
+    pub focal_px: f32,
+    /// Focal length in fluid pixels (`fluid_scale` < 1 makes it smaller).
+    pub focal_px_fluid: f32,
+    /// Nearest eye depth of any particle (bounded below by the near plane).
+    pub d_near: f32,
+    /// Distance from the eye to the camera's target.
+    pub target_distance: f32,
+}

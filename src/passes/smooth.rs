@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
-use crate::frame::FrameInfo;
+use crate::passes::FrameInfo;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::Filter;
 use crate::shaders;

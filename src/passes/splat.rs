@@ -8,7 +8,7 @@ use ash::vk;
 
 use crate::declare_program;
 use crate::error::{Error, Result};
-use crate::frame::FrameInfo;
+use crate::passes::FrameInfo;
 use crate::gpu::pipeline::{GraphicsProgram, ProgramDecl, RasterTargets};
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::settings::SplatMode;

@@ -1,7 +1,116 @@
-//! The fluid's surface techniques, one module each: `spheres` (the splatted particle spheres, smoothed in
-//! screen space), `iso` (the SPH colour field ray-cast per pixel, exact or smoothed in 3D), `mesh` (the
-//! marching-cubes mesh of the same field, ray-cast through its BVH). Each owns its resources and their
-//! staleness and records the passes that write the fluid depth; the CPU references live beside each.
+//! The fluid's surface techniques, one module each: [`spheres`] (the splatted particle spheres — or
+//! ellipsoids — smoothed in screen space afterwards), [`iso`] (the SPH colour field ray-cast per pixel, exact
+//! or smoothed in 3D), [`mesh`] (the marching-cubes mesh of the same field, ray-cast through its BVH). Each owns
+//! its resources and their staleness (grids, lattice, mesh, BVH, keyed to the particles' generation and its
+//! settings), prepares them on the host before a frame, and records the passes that write the fluid depth;
+//! the CPU references live beside each. The renderer asks [`Surfaces::get`] for the one the settings name:
+//! a new surface is one module and one line there.
 
 pub mod iso;
 pub mod mesh;
+pub mod spheres;
+
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::gpu::executor::Executor;
+use crate::gpu::{Buffer, FrameCtx, Gpu};
+use crate::particles::ParticleSet;
+use crate::passes::{FrameInfo, Passes};
+use crate::settings::{Settings, Surface};
+use crate::targets::Targets;
+
+/// What a technique prepares with, on the host, before a frame is recorded.
+pub struct Prepare<'a> {
+    /// The device.
+    pub gpu: &'a Arc<Gpu>,
+    /// The frames in flight (waited for before a buffer they read is replaced).
+    pub executor: &'a Executor,
+    /// The particles.
+    pub particles: &'a ParticleSet,
+    /// The frame's settings.
+    pub settings: &'a Settings,
+}
+
+/// What a technique records with: the passes, the frame's images, uniforms and particles.
+pub struct SurfaceFrame<'a> {
+    /// Every pass.
+    pub passes: &'a Passes,
+    /// The frame's images.
+    pub targets: &'a Targets,
+    /// The frame uniform block.
+    pub frame: &'a Buffer,
+    /// The particle buffer and its count.
+    pub particles: (&'a Buffer, u32),
+    /// The frame's settings.
+    pub settings: &'a Settings,
+    /// Facts about this frame's camera.
+    pub info: &'a FrameInfo,
+}
+
+/// Ellipsoid kernels on the device (Yu & Turk 2013), which `thickness` and `splat` draw instead of spheres.
+#[derive(Clone, Copy)]
+pub struct Kernels<'a> {
+    /// The sorted kernel centres.
+    pub points: &'a Buffer,
+    /// How many.
+    pub count: u32,
+    /// The kernel matrices.
+    pub aniso: &'a Buffer,
+    /// How far a kernel reaches, in supports.
+    pub stretch: f32,
+    /// Every particle is a kernel (the grid was built on the GPU, no spray left out): `thickness` may draw them.
+    pub all_particles: bool,
+}
+
+/// One surface technique.
+pub trait Technique {
+    /// Bring its resources up to date for the particles and settings (host work and allocations).
+    fn prepare(&mut self, p: &Prepare) -> Result<()>;
+    /// Record what the frame needs before `thickness` (grids, weights, kernels), in the part it belongs to;
+    /// returns the ellipsoid kernels `thickness` and the depth draw, if any.
+    fn record_kernels<'a>(&'a self, rec: &mut crate::frame::Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>>;
+    /// Record the passes that write the fluid's depth into `targets.depth` (the fluid part).
+    fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, kernels: Option<Kernels>) -> Result<()>;
+}
+
+/// Every surface technique, each owning its resources.
+pub struct Surfaces {
+    /// `surface = "spheres"`.
+    pub spheres: spheres::Spheres,
+    /// `surface = "iso"` (the default).
+    pub iso: iso::Iso,
+    /// `surface = "mesh"`.
+    pub mesh: mesh::FluidMesh,
+}
+
+impl Surfaces {
+    /// Every technique, with nothing built yet.
+    pub fn new() -> Surfaces {
+        Surfaces { spheres: Default::default(), iso: Default::default(), mesh: Default::default() }
+    }
+
+    /// The technique the settings name.
+    pub fn get_mut(&mut self, s: Surface) -> &mut dyn Technique {
+        match s {
+            Surface::Spheres => &mut self.spheres,
+            Surface::Iso => &mut self.iso,
+            Surface::Mesh => &mut self.mesh,
+        }
+    }
+
+    /// The technique the settings name.
+    pub fn get(&self, s: Surface) -> &dyn Technique {
+        match s {
+            Surface::Spheres => &self.spheres,
+            Surface::Iso => &self.iso,
+            Surface::Mesh => &self.mesh,
+        }
+    }
+}
+
+impl Default for Surfaces {
+    fn default() -> Self {
+        Surfaces::new()
+    }
+}

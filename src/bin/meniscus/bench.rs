@@ -571,7 +571,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         return crate::bench_sim::run(&gpu, sim, &base, resolutions[0], a.warmup, a.frames, &modes, a.json.as_deref());
     }
     let mut r = Renderer::new(&gpu)?;
-    r.always_render_background = !a.cache_background;
+    r.background.always_render = !a.cache_background;
     let mut also = vec![];
     for p in &a.also_presets {
         // PRESET, or PRESET@FILE: that preset with FILE's settings instead of --settings.
@@ -626,7 +626,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 bar.set_message(format!("{} {}×{} presets {} + {} interleaved", w.label, wd, ht, a.preset, also.len()));
                 while also_renderers.len() < also.len() {
                     let mut x = Renderer::new(&gpu)?;
-                    x.always_render_background = !a.cache_background;
+                    x.background.always_render = !a.cache_background;
                     also_renderers.push(x);
                 }
                 r.async_compute = a.async_mode == "on";

@@ -106,7 +106,7 @@ pub fn run(
     // Rendering and simulating together.
     let mut combined = vec![];
     let mut r = Renderer::new(gpu)?;
-    r.always_render_background = true;
+    r.background.always_render = true;
     let mut s = base.clone();
     s.radius = scene.radius();
     s.validate()?;

@@ -112,7 +112,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     job.upload(&mut r, &job.first)?;
     eprintln!("{}", job.summary(Some((a.width, a.height))));
     // Timed frames re-render the static background too, so the table shows every pass.
-    r.always_render_background = a.timings;
+    r.background.always_render = a.timings;
     let mut times = r.render(&view, s)?;
     let first = times.clone();
     if a.timings {

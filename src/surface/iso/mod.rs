@@ -1,4 +1,219 @@
-//! The iso surface: the SPH colour field (splashsurf's: cubic spline of support 4 r, per-particle volume
-//! normalisation, threshold 0.6), ray-cast per pixel on the GPU; `field` is its CPU reference.
+//! The iso surface (the default): the SPH colour field — splashsurf's: cubic spline of support 4 r,
+//! per-particle volume normalisation, threshold 0.6 — ray-cast per pixel on the GPU from the splatted bound
+//! spheres to their farthest exit; with `[iso] smoothing` > 0 the field is first smoothed in 3D where the water
+//! is bulk (`iso_volume`, `iso_blur`). It owns the particles' grid and the smoothed field's lattice, rebuilt when
+//! the particles or the kernel change. `field` is the CPU reference of all of it.
 
 pub mod field;
+
+use ash::vk;
+
+use crate::error::Result;
+use crate::frame::{Part, Recording};
+use crate::gpu::{Buffer, FrameCtx};
+use crate::passes::iso::IsoBuffers;
+use crate::renderer::upload_buffer;
+use crate::settings::Settings;
+
+use super::{Kernels, Prepare, SurfaceFrame, Technique};
+
+/// The particles' neighbour grid with their weights and kernels on the device (shared by the iso surface
+/// and the spheres' ellipsoids), and the particle generation it was built for.
+#[derive(Default)]
+pub struct Grid {
+    buffers: Option<IsoBuffers>,
+    built_for: Option<u64>,
+}
+
+impl Grid {
+    /// The buffers, once built.
+    pub fn buffers(&self) -> Option<&IsoBuffers> {
+        self.buffers.as_ref()
+    }
+
+    /// The grid of the current particles for kernel `support` (world units), unless it is there already.
+    /// Without spray the grid is built on the GPU from the particle buffer (the `grid` pass in the frame: no
+    /// CPU work per frame, and GPU-resident particles work too; the buffers are kept while the shape holds);
+    /// with spray the CPU builds it without the spray and uploads it. The cells are at least `reach` (≥ the
+    /// kernel `support`) wide: the farthest a kernel reaches from its particle. The grid spans the fluid, not
+    /// a stray particle far from it (the GPU grid clamps such a particle into its edge cell, where its kernel
+    /// reaches nothing: it is left out of the surface, and said so).
+    pub fn ensure(&mut self, p: &Prepare, support: f32, reach: f32) -> Result<()> {
+        let (particles, gpu) = (p.particles, p.gpu);
+        let stale = self.built_for != Some(particles.generation());
+        if !particles.has_spray() {
+            let (lo, hi) = match crate::scene::fluid_bounds(particles.positions(), reach) {
+                Some((b, strays)) => {
+                    if strays > 0 && !particles.is_external() && stale {
+                        eprintln!("{}", crate::scene::stray_warning(strays, "the iso surface"));
+                    }
+                    (b.lo, b.hi)
+                }
+                None => (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+            };
+            let n = particles.count();
+            let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
+            let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, reach, n as usize);
+            let shape = crate::passes::grid::GridShape {
+                origin_cell: [lo.x, lo.y, lo.z, cell],
+                dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
+            };
+            let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
+            if let Some(b) = &mut self.buffers {
+                if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
+                    if stale {
+                        b.rebuild.set(true);
+                        b.mark_stale();
+                        self.built_for = Some(particles.generation());
+                    }
+                    if b.shape.support() != push.support() {
+                        b.mark_stale();
+                    }
+                    b.shape = push;
+                    return Ok(());
+                }
+            }
+            p.executor.wait_idle()?;
+            // The smoothed field's buffers outlive the grid's (ensure_volume reuses them if they fit).
+            let volume = self.buffers.take().and_then(|b| b.volume);
+            let cap = n.max(1);
+            // TRANSFER_SRC: the tests read the grid and kernels back.
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+            let buf = |name: &str, bytes: u64, format| Buffer::texels(gpu, name, bytes.max(16), usage, format);
+            self.buffers = Some(IsoBuffers {
+                points: buf("iso_points", cap as u64 * 16, IsoBuffers::POINTS)?,
+                cells: buf("iso_cells", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
+                weighted: buf("iso_weighted", cap as u64 * 16, IsoBuffers::WEIGHTED)?,
+                aniso: buf("iso_aniso", cap as u64 * 48, IsoBuffers::ANISO)?,
+                shape: push,
+                gpu: Some(crate::passes::grid::GridBuffers::new(gpu, shape, cap)?),
+                rebuild: std::cell::Cell::new(true),
+                weights_stale: std::cell::Cell::new(true),
+                kernels_for: std::cell::Cell::new(None),
+                volume,
+                volume_for: std::cell::Cell::new(None),
+            });
+            self.built_for = Some(particles.generation());
+            return Ok(());
+        }
+        if !stale
+            && self
+                .buffers
+                .as_ref()
+                .is_some_and(|b| b.gpu.is_none() && b.shape.support() == support && b.shape.origin[3] >= reach)
+        {
+            return Ok(());
+        }
+        // As on the GPU path: the grid spans the fluid, strays far from it are left out.
+        let pts = crate::scene::without_strays(&particles.surface_positions(), reach).0.into_owned();
+        let grid = field::IsoGrid::build_reaching(&pts, support, reach);
+        p.executor.wait_idle()?;
+        let volume = self.buffers.take().and_then(|b| b.volume);
+        let points = upload_buffer(gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?
+            .with_texel_view(IsoBuffers::POINTS)?;
+        let cells = upload_buffer(gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?
+            .with_texel_view(IsoBuffers::CELLS)?;
+        let buf = |name: &str, per_point: u64, format| {
+            let bytes = (grid.points.len() as u64 * per_point).max(per_point.max(16));
+            Buffer::texels(gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, format)
+        };
+        let weighted = buf("iso_weighted", 16, IsoBuffers::WEIGHTED)?;
+        let aniso = buf("iso_aniso", 48, IsoBuffers::ANISO)?;
+        let shape = crate::passes::iso::IsoPush::shape(&grid);
+        self.buffers = Some(IsoBuffers {
+            points,
+            cells,
+            weighted,
+            aniso,
+            shape,
+            gpu: None,
+            rebuild: std::cell::Cell::new(false),
+            weights_stale: std::cell::Cell::new(true),
+            kernels_for: std::cell::Cell::new(None),
+            volume,
+            volume_for: std::cell::Cell::new(None),
+        });
+        self.built_for = Some(particles.generation());
+        Ok(())
+    }
+
+    /// The smoothed field's lattice for the grid's box, when `[iso] smoothing` asks for it: (re)allocated when
+    /// the box or the spacing changed (its field is then stale); dropped when smoothing is off.
+    pub fn ensure_volume(&mut self, p: &Prepare, s: &Settings) -> Result<()> {
+        let Some(b) = &mut self.buffers else { return Ok(()) };
+        let Some(params) = s.iso_params().volume else {
+            if b.volume.is_some() {
+                p.executor.wait_idle()?;
+                b.volume = None;
+            }
+            return Ok(());
+        };
+        let (o, d) = (b.shape.origin, b.shape.dims);
+        let lo = glam::Vec3::new(o[0], o[1], o[2]);
+        let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
+        let shape = field::VolumeShape::around(lo, hi, b.shape.support(), &params);
+        if b.volume.as_ref().is_some_and(|v| v.shape == shape) {
+            return Ok(());
+        }
+        // A sequence's box moves every frame: the buffers are kept while they hold the new lattice (their field
+        // is rebuilt for the new particles anyway), and grow by a quarter when they do not.
+        if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape)) {
+            v.shape = shape;
+            b.volume_for.set(None);
+            return Ok(());
+        }
+        p.executor.wait_idle()?;
+        b.volume = Some(crate::passes::iso::IsoVolume::new(p.gpu, shape)?);
+        b.volume_for.set(None);
+        Ok(())
+    }
+
+    /// Record the grid's build (when the particles changed) and, with `kernel = "anisotropic"`, the kernels;
+    /// `weights`: also each particle's 1/n_j and the smoothed field (the iso surface's, not the ellipsoids').
+    pub(crate) fn record(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, weights: bool) -> Option<&IsoBuffers> {
+        let b = self.buffers.as_ref()?;
+        let (p, s) = (f.passes, f.settings);
+        let params = s.iso_params();
+        p.iso.record_grid(ctx, f.particles.0, f.particles.1, b);
+        if weights {
+            p.iso.record_density(ctx, f.frame, b);
+            if let Some(v) = &params.volume {
+                p.iso.record_volume(ctx, f.frame, b, v);
+            }
+        }
+        if let Some(a) = &params.aniso {
+            p.anisotropy.record(ctx, f.frame, b, a);
+        }
+        Some(b)
+    }
+}
+
+/// The iso surface technique.
+#[derive(Default)]
+pub struct Iso {
+    /// The particles' grid, weights, kernels and smoothed field.
+    pub grid: Grid,
+}
+
+impl Technique for Iso {
+    fn prepare(&mut self, p: &Prepare) -> Result<()> {
+        let s = p.settings;
+        self.grid.ensure(p, s.iso.support * s.radius, s.iso_reach())?;
+        self.grid.ensure_volume(p, s)
+    }
+
+    fn record_kernels<'a>(&'a self, rec: &mut Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
+        self.grid.record(rec.part(Part::Fluid), f, true);
+        None
+    }
+
+    fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
+        let back = super::spheres::record_splat(ctx, f)?;
+        let (t, s) = (f.targets, f.settings);
+        if let (Some(grid), Some(queue)) = (self.grid.buffers(), &t.iso_queue) {
+            // The rasterised splats do not write a far bound: the march then runs to the grid's box.
+            f.passes.iso.record(ctx, f.frame, grid, &s.iso_params(), &t.depth, back, queue, f.info);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,181 @@
+//! The particle set on the device, in one place: its two GPU buffers (a split frame uploads into the one the
+//! frame before does not read), the count, the upload staged for the next frame's command buffer (or a GPU
+//! producer such as the simulation), the host copy of the positions (the nearest depth, the CPU-built grids),
+//! the spray marks, and a generation that every change bumps — what the surface techniques key their caches to.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::error::{Error, Result};
+use crate::frame::View;
+use crate::gpu::executor::Executor;
+use crate::gpu::{Buffer, Gpu};
+
+/// The renderer's particles.
+#[derive(Default)]
+pub struct ParticleSet {
+    buffers: [Option<Buffer>; 2],
+    current: usize,
+    count: u32,
+    /// Set but not yet copied to the GPU: the next frame's command buffer records the copy.
+    staged: Option<Vec<[f32; 4]>>,
+    /// The next frame's particles are written on the GPU by `Hooks::produce`.
+    external: bool,
+    positions: Vec<[f32; 3]>,
+    spray: Option<Vec<bool>>,
+    generation: u64,
+}
+
+impl ParticleSet {
+    /// Set the particles: 16 bytes each (world xyz + w), w = the particle's radius from `radii`, else 0 (the
+    /// frame's radius); negated for particles marked in `spray` (kept out of the surface). `limit`: the
+    /// device's storage buffer range.
+    pub fn set(
+        &mut self,
+        limit: u64,
+        positions: &[[f32; 3]],
+        radii: Option<&[f32]>,
+        spray: Option<&[bool]>,
+    ) -> Result<()> {
+        let n = positions.len();
+        let bytes = n as u64 * 16;
+        if bytes > limit {
+            return Err(Error::Limit(format!(
+                "{n} particles need {bytes} bytes, more than this device's storage buffer limit of {limit} bytes ({} \
+                 particles)",
+                limit / 16
+            )));
+        }
+        let data: Vec<[f32; 4]> = positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let r = radii.map(|r| r[i]).unwrap_or(0.0);
+                let spray = spray.is_some_and(|s| s[i]);
+                // Spray without its own radius: −1 means "frame radius" for the thickness pass.
+                let w = if spray {
+                    if r > 0.0 {
+                        -r
+                    } else {
+                        -f32::MIN_POSITIVE
+                    }
+                } else {
+                    r
+                };
+                [p[0], p[1], p[2], w]
+            })
+            .collect();
+        self.staged = Some(data);
+        self.external = false;
+        self.count = n as u32;
+        self.positions = positions.to_vec();
+        self.spray = spray.map(|s| s.to_vec());
+        self.generation += 1;
+        Ok(())
+    }
+
+    /// The next frame's `count` particles are written on the GPU by its `Hooks::produce`; `bounds` contain
+    /// them (the host copy becomes the box's corners).
+    pub fn set_gpu(&mut self, limit: u64, count: u32, bounds: (glam::Vec3, glam::Vec3)) -> Result<()> {
+        if count as u64 * 16 > limit {
+            return Err(Error::Limit(format!("{count} particles exceed this device's storage buffer limit")));
+        }
+        let (lo, hi) = bounds;
+        self.positions = (0..8)
+            .map(|k| {
+                [
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                ]
+            })
+            .collect();
+        self.staged = None;
+        self.external = true;
+        self.count = count;
+        self.spray = None;
+        self.generation += 1;
+        Ok(())
+    }
+
+    /// Particles on the device.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
+    /// The host copy of the positions (the box's corners for GPU-written particles).
+    pub fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+
+    /// Whether any particle is marked as spray.
+    pub fn has_spray(&self) -> bool {
+        self.spray.as_ref().is_some_and(|s| s.iter().any(|&x| x))
+    }
+
+    /// The positions of the particles that make the surface (spray left out).
+    pub fn surface_positions(&self) -> Vec<[f32; 3]> {
+        match &self.spray {
+            Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
+            None => self.positions.clone(),
+        }
+    }
+
+    /// Bumped by every change of the particles.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// The particles are written on the GPU (a simulation), not uploaded.
+    pub fn is_external(&self) -> bool {
+        self.external
+    }
+
+    /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
+    pub fn nearest_depth(&self, view: &View, radius: f32) -> f32 {
+        let m = view.camera.view();
+        self.positions
+            .iter()
+            .map(|p| -(m.transform_point3(glam::Vec3::from(*p)).z) - radius)
+            .filter(|d| *d > -radius)
+            .fold(f32::INFINITY, f32::min)
+            .max(view.camera.near)
+    }
+
+    /// Before recording a frame: pick the buffer it reads — a split frame uploads into the other one (the frame
+    /// before may still read this one), a one-queue frame into the same (queue order keeps it after the
+    /// readers) — and grow it when too small, after every frame that may still read it.
+    pub fn prepare(&mut self, gpu: &std::sync::Arc<Gpu>, executor: &Executor, split: bool) -> Result<()> {
+        let new = self.staged.as_ref().map(|d| d.len() as u64).or(self.external.then_some(self.count as u64));
+        if let Some(len) = new {
+            let target = if split { 1 - self.current } else { self.current };
+            let size = (len * 16).max(16);
+            if self.buffers[target].as_ref().is_none_or(|b| b.size < size) {
+                executor.wait_idle()?;
+                self.buffers[target] = Some(Buffer::new(
+                    gpu,
+                    if target == 0 { "particles" } else { "particles (second)" },
+                    size,
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                    MemoryLocation::GpuOnly,
+                )?);
+            }
+            self.current = target;
+        }
+        if self.buffers[self.current].is_none() {
+            return Err(Error::Invalid("no particles uploaded".into()));
+        }
+        Ok(())
+    }
+
+    /// The buffer this frame reads (after [`ParticleSet::prepare`]).
+    pub fn buffer(&self) -> &Buffer {
+        self.buffers[self.current].as_ref().expect("prepared")
+    }
+
+    /// Take what this frame records before its passes: the staged upload, and whether a producer writes the
+    /// buffer.
+    pub fn take_pending(&mut self) -> (Option<Vec<[f32; 4]>>, bool) {
+        (self.staged.take(), std::mem::take(&mut self.external))
+    }
+}

@@ -1,0 +1,98 @@
+//! The spheres surface (`--preset fast`): the nearest particle sphere per pixel (the `splat` pass: compute,
+//! or a rasterised variant), or with `kernel = "anisotropic"` each particle's ellipsoid (Yu & Turk 2013: the
+//! grid and the `anisotropy` pass first, on the async part, since `thickness` draws them too); the depth is then
+//! smoothed in screen space by the chosen filter (van der Laan et al. 2009; Truong & Yuksel's narrow-range).
+
+use crate::error::Result;
+use crate::frame::{Part, Recording};
+use crate::gpu::FrameCtx;
+use crate::passes::splat::BackBound;
+use crate::settings::SplatMode;
+
+use super::iso::Grid;
+use super::{Kernels, Prepare, SurfaceFrame, Technique};
+
+/// The spheres technique; its grid exists only for ellipsoids.
+#[derive(Default)]
+pub struct Spheres {
+    /// The particles' grid and kernels (ellipsoids only).
+    pub grid: Grid,
+}
+
+impl Technique for Spheres {
+    fn prepare(&mut self, p: &Prepare) -> Result<()> {
+        let s = p.settings;
+        if s.ellipsoid_splats() {
+            self.grid.ensure(p, s.iso.support * s.radius, s.iso_reach())?;
+        }
+        Ok(())
+    }
+
+    fn record_kernels<'a>(&'a self, rec: &mut Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
+        if !f.settings.ellipsoid_splats() {
+            return None;
+        }
+        let b = self.grid.record(rec.part(Part::Async), f, false)?;
+        Some(Kernels {
+            points: &b.points,
+            count: b.shape.dims[3],
+            aniso: &b.aniso,
+            stretch: f.settings.anisotropy.stretch.max(1.0),
+            all_particles: b.gpu.is_some(),
+        })
+    }
+
+    fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, kernels: Option<Kernels>) -> Result<()> {
+        let s = f.settings;
+        match kernels {
+            Some(k) => {
+                let t = f.targets;
+                let spheres = (s.radius, s.splat_scale());
+                let kernel = Some((k.aniso, k.stretch));
+                f.passes.splat.record(
+                    ctx,
+                    f.frame,
+                    k.points,
+                    k.count,
+                    &t.depth,
+                    None,
+                    &t.depth_tiles,
+                    spheres,
+                    kernel,
+                    f.info,
+                );
+            }
+            None => {
+                record_splat(ctx, f)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The `splat` pass in the chosen mode (compute, or a rasterised variant) over the particle spheres scaled
+/// by `splat_scale`; returns where the far bound of the `iso` march was written (the compute splat only).
+pub(crate) fn record_splat<'t>(ctx: &mut FrameCtx, f: &SurfaceFrame<'t>) -> Result<Option<BackBound<'t>>> {
+    let (p, t, s) = (f.passes, f.targets, f.settings);
+    let (particles, count) = f.particles;
+    match s.splat.mode {
+        SplatMode::Compute => {
+            let spheres = (s.radius, s.splat_scale());
+            let back = t.depth_back.as_ref().zip(t.depth_back_tiles.as_ref());
+            Ok(p.splat.record(ctx, f.frame, particles, count, &t.depth, back, &t.depth_tiles, spheres, None, f.info))
+        }
+        mode => {
+            p.splat.record_raster(
+                ctx,
+                f.frame,
+                particles,
+                count,
+                &t.depth,
+                t.zbuffer.as_ref(),
+                s.splat_scale(),
+                mode,
+            )?;
+            Ok(None)
+        }
+    }
+}
