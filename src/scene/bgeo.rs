@@ -197,8 +197,9 @@ fn inflate_bounded(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
             path: path.to_path_buf(),
             offset: limit,
             reason: format!(
-                "the gzip stream inflates past the {limit} bytes its header declares ({n} points of {record} bytes); \
-                 refusing to inflate further (offset in the gzip-decompressed data)"
+                "the gzip stream inflates past the {limit} bytes its header declares ({n} point{} of {record} bytes); \
+                 refusing to inflate further (offset in the gzip-decompressed data)",
+                if n == 1 { "" } else { "s" }
             ),
         });
     }

@@ -10,8 +10,8 @@ use clap::Args;
 
 use meniscus::scene::sequence::{FrameRange, Prefetch};
 use meniscus::scene::{self, Particles};
-use meniscus::surface::iso::field::IsoGrid;
 use meniscus::surface::mesh::extract::ExtractParams;
+use meniscus::surface::mesh::Extraction;
 
 use meniscus::output::Kind;
 
@@ -167,36 +167,39 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let one = |p: &Particles, out: &PathBuf| -> Result<String> {
         let t0 = std::time::Instant::now();
         let (m, how) = pool.install(|| -> Result<_> {
+            let recon = meniscus::surface::mesh::Reconstruct {
+                support: support * r,
+                extract: params,
+                smoothing: meniscus::surface::mesh::smooth::SmoothParams {
+                    iterations: a.smoothing_iters,
+                    weights: !a.no_smoothing_weights,
+                    ..Default::default()
+                },
+            };
+            let (m, rep) =
+                meniscus::surface::mesh::reconstruct(&p.positions, &recon, gpu_mc.as_ref().map(|(g, mc)| (g, mc)))?;
             // The one stray-particle policy: particles far from the fluid are left out, and counted.
-            let (kept, strays) = scene::without_strays(&p.positions, support * r);
-            if strays > 0 {
-                eprintln!("{}", scene::stray_warning(strays, "the mesh"));
+            if rep.strays > 0 {
+                eprintln!("{}", scene::stray_warning(rep.strays, "the mesh"));
             }
-            let grid = IsoGrid::build(&kept, support * r);
-            meniscus::surface::mesh::extract::check_lattice(&grid, params.cube)?;
-            meniscus::surface::mesh::extract::check_memory(&grid, &params, rayon::current_num_threads())?;
-            let inv = grid.inv_density();
-            let t_field = t0.elapsed().as_secs_f64();
-            let (mut m, how) = match &gpu_mc {
-                Some((gpu, mc)) => {
-                    let (m, st) = mc.extract(gpu, &grid, &inv, &params)?;
+            let t_field = rep.field_s;
+            let how = match &rep.extraction {
+                Extraction::Gpu(st) => {
                     let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
                     let gpu_ms: f64 = st.gpu.0.iter().map(|(_, t)| t).sum();
-                    let how = format!(
+                    format!(
                         "on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: grid and 1/n {t_field:.3} s, set-up {:.1} \
                          ms, read-back and weld {:.1} ms)",
-                        gpu.info.name,
+                        gpu_mc.as_ref().map_or("", |(g, _)| g.info.name.as_str()),
                         st.blocks,
                         stages.join(", "),
                         st.host_setup_ms,
                         st.host_weld_ms
-                    );
-                    (m, how)
+                    )
                 }
-                None => {
-                    let (m, t) = meniscus::surface::mesh::extract::extract_timed(&grid, &inv, &params);
+                Extraction::Cpu(t) => {
                     let threads = pool.current_num_threads();
-                    let how = match t {
+                    match t {
                         // Where the time goes: scatter and march are summed over the threads.
                         Some(t) => format!(
                             "({threads} threads; grid and 1/n {t_field:.3} s, {} blocks of {}³ cubes: scatter \
@@ -204,23 +207,11 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                             t.blocks, params.block, t.scatter, t.march, t.weld
                         ),
                         None => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
-                    };
-                    (m, how)
+                    }
                 }
             };
-            let smoothing = meniscus::surface::mesh::smooth::SmoothParams {
-                iterations: a.smoothing_iters,
-                weights: !a.no_smoothing_weights,
-                ..Default::default()
-            };
-            let t_smooth = std::time::Instant::now();
-            meniscus::surface::mesh::smooth::smooth(&mut m, &grid, &inv, &smoothing);
-            let how = if smoothing.iterations > 0 {
-                format!(
-                    "{how}, smoothed ({} iterations) in {:.3} s",
-                    smoothing.iterations,
-                    t_smooth.elapsed().as_secs_f64()
-                )
+            let how = if recon.smoothing.iterations > 0 {
+                format!("{how}, smoothed ({} iterations) in {:.3} s", recon.smoothing.iterations, rep.smooth_s)
             } else {
                 how
             };

@@ -80,3 +80,66 @@ impl Technique for FluidMesh {
         Ok(())
     }
 }
+
+/// How [`reconstruct`] meshes particles (`meniscus mesh`, the Python package's `reconstruct_surface`).
+#[derive(Clone, Copy, Debug)]
+pub struct Reconstruct {
+    /// Kernel support (world units): splashsurf's 2 × smoothing length × particle radius.
+    pub support: f32,
+    /// The lattice, iso value, field and path.
+    pub extract: extract::ExtractParams,
+    /// Laplacian smoothing afterwards.
+    pub smoothing: smooth::SmoothParams,
+}
+
+/// Where [`reconstruct`]'s time went and what it left out.
+#[derive(Clone, Debug)]
+pub struct ReconstructReport {
+    /// Particles left out as strays (far from the fluid).
+    pub strays: usize,
+    /// Seconds for the grid and each particle's 1/n_j (host).
+    pub field_s: f64,
+    /// The CPU extraction's times (block path), or the GPU's stages.
+    pub extraction: Extraction,
+    /// Seconds the smoothing took.
+    pub smooth_s: f64,
+}
+
+/// How the mesh was extracted.
+#[derive(Clone, Debug)]
+pub enum Extraction {
+    /// On the CPU (times of the block path, when it ran).
+    Cpu(Option<extract::ExtractTimes>),
+    /// On the GPU (the `mc` pass).
+    Gpu(crate::passes::mc::McStats),
+}
+
+/// The iso surface of `positions` as a triangle mesh: strays left out (`scene::without_strays`), the field's
+/// grid, the lattice and memory checked against the machine before anything large is allocated, marching
+/// cubes on the CPU (rayon, the current pool) or with `gpu` on the device, then the smoothing.
+pub fn reconstruct(
+    positions: &[[f32; 3]],
+    r: &Reconstruct,
+    gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::passes::mc::Mc)>,
+) -> Result<(extract::TriMesh, ReconstructReport)> {
+    let t0 = std::time::Instant::now();
+    let (kept, strays) = crate::scene::without_strays(positions, r.support);
+    let grid = super::iso::field::IsoGrid::build(&kept, r.support);
+    extract::check_lattice(&grid, r.extract.cube)?;
+    extract::check_memory(&grid, &r.extract, rayon::current_num_threads())?;
+    let inv = grid.inv_density();
+    let field_s = t0.elapsed().as_secs_f64();
+    let (mut m, extraction) = match gpu {
+        Some((gpu, mc)) => {
+            let (m, st) = mc.extract(gpu, &grid, &inv, &r.extract)?;
+            (m, Extraction::Gpu(st))
+        }
+        None => {
+            let (m, t) = extract::extract_timed(&grid, &inv, &r.extract);
+            (m, Extraction::Cpu(t))
+        }
+    };
+    let t_smooth = std::time::Instant::now();
+    smooth::smooth(&mut m, &grid, &inv, &r.smoothing);
+    Ok((m, ReconstructReport { strays, field_s, extraction, smooth_s: t_smooth.elapsed().as_secs_f64() }))
+}
