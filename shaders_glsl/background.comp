@@ -2,7 +2,7 @@
 //! background — the scene behind the fluid, ray-cast analytically per pixel (compute).
 //! Out: colour (rgba16f, linear) and LINEAR EYE DEPTH (r32f, +inf for sky) at full resolution.
 //! A checkered ground plane with distance fog, the boxes of the frame block (Lambert + sun), an optional
-//! triangle mesh from an OBJ file (walked through its BVH, src/mesh.rs; Möller–Trumbore 1997), shadows of
+//! triangle mesh from an OBJ file (walked through its BVH, src/scene/geometry.rs; Möller–Trumbore 1997), shadows of
 //! boxes and mesh on the ground, and the sky of common.glsl (procedural, or the cube map from six images).
 //! Composite and thickness read the depth to hide fluid behind geometry.
 #define SKY_BINDING 3

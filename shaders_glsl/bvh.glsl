@@ -1,4 +1,4 @@
-//! bvh.glsl — a ray against a triangle mesh through its BVH (src/mesh.rs GpuBvh; Möller–Trumbore 1997), shared
+//! bvh.glsl — a ray against a triangle mesh through its BVH (src/scene/geometry.rs GpuBvh; Möller–Trumbore 1997), shared
 //! by `background` (an OBJ mesh in the scene) and `mesh` (the fluid's extracted iso-surface). The including
 //! shader declares the buffers `nodes` (two vec4 per node) and `tris` (three vec4 per triangle).
 

@@ -4,7 +4,7 @@
 //! the blend F = φ + w(c̄) (G_σ ∗ φ − φ), w = smoothstep of c̄ over [bulk0, bulk1]: calm water (full
 //! neighbourhoods) takes the blurred field, spray and thin sheets keep the raw one. Measured on the shared
 //! dam-break frame by the prototype tools/quality-volume.py before it was built here. CPU reference:
-//! smooth_volume in src/iso.rs.
+//! smooth_volume in src/surface/iso/field.rs.
 //! Bricks (ISO_VOLUME_BRICK³ voxels): a voxel whose brick has no occupied brick (iso_volume marks them) within
 //! the blur's reach on any axis is 0 after every pass, exactly, so it is written without reading anything; the
 //! ISO_BLUR_BRICKS dispatch (first) turns the occupied flags into those active flags (most of a splash's box is

@@ -1,7 +1,7 @@
 #version 460
 //! iso_density — first dispatch of the `iso` pass: per grid point j, 1/n_j with n_j = Σ_k W(|x_j − x_k|)
 //! (the particle's SPH volume up to the rest mass; splashsurf's normalisation). CPU reference:
-//! IsoGrid::inv_density in src/iso.rs.
+//! IsoGrid::inv_density in src/surface/iso/field.rs.
 //! In: sorted points, cells. Out: the weighted points (xyz, 1/n_j), which the casts read.
 #include "common.glsl"
 #define ISO_WRITES_WEIGHTS

@@ -1,5 +1,5 @@
 //! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
-//! (src/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
+//! (src/surface/iso/field.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
 //! Binding 1: the points sorted by cell: (xyz, 1/n_j) in the casts (`weighted`, iso_density's output), xyz in
 //! iso_density and the anisotropy pass (`points`); binding 2: cells (first point, count); with
 //! ISO_WRITES_WEIGHTS (iso_density) binding 3: the weighted points it writes. The casts read a point and its
@@ -52,7 +52,7 @@ float iso_kernel(float q) {
 
 #ifdef ISO_VOLUME
 /// The smoothed field at x: trilinear between the 8 voxels around it (0 outside the lattice; CPU reference
-/// VolumeShape::sample in src/iso.rs).
+/// VolumeShape::sample in src/surface/iso/field.rs).
 float iso_volume_at(vec3 x) {
     vec3 u = (x - pc.aniso.xyz) / pc.aniso.w;
     ivec3 d = ivec3(pc.aniso2.yzw);

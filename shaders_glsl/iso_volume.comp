@@ -7,7 +7,7 @@
 //! in fixed point (ISO_VOLUME_FIX_BITS) with integer atomics: the same sums in any order, on any device.
 //! iso_blur then blurs φ where c̄ says the water is bulk. The field smoothing follows the mesh smoothing that
 //! splashsurf weights by c_j (Löschner et al. 2023), moved from the mesh to the field so a ray cast can draw it.
-//! CPU reference: IsoGrid::volume_sums in src/iso.rs.
+//! CPU reference: IsoGrid::volume_sums in src/surface/iso/field.rs.
 //! Each point also marks the bricks (ISO_VOLUME_BRICK³ voxels) its support's box touches, so iso_blur can skip
 //! the rest.
 //! In: the weighted points (xyz, 1/n_j), cells. Out: acc (binding 3), the bricks' occupied flags (binding 4,

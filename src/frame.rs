@@ -109,6 +109,16 @@ pub struct View {
     pub env: Environment,
 }
 
+impl View {
+    /// The view of a `width`×`height` output of particles whose 1st–99th percentile box is `bounds`: `camera`,
+    /// or one fitted to the box for the output's aspect; the default background scene around them. What every
+    /// front end (the CLI's job, the Python package) frames particles with.
+    pub fn around(bounds: &Bounds, camera: Option<Camera>, width: u32, height: u32, s: &Settings) -> View {
+        let camera = camera.unwrap_or_else(|| Camera::fit(bounds, width as f32 / height.max(1) as f32));
+        View { camera, width, height, env: Environment::around(bounds, s.radius, s) }
+    }
+}
+
 impl FrameUniforms {
     /// Fill the block from the view and the settings.
     pub fn new(v: &View, s: &Settings, count: u32) -> FrameUniforms {

@@ -206,6 +206,12 @@ impl Renderer {
         self.finish(sub)
     }
 
+    /// [`Renderer::render`] with caller hooks (e.g. a simulation's particles copied in through `Hooks::produce`).
+    pub fn render_with(&mut self, view: &View, s: &Settings, hooks: Hooks) -> Result<PassTimes> {
+        let sub = self.record_and_submit_with(view, s, None, false, hooks, Default::default())?;
+        self.finish(sub)
+    }
+
     /// Render one frame, wait, and return every timed scope with its queue and device-clock begin and end (for
     /// per-queue times and the overlap of a split frame).
     pub fn render_spans(&mut self, view: &View, s: &Settings) -> Result<Vec<crate::gpu::executor::Span>> {

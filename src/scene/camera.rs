@@ -66,6 +66,15 @@ impl Camera {
         height as f32 / (2.0 * (self.fovy_deg.to_radians() * 0.5).tan())
     }
 
+    /// A camera at `eye` looking at `target` with a vertical field of view of `fovy_deg`, checked
+    /// ([`Camera::check`]).
+    pub fn new(eye: Vec3, target: Vec3, fovy_deg: f32) -> Result<Camera> {
+        let dist = (eye - target).length();
+        let c = Camera { eye, target, up: Vec3::Y, fovy_deg, near: (dist * 1e-3).max(1e-4) };
+        c.check()?;
+        Ok(c)
+    }
+
     /// Parse `ex,ey,ez:tx,ty,tz[:fovy]`.
     pub fn parse(s: &str) -> Result<Camera> {
         let err =
@@ -91,10 +100,7 @@ impl Camera {
         if !(fovy_deg > 1.0 && fovy_deg < 170.0) || (eye - target).length() < 1e-6 {
             return Err(err());
         }
-        let dist = (eye - target).length();
-        let c = Camera { eye, target, up: Vec3::Y, fovy_deg, near: (dist * 1e-3).max(1e-4) };
-        c.check().map_err(|_| err())?;
-        Ok(c)
+        Camera::new(eye, target, fovy_deg).map_err(|_| err())
     }
 
     /// The `--camera` argument that reproduces this camera.

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use meniscus::frame::{Environment, View};
+use meniscus::frame::View;
 use meniscus::renderer::Renderer;
 use meniscus::scene::geometry::Geometry;
 use meniscus::scene::sequence::{self, Frame, FrameRange};
@@ -233,17 +233,13 @@ impl Job {
 
     /// The view of a `width`×`height` output (camera and background scene).
     pub fn view(&self, width: u32, height: u32) -> View {
-        View { camera: self.camera_for(width, height), width, height, env: self.environment() }
-    }
-
-    /// The background scene: around the particles, or the simulated container's walls on its floor.
-    pub fn environment(&self) -> Environment {
-        let mut env = Environment::around(&self.bounds, self.settings.radius, &self.settings);
+        let mut view = View::around(&self.bounds, self.camera, width, height, &self.settings);
+        // The simulated container's (or a scene.json's) walls on its floor instead of the default scenery.
         if !self.walls.is_empty() {
-            env.boxes = self.walls.clone();
-            env.ground_y = self.floor.unwrap_or(self.bounds.lo.y);
+            view.env.boxes = self.walls.clone();
+            view.env.ground_y = self.floor.unwrap_or(self.bounds.lo.y);
         }
-        env
+        view
     }
 
     /// Upload one frame's particles (spray flags, per-particle radii) with this job's settings.

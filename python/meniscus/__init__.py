@@ -1,0 +1,189 @@
+"""Meniscus from Python: render SPH particles as a liquid surface on Vulkan, reconstruct their surface as a
+mesh (on the GPU or the CPU), and run the GPU fluid simulation — with NumPy arrays, no files in between.
+
+    import meniscus, numpy as np
+    r = meniscus.Renderer(960, 540)
+    frame = meniscus.load("ParticleData_Fluid_20.bgeo")
+    rgb = r.render(frame["positions"], particle_radius=0.0125)          # H×W×3 uint8
+    verts, tris, normals = meniscus.reconstruct_surface(frame["positions"], particle_radius=0.0125)
+
+Everything here calls the Rust library that the `meniscus` command line uses (the same job framing, surfaces,
+meshes and simulation), so a render equals `meniscus render FILE --radius R --camera …` pixel for pixel.
+Bad input (wrong shapes or dtypes, NaN, empty arrays) raises ValueError; unreadable files OSError; device
+failures RuntimeError. The GIL is released while the GPU or the extraction works.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _meniscus
+
+__all__ = ["Renderer", "Simulation", "reconstruct_surface", "load", "sim_scenes", "__version__"]
+__version__ = _meniscus.__version__
+
+ArrayLike = Any
+Camera = Union[Tuple[Sequence[float], Sequence[float]], Tuple[Sequence[float], Sequence[float], float], np.ndarray]
+
+
+def _points(a: ArrayLike, name: str) -> np.ndarray:
+    """An N×3 float32 C-contiguous array (no copy when it already is one), checked."""
+    arr = np.asarray(a)
+    if arr.dtype not in (np.float32, np.float64):
+        raise ValueError(f"{name}: expected float32 or float64 values, got {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name}: expected an N×3 array, got shape {arr.shape}")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name}: the array is empty")
+    arr = np.ascontiguousarray(arr, dtype=np.float32)
+    bad = ~np.isfinite(arr).all(axis=1)
+    if bad.any():
+        raise ValueError(f"{name}: row {int(np.argmax(bad))} is not finite (NaN or inf); {int(bad.sum())} such rows")
+    return arr
+
+
+def _radius(r: float) -> float:
+    r = float(r)
+    if not (np.isfinite(r) and r > 0):
+        raise ValueError(f"particle_radius must be a positive number, got {r}")
+    return r
+
+
+def _camera(camera: Optional[Camera]) -> Optional[Tuple[Tuple[float, ...], Tuple[float, ...], float]]:
+    """(eye, target[, fovy_deg]) or a 4×4 world-to-view matrix (its eye and viewing direction; fovy 45°)."""
+    if camera is None:
+        return None
+    if isinstance(camera, np.ndarray) and camera.shape == (4, 4):
+        inv = np.linalg.inv(camera.astype(np.float64))
+        eye = inv[:3, 3]
+        target = eye - inv[:3, 2]
+        return tuple(map(float, eye)), tuple(map(float, target)), 45.0
+    try:
+        eye, target, *rest = camera
+        fovy = float(rest[0]) if rest else 45.0
+        eye, target = tuple(map(float, eye)), tuple(map(float, target))
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"camera: expected (eye, target[, fovy_deg]) or a 4×4 view matrix ({e})") from None
+    if len(eye) != 3 or len(target) != 3:
+        raise ValueError("camera: eye and target are 3 numbers each")
+    return eye, target, fovy
+
+
+class Renderer:
+    """Screen-space fluid rendering of particles, `width`×`height`, on `device` (a substring of its name;
+    default: the first usable one, lavapipe where there is no GPU), with a settings `preset` ("default",
+    "fast", "quality", "smooth", "moritz") and an optional TOML `settings` file over it (README: Settings)."""
+
+    def __init__(self, width: int, height: int, *, device: Optional[str] = None, preset: str = "default",
+                 settings: Optional[str] = None) -> None:
+        self._r = _meniscus.Renderer(int(width), int(height), device, preset, settings)
+
+    def render(self, positions: Union[ArrayLike, "Simulation"], *, particle_radius: Optional[float] = None,
+               camera: Optional[Camera] = None, velocities: Optional[ArrayLike] = None,
+               attributes: Optional[Dict[str, ArrayLike]] = None, alpha: bool = False) -> np.ndarray:
+        """Render particles (N×3) — or a `Simulation`, from its GPU buffer without a copy through the host —
+        and return the image as H×W×3 uint8 (H×W×4 with `alpha`). The camera is fitted to the particles'
+        1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks."""
+        if isinstance(positions, Simulation):
+            img = self._r.render_sim(positions._s, _camera(camera))
+        else:
+            if particle_radius is None:
+                raise ValueError("particle_radius is required for an array of positions")
+            pts = _points(positions, "positions")
+            vel = None if velocities is None else _points(velocities, "velocities")
+            if vel is not None and vel.shape != pts.shape:
+                raise ValueError(f"velocities: shape {vel.shape} does not match positions {pts.shape}")
+            dens = None
+            if attributes and "density" in attributes:
+                dens = np.ascontiguousarray(np.asarray(attributes["density"]), dtype=np.float32).reshape(-1)
+                if dens.shape[0] != pts.shape[0]:
+                    raise ValueError(f"attributes['density']: {dens.shape[0]} values for {pts.shape[0]} particles")
+            img = self._r.render(pts, _radius(particle_radius), _camera(camera), vel, dens)
+        return img if alpha else img[:, :, :3]
+
+    def render_buffers(self, positions: Union[ArrayLike, "Simulation"], **kwargs: Any) -> Dict[str, np.ndarray]:
+        """Render as `render` does and return the frame's buffers: "depth" (H×W float32 linear eye depth, +inf
+        where there is no fluid), "normals" (H×W×3 view space), "thickness" (float32, at its own resolution),
+        and "image" (H×W×3 uint8)."""
+        img = self.render(positions, **kwargs)
+        out = dict(self._r.buffers())
+        out["image"] = img
+        return out
+
+    def timings(self) -> Dict[str, float]:
+        """The last frame's GPU time of each pass in milliseconds (the frame's order)."""
+        return dict(self._r.timings())
+
+
+class Simulation:
+    """The GPU fluid simulation (Position Based Fluids) of a built-in scene: "dambreak", "drop", "waterfall"
+    or "pool" (`sim_scenes()`), with `particles` particles (default: the scene's own), on `device`, with the
+    `[sim]` section of an optional TOML `settings` file. Deterministic: the same scene and count give the
+    same particles as `meniscus sim SCENE --particles N`."""
+
+    def __init__(self, scene: str, *, particles: Optional[int] = None, device: Optional[str] = None,
+                 settings: Optional[str] = None) -> None:
+        self._s = _meniscus.Simulation(scene, particles, device, settings)
+
+    def step(self, n: int = 1) -> None:
+        """Simulate `n` frames."""
+        if int(n) < 0:
+            raise ValueError("n must be at least 0")
+        self._s.step(int(n))
+
+    def positions(self) -> np.ndarray:
+        """N×3 float32 positions (m), in the order of the last step."""
+        return self._s.positions()
+
+    def velocities(self) -> np.ndarray:
+        """N×3 float32 velocities (m/s), in the order of the last step."""
+        return self._s.velocities()
+
+    def ids(self) -> np.ndarray:
+        """Particle ids (int64), in the order of the last step."""
+        return self._s.ids()
+
+    @property
+    def count(self) -> int:
+        """Particles simulated."""
+        return self._s.count
+
+    @property
+    def particle_radius(self) -> float:
+        """The particle radius (m)."""
+        return self._s.radius
+
+    @property
+    def frames(self) -> int:
+        """Frames simulated so far."""
+        return self._s.frames
+
+
+def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,
+                        cube_size: float = 0.5, iso_surface_threshold: float = 0.6, mesh_smoothing_iters: int = 0,
+                        gpu: bool = True, device: Optional[str] = None
+                        ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The SPH iso-surface of the particles as a triangle mesh (pysplashsurf's parameter names: the kernel's
+    support is 2 × `smoothing_length` × `particle_radius`, the marching-cubes edge `cube_size` ×
+    `particle_radius`). Returns (vertices N×3 float32, triangles M×3 uint32, normals N×3 float32): the mesh
+    `meniscus mesh` writes (`--gpu` when `gpu`)."""
+    pts = _points(particles, "particles")
+    if not (smoothing_length > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
+        raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
+    if int(mesh_smoothing_iters) < 0 or int(mesh_smoothing_iters) > 1000:
+        raise ValueError("mesh_smoothing_iters must be in [0, 1000]")
+    return _meniscus.reconstruct(pts, _radius(particle_radius), 2.0 * float(smoothing_length), float(cube_size),
+                                 float(iso_surface_threshold), int(mesh_smoothing_iters), bool(gpu), device)
+
+
+def load(path: str) -> Dict[str, np.ndarray]:
+    """Read a particle file of any format the CLI reads (BGEO, VTK, VTU/VTP, PLY, XYZ, CSV, RealFlow): a dict
+    with "positions" (N×3 float32) and every per-particle array by its name in the file (float64)."""
+    return dict(_meniscus.load(str(path)))
+
+
+def sim_scenes() -> list:
+    """The built-in simulation scenes as (name, default particle count, description)."""
+    return list(_meniscus.sim_scenes())

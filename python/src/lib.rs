@@ -1,0 +1,384 @@
+//! `meniscus._meniscus`: the native half of the Python package — thin wrappers of the library (no logic of the
+//! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), surface reconstruction
+//! (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
+//! and are read in place; the GIL is released while the GPU or the CPU extraction works; library errors become
+//! `ValueError` (bad input), `OSError` (files) or `RuntimeError` (the device).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use meniscus::frame::View;
+use meniscus::gpu::{Gpu, GpuOptions, PassTimes};
+use meniscus::renderer::{Hooks, Renderer as Core};
+use meniscus::scene::{Bounds, Camera, Particles};
+use meniscus::settings::Settings;
+
+/// A library error as the Python exception a user expects.
+fn py_err(e: meniscus::Error) -> PyErr {
+    use meniscus::Error as E;
+    match e {
+        E::Io { .. } => PyOSError::new_err(e.to_string()),
+        E::Parse { .. } | E::Invalid(_) | E::Output { .. } | E::Limit(_) => PyValueError::new_err(e.to_string()),
+        _ => PyRuntimeError::new_err(e.to_string()),
+    }
+}
+
+/// Work moved to another thread's view of the GIL: the closure runs on this same thread while the GIL is
+/// released (`Python::allow_threads`), so the unsendable objects it touches are never shared.
+struct OnThisThread<T>(T);
+// SAFETY: `allow_threads` runs the closure on the calling thread; the wrapped references never leave it.
+unsafe impl<T> Send for OnThisThread<T> {}
+
+impl<T> OnThisThread<T> {
+    /// The wrapped value (a method call, so that a closure captures the whole wrapper, not its fields).
+    fn into_inner(self) -> T {
+        self.0
+    }
+}
+
+thread_local! {
+    /// One device per device filter, shared by the renderers and simulations of this thread.
+    static DEVICES: std::cell::RefCell<HashMap<Option<String>, Arc<Gpu>>> = Default::default();
+}
+
+fn device(filter: Option<String>) -> PyResult<Arc<Gpu>> {
+    DEVICES.with(|d| {
+        if let Some(g) = d.borrow().get(&filter) {
+            return Ok(g.clone());
+        }
+        let g = Gpu::new(&GpuOptions { device_filter: filter.clone(), ..Default::default() }).map_err(py_err)?;
+        d.borrow_mut().insert(filter, g.clone());
+        Ok(g)
+    })
+}
+
+fn settings(preset: &str, file: Option<&str>) -> PyResult<Settings> {
+    let s = Settings::preset(preset).map_err(py_err)?;
+    match file {
+        Some(f) => s.with_toml(std::path::Path::new(f)).map_err(py_err),
+        None => Ok(s),
+    }
+}
+
+fn points(a: &PyReadonlyArray2<f32>) -> PyResult<Vec<[f32; 3]>> {
+    let s = a.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous N×3 float32 array"))?;
+    Ok(s.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+fn camera(c: Option<([f32; 3], [f32; 3], f32)>) -> PyResult<Option<Camera>> {
+    c.map(|(e, t, f)| Camera::new(e.into(), t.into(), f).map_err(py_err)).transpose()
+}
+
+/// The renderer: one per output size; `render` frames particles the way `meniscus render` frames a file.
+#[pyclass(unsendable, module = "meniscus._meniscus")]
+struct Renderer {
+    core: Core,
+    settings: Settings,
+    size: (u32, u32),
+    times: PassTimes,
+}
+
+#[pymethods]
+impl Renderer {
+    #[new]
+    #[pyo3(signature = (width, height, device=None, preset="default", settings_file=None))]
+    fn new(width: u32, height: u32, device: Option<String>, preset: &str, settings_file: Option<&str>) -> PyResult<Self> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(PyValueError::new_err(format!("size {width}×{height} is out of range (1 … 16384 each)")));
+        }
+        let s = settings(preset, settings_file)?;
+        let gpu = crate::device(device)?;
+        Ok(Renderer { core: Core::new(&gpu).map_err(py_err)?, settings: s, size: (width, height), times: PassTimes::default() })
+    }
+
+    /// Render particles; returns the image as H×W×4 RGBA bytes.
+    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None))]
+    fn render<'py>(
+        &mut self,
+        py: Python<'py>,
+        positions: PyReadonlyArray2<f32>,
+        radius: f32,
+        camera: Option<([f32; 3], [f32; 3], f32)>,
+        velocities: Option<PyReadonlyArray2<f32>>,
+        densities: Option<PyReadonlyArray1<f32>>,
+    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        let mut s = self.settings.clone();
+        s.radius = radius;
+        s.validate().map_err(py_err)?;
+        let p = Particles {
+            positions: points(&positions)?,
+            velocities: velocities.as_ref().map(points).transpose()?,
+            densities: densities.map(|d| d.as_array().to_vec()),
+            ..Default::default()
+        };
+        let bounds = meniscus::scene::percentile_bounds(&p.positions, 0.01)
+            .ok_or_else(|| PyValueError::new_err("no finite positions"))?;
+        let view = View::around(&bounds, crate::camera(camera)?, self.size.0, self.size.1, &s);
+        view.camera.check().map_err(py_err)?;
+        let work = OnThisThread((&mut self.core, &p, &view, &s));
+        let (img, times) = py.allow_threads(move || {
+            let (core, p, view, s) = work.into_inner();
+            core.set_scene_particles(p, s)?;
+            let times = core.render(view, s)?;
+            Ok::<_, meniscus::Error>((core.read_final()?, times))
+        })
+        .map_err(py_err)?;
+        self.times = times;
+        image_array(py, img)
+    }
+
+    /// Render a simulation's particles where they are, on the device (copied on the GPU, never through the
+    /// host); its container's walls are the background.
+    #[pyo3(signature = (sim, camera=None))]
+    fn render_sim<'py>(
+        &mut self,
+        py: Python<'py>,
+        sim: &Simulation,
+        camera: Option<([f32; 3], [f32; 3], f32)>,
+    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        if !Arc::ptr_eq(&sim.gpu, &self.core.gpu) {
+            return Err(PyValueError::new_err("the simulation runs on another device than this renderer"));
+        }
+        let mut s = self.settings.clone();
+        s.radius = sim.core.radius();
+        s.validate().map_err(py_err)?;
+        let (lo, hi) = sim.core.scene.container;
+        let mut view = View::around(&Bounds { lo, hi }, crate::camera(camera)?, self.size.0, self.size.1, &s);
+        view.env.boxes = sim.core.scene.wall_boxes();
+        view.env.ground_y = lo.y;
+        let n = sim.core.count();
+        let src = sim.core.particle_buffer();
+        let first = sim.core.frames == 0;
+        let initial = if first { Some(sim.core.read().map_err(py_err)?) } else { None };
+        let work = OnThisThread((&mut self.core, &view, &s, src, initial));
+        let (img, times) = py.allow_threads(move || {
+            let (core, view, s, src, initial) = work.into_inner();
+            let times = match initial {
+                // Not stepped yet: the scene's initial particles, from the host.
+                Some(p) => {
+                    core.set_particles(&p.positions, None)?;
+                    core.render(view, s)?
+                }
+                None => {
+                    core.set_gpu_particles(n, (lo, hi))?;
+                    let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
+                        let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size: n as u64 * 16 };
+                        ctx.copy_buffer(src, out, region);
+                    };
+                    core.render_with(view, s, Hooks { produce: Some(&copy), ..Default::default() })?
+                }
+            };
+            Ok::<_, meniscus::Error>((core.read_final()?, times))
+        })
+        .map_err(py_err)?;
+        self.times = times;
+        image_array(py, img)
+    }
+
+    /// The last frame's depth (linear eye depth, +inf = no fluid), view-space normals and thickness.
+    fn buffers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = self.core.targets.as_ref().ok_or_else(|| PyRuntimeError::new_err("nothing rendered yet"))?;
+        let gpu = &self.core.gpu;
+        let d = PyDict::new(py);
+        let img2 = |img: &meniscus::gpu::Image| -> PyResult<Bound<'py, PyArray2<f32>>> {
+            let data = meniscus::renderer::read_f32(gpu, img).map_err(py_err)?;
+            let (w, h) = (img.extent.width as usize, img.extent.height as usize);
+            PyArray1::from_vec(py, data).reshape([h, w])
+        };
+        let smoothed = self.core.smoothed_depth().unwrap_or(&t.depth);
+        d.set_item("depth", img2(smoothed)?)?;
+        d.set_item("thickness", img2(&t.thickness)?)?;
+        let raw = meniscus::renderer::read_image(gpu, &t.normals).map_err(py_err)?;
+        let words: Vec<u32> = raw.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        let mut n = Vec::with_capacity(words.len() * 3);
+        for w in words {
+            n.extend_from_slice(&if w == 0 { [0.0; 3] } else { meniscus::passes::normals::unpack(w) });
+        }
+        let (w, h) = (t.normals.extent.width as usize, t.normals.extent.height as usize);
+        d.set_item("normals", PyArray1::from_vec(py, n).reshape([h, w, 3])?)?;
+        Ok(d)
+    }
+
+    /// The last frame's GPU time of each pass, in milliseconds, in the frame's order.
+    fn timings(&self) -> Vec<(String, f64)> {
+        self.times.0.clone()
+    }
+}
+
+fn image_array(py: Python<'_>, img: image::RgbaImage) -> PyResult<Bound<'_, PyArray3<u8>>> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    img.into_raw().into_pyarray(py).reshape([h, w, 4])
+}
+
+/// The live GPU simulation (Position Based Fluids) of a built-in scene.
+#[pyclass(unsendable, module = "meniscus._meniscus")]
+struct Simulation {
+    core: meniscus::sim::Simulation,
+    gpu: Arc<Gpu>,
+}
+
+#[pymethods]
+impl Simulation {
+    #[new]
+    #[pyo3(signature = (scene, particles=None, device=None, settings_file=None))]
+    fn new(scene: &str, particles: Option<usize>, device: Option<String>, settings_file: Option<&str>) -> PyResult<Self> {
+        let n = meniscus::sim::SCENES.iter().find(|s| s.0 == scene).map_or(10_000, |s| s.1);
+        let sc = meniscus::sim::SimScene::new(scene, particles.unwrap_or(n)).map_err(py_err)?;
+        let params = settings("default", settings_file)?.sim;
+        params.validate().map_err(py_err)?;
+        let gpu = crate::device(device)?;
+        let core = meniscus::sim::Simulation::new(&gpu, sc, params).map_err(py_err)?;
+        Ok(Simulation { core, gpu })
+    }
+
+    /// Simulate `n` frames (each `substeps` steps), releasing the GIL meanwhile.
+    #[pyo3(signature = (n=1))]
+    fn step(&mut self, py: Python<'_>, n: u32) -> PyResult<()> {
+        let work = OnThisThread(&mut self.core);
+        py.allow_threads(move || {
+            let core = work.into_inner();
+            for _ in 0..n {
+                core.step_frame()?;
+            }
+            Ok(())
+        })
+        .map_err(py_err)
+    }
+
+    /// Particle positions (N×3 float32), in the order of the last step.
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let p = self.core.read().map_err(py_err)?;
+        vec3_array(py, p.positions)
+    }
+
+    /// Particle velocities (N×3 float32), in the order of the last step.
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let p = self.core.read().map_err(py_err)?;
+        vec3_array(py, p.velocities.unwrap_or_default())
+    }
+
+    /// Particle ids (int64), in the order of the last step.
+    fn ids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let p = self.core.read().map_err(py_err)?;
+        Ok(p.ids.unwrap_or_default().into_pyarray(py))
+    }
+
+    /// Particles simulated.
+    #[getter]
+    fn count(&self) -> u32 {
+        self.core.count()
+    }
+
+    /// The particle radius (m).
+    #[getter]
+    fn radius(&self) -> f32 {
+        self.core.radius()
+    }
+
+    /// Frames simulated so far.
+    #[getter]
+    fn frames(&self) -> u64 {
+        self.core.frames
+    }
+}
+
+fn vec3_array(py: Python<'_>, v: Vec<[f32; 3]>) -> PyResult<Bound<'_, PyArray2<f32>>> {
+    let n = v.len();
+    let flat: Vec<f32> = v.into_iter().flatten().collect();
+    flat.into_pyarray(py).reshape([n, 3])
+}
+
+/// The iso surface of particles as a mesh — `meniscus mesh`'s (surface::mesh::reconstruct).
+#[pyfunction]
+#[pyo3(signature = (positions, radius, support, cube, threshold, smoothing_iters, gpu, device=None))]
+#[allow(clippy::too_many_arguments)]
+fn reconstruct<'py>(
+    py: Python<'py>,
+    positions: PyReadonlyArray2<f32>,
+    radius: f32,
+    support: f32,
+    cube: f32,
+    threshold: f32,
+    smoothing_iters: u32,
+    gpu: bool,
+    device: Option<String>,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>, Bound<'py, PyArray2<f32>>)> {
+    use meniscus::surface::mesh::{extract::ExtractParams, smooth::SmoothParams, Reconstruct};
+    let pts = points(&positions)?;
+    let r = Reconstruct {
+        support: support * radius,
+        extract: ExtractParams::new(cube * radius, threshold),
+        smoothing: SmoothParams { iterations: smoothing_iters, ..Default::default() },
+    };
+    let dev = if gpu {
+        let g = crate::device(device)?;
+        let mc = meniscus::passes::mc::Mc::new(&g).map_err(py_err)?;
+        Some((g, mc))
+    } else {
+        None
+    };
+    let work = OnThisThread((&pts, &r, dev.as_ref()));
+    let m = py
+        .allow_threads(move || {
+            let (pts, r, dev) = work.into_inner();
+            meniscus::surface::mesh::reconstruct(pts, r, dev.map(|(g, mc)| (g, mc))).map(|(m, _)| m)
+        })
+        .map_err(py_err)?;
+    let tris: Vec<u32> = m.triangles.iter().flatten().copied().collect();
+    let nt = m.triangles.len();
+    Ok((
+        vec3_array(py, m.vertices)?,
+        tris.into_pyarray(py).reshape([nt, 3])?,
+        vec3_array(py, m.normals)?,
+    ))
+}
+
+/// Read a particle file of any format the CLI reads: positions (N×3 float32) and every per-particle array by
+/// name (float64; vectors N×3).
+#[pyfunction]
+fn load<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, PyDict>> {
+    let raw = {
+        let p = std::path::Path::new(path);
+        let bytes = meniscus::input::read(p).map_err(py_err)?;
+        let f = meniscus::scene::detect_format(p, &bytes)
+            .ok_or_else(|| PyValueError::new_err(format!("{path}: byte 0: unknown particle format")))?;
+        meniscus::scene::parse_raw(f, p, &bytes).map_err(py_err)?
+    };
+    let d = PyDict::new(py);
+    let n = raw.positions.len();
+    d.set_item("positions", vec3_array(py, raw.positions)?)?;
+    for a in raw.arrays {
+        if a.components == 0 || a.data.len() != n * a.components {
+            continue;
+        }
+        let arr = a.data.into_pyarray(py);
+        if a.components == 1 {
+            d.set_item(a.name, arr)?;
+        } else {
+            d.set_item(a.name, arr.reshape([n, a.components])?)?;
+        }
+    }
+    Ok(d)
+}
+
+/// Built-in simulation scenes: (name, default particle count, description).
+#[pyfunction]
+fn sim_scenes() -> Vec<(&'static str, usize, &'static str)> {
+    meniscus::sim::SCENES.to_vec()
+}
+
+#[pymodule]
+fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Renderer>()?;
+    m.add_class::<Simulation>()?;
+    m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(sim_scenes, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

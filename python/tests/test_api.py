@@ -1,0 +1,133 @@
+"""The package against the CLI it shares the library with: the same pixels, the same meshes, the same
+simulation; bad input raises ValueError."""
+import struct
+import subprocess
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import meniscus
+
+CAM = ((-1.4, 1.6, 1.9), (-1.4, 0.5, 0.0), 45.0)
+CAM_ARG = "-1.4,1.6,1.9:-1.4,0.5,0:45"
+
+
+def run(*args):
+    r = subprocess.run([str(a) for a in args], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+@pytest.mark.parametrize("preset", ["default", "fast"])
+def test_render_equals_the_cli_png(cli, frame, tmp_path, preset):
+    png = tmp_path / f"cli-{preset}.png"
+    run(cli, "render", frame, "--radius", "0.025", "--camera", CAM_ARG, "--width", "160", "--height", "90",
+        "--preset", preset, "--out", png)
+    want = np.asarray(Image.open(png).convert("RGB"))
+    r = meniscus.Renderer(160, 90, preset=preset)
+    pos = meniscus.load(frame)["positions"]
+    got = r.render(pos, particle_radius=0.025, camera=CAM)
+    assert got.shape == (90, 160, 3) and got.dtype == np.uint8
+    assert np.array_equal(got, want), f"{int((got != want).any(axis=2).sum())} pixels differ"
+    # float64 input, the same pixels; the timings name the passes.
+    assert np.array_equal(r.render(pos.astype(np.float64), particle_radius=0.025, camera=CAM), want)
+    t = r.timings()
+    assert "composite" in t and all(v >= 0 for v in t.values())
+
+
+def test_render_buffers_and_a_view_matrix(frame):
+    r = meniscus.Renderer(96, 64)
+    pos = meniscus.load(frame)["positions"]
+    b = r.render_buffers(pos, particle_radius=0.025, camera=CAM)
+    assert b["depth"].shape == (64, 96) and np.isfinite(b["depth"]).sum() > 500
+    assert b["normals"].shape == (64, 96, 3) and b["image"].shape == (64, 96, 3)
+    # The same camera as a 4×4 world-to-view matrix.
+    eye, target = np.array(CAM[0]), np.array(CAM[1])
+    f = (target - eye) / np.linalg.norm(target - eye)
+    s = np.cross(f, [0, 1, 0]); s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    img = r.render(pos, particle_radius=0.025, camera=m)
+    assert np.array_equal(img, b["image"])
+
+
+def read_ply(path):
+    data = open(path, "rb").read()
+    head, body = data.split(b"end_header\n", 1)
+    nv = int(head.split(b"element vertex ")[1].split(b"\n")[0])
+    nf = int(head.split(b"element face ")[1].split(b"\n")[0])
+    v = np.frombuffer(body[: 24 * nv], dtype="<f4").reshape(nv, 6)
+    f = np.frombuffer(body[24 * nv:], dtype=np.uint8).reshape(nf, 13)[:, 1:].copy().view("<u4").reshape(nf, 3)
+    return v[:, :3], f, v[:, 3:]
+
+
+@pytest.mark.parametrize("gpu", [False, True])
+def test_reconstruct_surface_equals_meniscus_mesh(cli, frame, tmp_path, gpu):
+    ply = tmp_path / "m.ply"
+    run(cli, "mesh", frame, "--radius", "0.025", "--out", ply, *(["--gpu"] if gpu else []))
+    want_v, want_t, want_n = read_ply(ply)
+    pos = meniscus.load(frame)["positions"]
+    v, t, n = meniscus.reconstruct_surface(pos, particle_radius=0.025, gpu=gpu)
+    assert v.dtype == np.float32 and t.dtype == np.uint32 and len(t) > 1000
+    assert np.array_equal(t, want_t) and np.array_equal(v, want_v) and np.array_equal(n, want_n)
+
+
+def test_simulation_equals_meniscus_sim_and_renders_from_the_gpu(cli, tmp_path):
+    run(cli, "sim", "dambreak", "--particles", "2000", "--frames", "4", "--export", tmp_path / "f_{}.bgeo")
+    want = meniscus.load(tmp_path / "f_4.bgeo")
+    sim = meniscus.Simulation("dambreak", particles=2000)
+    r = meniscus.Renderer(128, 72)
+    before = r.render(sim)  # not stepped yet: the scene's initial block
+    sim.step(3)
+    assert sim.frames == 3 and sim.count == want["positions"].shape[0]
+    assert np.array_equal(sim.positions(), want["positions"])
+    assert np.array_equal(sim.velocities(), want["velocity"].astype(np.float32))
+    after = r.render(sim)  # from the simulation's GPU buffer
+    for img in (before, after):
+        water = (img[:, :, 2].astype(int) > img[:, :, 0].astype(int) + 30).sum()
+        assert water > 100, water
+    assert (before != after).any(axis=2).sum() > 50, "the water did not move"
+
+
+def test_load_reads_every_attribute(frame):
+    d = meniscus.load(frame)
+    assert d["positions"].shape == (6859, 3) and d["positions"].dtype == np.float32
+    assert d["velocity"].shape == (6859, 3) and d["density"].shape == (6859,) and "id" in d
+
+
+@pytest.mark.parametrize("bad, msg", [
+    (np.zeros((10, 2), np.float32), "N×3"),
+    (np.zeros((10, 3), np.int32), "float32 or float64"),
+    (np.zeros((0, 3), np.float32), "empty"),
+    (np.array([[0, 0, 0], [np.nan, 0, 0]], np.float32), "row 1 is not finite"),
+    (np.zeros((4, 3, 1), np.float32), "N×3"),
+    ("not an array", "float32 or float64"),
+])
+def test_bad_arrays_raise_value_error(bad, msg):
+    r = meniscus.Renderer(16, 16)
+    with pytest.raises(ValueError, match=msg):
+        r.render(bad, particle_radius=0.01)
+    with pytest.raises(ValueError, match=msg):
+        meniscus.reconstruct_surface(bad, particle_radius=0.01)
+
+
+def test_bad_parameters_and_files_raise():
+    pts = np.random.default_rng(1).random((100, 3), dtype=np.float32)
+    r = meniscus.Renderer(16, 16)
+    with pytest.raises(ValueError, match="particle_radius"):
+        r.render(pts, particle_radius=-1)
+    with pytest.raises(ValueError, match="camera"):
+        r.render(pts, particle_radius=0.01, camera=((0, 0, 1), (0, 0, 1)))
+    with pytest.raises(ValueError):
+        meniscus.Renderer(0, 10)
+    with pytest.raises(ValueError, match="unknown preset|preset"):
+        meniscus.Renderer(8, 8, preset="nope")
+    with pytest.raises(OSError):
+        meniscus.load("/no/such/file.bgeo")
+    with pytest.raises(ValueError, match="not a regular file"):
+        meniscus.load("/dev/zero")
+    with pytest.raises(ValueError):
+        meniscus.Simulation("nope")
