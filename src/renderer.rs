@@ -518,13 +518,13 @@ impl Renderer {
 
     /// The iso surface's grid and kernels on the device (after a frame with `surface = "iso"`), for tests.
     pub fn iso_buffers(&self) -> Option<&crate::passes::iso::IsoBuffers> {
-        self.surfaces.iso.grid.buffers()
+        self.surfaces.get(crate::settings::Surface::Iso).grid()
     }
 
     /// Seconds (CPU) the last extraction of the fluid mesh took with its BVH, and its vertex and triangle counts
     /// (`surface = "mesh"`).
     pub fn fluid_mesh_stats(&self) -> Option<(f64, usize, usize)> {
-        self.surfaces.mesh.stats()
+        self.surfaces.get(crate::settings::Surface::Mesh).mesh_stats()
     }
 
     /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).

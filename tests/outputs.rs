@@ -219,3 +219,45 @@ fn interrupted_sequences_leave_only_complete_files_and_resume() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn a_sequence_renders_to_a_movie_that_decodes() {
+    let d = tmpdir("movie");
+    for n in 1..=6 {
+        particle_file(&d.join(format!("p_{n}.bgeo")));
+    }
+    let seq = d.join("p_{}.bgeo").to_string_lossy().into_owned();
+    let small = ["--width", "96", "--height", "54", "--radius", "0.01"];
+    for (name, fps) in [("m.mp4", "25"), ("m.webm", "10"), ("m.gif", "10")] {
+        let movie = d.join(name);
+        let o =
+            meniscus().args(["render", &seq]).args(small).args(["--fps", fps, "--out"]).arg(&movie).output().unwrap();
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let probe = Command::new("ffprobe")
+            .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+            .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
+            .arg(&movie)
+            .output()
+            .expect("ffprobe (tools/dev installs ffmpeg)");
+        assert_eq!(String::from_utf8_lossy(&probe.stdout).trim(), "96,54,6", "{name}");
+    }
+    // A movie is one file: --shard and --resume are for PNG frames (then `meniscus encode`).
+    let o = meniscus()
+        .args(["render", &seq, "--shard", "1/2"])
+        .args(small)
+        .arg("--out")
+        .arg(d.join("s.mp4"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success() && stderr(&o).contains("meniscus encode"), "{}", stderr(&o));
+    let o = meniscus()
+        .arg("render")
+        .arg(d.join("p_1.bgeo"))
+        .args(small)
+        .arg("--out")
+        .arg(d.join("one.mp4"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success() && stderr(&o).contains("a movie is made from a sequence"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}

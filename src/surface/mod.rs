@@ -72,40 +72,46 @@ pub trait Technique {
     fn record_kernels<'a>(&'a self, rec: &mut crate::frame::Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>>;
     /// Record the passes that write the fluid's depth into `targets.depth` (the fluid part).
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, kernels: Option<Kernels>) -> Result<()>;
+    /// Its particle grid, weights and kernels on the device, if it keeps them (for tests).
+    fn grid(&self) -> Option<&crate::passes::iso::IsoBuffers> {
+        None
+    }
+    /// Seconds its last host build took and the vertex and triangle counts of a mesh, if it builds one.
+    fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
+        None
+    }
 }
 
-/// Every surface technique, each owning its resources.
+/// Every surface technique, each owning its resources, in the order of `settings::Surface`.
 pub struct Surfaces {
-    /// `surface = "spheres"`.
-    pub spheres: spheres::Spheres,
-    /// `surface = "iso"` (the default).
-    pub iso: iso::Iso,
-    /// `surface = "mesh"`.
-    pub mesh: mesh::FluidMesh,
+    all: Vec<Box<dyn Technique>>,
 }
 
 impl Surfaces {
-    /// Every technique, with nothing built yet.
+    /// Every technique, with nothing built yet. THE LIST: a new surface is its module, one line here and its
+    /// name in `settings::Surface` (same order).
     pub fn new() -> Surfaces {
-        Surfaces { spheres: Default::default(), iso: Default::default(), mesh: Default::default() }
+        let all: Vec<Box<dyn Technique>> = vec![
+            Box::new(spheres::Spheres::default()), // Surface::Spheres
+            Box::new(iso::Iso::default()),         // Surface::Iso
+            Box::new(mesh::FluidMesh::default()),  // Surface::Mesh
+        ];
+        assert_eq!(all.len(), Surface::ALL.len(), "one technique per settings::Surface");
+        Surfaces { all }
+    }
+
+    fn index(s: Surface) -> usize {
+        Surface::ALL.iter().position(|x| *x == s).expect("every Surface is in ALL")
     }
 
     /// The technique the settings name.
     pub fn get_mut(&mut self, s: Surface) -> &mut dyn Technique {
-        match s {
-            Surface::Spheres => &mut self.spheres,
-            Surface::Iso => &mut self.iso,
-            Surface::Mesh => &mut self.mesh,
-        }
+        self.all[Self::index(s)].as_mut()
     }
 
     /// The technique the settings name.
     pub fn get(&self, s: Surface) -> &dyn Technique {
-        match s {
-            Surface::Spheres => &self.spheres,
-            Surface::Iso => &self.iso,
-            Surface::Mesh => &self.mesh,
-        }
+        self.all[Self::index(s)].as_ref()
     }
 }
 

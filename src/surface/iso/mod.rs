@@ -207,6 +207,10 @@ impl Technique for Iso {
         None
     }
 
+    fn grid(&self) -> Option<&IsoBuffers> {
+        self.grid.buffers()
+    }
+
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
         let back = super::spheres::record_splat(ctx, f)?;
         let (t, s) = (f.targets, f.settings);

@@ -26,13 +26,6 @@ pub struct FluidMesh {
     stats: Option<(f64, usize, usize)>,
 }
 
-impl FluidMesh {
-    /// Seconds the last extraction and BVH build took (CPU), and its vertex and triangle counts.
-    pub fn stats(&self) -> Option<(f64, usize, usize)> {
-        self.stats
-    }
-}
-
 impl Technique for FluidMesh {
     /// Extract the iso-surface mesh of the current particles (spray and strays left out) with the `[iso]` field
     /// and the `[mesh]` cube size, and upload its BVH, unless it is there already.
@@ -71,6 +64,10 @@ impl Technique for FluidMesh {
 
     fn record_kernels<'a>(&'a self, _: &mut Recording, _: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
         None
+    }
+
+    fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
+        self.stats
     }
 
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
