@@ -7,13 +7,13 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::Result;
-use crate::frame::View;
 use crate::gpu::executor::Executor;
+use crate::gpu::transfer::{upload_buffer, upload_image};
 use crate::gpu::{Gpu, Image};
 use crate::passes::background::BvhBuffers;
-use crate::renderer::{upload_buffer, upload_image};
 use crate::scene::geometry::{Geometry, GpuBvh};
 use crate::settings::Settings;
+use crate::view::View;
 
 /// The background's device resources and cache key.
 pub struct Background {

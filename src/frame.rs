@@ -6,9 +6,8 @@ use glam::{Mat4, Vec3};
 
 use crate::background::Background;
 use crate::error::Result;
-use crate::gpu::{Buffer, FrameCtx};
+use crate::gpu::Buffer;
 use crate::passes::composite::CompositeInputs;
-use crate::scene::{Bounds, Camera};
 use crate::settings::Settings;
 use crate::surface::{SurfaceFrame, Technique};
 use crate::targets::Targets;
@@ -51,73 +50,6 @@ pub struct FrameUniforms {
 }
 
 const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 2 * 64 + 10 * 16 + 2 * 16 * MAX_BOXES);
-
-/// The static scene around the fluid: a ground plane and a few boxes.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Environment {
-    /// Height (y) of the ground plane.
-    pub ground_y: f32,
-    /// Side of a ground checker tile.
-    pub tile: f32,
-    /// Distance at which the fog hides the scene.
-    pub fog: f32,
-    /// Whether the ground plane is drawn.
-    pub ground: bool,
-    /// Axis-aligned boxes beside the fluid, as (min, max) corners.
-    pub boxes: Vec<(Vec3, Vec3)>,
-    /// A sky cube map is loaded in the renderer (see `Renderer::set_skybox`).
-    pub sky_cube: bool,
-}
-
-impl Environment {
-    /// Ground just under the fluid's lower percentile; with `boxes`, two pillars behind the fluid and a
-    /// low block beside it, sized from the fluid's extent (so they show in reflections and refraction).
-    pub fn around(b: &Bounds, radius: f32, s: &Settings) -> Environment {
-        let ext = (b.hi - b.lo).max(Vec3::splat(radius * 4.0));
-        let size = ext.max_element();
-        let ground_y = b.lo.y - radius;
-        let mut boxes = vec![];
-        if s.background.boxes {
-            let w = size * 0.06;
-            let h = size * 0.3;
-            let z0 = b.lo.z - size * 0.15;
-            for fx in [0.2f32, 0.75] {
-                let x = b.lo.x + fx * ext.x;
-                boxes.push((Vec3::new(x, ground_y, z0 - w), Vec3::new(x + w, ground_y + h, z0)));
-            }
-            let x = b.hi.x + w * 1.5;
-            boxes.push((
-                Vec3::new(x, ground_y, b.lo.z + ext.z * 0.3),
-                Vec3::new(x + 2.0 * w, ground_y + 0.5 * h, b.lo.z + ext.z * 0.3 + 2.0 * w),
-            ));
-        }
-        let tile = (size / 8.0).max(radius * 4.0);
-        Environment { ground_y, tile, fog: size * 12.0, ground: s.background.ground, boxes, sky_cube: false }
-    }
-}
-
-/// Everything that defines one frame's view.
-#[derive(Clone, Debug)]
-pub struct View {
-    /// The camera.
-    pub camera: Camera,
-    /// Output width in pixels.
-    pub width: u32,
-    /// Output height in pixels.
-    pub height: u32,
-    /// The static scene around the fluid.
-    pub env: Environment,
-}
-
-impl View {
-    /// The view of a `width`×`height` output of particles whose 1st–99th percentile box is `bounds`: `camera`,
-    /// or one fitted to the box for the output's aspect; the default background scene around them. What every
-    /// front end (the CLI's job, the Python package) frames particles with.
-    pub fn around(bounds: &Bounds, camera: Option<Camera>, width: u32, height: u32, s: &Settings) -> View {
-        let camera = camera.unwrap_or_else(|| Camera::fit(bounds, width as f32 / height.max(1) as f32));
-        View { camera, width, height, env: Environment::around(bounds, s.radius, s) }
-    }
-}
 
 impl FrameUniforms {
     /// Fill the block from the view and the settings.
@@ -166,55 +98,15 @@ impl FrameUniforms {
     }
 }
 
+pub use crate::gpu::recording::{Part, Recording};
 pub use crate::passes::{FrameInfo, Passes};
+pub use crate::view::{Environment, View};
 
 /// What `record_frame` produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Frame {
     /// Which image holds the smoothed depth (at fluid resolution).
     pub smoothed: crate::passes::smooth::Output,
-}
-
-/// Which part of the frame a pass belongs to: the async compute part (the static background and the
-/// thickness: they depend on nothing the fluid passes write), the fluid part, and the shading part (it reads
-/// both). In a one-queue frame all three are one command buffer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Part {
-    /// Async compute queue (when split).
-    Async,
-    /// Main queue: the fluid's depth, smoothing and normals.
-    Fluid,
-    /// Main queue, after the async part: reflections and shading.
-    Shade,
-}
-
-/// Where `record_frame` records: one context, or one per part (a split, two-queue frame).
-pub enum Recording<'a, 't> {
-    /// Everything in one command buffer.
-    One(&'a mut FrameCtx<'t>),
-    /// One command buffer per part.
-    Split {
-        /// [`Part::Async`].
-        async_part: &'a mut FrameCtx<'t>,
-        /// [`Part::Fluid`].
-        fluid: &'a mut FrameCtx<'t>,
-        /// [`Part::Shade`].
-        shade: &'a mut FrameCtx<'t>,
-    },
-}
-
-impl<'t> Recording<'_, 't> {
-    /// The context of part `p`.
-    pub fn part(&mut self, p: Part) -> &mut FrameCtx<'t> {
-        match self {
-            Recording::One(c) => c,
-            Recording::Split { async_part, fluid, shade } => match p {
-                Part::Async => async_part,
-                Part::Fluid => fluid,
-                Part::Shade => shade,
-            },
-        }
-    }
 }
 
 /// Everything one frame is recorded from.

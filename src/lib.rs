@@ -9,9 +9,11 @@
 
 pub mod background;
 pub mod error;
+pub mod field;
 pub mod frame;
 pub mod gpu;
 pub mod input;
+pub mod named;
 pub mod output;
 pub mod particles;
 pub mod passes;
@@ -25,6 +27,7 @@ pub mod shader_constants {
     include!("shader_constants.rs");
 }
 pub mod targets;
+pub mod view;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.
 pub mod shaders {

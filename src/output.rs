@@ -316,6 +316,17 @@ pub fn f16_to_f32(h: u16) -> f32 {
     f32::from_bits(bits)
 }
 
+/// A triangle mesh to write: vertices, their normals, triangles of vertex indices.
+#[derive(Clone, Copy)]
+pub struct MeshData<'a> {
+    /// Vertex positions.
+    pub vertices: &'a [[f32; 3]],
+    /// Vertex normals (one per vertex).
+    pub normals: &'a [[f32; 3]],
+    /// Triangles as vertex indices.
+    pub triangles: &'a [[u32; 3]],
+}
+
 /// The formats a fluid mesh is written in ([`write_mesh`]).
 pub const MESH_KINDS: [Kind; 3] = [Kind::Ply, Kind::Obj, Kind::Vtk];
 /// The formats a particle cache is written in ([`write_particles`]).
@@ -323,7 +334,7 @@ pub const PARTICLE_KINDS: [Kind; 2] = [Kind::Bgeo, Kind::Vtk];
 
 /// Write a triangle mesh: binary little-endian PLY (`.ply`, positions + normals) or Wavefront OBJ (`.obj`,
 /// `v`/`vn`/`f`), chosen by the extension; atomically (no half-written file on failure).
-pub fn write_mesh(path: &Path, m: &crate::surface::mesh::extract::TriMesh) -> Result<()> {
+pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
     use std::io::Write;
     match Kind::by_extension(path, &MESH_KINDS)? {
         Kind::Ply => write_atomic(path, Kind::Ply, |w| {
@@ -338,12 +349,12 @@ pub fn write_mesh(path: &Path, m: &crate::surface::mesh::extract::TriMesh) -> Re
             // The body is packed into memory and written at once (4-byte writes through the BufWriter cost
             // 0.06 s on the 1.4 M-triangle dam-break mesh).
             let mut body = Vec::with_capacity(24 * m.vertices.len() + 13 * m.triangles.len());
-            for (v, n) in m.vertices.iter().zip(&m.normals) {
+            for (v, n) in m.vertices.iter().zip(m.normals) {
                 for x in v.iter().chain(n) {
                     body.extend_from_slice(&x.to_le_bytes());
                 }
             }
-            for t in &m.triangles {
+            for t in m.triangles {
                 body.push(3u8);
                 for i in t {
                     body.extend_from_slice(&i.to_le_bytes());
@@ -354,13 +365,13 @@ pub fn write_mesh(path: &Path, m: &crate::surface::mesh::extract::TriMesh) -> Re
         }),
         Kind::Obj => write_atomic(path, Kind::Obj, |w| {
             writeln!(w, "# meniscus mesh: {} vertices, {} triangles", m.vertices.len(), m.triangles.len())?;
-            for v in &m.vertices {
+            for v in m.vertices {
                 writeln!(w, "v {} {} {}", v[0], v[1], v[2])?;
             }
-            for n in &m.normals {
+            for n in m.normals {
                 writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
             }
-            for t in &m.triangles {
+            for t in m.triangles {
                 let [a, b, c] = t.map(|i| i + 1);
                 writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
             }
@@ -372,7 +383,7 @@ pub fn write_mesh(path: &Path, m: &crate::surface::mesh::extract::TriMesh) -> Re
             write!(w, "# vtk DataFile Version 4.2\nmeniscus mesh\nBINARY\nDATASET POLYDATA\n")?;
             let be3 = |a: &[[f32; 3]]| -> Vec<u8> { a.iter().flatten().flat_map(|x| x.to_be_bytes()).collect() };
             writeln!(w, "POINTS {} float", m.vertices.len())?;
-            w.write_all(&be3(&m.vertices))?;
+            w.write_all(&be3(m.vertices))?;
             writeln!(w)?;
             writeln!(w, "POLYGONS {} {}", m.triangles.len(), 4 * m.triangles.len())?;
             let polys: Vec<u8> = m
@@ -385,21 +396,9 @@ pub fn write_mesh(path: &Path, m: &crate::surface::mesh::extract::TriMesh) -> Re
             writeln!(w)?;
             writeln!(w, "POINT_DATA {}", m.vertices.len())?;
             writeln!(w, "NORMALS normals float")?;
-            w.write_all(&be3(&m.normals))?;
+            w.write_all(&be3(m.normals))?;
             writeln!(w)?;
             Ok(())
         }),
     }
-}
-
-/// Write particles (positions and the mapped attributes: id, velocity, density) as a particle cache, by the
-/// extension: `.bgeo` (gzip-compressed classic BGEO, as Partio and SPlisHSPlasH write it) or `.vtk` (legacy
-/// binary VTK, as SPlisHSPlasH writes it). Both are read back by `meniscus` and by splashsurf.
-pub fn write_particles(path: &Path, p: &crate::scene::Particles) -> Result<()> {
-    let kind = Kind::by_extension(path, &PARTICLE_KINDS)?;
-    let bytes = match kind {
-        Kind::Bgeo => crate::scene::bgeo::write(&p.to_raw(), true),
-        _ => crate::scene::vtk::write(&p.to_raw(), true),
-    };
-    write_atomic(path, kind, |w| w.write_all(&bytes))
 }

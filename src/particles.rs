@@ -7,9 +7,9 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
-use crate::frame::View;
 use crate::gpu::executor::Executor;
 use crate::gpu::{Buffer, Gpu};
+use crate::view::View;
 
 /// The renderer's particles.
 #[derive(Default)]

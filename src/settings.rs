@@ -4,45 +4,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-
-/// Defines a settings enum whose variants have one kebab-case name each, used everywhere: TOML (serde), the
-/// command line (`FromStr` + [`Named::NAMES`], so the library needs no CLI crate), JSON and tables.
-macro_rules! named_enum {
-    ($(#[$m:meta])* pub enum $T:ident { $($(#[$vm:meta])* $V:ident = $n:literal,)* }) => {
-        $(#[$m])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-        pub enum $T { $($(#[$vm])* $V,)* }
-        impl Named for $T {
-            const ALL: &'static [$T] = &[$($T::$V),*];
-            const NAMES: &'static [&'static str] = &[$($n),*];
-            fn name(self) -> &'static str { match self { $($T::$V => $n),* } }
-        }
-        impl $T {
-            /// Every variant, in declaration order.
-            pub const ALL: &'static [$T] = &[$($T::$V),*];
-            /// The variant's name (as in TOML and on the command line).
-            pub fn name(self) -> &'static str { Named::name(self) }
-        }
-        impl std::str::FromStr for $T {
-            type Err = Error;
-            fn from_str(s: &str) -> Result<Self> { from_name(s) }
-        }
-        impl std::fmt::Display for $T {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result { f.write_str(self.name()) }
-        }
-        impl Serialize for $T {
-            fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-                s.serialize_str(self.name())
-            }
-        }
-        impl<'de> Deserialize<'de> for $T {
-            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-                let s = String::deserialize(d)?;
-                from_name(&s).map_err(serde::de::Error::custom)
-            }
-        }
-    };
-}
+use crate::named::named_enum;
+pub use crate::named::{from_name, Named};
+pub use crate::passes::smooth::Filter;
+pub use crate::passes::splat::SplatMode;
 
 /// The dotted key of the first non-finite float in a TOML table (inf, nan), if any.
 fn non_finite(t: &toml::Table) -> Option<String> {
@@ -80,43 +45,6 @@ fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
     }
 }
 
-/// An enum whose variants have one name each (settings enums, the demo's view modes).
-pub trait Named: Copy + Sized + 'static {
-    /// Every variant, in declaration order.
-    const ALL: &'static [Self];
-    /// Every name, in the same order.
-    const NAMES: &'static [&'static str];
-    /// This variant's name.
-    fn name(self) -> &'static str;
-}
-
-/// The variant of `T` called `s`, or an error that lists the names.
-pub fn from_name<T: Named>(s: &str) -> Result<T> {
-    T::NAMES.iter().position(|n| *n == s).map(|i| T::ALL[i]).ok_or_else(|| {
-        let kind = std::any::type_name::<T>().rsplit("::").next().unwrap_or("value");
-        Error::Invalid(format!("unknown {kind} {s:?} (expected one of: {})", T::NAMES.join(", ")))
-    })
-}
-
-named_enum! {
-    /// Depth smoothing filter (`--filter`).
-    pub enum Filter {
-        /// No smoothing: the raw spheres.
-        None = "none",
-        /// Separable Gaussian (a baseline: merges silhouettes).
-        Gaussian = "gaussian",
-        /// Separable bilateral.
-        Bilateral = "bilateral",
-        /// Exact 2D bilateral.
-        Bilateral2d = "bilateral2d",
-        /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
-        CurvatureFlow = "curvature-flow",
-        /// Narrow-range filter (Truong & Yuksel 2018); the default on spheres (`--preset fast`): smoothest
-        /// surface at bilateral cost.
-        NarrowRange = "narrow-range",
-    }
-}
-
 named_enum! {
     /// What the fluid's depth is (`--surface`).
     pub enum Surface {
@@ -125,7 +53,7 @@ named_enum! {
         /// The SPH colour-field iso-surface, ray-cast per pixel from the spheres' depth (`iso` pass; the
         /// default, its field smoothed where the water is calm: `[iso] smoothing`), unfiltered by default.
         Iso = "iso",
-        /// The same iso-surface extracted as a triangle mesh (marching cubes, `crate::surface::mesh::extract`) and ray-cast
+        /// The same iso-surface extracted as a triangle mesh (marching cubes, `crate::field::extract`) and ray-cast
         /// through its BVH (`mesh` pass).
         Mesh = "mesh",
     }
@@ -138,31 +66,6 @@ named_enum! {
         Isotropic = "isotropic",
         /// Ellipsoids from each particle's neighbourhood (Yu & Turk 2013; the `anisotropy` pass).
         Anisotropic = "anisotropic",
-    }
-}
-
-named_enum! {
-    /// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
-    pub enum SplatMode {
-        /// One thread per particle, atomicMin on the depth bits (default).
-        Compute = "compute",
-        /// Instanced quads, exact depth through gl_FragDepth (no early depth test).
-        QuadFragDepth = "quad-frag-depth",
-        /// Quads with conservative depth (depth_less + GREATER test keeps early depth test valid).
-        QuadConservative = "quad-conservative",
-        /// Quads, no depth buffer, MIN blending of linear depth into R32F.
-        QuadMin = "quad-min",
-        /// Point sprites with gl_FragDepth (sizes above the device's point size limit are clipped).
-        PointFragDepth = "point-frag-depth",
-        /// Point sprites with MIN blending.
-        PointMin = "point-min",
-    }
-}
-
-impl SplatMode {
-    /// Needs a D32 depth buffer.
-    pub fn depth_tested(self) -> bool {
-        matches!(self, SplatMode::QuadFragDepth | SplatMode::QuadConservative | SplatMode::PointFragDepth)
     }
 }
 
@@ -363,8 +266,8 @@ impl Settings {
     }
 
     /// The ray-cast parameters in world units (`near` is the view's: 0 here).
-    pub fn iso_params(&self) -> crate::surface::iso::field::IsoParams {
-        crate::surface::iso::field::IsoParams {
+    pub fn iso_params(&self) -> crate::field::iso::IsoParams {
+        crate::field::iso::IsoParams {
             threshold: self.iso.threshold,
             step: self.iso.step * self.radius,
             bound: self.iso.bound * self.radius,
@@ -377,7 +280,7 @@ impl Settings {
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
             volume: (self.iso.smoothing > 0.0 && self.kernel == Kernel::Isotropic).then_some(
-                crate::surface::iso::field::VolumeParams {
+                crate::field::iso::VolumeParams {
                     sigma: self.iso.smoothing * self.radius,
                     bulk: self.iso.bulk,
                     spacing: self.iso.voxel * self.radius,

@@ -836,7 +836,7 @@ fn skybox_faces_from_files() {
     assert_clean(&gpu);
 }
 
-/// The `iso` pass against the CPU reference (src/surface/iso/field.rs) on a bumpy slab, a lone particle and a close
+/// The `iso` pass against the CPU reference (src/field/iso.rs) on a bumpy slab, a lone particle and a close
 /// pair: same coverage and the same depth where both are covered.
 #[test]
 fn iso_surface_matches_cpu_ray_cast() {
@@ -932,7 +932,7 @@ fn jittered_slab(seed: u32, n: [usize; 3], origin: [f32; 3], r: f32, jitter: [f3
 /// neighbourhood of that many supports. `first_steps`: samples of the cast's first dispatch before a ray is
 /// queued for the second; the depth must equal, bit for bit, the one-dispatch cast's (first_steps 0).
 fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32), bound: f32, first_steps: u32) {
-    use meniscus::surface::iso::field::{cast_with, ray_end, Aniso, IsoGrid};
+    use meniscus::field::iso::{cast_with, ray_end, Aniso, IsoGrid};
     let gpu = gpu();
     let (w, h) = (128usize, 96usize);
     let r = 0.05f32;
@@ -970,7 +970,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
 
     let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let inv = grid.inv_density();
-    let p = meniscus::surface::iso::field::IsoParams { near: v.camera.near, ..s.iso_params() };
+    let p = meniscus::field::iso::IsoParams { near: v.camera.near, ..s.iso_params() };
     let aniso = p.aniso.map(|a| grid.anisotropy(&a));
     if let Some(want) = &aniso {
         // The GPU grid sorts within a cell in the atomics' order: match the points by position.
@@ -1075,7 +1075,7 @@ fn check_cast(
 /// lattice; and a second frame of the same particles does not build it again.
 #[test]
 fn smoothed_iso_field_matches_cpu() {
-    use meniscus::surface::iso::field::{bulk_weight, march, ray_end, smooth_volume, IsoGrid};
+    use meniscus::field::iso::{bulk_weight, march, ray_end, smooth_volume, IsoGrid};
     let gpu = gpu();
     let (w, h) = (128usize, 96usize);
     let r = 0.05f32;
@@ -1106,7 +1106,7 @@ fn smoothed_iso_field_matches_cpu() {
 
     let grid = IsoGrid::build(&pts, s.iso.support * r);
     let inv = grid.inv_density();
-    let p = meniscus::surface::iso::field::IsoParams { near: v.camera.near, ..s.iso_params() };
+    let p = meniscus::field::iso::IsoParams { near: v.camera.near, ..s.iso_params() };
     let vp = p.volume.expect("smoothing on");
     let acc = grid.volume_sums(&inv, &shape);
     let field = smooth_volume(&acc, &shape, &vp);
@@ -1525,8 +1525,8 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
 /// meshes are closed and consistently oriented, and the run is free of validation messages.
 #[test]
 fn gpu_marching_cubes_match_the_cpu_blocks() {
-    use meniscus::surface::iso::field::IsoGrid;
-    use meniscus::surface::mesh::extract::{extract_blocks, open_or_flipped_edges, ExtractParams};
+    use meniscus::field::extract::{extract_blocks, open_or_flipped_edges, ExtractParams};
+    use meniscus::field::iso::IsoGrid;
     let gpu = gpu();
     let mc = meniscus::passes::mc::Mc::new(&gpu).unwrap();
     let mut seed = 4242u32;
@@ -1549,8 +1549,7 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
             let support = if metaball { 3.0 * r } else { 4.0 * r };
             let grid = IsoGrid::build(pts, support);
             let inv = grid.inv_density();
-            let threshold =
-                if metaball { meniscus::surface::mesh::extract::metaball_threshold(*r, support) } else { 0.6 };
+            let threshold = if metaball { meniscus::field::extract::metaball_threshold(*r, support) } else { 0.6 };
             let p = ExtractParams { metaball, ..ExtractParams::new(cube * r, threshold) };
             let cpu = extract_blocks(&grid, &inv, &p);
             let (m, st) = mc.extract(&gpu, &grid, &inv, &p).unwrap();
@@ -1602,7 +1601,7 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
 #[test]
 fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
     use glam::Vec3;
-    use meniscus::surface::iso::field::IsoGrid;
+    use meniscus::field::iso::IsoGrid;
     let gpu = gpu();
     let (w, h) = (128usize, 96usize);
     let r = 0.05f32;

@@ -87,16 +87,16 @@ fn sizes_beyond_the_machine_are_refused_before_allocating() {
     assert!(!d.join("m.ply").exists());
     // The estimate of the per-corner paths follows the occupied lattice, not the whole box.
     let p = block(6, &[]);
-    let grid = meniscus::surface::iso::field::IsoGrid::build(&p.positions, 0.04);
-    let params = meniscus::surface::mesh::extract::ExtractParams {
+    let grid = meniscus::field::iso::IsoGrid::build(&p.positions, 0.04);
+    let params = meniscus::field::extract::ExtractParams {
         block: 0,
         dense: true,
-        ..meniscus::surface::mesh::extract::ExtractParams::new(0.005, 0.6)
+        ..meniscus::field::extract::ExtractParams::new(0.005, 0.6)
     };
-    let fine = meniscus::surface::mesh::extract::memory_estimate(&grid, &params, 1);
-    let coarse = meniscus::surface::mesh::extract::memory_estimate(
+    let fine = meniscus::field::extract::memory_estimate(&grid, &params, 1);
+    let coarse = meniscus::field::extract::memory_estimate(
         &grid,
-        &meniscus::surface::mesh::extract::ExtractParams { cube: 0.01, ..params },
+        &meniscus::field::extract::ExtractParams { cube: 0.01, ..params },
         1,
     );
     assert!(fine > 2 * coarse && fine < 1 << 33, "{fine} vs {coarse}");

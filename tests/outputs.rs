@@ -114,7 +114,7 @@ fn no_writer_destroys_an_input_or_a_file_of_another_kind() {
     meniscus::input::note(&input);
     let e = meniscus::output::write_png(&input.with_extension("png"), &image::RgbaImage::new(1, 1));
     assert!(e.is_ok(), "a new PNG beside the input is fine: {e:?}");
-    let e = meniscus::output::write_particles(&input, &p).unwrap_err().to_string();
+    let e = meniscus::scene::write_particles(&input, &p).unwrap_err().to_string();
     assert!(e.contains("is an input of this run"), "{e}");
     assert_eq!(std::fs::read(&input).unwrap(), bytes);
     let _ = std::fs::remove_dir_all(&d);

@@ -308,7 +308,8 @@ fn reconstruct<'py>(
     gpu: bool,
     device: Option<String>,
 ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>, Bound<'py, PyArray2<f32>>)> {
-    use meniscus::surface::mesh::{extract::ExtractParams, smooth::SmoothParams, Reconstruct};
+    use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
+    use meniscus::surface::mesh::Reconstruct;
     let pts = points(&positions)?;
     let r = Reconstruct {
         support: support * radius,

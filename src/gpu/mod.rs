@@ -9,9 +9,11 @@ pub mod access;
 pub mod context;
 pub mod executor;
 pub mod pipeline;
+pub mod recording;
 pub mod resource;
 pub mod schedule;
 pub mod timer;
+pub mod transfer;
 
 use std::ffi::{c_void, CStr, CString};
 use std::mem::ManuallyDrop;

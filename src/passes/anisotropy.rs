@@ -4,7 +4,7 @@
 //! the centre moved towards the neighbours' weighted mean — so the `iso` field is flat where the water is calm
 //! (no particle-scale bumps) while isolated droplets keep their spheres. Runs after the `grid` pass on its
 //! sorted points; the `iso` ray cast reads the result. Shader: shaders_glsl/anisotropy.comp; CPU reference:
-//! `IsoGrid::anisotropy` in src/surface/iso/field.rs.
+//! `IsoGrid::anisotropy` in src/field/iso.rs.
 //!
 //! In: the iso grid's sorted points and cell table. Out: `IsoBuffers::aniso` (three vec4 per point).
 //! Where the method is ours: the kernel's longest axis is h (Yu & Turk scale by k_s so that interior kernels
@@ -52,8 +52,8 @@ impl Default for Params {
 
 impl Params {
     /// In world units for particles of `radius` and a kernel support of `support` radii.
-    pub fn world(&self, radius: f32, support: f32) -> crate::surface::iso::field::AnisoParams {
-        crate::surface::iso::field::AnisoParams {
+    pub fn world(&self, radius: f32, support: f32) -> crate::field::iso::AnisoParams {
+        crate::field::iso::AnisoParams {
             ratio: self.ratio,
             min_neighbours: self.min_neighbours,
             centre_blend: self.centre_blend,
@@ -80,7 +80,7 @@ impl Anisotropy {
 
     /// Every grid point's kernel into `b.aniso`, unless they were computed for these particles with `p` already
     /// (the kernels depend on the particles, not the view).
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::surface::iso::field::AnisoParams) {
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::field::iso::AnisoParams) {
         if b.kernels_for.get() == Some(*p) {
             return;
         }

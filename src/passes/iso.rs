@@ -1,13 +1,13 @@
 //! `iso` pass (runs after `splat` when `surface = "iso"`): replaces the splatted sphere depth by the depth of
 //! the SPH colour-field iso-surface, ray-cast per pixel (shaders_glsl/iso.comp, field in iso_field.glsl,
-//! CPU reference and grid build in src/surface/iso/field.rs). The grid (points sorted by cell + cell table) is built on the GPU
+//! CPU reference and grid build in src/field/iso.rs). The grid (points sorted by cell + cell table) is built on the GPU
 //! (`grid` pass, or uploaded with spray) and the `iso_density` pass (1/n_j per point, its own timestamp) runs
 //! when the particles change; every frame, the march from the bound spheres' depth (two dispatches: the first
 //! samples of every ray, then the queued long rays).
 //! With `[iso] smoothing` > 0 (the default) the field is smoothed in 3D where the water is bulk: when the
 //! particles change, `iso_volume` (iso_volume.comp) scatters φ and the neighbour counts onto a lattice and
 //! `iso_blur` (iso_blur.comp) blurs φ and blends by the counts; the cast (iso_vol.comp) then samples that
-//! lattice trilinearly. CPU reference: IsoGrid::volume_sums, smooth_volume, VolumeShape::sample in src/surface/iso/field.rs.
+//! lattice trilinearly. CPU reference: IsoGrid::volume_sums, smooth_volume, VolumeShape::sample in src/field/iso.rs.
 use std::sync::Arc;
 
 use ash::vk;
@@ -15,7 +15,7 @@ use ash::vk;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::surface::iso::field::IsoGrid;
+use crate::field::iso::IsoGrid;
 use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `iso`.
@@ -122,17 +122,17 @@ pub struct IsoBuffers {
     pub weights_stale: std::cell::Cell<bool>,
     /// The parameters `aniso` was computed with for the current particles (`None`: stale). The kernels, like the
     /// weights, depend on the particles, not the view: the `anisotropy` pass runs when either changes.
-    pub kernels_for: std::cell::Cell<Option<crate::surface::iso::field::AnisoParams>>,
+    pub kernels_for: std::cell::Cell<Option<crate::field::iso::AnisoParams>>,
     /// The smoothed field's lattice (`[iso] smoothing` > 0; allocated by the renderer for the grid's box).
     pub volume: Option<IsoVolume>,
     /// The parameters `volume` holds the field for, for the current particles (`None`: stale).
-    pub volume_for: std::cell::Cell<Option<crate::surface::iso::field::VolumeParams>>,
+    pub volume_for: std::cell::Cell<Option<crate::field::iso::VolumeParams>>,
 }
 
 /// The smoothed iso field on its lattice (`iso_volume`, `iso_blur`), read by the volume cast.
 pub struct IsoVolume {
     /// The lattice.
-    pub shape: crate::surface::iso::field::VolumeShape,
+    pub shape: crate::field::iso::VolumeShape,
     /// Two fixed-point sums per voxel (φ, Σ W c / n), R32UI texels.
     pub acc: Buffer,
     /// The x blur's output, then the smoothed field F (R32F texels): what the cast samples.
@@ -145,7 +145,7 @@ pub struct IsoVolume {
 
 impl IsoVolume {
     /// Buffers for the lattice `shape`.
-    pub fn new(gpu: &Arc<Gpu>, shape: crate::surface::iso::field::VolumeShape) -> Result<IsoVolume> {
+    pub fn new(gpu: &Arc<Gpu>, shape: crate::field::iso::VolumeShape) -> Result<IsoVolume> {
         // A quarter to spare for the next frames of a sequence, within ISO_VOLUME_MAX_VOXELS.
         let max = crate::shader_constants::ISO_VOLUME_MAX_VOXELS as u64;
         let spare = |n: u64, cap: u64| (n + n / 4).min(cap.max(n));
@@ -165,7 +165,7 @@ impl IsoVolume {
     }
 
     /// Whether these buffers hold the lattice `shape`.
-    pub fn fits(&self, shape: &crate::surface::iso::field::VolumeShape) -> bool {
+    pub fn fits(&self, shape: &crate::field::iso::VolumeShape) -> bool {
         self.field.size >= 4 * shape.voxels() as u64 && self.bricks.size >= 8 * shape.bricks() as u64
     }
 
@@ -245,7 +245,7 @@ impl IsoPush {
     }
 
     /// This shape with the march parameters `p`; `back`: 0, or the far bound per pixel (1) or per 8×8 tile (2).
-    pub fn with(self, p: &crate::surface::iso::field::IsoParams, back: u32) -> IsoPush {
+    pub fn with(self, p: &crate::field::iso::IsoParams, back: u32) -> IsoPush {
         IsoPush {
             params: [self.params[0], p.threshold, p.step, p.bound],
             steps: [p.max_steps, p.refine, back, if p.first_steps == 0 { p.max_steps } else { p.first_steps }],
@@ -423,7 +423,7 @@ impl Iso {
     /// When `b`'s smoothed field is stale for `p` (new particles or parameters): `iso_volume` (the sums on the
     /// lattice) and `iso_blur` (three axes, the last blending by c̄), each with its own timestamp. Like the
     /// weights, the field depends on the particles alone: a static set builds it once.
-    pub fn record_volume(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::surface::iso::field::VolumeParams) {
+    pub fn record_volume(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::field::iso::VolumeParams) {
         let Some(v) = &b.volume else { return };
         if b.volume_for.get() == Some(*p) {
             return;
@@ -465,7 +465,7 @@ impl Iso {
         ctx: &mut FrameCtx,
         frame: &Buffer,
         b: &IsoBuffers,
-        params: &crate::surface::iso::field::IsoParams,
+        params: &crate::field::iso::IsoParams,
         depth: &Image,
         back: Option<crate::passes::splat::BackBound>,
         queue: &IsoQueue,

@@ -1,5 +1,5 @@
 //! `mc` pass: marching cubes on the GPU (the GPU path of `meniscus mesh --gpu`; Janisz §2.2, method.md §10),
-//! sparse over the same blocks and lattice as the CPU block extraction (src/surface/mesh/extract.rs), so the two meshes are
+//! sparse over the same blocks and lattice as the CPU block extraction (src/field/extract.rs), so the two meshes are
 //! the same mesh up to float rounding (the tests hold them to it):
 //! 1. `mc_field`: every corner of every occupied block gathers the field from the neighbour grid;
 //! 2. `mc_count`: triangles per cube from the case table;
@@ -20,14 +20,12 @@ use rayon::prelude::*;
 
 use crate::declare_program;
 use crate::error::Result;
+use crate::field::extract::{case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
+use crate::field::iso::IsoGrid;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
 use crate::passes::grid::{ScanPush, SCAN};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
-use crate::surface::iso::field::IsoGrid;
-use crate::surface::mesh::extract::{
-    case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES,
-};
 
 /// The pass's one name (module, shader stems `mc_*`, debug label, timestamp keys `mc_*`).
 pub const NAME: &str = "mc";
@@ -117,7 +115,7 @@ impl Mc {
     }
 
     /// Extract the iso-surface of `grid`'s field (weights `inv_n`, see [`IsoGrid::inv_density`]) on the GPU:
-    /// the same lattice, threshold and field as [`crate::surface::mesh::extract::extract_blocks`] (`p.block` is ignored: the
+    /// the same lattice, threshold and field as [`crate::field::extract::extract_blocks`] (`p.block` is ignored: the
     /// GPU's blocks are MC_BLOCK³ cubes; `p.dense` too).
     pub fn extract(
         &self,
@@ -149,7 +147,7 @@ impl Mc {
             .collect();
         let g = &grid.grid;
         let weights: Vec<f32> = if p.metaball { vec![1.0; g.points.len()] } else { inv_n.to_vec() };
-        let up = |name: &str, data: &[u8]| crate::renderer::upload_buffer(gpu, name, data, None);
+        let up = |name: &str, data: &[u8]| crate::gpu::transfer::upload_buffer(gpu, name, data, None);
         let points = up("mc_points", bytemuck::cast_slice(&g.points))?;
         let cells = up("mc_cells", bytemuck::cast_slice(&g.cells))?;
         let wts = up("mc_weights", bytemuck::cast_slice(&weights))?;
@@ -194,8 +192,8 @@ impl Mc {
         let mut times = timer.read()?.0;
         // The triangle total: the last cube's start plus its count.
         let last = 4 * (ncubes as u64 - 1);
-        let s = crate::renderer::read_buffer_at(gpu, &start, last, 4)?;
-        let c = crate::renderer::read_buffer_at(gpu, &counts, last, 4)?;
+        let s = crate::gpu::transfer::read_buffer_at(gpu, &start, last, 4)?;
+        let c = crate::gpu::transfer::read_buffer_at(gpu, &counts, last, 4)?;
         let total = u32::from_le_bytes(s[..4].try_into().expect("4 bytes"))
             + u32::from_le_bytes(c[..4].try_into().expect("4 bytes"));
         if total == 0 {
@@ -227,11 +225,11 @@ impl Mc {
         stats.gpu = PassTimes(times);
         let t1 = Instant::now();
         let pos: Vec<[f32; 4]> =
-            bytemuck::pod_collect_to_vec(&crate::renderer::read_buffer(gpu, &pos, 48 * total as u64)?);
+            bytemuck::pod_collect_to_vec(&crate::gpu::transfer::read_buffer(gpu, &pos, 48 * total as u64)?);
         let nrm: Vec<[f32; 4]> =
-            bytemuck::pod_collect_to_vec(&crate::renderer::read_buffer(gpu, &nrm, 48 * total as u64)?);
+            bytemuck::pod_collect_to_vec(&crate::gpu::transfer::read_buffer(gpu, &nrm, 48 * total as u64)?);
         let tri: Vec<[i32; 4]> =
-            bytemuck::pod_collect_to_vec(&crate::renderer::read_buffer(gpu, &tri, 16 * total as u64)?);
+            bytemuck::pod_collect_to_vec(&crate::gpu::transfer::read_buffer(gpu, &tri, 16 * total as u64)?);
         let mesh = weld(&lat, &pos, &nrm, &tri);
         stats.host_weld_ms = t1.elapsed().as_secs_f64() * 1e3;
         Ok((mesh, stats))
@@ -249,7 +247,7 @@ fn weld(lat: &Lattice, pos: &[[f32; 4]], nrm: &[[f32; 4]], tri: &[[i32; 4]]) -> 
     };
     let keys: Vec<(i64, u32)> =
         (0..tri.len() * 3).into_par_iter().map(|k| (key_of(&tri[k / 3], k % 3), k as u32)).collect();
-    let (rank, first) = crate::surface::mesh::extract::rank_by_key(keys, tri.len() * 3);
+    let (rank, first) = crate::field::extract::rank_by_key(keys, tri.len() * 3);
     let (vertices, normals) = first
         .par_iter()
         .map(|&k| (pos[k as usize], nrm[k as usize]))

@@ -1,5 +1,5 @@
 //! `mesh` pass (with `surface = "mesh"`): the fluid surface as the triangle mesh marching cubes extracted from the
-//! SPH colour field (`crate::surface::mesh::extract`, built on the CPU when the particles change), ray-cast per pixel through
+//! SPH colour field (`crate::field::extract`, built on the CPU when the particles change), ray-cast per pixel through
 //! its BVH into the fluid depth instead of the splatted spheres; the rest of the frame is unchanged, so the two
 //! techniques of the Janisz thesis compare like with like. Shader: shaders_glsl/mesh.comp (+ bvh.glsl).
 use std::sync::Arc;
@@ -19,7 +19,7 @@ pub const NAME: &str = "mesh";
 pub struct Params {
     /// Marching-cubes edge length in particle radii (the field, support and threshold are the `[iso]` ones).
     pub cube: f32,
-    /// Laplacian smoothing iterations of the extracted mesh (`crate::surface::mesh::smooth`; splashsurf's finishing: 25).
+    /// Laplacian smoothing iterations of the extracted mesh (`crate::field::smooth`; splashsurf's finishing: 25).
     pub smoothing_iters: u32,
     /// Smoothing with feature weights (isolated droplets keep their shape).
     pub smoothing_weights: bool,

@@ -4,9 +4,8 @@ use std::sync::Arc;
 
 use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
-use crate::targets::Targets;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `particles`.
 pub const NAME: &str = "particles";
@@ -49,13 +48,13 @@ impl Particles {
         particles: &Buffer,
         values: &Buffer,
         count: u32,
-        t: &Targets,
+        (depth, final_color): (&Image, &Image),
         radius_scale: f32,
     ) {
         ctx.pass(NAME, |ctx| {
             // Princisgh's two-colour ramp: blue (slow / light / low) to red, interpolated in hue.
             let push = ParticlePush { count, radius_scale, hue: [0.62, 0.0] };
-            let res = [frame.into(), particles.into(), values.into(), (&t.depth).into(), (&t.final_color).into()];
+            let res = [frame.into(), particles.into(), values.into(), depth.into(), final_color.into()];
             self.prog.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
         });
     }

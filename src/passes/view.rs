@@ -7,7 +7,6 @@ use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
-use crate::targets::Targets;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `view`.
 pub const NAME: &str = "view";
@@ -87,32 +86,49 @@ impl View {
         Ok(View { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
-    /// Map `mode`'s buffer into `t.final_color` (mode 6 = scene colour only). `smoothed`: the smoothed depth.
-    #[allow(clippy::too_many_arguments)]
+    /// Map `mode`'s buffer into `t.final_color` (mode 6 = scene colour only).
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
         frame: &Buffer,
-        t: &Targets,
-        smoothed: &Image,
+        t: &ViewImages,
         mode: i32,
         depth_range: (f32, f32),
         t_max: f32,
     ) {
         ctx.pass(NAME, |ctx| {
             let push = ViewPush { mode, d_min: depth_range.0, d_max: depth_range.1, t_max };
-            let g = groups_2d(t.width, t.height, super::LOCAL_2D);
+            let e = t.final_color.extent;
+            let g = groups_2d(e.width, e.height, super::LOCAL_2D);
             let res = [
                 frame.into(),
-                (&t.depth).into(),
-                smoothed.into(),
-                (&t.thickness).into(),
-                (&t.normals).into(),
-                (&t.ssr).into(),
-                (&t.scene_color).into(),
-                (&t.final_color).into(),
+                t.depth.into(),
+                t.smoothed.into(),
+                t.thickness.into(),
+                t.normals.into(),
+                t.ssr.into(),
+                t.scene_color.into(),
+                t.final_color.into(),
             ];
             self.prog.dispatch(ctx, &res, &push, g);
         });
     }
+}
+
+/// The frame's images the debug views read, and the final image they write.
+pub struct ViewImages<'a> {
+    /// The raw splatted depth.
+    pub depth: &'a Image,
+    /// The smoothed depth.
+    pub smoothed: &'a Image,
+    /// The thickness.
+    pub thickness: &'a Image,
+    /// The packed normals.
+    pub normals: &'a Image,
+    /// The SSR hits.
+    pub ssr: &'a Image,
+    /// The background's colour.
+    pub scene_color: &'a Image,
+    /// The output.
+    pub final_color: &'a Image,
 }

@@ -1,7 +1,7 @@
 //! THE neighbour grid: particles counting-sorted into a dense uniform grid of cubic cells (`cells[c]` =
 //! first sorted point, count), queried through the 27 cells around a point. One structure serves the CPU
 //! statistics (spacing, the number-density radius estimate, spray neighbour counts) and the iso surface (the
-//! GPU walks the same sorted points and cell table, see `crate::surface::iso::field::IsoGrid`). Positions that are not finite
+//! GPU walks the same sorted points and cell table, see `crate::field::iso::IsoGrid`). Positions that are not finite
 //! are left out (and find no neighbours).
 
 use glam::{IVec3, UVec3, Vec3};

@@ -522,6 +522,18 @@ fn check_required(path: &Path, raw: &Raw, o: &LoadOptions) -> Result<()> {
     Ok(())
 }
 
+/// Write particles (positions and the mapped attributes: id, velocity, density) as a particle cache, by the
+/// extension: `.bgeo` (gzip-compressed classic BGEO, as Partio and SPlisHSPlasH write it) or `.vtk` (legacy
+/// binary VTK, as SPlisHSPlasH writes it). Both are read back by `meniscus` and by splashsurf.
+pub fn write_particles(path: &Path, p: &Particles) -> Result<()> {
+    let kind = crate::output::Kind::by_extension(path, &crate::output::PARTICLE_KINDS)?;
+    let bytes = match kind {
+        crate::output::Kind::Bgeo => bgeo::write(&p.to_raw(), true),
+        _ => vtk::write(&p.to_raw(), true),
+    };
+    crate::output::write_atomic(path, kind, |w| std::io::Write::write_all(w, &bytes))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -379,7 +379,7 @@ impl Simulation {
             omega: vec4s("sim_omega")?,
             particles: buf("sim_particles", 16 * cap)?,
             sdf: match &scene.mesh_collider {
-                Some(m) => crate::renderer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
+                Some(m) => crate::gpu::transfer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
                 None => buf("sim_sdf", 16)?,
             },
             grid: GridBuffers::new(gpu, shape, cap as u32)?,
@@ -591,7 +591,7 @@ impl Simulation {
         if self.frames == 0 {
             return Ok(0);
         }
-        let b = crate::renderer::read_buffer(&self.gpu, &self.neighbours.overflow, 4)?;
+        let b = crate::gpu::transfer::read_buffer(&self.gpu, &self.neighbours.overflow, 4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 

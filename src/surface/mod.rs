@@ -69,7 +69,11 @@ pub trait Technique {
     fn prepare(&mut self, p: &Prepare) -> Result<()>;
     /// Record what the frame needs before `thickness` (grids, weights, kernels), in the part it belongs to;
     /// returns the ellipsoid kernels `thickness` and the depth draw, if any.
-    fn record_kernels<'a>(&'a self, rec: &mut crate::frame::Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>>;
+    fn record_kernels<'a>(
+        &'a self,
+        rec: &mut crate::gpu::recording::Recording,
+        f: &SurfaceFrame<'a>,
+    ) -> Option<Kernels<'a>>;
     /// Record the passes that write the fluid's depth into `targets.depth` (the fluid part).
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, kernels: Option<Kernels>) -> Result<()>;
     /// Its particle grid, weights and kernels on the device, if it keeps them (for tests).

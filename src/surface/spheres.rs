@@ -4,7 +4,7 @@
 //! smoothed in screen space by the chosen filter (van der Laan et al. 2009; Truong & Yuksel's narrow-range).
 
 use crate::error::Result;
-use crate::frame::{Part, Recording};
+use crate::gpu::recording::{Part, Recording};
 use crate::gpu::FrameCtx;
 use crate::passes::splat::BackBound;
 use crate::settings::SplatMode;

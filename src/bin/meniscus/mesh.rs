@@ -1,5 +1,5 @@
 //! `meniscus mesh`: extract the SPH iso-surface of a particle file (or of every frame of a sequence) as a
-//! triangle mesh — marching cubes over the colour field the `iso` pass ray-casts (`meniscus::surface::mesh::extract`) — and
+//! triangle mesh — marching cubes over the colour field the `iso` pass ray-casts (`meniscus::field::extract`) — and
 //! write it as PLY, OBJ or VTK. On the CPU (rayon; `--threads` changes nothing but the time) or, with `--gpu`, on
 //! the GPU (the `mc` pass, src/passes/mc.rs: the same mesh up to float rounding).
 
@@ -8,9 +8,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use meniscus::field::extract::ExtractParams;
 use meniscus::scene::sequence::{FrameRange, Prefetch};
 use meniscus::scene::{self, Particles};
-use meniscus::surface::mesh::extract::ExtractParams;
 use meniscus::surface::mesh::Extraction;
 
 use meniscus::output::Kind;
@@ -74,7 +74,7 @@ pub struct MeshArgs {
     /// instead of following the surface in from the outside (which skips closed cavities inside the fluid).
     #[arg(long)]
     dense: bool,
-    /// Laplacian smoothing iterations after extraction (splashsurf's finishing, e.g. 25; src/surface/mesh/smooth.rs).
+    /// Laplacian smoothing iterations after extraction (splashsurf's finishing, e.g. 25; src/field/smooth.rs).
     #[arg(long, default_value_t = 0)]
     smoothing_iters: u32,
     /// With --smoothing-iters: every vertex moves fully (no feature weights; isolated droplets shrink).
@@ -113,11 +113,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if metaball && !(a.rc.is_finite() && (1.0..=16.0).contains(&a.rc)) {
         bail!("--rc must be in [1, 16] particle radii");
     }
-    let threshold = a.threshold.unwrap_or(if metaball {
-        meniscus::surface::mesh::extract::metaball_threshold(1.0, a.rc)
-    } else {
-        0.6
-    });
+    let threshold =
+        a.threshold.unwrap_or(if metaball { meniscus::field::extract::metaball_threshold(1.0, a.rc) } else { 0.6 });
     let top = if metaball { 0.25 } else { 1.0 };
     if !(threshold > 0.0 && threshold < top) {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
@@ -170,7 +167,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             let recon = meniscus::surface::mesh::Reconstruct {
                 support: support * r,
                 extract: params,
-                smoothing: meniscus::surface::mesh::smooth::SmoothParams {
+                smoothing: meniscus::field::smooth::SmoothParams {
                     iterations: a.smoothing_iters,
                     weights: !a.no_smoothing_weights,
                     ..Default::default()
@@ -219,7 +216,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         })?;
         let secs = t0.elapsed().as_secs_f64();
         let t_write = std::time::Instant::now();
-        meniscus::output::write_mesh(out, &m)?;
+        meniscus::output::write_mesh(out, m.data())?;
         Ok(format!(
             "{} particles → {} vertices, {} triangles in {secs:.2} s {how}, written in {:.3} s → {}",
             p.len(),

@@ -105,7 +105,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let write = |sim: &Simulation, n: u32| -> Result<()> {
         if let Some(e) = &a.export {
             let path = std::path::PathBuf::from(e.replace("{}", &n.to_string()));
-            meniscus::output::write_particles(&path, &sim.read()?)?;
+            meniscus::scene::write_particles(&path, &sim.read()?)?;
         }
         Ok(())
     };

@@ -2,17 +2,16 @@
 //! per-particle volume normalisation, threshold 0.6 — ray-cast per pixel on the GPU from the splatted bound
 //! spheres to their farthest exit; with `[iso] smoothing` > 0 the field is first smoothed in 3D where the water
 //! is bulk (`iso_volume`, `iso_blur`). It owns the particles' grid and the smoothed field's lattice, rebuilt when
-//! the particles or the kernel change. `field` is the CPU reference of all of it.
-
-pub mod field;
+//! the particles or the kernel change. `crate::field::iso` is the CPU reference of all of it.
 
 use ash::vk;
 
 use crate::error::Result;
-use crate::frame::{Part, Recording};
+use crate::field::iso as field;
+use crate::gpu::recording::{Part, Recording};
+use crate::gpu::transfer::upload_buffer;
 use crate::gpu::{Buffer, FrameCtx};
 use crate::passes::iso::IsoBuffers;
-use crate::renderer::upload_buffer;
 use crate::settings::Settings;
 
 use super::{Kernels, Prepare, SurfaceFrame, Technique};

@@ -3,14 +3,12 @@
 //! feature-weighted Laplacian (`smooth`), its BVH ray-cast per pixel by the `mesh` pass. It owns the mesh's
 //! BVH and what it was made from; the CPU extracts again whenever the particles or the field change.
 
-pub mod extract;
-pub mod smooth;
-
 use crate::error::Result;
-use crate::frame::Recording;
+use crate::field::{extract, smooth};
+use crate::gpu::recording::Recording;
+use crate::gpu::transfer::upload_buffer;
 use crate::gpu::FrameCtx;
 use crate::passes::background::BvhBuffers;
-use crate::renderer::upload_buffer;
 use crate::scene::geometry::{Geometry, GpuBvh};
 
 use super::{Kernels, Prepare, SurfaceFrame, Technique};
@@ -43,7 +41,7 @@ impl Technique for FluidMesh {
         }
         let t0 = std::time::Instant::now();
         let pts = crate::scene::without_strays(&p.particles.surface_positions(), field[0]).0.into_owned();
-        let grid = super::iso::field::IsoGrid::build(&pts, field[0]);
+        let grid = crate::field::iso::IsoGrid::build(&pts, field[0]);
         let inv = grid.inv_density();
         let params = extract::ExtractParams::new(field[1], field[2]);
         extract::check_lattice(&grid, field[1])?;
@@ -121,7 +119,7 @@ pub fn reconstruct(
 ) -> Result<(extract::TriMesh, ReconstructReport)> {
     let t0 = std::time::Instant::now();
     let (kept, strays) = crate::scene::without_strays(positions, r.support);
-    let grid = super::iso::field::IsoGrid::build(&kept, r.support);
+    let grid = crate::field::iso::IsoGrid::build(&kept, r.support);
     extract::check_lattice(&grid, r.extract.cube)?;
     extract::check_memory(&grid, &r.extract, rayon::current_num_threads())?;
     let inv = grid.inv_density();

@@ -501,7 +501,7 @@ impl VolumeShape {
 impl IsoGrid {
     /// Each sorted point's neighbour count c_j = Σ_{k ≠ j} max(0, 1 − |x_j − x_k|² / h²): splashsurf's feature
     /// weight, high in the bulk, low at the surface and in spray (the smoothed field's c̄, and the mesh
-    /// smoothing's feature weights in src/surface/mesh/smooth.rs).
+    /// smoothing's feature weights in src/field/smooth.rs).
     pub fn neighbour_weights(&self) -> Vec<f32> {
         use rayon::prelude::*;
         let h = self.support;

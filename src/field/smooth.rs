@@ -19,8 +19,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::surface::iso::field::{kernel, IsoGrid};
-use crate::surface::mesh::extract::TriMesh;
+use crate::field::extract::TriMesh;
+use crate::field::iso::{kernel, IsoGrid};
 
 /// How to smooth.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -142,7 +142,7 @@ pub fn area_weighted_normals(m: &TriMesh) -> Vec<[f32; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::surface::mesh::extract::{extract, ExtractParams};
+    use crate::field::extract::{extract, ExtractParams};
 
     /// The neighbour lists equal a set-based count over the edges of every triangle.
     #[test]
@@ -184,7 +184,7 @@ mod tests {
         assert!(mean(&r1) < mean(&r0), "unweighted smoothing shrinks a sphere");
         let spread = r1.iter().fold(0f32, |a, &x| a.max((x - mean(&r1)).abs()));
         assert!(spread < 0.1 * mean(&r1), "still round: radii within {spread}");
-        assert_eq!(crate::surface::mesh::extract::open_or_flipped_edges(&shrunk), 0);
+        assert_eq!(crate::field::extract::open_or_flipped_edges(&shrunk), 0);
         for (v, n) in shrunk.vertices.iter().zip(&shrunk.normals) {
             assert!(Vec3::from(*n).dot(Vec3::from(*v) - c) > 0.0, "normal points out");
         }

@@ -27,7 +27,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::surface::iso::field::IsoGrid;
+use crate::field::iso::IsoGrid;
 
 /// The 12 cube edges as (corner a, corner b, axis); corner c = (c & 1, c >> 1 & 1, c >> 2 & 1).
 pub(crate) const EDGES: [(usize, usize, usize); 12] = [
@@ -138,6 +138,13 @@ pub struct TriMesh {
     pub normals: Vec<[f32; 3]>,
     /// Triangles as vertex indices, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// The mesh as the writer takes it (`output::write_mesh`).
+    pub fn data(&self) -> crate::output::MeshData<'_> {
+        crate::output::MeshData { vertices: &self.vertices, normals: &self.normals, triangles: &self.triangles }
+    }
 }
 
 /// How to extract.
@@ -769,7 +776,7 @@ fn scatter_row(
                 0.0
             }
         } else {
-            // The cubic spline (crate::surface::iso::field::kernel).
+            // The cubic spline (crate::field::iso::kernel).
             let a = 1.0 - q;
             let near = 1.0 - 6.0 * q * q + 6.0 * q * q * q;
             let far = 2.0 * a * a * a;
@@ -959,7 +966,7 @@ mod tests {
         let (mut lo, mut hi) = (0.0f32, 1.0f32);
         for _ in 0..60 {
             let q = 0.5 * (lo + hi);
-            if crate::surface::iso::field::kernel(q) > 0.6 {
+            if crate::field::iso::kernel(q) > 0.6 {
                 lo = q;
             } else {
                 hi = q;
