@@ -293,6 +293,9 @@ fn vec3_array(py: Python<'_>, v: Vec<[f32; 3]>) -> PyResult<Bound<'_, PyArray2<f
     flat.into_pyarray(py).reshape([n, 3])
 }
 
+/// A mesh as arrays: vertices, triangles, normals.
+type MeshArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>, Bound<'py, PyArray2<f32>>);
+
 /// The iso surface of particles as a mesh — `meniscus mesh`'s (surface::mesh::reconstruct).
 #[pyfunction]
 #[pyo3(signature = (positions, radius, support, cube, threshold, smoothing_iters, gpu, device=None))]
@@ -307,7 +310,7 @@ fn reconstruct<'py>(
     smoothing_iters: u32,
     gpu: bool,
     device: Option<String>,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>, Bound<'py, PyArray2<f32>>)> {
+) -> PyResult<MeshArrays<'py>> {
     use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
     use meniscus::surface::mesh::Reconstruct;
     let pts = points(&positions)?;

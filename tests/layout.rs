@@ -1,0 +1,73 @@
+//! The library's layout as a property: its top-level modules form no import cycle (a module reaches another
+//! only downwards), so a technique, the frame and the renderer can each be read on their own. Scans the
+//! `crate::NAME` paths of every source file outside tests and comments.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+fn scan(dir: &Path, top: Option<&str>, graph: &mut BTreeMap<String, BTreeSet<String>>) {
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if p.is_dir() {
+            if top.is_none() && name == "bin" {
+                continue;
+            }
+            scan(&p, Some(top.unwrap_or(&name)), graph);
+        } else if name.ends_with(".rs") {
+            let module = top.map(str::to_string).unwrap_or_else(|| name.trim_end_matches(".rs").to_string());
+            if module == "lib" {
+                continue;
+            }
+            let text = std::fs::read_to_string(&p).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap();
+            let deps = graph.entry(module.clone()).or_default();
+            for line in code.lines() {
+                let line = line.split("//").next().unwrap();
+                for part in line.split("crate::").skip(1) {
+                    let dep: String = part.chars().take_while(|c| c.is_ascii_lowercase() || *c == '_').collect();
+                    if !dep.is_empty() && dep != module {
+                        deps.insert(dep);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_top_level_modules_form_no_cycle() {
+    let mut graph = BTreeMap::new();
+    scan(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), None, &mut graph);
+    let names: BTreeSet<String> = graph.keys().cloned().collect();
+    assert!(names.contains("surface") && names.contains("renderer") && names.len() > 15, "{names:?}");
+    // Depth-first search for a back edge.
+    fn visit(
+        n: &str,
+        g: &BTreeMap<String, BTreeSet<String>>,
+        state: &mut BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        match state.get(n) {
+            Some(1) => return Some(path.iter().skip_while(|m| *m != n).cloned().chain([n.to_string()]).collect()),
+            Some(2) => return None,
+            _ => {}
+        }
+        state.insert(n.to_string(), 1);
+        path.push(n.to_string());
+        for d in g.get(n).into_iter().flatten().filter(|d| g.contains_key(*d)) {
+            if let Some(c) = visit(d, g, state, path) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        state.insert(n.to_string(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for n in graph.keys() {
+        if let Some(cycle) = visit(n, &graph, &mut state, &mut vec![]) {
+            panic!("import cycle among the library's modules: {}", cycle.join(" -> "));
+        }
+    }
+}
