@@ -168,7 +168,8 @@ def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothi
     """The SPH iso-surface of the particles as a triangle mesh (pysplashsurf's parameter names: the kernel's
     support is 2 × `smoothing_length` × `particle_radius`, the marching-cubes edge `cube_size` ×
     `particle_radius`). Returns (vertices N×3 float32, triangles M×3 uint32, normals N×3 float32): the mesh
-    `meniscus mesh` writes (`--gpu` when `gpu`)."""
+    `meniscus mesh` writes (`--gpu` when `gpu`). Without a real GPU pass `gpu=False`: on lavapipe the GPU path
+    runs emulated on the CPU, about 40× slower than the CPU extraction (benches/results/llvmpipe-python-binding.md)."""
     pts = _points(particles, "particles")
     if not (smoothing_length > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
         raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
