@@ -12,7 +12,7 @@ def _ci() -> bool:
     return os.environ.get("CI", "") not in ("", "0", "false")
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def cli() -> str:
     """The `meniscus` binary built from the same tree (MENISCUS_BIN, else target/debug or target/release)."""
     for p in [os.environ.get("MENISCUS_BIN"), ROOT / "target/debug/meniscus", ROOT / "target/release/meniscus"]:
@@ -21,7 +21,7 @@ def cli() -> str:
     pytest.fail("no meniscus binary: build it first (tools/dev test does)")
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def shared():
     """A folder of ../shared/data; missing data fails under CI=true (it is there in CI), else skips."""
     def get(rel: str) -> pathlib.Path:
