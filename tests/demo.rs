@@ -52,13 +52,7 @@ fn demo_records_a_movie() {
     let (o, err) = meniscus_in(&dir, &args);
     assert!(o.status.success(), "demo failed: {err}");
     assert!(err.contains("recorded 5 frames"), "{err}");
-    let probe = Command::new("ffprobe")
-        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
-        .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
-        .arg(&movie)
-        .output()
-        .expect("ffprobe (tools/dev installs ffmpeg)");
-    assert_eq!(String::from_utf8_lossy(&probe.stdout).trim(), "160,100,5");
+    assert_eq!(common::probe_video(&movie), "160,100,5");
     let (o, err) = meniscus_in(&dir, &["demo".as_ref(), "--record".as_ref(), dir.join("x.png").as_os_str()]);
     assert!(!o.status.success() && err.contains("--record") && err.contains(".mp4"), "{err}");
 }

@@ -233,13 +233,7 @@ fn a_sequence_renders_to_a_movie_that_decodes() {
         let o =
             meniscus().args(["render", &seq]).args(small).args(["--fps", fps, "--out"]).arg(&movie).output().unwrap();
         assert!(o.status.success(), "{name}: {}", stderr(&o));
-        let probe = Command::new("ffprobe")
-            .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
-            .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
-            .arg(&movie)
-            .output()
-            .expect("ffprobe (tools/dev installs ffmpeg)");
-        assert_eq!(String::from_utf8_lossy(&probe.stdout).trim(), "96,54,6", "{name}");
+        assert_eq!(common::probe_video(&movie), "96,54,6", "{name}");
     }
     // A movie is one file: --shard and --resume are for PNG frames (then `meniscus encode`).
     let o = meniscus()

@@ -159,3 +159,14 @@ pub fn rss_bytes() -> u64 {
     let pages: u64 = s.split_whitespace().nth(1).and_then(|p| p.parse().ok()).expect("statm's second field");
     pages * 4096
 }
+
+/// `width,height,frames` of a movie's video stream, as ffprobe counts them (tools/dev installs ffmpeg).
+pub fn probe_video(movie: &std::path::Path) -> String {
+    let o = std::process::Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+        .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
+        .arg(movie)
+        .output()
+        .expect("ffprobe (tools/dev installs ffmpeg)");
+    String::from_utf8_lossy(&o.stdout).trim().to_string()
+}
