@@ -153,7 +153,6 @@ pub fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
 }
 
 /// The process's resident set size in bytes, from `/proc/self/statm` (Linux).
-#[allow(dead_code)]
 pub fn rss_bytes() -> u64 {
     let s = std::fs::read_to_string("/proc/self/statm").expect("/proc/self/statm (Linux)");
     let pages: u64 = s.split_whitespace().nth(1).and_then(|p| p.parse().ok()).expect("statm's second field");
