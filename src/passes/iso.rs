@@ -306,7 +306,7 @@ pub struct GatherPush {
 }
 
 // Gather: particles, order, start, counts → sorted points, cell table.
-declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 
 // Density: frame, grid points, cell table → the weighted points (xyz, 1/n_j).
 declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite]));
@@ -401,8 +401,16 @@ impl Iso {
         ctx.pass(crate::passes::grid::NAME, |ctx| {
             self.grid.record(ctx, particles, n, g);
             let cells = g.shape.cells();
-            let res =
-                [particles.into(), (&g.order).into(), (&g.start).into(), (&g.counts).into(), (&b.points).into(), (&b.cells).into()];
+            let (order, start, counts, keys) = (&g.order, &g.start, &g.counts, &g.keys);
+            let res = [
+                particles.into(),
+                order.into(),
+                start.into(),
+                counts.into(),
+                keys.into(),
+                (&b.points).into(),
+                (&b.cells).into(),
+            ];
             self.gather.dispatch(ctx, &res, &GatherPush { n, cells }, [n.max(cells).div_ceil(super::LOCAL_1D), 1, 1]);
         });
     }
