@@ -181,20 +181,42 @@ fn partial_name(path: &Path, pid: u32) -> PathBuf {
     PathBuf::from(tmp)
 }
 
-/// Remove `NAME.PID.partial` files beside `path` left by processes that no longer run (a killed run).
+/// The stale partial files of each folder this process writes into, listed once per folder: the folder of a
+/// long sequence is not read again for every frame.
+static STALE: Mutex<Option<std::collections::HashMap<PathBuf, Vec<PathBuf>>>> = Mutex::new(None);
+
+/// Remove `NAME.PID.partial` files beside `path` left by processes that no longer run (a killed run). The
+/// folder is listed at its first write by this process (what a killed run left is there by then).
 fn remove_stale_partials(path: &Path) {
-    let (Some(name), dir) = (path.file_name(), path.parent().filter(|d| !d.as_os_str().is_empty())) else { return };
-    let dir = dir.unwrap_or(Path::new("."));
+    let Some(name) = path.file_name() else { return };
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    let mut g = STALE.lock().unwrap_or_else(|e| e.into_inner());
+    let stale = g.get_or_insert_with(Default::default).entry(dir.clone()).or_insert_with(|| {
+        let Ok(rd) = std::fs::read_dir(&dir) else { return vec![] };
+        rd.flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                let f = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+                let pid = f.strip_suffix(".partial").and_then(|r| r.rsplit_once('.')).map(|(_, pid)| pid);
+                pid.and_then(|p| p.parse::<u32>().ok())
+                    .is_some_and(|pid| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists())
+            })
+            .collect()
+    });
     let prefix = format!("{}.", name.to_string_lossy());
-    let Ok(rd) = std::fs::read_dir(dir) else { return };
-    for e in rd.flatten() {
-        let f = e.file_name().to_string_lossy().into_owned();
-        let Some(pid) = f.strip_prefix(&prefix).and_then(|r| r.strip_suffix(".partial")) else { continue };
-        let Ok(pid) = pid.parse::<u32>() else { continue };
-        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_file(e.path());
+    stale.retain(|p| {
+        // NAME.PID.partial exactly: not the partial file of another name that starts with this one.
+        let mine = p.file_name().is_some_and(|f| {
+            let f = f.to_string_lossy();
+            f.strip_prefix(&prefix)
+                .and_then(|r| r.strip_suffix(".partial"))
+                .is_some_and(|pid| pid.parse::<u32>().is_ok())
+        });
+        if mine {
+            let _ = std::fs::remove_file(p);
         }
-    }
+        !mine
+    });
 }
 
 /// A file being written under its partial name `NAME.PID.partial`, renamed into place by [`Partial::commit`] and

@@ -236,13 +236,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     for f in &frames {
         check_out("--out", &names.path(f.number), out_kind)?;
     }
-    let bar = indicatif::ProgressBar::new(frames.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} meshes  {per_sec:.2}  {msg}  [{elapsed} < {eta}]",
-        )
-        .expect("template"),
-    );
+    let bar = crate::args::progress(frames.len() as u64, "meshes");
     let (t0, mut last) = (std::time::Instant::now(), String::new());
     for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
         let p: scene::Particles = loaded?;

@@ -327,8 +327,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
 
 /// The files `--dump` writes beside the output PNG `out`, each with the dump's name.
 fn dump_paths(a: &RenderArgs, out: &std::path::Path) -> Vec<(String, PathBuf)> {
-    let stem = out.with_extension("");
-    let path = |n: &str, ext: &str| PathBuf::from(format!("{}.{n}.{ext}", stem.display()));
+    let path = |n: &str, ext: &str| dump_path(out, n, ext);
     let mut v = vec![];
     for d in &a.dump {
         match d.as_str() {
@@ -344,10 +343,14 @@ fn dump_paths(a: &RenderArgs, out: &std::path::Path) -> Vec<(String, PathBuf)> {
     v
 }
 
+/// The file of dump `name` beside the output PNG `out`: `OUT.NAME.EXT`.
+fn dump_path(out: &std::path::Path, name: &str, ext: &str) -> PathBuf {
+    PathBuf::from(format!("{}.{name}.{ext}", out.with_extension("").display()))
+}
+
 fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Result<()> {
     let Some(t) = r.targets.as_ref() else { return Ok(()) };
-    let stem = out.with_extension("");
-    let path = |n: &str, ext: &str| PathBuf::from(format!("{}.{n}.{ext}", stem.display()));
+    let path = |n: &str, ext: &str| dump_path(out, n, ext);
     for d in &a.dump {
         match d.as_str() {
             "depth" | "smoothed" | "thickness" => {

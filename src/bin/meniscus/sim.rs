@@ -132,13 +132,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
             eprintln!("warning: {} exists and was not written by meniscus: left as it is", path.display());
         }
     }
-    let bar = indicatif::ProgressBar::new(a.frames as u64 - 1);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} frames  {per_sec:.2}  {msg}  [{elapsed} < {eta}]",
-        )
-        .expect("template"),
-    );
+    let bar = crate::args::progress(a.frames as u64 - 1, "frames");
     let mut runs = vec![];
     for n in 2..=a.frames {
         let t = sim.step_frame()?;
