@@ -28,12 +28,9 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_solve.comp", NBR),
     ("sim_vorticity.comp", NBR),
     ("sim_viscosity.comp", NBR),
-    // The smoothed iso field (src/passes/iso.rs): the blur's first, middle and last axis; the cast over the
-    // volume and its queued rays.
-    (
-        "iso_blur.comp",
-        &[("BRICKS", "ISO_BLUR_BRICKS"), ("FIRST", "ISO_BLUR_FIRST"), ("", ""), ("LAST", "ISO_BLUR_LAST")],
-    ),
+    // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited; the cast over
+    // the volume and its queued rays.
+    ("iso_volume.comp", &[("MARK", "ISO_VOLUME_MARK"), ("ALLOC", "ISO_VOLUME_ALLOC"), ("", "")]),
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
 ];
 const NBR: &[(&str, &str)] = &[("", ""), ("NBR16", "NBR16")];

@@ -1,12 +1,15 @@
 #version 460
 //! iso_vol — the `iso` pass's cast over the smoothed field (`[iso] smoothing` > 0): the same march as iso.comp
 //! (iso_cast.glsl: from the bound spheres' depth, queued long rays finished by the ISO_REST variant), but each
-//! sample is a trilinear read of the lattice that `iso_volume` and `iso_blur` built once per set of particles
-//! (iso_field.glsl with ISO_VOLUME: 8 texel fetches instead of a sum over ~200 neighbours). No nearest-point
-//! distance: the march takes its smallest steps. CPU reference: VolumeShape::sample and march in src/surface/iso/field.rs.
-//! In: the field (binding 1, R32F per voxel), back (3). In/out: depth (2). Out: the queue (4, 5).
+//! sample is F = φ + w(c̄) (B − φ): B and c̄ read from the sparse lattice that `iso_volume` built once per set
+//! of particles (a quadratic B-spline: C¹ across voxel faces, so the surface's normals do not crease there), w
+//! the bulk weight, and the exact φ summed over the neighbours only where w < 1 (spray, sheets and the calm
+//! water's rim keep their particle-scale shape). Where w = 0 the march skips empty space by the nearest point's
+//! distance as iso.comp does; elsewhere it takes its smallest steps. CPU reference: VolumeShape::sample and
+//! smoothed_field in src/field/iso.rs.
+//! In: the weighted points (binding 1), cells (2), back (4), the lattice's table (7) and sums (8, RG32UI).
+//! In/out: depth (3). Out: the queue (5, 6).
 #include "common.glsl"
 #define ISO_VOLUME
-#define ISO_CAST_BINDING 2
 #include "iso_field.glsl"
 #include "iso_cast.glsl"

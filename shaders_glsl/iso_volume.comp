@@ -1,60 +1,109 @@
 #version 460
-//! iso_volume — builds the sums of the smoothed iso field (`[iso] smoothing` > 0) once per set of particles,
-//! after iso_density: per sorted point j, its neighbour count c_j = Σ_{k≠j} max(0, 1 − |x_j − x_k|²/h²)
-//! (splashsurf's feature weight, Löschner et al.), then a scatter over the lattice voxels v within its support:
-//!     acc[2v]     += W(|v − x_j|/h) / n_j          (the colour field φ at the voxel)
-//!     acc[2v + 1] += W(|v − x_j|/h) c_j / n_j      (so c̄ = acc[2v+1] / acc[2v] is c interpolated Shepard-style)
-//! in fixed point (ISO_VOLUME_FIX_BITS) with integer atomics: the same sums in any order, on any device.
-//! iso_blur then blurs φ where c̄ says the water is bulk. The field smoothing follows the mesh smoothing that
-//! splashsurf weights by c_j (Löschner et al. 2023), moved from the mesh to the field so a ray cast can draw it.
-//! CPU reference: IsoGrid::volume_sums in src/surface/iso/field.rs.
-//! Each point also marks the bricks (ISO_VOLUME_BRICK³ voxels) its support's box touches, so iso_blur can skip
-//! the rest.
-//! In: the weighted points (xyz, 1/n_j), cells. Out: acc (binding 3), the bricks' occupied flags (binding 4,
-//! the first half; both zeroed by the host before).
+//! iso_volume — builds the sparse lattice of the smoothed iso field (`[iso] smoothing` > 0) once per set of
+//! particles, after iso_density (which gives each sorted point j its weight 1/n_j and its neighbour count c_j =
+//! Σ_{k≠j} max(0, 1 − |x_j − x_k|²/h²), splashsurf's feature weight, Löschner et al. 2023). Three dispatches:
+//! ISO_VOLUME_MARK — per point, every brick its deposit reaches is marked in the table (zeroed by the host);
+//! ISO_VOLUME_ALLOC — per table entry, a marked brick takes the next pool index (an atomic counter: the pool's
+//!     order varies between runs, the values at each voxel do not); the header counts them;
+//! (plain) — per point, its mass M_j = I_W h³/n_j (I_W = π/8, the integral of the unnormalised cubic spline)
+//!     spread over the voxels within R by the smooth kernel K(d) = (1 − d²/R²)³ / (0.6383 R³) (C² where it
+//!     ends), and M_j c_j likewise: B(v) = Σ_j M_j K(|v − x_j|) is the blurred colour field sampled at the
+//!     voxel, B c̄ its neighbour count interpolated (Shepard). Fixed point (ISO_VOLUME_FIX_BITS), integer
+//!     atomics: the same sums in any order, on any device.
+//! R is chosen so K's per-axis variance (R²/11) plus the cast's quadratic B-spline read (s²/4) equals the
+//! smoothing asked for, σ² + 0.075 h² (Gaussian ∗ cubic spline, per axis): one smooth kernel stands for the
+//! whole blur, so no separate blur pass, and the lattice can be as coarse as that smooth field allows. A
+//! trilinear (cloud-in-cell) deposit with a separate blur was cheaper (8 voxels per point) but its weights
+//! depend on where a point lies within its voxel: a tilted lattice of particles came out with 3° normal steps
+//! (tests/gpu_passes.rs, the seam test; docs/iso-surface.md).
+//! CPU reference: VolumeShape::{marked, deposit} in src/field/iso.rs.
+//! MARK in: points (1). In/out: table (2). ALLOC in/out: table (1), header (2: {0, 1, 1, bricks}, zeroed by the
+//! host). Plain in: points (1), c (2), table (3); in/out: the
+//! sums (4, two uints per voxel, zeroed by the host), which the cast reads.
 #include "common.glsl"
-#include "iso_field.glsl"
 layout(local_size_x = LOCAL_1D) in;
-layout(std430, set = 0, binding = 3) buffer IsoVolumeAcc { uint acc[]; };
-layout(std430, set = 0, binding = 4) writeonly buffer IsoVolumeBricks { uint bricks[]; };
+layout(push_constant) uniform VolPush {
+    vec4 origin;  // xyz: voxel (0, 0, 0) (world), w: voxel spacing s
+    uvec4 bdims;  // xyz: bricks per axis (the table), w: the pool's capacity (bricks)
+    vec4 params;  // x: the deposit's scale I_W h³ / (0.6383 R³), y: R (voxels), z: ⌈R⌉ (the bricks marked)
+    uvec4 misc;   // x: points
+} pc;
 
+#if defined(ISO_VOLUME_MARK)
+layout(set = 0, binding = 1) uniform samplerBuffer points_t;
+layout(std430, set = 0, binding = 2) buffer Table { uint table[]; };
+#define ISO_TABLE(i) table[i]
+#elif defined(ISO_VOLUME_ALLOC)
+layout(std430, set = 0, binding = 1) buffer Table { uint table[]; };
+layout(std430, set = 0, binding = 2) buffer Header { uint header[4]; };
+#define ISO_TABLE(i) table[i]
+#else
+layout(set = 0, binding = 1) uniform samplerBuffer points_t;
+layout(set = 0, binding = 2) uniform samplerBuffer counts_t;
+layout(set = 0, binding = 3) uniform usamplerBuffer table_t;
+layout(std430, set = 0, binding = 4) buffer Acc { uint acc[]; };
+#define ISO_TABLE(i) texelFetch(table_t, int(i)).x
+#endif
+#include "iso_volume.glsl"
+
+#ifndef ISO_VOLUME_ALLOC
+/// Lattice coordinates of point j, clamped a voxel outside the table (a stray point far from the water marks
+/// and deposits nothing).
+vec3 lattice_pos(uint j, ivec3 bd) {
+    vec3 u = (texelFetch(points_t, int(j)).xyz - pc.origin.xyz) / pc.origin.w;
+    return clamp(u, vec3(-2.0), vec3(bd * int(ISO_VOLUME_BRICK) + 2));
+}
+#endif
+
+#if defined(ISO_VOLUME_MARK)
 void main() {
     uint j = gl_GlobalInvocationID.x;
-    if (j >= pc.dims.w) return;
-    vec4 pj = ISO_POINT(j);
-    float h = pc.params.x;
-    float inv_h2 = 1.0 / (h * h);
-    float c = 0.0;
-#define C_VISIT(i, pt, v, d2) { c += max(1.0 - (d2) * inv_h2, 0.0); }
-    vec3 x = pj.xyz;  // (the macro's own `.x` swizzles take a plain name only)
-    ISO_FOR_POINTS(x, C_VISIT)
-#undef C_VISIT
-    c -= 1.0;  // itself
-    float fix = float(1u << ISO_VOLUME_FIX_BITS);
-    float s = pc.aniso.w;
-    ivec3 dims = ivec3(pc.aniso2.yzw);
-    vec3 u = (x - pc.aniso.xyz) / s;
-    float rv = h / s;
-    ivec3 lo = max(ivec3(ceil(u - rv)), ivec3(0));
-    ivec3 hi = min(ivec3(floor(u + rv)), dims - 1);
-    float inv_h = 1.0 / h;
-    ivec3 bd = (dims + int(ISO_VOLUME_BRICK) - 1) / int(ISO_VOLUME_BRICK);
-    ivec3 b0 = lo / int(ISO_VOLUME_BRICK), b1 = hi / int(ISO_VOLUME_BRICK);
-    for (int bz = b0.z; bz <= b1.z; ++bz)
-        for (int by = b0.y; by <= b1.y; ++by)
-            for (int bx = b0.x; bx <= b1.x; ++bx) bricks[bx + bd.x * (by + bd.y * bz)] = 1u;
+    if (j >= pc.misc.x) return;
+    ivec3 bd = ivec3(pc.bdims.xyz);
+    ivec3 g = ivec3(floor(lattice_pos(j, bd)));
+    int t = int(pc.params.z);
+    ivec3 b0 = max((g - t) >> 3, ivec3(0)), b1 = min((g + 1 + t) >> 3, bd - 1);
+    for (int z = b0.z; z <= b1.z; ++z)
+        for (int y = b0.y; y <= b1.y; ++y)
+            for (int x = b0.x; x <= b1.x; ++x) table[x + bd.x * (y + bd.y * z)] = 1u;
+}
+#elif defined(ISO_VOLUME_ALLOC)
+void main() {
+    uint b = gl_GlobalInvocationID.x;
+    if (b == 0u) { header[1] = 1u; header[2] = 1u; }
+    uvec3 bd = pc.bdims.xyz;
+    if (b >= bd.x * bd.y * bd.z || table[b] == 0u) return;
+    uint i = atomicAdd(header[3], 1u);
+    if (i >= pc.bdims.w) {
+        table[b] = 0u;  // over capacity: the host sized the pool from the same rule, so only a GPU-written set
+        return;         // of particles can get here (it reads the count and grows the pool)
+    }
+    table[b] = i + 1u;
+}
+#else
+void main() {
+    uint j = gl_GlobalInvocationID.x;
+    if (j >= pc.misc.x) return;
+    ivec3 bd = ivec3(pc.bdims.xyz);
+    vec3 u = lattice_pos(j, bd);
+    float rv = pc.params.y;  // the deposit kernel's radius R, voxels
+    ivec3 lo = ivec3(ceil(u - rv)), hi = ivec3(floor(u + rv));
+    float inv_r2 = 1.0 / (rv * rv);
+    float m = pc.params.x * texelFetch(points_t, int(j)).w * float(1u << ISO_VOLUME_FIX_BITS);
+    float c = texelFetch(counts_t, int(j)).x;
     for (int z = lo.z; z <= hi.z; ++z) {
         for (int y = lo.y; y <= hi.y; ++y) {
-            int row = dims.x * (y + dims.y * z);
-            for (int i = lo.x; i <= hi.x; ++i) {
-                float q = length((vec3(i, y, z) - u) * s) * inv_h;
-                if (q < 1.0) {
-                    float w = iso_kernel(q) * pj.w;
-                    uint v = 2u * uint(row + i);
-                    atomicAdd(acc[v], uint(w * fix + 0.5));
-                    atomicAdd(acc[v + 1u], uint(w * c * fix + 0.5));
-                }
+            for (int x = lo.x; x <= hi.x; ++x) {
+                vec3 d = vec3(x, y, z) - u;
+                float q = 1.0 - dot(d, d) * inv_r2;
+                if (q <= 0.0) continue;
+                uint slot = iso_voxel_slot(ivec3(x, y, z), bd);
+                if (slot == ISO_NONE) continue;
+                float w = q * q * q * m;
+                atomicAdd(acc[2u * slot], uint(w + 0.5));
+                atomicAdd(acc[2u * slot + 1u], uint(w * c + 0.5));
             }
         }
     }
 }
+#endif

@@ -284,6 +284,7 @@ impl Settings {
                     sigma: self.iso.smoothing * self.radius,
                     bulk: self.iso.bulk,
                     spacing: self.iso.voxel * self.radius,
+                    support: self.iso.support * self.radius,
                 },
             ),
         }

@@ -41,13 +41,10 @@ pub const MC_MAX_TRIS: u32 = 12;
 /// Fixed-point bits of the `iso_volume` pass's sums (integer atomics: the same sums in any order, no float-atomic
 /// extension needed; 2^-20 per term, sums up to 4096).
 pub const ISO_VOLUME_FIX_BITS: u32 = 20;
-/// Most voxels of the smoothed iso field's lattice (8 bytes each in the sums' buffer: 128 MiB, lavapipe's
-/// storage-buffer range; 16 bytes in all); past it the voxels grow.
-pub const ISO_VOLUME_MAX_VOXELS: u32 = 1 << 24;
-
-/// Voxels per edge of a brick of that lattice: `iso_blur` skips the bricks no particle reaches within the blur's
-/// reach (most of a splash's box is air).
+/// Voxels per edge of a brick of the smoothed iso field's sparse lattice: bricks exist only where particles
+/// reach (most of a splash's box is air). The shaders index within a brick by shifts and masks: 8 only.
 pub const ISO_VOLUME_BRICK: u32 = 8;
+const _: () = assert!(ISO_VOLUME_BRICK == 8);
 
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[

@@ -404,6 +404,12 @@ pub fn march(
     None
 }
 
+/// Per-axis variance of the normalised cubic spline of support h, ÷ h² (∫ x² W dV ÷ ∫ W dV; numerically
+/// 0.0750): the spread the smoothed field's blur adds to `[iso] smoothing`.
+pub const KERNEL_VARIANCE: f32 = 0.075;
+/// ∫ W(|x|/h) dV ÷ h³ of the unnormalised cubic spline [`kernel`]: π/8.
+pub const KERNEL_INTEGRAL: f32 = std::f32::consts::PI / 8.0;
+
 /// The smoothed field's parameters (`[iso] smoothing`, `bulk`, `voxel`), world units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeParams {
@@ -412,90 +418,218 @@ pub struct VolumeParams {
     /// The blur's weight ramps from 0 to 1 as the interpolated neighbour count c̄ goes from bulk[0] to bulk[1]
     /// (smoothstep; bulk[1] ≤ bulk[0]: the blur everywhere).
     pub bulk: [f32; 2],
-    /// The lattice's spacing (world units), unless the box needs more than ISO_VOLUME_MAX_VOXELS voxels.
+    /// The lattice's spacing (world units).
     pub spacing: f32,
+    /// The SPH kernel's support h (world units).
+    pub support: f32,
 }
+
+/// ∫ (1 − |x|²)³ dV over the unit ball (4π · 16/315): the deposit kernel's normalisation.
+pub const DEPOSIT_INTEGRAL: f32 = 0.638_304;
 
 impl VolumeParams {
-    /// Taps either side of the blur's separable kernel at lattice spacing `spacing`: 4 σ, rounded (as scipy's
-    /// `gaussian_filter`, which the prototype tools/quality-volume.py used).
-    pub fn taps(&self, spacing: f32) -> u32 {
-        (4.0 * self.sigma / spacing + 0.5) as u32
+    /// The deposit kernel's radius R (world units): B stands for G_σ ∗ φ, a sum of kernels each of per-axis
+    /// variance σ² + 0.075 h² (Gaussian ∗ cubic spline, taken as one smooth kernel of that variance); the
+    /// kernel (1 − d²/R²)³ has variance R²/11 and the quadratic B-spline read adds s²/4, so R² = 11 (σ² +
+    /// 0.075 h² − s²/4). At least one voxel (the field is then that much smoother than asked).
+    pub fn deposit_radius(&self) -> f32 {
+        let s = self.spacing;
+        let v = self.sigma * self.sigma + KERNEL_VARIANCE * self.support * self.support - 0.25 * s * s;
+        (11.0 * v).max(0.0).sqrt().max(s)
     }
 
-    /// The normalised weights of the blur's taps 0 ..= taps (symmetric).
-    pub fn weights(&self, spacing: f32) -> Vec<f32> {
-        let s = self.sigma / spacing;
-        let k = self.taps(spacing) as i32;
-        let g: Vec<f32> = (0..=k).map(|i| (-(i * i) as f32 / (2.0 * s * s)).exp()).collect();
-        let total = g[0] + 2.0 * g[1..].iter().sum::<f32>();
-        g.iter().map(|w| w / total).collect()
+    /// Voxels a particle's deposit reaches either side of it: ⌈R / s⌉.
+    pub fn reach(&self) -> u32 {
+        (self.deposit_radius() / self.spacing).ceil() as u32
+    }
+
+    /// The deposit's scale: a particle's mass I_W h³ (÷ n_j) times the kernel's normalisation 1 / (0.6383 R³).
+    pub fn deposit_scale(&self) -> f32 {
+        KERNEL_INTEGRAL * self.support.powi(3) / (DEPOSIT_INTEGRAL * self.deposit_radius().powi(3))
     }
 }
 
-/// The lattice the smoothed field is sampled on: voxel (i, j, k) at origin + (i, j, k)·spacing, x fastest.
+/// Voxels per edge of a brick of the smoothed field's sparse lattice.
+pub const BRICK: u32 = crate::shader_constants::ISO_VOLUME_BRICK;
+/// Most bricks per axis of the lattice (iso_volume packs a brick's coordinates in 11 + 11 + 10 bits).
+pub const MAX_BRICKS_PER_AXIS: [u32; 3] = [2047, 2047, 1023];
+
+/// The sparse lattice the smoothed field lives on: voxel (i, j, k) at origin + (i, j, k)·spacing, in bricks
+/// of [`BRICK`]³ voxels; a brick exists only where a particle's deposit reaches within the blur's taps
+/// ([`VolumeShape::marked`]), every voxel elsewhere is 0. The CPU reference holds the whole box densely
+/// (x fastest); the GPU a table over the box's bricks and a pool of the allocated ones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeShape {
     /// World position of voxel (0, 0, 0).
     pub origin: Vec3,
     /// Voxel spacing (world units).
     pub spacing: f32,
-    /// Voxels per axis.
-    pub dims: [u32; 3],
+    /// Bricks per axis.
+    pub bricks: [u32; 3],
+    /// Voxels a particle's deposit reaches either side of it (which bricks it needs).
+    pub taps: u32,
 }
 
 impl VolumeShape {
-    /// The lattice over the box `lo`…`hi` that holds every particle, grown by the kernel support and the blur's
-    /// reach, at `p.spacing`, or coarser where that would exceed ISO_VOLUME_MAX_VOXELS.
-    pub fn around(lo: Vec3, hi: Vec3, support: f32, p: &VolumeParams) -> VolumeShape {
-        let max = crate::shader_constants::ISO_VOLUME_MAX_VOXELS as f64;
-        let mut spacing = p.spacing.max(1e-6);
-        loop {
-            let margin = support + (p.taps(spacing) + 1) as f32 * spacing;
-            let (a, b) = (lo - Vec3::splat(margin), hi + Vec3::splat(margin));
-            let d = ((b - a) / spacing).ceil() + Vec3::ONE;
-            let dims = [d.x as u32, d.y as u32, d.z as u32].map(|n| n.max(2));
-            let voxels = dims.iter().map(|&n| n as f64).product::<f64>();
-            if voxels <= max {
-                return VolumeShape { origin: a, spacing, dims };
+    /// The lattice for particles inside [lo, hi]: a margin of the deposit's reach + 3 voxels around them (the
+    /// B-spline read's reach, rounding). Error: a box too long for the table (more than
+    /// [`MAX_BRICKS_PER_AXIS`] bricks on an axis), with what to change.
+    pub fn around(lo: Vec3, hi: Vec3, p: &VolumeParams) -> Result<VolumeShape, String> {
+        let s = p.spacing.max(1e-9);
+        let taps = p.reach();
+        let margin = (taps + 3) as f32 * s;
+        let origin = lo - Vec3::splat(margin);
+        let n = ((hi - lo) / s).ceil() + Vec3::splat(2.0 * (taps + 3) as f32 + 2.0);
+        let bricks = [n.x, n.y, n.z].map(|v| (v / BRICK as f32).ceil().max(1.0));
+        for (axis, (&b, &max)) in bricks.iter().zip(&MAX_BRICKS_PER_AXIS).enumerate() {
+            if b > max as f32 {
+                return Err(format!(
+                    "the smoothed iso field's lattice would need {b} bricks of {BRICK} voxels along {}, more than \
+                     {max}: the water spans {:.3} with voxels of {s:.4}; set [iso] voxel larger or smoothing = 0 \
+                     (--preset quality: the exact field, no lattice)",
+                    ["x", "y", "z"][axis],
+                    (hi - lo)[axis]
+                ));
             }
-            spacing *= ((voxels / max).cbrt() * 1.01) as f32;
         }
+        Ok(VolumeShape { origin, spacing: s, bricks: bricks.map(|b| b as u32), taps })
     }
 
-    /// Voxels in all.
+    /// Voxels per axis of the box.
+    pub fn dims(&self) -> [u32; 3] {
+        self.bricks.map(|b| b * BRICK)
+    }
+
+    /// Voxels of the whole box (the dense CPU reference's length).
     pub fn voxels(&self) -> usize {
-        self.dims.iter().map(|&n| n as usize).product()
+        self.dims().iter().map(|&n| n as usize).product()
     }
 
-    /// Bricks of ISO_VOLUME_BRICK³ voxels in all (`iso_blur` skips the empty ones).
-    pub fn bricks(&self) -> usize {
-        let b = crate::shader_constants::ISO_VOLUME_BRICK;
-        self.dims.iter().map(|&n| n.div_ceil(b) as usize).product()
+    /// Entries of the brick table.
+    pub fn table_len(&self) -> usize {
+        self.bricks.iter().map(|&n| n as usize).product()
     }
 
-    /// Index of voxel (x, y, z).
+    /// Index of voxel (x, y, z) in the dense box.
     pub fn index(&self, x: u32, y: u32, z: u32) -> usize {
-        x as usize + self.dims[0] as usize * (y as usize + self.dims[1] as usize * z as usize)
+        let d = self.dims();
+        x as usize + d[0] as usize * (y as usize + d[1] as usize * z as usize)
     }
 
-    /// Trilinear sample of `field` (one value per voxel) at x; 0 outside the lattice (as iso_field.glsl's
-    /// ISO_VOLUME sampler).
-    pub fn sample(&self, field: &[f32], x: Vec3) -> f32 {
-        let u = (x - self.origin) / self.spacing;
-        let i = u.floor();
-        let f = u - i;
-        let d = self.dims.map(|n| n as f32);
-        if i.x < 0.0 || i.y < 0.0 || i.z < 0.0 || i.x >= d[0] - 1.0 || i.y >= d[1] - 1.0 || i.z >= d[2] - 1.0 {
-            return 0.0;
-        }
-        let (x0, y0, z0) = (i.x as u32, i.y as u32, i.z as u32);
-        let at = |dx, dy, dz| field[self.index(x0 + dx, y0 + dy, z0 + dz)];
-        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-        let row = |dy, dz| lerp(at(0, dy, dz), at(1, dy, dz), f.x);
-        let plane = |dz| lerp(row(0, dz), row(1, dz), f.y);
-        lerp(plane(0), plane(1), f.z)
+    /// Lattice coordinates of x, clamped 2 voxels outside the box (as iso_volume.comp: a stray point far from
+    /// the water marks and deposits nothing).
+    pub fn lattice(&self, x: Vec3) -> Vec3 {
+        let d = self.dims();
+        ((x - self.origin) / self.spacing)
+            .clamp(Vec3::splat(-2.0), Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) + 2.0)
     }
+
+    /// The bricks the points need (iso_volume's ISO_VOLUME_MARK): the voxels within the deposit's reach of the
+    /// point's voxel. One flag per table entry.
+    pub fn marked(&self, points: impl Iterator<Item = Vec3>) -> Vec<bool> {
+        let mut m = vec![false; self.table_len()];
+        let b = self.bricks.map(|n| n as i64);
+        let t = self.taps as i64;
+        for x in points {
+            let u = self.lattice(x).floor();
+            let g = [u.x as i64, u.y as i64, u.z as i64];
+            let lo: Vec<i64> = (0..3).map(|a| (g[a] - t).div_euclid(BRICK as i64).max(0)).collect();
+            let hi: Vec<i64> = (0..3).map(|a| (g[a] + 1 + t).div_euclid(BRICK as i64).min(b[a] - 1)).collect();
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        m[(x + b[0] * (y + b[1] * z)) as usize] = true;
+                    }
+                }
+            }
+        }
+        m
+    }
+
+    /// The `iso_volume` deposit, densely: per point j (xyz, 1/n_j) and voxel v within R, w = K (1 − d²/R²)³
+    /// / n_j and w c_j, each rounded to ISO_VOLUME_FIX_BITS fixed-point bits (as the shader's integer atomics).
+    /// Voxels outside the box are dropped.
+    pub fn deposit(&self, points: &[[f32; 4]], c: &[f32], p: &VolumeParams) -> Vec<[u32; 2]> {
+        let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
+        let k = p.deposit_scale();
+        let rv = p.deposit_radius() / self.spacing;
+        let d = self.dims().map(|n| n as i64);
+        let mut acc = vec![[0u32; 2]; self.voxels()];
+        for (pt, &cj) in points.iter().zip(c) {
+            let u = self.lattice(Vec3::new(pt[0], pt[1], pt[2]));
+            let lo = (u - Vec3::splat(rv)).ceil();
+            let hi = (u + Vec3::splat(rv)).floor();
+            let m = k * pt[3] * fix;
+            for z in lo.z as i64..=hi.z as i64 {
+                for y in lo.y as i64..=hi.y as i64 {
+                    for x in lo.x as i64..=hi.x as i64 {
+                        let q = 1.0 - (Vec3::new(x as f32, y as f32, z as f32) - u).length_squared() / (rv * rv);
+                        if q <= 0.0 || x < 0 || y < 0 || z < 0 || x >= d[0] || y >= d[1] || z >= d[2] {
+                            continue;
+                        }
+                        let w = q * q * q * m;
+                        let a = &mut acc[self.index(x as u32, y as u32, z as u32)];
+                        a[0] = a[0].wrapping_add((w + 0.5) as u32);
+                        a[1] = a[1].wrapping_add((w * cj + 0.5) as u32);
+                    }
+                }
+            }
+        }
+        acc
+    }
+
+    /// The deposit's sums as the cast reads them: (B, B c̄) per voxel.
+    pub fn field(acc: &[[u32; 2]]) -> Vec<[f32; 2]> {
+        let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
+        acc.iter().map(|a| [a[0] as f32 / fix, a[1] as f32 / fix]).collect()
+    }
+
+    /// The quadratic B-spline read of `field` (dense, two values per voxel) at x, as iso_field.glsl's
+    /// iso_volume_at: 0 outside the box.
+    pub fn sample(&self, field: &[[f32; 2]], x: Vec3) -> [f32; 2] {
+        let u = (x - self.origin) / self.spacing;
+        let c = (u + Vec3::splat(0.5)).floor();
+        let t = u - c;
+        let d = self.dims().map(|n| n as i64);
+        let w = |t: f32| [0.5 * (0.5 - t) * (0.5 - t), 0.75 - t * t, 0.5 * (0.5 + t) * (0.5 + t)];
+        let (wx, wy, wz) = (w(t.x), w(t.y), w(t.z));
+        let mut s = [0.0f32; 2];
+        for z in 0..3 {
+            for y in 0..3 {
+                for x in 0..3 {
+                    let g = [c.x as i64 - 1 + x, c.y as i64 - 1 + y, c.z as i64 - 1 + z];
+                    if (0..3).any(|a| g[a] < 0 || g[a] >= d[a]) {
+                        continue;
+                    }
+                    let v = field[self.index(g[0] as u32, g[1] as u32, g[2] as u32)];
+                    let ww = wx[x as usize] * (wy[y as usize] * wz[z as usize]);
+                    s = [s[0] + ww * v[0], s[1] + ww * v[1]];
+                }
+            }
+        }
+        s
+    }
+}
+
+/// The smoothed iso field at x (the volume cast's sample, iso_field.glsl): F = φ + w(c̄) (B − φ) with B and
+/// B c̄ read from the lattice, φ the exact field (summed only where w < 1); and the nearest point's distance
+/// where w = 0 (F is the exact field there: the march may skip), else 0.
+pub fn smoothed_field(
+    grid: &IsoGrid,
+    inv_n: &[f32],
+    shape: &VolumeShape,
+    field: &[[f32; 2]],
+    p: &VolumeParams,
+    x: Vec3,
+) -> (f32, f32) {
+    let [b, bc] = shape.sample(field, x);
+    let cbar = if b > 0.0 { bc / b } else { 0.0 };
+    let w = bulk_weight(cbar, p.bulk);
+    if w >= 1.0 {
+        return (b, 0.0);
+    }
+    let (phi, d) = grid.field(x, inv_n);
+    (phi + w * (b - phi), if w <= 0.0 { d } else { 0.0 })
 }
 
 impl IsoGrid {
@@ -520,70 +654,6 @@ impl IsoGrid {
             })
             .collect()
     }
-
-    /// The `iso_volume` pass's sums on the lattice `shape`: per voxel v, Σ_j W_j(v) / n_j (φ) and Σ_j W_j(v)
-    /// c_j / n_j, each term rounded to ISO_VOLUME_FIX_BITS fixed-point bits (as the shader's integer atomics).
-    pub fn volume_sums(&self, inv_n: &[f32], shape: &VolumeShape) -> Vec<[u32; 2]> {
-        let c = self.neighbour_weights();
-        let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
-        let mut acc = vec![[0u32; 2]; shape.voxels()];
-        let (h, s) = (self.support, shape.spacing);
-        let rv = h / s;
-        let dims = shape.dims.map(|n| n as i64);
-        for (j, p) in self.points.iter().enumerate() {
-            let u = (Vec3::new(p[0], p[1], p[2]) - shape.origin) / s;
-            let lo = [u.x, u.y, u.z].map(|a| (a - rv).ceil().max(0.0) as i64);
-            let hi = [u.x, u.y, u.z].map(|a| (a + rv).floor() as i64);
-            for z in lo[2]..=hi[2].min(dims[2] - 1) {
-                for y in lo[1]..=hi[1].min(dims[1] - 1) {
-                    for x in lo[0]..=hi[0].min(dims[0] - 1) {
-                        let q = ((Vec3::new(x as f32, y as f32, z as f32) - u) * s).length() / h;
-                        if q < 1.0 {
-                            let w = kernel(q) * inv_n[j];
-                            let a = &mut acc[shape.index(x as u32, y as u32, z as u32)];
-                            a[0] = a[0].wrapping_add((w * fix + 0.5) as u32);
-                            a[1] = a[1].wrapping_add((w * c[j] * fix + 0.5) as u32);
-                        }
-                    }
-                }
-            }
-        }
-        acc
-    }
-}
-
-/// The smoothed field from the `iso_volume` sums (the `iso_blur` pass's CPU reference): φ blurred by the
-/// separable Gaussian (zero outside the lattice), blended into φ by smoothstep of c̄ = Σ W c / n ÷ Σ W / n
-/// over `p.bulk`: F = φ + w(c̄) (G_σ ∗ φ − φ).
-pub fn smooth_volume(acc: &[[u32; 2]], shape: &VolumeShape, p: &VolumeParams) -> Vec<f32> {
-    let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
-    let phi: Vec<f32> = acc.iter().map(|a| a[0] as f32 / fix).collect();
-    let g = p.weights(shape.spacing);
-    let k = g.len() as i64 - 1;
-    let strides = [1usize, shape.dims[0] as usize, (shape.dims[0] * shape.dims[1]) as usize];
-    let mut cur = phi.clone();
-    for axis in 0..3 {
-        let mut next = vec![0.0f32; cur.len()];
-        for (v, out) in next.iter_mut().enumerate() {
-            let c = (v / strides[axis]) as i64 % shape.dims[axis] as i64;
-            let mut sum = 0.0;
-            for t in -k..=k {
-                if (0..shape.dims[axis] as i64).contains(&(c + t)) {
-                    sum += g[t.unsigned_abs() as usize] * cur[(v as i64 + t * strides[axis] as i64) as usize];
-                }
-            }
-            *out = sum;
-        }
-        cur = next;
-    }
-    cur.iter()
-        .zip(&phi)
-        .zip(acc)
-        .map(|((&blur, &f), a)| {
-            let cbar = if a[0] > 0 { a[1] as f32 / a[0] as f32 } else { 0.0 };
-            f + bulk_weight(cbar, p.bulk) * (blur - f)
-        })
-        .collect()
 }
 
 /// The blur's weight at interpolated neighbour count c̄: smoothstep over `bulk` (1 when bulk[1] ≤ bulk[0]).

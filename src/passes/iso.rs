@@ -5,9 +5,10 @@
 //! when the particles change; every frame, the march from the bound spheres' depth (two dispatches: the first
 //! samples of every ray, then the queued long rays).
 //! With `[iso] smoothing` > 0 (the default) the field is smoothed in 3D where the water is bulk: when the
-//! particles change, `iso_volume` (iso_volume.comp) scatters φ and the neighbour counts onto a lattice and
-//! `iso_blur` (iso_blur.comp) blurs φ and blends by the counts; the cast (iso_vol.comp) then samples that
-//! lattice trilinearly. CPU reference: IsoGrid::volume_sums, smooth_volume, VolumeShape::sample in src/field/iso.rs.
+//! particles change, `iso_volume` (iso_volume.comp) allocates the bricks of a sparse lattice where the particles
+//! reach and deposits their mass and neighbour counts there with a smooth kernel as wide as the smoothing; the
+//! cast (iso_vol.comp) reads them with a quadratic B-spline and blends them with the exact field where the water
+//! is not bulk. CPU reference: VolumeShape::{marked, deposit, sample}, smoothed_field in src/field/iso.rs.
 use std::sync::Arc;
 
 use ash::vk;
@@ -22,11 +23,9 @@ use crate::shaders;
 pub const NAME: &str = "iso";
 /// The weights' pass (shaders_glsl/iso_density.comp), recorded only when the particles changed.
 pub const DENSITY_NAME: &str = "iso_density";
-/// The smoothed field's sums (shaders_glsl/iso_volume.comp), recorded when the particles or `[iso] smoothing`,
-/// `bulk` or `voxel` changed.
+/// The smoothed field's sparse lattice (shaders_glsl/iso_volume.comp), recorded when the particles or
+/// `[iso] smoothing`, `bulk` or `voxel` changed.
 pub const VOLUME_NAME: &str = "iso_volume";
-/// The smoothed field's blur and blend (shaders_glsl/iso_blur.comp), recorded with `iso_volume`.
-pub const BLUR_NAME: &str = "iso_blur";
 
 /// Settings of the `iso` pass: the `[iso]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -61,16 +60,18 @@ pub struct Params {
     /// 1 r, or the step is longer than ¼ r. Isotropic kernels only (0: every pixel marches).
     pub fine_px: f32,
     /// Iso-surface: σ of a 3D Gaussian blur of the field where the water is bulk, particle radii (0: the exact
-    /// field). The field is then built once per set of particles on a lattice of `voxel` radii (`iso_volume`),
-    /// blurred (`iso_blur`) and ray-cast with trilinear samples: calm water loses the particle-scale bumps the
-    /// raw field has, spray keeps its droplets (see `bulk`). Isotropic kernels only.
+    /// field). The blurred field is then built once per set of particles on a sparse lattice of `voxel` radii
+    /// (`iso_volume`: bricks only where particles reach; `iso_blur`) and read with a cubic B-spline; the cast
+    /// blends it with the exact field by `bulk`: calm water loses the particle-scale bumps the raw field has,
+    /// spray and thin sheets keep their shape. Isotropic kernels only.
     pub smoothing: f32,
     /// Iso-surface smoothing: the blur's weight ramps (smoothstep) from 0 to 1 as the neighbour count c_j =
     /// Σ_k (1 − d²/h²) (splashsurf's feature weight), interpolated to the lattice, goes from bulk[0] to bulk[1]
     /// (bulk[1] ≤ bulk[0]: blur everywhere).
     pub bulk: [f32; 2],
-    /// Iso-surface smoothing: the lattice's spacing, particle radii (coarser where the grid's box would need more
-    /// than ISO_VOLUME_MAX_VOXELS, 16 M, voxels).
+    /// Iso-surface smoothing: the lattice's spacing, particle radii. The lattice holds only the blurred field
+    /// (σ ≈ 1.9 r with the default smoothing), which voxels of 2 r hold to within 1 % (docs/iso-surface.md);
+    /// never changed behind the user's back: a box too long for the brick table is an error that says so.
     pub voxel: f32,
 }
 
@@ -87,7 +88,7 @@ impl Default for Params {
             fine_px: 4.0,
             smoothing: 1.5,
             bulk: [4.0, 9.0],
-            voxel: 1.0,
+            voxel: 2.0,
         }
     }
 }
@@ -109,6 +110,8 @@ pub struct IsoBuffers {
     pub weighted: Buffer,
     /// Each point's anisotropic kernel (three vec4), written by the `anisotropy` pass.
     pub aniso: Buffer,
+    /// Each sorted point's neighbour count c_j (R32F), written by `iso_density`, read by `iso_volume`.
+    pub counts: Buffer,
     /// Grid shape as push constants.
     pub shape: IsoPush,
     /// The GPU grid (`grid` pass + `iso_gather`) that fills `points` and `cells` from the particle buffer;
@@ -129,56 +132,91 @@ pub struct IsoBuffers {
     pub volume_for: std::cell::Cell<Option<crate::field::iso::VolumeParams>>,
 }
 
-/// The smoothed iso field on its lattice (`iso_volume`, `iso_blur`), read by the volume cast.
+/// The smoothed iso field on its sparse lattice (`iso_volume`, `iso_blur`), read by the volume cast.
 pub struct IsoVolume {
     /// The lattice.
     pub shape: crate::field::iso::VolumeShape,
-    /// Two fixed-point sums per voxel (φ, Σ W c / n), R32UI texels.
+    /// Bricks the pool holds.
+    pub capacity: u32,
+    /// Per brick of the box: 0, or its pool index + 1 (R32UI texels).
+    pub table: Buffer,
+    /// {0, 1, 1, bricks}: the bricks allocated.
+    pub header: Buffer,
+    /// Two fixed-point sums per voxel of the pool, (B, B c̄): the field the cast reads (RG32UI texels).
     pub acc: Buffer,
-    /// The x blur's output, then the smoothed field F (R32F texels): what the cast samples.
-    pub field: Buffer,
-    /// The y blur's output (R32F texels).
-    pub tmp: Buffer,
-    /// Per brick of ISO_VOLUME_BRICK³ voxels: occupied flags, then active flags (R32UI texels).
-    pub bricks: Buffer,
 }
 
 impl IsoVolume {
-    /// Buffers for the lattice `shape`.
-    pub fn new(gpu: &Arc<Gpu>, shape: crate::field::iso::VolumeShape) -> Result<IsoVolume> {
-        // A quarter to spare for the next frames of a sequence, within ISO_VOLUME_MAX_VOXELS.
-        let max = crate::shader_constants::ISO_VOLUME_MAX_VOXELS as u64;
-        let spare = |n: u64, cap: u64| (n + n / 4).min(cap.max(n));
-        let n = spare(shape.voxels() as u64, max);
-        let bricks = spare(shape.bricks() as u64, max);
+    /// Buffers for the lattice `shape` with a pool of `capacity` bricks.
+    pub fn new(gpu: &Arc<Gpu>, shape: crate::field::iso::VolumeShape, capacity: u32) -> Result<IsoVolume> {
+        let voxels = capacity.max(1) as u64 * crate::field::iso::BRICK.pow(3) as u64;
+        let limit = gpu.info.max_storage_buffer_range.min(gpu.info.max_texel_buffer_elements * 8);
+        if 8 * voxels > limit {
+            return Err(crate::error::Error::Limit(format!(
+                "the smoothed iso field needs {capacity} bricks of {b}³ voxels ({} MiB of sums), more than this \
+                 device's largest buffer ({} MiB): set [iso] voxel larger (now {:.4} world units) or smoothing = 0 \
+                 (--preset quality: the exact field, no lattice)",
+                8 * voxels >> 20,
+                limit >> 20,
+                shape.spacing,
+                b = crate::field::iso::BRICK
+            )));
+        }
         // TRANSFER_DST: zeroed before each build; TRANSFER_SRC: the tests read the field back.
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
-            | vk::BufferUsageFlags::TRANSFER_DST
-            | vk::BufferUsageFlags::TRANSFER_SRC;
+        use vk::BufferUsageFlags as U;
+        let usage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
+        let table = shape.table_len() as u64;
+        let gpu_only = gpu_allocator::MemoryLocation::GpuOnly;
         Ok(IsoVolume {
             shape,
-            acc: Buffer::texels(gpu, "iso_volume_acc", 8 * n, usage, vk::Format::R32_UINT)?,
-            field: Buffer::texels(gpu, "iso_volume_field", 4 * n, usage, vk::Format::R32_SFLOAT)?,
-            tmp: Buffer::texels(gpu, "iso_volume_tmp", 4 * n, usage, vk::Format::R32_SFLOAT)?,
-            bricks: Buffer::texels(gpu, "iso_volume_bricks", 8 * bricks, usage, vk::Format::R32_UINT)?,
+            capacity,
+            table: Buffer::texels(gpu, "iso_volume_table", 4 * table, usage, vk::Format::R32_UINT)?,
+            header: Buffer::new(gpu, "iso_volume_header", 16, usage | U::INDIRECT_BUFFER, gpu_only)?,
+            acc: Buffer::texels(gpu, "iso_volume_acc", 8 * voxels, usage, vk::Format::R32G32_UINT)?,
         })
     }
 
-    /// Whether these buffers hold the lattice `shape`.
-    pub fn fits(&self, shape: &crate::field::iso::VolumeShape) -> bool {
-        self.field.size >= 4 * shape.voxels() as u64 && self.bricks.size >= 8 * shape.bricks() as u64
+    /// Whether these buffers hold the lattice `shape` with `bricks` allocated.
+    pub fn fits(&self, shape: &crate::field::iso::VolumeShape, bricks: u32) -> bool {
+        self.table.size >= 4 * shape.table_len() as u64 && self.capacity >= bricks
     }
 
-    /// `push` with this lattice in `aniso` (origin, spacing) and `aniso2.yzw` (voxels per axis), as
-    /// iso_field.glsl reads it.
-    pub fn push(&self, push: IsoPush) -> IsoPush {
-        let (o, d) = (self.shape.origin, self.shape.dims);
+    /// `push` with this lattice in `aniso` (origin, spacing), `aniso2.yzw` (bricks per axis) and `volume` (the
+    /// bulk ramp), as iso_field.glsl reads it.
+    pub fn push(&self, push: IsoPush, p: &crate::field::iso::VolumeParams) -> IsoPush {
+        let (o, b) = (self.shape.origin, self.shape.bricks);
         IsoPush {
             aniso: [o.x, o.y, o.z, self.shape.spacing],
-            aniso2: [0.0, d[0] as f32, d[1] as f32, d[2] as f32],
+            aniso2: [0.0, b[0] as f32, b[1] as f32, b[2] as f32],
+            volume: [p.bulk[0], p.bulk[1], 0.0, 0.0],
             ..push
         }
     }
+
+    /// The push constants of iso_volume.comp for `points` points.
+    pub fn vol_push(&self, p: &crate::field::iso::VolumeParams, points: u32) -> VolPush {
+        let (o, b) = (self.shape.origin, self.shape.bricks);
+        VolPush {
+            origin: [o.x, o.y, o.z, self.shape.spacing],
+            bdims: [b[0], b[1], b[2], self.capacity],
+            params: [p.deposit_scale(), p.deposit_radius() / self.shape.spacing, self.shape.taps as f32, 0.0],
+            misc: [points, 0, 0, 0],
+        }
+    }
+}
+
+/// Push constants of iso_volume.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VolPush {
+    /// xyz: voxel (0, 0, 0), w: spacing (world units).
+    pub origin: [f32; 4],
+    /// xyz: bricks per axis, w: the pool's capacity (bricks).
+    pub bdims: [u32; 4],
+    /// x: the deposit's scale I_W h³ / (0.6383 R³), y: R (voxels), z: ⌈R⌉.
+    pub params: [f32; 4],
+    /// x: points.
+    pub misc: [u32; 4],
 }
 
 impl IsoBuffers {
@@ -222,6 +260,8 @@ pub struct IsoPush {
     /// first dispatch's rays, 1: the fine dispatch's fallbacks), z: the widest spread of the marched neighbours'
     /// depths, w: the longest Newton step (world units).
     pub fine: [f32; 4],
+    /// The smoothed field's cast: xy: the bulk ramp of c̄.
+    pub volume: [f32; 4],
 }
 
 impl IsoPush {
@@ -241,6 +281,7 @@ impl IsoPush {
             aniso: [0.0; 4],
             aniso2: [1.0, 0.0, 0.0, 0.0],
             fine: [0.0; 4],
+            volume: [0.0; 4],
         }
     }
 
@@ -279,20 +320,9 @@ pub struct Iso {
     fine: ComputeProgram<IsoPush>,
     grid: crate::passes::grid::Grid,
     gather: ComputeProgram<GatherPush>,
-    volume: ComputeProgram<IsoPush>,
-    blur: [ComputeProgram<BlurPush>; 4],
+    volume: [ComputeProgram<VolPush>; 3],
     cast_vol: ComputeProgram<IsoPush>,
     rest_vol: ComputeProgram<IsoPush>,
-}
-
-/// Push constants of iso_blur.comp.
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct BlurPush {
-    /// Voxels per axis, w: the axis blurred.
-    pub dims: [u32; 4],
-    /// x: 1 / (2 σ²) in voxels², y: taps either side, z, w: the bulk ramp.
-    pub params: [f32; 4],
 }
 
 /// Push constants of iso_gather.comp.
@@ -308,8 +338,8 @@ pub struct GatherPush {
 // Gather: particles, order, start, counts → sorted points, cell table.
 declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 
-// Density: frame, grid points, cell table → the weighted points (xyz, 1/n_j).
-declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite]));
+// Density: frame, grid points, cell table → the weighted points (xyz, 1/n_j), the neighbour counts c_j.
+declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite, BufWrite]));
 // Ray cast: frame, the weighted points, the cell table, depth (read as the start, written as the surface), back
 // depth, the queue of unfinished rays and its header (written).
 declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
@@ -326,18 +356,14 @@ declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uni
 // the surface curves) and queues those it cannot trust (round 1) for a second `rest`.
 declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 
-// The smoothed field: frame, weighted points, cells → the fixed-point sums (atomics).
-// … and the bricks' occupied flags.
-declare_program!(pub VOLUME: IsoPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, BufWrite, BufWrite]));
-// Its blur: the bricks' occupied flags → active flags; then one axis per dispatch (each skipping the inactive
-// bricks): the sums → x; x → y; y and the sums → the field.
-declare_program!(pub BLUR_BRICKS: BlurPush = compute(shaders::ISO_BLUR_BRICKS, [Uniform, BufWrite]));
-declare_program!(pub BLUR_FIRST: BlurPush = compute(shaders::ISO_BLUR_FIRST, [Uniform, TexelRead, BufWrite, TexelRead]));
-declare_program!(pub BLUR: BlurPush = compute(shaders::ISO_BLUR, [Uniform, TexelRead, BufWrite, TexelRead]));
-declare_program!(pub BLUR_LAST: BlurPush = compute(shaders::ISO_BLUR_LAST, [Uniform, TexelRead, TexelRead, BufWrite, TexelRead]));
-// The casts over the smoothed field: frame, field, depth, back, queue, header.
-declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
-declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+// The smoothed field: the weighted points mark the bricks they need in the table; the marked bricks take pool
+// indices (the header counts them); the points deposit their sums (integer atomics).
+declare_program!(pub VOLUME_MARK: VolPush = compute(shaders::ISO_VOLUME_MARK, [Uniform, TexelRead, BufWrite]));
+declare_program!(pub VOLUME_ALLOC: VolPush = compute(shaders::ISO_VOLUME_ALLOC, [Uniform, BufWrite, BufWrite]));
+declare_program!(pub VOLUME: VolPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
+// The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
+declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead]));
+declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
@@ -379,12 +405,10 @@ impl Iso {
             fine: ComputeProgram::new(gpu, &FINE)?,
             grid: crate::passes::grid::Grid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
-            volume: ComputeProgram::new(gpu, &VOLUME)?,
-            blur: [
-                ComputeProgram::new(gpu, &BLUR_BRICKS)?,
-                ComputeProgram::new(gpu, &BLUR_FIRST)?,
-                ComputeProgram::new(gpu, &BLUR)?,
-                ComputeProgram::new(gpu, &BLUR_LAST)?,
+            volume: [
+                ComputeProgram::new(gpu, &VOLUME_MARK)?,
+                ComputeProgram::new(gpu, &VOLUME_ALLOC)?,
+                ComputeProgram::new(gpu, &VOLUME)?,
             ],
             cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,
             rest_vol: ComputeProgram::new(gpu, &REST_VOL)?,
@@ -423,43 +447,33 @@ impl Iso {
         }
         ctx.pass(DENSITY_NAME, |ctx| {
             let n = b.shape.dims[3];
-            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weighted).into()];
+            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weighted).into(), (&b.counts).into()];
             self.density.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(super::LOCAL_1D), 1, 1]);
         });
     }
 
-    /// When `b`'s smoothed field is stale for `p` (new particles or parameters): `iso_volume` (the sums on the
-    /// lattice) and `iso_blur` (three axes, the last blending by c̄), each with its own timestamp. Like the
-    /// weights, the field depends on the particles alone: a static set builds it once.
+    /// When `b`'s smoothed field is stale for `p` (new particles or parameters): `iso_volume` (the bricks
+    /// marked and allocated, the sums deposited), with its own timestamp. Like the weights, the field depends
+    /// on the particles alone: a static set builds it once.
     pub fn record_volume(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::field::iso::VolumeParams) {
         let Some(v) = &b.volume else { return };
         if b.volume_for.get() == Some(*p) {
             return;
         }
         b.volume_for.set(Some(*p));
+        let n = b.shape.dims[3];
+        let per_point = [n.div_ceil(super::LOCAL_1D), 1, 1];
         ctx.pass(VOLUME_NAME, |ctx| {
+            ctx.fill(&v.table, 0);
+            ctx.fill(&v.header, 0);
             ctx.fill(&v.acc, 0);
-            ctx.fill(&v.bricks, 0);
-            let n = b.shape.dims[3];
-            let bufs = [frame.into(), (&b.weighted).into(), (&b.cells).into(), (&v.acc).into(), (&v.bricks).into()];
-            self.volume.dispatch(ctx, &bufs, &v.push(b.shape), [n.div_ceil(super::LOCAL_1D), 1, 1]);
-        });
-        ctx.pass(BLUR_NAME, |ctx| {
-            let d = v.shape.dims;
-            let s = p.sigma / v.shape.spacing;
-            let taps = p.taps(v.shape.spacing) as f32;
-            let push = |axis| BlurPush {
-                dims: [d[0], d[1], d[2], axis],
-                params: [1.0 / (2.0 * s * s), taps, p.bulk[0], p.bulk[1]],
-            };
-            let groups = [d[0].div_ceil(super::LOCAL_1D), d[1], d[2]];
-            let bricks = [(v.shape.bricks() as u32).div_ceil(super::LOCAL_1D), 1, 1];
-            self.blur[0].dispatch(ctx, &[frame.into(), (&v.bricks).into()], &push(0), bricks);
-            let br = (&v.bricks).into();
-            self.blur[1].dispatch(ctx, &[frame.into(), (&v.acc).into(), (&v.field).into(), br], &push(0), groups);
-            self.blur[2].dispatch(ctx, &[frame.into(), (&v.field).into(), (&v.tmp).into(), br], &push(1), groups);
-            let last = [frame.into(), (&v.tmp).into(), (&v.acc).into(), (&v.field).into(), br];
-            self.blur[3].dispatch(ctx, &last, &push(2), groups);
+            let push = v.vol_push(p, n);
+            self.volume[0].dispatch(ctx, &[frame.into(), (&b.weighted).into(), (&v.table).into()], &push, per_point);
+            let table = [(v.shape.table_len() as u32).div_ceil(super::LOCAL_1D), 1, 1];
+            let alloc = [frame.into(), (&v.table).into(), (&v.header).into()];
+            self.volume[1].dispatch(ctx, &alloc, &push, table);
+            let dep = [frame.into(), (&b.weighted).into(), (&b.counts).into(), (&v.table).into(), (&v.acc).into()];
+            self.volume[2].dispatch(ctx, &dep, &push, per_point);
         });
     }
 
@@ -490,9 +504,9 @@ impl Iso {
             push.fine[0] = 0.0;
         }
         // The smoothed field: its lattice in the push constants; no coarse-to-fine (no field gradient there).
-        let volume = b.volume.as_ref().filter(|_| params.volume.is_some());
-        if let Some(v) = volume {
-            push = v.push(push);
+        let volume = b.volume.as_ref().zip(params.volume.as_ref());
+        if let Some((v, vp)) = volume {
+            push = v.push(push, vp);
             push.fine[0] = 0.0;
         }
         // Without a back image the binding still needs an image: the depth itself (never read then).
@@ -510,8 +524,9 @@ impl Iso {
                     all.push((&b.aniso).into());
                     (&self.cast_aniso, &self.rest_aniso)
                 }
-                (None, Some(v)) => {
-                    all = vec![frame.into(), (&v.field).into(), depth.into(), back_img.into(), q, h];
+                (None, Some((v, _))) => {
+                    all.push((&v.table).into());
+                    all.push((&v.acc).into());
                     (&self.cast_vol, &self.rest_vol)
                 }
                 (None, None) => (&self.cast, &self.rest),

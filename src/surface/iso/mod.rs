@@ -84,6 +84,7 @@ impl Grid {
                 cells: buf("iso_cells", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
                 weighted: buf("iso_weighted", cap as u64 * 16, IsoBuffers::WEIGHTED)?,
                 aniso: buf("iso_aniso", cap as u64 * 48, IsoBuffers::ANISO)?,
+                counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
                 shape: push,
                 gpu: Some(crate::passes::grid::GridBuffers::new(gpu, shape, cap)?),
                 rebuild: std::cell::Cell::new(true),
@@ -118,12 +119,14 @@ impl Grid {
         };
         let weighted = buf("iso_weighted", 16, IsoBuffers::WEIGHTED)?;
         let aniso = buf("iso_aniso", 48, IsoBuffers::ANISO)?;
+        let counts = buf("iso_counts", 4, vk::Format::R32_SFLOAT)?;
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.buffers = Some(IsoBuffers {
             points,
             cells,
             weighted,
             aniso,
+            counts,
             shape,
             gpu: None,
             rebuild: std::cell::Cell::new(false),
@@ -136,8 +139,11 @@ impl Grid {
         Ok(())
     }
 
-    /// The smoothed field's lattice for the grid's box, when `[iso] smoothing` asks for it: (re)allocated when
-    /// the box or the spacing changed (its field is then stale); dropped when smoothing is off.
+    /// The smoothed field's sparse lattice for the grid's box, when `[iso] smoothing` asks for it: its pool
+    /// sized for the bricks the particles need (counted here by the rule iso_volume marks them with, so memory
+    /// follows the water, not the box; particles written on the GPU, whose positions the host does not have,
+    /// get every brick of their box), (re)allocated when the box or the count outgrows it (its field is then
+    /// stale); dropped when smoothing is off.
     pub fn ensure_volume(&mut self, p: &Prepare, s: &Settings) -> Result<()> {
         let Some(b) = &mut self.buffers else { return Ok(()) };
         let Some(params) = s.iso_params().volume else {
@@ -150,19 +156,33 @@ impl Grid {
         let (o, d) = (b.shape.origin, b.shape.dims);
         let lo = glam::Vec3::new(o[0], o[1], o[2]);
         let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
-        let shape = field::VolumeShape::around(lo, hi, b.shape.support(), &params);
-        if b.volume.as_ref().is_some_and(|v| v.shape == shape) {
+        let shape = field::VolumeShape::around(lo, hi, &params).map_err(crate::error::Error::Limit)?;
+        let unchanged = b.volume.as_ref().is_some_and(|v| v.shape == shape);
+        if unchanged && b.volume_for.get().is_some() {
             return Ok(());
         }
-        // A sequence's box moves every frame: the buffers are kept while they hold the new lattice (their field
-        // is rebuilt for the new particles anyway), and grow by a quarter when they do not.
-        if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape)) {
+        let bricks = if p.particles.is_external() {
+            shape.table_len()
+        } else {
+            let pts = p.particles.positions().iter().map(|x| glam::Vec3::from(*x));
+            shape.marked(pts).iter().filter(|&&m| m).count()
+        } as u32;
+        // A sequence's box and bricks change every frame: the buffers are kept while they hold the new lattice
+        // (its field is rebuilt for the new particles anyway), and grow by a quarter when they do not.
+        if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape, bricks)) {
             v.shape = shape;
             b.volume_for.set(None);
             return Ok(());
         }
         p.executor.wait_idle()?;
-        b.volume = Some(crate::passes::iso::IsoVolume::new(p.gpu, shape)?);
+        b.volume = None;
+        let spare = if p.particles.is_external() { bricks } else { bricks + bricks / 4 };
+        let mut table = shape;
+        // The table too gets a quarter to spare (its box moves with the water).
+        table.bricks = shape.bricks.map(|n| n + n / 8);
+        let mut v = crate::passes::iso::IsoVolume::new(p.gpu, table, spare.max(1))?;
+        v.shape = shape;
+        b.volume = Some(v);
         b.volume_for.set(None);
         Ok(())
     }

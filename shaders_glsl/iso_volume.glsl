@@ -1,0 +1,26 @@
+//! iso_volume.glsl — the sparse lattice of the smoothed iso field (`[iso] smoothing` > 0): voxels of
+//! `[iso] voxel` radii in bricks of ISO_VOLUME_BRICK³ (8³), allocated only where particles reach. A dense
+//! table over the lattice's box at brick resolution holds, per brick, 0 (no brick: every value there is 0) or
+//! its index in the pool + 1; the pool holds the allocated bricks' voxels, x fastest within a brick. Shared by
+//! iso_volume.comp (mark, allocate, deposit) and the cast (iso_field.glsl with ISO_VOLUME).
+//! CPU reference: VolumeShape in src/field/iso.rs.
+//! The including shader defines ISO_TABLE(i) → uint, the table's entry i.
+
+#define ISO_BRICK_VOXELS (ISO_VOLUME_BRICK * ISO_VOLUME_BRICK * ISO_VOLUME_BRICK)
+const uint ISO_NONE = 0xffffffffu;
+
+/// The pool index of brick b's first voxel, or ISO_NONE where no brick is allocated (or b is outside the
+/// table, `bd` bricks per axis).
+uint iso_brick_base(ivec3 b, ivec3 bd) {
+    if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, bd))) return ISO_NONE;
+    uint e = ISO_TABLE(b.x + bd.x * (b.y + bd.y * b.z));
+    return e == 0u ? ISO_NONE : (e - 1u) * uint(ISO_BRICK_VOXELS);
+}
+
+/// The pool index of voxel g (lattice coordinates), or ISO_NONE (its value is 0).
+uint iso_voxel_slot(ivec3 g, ivec3 bd) {
+    uint base = iso_brick_base(g >> 3, bd);
+    if (base == ISO_NONE) return ISO_NONE;
+    ivec3 l = g & 7;
+    return base + uint(l.x + 8 * (l.y + 8 * l.z));
+}
