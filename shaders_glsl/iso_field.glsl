@@ -45,7 +45,7 @@ layout(push_constant) uniform IsoPush {
     vec4 fine;    // coarse-to-fine (iso_cast.glsl): x: particle radius ÷ its least radius on screen in pixels
                   // (0: off), y: iso_fine's phase / iso_rest's round, z: the widest depth spread of the
                   // marched neighbours, w: the longest Newton step (both world units)
-    vec4 volume;  // the smoothed field (iso_vol): xy: the bulk ramp of c̄
+    vec4 volume;  // the smoothed field (iso_vol): xy: the bulk ramp of c̄, z: the bound of |∇B| (1 / world units)
 } pc;
 
 /// Cubic spline without its constant (it cancels in φ); q = distance / support.
@@ -160,18 +160,20 @@ vec2 iso_volume_at(vec3 x) {
     return s * (1.0 / float(1u << ISO_VOLUME_FIX_BITS));
 }
 
-/// The cast's field sample F = φ + w(c̄) (B − φ). `dmin`: where w = 0 (spray: F is the exact field) the
-/// nearest point's distance, so the march skips empty space there as the exact cast does; elsewhere 0 (the
-/// march takes its smallest steps: B may reach past the bound spheres).
+/// The cast's field sample F = φ + w(c̄) (B − φ), and how far the march may skip (as `dmin`: the march steps
+/// by dmin − bound, at least its smallest step). Where w < 1 the exact sum gives the nearest point's
+/// distance, as iso.comp skips by (the smoothed part there is thin water's: it does not reach past the
+/// bound spheres). Where w = 1, F = B, whose gradient is at most pc.volume.z (ISO_VOLUME_LIPSCHITZ / R), so no
+/// crossing lies nearer than (threshold − B) / that.
 float iso_sum(vec3 x, bool weighted, out float dmin) {
     vec2 bc = iso_volume_at(x);
     float cbar = bc.x > 0.0 ? bc.y / bc.x : 0.0;
     float w = pc.volume.y > pc.volume.x ? smoothstep(pc.volume.x, pc.volume.y, cbar) : 1.0;
-    dmin = 0.0;
-    if (w >= 1.0) return bc.x;
-    float d;
-    float phi = iso_sum_points(x, true, d);
-    if (w <= 0.0) dmin = d;
+    if (w >= 1.0) {
+        dmin = pc.params.w + max(pc.params.y - bc.x, 0.0) / pc.volume.z;
+        return bc.x;
+    }
+    float phi = iso_sum_points(x, true, dmin);
     return phi + w * (bc.x - phi);
 }
 #else

@@ -1169,11 +1169,11 @@ fn smoothed_iso_field_matches_cpu() {
     }
     assert!(bulk > 100 && raw > 0, "{bulk} blurred and {raw} raw voxels inside the water");
     // The lone droplet keeps its exact field: the sphere of φ = 0.6 (radius ≈ 1.24 r), not a blurred-away blob.
-    let at = smoothed_field(&grid, &inv, &shape, &field, &vp, glam::Vec3::from(lone)).0;
+    let at = smoothed_field(&grid, &inv, &shape, &field, &p, glam::Vec3::from(lone)).0;
     assert!(at > 0.6, "the droplet's centre: field {at}");
 
     let cast =
-        |eye, dir, start, end| march(|x| smoothed_field(&grid, &inv, &shape, &field, &vp, x), &p, eye, dir, start, end);
+        |eye, dir, start, end| march(|x| smoothed_field(&grid, &inv, &shape, &field, &p, x), &p, eye, dir, start, end);
     check_cast(&got, &pts, &v, &s, (w, h), |eye, dir| ray_end(&grid, eye, dir), cast, "smoothed", (0.01, 0.99));
     assert_clean(&gpu);
 }

@@ -5,7 +5,9 @@
 # (dambreak59k_f20_smooth_ref_depth.npy). Prints one markdown table per reference (issue #15: the tables are
 # produced by this script, never typed in). Each configuration is rendered once; its `smooth`/`iso`/
 # `anisotropy` GPU ms are this machine's (benchmarks: `meniscus bench`).
-# Usage: tools/quality.sh [extra render args…]; CONFIGS="name|render args;…" replaces the list.
+# Usage: tools/quality.sh [extra render args…]; CONFIGS="name|render args;…" replaces the list; SCENE picks the
+# reference (dambreak59k_f20, the default; ddbs25k_f12 or ddbs25k_f16: the double dam break around a sphere,
+# ../shared/data/quality/README.md gives their files, radii and cameras).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=${MENISCUS_SHARED:-../shared}
@@ -14,7 +16,15 @@ if [ ! -x "$q" ]; then
     CARGO_TARGET_DIR=/tmp/meniscus-quality cargo build --release --quiet --manifest-path "$shared/tools/quality/Cargo.toml"
     q=/tmp/meniscus-quality/release/quality
 fi
-frame="$shared/data/splishsplash/dambreak_59k/partio/ParticleData_Fluid_20.bgeo"
+scene=${SCENE:-dambreak59k_f20}
+case "$scene" in
+    dambreak59k_f20) frame="$shared/data/splishsplash/dambreak_59k/partio/ParticleData_Fluid_20.bgeo"
+        radius=0.0125; camera=0,2.5,6:0,0.3,0:45 ;;
+    ddbs25k_f12 | ddbs25k_f16)
+        frame="$shared/data/splishsplash/doubledambreak_sphere_25k/partio/ParticleData_Fluid_${scene##*_f}.bgeo"
+        radius=0.02; camera=2.6,2.4,3.6:0,0.7,0:45 ;;
+    *) echo "quality.sh: unknown SCENE $scene (dambreak59k_f20, ddbs25k_f12, ddbs25k_f16)" >&2; exit 1 ;;
+esac
 [ -f "$frame" ] || { echo "quality.sh: missing $frame" >&2; exit 1; }
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -48,7 +58,7 @@ for c in "${configs[@]}"; do
     args=${c#*|}
     # shellcheck disable=SC2086
     rm -f "$out/c.smoothed.npy"
-    if ! timings=$(target/release/meniscus render "$frame" --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --width 960 \
+    if ! timings=$(target/release/meniscus render "$frame" --radius "$radius" --camera "$camera" --width 960 \
         --height 540 $args --out "$out/c.png" --dump smoothed --timings "$@" 2>"$out/err"); then
         echo "quality.sh: the render of \"$name\" ($args) failed:" >&2
         cat "$out/err" >&2
@@ -56,19 +66,19 @@ for c in "${configs[@]}"; do
     fi
     ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
     for ref in ref smooth_ref; do
-        rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_${ref}_depth.npy" \
-            --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius 0.0125 | tail -n 1 |
-            python3 -c "import json,sys; d=json.load(sys.stdin); print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (d['iou'], d['depth_median_abs']/0.0125, d['depth_p90_abs']/0.0125, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
+        rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/${scene}_${ref}_depth.npy" \
+            --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius "$radius" | tail -n 1 |
+            python3 -c "import json,sys; d=json.load(sys.stdin); r=$radius; print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (d['iou'], d['depth_median_abs']/r, d['depth_p90_abs']/r, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
     done
 done
 # The yardstick: splashsurf's own unsmoothed surface (the raw reference) measured against its smoothed one — the
 # same reconstruction without the mesh smoothing, i.e. what any unsmoothed surface of the field can reach.
-rows[smooth_ref]+=$("$q" compare --ref-depth "$shared/data/quality/dambreak59k_f20_smooth_ref_depth.npy" \
-    --depth "$shared/data/quality/dambreak59k_f20_ref_depth.npy" --normals-from-depth --ref-normals-from-depth \
-    --radius 0.0125 | tail -n 1 |
-    python3 -c "import json,sys; d=json.load(sys.stdin); print('| splashsurf raw reference (yardstick) | %.3f | %.2f | %.2f | %.1f | %.1f | – |' % (d['iou'], d['depth_median_abs']/0.0125, d['depth_p90_abs']/0.0125, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
+rows[smooth_ref]+=$("$q" compare --ref-depth "$shared/data/quality/${scene}_smooth_ref_depth.npy" \
+    --depth "$shared/data/quality/${scene}_ref_depth.npy" --normals-from-depth --ref-normals-from-depth \
+    --radius "$radius" | tail -n 1 |
+    python3 -c "import json,sys; d=json.load(sys.stdin); r=$radius; print('| splashsurf raw reference (yardstick) | %.3f | %.2f | %.2f | %.1f | %.1f | – |' % (d['iou'], d['depth_median_abs']/r, d['depth_p90_abs']/r, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
 for ref in ref smooth_ref; do
-    printf '\n### against dambreak59k_f20_%s_depth.npy\n\n' "$ref"
+    printf '\n### against %s_%s_depth.npy\n\n' "$scene" "$ref"
     printf '| surface + filter | IoU | depth median (r) | depth p90 (r) | normal median (°) | normal p90 (°) | GPU ms |\n|---|---:|---:|---:|---:|---:|---|\n'
     printf '%s' "${rows[$ref]}"
 done

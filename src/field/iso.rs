@@ -443,6 +443,13 @@ impl VolumeParams {
         (self.deposit_radius() / self.spacing).ceil() as u32
     }
 
+    /// A bound of |∇B| (1 / world units): water of density ρ ≤ 1.5 (the colour field's units; 1 at rest) under
+    /// the kernel, whose 1D marginal peaks at 2π / (8 · 0.6383 R) = 1.23 / R, the B-spline read only lowering
+    /// it. The cast skips (threshold − B) / this where the water is bulk.
+    pub fn gradient_bound(&self) -> f32 {
+        1.5 * 1.2304 / self.deposit_radius()
+    }
+
     /// The deposit's scale: a particle's mass I_W h³ (÷ n_j) times the kernel's normalisation 1 / (0.6383 R³).
     pub fn deposit_scale(&self) -> f32 {
         KERNEL_INTEGRAL * self.support.powi(3) / (DEPOSIT_INTEGRAL * self.deposit_radius().powi(3))
@@ -612,24 +619,26 @@ impl VolumeShape {
 }
 
 /// The smoothed iso field at x (the volume cast's sample, iso_field.glsl): F = φ + w(c̄) (B − φ) with B and
-/// B c̄ read from the lattice, φ the exact field (summed only where w < 1); and the nearest point's distance
-/// where w = 0 (F is the exact field there: the march may skip), else 0.
+/// B c̄ read from the lattice, φ the exact field (summed only where w < 1); and how far the march may skip, as
+/// the distance `march` takes less `c.bound`: the nearest point's distance where w < 1, else `c.bound` +
+/// (threshold − B) / [`VolumeParams::gradient_bound`].
 pub fn smoothed_field(
     grid: &IsoGrid,
     inv_n: &[f32],
     shape: &VolumeShape,
     field: &[[f32; 2]],
-    p: &VolumeParams,
+    c: &IsoParams,
     x: Vec3,
 ) -> (f32, f32) {
+    let p = c.volume.expect("the smoothed field's parameters");
     let [b, bc] = shape.sample(field, x);
     let cbar = if b > 0.0 { bc / b } else { 0.0 };
     let w = bulk_weight(cbar, p.bulk);
     if w >= 1.0 {
-        return (b, 0.0);
+        return (b, c.bound + (c.threshold - b).max(0.0) / p.gradient_bound());
     }
     let (phi, d) = grid.field(x, inv_n);
-    (phi + w * (b - phi), if w <= 0.0 { d } else { 0.0 })
+    (phi + w * (b - phi), d)
 }
 
 impl IsoGrid {

@@ -239,7 +239,51 @@ fn cstr_of(raw: &[std::ffi::c_char]) -> String {
     unsafe { CStr::from_ptr(raw.as_ptr()) }.to_string_lossy().into_owned()
 }
 
+/// Every live GPU allocation of a device, by name (the name each buffer and image was created with: `iso_volume_acc`,
+/// `sim_positions`, `depth`, …), from the allocator's own report.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct MemoryReport {
+    /// (name, bytes) summed over allocations of the same name, largest first.
+    pub allocations: Vec<(String, u64)>,
+    /// Bytes of all live allocations.
+    pub allocated_bytes: u64,
+    /// Bytes of the device memory blocks they live in (what the driver holds).
+    pub reserved_bytes: u64,
+}
+
+impl MemoryReport {
+    /// A table: one row per name, then the totals (MB = 10⁶ bytes).
+    pub fn table(&self) -> String {
+        let mut s = String::from("| allocation | MB |\n|---|---:|\n");
+        for (n, b) in &self.allocations {
+            s.push_str(&format!("| {n} | {:.2} |\n", *b as f64 / 1e6));
+        }
+        s.push_str(&format!("| **total allocated** | **{:.2}** |\n", self.allocated_bytes as f64 / 1e6));
+        s.push_str(&format!("| device memory blocks | {:.2} |\n", self.reserved_bytes as f64 / 1e6));
+        s
+    }
+}
+
 impl Gpu {
+    /// Every live allocation by name, and the totals.
+    pub fn memory_report(&self) -> MemoryReport {
+        let Ok(al) = self.allocator.lock() else { return MemoryReport::default() };
+        let r = al.generate_report();
+        let mut by: Vec<(String, u64)> = vec![];
+        for a in &r.allocations {
+            match by.iter_mut().find(|(n, _)| *n == a.name) {
+                Some(e) => e.1 += a.size,
+                None => by.push((a.name.clone(), a.size)),
+            }
+        }
+        by.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        MemoryReport {
+            allocations: by,
+            allocated_bytes: r.total_allocated_bytes,
+            reserved_bytes: r.total_capacity_bytes,
+        }
+    }
+
     /// Create the instance and device. Errors (never panics) when no loader or device is found.
     pub fn new(opts: &GpuOptions) -> Result<Arc<Gpu>> {
         let validation_wanted =

@@ -188,7 +188,7 @@ impl IsoVolume {
         IsoPush {
             aniso: [o.x, o.y, o.z, self.shape.spacing],
             aniso2: [0.0, b[0] as f32, b[1] as f32, b[2] as f32],
-            volume: [p.bulk[0], p.bulk[1], 0.0, 0.0],
+            volume: [p.bulk[0], p.bulk[1], p.gradient_bound(), 0.0],
             ..push
         }
     }
@@ -260,7 +260,7 @@ pub struct IsoPush {
     /// first dispatch's rays, 1: the fine dispatch's fallbacks), z: the widest spread of the marched neighbours'
     /// depths, w: the longest Newton step (world units).
     pub fine: [f32; 4],
-    /// The smoothed field's cast: xy: the bulk ramp of c̄.
+    /// The smoothed field's cast: xy: the bulk ramp of c̄, z: the bound of |∇B| (VolumeParams::gradient_bound).
     pub volume: [f32; 4],
 }
 

@@ -38,6 +38,11 @@ pub struct Workload {
     pub distance: f32,
     /// An explicit camera (overrides `distance`).
     pub camera: Option<Camera>,
+    /// A sequence's frames (from its first, in order): every rendered frame, warm-up included, takes the next
+    /// one (cycling), so the passes that run when the particles change (the grid, the iso weights, the
+    /// smoothed field) are measured in every frame, as `render` of a sequence pays them. Empty: one set of
+    /// particles for every frame.
+    pub sequence: Vec<Particles>,
 }
 
 /// Statistics of one series of milliseconds.
@@ -99,6 +104,10 @@ pub struct Entry {
     /// The queue every pass ran on ("main" or "compute").
     pub pass_queues: Vec<(String, String)>,
     pub rss_after_frames_bytes: Option<u64>,
+    /// Every live GPU allocation by name after the measured frames, and the totals (the allocator's report:
+    /// grids, the smoothed field's lattice, simulation buffers, images). With `--also-presets` it covers every
+    /// renderer of the run (they share the device).
+    pub gpu_memory: meniscus::gpu::MemoryReport,
 }
 
 /// The whole benchmark run.
@@ -150,7 +159,7 @@ pub fn measure(
 ) -> Result<Entry> {
     let mut series = Series::new(r, w, width, height, s, variant)?;
     for k in 0..warmup + frames.max(1) {
-        series.frame(r, k < warmup, k + 1 == warmup)?;
+        series.frame(r, w, k < warmup, k + 1 == warmup)?;
     }
     series.finish(r, w, warmup, frames)
 }
@@ -175,7 +184,7 @@ pub fn measure_interleaved(
     }
     for k in 0..warmup + frames.max(1) {
         for (r, x) in rs.iter_mut().zip(&mut series) {
-            x.frame(r, k < warmup, k + 1 == warmup)?;
+            x.frame(r, w, k < warmup, k + 1 == warmup)?;
         }
     }
     rs.iter_mut().zip(series).map(|(r, x)| x.finish(r, w, warmup, frames)).collect()
@@ -194,6 +203,8 @@ struct Series {
     union_ms: Vec<f64>,
     pass_queues: Vec<(String, String)>,
     rss_after_warmup: Option<u64>,
+    /// Frames rendered (the next sequence frame to upload).
+    rendered: usize,
 }
 
 impl Series {
@@ -222,11 +233,17 @@ impl Series {
             union_ms: vec![],
             pass_queues: vec![],
             rss_after_warmup: rss_bytes(),
+            rendered: 0,
         })
     }
 
     /// Render one frame; a warm-up frame is not recorded (`last_warmup`: note the memory after it).
-    fn frame(&mut self, r: &mut Renderer, warmup: bool, last_warmup: bool) -> Result<()> {
+    fn frame(&mut self, r: &mut Renderer, w: &Workload, warmup: bool, last_warmup: bool) -> Result<()> {
+        if !w.sequence.is_empty() {
+            // The upload is recorded into the frame (its copy is on the GPU clock, not in a pass).
+            r.set_scene_particles(&w.sequence[self.rendered % w.sequence.len()], &self.s)?;
+        }
+        self.rendered += 1;
         let t0 = Instant::now();
         let spans = r.render_spans(&self.view, &self.s)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -302,6 +319,7 @@ impl Series {
             union_ms: Stat::of(&self.union_ms),
             pass_queues: self.pass_queues,
             rss_after_frames_bytes: rss_bytes(),
+            gpu_memory: r.gpu.memory_report(),
         })
     }
 }
@@ -343,6 +361,25 @@ pub fn markdown(entries: &[Entry]) -> String {
             e.memory_fluid_images_bytes as f64 / 1e6
         ));
     }
+    // GPU memory: every live allocation after each workload's last entry (the JSON has them per entry).
+    for (i, e) in entries.iter().enumerate() {
+        let last = entries.get(i + 1).is_none_or(|n| n.scene != e.scene || n.width != e.width || n.height != e.height);
+        if last {
+            let m = &e.gpu_memory;
+            let top: Vec<String> =
+                m.allocations.iter().take(8).map(|(n, b)| format!("{n} {:.1}", *b as f64 / 1e6)).collect();
+            s.push_str(&format!(
+                "\nGPU memory after {} {}×{} (every live allocation of the run): {:.1} MB allocated ({:.1} MB of device \
+                 blocks); largest, MB: {}\n",
+                e.scene,
+                e.width,
+                e.height,
+                m.allocated_bytes as f64 / 1e6,
+                m.reserved_bytes as f64 / 1e6,
+                top.join(", ")
+            ));
+        }
+    }
     s
 }
 
@@ -366,9 +403,16 @@ pub struct BenchArgs {
     #[arg(long, default_value = "default")]
     preset: String,
     /// Comma-separated workloads: wave, crown1 (38,146), crown2 (157,944), waterfall (819,417), worst (a block
-    /// filling the screen), any built-in scene as NAME or NAME:COUNT, or a particle file.
+    /// filling the screen), any built-in scene as NAME or NAME:COUNT, a particle file, or a sequence (a pattern
+    /// with {}, a folder or a glob): every rendered frame then takes the sequence's next frame, so the work
+    /// done when particles change (grid, iso weights, smoothed field) is in every measured frame.
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
+    /// Sequence workloads: frames FIRST..LAST[:STEP] (inclusive, by the numbers in the file names) instead of
+    /// the sequence's first warm-up + measured frames; the radius and camera are fitted to its first frame as
+    /// `render` fits them.
+    #[arg(long = "sequence-frames", value_name = "RANGE")]
+    sequence_frames: Option<String>,
     /// Comma-separated WIDTHxHEIGHT list.
     #[arg(long, value_delimiter = ',')]
     resolutions: Vec<String>,
@@ -466,11 +510,26 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                     background_obj: None,
                     no_scene_json: false,
                 };
-                let job = Job::open(&scene_args, &a.load, base.clone(), Select::default())?;
-                let label = Path::new(&job.label)
+                let range =
+                    a.sequence_frames.as_deref().map(meniscus::scene::sequence::FrameRange::parse).transpose()?;
+                let job = Job::open(&scene_args, &a.load, base.clone(), Select { range, shard: None })?;
+                let mut label = Path::new(&job.label)
                     .file_name()
                     .map(|f| f.to_string_lossy().into_owned())
                     .unwrap_or(job.label.clone());
+                // A sequence: its first warm-up + measured frames, each rendered frame a new one.
+                let mut sequence = vec![];
+                if let Some(frames) = &job.frames {
+                    let n = (a.warmup + a.frames.max(1)) as usize;
+                    for f in frames.iter().take(n) {
+                        sequence.push(
+                            meniscus::scene::load_with(&f.path, &job.load)
+                                .with_context(|| format!("{}", f.path.display()))?,
+                        );
+                    }
+                    let (lo, hi) = (frames[0].number, frames[sequence.len().max(1) - 1].number);
+                    label = format!("{label} (frames {lo}…{hi}, a new one every frame)");
+                }
                 return Ok((
                     Workload {
                         label,
@@ -478,6 +537,7 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                         radius: job.settings.radius,
                         distance: 1.0,
                         camera: job.camera,
+                        sequence,
                     },
                     Some(job),
                 ));
@@ -485,7 +545,7 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
         }
     };
     let g = procedural::generate(scene, count)?;
-    Ok((Workload { label, particles: g.particles, radius: g.radius, distance, camera: None }, None))
+    Ok((Workload { label, particles: g.particles, radius: g.radius, distance, camera: None, sequence: vec![] }, None))
 }
 
 /// The async settings `--async` asks for: [false], [true] or both.
@@ -821,6 +881,7 @@ fn run_sweep(
                 radius: g.radius,
                 distance: 1.0,
                 camera: None,
+                sequence: vec![],
             };
             let e = measure(r, &w, res.0, res.1, base, "sweep particles", a.warmup, a.frames)?;
             pts.push((e.particles as f64, chart_point(&e)));
@@ -831,8 +892,14 @@ fn run_sweep(
     }
     if do_pixels {
         let g = procedural::generate("wave", 143_944)?;
-        let w =
-            Workload { label: "wave".into(), particles: g.particles, radius: g.radius, distance: 1.0, camera: None };
+        let w = Workload {
+            label: "wave".into(),
+            particles: g.particles,
+            radius: g.radius,
+            distance: 1.0,
+            camera: None,
+            sequence: vec![],
+        };
         let mut pts = vec![];
         for &(wd, ht) in &sizes {
             bar.set_message(format!("{wd}×{ht}"));

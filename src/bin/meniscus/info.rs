@@ -19,7 +19,8 @@ pub struct InfoArgs {
     #[arg(required_unless_present = "device")]
     pub file: Option<String>,
     /// Describe the Vulkan device instead (or the first whose name contains NAME): driver, limits, queue
-    /// families and the queues Meniscus chose (main, async compute).
+    /// families and the queues Meniscus chose (main, async compute), and every GPU allocation a default frame
+    /// makes (the wave scene at 960×540 with the default settings), by name, with the total.
     #[arg(long, num_args = 0..=1, value_name = "NAME")]
     pub device: Option<Option<String>>,
     /// Particle radius to report instead of the estimate.
@@ -110,5 +111,27 @@ fn device(filter: Option<String>) -> Result<()> {
         "calibrated timestamps: {} (the per-queue spans of a split frame share the device time domain)",
         if i.calibrated_timestamps { "enabled" } else { "not available" }
     );
+    // What a default frame holds on this device: every allocation by name (the renderer's images, the particle
+    // buffer, the iso grid and the smoothed field's lattice).
+    let g = scene::procedural::generate("wave", 143_944)?;
+    let mut s = meniscus::settings::Settings::default();
+    s.radius = g.radius;
+    let bounds = scene::percentile_bounds(&g.particles.positions, 0.01).context("the wave scene has no particles")?;
+    let (w, h) = (960, 540);
+    let camera = scene::Camera::fit(&bounds, w as f32 / h as f32);
+    let view = meniscus::view::View {
+        camera,
+        width: w,
+        height: h,
+        env: meniscus::view::Environment::around(&bounds, s.radius, &s),
+    };
+    let mut r = meniscus::renderer::Renderer::new(&gpu)?;
+    r.set_scene_particles(&g.particles, &s)?;
+    r.render(&view, &s)?;
+    println!(
+        "\nGPU memory of a default frame (wave scene, {} particles, {w}×{h}, default settings):\n",
+        g.particles.len()
+    );
+    print!("{}", gpu.memory_report().table());
     Ok(())
 }
