@@ -28,9 +28,12 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_solve.comp", NBR),
     ("sim_vorticity.comp", NBR),
     ("sim_viscosity.comp", NBR),
-    // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited; the cast over
-    // the volume and its queued rays.
-    ("iso_volume.comp", &[("MARK", "ISO_VOLUME_MARK"), ("ALLOC", "ISO_VOLUME_ALLOC"), ("", "")]),
+    // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited, the bricks'
+    // aprons copied; the cast over the volume and its queued rays.
+    (
+        "iso_volume.comp",
+        &[("MARK", "ISO_VOLUME_MARK"), ("ALLOC", "ISO_VOLUME_ALLOC"), ("", ""), ("APRON", "ISO_VOLUME_APRON")],
+    ),
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
 ];
 const NBR: &[(&str, &str)] = &[("", ""), ("NBR16", "NBR16")];

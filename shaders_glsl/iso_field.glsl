@@ -120,41 +120,30 @@ float iso_sum_points(vec3 x, bool weighted, out float dmin) {
 }
 
 #ifdef ISO_VOLUME
-/// The lattice's (B, B c̄) at x: the quadratic B-spline over the 3³ voxels around it (C¹: the surface's
-/// normals do not crease at voxel faces, as trilinear reads made them), the voxels of a missing brick 0.
-/// The taps lie in at most 2 bricks per axis: their 8 pool bases are looked up once. Measured on the
-/// dam-break frame (960×540, lavapipe): the cast 101 ms with trilinear reads, 153 ms quadratic, 268 ms cubic
-/// (C², 64 taps); a fast path for taps within one brick cost more than it saved (182 ms: both paths run).
+/// The lattice's (B, B c̄) at x: the quadratic B-spline over the 3³ voxels around the voxel nearest it (C¹:
+/// the surface's normals do not crease at voxel faces, as trilinear reads made them); 0 where that voxel's
+/// brick is not allocated (iso_volume marks every brick within a voxel of a nonzero one). The 3³ voxels are
+/// all in that brick's stored apron: one table lookup, 27 fetches. Measured on the dam-break frame at the
+/// sequence's camera (960×540, lavapipe, 8 samples per ray at most): 224 ms with a table lookup per tap's
+/// brick, more than the exact field's sum (148 ms).
 vec2 iso_volume_at(vec3 x) {
     vec3 u = (x - pc.aniso.xyz) / pc.aniso.w;
     vec3 c = floor(u + 0.5);
     vec3 t = u - c;
     ivec3 bd = ivec3(pc.aniso2.yzw);
-    ivec3 g0 = ivec3(clamp(c, vec3(-8.0), vec3(bd * int(ISO_VOLUME_BRICK) + 8))) - 1;
-    ivec3 b0 = g0 >> 3, l0 = g0 & 7;
-    uint base[8];
-    bool any_ = false;
-    for (int k = 0; k < 8; ++k) {
-        base[k] = iso_brick_base(b0 + ivec3(k & 1, (k >> 1) & 1, k >> 2), bd);
-        any_ = any_ || base[k] != ISO_NONE;
-    }
-    if (!any_) return vec2(0.0);
+    ivec3 g = ivec3(clamp(c, vec3(-8.0), vec3(bd * int(ISO_VOLUME_BRICK) + 8)));
+    uint base = iso_brick_base(g >> 3, bd);
+    if (base == ISO_NONE) return vec2(0.0);
     vec3 a = 0.5 - t, b = 0.5 + t;
     mat3 w = mat3(0.5 * a * a, 0.75 - t * t, 0.5 * b * b);
+    int o = int(base) + iso_store_index(g & 7);  // the footprint's first voxel: storage coordinate (g & 7) − 1 + 1
     vec2 s = vec2(0.0);
     for (int z = 0; z < 3; ++z) {
-        int lz = l0.z + z, sz = lz >> 3;
-        lz &= 7;
         for (int y = 0; y < 3; ++y) {
-            int ly = l0.y + y, sy = ly >> 3;
-            ly &= 7;
-            float wyz = w[y].y * w[z].z;
-            for (int xx = 0; xx < 3; ++xx) {
-                int lx = l0.x + xx, sx = lx >> 3;
-                lx &= 7;
-                uint bb = base[sx | (sy << 1) | (sz << 2)];
-                if (bb != ISO_NONE) s += (w[xx].x * wyz) * vec2(texelFetch(iso_volume_t, int(bb + uint(lx + 8 * (ly + 8 * lz)))).xy);
-            }
+            int r = o + ISO_STORE * (y + ISO_STORE * z);
+            vec2 row = w[0].x * vec2(texelFetch(iso_volume_t, r).xy) + w[1].x * vec2(texelFetch(iso_volume_t, r + 1).xy) +
+                       w[2].x * vec2(texelFetch(iso_volume_t, r + 2).xy);
+            s += (w[y].y * w[z].z) * row;
         }
     }
     return s * (1.0 / float(1u << ISO_VOLUME_FIX_BITS));

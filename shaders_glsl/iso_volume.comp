@@ -2,14 +2,18 @@
 //! iso_volume — builds the sparse lattice of the smoothed iso field (`[iso] smoothing` > 0) once per set of
 //! particles, after iso_density (which gives each sorted point j its weight 1/n_j and its neighbour count c_j =
 //! Σ_{k≠j} max(0, 1 − |x_j − x_k|²/h²), splashsurf's feature weight, Löschner et al. 2023). Three dispatches:
-//! ISO_VOLUME_MARK — per point, every brick its deposit reaches is marked in the table (zeroed by the host);
+//! ISO_VOLUME_MARK — per point, every brick within its deposit's reach + 1 voxel is marked in the table (zeroed
+//!     by the host);
 //! ISO_VOLUME_ALLOC — per table entry, a marked brick takes the next pool index (an atomic counter: the pool's
-//!     order varies between runs, the values at each voxel do not); the header counts them;
+//!     order varies between runs, the values at each voxel do not) and lists its coordinates; the header
+//!     counts them;
 //! (plain) — per point, its mass M_j = I_W h³/n_j (I_W = π/8, the integral of the unnormalised cubic spline)
 //!     spread over the voxels within R by the smooth kernel K(d) = (1 − d²/R²)³ / (0.6383 R³) (C² where it
 //!     ends), and M_j c_j likewise: B(v) = Σ_j M_j K(|v − x_j|) is the blurred colour field sampled at the
 //!     voxel, B c̄ its neighbour count interpolated (Shepard). Fixed point (ISO_VOLUME_FIX_BITS), integer
-//!     atomics: the same sums in any order, on any device.
+//!     atomics: the same sums in any order, on any device;
+//! ISO_VOLUME_APRON — per stored voxel of the allocated bricks, the apron copied from the neighbour brick
+//!     (iso_volume.glsl).
 //! R is chosen so K's per-axis variance (R²/11) plus the cast's quadratic B-spline read (s²/4) equals the
 //! smoothing asked for, σ² + 0.075 h² (Gaussian ∗ cubic spline, per axis): one smooth kernel stands for the
 //! whole blur, so no separate blur pass, and the lattice can be as coarse as that smooth field allows. A
@@ -18,8 +22,9 @@
 //! (tests/gpu_passes.rs, the seam test; docs/iso-surface.md).
 //! CPU reference: VolumeShape::{marked, deposit} in src/field/iso.rs.
 //! MARK in: points (1). In/out: table (2). ALLOC in/out: table (1), header (2: {0, 1, 1, bricks}, zeroed by the
-//! host). Plain in: points (1), c (2), table (3); in/out: the
-//! sums (4, two uints per voxel, zeroed by the host), which the cast reads.
+//! host); out: coordinates (3, x | y << 11 | z << 22). Plain in: points (1), c (2), table (3); in/out: the sums
+//! (4, two uints per stored voxel, zeroed by the host), which the cast reads. APRON in: table (1), coordinates
+//! (2), header (3); in/out: the sums (4).
 #include "common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(push_constant) uniform VolPush {
@@ -36,17 +41,24 @@ layout(std430, set = 0, binding = 2) buffer Table { uint table[]; };
 #elif defined(ISO_VOLUME_ALLOC)
 layout(std430, set = 0, binding = 1) buffer Table { uint table[]; };
 layout(std430, set = 0, binding = 2) buffer Header { uint header[4]; };
+layout(std430, set = 0, binding = 3) writeonly buffer Coords { uint coords[]; };
 #define ISO_TABLE(i) table[i]
+#elif defined(ISO_VOLUME_APRON)
+layout(set = 0, binding = 1) uniform usamplerBuffer table_t;
+layout(set = 0, binding = 2) uniform usamplerBuffer coords_t;
+layout(set = 0, binding = 3) uniform usamplerBuffer header_t;
+layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
+#define ISO_TABLE(i) texelFetch(table_t, int(i)).x
 #else
 layout(set = 0, binding = 1) uniform samplerBuffer points_t;
 layout(set = 0, binding = 2) uniform samplerBuffer counts_t;
 layout(set = 0, binding = 3) uniform usamplerBuffer table_t;
-layout(std430, set = 0, binding = 4) buffer Acc { uint acc[]; };
+layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
 #define ISO_TABLE(i) texelFetch(table_t, int(i)).x
 #endif
 #include "iso_volume.glsl"
 
-#ifndef ISO_VOLUME_ALLOC
+#if !defined(ISO_VOLUME_ALLOC) && !defined(ISO_VOLUME_APRON)
 /// Lattice coordinates of point j, clamped a voxel outside the table (a stray point far from the water marks
 /// and deposits nothing).
 vec3 lattice_pos(uint j, ivec3 bd) {
@@ -61,7 +73,8 @@ void main() {
     if (j >= pc.misc.x) return;
     ivec3 bd = ivec3(pc.bdims.xyz);
     ivec3 g = ivec3(floor(lattice_pos(j, bd)));
-    int t = int(pc.params.z);
+    int t = int(pc.params.z) + 1;  // the deposit's reach and a voxel: the cast's 3³ read around any voxel it can
+                                   // touch is then in an allocated brick
     ivec3 b0 = max((g - t) >> 3, ivec3(0)), b1 = min((g + 1 + t) >> 3, bd - 1);
     for (int z = b0.z; z <= b1.z; ++z)
         for (int y = b0.y; y <= b1.y; ++y)
@@ -79,6 +92,20 @@ void main() {
         return;         // of particles can get here (it reads the count and grows the pool)
     }
     table[b] = i + 1u;
+    coords[i] = (b % bd.x) | (((b / bd.x) % bd.y) << 11) | ((b / (bd.x * bd.y)) << 22);
+}
+#elif defined(ISO_VOLUME_APRON)
+void main() {
+    // One invocation per stored voxel of the pool's allocated bricks; only the apron's copy anything.
+    uint id = gl_GlobalInvocationID.x;
+    uint brick = id / uint(ISO_STORE_VOXELS), k = id % uint(ISO_STORE_VOXELS);
+    if (brick >= min(texelFetch(header_t, 3).x, pc.bdims.w)) return;
+    ivec3 t = ivec3(k % 10u, (k / 10u) % 10u, k / 100u);
+    if (all(greaterThanEqual(t, ivec3(1))) && all(lessThanEqual(t, ivec3(8)))) return;
+    uint bc = texelFetch(coords_t, int(brick)).x;
+    ivec3 g = ivec3(bc & 2047u, (bc >> 11) & 2047u, bc >> 22) * int(ISO_VOLUME_BRICK) + t - 1;
+    uint src = iso_voxel_slot(g, ivec3(pc.bdims.xyz));
+    acc[id] = src == ISO_NONE ? uvec2(0u) : acc[src];
 }
 #else
 void main() {
@@ -100,8 +127,8 @@ void main() {
                 uint slot = iso_voxel_slot(ivec3(x, y, z), bd);
                 if (slot == ISO_NONE) continue;
                 float w = q * q * q * m;
-                atomicAdd(acc[2u * slot], uint(w + 0.5));
-                atomicAdd(acc[2u * slot + 1u], uint(w * c + 0.5));
+                atomicAdd(acc[slot].x, uint(w + 0.5));
+                atomicAdd(acc[slot].y, uint(w * c + 0.5));
             }
         }
     }

@@ -6,21 +6,24 @@
 //! CPU reference: VolumeShape in src/field/iso.rs.
 //! The including shader defines ISO_TABLE(i) → uint, the table's entry i.
 
-#define ISO_BRICK_VOXELS (ISO_VOLUME_BRICK * ISO_VOLUME_BRICK * ISO_VOLUME_BRICK)
+#define ISO_STORE 10
+#define ISO_STORE_VOXELS (ISO_STORE * ISO_STORE * ISO_STORE)
 const uint ISO_NONE = 0xffffffffu;
 
-/// The pool index of brick b's first voxel, or ISO_NONE where no brick is allocated (or b is outside the
-/// table, `bd` bricks per axis).
+/// The pool index of brick b's first stored voxel, or ISO_NONE where no brick is allocated (or b is outside
+/// the table, `bd` bricks per axis).
 uint iso_brick_base(ivec3 b, ivec3 bd) {
     if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, bd))) return ISO_NONE;
     uint e = ISO_TABLE(b.x + bd.x * (b.y + bd.y * b.z));
-    return e == 0u ? ISO_NONE : (e - 1u) * uint(ISO_BRICK_VOXELS);
+    return e == 0u ? ISO_NONE : (e - 1u) * uint(ISO_STORE_VOXELS);
 }
 
-/// The pool index of voxel g (lattice coordinates), or ISO_NONE (its value is 0).
+/// Index within a stored brick of storage coordinate t (0 … 9; the brick's own voxels at 1 … 8).
+int iso_store_index(ivec3 t) { return t.x + ISO_STORE * (t.y + ISO_STORE * t.z); }
+
+/// The pool index of voxel g (lattice coordinates) in its own brick, or ISO_NONE (its value is 0).
 uint iso_voxel_slot(ivec3 g, ivec3 bd) {
     uint base = iso_brick_base(g >> 3, bd);
     if (base == ISO_NONE) return ISO_NONE;
-    ivec3 l = g & 7;
-    return base + uint(l.x + 8 * (l.y + 8 * l.z));
+    return base + uint(iso_store_index((g & 7) + 1));
 }

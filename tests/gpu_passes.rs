@@ -1080,7 +1080,7 @@ fn read_lattice(
     let header: Vec<u32> = bytemuck::pod_collect_to_vec(&read(&vol.header, 16));
     let bricks = header[3] as usize;
     assert!(bricks <= vol.capacity as usize, "{bricks} bricks over the pool's {}", vol.capacity);
-    let bv = 512usize;
+    let bv = meniscus::field::iso::STORED_BRICK_VOXELS as usize;
     let acc: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&read(&vol.acc, 8 * bv * bricks.max(1)));
     let (mut dacc, mut dfield) = (vec![[0u32; 2]; shape.voxels()], vec![[0f32; 2]; shape.voxels()]);
     let field = meniscus::field::iso::VolumeShape::field(&acc);
@@ -1090,11 +1090,13 @@ fn read_lattice(
             continue;
         }
         let (bx, by, bz) = (b as u32 % nb[0], (b as u32 / nb[0]) % nb[1], b as u32 / (nb[0] * nb[1]));
-        for l in 0..bv as u32 {
-            let (x, y, z) = (bx * 8 + (l & 7), by * 8 + ((l >> 3) & 7), bz * 8 + (l >> 6));
-            let v = shape.index(x, y, z);
-            dacc[v] = acc[(e as usize - 1) * bv + l as usize];
-            dfield[v] = field[(e as usize - 1) * bv + l as usize];
+        // Each brick's own voxels (storage coordinates 1 … 8; its apron holds its neighbours').
+        for l in 0..512u32 {
+            let (lx, ly, lz) = (l & 7, (l >> 3) & 7, l >> 6);
+            let v = shape.index(bx * 8 + lx, by * 8 + ly, bz * 8 + lz);
+            let k = (e as usize - 1) * bv + (lx + 1 + 10 * (ly + 1 + 10 * (lz + 1))) as usize;
+            dacc[v] = acc[k];
+            dfield[v] = field[k];
         }
     }
     (table.iter().map(|&e| e != 0).collect(), dacc, dfield)

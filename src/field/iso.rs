@@ -458,6 +458,8 @@ impl VolumeParams {
 
 /// Voxels per edge of a brick of the smoothed field's sparse lattice.
 pub const BRICK: u32 = crate::shader_constants::ISO_VOLUME_BRICK;
+/// Voxels the GPU stores per brick: its [`BRICK`]³ and a one-voxel apron copied from its neighbours (10³).
+pub const STORED_BRICK_VOXELS: u32 = (BRICK + 2) * (BRICK + 2) * (BRICK + 2);
 /// Most bricks per axis of the lattice (iso_volume packs a brick's coordinates in 11 + 11 + 10 bits).
 pub const MAX_BRICKS_PER_AXIS: [u32; 3] = [2047, 2047, 1023];
 
@@ -531,12 +533,13 @@ impl VolumeShape {
             .clamp(Vec3::splat(-2.0), Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) + 2.0)
     }
 
-    /// The bricks the points need (iso_volume's ISO_VOLUME_MARK): the voxels within the deposit's reach of the
-    /// point's voxel. One flag per table entry.
+    /// The bricks the points need (iso_volume's ISO_VOLUME_MARK): the voxels within the deposit's reach + 1 of
+    /// the point's voxel (the cast's 3³ read around a voxel next to a nonzero one finds its brick). One flag
+    /// per table entry.
     pub fn marked(&self, points: impl Iterator<Item = Vec3>) -> Vec<bool> {
         let mut m = vec![false; self.table_len()];
         let b = self.bricks.map(|n| n as i64);
-        let t = self.taps as i64;
+        let t = self.taps as i64 + 1;
         for x in points {
             let u = self.lattice(x).floor();
             let g = [u.x as i64, u.y as i64, u.z as i64];

@@ -142,18 +142,21 @@ pub struct IsoVolume {
     pub table: Buffer,
     /// {0, 1, 1, bricks}: the bricks allocated.
     pub header: Buffer,
-    /// Two fixed-point sums per voxel of the pool, (B, B c̄): the field the cast reads (RG32UI texels).
+    /// The allocated bricks' coordinates, packed (R32UI texels).
+    pub coords: Buffer,
+    /// Two fixed-point sums per stored voxel of the pool (10³ per brick: its 8³ and an apron), (B, B c̄): the
+    /// field the cast reads (RG32UI texels).
     pub acc: Buffer,
 }
 
 impl IsoVolume {
     /// Buffers for the lattice `shape` with a pool of `capacity` bricks.
     pub fn new(gpu: &Arc<Gpu>, shape: crate::field::iso::VolumeShape, capacity: u32) -> Result<IsoVolume> {
-        let voxels = capacity.max(1) as u64 * crate::field::iso::BRICK.pow(3) as u64;
+        let voxels = capacity.max(1) as u64 * crate::field::iso::STORED_BRICK_VOXELS as u64;
         let limit = gpu.info.max_storage_buffer_range.min(gpu.info.max_texel_buffer_elements * 8);
         if 8 * voxels > limit {
             return Err(crate::error::Error::Limit(format!(
-                "the smoothed iso field needs {capacity} bricks of {b}³ voxels ({} MiB of sums), more than this \
+                "the smoothed iso field needs {capacity} bricks of {b}³ voxels ({} MiB of sums with their aprons), more than this \
                  device's largest buffer ({} MiB): set [iso] voxel larger (now {:.4} world units) or smoothing = 0 \
                  (--preset quality: the exact field, no lattice)",
                 8 * voxels >> 20,
@@ -166,12 +169,12 @@ impl IsoVolume {
         use vk::BufferUsageFlags as U;
         let usage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
         let table = shape.table_len() as u64;
-        let gpu_only = gpu_allocator::MemoryLocation::GpuOnly;
         Ok(IsoVolume {
             shape,
             capacity,
             table: Buffer::texels(gpu, "iso_volume_table", 4 * table, usage, vk::Format::R32_UINT)?,
-            header: Buffer::new(gpu, "iso_volume_header", 16, usage | U::INDIRECT_BUFFER, gpu_only)?,
+            header: Buffer::texels(gpu, "iso_volume_header", 16, usage, vk::Format::R32_UINT)?,
+            coords: Buffer::texels(gpu, "iso_volume_coords", 4 * capacity.max(1) as u64, usage, vk::Format::R32_UINT)?,
             acc: Buffer::texels(gpu, "iso_volume_acc", 8 * voxels, usage, vk::Format::R32G32_UINT)?,
         })
     }
@@ -320,7 +323,7 @@ pub struct Iso {
     fine: ComputeProgram<IsoPush>,
     grid: crate::passes::grid::Grid,
     gather: ComputeProgram<GatherPush>,
-    volume: [ComputeProgram<VolPush>; 3],
+    volume: [ComputeProgram<VolPush>; 4],
     cast_vol: ComputeProgram<IsoPush>,
     rest_vol: ComputeProgram<IsoPush>,
 }
@@ -357,10 +360,12 @@ declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uni
 declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
 
 // The smoothed field: the weighted points mark the bricks they need in the table; the marked bricks take pool
-// indices (the header counts them); the points deposit their sums (integer atomics).
+// indices (the header counts them, their coordinates listed); the points deposit their sums (integer atomics).
 declare_program!(pub VOLUME_MARK: VolPush = compute(shaders::ISO_VOLUME_MARK, [Uniform, TexelRead, BufWrite]));
-declare_program!(pub VOLUME_ALLOC: VolPush = compute(shaders::ISO_VOLUME_ALLOC, [Uniform, BufWrite, BufWrite]));
+declare_program!(pub VOLUME_ALLOC: VolPush = compute(shaders::ISO_VOLUME_ALLOC, [Uniform, BufWrite, BufWrite, BufWrite]));
 declare_program!(pub VOLUME: VolPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
+// Each allocated brick's apron copied from its neighbours.
+declare_program!(pub VOLUME_APRON: VolPush = compute(shaders::ISO_VOLUME_APRON, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
 // The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
 declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead]));
 declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
@@ -378,15 +383,15 @@ impl IsoQueue {
     /// A queue for `pixels` pixels.
     pub fn new(gpu: &Arc<Gpu>, pixels: u64) -> Result<IsoQueue> {
         use ash::vk::BufferUsageFlags as U;
-        let gpu_only = gpu_allocator::MemoryLocation::GpuOnly;
+        use gpu_allocator::MemoryLocation;
         Ok(IsoQueue {
-            entries: Buffer::new(gpu, "iso_queue", 16 * pixels.max(1), U::STORAGE_BUFFER, gpu_only)?,
+            entries: Buffer::new(gpu, "iso_queue", 16 * pixels.max(1), U::STORAGE_BUFFER, MemoryLocation::GpuOnly)?,
             header: Buffer::new(
                 gpu,
                 "iso_queue_header",
                 32,
                 U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST,
-                gpu_only,
+                MemoryLocation::GpuOnly,
             )?,
         })
     }
@@ -409,6 +414,7 @@ impl Iso {
                 ComputeProgram::new(gpu, &VOLUME_MARK)?,
                 ComputeProgram::new(gpu, &VOLUME_ALLOC)?,
                 ComputeProgram::new(gpu, &VOLUME)?,
+                ComputeProgram::new(gpu, &VOLUME_APRON)?,
             ],
             cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,
             rest_vol: ComputeProgram::new(gpu, &REST_VOL)?,
@@ -470,10 +476,13 @@ impl Iso {
             let push = v.vol_push(p, n);
             self.volume[0].dispatch(ctx, &[frame.into(), (&b.weighted).into(), (&v.table).into()], &push, per_point);
             let table = [(v.shape.table_len() as u32).div_ceil(super::LOCAL_1D), 1, 1];
-            let alloc = [frame.into(), (&v.table).into(), (&v.header).into()];
+            let alloc = [frame.into(), (&v.table).into(), (&v.header).into(), (&v.coords).into()];
             self.volume[1].dispatch(ctx, &alloc, &push, table);
             let dep = [frame.into(), (&b.weighted).into(), (&b.counts).into(), (&v.table).into(), (&v.acc).into()];
             self.volume[2].dispatch(ctx, &dep, &push, per_point);
+            let apron = [frame.into(), (&v.table).into(), (&v.coords).into(), (&v.header).into(), (&v.acc).into()];
+            let stored = v.capacity as u64 * crate::field::iso::STORED_BRICK_VOXELS as u64;
+            self.volume[3].dispatch(ctx, &apron, &push, [stored.div_ceil(super::LOCAL_1D as u64) as u32, 1, 1]);
         });
     }
 
