@@ -7,7 +7,8 @@
 # `anisotropy` GPU ms are this machine's (benchmarks: `meniscus bench`).
 # Usage: tools/quality.sh [extra render args…]; CONFIGS="name|render args;…" replaces the list; SCENE picks the
 # reference (dambreak59k_f20, the default; ddbs25k_f12 or ddbs25k_f16: the double dam break around a sphere,
-# ../shared/data/quality/README.md gives their files, radii and cameras).
+# ../shared/data/quality/README.md gives their files, radii and cameras; custom: FRAME, RADIUS, CAMERA and
+# REF_PREFIX (REF_PREFIX_ref_depth.npy and REF_PREFIX_smooth_ref_depth.npy, e.g. from tools/splash-references.py)).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=${MENISCUS_SHARED:-../shared}
@@ -23,8 +24,10 @@ case "$scene" in
     ddbs25k_f12 | ddbs25k_f16)
         frame="$shared/data/splishsplash/doubledambreak_sphere_25k/partio/ParticleData_Fluid_${scene##*_f}.bgeo"
         radius=0.02; camera=2.6,2.4,3.6:0,0.7,0:45 ;;
-    *) echo "quality.sh: unknown SCENE $scene (dambreak59k_f20, ddbs25k_f12, ddbs25k_f16)" >&2; exit 1 ;;
+    custom) frame=${FRAME:?SCENE=custom needs FRAME}; radius=${RADIUS:?and RADIUS}; camera=${CAMERA:?and CAMERA} ;;
+    *) echo "quality.sh: unknown SCENE $scene (dambreak59k_f20, ddbs25k_f12, ddbs25k_f16, custom)" >&2; exit 1 ;;
 esac
+refs=${REF_PREFIX:-$shared/data/quality/$scene}
 [ -f "$frame" ] || { echo "quality.sh: missing $frame" >&2; exit 1; }
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -66,15 +69,15 @@ for c in "${configs[@]}"; do
     fi
     ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
     for ref in ref smooth_ref; do
-        rows[$ref]+=$("$q" compare --ref-depth "$shared/data/quality/${scene}_${ref}_depth.npy" \
+        rows[$ref]+=$("$q" compare --ref-depth "${refs}_${ref}_depth.npy" \
             --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius "$radius" | tail -n 1 |
             python3 -c "import json,sys; d=json.load(sys.stdin); r=$radius; print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (d['iou'], d['depth_median_abs']/r, d['depth_p90_abs']/r, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
     done
 done
 # The yardstick: splashsurf's own unsmoothed surface (the raw reference) measured against its smoothed one — the
 # same reconstruction without the mesh smoothing, i.e. what any unsmoothed surface of the field can reach.
-rows[smooth_ref]+=$("$q" compare --ref-depth "$shared/data/quality/${scene}_smooth_ref_depth.npy" \
-    --depth "$shared/data/quality/${scene}_ref_depth.npy" --normals-from-depth --ref-normals-from-depth \
+rows[smooth_ref]+=$("$q" compare --ref-depth "${refs}_smooth_ref_depth.npy" \
+    --depth "${refs}_ref_depth.npy" --normals-from-depth --ref-normals-from-depth \
     --radius "$radius" | tail -n 1 |
     python3 -c "import json,sys; d=json.load(sys.stdin); r=$radius; print('| splashsurf raw reference (yardstick) | %.3f | %.2f | %.2f | %.1f | %.1f | – |' % (d['iou'], d['depth_median_abs']/r, d['depth_p90_abs']/r, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
 for ref in ref smooth_ref; do

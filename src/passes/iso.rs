@@ -61,7 +61,7 @@ pub struct Params {
     pub fine_px: f32,
     /// Iso-surface: σ of a 3D Gaussian blur of the field where the water is bulk, particle radii (0: the exact
     /// field). The blurred field is then built once per set of particles on a sparse lattice of `voxel` radii
-    /// (`iso_volume`: bricks only where particles reach; `iso_blur`) and read with a cubic B-spline; the cast
+    /// (`iso_volume`: bricks only where particles reach) and read with a quadratic B-spline; the cast
     /// blends it with the exact field by `bulk`: calm water loses the particle-scale bumps the raw field has,
     /// spray and thin sheets keep their shape. Isotropic kernels only.
     pub smoothing: f32,
@@ -132,7 +132,7 @@ pub struct IsoBuffers {
     pub volume_for: std::cell::Cell<Option<crate::field::iso::VolumeParams>>,
 }
 
-/// The smoothed iso field on its sparse lattice (`iso_volume`, `iso_blur`), read by the volume cast.
+/// The smoothed iso field on its sparse lattice (`iso_volume`), read by the volume cast.
 pub struct IsoVolume {
     /// The lattice.
     pub shape: crate::field::iso::VolumeShape,

@@ -1,7 +1,7 @@
 //! The iso surface (the default): the SPH colour field — splashsurf's: cubic spline of support 4 r,
 //! per-particle volume normalisation, threshold 0.6 — ray-cast per pixel on the GPU from the splatted bound
 //! spheres to their farthest exit; with `[iso] smoothing` > 0 the field is first smoothed in 3D where the water
-//! is bulk (`iso_volume`, `iso_blur`). It owns the particles' grid and the smoothed field's lattice, rebuilt when
+//! is bulk (`iso_volume`: a sparse lattice where the particles are). It owns the particles' grid and the smoothed field's lattice, rebuilt when
 //! the particles or the kernel change. `crate::field::iso` is the CPU reference of all of it.
 
 use ash::vk;
@@ -40,6 +40,9 @@ impl Grid {
     pub fn ensure(&mut self, p: &Prepare, support: f32, reach: f32) -> Result<()> {
         let (particles, gpu) = (p.particles, p.gpu);
         let stale = self.built_for != Some(particles.generation());
+        // The anisotropic kernels' buffer only where they are used (48 bytes a point).
+        let aniso = p.settings.kernel == crate::settings::Kernel::Anisotropic;
+        let aniso_bytes = |points: u64| if aniso { points * 48 } else { 16 };
         if !particles.has_spray() {
             let (lo, hi) = match crate::scene::fluid_bounds(particles.positions(), reach) {
                 Some((b, strays)) => {
@@ -59,7 +62,8 @@ impl Grid {
             };
             let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
             if let Some(b) = &mut self.buffers {
-                if b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
+                let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64);
+                if fits && b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
                     if stale {
                         b.rebuild.set(true);
                         b.mark_stale();
@@ -83,7 +87,7 @@ impl Grid {
                 points: buf("iso_points", cap as u64 * 16, IsoBuffers::POINTS)?,
                 cells: buf("iso_cells", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
                 weighted: buf("iso_weighted", cap as u64 * 16, IsoBuffers::WEIGHTED)?,
-                aniso: buf("iso_aniso", cap as u64 * 48, IsoBuffers::ANISO)?,
+                aniso: buf("iso_aniso", aniso_bytes(cap as u64), IsoBuffers::ANISO)?,
                 counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
                 shape: push,
                 gpu: Some(crate::passes::grid::GridBuffers::new(gpu, shape, cap)?),
@@ -97,10 +101,12 @@ impl Grid {
             return Ok(());
         }
         if !stale
-            && self
-                .buffers
-                .as_ref()
-                .is_some_and(|b| b.gpu.is_none() && b.shape.support() == support && b.shape.origin[3] >= reach)
+            && self.buffers.as_ref().is_some_and(|b| {
+                b.gpu.is_none()
+                    && b.shape.support() == support
+                    && b.shape.origin[3] >= reach
+                    && b.aniso.size >= aniso_bytes(b.shape.dims[3].max(1) as u64)
+            })
         {
             return Ok(());
         }
@@ -118,7 +124,13 @@ impl Grid {
             Buffer::texels(gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, format)
         };
         let weighted = buf("iso_weighted", 16, IsoBuffers::WEIGHTED)?;
-        let aniso = buf("iso_aniso", 48, IsoBuffers::ANISO)?;
+        let aniso = Buffer::texels(
+            gpu,
+            "iso_aniso",
+            aniso_bytes(grid.points.len().max(1) as u64),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            IsoBuffers::ANISO,
+        )?;
         let counts = buf("iso_counts", 4, vk::Format::R32_SFLOAT)?;
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.buffers = Some(IsoBuffers {
