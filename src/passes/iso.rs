@@ -159,7 +159,7 @@ impl IsoVolume {
                 "the smoothed iso field needs {capacity} bricks of {b}³ voxels ({} MiB of sums with their aprons), more than this \
                  device's largest buffer ({} MiB): set [iso] voxel larger (now {:.4} world units) or smoothing = 0 \
                  (--preset quality: the exact field, no lattice)",
-                8 * voxels >> 20,
+                (8 * voxels) >> 20,
                 limit >> 20,
                 shape.spacing,
                 b = crate::field::iso::BRICK

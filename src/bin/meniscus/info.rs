@@ -114,8 +114,7 @@ fn device(filter: Option<String>) -> Result<()> {
     // What a default frame holds on this device: every allocation by name (the renderer's images, the particle
     // buffer, the iso grid and the smoothed field's lattice).
     let g = scene::procedural::generate("wave", 143_944)?;
-    let mut s = meniscus::settings::Settings::default();
-    s.radius = g.radius;
+    let s = meniscus::settings::Settings { radius: g.radius, ..Default::default() };
     let bounds = scene::percentile_bounds(&g.particles.positions, 0.01).context("the wave scene has no particles")?;
     let (w, h) = (960, 540);
     let camera = scene::Camera::fit(&bounds, w as f32 / h as f32);
