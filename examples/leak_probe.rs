@@ -126,10 +126,12 @@ fn main() -> meniscus::Result<()> {
                     thickness: if sampled_only { &tex } else { &t.thickness },
                     ssr: &t.ssr,
                     sky: &r.background.sky,
+                    noise: &t.noise,
                 };
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);
-                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &t.final_color);
+                    let noise = meniscus::passes::noise::Params::default();
+                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &t.final_color);
                     Ok(())
                 })
             })

@@ -5,7 +5,10 @@
 //! n.xy·min(T·α, β) (eq. 3.27 with the min fix), attenuated by exp(−η·T) as well; τ = exp(−γ·T) (eq. 3.28);
 //! F = Schlick Fresnel; c_reflect = the `ssr` hit where there is one, else the sky in the reflected direction;
 //! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
-//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled).
+//! Foam (NVIDIA patent US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): the
+//! result is mixed toward the foam colour, lit by the ambient light and the sun (Lambert), with weight
+//! foam.w · smoothstep(from, full, |N|) of the `noise` pass's N.
+//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), noise.
 //! Out: rgba8, gamma 2.2.
 #define SKY_BINDING 8
 #include "common.glsl"
@@ -17,6 +20,11 @@ layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D normals;
 layout(set = 0, binding = 5) uniform sampler2D thickness;
 layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ssr;
+layout(set = 0, binding = 9, r32f) uniform readonly image2D noise;
+layout(push_constant) uniform Push {
+    vec4 foam;  // rgb: colour; w: weight of the full tint
+    vec4 range; // x: |N| where the tint starts, y: where it is full
+} pc;
 
 vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
 
@@ -69,5 +77,8 @@ void main() {
     float spec = frame.shading.w * pow(max(dot(n, H), 0.0), frame.shading2.x) * frame.sun.w;
 
     vec3 c = mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
+    float foam = pc.foam.w * smoothstep(pc.range.x, pc.range.y, abs(imageLoad(noise, p).x));
+    vec3 lit = pc.foam.rgb * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * 0.6);
+    c = mix(c, lit, foam);
     imageStore(out_color, p, encode(c));
 }

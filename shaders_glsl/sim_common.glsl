@@ -12,7 +12,7 @@ layout(std140, binding = 0) uniform Sim {
     vec4 hi_h;           // its upper corner (xyz); kernel radius h (w)
     vec4 gravity_mass;   // gravity (xyz); particle mass (w)
     vec4 solver;         // rest density ρ0; relaxation ε; s_corr k; 1 / W_poly6(Δq)
-    vec4 visc;           // XSPH c; vorticity ε; particle radius; unused
+    vec4 visc;           // XSPH c; vorticity ε; particle radius; a step's weight in the low-passed |Δv|/Δt
     vec4 kern;           // h²; poly6 coefficient; spiky gradient coefficient; particle volume m/ρ0
     uvec4 counts;        // particles; colliders; neighbour-list stride (capacity); s_corr exponent n
     vec4 sdf_lo;         // the mesh collider's distance lattice (src/sim/sdf.rs): first node (xyz), spacing (w)
@@ -23,7 +23,7 @@ layout(std140, binding = 0) uniform Sim {
 
 struct State {
     vec4 x;   // position; w: the particle's id (uint bits)
-    vec4 v;   // velocity
+    vec4 v;   // velocity; w: the low-passed change of velocity |Δv|/Δt (sim_viscosity)
 };
 
 // A State read through its RGBA32UI texel view (the stages that read the state: two texels per particle, so

@@ -2,7 +2,7 @@
 //! sim_viscosity — the end of a PBF step (Macklin & Müller 2013, eqs. 16–17): vorticity confinement
 //! f = ε_v·(N × ω_i), N = η/|η|, η = Σ_j V·(|ω_j| − |ω_i|)·∇W_spiky(x_i − x_j); then XSPH viscosity
 //! v_i ← v_i + c·Σ_j V·(v_j − v_i)·W_poly6(x_i − x_j); x ← x*. Writes the new state (grid order of this step)
-//! and the renderer's particles (xyz, w = 0: the frame radius).
+//! and the renderer's particles (xyz, w = 0: the frame radius), then after them the motions (id bits, |Δv|/Δt).
 //! In: the neighbour lists, pred, vel, omega, the sorted state (ids). Out: state, particles.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
@@ -44,6 +44,15 @@ void main() {
         float le = length(eta);
         if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega_i.xyz);
     }
-    state[i] = State(vec4(xi, state_x(sorted, i).w), vec4(v, 0.0));
+    vec4 xs = state_x(sorted, i);
+    // How fast the velocity changes, |Δv| / Δt, for the renderer's noise (NVIDIA patent US 8,947,430, eq. 17):
+    // this step's (the sorted state's velocity has gravity's Δt·g added: take it back out), low-passed over
+    // about one frame (sim.visc.w = Δt / (Δt + frame time)) so that it measures what a sequence's frames would,
+    // not one step's solver noise. It lives in the velocity's w and travels with the particle through the sorts.
+    vec4 vs = state_v(sorted, i);
+    float accel = mix(vs.w, length(v - (vs.xyz - sim.lo_dt.w * sim.gravity_mass.xyz)) / sim.lo_dt.w, sim.visc.w);
+    state[i] = State(vec4(xi, xs.w), vec4(v, accel));
     particles[i] = vec4(xi, 0.0);
+    // The renderer's motion entry (particles.rs): the id bits and the change of velocity.
+    particles[sim.counts.x + i] = vec4(xs.w, accel, 0.0, 0.0);
 }

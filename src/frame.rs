@@ -8,6 +8,7 @@ use crate::background::Background;
 use crate::error::Result;
 use crate::gpu::Buffer;
 use crate::passes::composite::CompositeInputs;
+use crate::passes::noise::NoiseImages;
 use crate::settings::Settings;
 use crate::surface::{SurfaceFrame, Technique};
 use crate::targets::Targets;
@@ -135,7 +136,8 @@ pub struct FrameInputs<'a> {
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. The surface technique records
 /// its own passes (`crate::surface`): what `thickness` needs first (grids, kernels), then the fluid's depth.
-/// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1).
+/// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1),
+/// `noise` (`[noise] enabled`).
 pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     use Part::*;
     let (p, t, s, frame) = (f.passes, f.targets, f.settings, f.frame);
@@ -174,6 +176,10 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         None => fluid_depth,
     };
     p.normals.record(ctx, frame, depth, &t.normals, s.normals.edge * s.radius);
+    if s.noise.enabled {
+        let images = NoiseImages { depth, normals: &t.normals, accum: &t.noise_accum, noise: &t.noise };
+        p.noise.record(ctx, frame, f.particles, &images, &s.noise, s.normals.edge * s.radius);
+    }
     let ctx = rec.part(Shade);
     p.ssr.record(ctx, frame, depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {
@@ -184,7 +190,8 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         thickness: &t.thickness,
         ssr: &t.ssr,
         sky,
+        noise: &t.noise,
     };
-    p.composite.record(ctx, frame, &inputs, &t.final_color);
+    p.composite.record(ctx, frame, &inputs, &s.noise, &t.final_color);
     Ok(Frame { smoothed })
 }

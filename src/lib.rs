@@ -13,6 +13,7 @@ pub mod field;
 pub mod frame;
 pub mod gpu;
 pub mod input;
+pub mod motion;
 pub mod named;
 pub mod output;
 pub mod particles;

@@ -2,6 +2,10 @@
 //! frame before does not read), the count, the upload staged for the next frame's command buffer (or a GPU
 //! producer such as the simulation), the host copy of the positions (the nearest depth, the CPU-built grids),
 //! the spray marks, and a generation that every change bumps — what the surface techniques key their caches to.
+//!
+//! Layout on the device: `count` vec4 positions (xyz, w: radius and spray mark) then `count` vec4 motions
+//! ([`Motion`]: the particle's id bits and how fast its velocity changes), read by the `noise` pass. Every other
+//! pass reads only the first `count` entries.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -10,6 +14,9 @@ use crate::error::{Error, Result};
 use crate::gpu::executor::Executor;
 use crate::gpu::{Buffer, Gpu};
 use crate::view::View;
+
+pub use crate::motion::Motion;
+pub use crate::shader_constants::BYTES_PER_PARTICLE;
 
 /// The renderer's particles.
 #[derive(Default)]
@@ -28,25 +35,29 @@ pub struct ParticleSet {
 
 impl ParticleSet {
     /// Set the particles: 16 bytes each (world xyz + w), w = the particle's radius from `radii`, else 0 (the
-    /// frame's radius); negated for particles marked in `spray` (kept out of the surface). `limit`: the
-    /// device's storage buffer range.
+    /// frame's radius); negated for particles marked in `spray` (kept out of the surface); then their `motion`
+    /// (default: id = index, no change of velocity). `limit`: the device's storage buffer range.
     pub fn set(
         &mut self,
         limit: u64,
         positions: &[[f32; 3]],
         radii: Option<&[f32]>,
         spray: Option<&[bool]>,
+        motion: Option<&[Motion]>,
     ) -> Result<()> {
         let n = positions.len();
-        let bytes = n as u64 * 16;
+        let bytes = n as u64 * BYTES_PER_PARTICLE;
         if bytes > limit {
             return Err(Error::Limit(format!(
                 "{n} particles need {bytes} bytes, more than this device's storage buffer limit of {limit} bytes ({} \
                  particles)",
-                limit / 16
+                limit / BYTES_PER_PARTICLE
             )));
         }
-        let data: Vec<[f32; 4]> = positions
+        if let Some(m) = motion.filter(|m| m.len() != n) {
+            return Err(Error::Invalid(format!("{} particle motions for {n} particles", m.len())));
+        }
+        let mut data: Vec<[f32; 4]> = positions
             .iter()
             .enumerate()
             .map(|(i, p)| {
@@ -65,6 +76,10 @@ impl ParticleSet {
                 [p[0], p[1], p[2], w]
             })
             .collect();
+        match motion {
+            Some(m) => data.extend(m.iter().map(Motion::encode)),
+            None => data.extend((0..n as u32).map(|id| Motion { id, accel: 0.0 }.encode())),
+        }
         self.staged = Some(data);
         self.external = false;
         self.count = n as u32;
@@ -74,10 +89,10 @@ impl ParticleSet {
         Ok(())
     }
 
-    /// The next frame's `count` particles are written on the GPU by its `Hooks::produce`; `bounds` contain
-    /// them (the host copy becomes the box's corners).
+    /// The next frame's `count` particles are written on the GPU by its `Hooks::produce` (positions and
+    /// motions, see the module's layout); `bounds` contain them (the host copy becomes the box's corners).
     pub fn set_gpu(&mut self, limit: u64, count: u32, bounds: (glam::Vec3, glam::Vec3)) -> Result<()> {
-        if count as u64 * 16 > limit {
+        if count as u64 * BYTES_PER_PARTICLE > limit {
             return Err(Error::Limit(format!("{count} particles exceed this device's storage buffer limit")));
         }
         let (lo, hi) = bounds;
@@ -146,10 +161,10 @@ impl ParticleSet {
     /// before may still read this one), a one-queue frame into the same (queue order keeps it after the
     /// readers) — and grow it when too small, after every frame that may still read it.
     pub fn prepare(&mut self, gpu: &std::sync::Arc<Gpu>, executor: &Executor, split: bool) -> Result<()> {
-        let new = self.staged.as_ref().map(|d| d.len() as u64).or(self.external.then_some(self.count as u64));
-        if let Some(len) = new {
+        let new = self.staged.as_ref().map(|d| d.len() as u64 * 16);
+        if let Some(bytes) = new.or(self.external.then_some(self.count as u64 * BYTES_PER_PARTICLE)) {
             let target = if split { 1 - self.current } else { self.current };
-            let size = (len * 16).max(16);
+            let size = bytes.max(16);
             if self.buffers[target].as_ref().is_none_or(|b| b.size < size) {
                 executor.wait_idle()?;
                 self.buffers[target] = Some(Buffer::new(

@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::frame::{record_frame, FrameInputs, FrameUniforms, Passes, Recording, View};
 use crate::gpu::executor::{Executor, Submitted};
 use crate::gpu::{Access, Buffer, FrameCtx, Gpu, Image, PassTimes, Use};
-use crate::particles::ParticleSet;
+use crate::particles::{Motion, ParticleSet};
 use crate::passes::smooth::Output as Smoothed;
 use crate::passes::FrameInfo;
 use crate::settings::Settings;
@@ -145,15 +145,39 @@ impl Renderer {
         radii: Option<&[f32]>,
         spray: Option<&[bool]>,
     ) -> Result<()> {
-        self.particles.set(self.gpu.info.max_storage_buffer_range, positions, radii, spray)
+        self.particles.set(self.gpu.info.max_storage_buffer_range, positions, radii, spray, None)
+    }
+
+    /// [`Renderer::set_particles_with`] with each particle's [`Motion`] (its id and how fast its velocity
+    /// changes: the `noise` pass's amplitude), e.g. from a [`crate::motion::MotionTracker`] over a sequence.
+    pub fn set_particles_moving(
+        &mut self,
+        positions: &[[f32; 3]],
+        radii: Option<&[f32]>,
+        spray: Option<&[bool]>,
+        motion: &[Motion],
+    ) -> Result<()> {
+        self.particles.set(self.gpu.info.max_storage_buffer_range, positions, radii, spray, Some(motion))
     }
 
     /// Upload a frame of particles the way every application does: spray flags from `s` (`spray_density`,
-    /// `spray_by_neighbours`) and the per-particle radii the file carries (`pscale`/`radius`, when mapped).
+    /// `spray_by_neighbours`), the per-particle radii the file carries (`pscale`/`radius`, when mapped), and
+    /// the particles' ids (a single frame's velocity does not change: the noise's calm amplitude).
     /// The one place `render`, `bench` and `demo` upload through, so they see the same particles.
     pub fn set_scene_particles(&mut self, p: &crate::scene::Particles, s: &Settings) -> Result<()> {
+        self.set_scene_particles_moving(p, s, &crate::motion::still(p))
+    }
+
+    /// [`Renderer::set_scene_particles`] for a frame of a sequence whose motion is known (a
+    /// [`crate::motion::MotionTracker`] walked the frames before it in time order).
+    pub fn set_scene_particles_moving(
+        &mut self,
+        p: &crate::scene::Particles,
+        s: &Settings,
+        motion: &[Motion],
+    ) -> Result<()> {
         let spray = crate::scene::spray_mask_with(p, s.radius, s.spray.density, s.spray.by_neighbours);
-        self.set_particles_with(&p.positions, p.radii.as_deref(), Some(&spray))
+        self.set_particles_moving(&p.positions, p.radii.as_deref(), Some(&spray), motion)
     }
 
     /// The next frame's `count` particles are written on the GPU by the frame's `Hooks::produce` (xyz, w = 0:

@@ -28,6 +28,25 @@ fn non_finite(t: &toml::Table) -> Option<String> {
     }
     t.iter().find_map(|(k, v)| walk(v, k))
 }
+/// The byte offset where `name` is assigned in a TOML text (`name =`, a whole key), from the start of
+/// `section`'s header when given and present, else 0 (TOML keeps no spans in a Table).
+fn key_offset_in(text: &str, section: Option<&str>, name: &str) -> u64 {
+    let from = section.and_then(|h| text.find(&format!("[{h}]"))).unwrap_or(0);
+    let whole = |i: usize| {
+        let before = text[..i].chars().next_back();
+        !before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == '.')
+    };
+    text[from..]
+        .match_indices(name)
+        .map(|(i, _)| from + i)
+        .find(|&i| whole(i) && text[i + name.len()..].trim_start().starts_with('='))
+        .map_or(0, |i| i as u64)
+}
+
+fn key_offset(text: &str, name: &str) -> u64 {
+    key_offset_in(text, None, name)
+}
+
 /// Replace the leaves of `base` that `over` sets, keeping the rest of every section.
 fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
     match (base, over) {
@@ -101,6 +120,8 @@ pub struct Settings {
     pub smooth: crate::passes::smooth::Params,
     /// `[normals]`: discontinuities.
     pub normals: crate::passes::normals::Params,
+    /// `[noise]`: the patent's waves and foam on the surface.
+    pub noise: crate::passes::noise::Params,
     /// `[ssr]`: screen-space reflections.
     pub ssr: crate::passes::ssr::Params,
     /// `[composite]`: shading.
@@ -147,6 +168,7 @@ impl Default for Settings {
             // without `--filter` gets narrow-range (src/bin/meniscus/args.rs).
             smooth: crate::passes::smooth::Params { filter: Filter::None, ..Default::default() },
             normals: Default::default(),
+            noise: Default::default(),
             ssr: Default::default(),
             composite: Default::default(),
             sim: Default::default(),
@@ -245,24 +267,29 @@ impl Settings {
         if let Some(key) = non_finite(&table) {
             // The offset of the key's last name where it is assigned (TOML keeps no spans in a Table).
             let name = key.rsplit('.').next().unwrap_or(&key);
-            let offset = text
-                .match_indices(name)
-                .find(|(i, _)| text[i + name.len()..].trim_start().starts_with('='))
-                .map_or(0, |(i, _)| i as u64);
             return Err(Error::Parse {
                 path: path.to_path_buf(),
-                offset,
+                offset: key_offset(&text, name),
                 reason: format!("{key}: settings are finite numbers (inf and nan are not)"),
             });
         }
         let mut merged = serde_json::to_value(self).map_err(|e| Error::Invalid(e.to_string()))?;
         let over = serde_json::to_value(&table).map_err(|e| Error::Invalid(e.to_string()))?;
         merge(&mut merged, over);
-        serde_json::from_value(merged).map_err(|e| Error::Parse {
+        let s: Settings = serde_json::from_value(merged).map_err(|e| Error::Parse {
             path: path.to_path_buf(),
             offset: 0,
             reason: e.to_string(),
-        })
+        })?;
+        // Sections whose ranges are checked here name the key's place in the file.
+        if let Err((key, reason)) = s.noise.check() {
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                offset: key_offset_in(&text, Some("noise"), key),
+                reason,
+            });
+        }
+        Ok(s)
     }
 
     /// The ray-cast parameters in world units (`near` is the view's: 0 here).
@@ -322,6 +349,7 @@ impl Settings {
             return bad("fluid_scale (0 < s ≤ 1)");
         }
         self.sim.validate()?;
+        self.noise.check().map_err(|(_, reason)| Error::Invalid(reason))?;
         if !(self.mesh.cube > 0.05 && self.mesh.cube <= 8.0) || self.mesh.smoothing_iters > 1000 {
             return bad("[mesh] cube (0.05 < c ≤ 8) or smoothing_iters (≤ 1000)");
         }
@@ -443,6 +471,11 @@ mod tests {
         check("syntax.toml", "[ssr]\nstride = = 8\n", 15, "");
         check("inf.toml", "[iso]\nsmoothing = inf\n", 6, "iso.smoothing: settings are finite numbers");
         check("nan.toml", "[smooth.narrow]\nradius = nan\n", 16, "smooth.narrow.radius");
+        // [noise] values out of range name their key where the [noise] section assigns it (not another
+        // section's key of the same name).
+        check("noise.toml", "[thickness]\nscale = 0.5\n[noise]\nsize = -1.0\n", 32, "[noise] size = -1");
+        check("foam.toml", "[noise]\nfoam_from = 0.5\nfoam_full = 0.2\n", 24, "foam_full = 0.2 must exceed");
+        check("noisekey.toml", "[noise]\nsparkle = 1.0\n", 8, "sparkle");
     }
 
     #[test]

@@ -15,6 +15,9 @@ pub const MAX_BOXES: u32 = 8;
 pub const SSR_MISS: u32 = 0xffff_ffff;
 /// Per-thread pixel budget of the particle passes: a sphere covering more (it swallowed the camera) is skipped.
 pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
+/// Bytes per particle of the renderer's particle buffer: its position (vec4) and, after all positions, its
+/// motion (vec4: id bits, |Δv|/Δt), read by the `noise` pass.
+pub const BYTES_PER_PARTICLE: u64 = 32;
 /// Tile size of the splat's occlusion bound (`splat_cull`).
 pub const SPLAT_TILE: u32 = 8;
 /// Colliders of a simulation scene (sim_common.glsl's uniform block).

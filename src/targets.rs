@@ -100,6 +100,10 @@ pub struct Targets {
     pub thickness: Image,
     /// Packed view-space normals (octahedral, R32_UINT).
     pub normals: Image,
+    /// The `noise` pass's fixed-point accumulator (R32_UINT).
+    pub noise_accum: Image,
+    /// The noise image N in particle radii (R32F), read by `composite` for the foam tint.
+    pub noise: Image,
     /// SSR hit uv per pixel (R32_UINT).
     pub ssr: Image,
     /// The `composite` pass's output (RGBA8).
@@ -145,6 +149,8 @@ impl Targets {
                 thickness_accum: img("thickness_accum", d.thickness, vk::Format::R32_UINT, storage, None)?,
                 thickness: img("thickness", d.thickness, r32, storage | U::SAMPLED, None)?,
                 normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
+                noise_accum: img("noise_accum", full, vk::Format::R32_UINT, storage, None)?,
+                noise: img("noise", full, r32, storage, None)?,
                 ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
                 final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
             })
@@ -153,9 +159,9 @@ impl Targets {
         made.map_err(|e| match e {
             crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } => {
                 let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
-                // 24 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 28 per fluid
+                // 32 bytes per output pixel (scene colour and depth, normals, noise, SSR, final) and about 28 per fluid
                 // pixel (depth, smoothing, back depth, thickness, iso queue).
-                let mb = (24 * px(full) + 28 * px(fluid)) as f64 / 1e6;
+                let mb = (32 * px(full) + 28 * px(fluid)) as f64 / 1e6;
                 crate::error::Error::Limit(format!(
                     "a {}×{} frame needs about {mb:.0} MB of images, more than this device could allocate ({e}); \
                      choose a smaller --width/--height or --fluid-scale",
@@ -192,6 +198,8 @@ impl Targets {
             &self.thickness_accum,
             &self.thickness,
             &self.normals,
+            &self.noise_accum,
+            &self.noise,
             &self.ssr,
             &self.final_color,
         ];

@@ -1466,8 +1466,11 @@ fn composite_matches_cpu_reference() {
             thickness: &t.thickness,
             ssr: &t.ssr,
             sky: &r.background.sky,
+            noise: &t.noise,
         };
-        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &t.final_color);
+        // Without the noise pass: no foam (the image is cleared, the tint's weight is 0).
+        let noise = meniscus::passes::noise::Params { enabled: false, ..Default::default() };
+        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &t.final_color);
         Ok(())
     })
     .unwrap();
@@ -1819,5 +1822,152 @@ fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
     assert!(close * 100 >= both * 99, "{close} of {both} pixels within 0.01 r");
     eprintln!("thickness: {thick_ok} of {thick_px} pixels within 0.01 r");
     assert!(thick_px > 1000 && thick_ok * 100 >= thick_px * 99, "thickness: {thick_ok} of {thick_px} within 0.01 r");
+    assert_clean(&gpu);
+}
+
+/// A slab of particles five layers deep (the lowest ones too deep to add noise), `n`×`n` per layer, spacing 2r, centred at the origin (y up).
+fn noise_slab(n: usize, r: f32) -> Vec<[f32; 3]> {
+    let mut p = vec![];
+    for layer in 0..5 {
+        for i in 0..n {
+            for k in 0..n {
+                let at = |j: usize| (j as f32 - (n as f32 - 1.0) / 2.0) * 2.0 * r;
+                p.push([at(i), -(layer as f32) * 2.0 * r, at(k)]);
+            }
+        }
+    }
+    p
+}
+
+/// The `noise` pass against its CPU reference (`passes::noise::reference`, the patent's eq. 15–17): a slab seen
+/// from above at an angle, its particles calm, ramping and turbulent by their change of velocity, each seeded by
+/// its own id. The accumulator equals the reference's fixed-point sums (up to float rounding of single terms),
+/// N is the accumulator in radii, and the normals are the unperturbed ones minus N's slopes.
+#[test]
+fn noise_matches_cpu_reference() {
+    use meniscus::particles::Motion;
+    use meniscus::passes::noise::{reference, UNITS};
+    let gpu = gpu();
+    let (w, h) = (96usize, 64usize);
+    let r = 0.1f32;
+    let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let mut s = settings(r);
+    s.smooth.filter = Filter::None;
+    s.noise.enabled = true;
+    s.noise.calm = 0.2;
+    s.noise.turbulent = 0.9;
+    let pos = noise_slab(10, r);
+    let tau = s.noise.threshold;
+    let motion: Vec<Motion> =
+        (0..pos.len()).map(|k| Motion { id: 1000 + 7 * k as u32, accel: (k % 3) as f32 * tau }).collect();
+    let mut rr = Renderer::new(&gpu).unwrap();
+    rr.set_particles_moving(&pos, None, None, &motion).unwrap();
+    rr.render(&v, &s).unwrap();
+    let t = rr.targets.as_ref().unwrap();
+    let words = |img| -> Vec<u32> {
+        read_image(&gpu, img).unwrap().chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    };
+    let acc: Vec<i32> = words(&t.noise_accum).into_iter().map(|u| u as i32).collect();
+    let noise = read_f32(&gpu, &t.noise).unwrap();
+    let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
+    let normals = words(&t.normals);
+    let m = v.camera.view();
+    let particles: Vec<reference::Particle> = pos
+        .iter()
+        .zip(&motion)
+        .map(|(p, mo)| reference::Particle {
+            c: m.transform_point3(glam::Vec3::from(*p)).to_array(),
+            id: mo.id,
+            accel: mo.accel,
+        })
+        .collect();
+    let f = v.camera.focal_px(h as u32);
+    let want = reference::accumulate(&particles, &depth, w, h, f, r, v.camera.near, &s.noise);
+    let covered = depth.iter().filter(|d| **d < 1e30).count();
+    let nonzero = want.iter().filter(|x| **x != 0).count();
+    assert!(covered > 1000 && nonzero > covered / 2, "covered {covered}, noise on {nonzero}");
+    let peak = want.iter().map(|x| x.abs()).max().unwrap();
+    // Per pixel: a few units of 2^-16 radii from the rounding of each sprite's term (about 20 sprites a pixel).
+    let worst = acc.iter().zip(&want).map(|(a, b)| (a - b).abs()).max().unwrap();
+    eprintln!("noise: {nonzero} pixels, peak {:.3} radii, worst difference {worst} units", peak as f32 / UNITS);
+    assert!(peak as f32 / UNITS > 0.2, "the noise is too weak to test: peak {peak}");
+    assert!(worst <= 16, "accumulator differs from the CPU reference by {worst} units (2^-16 radii)");
+    for k in 0..w * h {
+        let want_n = if depth[k] < 1e30 { acc[k] as f32 / UNITS } else { 0.0 };
+        assert_eq!(noise[k], want_n, "N at pixel {k}");
+    }
+    // The same frame without the pass: the unperturbed normals, then noise_apply.comp's slopes on the CPU.
+    let mut plain = Renderer::new(&gpu).unwrap();
+    plain.set_particles_moving(&pos, None, None, &motion).unwrap();
+    plain.render(&v, &s.with(|s| s.noise.enabled = false)).unwrap();
+    let n0 = words(&plain.targets.as_ref().unwrap().normals);
+    let edge = s.normals.edge * r;
+    let same = |x: i64, y: i64, d: f32| {
+        x >= 0 && y >= 0 && x < w as i64 && y < h as i64 && {
+            let q = depth[y as usize * w + x as usize];
+            q < 1e30 && (q - d).abs() < edge
+        }
+    };
+    let hgt = |x: i64, y: i64| acc[y as usize * w + x as usize] as f32 / UNITS;
+    let slope = |x: i64, y: i64, d: f32, (dx, dy): (i64, i64)| {
+        let (fw, bw) = (same(x + dx, y + dy, d), same(x - dx, y - dy, d));
+        match (fw, bw) {
+            (true, true) => 0.5 * (hgt(x + dx, y + dy) - hgt(x - dx, y - dy)),
+            (true, false) => hgt(x + dx, y + dy) - hgt(x, y),
+            (false, true) => hgt(x, y) - hgt(x - dx, y - dy),
+            _ => 0.0,
+        }
+    };
+    let mut worst_deg = 0f32;
+    let mut tilted = 0;
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let k = y as usize * w + x as usize;
+            let d = depth[k];
+            if !(d < 1e30) {
+                continue;
+            }
+            let kk = s.noise.strength * r * f / d;
+            let (gx, gy) = (slope(x, y, d, (1, 0)) * kk, -slope(x, y, d, (0, 1)) * kk);
+            let a = glam::Vec3::from(meniscus::passes::normals::unpack(n0[k]));
+            let want = (a - glam::Vec3::new(gx, gy, 0.0)).normalize();
+            let got = glam::Vec3::from(meniscus::passes::normals::unpack(normals[k]));
+            worst_deg = worst_deg.max(got.dot(want).clamp(-1.0, 1.0).acos().to_degrees());
+            tilted += (got.dot(a).clamp(-1.0, 1.0).acos().to_degrees() > 1.0) as usize;
+        }
+    }
+    eprintln!("normals: {tilted} of {covered} pixels tilted by more than 1°, worst error {worst_deg:.3}°");
+    assert!(tilted > covered / 10, "the noise hardly moves the normals: {tilted} pixels");
+    assert!(worst_deg < 0.1, "perturbed normals off by {worst_deg}°");
+    assert_clean(&gpu);
+}
+
+/// Still water stays still: the same particles in consecutive frames of a sequence (no change of velocity)
+/// give the same noise image and the same picture, frame after frame; moving the camera does not change a
+/// particle's pattern (it is seeded by the id, not by the frame or the pixel).
+#[test]
+fn noise_of_still_water_does_not_flicker() {
+    let gpu = gpu();
+    let r = 0.1f32;
+    let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], 96, 64, 40.0);
+    let mut s = settings(r);
+    s.noise.enabled = true;
+    let p = meniscus::scene::Particles { positions: noise_slab(10, r), ..Default::default() };
+    let mut tracker = meniscus::motion::MotionTracker::new(25.0);
+    let mut rr = Renderer::new(&gpu).unwrap();
+    let mut frames = vec![];
+    for _ in 0..3 {
+        let motion = tracker.next(&p);
+        assert!(motion.iter().all(|m| m.accel == 0.0));
+        rr.set_scene_particles_moving(&p, &s, &motion).unwrap();
+        rr.render(&v, &s).unwrap();
+        let t = rr.targets.as_ref().unwrap();
+        frames.push((read_f32(&gpu, &t.noise).unwrap(), rr.read_final().unwrap()));
+    }
+    assert!(frames[0].0.iter().any(|x| *x != 0.0), "no noise at all");
+    for k in 1..3 {
+        assert!(frames[k].0 == frames[0].0, "frame {k}: the noise image changed");
+        assert!(frames[k].1 == frames[0].1, "frame {k}: the picture changed");
+    }
     assert_clean(&gpu);
 }

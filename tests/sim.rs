@@ -273,6 +273,17 @@ fn a_resting_pool_stays_at_rest() {
     assert!(vmax < 0.05, "max speed {vmax} m/s");
     assert!(rms_at[1] < rms_at[0], "the pool is not settling: rms {rms_at:?}");
     assert!(err < 0.01, "density error {err}");
+    // The patent's noise: no particle of a resting pool changes its velocity fast enough to raise the amplitude
+    // above its calm level (the ramp starts at half the threshold).
+    let motion = sim.read_motion().unwrap();
+    assert_eq!(motion.len(), n);
+    let amax = motion.iter().map(|m| m.accel).fold(0.0, f32::max);
+    let calm_below = 0.5 * meniscus::passes::noise::Params::default().threshold;
+    eprintln!("fastest change of velocity {amax:.3} m/s² (the noise is calm below {calm_below} m/s²)");
+    assert!(amax < calm_below, "a resting particle changes its velocity at {amax} m/s²");
+    let mut ids: Vec<u32> = motion.iter().map(|m| m.id).collect();
+    ids.sort_unstable();
+    assert!(ids.windows(2).all(|w| w[0] != w[1]), "the motions' ids are not the particles' own");
     common::assert_clean(&gpu);
 }
 
@@ -365,6 +376,12 @@ fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
             100.0 * (a - b).abs() / tank
         );
         worst = worst.max((a - b).abs() / tank);
+        // The breaking front is turbulent for the patent's noise: particles whose velocity changes faster than
+        // the threshold, within the first second.
+        let tau = meniscus::passes::noise::Params::default().threshold;
+        let turbulent = sim.read_motion().unwrap().iter().filter(|m| m.accel > 1.5 * tau).count();
+        eprintln!("t = {t:.1} s: {turbulent} of {n} particles at the noise's turbulent amplitude");
+        assert!(turbulent > 0, "t = {t} s: no particle of the dam break is turbulent");
     }
     assert!(worst < 0.10, "surge front off by {:.1} % of the tank length", worst * 100.0);
     common::assert_clean(&gpu);
@@ -396,7 +413,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
         r.set_gpu_particles(sim.count(), scene.container).unwrap();
         let src = sim.particle_buffer();
         let copy = |ctx: &mut FrameCtx, out: &Buffer| {
-            let size = sim.count() as u64 * 16;
+            let size = sim.count() as u64 * meniscus::particles::BYTES_PER_PARTICLE;
             ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
         };
         r.render_spans_with(&v, &s, Hooks { produce: Some(&copy), ..Default::default() }).unwrap();

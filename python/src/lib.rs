@@ -167,7 +167,8 @@ impl Renderer {
                 None => {
                     core.set_gpu_particles(n, (lo, hi))?;
                     let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
-                        let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size: n as u64 * 16 };
+                        let size = n as u64 * meniscus::particles::BYTES_PER_PARTICLE;
+                        let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
                         ctx.copy_buffer(src, out, region);
                     };
                     core.render_with(view, s, Hooks { produce: Some(&copy), ..Default::default() })?

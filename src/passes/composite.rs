@@ -58,7 +58,7 @@ impl Default for Params {
 
 /// The pass: its compute program(s), built once per device.
 pub struct Composite {
-    prog: ComputeProgram,
+    prog: ComputeProgram<Push>,
 }
 
 /// The images the composite reads.
@@ -77,12 +77,24 @@ pub struct CompositeInputs<'a> {
     pub ssr: &'a Image,
     /// The sky cube map (placeholder when procedural).
     pub sky: &'a Image,
+    /// The `noise` pass's N (radii): the foam tint's magnitude (cleared here when the pass is off).
+    pub noise: &'a Image,
 }
 
-// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky. No push constants.
-declare_program!(pub PROGRAM: () = compute(
+/// Push constants of composite.comp: the foam tint (`[noise]`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Push {
+    /// Foam colour (rgb) and the full tint's weight (w; 0: none).
+    pub foam: [f32; 4],
+    /// |N| where the tint starts (x) and is full (y).
+    pub range: [f32; 4],
+}
+
+// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky, noise.
+declare_program!(pub PROGRAM: Push = compute(
     shaders::COMPOSITE,
-    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled]
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead]
 ));
 
 impl Composite {
@@ -91,9 +103,25 @@ impl Composite {
         Ok(Composite { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
-    /// Shade the fluid over the background into `out`.
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, out: &Image) {
+    /// Shade the fluid over the background into `out`, tinted toward foam by the noise (`noise`: its settings).
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        i: &CompositeInputs,
+        noise: &crate::passes::noise::Params,
+        out: &Image,
+    ) {
         ctx.pass(NAME, |ctx| {
+            // Without the `noise` pass its image holds nothing: a zero image tints nothing.
+            if !noise.enabled {
+                ctx.clear(i.noise, ash::vk::ClearColorValue { float32: [0.0; 4] });
+            }
+            let c = noise.foam_color;
+            let push = Push {
+                foam: [c[0], c[1], c[2], if noise.enabled { noise.foam } else { 0.0 }],
+                range: [noise.foam_from, noise.foam_full, 0.0, 0.0],
+            };
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             let res = [
                 frame.into(),
@@ -105,8 +133,9 @@ impl Composite {
                 out.into(),
                 i.ssr.into(),
                 i.sky.into(),
+                i.noise.into(),
             ];
-            self.prog.dispatch(ctx, &res, &(), g);
+            self.prog.dispatch(ctx, &res, &push, g);
         });
     }
 }

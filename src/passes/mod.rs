@@ -45,6 +45,8 @@ frame_passes! {
     upsample: Upsample,
     /// View-space normals.
     normals: Normals,
+    /// The patent's noise: small waves on the normals, the foam tint's magnitude (`[noise]`).
+    noise: Noise,
     /// Screen-space reflections.
     ssr: Ssr,
     /// Shading over the background.

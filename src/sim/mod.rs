@@ -157,7 +157,8 @@ pub struct SimUniforms {
     pub gravity_mass: [f32; 4],
     /// ρ0, ε, s_corr k, 1/W(Δq).
     pub solver: [f32; 4],
-    /// XSPH c, vorticity ε, particle radius, unused.
+    /// XSPH c, vorticity ε, particle radius, the weight Δt / (Δt + frame time) of a step in the low-passed
+    /// change of velocity (the renderer's noise).
     pub visc: [f32; 4],
     /// h², poly6 coefficient, spiky gradient coefficient, particle volume m/ρ0.
     pub kern: [f32; 4],
@@ -377,7 +378,7 @@ impl Simulation {
             density: buf("sim_density", 4 * cap)?,
             vel: vec4s("sim_vel")?,
             omega: vec4s("sim_omega")?,
-            particles: buf("sim_particles", 16 * cap)?,
+            particles: buf("sim_particles", crate::shader_constants::BYTES_PER_PARTICLE * cap)?,
             sdf: match &scene.mesh_collider {
                 Some(m) => crate::gpu::transfer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
                 None => buf("sim_sdf", 16)?,
@@ -537,7 +538,7 @@ impl Simulation {
             hi_h: (hi - r).extend(c.h).to_array(),
             gravity_mass: Vec3::from(self.params.gravity).extend(c.mass).to_array(),
             solver: [self.params.rest_density, c.eps, c.scorr_k, c.inv_w_dq],
-            visc: [c.xsph, self.params.vorticity, r, 0.0],
+            visc: [c.xsph, self.params.vorticity, r, c.dt / (c.dt + 1.0 / self.params.fps as f32)],
             kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, self.params.scorr_n],
             sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
@@ -593,6 +594,22 @@ impl Simulation {
         }
         let b = crate::gpu::transfer::read_buffer(&self.gpu, &self.neighbours.overflow, 4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    /// The particles' motions (id, |Δv|/Δt over the last step) in the simulation's own render buffer, in its
+    /// order (written by frames recorded without a target; waits for the device).
+    pub fn read_motion(&self) -> Result<Vec<crate::motion::Motion>> {
+        if self.frames == 0 {
+            return Ok(vec![]);
+        }
+        let n = self.n as u64;
+        let b = crate::gpu::transfer::read_buffer_at(&self.gpu, &self.particles, 16 * n, 16 * n)?;
+        Ok(b.chunks_exact(16)
+            .map(|c| crate::motion::Motion {
+                id: u32::from_le_bytes([c[0], c[1], c[2], c[3]]),
+                accel: f32::from_le_bytes([c[4], c[5], c[6], c[7]]),
+            })
+            .collect())
     }
 
     /// The simulation's own render particles (vec4, w = 0), written by frames recorded without a target.

@@ -44,6 +44,9 @@ pub struct Job {
     pub first: Particles,
     /// The frames of a sequence (`None` for a single file or scene).
     pub frames: Option<Vec<Frame>>,
+    /// Every frame of the sequence, whatever `frames` selects (empty for one file or a built-in scene): the
+    /// frames before a selected one, for its motion.
+    pub whole: Vec<Frame>,
     pub load: LoadOptions,
     /// Settings with the radius resolved; validated.
     pub settings: Settings,
@@ -97,6 +100,7 @@ impl Job {
         let input = scene_args.input.as_str();
         let builtin = procedural::SCENES.iter().find(|s| s.0 == input);
         let mut scene_json = None;
+        let mut whole = vec![];
         let (first, scene_radius, frames, label) = if let Some((name, n, _)) = builtin {
             let g = procedural::generate(name, scene_args.particles.unwrap_or(*n))?;
             (g.particles, Some((g.radius, RadiusFrom::Scene)), None, format!("scene {name}"))
@@ -124,6 +128,7 @@ impl Job {
                 if !scene_args.no_scene_json {
                     scene_json = find_scene_json(&all[0].path);
                 }
+                whole = all.clone();
                 let frames = sequence::select(input, all, select.range, select.shard)?;
                 let r = scene_json.as_ref().and_then(|s| s.radius).map(|r| (r, RadiusFrom::SceneJson));
                 (first, r, Some(frames), input.to_string())
@@ -189,7 +194,7 @@ impl Job {
             _ => (vec![], None),
         };
         let fps = scene_json.as_ref().and_then(|s| s.fps);
-        Ok(Job { label, first, frames, load, settings, radius_from, bounds, camera, mesh, walls, floor, fps })
+        Ok(Job { label, first, frames, whole, load, settings, radius_from, bounds, camera, mesh, walls, floor, fps })
     }
 
     /// The job of a live simulation (`demo --sim`): the scene's initial particles, its radius, its container as
@@ -214,6 +219,7 @@ impl Job {
                 ..Default::default()
             },
             frames: None,
+            whole: vec![],
             load: LoadOptions::default(),
             settings,
             radius_from: RadiusFrom::Scene,
@@ -245,6 +251,23 @@ impl Job {
     /// Upload one frame's particles (spray flags, per-particle radii) with this job's settings.
     pub fn upload(&self, r: &mut Renderer, p: &Particles) -> Result<()> {
         Ok(r.set_scene_particles(p, &self.settings)?)
+    }
+
+    /// The tracker of the particles' motion over this job's frames, in time order (the `noise` pass's
+    /// amplitude): the sequence's frame rate, else [`meniscus::motion::DEFAULT_FPS`].
+    pub fn motion(&self) -> meniscus::motion::MotionTracker {
+        meniscus::motion::MotionTracker::new(self.fps.unwrap_or(meniscus::motion::DEFAULT_FPS))
+    }
+
+    /// Upload the next frame of a sequence walked in time order, its motion from `tracker`.
+    pub fn upload_next(
+        &self,
+        r: &mut Renderer,
+        p: &Particles,
+        tracker: &mut meniscus::motion::MotionTracker,
+    ) -> Result<()> {
+        let motion = tracker.next(p);
+        Ok(r.set_scene_particles_moving(p, &self.settings, &motion)?)
     }
 
     /// Add the background mesh, if any, to a renderer.

@@ -257,6 +257,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             // A closed channel means the writer failed: its error is reported below.
             Ok(tx.send((path, img)).is_ok())
         };
+    let (mut tracker, mut fed) = (job.motion(), None);
     let run = (|| -> Result<()> {
         for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
             let particles = match loaded {
@@ -268,7 +269,22 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                 }
                 Err(e) => return Err(e.into()),
             };
-            job.upload(&mut r, &particles)?;
+            // The noise's amplitude needs the two frames before (the change of velocity): a frame whose
+            // predecessors were not rendered here (a shard's first, after --resume) gets them loaded first, so
+            // every frame looks the same however the sequence is split.
+            let whole = &job.whole;
+            let at = whole.iter().position(|f| f.number == frame.number).unwrap_or(0);
+            if at > 0 && fed != Some(whole[at - 1].number) {
+                tracker = job.motion();
+                for f in &whole[at.saturating_sub(2)..at] {
+                    match meniscus::scene::load_with(&f.path, &job.load) {
+                        Ok(p) => drop(tracker.next(&p)),
+                        Err(_) => tracker = job.motion(),
+                    }
+                }
+            }
+            fed = Some(frame.number);
+            job.upload_next(&mut r, &particles, &mut tracker)?;
             let sub = r.submit(&view, s, true)?;
             let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
             pending.push_back((sub, names.path(frame.number), name));

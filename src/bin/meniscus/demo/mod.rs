@@ -51,7 +51,7 @@ C: print the camera as a --camera argument (stdout)
 Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
-F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | O: next preset
+F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | N: noise and foam on/off | O: next preset
 V: vsync on/off | P: screenshot (PNG) | M: record a movie on/off (--record FILE, else meniscus-recording-NNNN.mp4) | H: help on/off | Esc: quit
 --sim: Space pause | Right: one frame | Backspace: restart | hold Ctrl + move the mouse: push the water";
 
@@ -201,6 +201,8 @@ struct App {
     mesh: Option<meniscus::scene::geometry::Geometry>,
     /// The sequence frame whose particles are on the GPU (uploads happen only when it changes).
     uploaded: Option<usize>,
+    /// The particles' motion over the frames played in order (the noise's amplitude); restarted by a jump.
+    motion: meniscus::motion::MotionTracker,
     src: playback::Source,
     radius: f32,
     fit: Camera,
@@ -259,6 +261,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         ))
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
+    let motion_fps = o.fps;
     let mut app = App {
         camera,
         fit,
@@ -296,6 +299,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         load,
         mesh,
         uploaded: None,
+        motion: meniscus::motion::MotionTracker::new(motion_fps),
     };
     event_loop.run_app(&mut app).map_err(|e| Error::Invalid(format!("window event loop failed: {e}")))?;
     if let Some(e) = app.error.take() {
@@ -505,6 +509,7 @@ impl App {
                 };
             }
             KeyCode::KeyX => self.settings.ssr.enabled = !self.settings.ssr.enabled,
+            KeyCode::KeyN => self.settings.noise.enabled = !self.settings.noise.enabled,
             KeyCode::KeyI => {
                 let next = match self.settings.surface {
                     Surface::Spheres => Surface::Iso,
@@ -675,7 +680,7 @@ impl App {
                 } else {
                     sim.step_frame()?;
                     let p = sim.read()?;
-                    st.renderer.set_scene_particles(&p, &self.settings)?;
+                    st.renderer.set_scene_particles_moving(&p, &self.settings, &sim.read_motion()?)?;
                     self.sim_particles = Some(p);
                 }
             }
@@ -692,8 +697,13 @@ impl App {
         // Upload only when the frame changed (or a preset changed the spray settings): re-uploading also
         // dropped the iso grid, which was then rebuilt every frame of a static scene.
         if self.uploaded != Some(self.frame) {
+            // The next frame in time order continues the motion; any other jump starts it again.
+            if self.uploaded.is_none_or(|u| u + 1 != self.frame) {
+                self.motion = meniscus::motion::MotionTracker::new(self.o.fps);
+            }
             let p = self.src.get(self.frame, &self.load)?;
-            st.renderer.set_scene_particles(p, &self.settings)?;
+            let motion = self.motion.next(p);
+            st.renderer.set_scene_particles_moving(p, &self.settings, &motion)?;
             self.uploaded = Some(self.frame);
         }
         // Frames in flight: the slot this frame takes is free once the frame N back is done (the only host wait).
@@ -861,12 +871,13 @@ impl App {
                 st.renderer.particle_count()
             ),
             format!(
-                "view {}  surface {}  filter {}  fluid scale {}  ssr {}  vsync {}  async {}",
+                "view {}  surface {}  filter {}  fluid scale {}  ssr {}  noise {}  vsync {}  async {}",
                 self.mode.name(),
                 s.surface.name(),
                 s.smooth.filter.name(),
                 s.fluid_scale,
                 if s.ssr.enabled { "on" } else { "off" },
+                if s.noise.enabled { "on" } else { "off" },
                 if self.o.vsync { "on" } else { "off" },
                 if st.renderer.async_compute { "on" } else { "off" }
             ),

@@ -1,0 +1,67 @@
+//! noise.glsl — the patent's per-particle noise kernel (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8),
+//! shared by noise.comp and mirrored exactly by `passes::noise::reference` (the CPU reference the tests compare
+//! against).
+//! A particle's sprite covers a disc of `size` radii around its centre on screen; at sprite coordinates
+//! (u, v) ∈ [−1, 1]² the kernel is
+//!   I = A · exp(−2(u² + v²)) · n(u, v, id) · exp(−((z − d) / (falloff · r))²)
+//! with n a two-octave 3D gradient noise (Perlin 2002) whose first two coordinates are the sprite's and whose
+//! third is the particle's (a per-particle offset hashed from its id, so the pattern differs per particle and
+//! stays with the particle from frame to frame), z the particle's eye depth, d the surface's depth at the
+//! pixel (deep particles add nothing) and A the particle's amplitude: `calm`, raised towards `turbulent` while its
+//! velocity changes faster than `threshold` (eq. 17, as a smooth ramp from ½ to 1½ of the threshold so a
+//! particle near it does not flicker between two levels).
+
+/// Depth below the surface, in falloffs, past which a particle adds nothing (see noise.comp).
+#define NOISE_DEEP 4.0
+
+/// Integer hash (lowbias32, C. Wellons): every bit of the input reaches every bit of the output.
+uint noise_hash(uint x) {
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+/// Perlin's improved gradient (12 cube-edge directions, 16 cases) dotted with the offset f.
+float noise_grad(uint h, vec3 f) {
+    uint k = h & 15u;
+    float u = k < 8u ? f.x : f.y;
+    float v = k < 4u ? f.y : ((k == 12u || k == 14u) ? f.x : f.z);
+    return ((k & 1u) == 0u ? u : -u) + ((k & 2u) == 0u ? v : -v);
+}
+
+float noise_corner(ivec3 c, vec3 f) {
+    return noise_grad(noise_hash(uint(c.x) ^ noise_hash(uint(c.y) ^ noise_hash(uint(c.z)))), f);
+}
+
+/// 3D gradient noise in about [−1, 1], 0 on the integer lattice.
+float noise_perlin(vec3 p) {
+    vec3 i = floor(p);
+    vec3 f = p - i;
+    ivec3 c = ivec3(i);
+    vec3 w = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
+    float x00 = mix(noise_corner(c, f), noise_corner(c + ivec3(1, 0, 0), f - vec3(1, 0, 0)), w.x);
+    float x10 = mix(noise_corner(c + ivec3(0, 1, 0), f - vec3(0, 1, 0)), noise_corner(c + ivec3(1, 1, 0), f - vec3(1, 1, 0)), w.x);
+    float x01 = mix(noise_corner(c + ivec3(0, 0, 1), f - vec3(0, 0, 1)), noise_corner(c + ivec3(1, 0, 1), f - vec3(1, 0, 1)), w.x);
+    float x11 = mix(noise_corner(c + ivec3(0, 1, 1), f - vec3(0, 1, 1)), noise_corner(c + ivec3(1, 1, 1), f - vec3(1, 1, 1)), w.x);
+    return mix(mix(x00, x10, w.y), mix(x01, x11, w.y), w.z);
+}
+
+/// The particle's place in the noise volume: three coordinates in [0, 256) hashed from its id.
+vec3 noise_offset(uint id) {
+    uint s = noise_hash(id);
+    return vec3(noise_hash(s) & 1023u, noise_hash(s ^ 1u) & 1023u, noise_hash(s ^ 2u) & 1023u) * 0.25;
+}
+
+/// Two octaves of the noise at sprite coordinates (u, v) of the particle whose offset is `o`.
+float noise_sprite(vec2 uv, float freq, vec3 o) {
+    vec3 q = vec3(uv * freq, 0.0) + o;
+    return noise_perlin(q) + 0.5 * noise_perlin(2.0 * q + vec3(17.0));
+}
+
+/// The amplitude of a particle whose velocity changes at `accel` (world units / s²).
+float noise_amplitude(float accel, float calm, float turbulent, float threshold) {
+    return calm + (turbulent - calm) * smoothstep(0.5 * threshold, 1.5 * threshold, accel);
+}

@@ -1,0 +1,373 @@
+//! `noise` pass: the patent's surface detail (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8). Every
+//! particle splats a Gaussian sprite of per-particle 3D noise, weighted by its depth below the fluid surface and
+//! scaled by how fast its velocity changes, into a noise image N; N's partial derivatives are added to the
+//! normals (small waves) and its magnitude tints the surface toward grey-white foam in `composite`. Runs on every
+//! surface (after `normals`, before `ssr`, so reflections see the waves); `[noise] enabled = false` leaves it
+//! out. Shaders: shaders_glsl/noise.comp (the splat), shaders_glsl/noise_apply.comp (the normals), with
+//! shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::declare_program;
+use crate::error::Result;
+use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
+use crate::shaders;
+
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `noise`.
+pub const NAME: &str = "noise";
+
+/// Fixed-point units of the accumulator per particle radius of height.
+pub const UNITS: f32 = 65536.0;
+
+/// Settings of the `noise` pass: the `[noise]` section of a settings file. Lengths in particle radii.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Waves and foam on the surface (false: the pass is not recorded and nothing is tinted).
+    pub enabled: bool,
+    /// Sprite radius around each particle (radii).
+    pub size: f32,
+    /// Noise cycles across a sprite's radius.
+    pub frequency: f32,
+    /// Depth below the surface (radii) over which a particle's weight falls by 1/e (the patent's
+    /// exp(−(depth below the surface)²)).
+    pub falloff: f32,
+    /// Height amplitude (radii) of a particle whose velocity changes slowly: still water's ripple.
+    pub calm: f32,
+    /// Height amplitude (radii) of a particle whose velocity changes faster than `threshold`.
+    pub turbulent: f32,
+    /// Change of velocity, |Δv| / Δt in world units per s², above which a particle is turbulent (eq. 17; the
+    /// amplitude ramps from ½ to 1½ of it). About gravity's 9.81 m/s² for scenes in metres: the shared 59k dam
+    /// break's particles change their velocity by 3 m/s² (median) to 10 m/s² (99th percentile) from one 25 fps
+    /// frame to the next as it breaks; the live simulation's resting pool by at most 3.9 m/s² (its solver's
+    /// jitter, low-passed over a frame). Scenes in other units scale it with them.
+    pub threshold: f32,
+    /// Scale of the noise's slopes added to the normals.
+    pub strength: f32,
+    /// |N| (radii) where the foam tint starts …
+    pub foam_from: f32,
+    /// … and where it is full.
+    pub foam_full: f32,
+    /// The full tint's weight (0: no foam).
+    pub foam: f32,
+    /// The foam's colour (lit by the sun and the ambient light).
+    pub foam_color: [f32; 3],
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            enabled: true,
+            size: 3.0,
+            frequency: 0.8,
+            falloff: 2.0,
+            calm: 0.04,
+            turbulent: 0.6,
+            threshold: 10.0,
+            strength: 1.0,
+            foam_from: 0.12,
+            foam_full: 0.5,
+            foam: 0.85,
+            foam_color: [0.92, 0.94, 0.96],
+        }
+    }
+}
+
+impl Params {
+    /// The first value out of range, as (key, reason).
+    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
+        let pos = |k: &'static str, v: f32, max: f32| {
+            if v > 0.0 && v <= max {
+                Ok(())
+            } else {
+                Err((k, format!("[noise] {k} = {v} is out of range (0 < {k} ≤ {max})")))
+            }
+        };
+        let non_neg = |k: &'static str, v: f32, max: f32| {
+            if (0.0..=max).contains(&v) {
+                Ok(())
+            } else {
+                Err((k, format!("[noise] {k} = {v} is out of range (0 ≤ {k} ≤ {max})")))
+            }
+        };
+        pos("size", self.size, 16.0)?;
+        pos("frequency", self.frequency, 64.0)?;
+        pos("falloff", self.falloff, 64.0)?;
+        non_neg("calm", self.calm, 8.0)?;
+        non_neg("turbulent", self.turbulent, 8.0)?;
+        pos("threshold", self.threshold, 1e9)?;
+        non_neg("strength", self.strength, 64.0)?;
+        non_neg("foam_from", self.foam_from, 64.0)?;
+        pos("foam_full", self.foam_full, 64.0)?;
+        if self.foam_full <= self.foam_from {
+            return Err(("foam_full", format!("[noise] foam_full = {} must exceed foam_from = {}", self.foam_full, self.foam_from)));
+        }
+        non_neg("foam", self.foam, 1.0)?;
+        if self.foam_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
+            return Err(("foam_color", "[noise] foam_color components are 0 … 1".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Push constants of noise.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SplatPush {
+    /// Particles (their motions follow the positions in the buffer).
+    pub count: u32,
+    /// [`Params::size`].
+    pub size: f32,
+    /// [`Params::frequency`].
+    pub freq: f32,
+    /// [`Params::falloff`].
+    pub falloff: f32,
+    /// [`Params::calm`].
+    pub calm: f32,
+    /// [`Params::turbulent`].
+    pub turbulent: f32,
+    /// [`Params::threshold`].
+    pub threshold: f32,
+}
+
+/// Push constants of noise_apply.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ApplyPush {
+    /// [`Params::strength`].
+    pub strength: f32,
+    /// Depth jump (world units) that separates two surfaces.
+    pub edge: f32,
+}
+
+// Splat: frame, particles (+ motions), fluid depth → accum (cleared first).
+declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite]));
+// Apply: frame, accum, fluid depth, normals (in place) → noise.
+declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite, ImgOverwrite]));
+
+/// The pass: its compute programs, built once per device.
+pub struct Noise {
+    splat: ComputeProgram<SplatPush>,
+    apply: ComputeProgram<ApplyPush>,
+}
+
+/// The images the pass reads and writes.
+pub struct NoiseImages<'a> {
+    /// Fluid depth at full resolution.
+    pub depth: &'a Image,
+    /// Packed normals, perturbed in place.
+    pub normals: &'a Image,
+    /// Fixed-point accumulator (R32_UINT).
+    pub accum: &'a Image,
+    /// N in radii (R32F), read by `composite`.
+    pub noise: &'a Image,
+}
+
+impl Noise {
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
+        Ok(Noise { splat: ComputeProgram::new(gpu, &SPLAT)?, apply: ComputeProgram::new(gpu, &APPLY)? })
+    }
+
+    /// Splat the `count` particles' noise and perturb the normals; `edge`: the normals' depth jump (world).
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        particles: (&Buffer, u32),
+        i: &NoiseImages,
+        p: &Params,
+        edge: f32,
+    ) {
+        ctx.pass(NAME, |ctx| {
+            ctx.clear(i.accum, vk::ClearColorValue { uint32: [0; 4] });
+            let (buf, count) = particles;
+            let push = SplatPush {
+                count,
+                size: p.size,
+                freq: p.frequency,
+                falloff: p.falloff,
+                calm: p.calm,
+                turbulent: p.turbulent,
+                threshold: p.threshold,
+            };
+            let res = [frame.into(), buf.into(), i.depth.into(), i.accum.into()];
+            self.splat.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
+            let g = groups_2d(i.noise.extent.width, i.noise.extent.height, super::LOCAL_2D);
+            let res = [frame.into(), i.accum.into(), i.depth.into(), i.normals.into(), i.noise.into()];
+            self.apply.dispatch(ctx, &res, &ApplyPush { strength: p.strength, edge }, g);
+        });
+    }
+}
+
+/// The CPU reference of noise.glsl and noise.comp, operation for operation (f32), for the tests.
+pub mod reference {
+    use super::{Params, UNITS};
+
+    /// NOISE_DEEP of noise.glsl.
+    pub const DEEP: f32 = 4.0;
+
+    /// lowbias32 (noise_hash).
+    pub fn hash(mut x: u32) -> u32 {
+        x ^= x >> 16;
+        x = x.wrapping_mul(0x7feb_352d);
+        x ^= x >> 15;
+        x = x.wrapping_mul(0x846c_a68b);
+        x ^= x >> 16;
+        x
+    }
+
+    fn grad(h: u32, f: [f32; 3]) -> f32 {
+        let k = h & 15;
+        let u = if k < 8 { f[0] } else { f[1] };
+        let v = if k < 4 {
+            f[1]
+        } else if k == 12 || k == 14 {
+            f[0]
+        } else {
+            f[2]
+        };
+        (if k & 1 == 0 { u } else { -u }) + (if k & 2 == 0 { v } else { -v })
+    }
+
+    fn corner(c: [i32; 3], f: [f32; 3]) -> f32 {
+        grad(hash(c[0] as u32 ^ hash(c[1] as u32 ^ hash(c[2] as u32))), f)
+    }
+
+    fn mix(a: f32, b: f32, t: f32) -> f32 {
+        a * (1.0 - t) + b * t
+    }
+
+    /// noise_perlin.
+    pub fn perlin(p: [f32; 3]) -> f32 {
+        let i = p.map(f32::floor);
+        let f = [p[0] - i[0], p[1] - i[1], p[2] - i[2]];
+        let c = i.map(|x| x as i32);
+        let w = f.map(|f| f * f * f * (f * (f * 6.0 - 15.0) + 10.0));
+        let at = |dx: i32, dy: i32, dz: i32| {
+            corner([c[0] + dx, c[1] + dy, c[2] + dz], [f[0] - dx as f32, f[1] - dy as f32, f[2] - dz as f32])
+        };
+        let x00 = mix(at(0, 0, 0), at(1, 0, 0), w[0]);
+        let x10 = mix(at(0, 1, 0), at(1, 1, 0), w[0]);
+        let x01 = mix(at(0, 0, 1), at(1, 0, 1), w[0]);
+        let x11 = mix(at(0, 1, 1), at(1, 1, 1), w[0]);
+        mix(mix(x00, x10, w[1]), mix(x01, x11, w[1]), w[2])
+    }
+
+    /// noise_offset.
+    pub fn offset(id: u32) -> [f32; 3] {
+        let s = hash(id);
+        [(hash(s) & 1023) as f32 * 0.25, (hash(s ^ 1) & 1023) as f32 * 0.25, (hash(s ^ 2) & 1023) as f32 * 0.25]
+    }
+
+    /// noise_sprite.
+    pub fn sprite(uv: [f32; 2], freq: f32, o: [f32; 3]) -> f32 {
+        let q = [uv[0] * freq + o[0], uv[1] * freq + o[1], o[2]];
+        perlin(q) + 0.5 * perlin([2.0 * q[0] + 17.0, 2.0 * q[1] + 17.0, 2.0 * q[2] + 17.0])
+    }
+
+    /// noise_amplitude.
+    pub fn amplitude(accel: f32, p: &Params) -> f32 {
+        let (e0, e1) = (0.5 * p.threshold, 1.5 * p.threshold);
+        let t = ((accel - e0) / (e1 - e0)).clamp(0.0, 1.0);
+        p.calm + (p.turbulent - p.calm) * (t * t * (3.0 - 2.0 * t))
+    }
+
+    /// One particle as noise.comp sees it: view-space centre, id, |Δv|/Δt.
+    pub struct Particle {
+        /// View-space centre.
+        pub c: [f32; 3],
+        /// Its id.
+        pub id: u32,
+        /// |Δv| / Δt.
+        pub accel: f32,
+    }
+
+    /// The accumulator noise.comp fills for `particles` over a `width`×`height` depth image (row-major, +inf =
+    /// no fluid), focal `f` (pixels), radius `r`, near plane `near`: fixed-point sums, as i32.
+    #[allow(clippy::too_many_arguments)]
+    pub fn accumulate(
+        particles: &[Particle],
+        depth: &[f32],
+        width: usize,
+        height: usize,
+        f: f32,
+        r: f32,
+        near: f32,
+        p: &Params,
+    ) -> Vec<i32> {
+        let mut acc = vec![0i32; width * height];
+        let size = [width as f32, height as f32];
+        for pt in particles {
+            let z = -pt.c[2];
+            if z <= near {
+                continue;
+            }
+            let amp = amplitude(pt.accel, p);
+            let o = offset(pt.id);
+            let centre = [0.5 * size[0] + f * pt.c[0] / z - 0.5, 0.5 * size[1] - f * pt.c[1] / z - 0.5];
+            let rr = f * p.size * r / z;
+            let lo = [(centre[0] - rr).ceil().max(0.0) as i64, (centre[1] - rr).ceil().max(0.0) as i64];
+            let hi = [
+                ((centre[0] + rr).floor() as i64).min(width as i64 - 1),
+                ((centre[1] + rr).floor() as i64).min(height as i64 - 1),
+            ];
+            let inv_fall = 1.0 / (p.falloff * r);
+            let mid = [
+                (centre[0].round() as i64).clamp(0, width as i64 - 1) as usize,
+                (centre[1].round() as i64).clamp(0, height as i64 - 1) as usize,
+            ];
+            let dc = depth[mid[1] * width + mid[0]];
+            if dc < 1e30 && z - dc > (DEEP * p.falloff + p.size) * r {
+                continue;
+            }
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    let uv = [(x as f32 - centre[0]) / rr, (y as f32 - centre[1]) / rr];
+                    let q = uv[0] * uv[0] + uv[1] * uv[1];
+                    if q > 1.0 {
+                        continue;
+                    }
+                    let d = depth[y as usize * width + x as usize];
+                    if d >= 1e30 {
+                        continue;
+                    }
+                    let below = (z - d) * inv_fall;
+                    if below > DEEP {
+                        continue;
+                    }
+                    let v = amp * (-2.0 * q).exp() * sprite(uv, p.frequency, o) * (-below * below).exp();
+                    let k = y as usize * width + x as usize;
+                    acc[k] = acc[k].wrapping_add((v * UNITS).round() as i32);
+                }
+            }
+        }
+        acc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The noise is 0 on the integer lattice and bounded; the amplitude ramps from calm to turbulent around the
+    /// threshold; the defaults pass their own check and bad values name their key.
+    #[test]
+    fn kernel_and_settings() {
+        assert_eq!(reference::perlin([3.0, -2.0, 7.0]), 0.0);
+        let mut max = 0f32;
+        for k in 0..20_000 {
+            let t = k as f32 * 0.0137;
+            max = max.max(reference::perlin([t, t * 0.7 + 3.1, t * 1.3 - 8.2]).abs());
+        }
+        assert!(max > 0.3 && max <= 1.5, "{max}");
+        let p = Params::default();
+        assert_eq!(reference::amplitude(0.0, &p), p.calm);
+        assert_eq!(reference::amplitude(2.0 * p.threshold, &p), p.turbulent);
+        assert!(reference::amplitude(p.threshold, &p) > p.calm && reference::amplitude(p.threshold, &p) < p.turbulent);
+        assert!(p.check().is_ok());
+        assert_eq!(Params { size: 0.0, ..p.clone() }.check().unwrap_err().0, "size");
+        assert_eq!(Params { foam_full: 0.1, ..p.clone() }.check().unwrap_err().0, "foam_full");
+    }
+}
