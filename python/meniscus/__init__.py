@@ -85,7 +85,9 @@ class Renderer:
                attributes: Optional[Dict[str, ArrayLike]] = None, alpha: bool = False) -> np.ndarray:
         """Render particles (N×3) — or a `Simulation`, from its GPU buffer without a copy through the host —
         and return the image as H×W×3 uint8 (H×W×4 with `alpha`). The camera is fitted to the particles'
-        1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks."""
+        1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks and "id"
+        (N integers, as `load` returns a file's) to seed each particle's surface noise as the CLI does (else the
+        index). Each call is one still frame: the noise keeps its calm amplitude."""
         if isinstance(positions, Simulation):
             img = self._r.render_sim(positions._s, _camera(camera))
         else:
@@ -100,7 +102,12 @@ class Renderer:
                 dens = np.ascontiguousarray(np.asarray(attributes["density"]), dtype=np.float32).reshape(-1)
                 if dens.shape[0] != pts.shape[0]:
                     raise ValueError(f"attributes['density']: {dens.shape[0]} values for {pts.shape[0]} particles")
-            img = self._r.render(pts, _radius(particle_radius), _camera(camera), vel, dens)
+            ids = None
+            if attributes and "id" in attributes:
+                ids = np.ascontiguousarray(np.asarray(attributes["id"]), dtype=np.int64).reshape(-1)
+                if ids.shape[0] != pts.shape[0]:
+                    raise ValueError(f"attributes['id']: {ids.shape[0]} values for {pts.shape[0]} particles")
+            img = self._r.render(pts, _radius(particle_radius), _camera(camera), vel, dens, ids)
         return img if alpha else img[:, :, :3]
 
     def render_buffers(self, positions: Union[ArrayLike, "Simulation"], **kwargs: Any) -> Dict[str, np.ndarray]:

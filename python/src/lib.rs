@@ -97,7 +97,9 @@ impl Renderer {
     }
 
     /// Render particles; returns the image as H×W×4 RGBA bytes.
-    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None))]
+    /// `ids` seed each particle's noise (the `noise` pass), as a file's ids do in the CLI.
+    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None, ids=None))]
+    #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &mut self,
         py: Python<'py>,
@@ -106,6 +108,7 @@ impl Renderer {
         camera: Option<([f32; 3], [f32; 3], f32)>,
         velocities: Option<PyReadonlyArray2<f32>>,
         densities: Option<PyReadonlyArray1<f32>>,
+        ids: Option<PyReadonlyArray1<i64>>,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         let mut s = self.settings.clone();
         s.radius = radius;
@@ -114,8 +117,12 @@ impl Renderer {
             positions: points(&positions)?,
             velocities: velocities.as_ref().map(points).transpose()?,
             densities: densities.map(|d| d.as_array().to_vec()),
+            ids: ids.map(|d| d.as_array().to_vec()),
             ..Default::default()
         };
+        if p.ids.as_ref().is_some_and(|i| i.len() != p.positions.len()) {
+            return Err(PyValueError::new_err("ids: one per particle"));
+        }
         let bounds = meniscus::scene::percentile_bounds(&p.positions, 0.01)
             .ok_or_else(|| PyValueError::new_err("no finite positions"))?;
         let view = View::around(&bounds, crate::camera(camera)?, self.size.0, self.size.1, &s);

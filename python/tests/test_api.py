@@ -26,12 +26,15 @@ def test_render_equals_the_cli_png(cli, frame, tmp_path, preset):
         "--preset", preset, "--out", png)
     want = np.asarray(Image.open(png).convert("RGB"))
     r = meniscus.Renderer(160, 90, preset=preset)
-    pos = meniscus.load(frame)["positions"]
-    got = r.render(pos, particle_radius=0.025, camera=CAM)
+    data = meniscus.load(frame)
+    pos = data["positions"]
+    # The file's ids seed the surface noise, as in the CLI.
+    ids = {"id": data["id"]}
+    got = r.render(pos, particle_radius=0.025, camera=CAM, attributes=ids)
     assert got.shape == (90, 160, 3) and got.dtype == np.uint8
     assert np.array_equal(got, want), f"{int((got != want).any(axis=2).sum())} pixels differ"
     # float64 input, the same pixels; the timings name the passes.
-    assert np.array_equal(r.render(pos.astype(np.float64), particle_radius=0.025, camera=CAM), want)
+    assert np.array_equal(r.render(pos.astype(np.float64), particle_radius=0.025, camera=CAM, attributes=ids), want)
     t = r.timings()
     assert "composite" in t and all(v >= 0 for v in t.values())
 

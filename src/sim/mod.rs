@@ -538,7 +538,7 @@ impl Simulation {
             hi_h: (hi - r).extend(c.h).to_array(),
             gravity_mass: Vec3::from(self.params.gravity).extend(c.mass).to_array(),
             solver: [self.params.rest_density, c.eps, c.scorr_k, c.inv_w_dq],
-            visc: [c.xsph, self.params.vorticity, r, c.dt / (c.dt + 1.0 / self.params.fps as f32)],
+            visc: [c.xsph, self.params.vorticity, r, c.dt / (c.dt + 1.0 / self.params.fps)],
             kern: [c.h * c.h, 315.0 / (64.0 * pi * c.h.powi(9)), -45.0 / (pi * c.h.powi(6)), c.volume],
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, self.params.scorr_n],
             sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
