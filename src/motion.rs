@@ -7,6 +7,8 @@
 
 use std::collections::HashMap;
 
+use glam::Vec3;
+
 use crate::scene::Particles;
 
 /// What the `noise` pass knows of a particle's motion: the second half of the particle buffer, one vec4 each.
@@ -74,28 +76,16 @@ impl MotionTracker {
             _ => vec![None; n],
         };
         let fps = self.fps;
-        let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
         let velocities: Option<Vec<[f32; 3]>> = p.velocities.clone().or_else(|| {
             let q = prev.as_ref()?;
-            Some(
-                (0..n)
-                    .map(|i| {
-                        matched[i].map_or([0.0; 3], |j| {
-                            let d = sub(p.positions[i], q.positions[j]);
-                            [d[0] * fps, d[1] * fps, d[2] * fps]
-                        })
-                    })
-                    .collect(),
-            )
+            let moved = |i: usize, j: usize| (Vec3::from(p.positions[i]) - Vec3::from(q.positions[j])) * fps;
+            Some((0..n).map(|i| matched[i].map_or(Vec3::ZERO, |j| moved(i, j)).to_array()).collect())
         });
         let motion = (0..n)
             .map(|i| {
                 let before = prev.as_ref().and_then(|q| Some(q.velocities.as_ref()?[matched[i]?]));
                 let accel = match (before, &velocities) {
-                    (Some(b), Some(v)) => {
-                        let d = sub(v[i], b);
-                        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * fps
-                    }
+                    (Some(b), Some(v)) => (Vec3::from(v[i]) - Vec3::from(b)).length() * fps,
                     _ => 0.0,
                 };
                 Motion { id: id_of(p, i), accel }

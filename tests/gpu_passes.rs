@@ -1943,8 +1943,8 @@ fn noise_matches_cpu_reference() {
 }
 
 /// Still water stays still: the same particles in consecutive frames of a sequence (no change of velocity)
-/// give the same noise image and the same picture, frame after frame; moving the camera does not change a
-/// particle's pattern (it is seeded by the id, not by the frame or the pixel).
+/// give the same noise image and the same picture, frame after frame (the pattern is seeded by the particle's
+/// id, not by the frame).
 #[test]
 fn noise_of_still_water_does_not_flicker() {
     let gpu = gpu();

@@ -596,8 +596,9 @@ impl Simulation {
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 
-    /// The particles' motions (id, |Δv|/Δt over the last step) in the simulation's own render buffer, in its
-    /// order (written by frames recorded without a target; waits for the device).
+    /// The particles' motions (id, |Δv|/Δt low-passed over about a frame: sim_viscosity.comp) in the
+    /// simulation's own render buffer, in its order (written by frames recorded without a target; waits for the
+    /// device).
     pub fn read_motion(&self) -> Result<Vec<crate::motion::Motion>> {
         if self.frames == 0 {
             return Ok(vec![]);

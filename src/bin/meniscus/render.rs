@@ -272,8 +272,10 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             // The noise's amplitude needs the two frames before (the change of velocity): a frame whose
             // predecessors were not rendered here (a shard's first, after --resume) gets them loaded first, so
             // every frame looks the same however the sequence is split.
+            // `whole` is sorted by number: a binary search, not a scan per frame of a long sequence.
             let whole = &job.whole;
-            let at = whole.iter().position(|f| f.number == frame.number).unwrap_or(0);
+            let at = whole.partition_point(|f| f.number < frame.number);
+            let at = if whole.get(at).is_some_and(|f| f.number == frame.number) { at } else { 0 };
             if at > 0 && fed != Some(whole[at - 1].number) {
                 tracker = job.motion();
                 for f in &whole[at.saturating_sub(2)..at] {
