@@ -127,11 +127,15 @@ fn main() -> meniscus::Result<()> {
                     ssr: &t.ssr,
                     sky: &r.background.sky,
                     noise: &t.noise,
+                    diffuse_drawn: false,
+                    diffuse_white: &t.diffuse_white,
+                    diffuse_bubbles: &t.diffuse_bubbles,
                 };
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);
                     let noise = meniscus::passes::noise::Params::default();
-                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &t.final_color);
+                    let diffuse = meniscus::diffuse::Params::default();
+                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &diffuse, &t.final_color);
                     Ok(())
                 })
             })

@@ -8,8 +8,11 @@
 //! Foam (NVIDIA patent US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): the
 //! result is mixed toward the foam colour, lit by the ambient light and the sun (Lambert), with weight
 //! foam.w · smoothstep(from, full, |N|) of the `noise` pass's N.
-//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), noise.
-//! Out: rgba8, gamma 2.2.
+//! Diffuse particles (the `diffuse` pass, Ihmsen et al. 2012): the bubbles' coverage B mixes the water toward
+//! their lit colour by bubbles · (1 − exp(−B)) (they lie under the surface), then foam and spray's coverage S
+//! lays their lit colour over everything, water or background, by 1 − exp(−S).
+//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), noise,
+//! diffuse white and bubbles (fixed point). Out: rgba8, gamma 2.2.
 #define SKY_BINDING 8
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
@@ -21,10 +24,20 @@ layout(set = 0, binding = 5) uniform sampler2D thickness;
 layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ssr;
 layout(set = 0, binding = 9, r32f) uniform readonly image2D noise;
+layout(set = 0, binding = 10, r32ui) uniform readonly uimage2D diffuse_white;
+layout(set = 0, binding = 11, r32ui) uniform readonly uimage2D diffuse_bubbles;
 layout(push_constant) uniform Push {
-    vec4 foam;  // rgb: colour; w: weight of the full tint
-    vec4 range; // x: |N| where the tint starts, y: where it is full
+    vec4 foam;    // rgb: colour; w: weight of the full tint
+    vec4 range;   // x: |N| where the tint starts, y: where it is full; z: diffuse units per coverage, w: bubbles
+    vec4 diffuse; // rgb: colour of foam and spray
 } pc;
+
+/// Foam and spray over the colour `c` (lit by the ambient light and half the sun: small bright specks).
+vec3 add_white(vec3 c, ivec2 p) {
+    float S = float(imageLoad(diffuse_white, p).x) / pc.range.z;
+    vec3 lit = pc.diffuse.rgb * (frame.fluid_color.w + 0.5 * frame.sun.w);
+    return mix(c, lit, 1.0 - exp(-S));
+}
 
 vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
 
@@ -37,7 +50,7 @@ void main() {
     float sd = imageLoad(scene_depth, p).x;
     float d = imageLoad(fluid_depth, p).x;
     if (!is_fluid(d) || d >= sd) {
-        imageStore(out_color, p, encode(bg));
+        imageStore(out_color, p, encode(add_white(bg, p)));
         return;
     }
     vec3 n = unpack_normal(imageLoad(normals, p).x);
@@ -80,5 +93,7 @@ void main() {
     float foam = pc.foam.w * smoothstep(pc.range.x, pc.range.y, abs(imageLoad(noise, p).x));
     vec3 lit = pc.foam.rgb * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * 0.6);
     c = mix(c, lit, foam);
-    imageStore(out_color, p, encode(c));
+    float B = float(imageLoad(diffuse_bubbles, p).x) / pc.range.z;
+    c = mix(c, pc.diffuse.rgb * (frame.fluid_color.w + 0.3 * frame.sun.w), pc.range.w * (1.0 - exp(-B)));
+    imageStore(out_color, p, encode(add_white(c, p)));
 }

@@ -8,6 +8,7 @@ use crate::background::Background;
 use crate::error::Result;
 use crate::gpu::Buffer;
 use crate::passes::composite::CompositeInputs;
+use crate::passes::diffuse::DiffuseImages;
 use crate::passes::noise::NoiseImages;
 use crate::settings::Settings;
 use crate::surface::{SurfaceFrame, Technique};
@@ -120,6 +121,10 @@ pub struct FrameInputs<'a> {
     pub frame: &'a Buffer,
     /// The particle buffer and its count.
     pub particles: (&'a Buffer, u32),
+    /// Diffuse particles after the fluid particles in the buffer.
+    pub diffuse: u32,
+    /// Some fluid particles are marked as spray (drawn by the `diffuse` pass too).
+    pub spray: bool,
     /// The surface technique the settings name, its resources prepared.
     pub surface: &'a dyn Technique,
     /// The scene behind the fluid.
@@ -137,7 +142,7 @@ pub struct FrameInputs<'a> {
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. The surface technique records
 /// its own passes (`crate::surface`): what `thickness` needs first (grids, kernels), then the fluid's depth.
 /// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1),
-/// `noise` (`[noise] enabled`).
+/// `noise` (`[noise] enabled`), `diffuse` (`[diffuse] enabled`, and diffuse or spray particles to draw).
 pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     use Part::*;
     let (p, t, s, frame) = (f.passes, f.targets, f.settings, f.frame);
@@ -180,6 +185,12 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         let images = NoiseImages { depth, normals: &t.normals, accum: &t.noise_accum, noise: &t.noise };
         p.noise.record(ctx, frame, f.particles, &images, &s.noise, s.normals.edge * s.radius);
     }
+    let diffuse = s.diffuse.enabled && (f.diffuse > 0 || f.spray);
+    if diffuse {
+        let images =
+            DiffuseImages { depth, scene_depth: &t.scene_depth, white: &t.diffuse_white, bubbles: &t.diffuse_bubbles };
+        p.diffuse.record(ctx, frame, f.particles, f.diffuse, f.spray, &images, &s.diffuse, s.radius);
+    }
     let ctx = rec.part(Shade);
     p.ssr.record(ctx, frame, depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {
@@ -191,7 +202,10 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         ssr: &t.ssr,
         sky,
         noise: &t.noise,
+        diffuse_drawn: diffuse,
+        diffuse_white: &t.diffuse_white,
+        diffuse_bubbles: &t.diffuse_bubbles,
     };
-    p.composite.record(ctx, frame, &inputs, &s.noise, &t.final_color);
+    p.composite.record(ctx, frame, &inputs, &s.noise, &s.diffuse, &t.final_color);
     Ok(Frame { smoothed })
 }

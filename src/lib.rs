@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod background;
+pub mod diffuse;
 pub mod error;
 pub mod field;
 pub mod frame;

@@ -62,6 +62,13 @@ impl MotionTracker {
         MotionTracker { fps: if fps.is_finite() && fps > 0.0 { fps } else { DEFAULT_FPS }, prev: None }
     }
 
+    /// The velocities of the frame last given to [`MotionTracker::next`]: the file's, else estimated from the
+    /// positions of the frame before (zero where a particle cannot be followed); none for a first frame
+    /// without velocities.
+    pub fn velocities(&self) -> Option<&[[f32; 3]]> {
+        self.prev.as_ref()?.velocities.as_deref()
+    }
+
     /// The motion of the next frame's particles (and remember them for the frame after).
     pub fn next(&mut self, p: &Particles) -> Vec<Motion> {
         let n = p.len();

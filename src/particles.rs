@@ -4,8 +4,9 @@
 //! the spray marks, and a generation that every change bumps — what the surface techniques key their caches to.
 //!
 //! Layout on the device: `count` vec4 positions (xyz, w: radius and spray mark) then `count` vec4 motions
-//! ([`Motion`]: the particle's id bits and how fast its velocity changes), read by the `noise` pass. Every other
-//! pass reads only the first `count` entries.
+//! ([`Motion`]: the particle's id bits and how fast its velocity changes), read by the `noise` pass, then the
+//! diffuse particles (spray, foam, bubbles: two vec4 each, `crate::passes::diffuse::encode`), read by the
+//! `diffuse` pass. Every other pass reads only the first `count` entries.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -18,14 +19,22 @@ use crate::view::View;
 pub use crate::motion::Motion;
 pub use crate::shader_constants::BYTES_PER_PARTICLE;
 
+/// An upload: vec4s and the vec4 offset in the particle buffer they go to.
+pub type Staged = (Vec<[f32; 4]>, usize);
+
 /// The renderer's particles.
 #[derive(Default)]
 pub struct ParticleSet {
     buffers: [Option<Buffer>; 2],
     current: usize,
     count: u32,
-    /// Set but not yet copied to the GPU: the next frame's command buffer records the copy.
-    staged: Option<Vec<[f32; 4]>>,
+    /// Set but not yet copied to the GPU: the next frame's command buffer records the copy (of these vec4s, to
+    /// this vec4 offset in the buffer).
+    staged: Option<Staged>,
+    /// The fluid part of the last upload (positions, motions), kept to re-send with new diffuse particles.
+    fluid: Vec<[f32; 4]>,
+    /// The diffuse particles, encoded.
+    diffuse: Vec<[f32; 4]>,
     /// The next frame's particles are written on the GPU by `Hooks::produce`.
     external: bool,
     positions: Vec<[f32; 3]>,
@@ -80,7 +89,8 @@ impl ParticleSet {
             Some(m) => data.extend(m.iter().map(Motion::encode)),
             None => data.extend((0..n as u32).map(|id| Motion { id, accel: 0.0 }.encode())),
         }
-        self.staged = Some(data);
+        self.fluid = data;
+        self.staged = Some(([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0));
         self.external = false;
         self.count = n as u32;
         self.positions = positions.to_vec();
@@ -105,12 +115,40 @@ impl ParticleSet {
                 ]
             })
             .collect();
-        self.staged = None;
+        self.fluid.clear();
         self.external = true;
         self.count = count;
+        // The producer writes the fluid part; the diffuse particles follow it.
+        self.staged = (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), 2 * count as usize));
         self.spray = None;
         self.generation += 1;
         Ok(())
+    }
+
+    /// Set the diffuse particles (encoded, two vec4 each), drawn after the fluid particles; the fluid's
+    /// generation is unchanged (the surfaces do not depend on them).
+    pub fn set_diffuse(&mut self, limit: u64, encoded: Vec<[[f32; 4]; 2]>) -> Result<()> {
+        let bytes = (self.count as u64 + encoded.len() as u64) * BYTES_PER_PARTICLE;
+        if bytes > limit {
+            return Err(Error::Limit(format!(
+                "{} particles and {} diffuse particles need {bytes} bytes, more than this device's storage buffer limit of \
+                 {limit} bytes",
+                self.count,
+                encoded.len()
+            )));
+        }
+        self.diffuse = encoded.into_iter().flatten().collect();
+        self.staged = Some(if self.external {
+            (self.diffuse.clone(), 2 * self.count as usize)
+        } else {
+            ([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0)
+        });
+        Ok(())
+    }
+
+    /// Diffuse particles on the device.
+    pub fn diffuse_count(&self) -> u32 {
+        (self.diffuse.len() / 2) as u32
     }
 
     /// Particles on the device.
@@ -161,8 +199,9 @@ impl ParticleSet {
     /// before may still read this one), a one-queue frame into the same (queue order keeps it after the
     /// readers) — and grow it when too small, after every frame that may still read it.
     pub fn prepare(&mut self, gpu: &std::sync::Arc<Gpu>, executor: &Executor, split: bool) -> Result<()> {
-        let new = self.staged.as_ref().map(|d| d.len() as u64 * 16);
-        if let Some(bytes) = new.or(self.external.then_some(self.count as u64 * BYTES_PER_PARTICLE)) {
+        let whole = (2 * self.count as u64 + self.diffuse.len() as u64) * 16;
+        if self.staged.is_some() || self.external {
+            let bytes = whole;
             let target = if split { 1 - self.current } else { self.current };
             let size = bytes.max(16);
             if self.buffers[target].as_ref().is_none_or(|b| b.size < size) {
@@ -188,9 +227,9 @@ impl ParticleSet {
         self.buffers[self.current].as_ref().expect("prepared")
     }
 
-    /// Take what this frame records before its passes: the staged upload, and whether a producer writes the
-    /// buffer.
-    pub fn take_pending(&mut self) -> (Option<Vec<[f32; 4]>>, bool) {
+    /// Take what this frame records before its passes: the staged upload (vec4s and their vec4 offset in the
+    /// buffer), and whether a producer writes the buffer.
+    pub fn take_pending(&mut self) -> (Option<Staged>, bool) {
         (self.staged.take(), std::mem::take(&mut self.external))
     }
 }

@@ -188,6 +188,18 @@ impl Renderer {
         self.particles.set_gpu(self.gpu.info.max_storage_buffer_range, count, bounds)
     }
 
+    /// Set the diffuse particles (spray, foam, bubbles: [`crate::diffuse`]) drawn by the `diffuse` pass from the
+    /// next frame on, sized and faded by `s.diffuse`; they stay until set again (an empty slice removes them).
+    pub fn set_diffuse(&mut self, particles: &[crate::diffuse::Particle], s: &Settings) -> Result<()> {
+        let encoded = particles.iter().map(|p| crate::passes::diffuse::encode(p, &s.diffuse, s.radius)).collect();
+        self.particles.set_diffuse(self.gpu.info.max_storage_buffer_range, encoded)
+    }
+
+    /// Diffuse particles set for the next frames.
+    pub fn diffuse_count(&self) -> u32 {
+        self.particles.diffuse_count()
+    }
+
     /// Upload particles (no per-particle radius, no spray); see [`Renderer::set_particles_with`].
     pub fn set_particles(&mut self, positions: &[[f32; 3]], radii: Option<&[f32]>) -> Result<()> {
         self.set_particles_with(positions, radii, None)
@@ -402,7 +414,7 @@ impl Renderer {
         }
         mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
         let (staged, external) = self.particles.take_pending();
-        if let Some(data) = &staged {
+        if let Some((data, _)) = &staged {
             let bytes: &[u8] = bytemuck::cast_slice(data);
             if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
                 mem.staging = Some(Buffer::new(
@@ -443,9 +455,10 @@ impl Renderer {
         // The particles of this frame: a copy at the start of its own (first) command buffer, made visible to
         // compute reads there, before any other queue's part waits for it.
         let upload = |ctx: &mut FrameCtx| {
-            if let (Some(data), Some(staging)) = (&staged, mem.staging.as_ref()) {
+            if let (Some((data, at)), Some(staging)) = (&staged, mem.staging.as_ref()) {
                 ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
-                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: (data.len() * 16) as u64 };
+                let region =
+                    vk::BufferCopy { src_offset: 0, dst_offset: (*at * 16) as u64, size: (data.len() * 16) as u64 };
                 if region.size > 0 {
                     unsafe { gpu.device.cmd_copy_buffer(ctx.cmd, staging.raw, particles.raw, &[region]) };
                 }
@@ -499,6 +512,8 @@ impl Renderer {
             targets: t,
             frame: uniforms,
             particles: (particles, count),
+            diffuse: self.particles.diffuse_count(),
+            spray: self.particles.has_spray(),
             surface: self.surfaces.get(s.surface),
             background: &self.background,
             background_cached: cached,

@@ -122,6 +122,8 @@ pub struct Settings {
     pub normals: crate::passes::normals::Params,
     /// `[noise]`: the patent's waves and foam on the surface.
     pub noise: crate::passes::noise::Params,
+    /// `[diffuse]`: spray, foam and bubbles — how they are generated and drawn.
+    pub diffuse: crate::diffuse::Params,
     /// `[ssr]`: screen-space reflections.
     pub ssr: crate::passes::ssr::Params,
     /// `[composite]`: shading.
@@ -169,6 +171,7 @@ impl Default for Settings {
             smooth: crate::passes::smooth::Params { filter: Filter::None, ..Default::default() },
             normals: Default::default(),
             noise: Default::default(),
+            diffuse: Default::default(),
             ssr: Default::default(),
             composite: Default::default(),
             sim: Default::default(),
@@ -289,6 +292,13 @@ impl Settings {
                 reason,
             });
         }
+        if let Err((key, reason)) = s.diffuse.check() {
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                offset: key_offset_in(&text, Some("diffuse"), key),
+                reason,
+            });
+        }
         Ok(s)
     }
 
@@ -350,6 +360,7 @@ impl Settings {
         }
         self.sim.validate()?;
         self.noise.check().map_err(|(_, reason)| Error::Invalid(reason))?;
+        self.diffuse.check().map_err(|(_, reason)| Error::Invalid(reason))?;
         if !(self.mesh.cube > 0.05 && self.mesh.cube <= 8.0) || self.mesh.smoothing_iters > 1000 {
             return bad("[mesh] cube (0.05 < c ≤ 8) or smoothing_iters (≤ 1000)");
         }
@@ -476,6 +487,13 @@ mod tests {
         check("noise.toml", "[thickness]\nscale = 0.5\n[noise]\nsize = -1.0\n", 32, "[noise] size = -1");
         check("foam.toml", "[noise]\nfoam_from = 0.5\nfoam_full = 0.2\n", 24, "foam_full = 0.2 must exceed");
         check("noisekey.toml", "[noise]\nsparkle = 1.0\n", 8, "sparkle");
+        check(
+            "diffuse.toml",
+            "[noise]\nsize = 2.0\n[diffuse]\nsize = 1.0\nlifetime = [3.0, 1.0]\n",
+            40,
+            "lifetime = [3, 1]",
+        );
+        check("diffusekey.toml", "[diffuse]\nglitter = 1\n", 10, "glitter");
     }
 
     #[test]

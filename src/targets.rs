@@ -104,6 +104,10 @@ pub struct Targets {
     pub noise_accum: Image,
     /// The noise image N in particle radii (R32F), read by `composite` for the foam tint.
     pub noise: Image,
+    /// The `diffuse` pass's coverage of foam and spray (R32_UINT fixed point).
+    pub diffuse_white: Image,
+    /// The `diffuse` pass's coverage of bubbles (R32_UINT fixed point).
+    pub diffuse_bubbles: Image,
     /// SSR hit uv per pixel (R32_UINT).
     pub ssr: Image,
     /// The `composite` pass's output (RGBA8).
@@ -151,6 +155,8 @@ impl Targets {
                 normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
                 noise_accum: img("noise_accum", full, vk::Format::R32_UINT, storage, None)?,
                 noise: img("noise", full, r32, storage, None)?,
+                diffuse_white: img("diffuse_white", full, vk::Format::R32_UINT, storage, None)?,
+                diffuse_bubbles: img("diffuse_bubbles", full, vk::Format::R32_UINT, storage, None)?,
                 ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
                 final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
             })
@@ -159,9 +165,9 @@ impl Targets {
         made.map_err(|e| match e {
             crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } => {
                 let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
-                // 32 bytes per output pixel (scene colour and depth, normals, noise, SSR, final) and about 28 per fluid
+                // 40 bytes per output pixel (scene colour and depth, normals, noise, diffuse, SSR, final) and about 28 per fluid
                 // pixel (depth, smoothing, back depth, thickness, iso queue).
-                let mb = (32 * px(full) + 28 * px(fluid)) as f64 / 1e6;
+                let mb = (40 * px(full) + 28 * px(fluid)) as f64 / 1e6;
                 crate::error::Error::Limit(format!(
                     "a {}×{} frame needs about {mb:.0} MB of images, more than this device could allocate ({e}); \
                      choose a smaller --width/--height or --fluid-scale",
@@ -200,6 +206,8 @@ impl Targets {
             &self.normals,
             &self.noise_accum,
             &self.noise,
+            &self.diffuse_white,
+            &self.diffuse_bubbles,
             &self.ssr,
             &self.final_color,
         ];

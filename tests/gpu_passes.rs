@@ -1467,10 +1467,14 @@ fn composite_matches_cpu_reference() {
             ssr: &t.ssr,
             sky: &r.background.sky,
             noise: &t.noise,
+            diffuse_drawn: false,
+            diffuse_white: &t.diffuse_white,
+            diffuse_bubbles: &t.diffuse_bubbles,
         };
-        // Without the noise pass: no foam (the image is cleared, the tint's weight is 0).
+        // Without the noise and diffuse passes: no foam (the images are cleared, the tint's weight is 0).
         let noise = meniscus::passes::noise::Params { enabled: false, ..Default::default() };
-        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &t.final_color);
+        let diffuse = meniscus::diffuse::Params::default();
+        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &diffuse, &t.final_color);
         Ok(())
     })
     .unwrap();
@@ -1970,4 +1974,94 @@ fn noise_of_still_water_does_not_flicker() {
         assert!(frames[k].1 == frames[0].1, "frame {k}: the picture changed");
     }
     assert_clean(&gpu);
+}
+
+/// The `diffuse` pass against its CPU reference (`passes::diffuse::reference`): foam riding a slab's surface,
+/// spray above it (some moving: streaks), bubbles under it (attenuated by the water above them), and one fluid
+/// particle marked as spray (the patent's low-density spray, drawn the same way). The accumulators equal the
+/// reference's fixed-point sums up to the float rounding of single terms.
+#[test]
+fn diffuse_matches_cpu_reference() {
+    use meniscus::diffuse::{Kind, Particle};
+    use meniscus::passes::diffuse::{encode, reference, Push, UNITS};
+    let gpu = gpu();
+    let (w, h) = (96usize, 64usize);
+    let r = 0.1f32;
+    let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
+    let mut s = settings(r);
+    s.smooth.filter = Filter::None;
+    s.diffuse.shutter = 0.05;
+    let mut pos = noise_slab(10, r);
+    let marked = pos.len();
+    pos.push([0.3, 0.6, 0.2]);
+    let mut spray = vec![false; pos.len()];
+    spray[marked] = true;
+    let mut diffuse = vec![];
+    for i in 0..6 {
+        for k in 0..6 {
+            let (x, z) = (-0.6 + 0.24 * i as f32, -0.6 + 0.24 * k as f32);
+            let kind = [Kind::Foam, Kind::Spray, Kind::Bubble][(i + k) % 3];
+            let (y, vel) = match kind {
+                Kind::Foam => (0.5 * r, glam::Vec3::new(0.3, 0.0, 0.0)),
+                Kind::Spray => (0.3 + 0.05 * k as f32, glam::Vec3::new(2.0 * (i % 2) as f32, 1.0, 0.0)),
+                Kind::Bubble => (-4.0 * r, glam::Vec3::ZERO),
+            };
+            let id = diffuse.len() as u32;
+            let lifetime = 0.1 + 0.15 * id as f32;
+            diffuse.push(Particle { id, kind, position: glam::Vec3::new(x, y, z), velocity: vel, lifetime });
+        }
+    }
+    let mut rr = Renderer::new(&gpu).unwrap();
+    rr.set_particles_with(&pos, None, Some(&spray)).unwrap();
+    rr.set_diffuse(&diffuse, &s).unwrap();
+    rr.render(&v, &s).unwrap();
+    let t = rr.targets.as_ref().unwrap();
+    let words = |img| -> Vec<u32> {
+        read_image(&gpu, img).unwrap().chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    };
+    let (white, bubbles) = (words(&t.diffuse_white), words(&t.diffuse_bubbles));
+    let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
+    let scene_depth = read_f32(&gpu, &t.scene_depth).unwrap();
+    let m = v.camera.view();
+    let d = &s.diffuse;
+    let mut boards: Vec<reference::Billboard> = diffuse
+        .iter()
+        .map(|p| {
+            let [a, b] = encode(p, d, r);
+            let (x, vel) = (glam::Vec3::new(a[0], a[1], a[2]), glam::Vec3::new(b[0], b[1], b[2]));
+            let end = |sign: f32| m.transform_point3(x + sign * 0.5 * d.shutter * vel).to_array();
+            reference::Billboard {
+                c0: end(-1.0),
+                c1: end(1.0),
+                radius: a[3],
+                bubble: b[3].floor() == 2.0,
+                fade: b[3] - b[3].floor(),
+            }
+        })
+        .collect();
+    let c = m.transform_point3(glam::Vec3::from(pos[marked])).to_array();
+    boards.push(reference::Billboard { c0: c, c1: c, radius: r * d.size, bubble: false, fade: 1.0 });
+    let push = Push {
+        count: pos.len() as u32,
+        diffuse: diffuse.len() as u32,
+        spray: 1,
+        shutter: d.shutter,
+        foam_depth: d.foam_depth * r,
+        bubble_depth: d.bubble_depth * r,
+        spray_size: d.size,
+        opacity: d.opacity,
+    };
+    let f = v.camera.focal_px(h as u32);
+    let (want_w, want_b) = reference::accumulate(&boards, &depth, &scene_depth, (w, h), f, v.camera.near, &push);
+    for (name, got, want) in [("white", &white, &want_w), ("bubbles", &bubbles, &want_b)] {
+        let covered = want.iter().filter(|x| **x > 0).count();
+        let off = got.iter().zip(want.iter()).filter(|(a, b)| a.abs_diff(**b) > 4).count();
+        let (sg, sw) = (got.iter().map(|x| *x as f64).sum::<f64>(), want.iter().map(|x| *x as f64).sum::<f64>());
+        eprintln!("{name}: {covered} pixels, {off} differ by more than 4 units; sums {sg} vs {sw}");
+        assert!(covered > 60, "{name}: too little to test ({covered} pixels)");
+        // A pixel at a billboard's rim (q ≈ 1) may fall in or out by float rounding: at most 1 % of them.
+        assert!(off * 100 <= covered, "{name}: {off} of {covered} pixels differ from the reference");
+        assert!((sg - sw).abs() <= 0.01 * sw, "{name}: total coverage {sg} vs {sw}");
+        assert!(sw / UNITS as f64 > 1.0);
+    }
 }

@@ -79,6 +79,12 @@ pub struct CompositeInputs<'a> {
     pub sky: &'a Image,
     /// The `noise` pass's N (radii): the foam tint's magnitude (cleared here when the pass is off).
     pub noise: &'a Image,
+    /// The `diffuse` pass ran this frame (else its images are cleared here).
+    pub diffuse_drawn: bool,
+    /// Coverage of foam and spray (the `diffuse` pass's fixed point).
+    pub diffuse_white: &'a Image,
+    /// Coverage of bubbles.
+    pub diffuse_bubbles: &'a Image,
 }
 
 /// Push constants of composite.comp: the foam tint (`[noise]`).
@@ -87,14 +93,18 @@ pub struct CompositeInputs<'a> {
 pub struct Push {
     /// Foam colour (rgb) and the full tint's weight (w; 0: none).
     pub foam: [f32; 4],
-    /// |N| where the tint starts (x) and is full (y).
+    /// |N| where the tint starts (x) and is full (y); z: the diffuse images' units per unit of coverage, w: how
+    /// much of the bubbles' coverage shows.
     pub range: [f32; 4],
+    /// Colour of foam and spray (rgb).
+    pub diffuse: [f32; 4],
 }
 
-// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky, noise.
+// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky, noise, diffuse white,
+// diffuse bubbles.
 declare_program!(pub PROGRAM: Push = compute(
     shaders::COMPOSITE,
-    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead]
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead, ImgRead, ImgRead]
 ));
 
 impl Composite {
@@ -103,13 +113,15 @@ impl Composite {
         Ok(Composite { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
-    /// Shade the fluid over the background into `out`, tinted toward foam by the noise (`noise`: its settings).
+    /// Shade the fluid over the background into `out`, tinted toward foam by the noise (`noise`: its settings),
+    /// with the `diffuse` pass's bubbles under the surface and its foam and spray over everything.
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
         frame: &Buffer,
         i: &CompositeInputs,
         noise: &crate::passes::noise::Params,
+        diffuse: &crate::diffuse::Params,
         out: &Image,
     ) {
         ctx.pass(NAME, |ctx| {
@@ -117,10 +129,16 @@ impl Composite {
             if !noise.enabled {
                 ctx.clear(i.noise, ash::vk::ClearColorValue { float32: [0.0; 4] });
             }
+            if !i.diffuse_drawn {
+                ctx.clear(i.diffuse_white, ash::vk::ClearColorValue { uint32: [0; 4] });
+                ctx.clear(i.diffuse_bubbles, ash::vk::ClearColorValue { uint32: [0; 4] });
+            }
             let c = noise.foam_color;
+            let d = diffuse.color;
             let push = Push {
                 foam: [c[0], c[1], c[2], if noise.enabled { noise.foam } else { 0.0 }],
-                range: [noise.foam_from, noise.foam_full, 0.0, 0.0],
+                range: [noise.foam_from, noise.foam_full, crate::passes::diffuse::UNITS, diffuse.bubbles],
+                diffuse: [d[0], d[1], d[2], 0.0],
             };
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             let res = [
@@ -134,6 +152,8 @@ impl Composite {
                 i.ssr.into(),
                 i.sky.into(),
                 i.noise.into(),
+                i.diffuse_white.into(),
+                i.diffuse_bubbles.into(),
             ];
             self.prog.dispatch(ctx, &res, &push, g);
         });

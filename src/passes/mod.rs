@@ -47,6 +47,8 @@ frame_passes! {
     normals: Normals,
     /// The patent's noise: small waves on the normals, the foam tint's magnitude (`[noise]`).
     noise: Noise,
+    /// Spray, foam and bubbles as billboards (`[diffuse]`).
+    diffuse: Diffuse,
     /// Screen-space reflections.
     ssr: Ssr,
     /// Shading over the background.

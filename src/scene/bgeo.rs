@@ -206,13 +206,13 @@ fn inflate_bounded(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
     Ok(v)
 }
 
-/// Write classic BGEO v5 the way Partio does: every array (`id`-like names as int, 3-component ones as vector,
+/// Write classic BGEO v5 the way Partio does: every array (`id` and `type` as int, 3-component ones as vector,
 /// others float), plain or gzip.
 pub fn write(p: &Raw, gzip: bool) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(b"BgeoV");
     let ty = |a: &Attribute| {
-        if a.name == "id" {
+        if a.name == "id" || a.name == "type" {
             T_INT
         } else if a.components == 3 {
             T_VECTOR

@@ -1,5 +1,5 @@
 //! `meniscus` — the command line: `render` (headless to PNG, one frame or a sequence), `info` (what a particle
-//! file holds), `scenes` (the built-in scenes), `bench` (per-pass GPU timings, JSON), `demo` (the window), `mesh` (marching cubes), `sim` (the GPU fluid solver's cache).
+//! file holds), `scenes` (the built-in scenes), `bench` (per-pass GPU timings, JSON), `demo` (the window), `mesh` (marching cubes), `sim` (the GPU fluid solver's cache), `foam` (a sequence's diffuse particles).
 //! Every subcommand that reads particles starts from the one [`job::Job`] set-up.
 
 mod args;
@@ -7,6 +7,7 @@ mod bench;
 mod bench_sim;
 mod chart;
 pub(crate) mod demo;
+mod foam;
 mod info;
 mod job;
 mod mesh;
@@ -39,6 +40,8 @@ enum Cmd {
     Bench(bench::BenchArgs),
     /// Extract the SPH iso-surface as a triangle mesh (marching cubes, CPU or --gpu): PLY, OBJ or VTK.
     Mesh(mesh::MeshArgs),
+    /// Generate the spray, foam and air bubbles of a sequence (Ihmsen 2012) and write them per frame (.bgeo/.vtk).
+    Foam(foam::FoamArgs),
     /// Simulate a built-in scene on the GPU (Position Based Fluids) and write a particle cache (.bgeo/.vtk).
     Sim(sim::SimArgs),
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
@@ -88,6 +91,7 @@ fn main() {
         Cmd::Demo(a) => demo::main(&a),
         Cmd::Mesh(a) => mesh::run(&a),
         Cmd::Sim(a) => sim::run(&a),
+        Cmd::Foam(a) => foam::run(&a),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meniscus::frame::View;
@@ -43,6 +43,11 @@ pub struct RenderArgs {
     /// Sequence: render only shard K of N (every Nth frame starting with the Kth), e.g. 2/8.
     #[arg(long)]
     shard: Option<String>,
+    /// Sequence: draw spray, foam and air bubbles (`[diffuse]` in a settings file): generated from the
+    /// sequence in time order from its first frame (`--foam`), or read from an exported set (`--foam
+    /// 'foam/f_{}.bgeo'`, as `meniscus foam --export` writes it).
+    #[arg(long, value_name = "PATTERN", num_args = 0..=1, default_missing_value = "")]
+    foam: Option<String>,
     #[command(flatten)]
     load: LoadArgs,
     #[arg(long, default_value_t = 960)]
@@ -87,8 +92,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if job.frames.is_some() {
         return render_sequence(a, &job);
     }
-    if a.resume || a.skip_bad_frames {
-        bail!("--resume and --skip-bad-frames apply to sequences");
+    if a.resume || a.skip_bad_frames || a.foam.is_some() {
+        bail!("--resume, --skip-bad-frames and --foam apply to sequences");
     }
     if Kind::by_extension(&a.out, &MOVIE_KINDS).is_ok() {
         bail!("--out {}: a movie is made from a sequence (a pattern with {{}}, a folder or a glob)", a.out.display());
@@ -258,6 +263,15 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             Ok(tx.send((path, img)).is_ok())
         };
     let (mut tracker, mut fed) = (job.motion(), None);
+    let mut foam = match a.foam.as_deref() {
+        None => None,
+        Some("") => Some(Foam::Walk(Box::new(crate::foam::Walk::new(job)?))),
+        Some(pattern) => {
+            let files = sequence::resolve_all(pattern).with_context(|| format!("--foam {pattern}"))?;
+            Some(Foam::Files(files.into_iter().map(|f| (f.number, f.path)).collect()))
+        }
+    };
+    let mut diffuse_total = 0usize;
     let run = (|| -> Result<()> {
         for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
             let particles = match loaded {
@@ -287,6 +301,19 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             }
             fed = Some(frame.number);
             job.upload_next(&mut r, &particles, &mut tracker)?;
+            if let Some(src) = foam.as_mut() {
+                let ps = match src {
+                    Foam::Walk(w) => w.advance(frame.number, Some(&particles))?.to_vec(),
+                    Foam::Files(files) => {
+                        let path = files.get(&frame.number).with_context(|| {
+                            format!("--foam: no file of diffuse particles for frame {}", frame.number)
+                        })?;
+                        meniscus::diffuse::load(path)?
+                    }
+                };
+                diffuse_total += ps.len();
+                r.set_diffuse(&ps, s)?;
+            }
             let sub = r.submit(&view, s, true)?;
             let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
             pending.push_back((sub, names.path(frame.number), name));
@@ -316,12 +343,15 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             .filter(|p| !p.is_empty())
             .unwrap_or(".".into()),
     };
-    let summary = format!(
+    let mut summary = format!(
         "{n_written} of {} frames written to {place} in {secs:.1} s ({:.2} frames/s, mean GPU frame {:.1} ms)",
         all.len(),
         rendered as f64 / secs,
         gpu_ms / rendered.max(1) as f64
     );
+    if foam.is_some() {
+        summary += &format!(", {:.0} diffuse particles per frame", diffuse_total as f64 / rendered.max(1) as f64);
+    }
     match (run, written) {
         (Err(e), _) => {
             eprintln!("{summary}");
@@ -341,6 +371,14 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Where a sequence's diffuse particles come from (`--foam`).
+enum Foam<'j> {
+    /// Generated in time order.
+    Walk(Box<crate::foam::Walk<'j>>),
+    /// Read per frame number from an exported set.
+    Files(std::collections::BTreeMap<u64, PathBuf>),
 }
 
 /// The files `--dump` writes beside the output PNG `out`, each with the dump's name.
