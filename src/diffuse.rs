@@ -7,8 +7,9 @@
 //! 1. the diffuse particles of the frames before are **classified** by their number of fluid neighbours within the
 //!    kernel support h = 4 r (fewer than `spray_below`: spray; more than `bubble_above`: bubble; else foam) and
 //!    **advected**: spray ballistically with a little air drag, foam with the SPH-interpolated fluid velocity,
-//!    bubbles by buoyancy and drag toward the fluid velocity (Ihmsen eq. 11–13); foam and spray age, and die at
-//!    the end of their lifetime or when they fall below the water's floor;
+//!    bubbles by buoyancy and drag toward the fluid velocity (Ihmsen eq. 11–13); all of them age (Ihmsen ages only
+//!    foam: spray and bubbles trapped away from the surface then pile up without bound), and die at the end of
+//!    their lifetime or when they fall below the water's floor;
 //! 2. every fluid particle with at least `min_neighbours` neighbours gets its **potentials** — trapped air
 //!    (eq. 2: relative velocities of neighbours moving toward each other), wave crest (eq. 4–7: curvature of the
 //!    surface where it moves along its normal), kinetic energy — clamped and normalised between limits (eq. 1);
@@ -369,6 +370,12 @@ impl<'a> Fluid<'a> {
         Fluid { positions, velocities, ids, h, radius, mass, grid, neighbours, densities, normals, floor }
     }
 
+    /// The kinetic energy of a particle moving at √(g h) (the speed of a fall through the kernel support): the
+    /// least kinetic energy that spawns diffuse particles.
+    pub fn kinetic_floor(&self) -> f32 {
+        0.5 * self.mass * GRAVITY.length() * self.h
+    }
+
     /// Particles in the frame.
     pub fn len(&self) -> usize {
         self.positions.len()
@@ -441,12 +448,71 @@ pub fn frame_maxima(f: &Fluid, min_neighbours: u32) -> [f32; 3] {
 }
 
 /// Bender 2019's automatic limits from the per-frame maxima of a sequence: the mean maximum is the upper limit,
-/// a tenth of it the lower.
-pub fn calibrate(maxima: &[[f32; 3]]) -> Limits {
+/// a tenth of it the lower. The kinetic energy's lower limit is at least `kinetic_floor` ([`Fluid::kinetic_floor`]):
+/// water calmer than that spawns nothing, so a resting pool, whose largest potentials are its solver's jitter,
+/// stays clear however the limits scale.
+pub fn calibrate(maxima: &[[f32; 3]], kinetic_floor: f32) -> Limits {
     let n = maxima.len().max(1) as f32;
     let mean = |k: usize| maxima.iter().map(|m| m[k]).sum::<f32>() / n;
     let lim = |m: f32| if m > 0.0 { [0.1 * m, m] } else { [0.0, f32::MAX] };
-    Limits { trapped_air: lim(mean(0)), wave_crest: lim(mean(1)), kinetic: lim(mean(2)) }
+    let ke = mean(2);
+    let kinetic = [(0.1 * ke).max(kinetic_floor), ke.max(2.0 * kinetic_floor)];
+    Limits { trapped_air: lim(mean(0)), wave_crest: lim(mean(1)), kinetic }
+}
+
+/// Diffuse particles of a live simulation, one frame of state at a time. Automatic limits are calibrated as the
+/// run goes, from the largest per-frame maximum so far: a live run cannot look ahead as a recorded sequence's
+/// calibration does (the mean of every frame's maximum, [`calibrate`]), and a mean over the frames so far would
+/// be held down by a calm start, so the first breaking wave would saturate every potential.
+pub struct Live {
+    params: Params,
+    gen: Generator,
+    maxima: Vec<[f32; 3]>,
+    frame: u64,
+}
+
+impl Live {
+    /// A generator for frames `1 / fps` seconds apart.
+    pub fn new(params: &Params, fps: f32) -> Live {
+        Live {
+            params: params.clone(),
+            gen: Generator::new(params, params.limits(), 1.0 / fps),
+            maxima: vec![],
+            frame: 0,
+        }
+    }
+
+    /// The next frame's fluid (positions, velocities, ids; radius `radius`): calibrate, then step.
+    pub fn step(&mut self, p: &crate::scene::Particles, radius: f32) -> StepStats {
+        let zero;
+        let v = match &p.velocities {
+            Some(v) => v.as_slice(),
+            None => {
+                zero = vec![[0.0; 3]; p.len()];
+                &zero
+            }
+        };
+        let f = Fluid::new(&p.positions, v, p.ids.as_deref(), radius);
+        if self.params.automatic {
+            let m = frame_maxima(&f, self.params.min_neighbours);
+            let top = self.maxima.first().copied().unwrap_or([0.0; 3]);
+            self.maxima = vec![[top[0].max(m[0]), top[1].max(m[1]), top[2].max(m[2])]];
+            self.gen.limits = calibrate(&self.maxima, f.kinetic_floor());
+        }
+        let stats = self.gen.step(&f, self.frame);
+        self.frame += 1;
+        stats
+    }
+
+    /// The living particles.
+    pub fn particles(&self) -> &[Particle] {
+        &self.gen.particles
+    }
+
+    /// Living particles of each kind (foam, spray, bubbles).
+    pub fn counts(&self) -> [usize; 3] {
+        self.gen.counts()
+    }
 }
 
 /// A well-mixed 32-bit hash of four words (the spawns' random numbers).
@@ -548,6 +614,7 @@ impl Generator {
                 Kind::Bubble => {
                     p.velocity += -m.buoyancy * dt * GRAVITY + m.drag * (vf - p.velocity);
                     p.position += dt * p.velocity;
+                    p.lifetime -= dt;
                 }
             }
             if !(p.position.y >= floor && p.position.is_finite()) {
@@ -778,7 +845,7 @@ mod tests {
         assert!((foam.lifetime - (10.0 - dt)).abs() < 1e-6);
         let vb = -m.buoyancy * dt * GRAVITY + m.drag * Vec3::new(0.5, 0.0, 0.0);
         assert!((bubble.velocity - vb).length() < 1e-5, "{:?} vs {vb:?}", bubble.velocity);
-        assert_eq!(bubble.lifetime, 10.0);
+        assert!((bubble.lifetime - (10.0 - dt)).abs() < 1e-6);
     }
 
     /// The same frames give the same particles on one thread and on two.
@@ -792,7 +859,7 @@ mod tests {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
                 let f = Fluid::new(&pos, &vel, None, r);
-                let lim = calibrate(&[frame_maxima(&f, 15)]);
+                let lim = calibrate(&[frame_maxima(&f, 15)], f.kinetic_floor());
                 let mut g = Generator::new(&Params::default(), lim, 0.04);
                 for frame in 0..4 {
                     g.step(&f, frame);

@@ -52,8 +52,12 @@ pub struct FoamArgs {
 
 /// The diffuse particles of a job's sequence, generated frame by frame in time order (from its first frame,
 /// whatever range is rendered or written), so frame k holds the same particles however a run is split.
-pub struct Walk<'j> {
-    job: &'j Job,
+pub struct Walk {
+    whole: Vec<meniscus::scene::sequence::Frame>,
+    load: meniscus::scene::LoadOptions,
+    params: diffuse::Params,
+    radius: f32,
+    fps: f32,
     gen: Generator,
     tracker: MotionTracker,
     /// Index in `job.whole` of the next frame to feed.
@@ -62,9 +66,9 @@ pub struct Walk<'j> {
     pub last: StepStats,
 }
 
-impl<'j> Walk<'j> {
+impl Walk {
     /// A walk over `job`'s sequence with its `[diffuse]` settings; automatic limits are calibrated first.
-    pub fn new(job: &'j Job) -> Result<Walk<'j>> {
+    pub fn new(job: &Job) -> Result<Walk> {
         if job.whole.is_empty() {
             bail!("diffuse particles are generated from a sequence (a pattern with {{}}, a folder or a glob)");
         }
@@ -81,7 +85,11 @@ impl<'j> Walk<'j> {
             limits.kinetic[1]
         );
         Ok(Walk {
-            job,
+            whole: job.whole.clone(),
+            load: job.load.clone(),
+            params: p.clone(),
+            radius: job.settings.radius,
+            fps: fps(job),
             gen: Generator::new(p, limits, 1.0 / fps(job)),
             tracker: job.motion(),
             next: 0,
@@ -92,16 +100,15 @@ impl<'j> Walk<'j> {
     /// Walk up to and including the frame numbered `number` (loading the frames before it that were not fed;
     /// `loaded`: that frame's particles when the caller has them).
     pub fn advance(&mut self, number: u64, loaded: Option<&Particles>) -> Result<&[Particle]> {
-        let whole = &self.job.whole;
+        let whole = &self.whole;
         let at = whole.partition_point(|f| f.number < number);
         if whole.get(at).is_none_or(|f| f.number != number) {
             bail!("frame {number} is not in the sequence");
         }
         if at < self.next {
             // Backwards: start again from the first frame.
-            let p = &self.job.settings.diffuse;
-            self.gen = Generator::new(p, self.gen.limits(), 1.0 / fps(self.job));
-            self.tracker = self.job.motion();
+            self.gen = Generator::new(&self.params, self.gen.limits(), 1.0 / self.fps);
+            self.tracker = MotionTracker::new(self.fps);
             self.next = 0;
         }
         while self.next <= at {
@@ -110,7 +117,7 @@ impl<'j> Walk<'j> {
             let p = match loaded {
                 Some(p) if self.next == at => p,
                 _ => {
-                    owned = meniscus::scene::load_with(&f.path, &self.job.load)?;
+                    owned = meniscus::scene::load_with(&f.path, &self.load)?;
                     &owned
                 }
             };
@@ -123,7 +130,7 @@ impl<'j> Walk<'j> {
                     &zero
                 }
             };
-            let fluid = Fluid::new(&p.positions, v, p.ids.as_deref(), self.job.settings.radius);
+            let fluid = Fluid::new(&p.positions, v, p.ids.as_deref(), self.radius);
             self.last = self.gen.step(&fluid, f.number);
             self.next += 1;
         }
@@ -148,7 +155,7 @@ fn calibrate(job: &Job) -> Result<diffuse::Limits> {
     let picks: Vec<usize> = if n <= 17 { (0..n).collect() } else { (0..17).map(|k| k * (n - 1) / 16).collect() };
     let bar = crate::args::progress(picks.len() as u64, "frames");
     bar.set_message("calibrating the diffuse limits");
-    let mut maxima = vec![];
+    let (mut maxima, mut floor) = (vec![], 0f32);
     for &k in &picks {
         let f = &job.whole[k];
         let p = meniscus::scene::load_with(&f.path, &job.load)?;
@@ -161,10 +168,11 @@ fn calibrate(job: &Job) -> Result<diffuse::Limits> {
         let v = t.velocities().unwrap_or(&zero);
         let fluid = Fluid::new(&p.positions, v, p.ids.as_deref(), job.settings.radius);
         maxima.push(diffuse::frame_maxima(&fluid, job.settings.diffuse.min_neighbours));
+        floor = fluid.kinetic_floor();
         bar.inc(1);
     }
     bar.finish_and_clear();
-    Ok(diffuse::calibrate(&maxima))
+    Ok(diffuse::calibrate(&maxima, floor))
 }
 
 /// `path` with `_suffix` before its particle-file extension (.bgeo, .bgeo.gz, .vtk).

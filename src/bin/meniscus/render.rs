@@ -374,9 +374,9 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
 }
 
 /// Where a sequence's diffuse particles come from (`--foam`).
-enum Foam<'j> {
+enum Foam {
     /// Generated in time order.
-    Walk(Box<crate::foam::Walk<'j>>),
+    Walk(Box<crate::foam::Walk>),
     /// Read per frame number from an exported set.
     Files(std::collections::BTreeMap<u64, PathBuf>),
 }

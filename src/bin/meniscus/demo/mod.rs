@@ -52,6 +52,7 @@ Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
 F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | N: noise and foam on/off | O: next preset
+K: spray, foam and bubbles (diffuse particles) on/off
 V: vsync on/off | P: screenshot (PNG) | M: record a movie on/off (--record FILE, else meniscus-recording-NNNN.mp4) | H: help on/off | Esc: quit
 --sim: Space pause | Right: one frame | Backspace: restart | hold Ctrl + move the mouse: push the water";
 
@@ -203,6 +204,12 @@ struct App {
     uploaded: Option<usize>,
     /// The particles' motion over the frames played in order (the noise's amplitude); restarted by a jump.
     motion: meniscus::motion::MotionTracker,
+    /// A sequence's diffuse particles, generated in time order (`[diffuse] enabled`, K).
+    walk: Option<crate::foam::Walk>,
+    /// A live simulation's diffuse particles (`[diffuse] enabled`, K).
+    live: Option<meniscus::diffuse::Live>,
+    /// Diffuse particles of each kind on the GPU (foam, spray, bubbles), for the overlay.
+    diffuse_counts: [usize; 3],
     src: playback::Source,
     radius: f32,
     fit: Camera,
@@ -246,6 +253,18 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
     let camera = job.camera_for(o.width, o.height);
     let env = job.view(o.width, o.height).env;
     let radius = job.settings.radius;
+    // A sequence's spray, foam and bubbles: calibrated over the sequence now (a few seconds for a long one),
+    // generated as it plays.
+    let walk = if job.frames.is_some() && job.settings.diffuse.enabled {
+        Some(crate::foam::Walk::new(&job).map_err(|e| Error::Invalid(format!("{e:#}")))?)
+    } else {
+        None
+    };
+    let live = o
+        .sim
+        .as_ref()
+        .filter(|_| job.settings.diffuse.enabled)
+        .map(|_| meniscus::diffuse::Live::new(&job.settings.diffuse, job.settings.sim.fps));
     let src = match job.frames {
         Some(frames) => {
             let mut cache = HashMap::new();
@@ -300,6 +319,9 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         mesh,
         uploaded: None,
         motion: meniscus::motion::MotionTracker::new(motion_fps),
+        walk,
+        live,
+        diffuse_counts: [0; 3],
     };
     event_loop.run_app(&mut app).map_err(|e| Error::Invalid(format!("window event loop failed: {e}")))?;
     if let Some(e) = app.error.take() {
@@ -469,6 +491,7 @@ impl App {
                 if let Some(sim) = self.state.as_mut().and_then(|s| s.sim.as_mut()) {
                     sim.reset();
                     self.sim_step = true;
+                    self.live = None;
                 }
             }
             KeyCode::ArrowRight => {
@@ -510,6 +533,12 @@ impl App {
             }
             KeyCode::KeyX => self.settings.ssr.enabled = !self.settings.ssr.enabled,
             KeyCode::KeyN => self.settings.noise.enabled = !self.settings.noise.enabled,
+            KeyCode::KeyK => {
+                self.settings.diffuse.enabled = !self.settings.diffuse.enabled;
+                // Generation resumes where it stopped (a sequence walks on from its last frame).
+                self.uploaded = None;
+                self.sim_step |= self.o.sim.is_some() && !self.playing;
+            }
             KeyCode::KeyI => {
                 let next = match self.settings.surface {
                     Surface::Spheres => Surface::Iso,
@@ -673,14 +702,28 @@ impl App {
                 // The spheres and iso surfaces draw straight from the solver's buffer (the iso surface's grid is
                 // built on the GPU); the mesh surface and the particle view need the particles on the host (a
                 // readback per frame).
-                if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles {
+                let diffuse = self.settings.diffuse.enabled;
+                if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles && !diffuse {
                     st.renderer.set_gpu_particles(sim.count(), sim.scene.container)?;
+                    if st.renderer.diffuse_count() > 0 {
+                        st.renderer.set_diffuse(&[], &self.settings)?;
+                        self.diffuse_counts = [0; 3];
+                    }
                     produce = true;
                     self.sim_particles = None;
                 } else {
                     sim.step_frame()?;
                     let p = sim.read()?;
                     st.renderer.set_scene_particles_moving(&p, &self.settings, &sim.read_motion()?)?;
+                    // Spray, foam and bubbles from the state just read (the generation runs on the CPU).
+                    if diffuse {
+                        let fps = self.settings.sim.fps;
+                        let live =
+                            self.live.get_or_insert_with(|| meniscus::diffuse::Live::new(&self.settings.diffuse, fps));
+                        live.step(&p, sim.radius());
+                        st.renderer.set_diffuse(live.particles(), &self.settings)?;
+                        self.diffuse_counts = live.counts();
+                    }
                     self.sim_particles = Some(p);
                 }
             }
@@ -704,6 +747,18 @@ impl App {
             let p = self.src.get(self.frame, &self.load)?;
             let motion = self.motion.next(p);
             st.renderer.set_scene_particles_moving(p, &self.settings, &motion)?;
+            if let (true, Some(walk), playback::Source::Sequence { frames, .. }) =
+                (self.settings.diffuse.enabled, self.walk.as_mut(), &self.src)
+            {
+                let number = frames[self.frame].number;
+                let p = self.src.get(self.frame, &self.load)?;
+                let ps = walk.advance(number, Some(p)).map_err(|e| Error::Invalid(format!("{e:#}")))?;
+                st.renderer.set_diffuse(ps, &self.settings)?;
+                self.diffuse_counts = walk.counts();
+            } else if !self.settings.diffuse.enabled && st.renderer.diffuse_count() > 0 {
+                st.renderer.set_diffuse(&[], &self.settings)?;
+                self.diffuse_counts = [0; 3];
+            }
             self.uploaded = Some(self.frame);
         }
         // Frames in flight: the slot this frame takes is free once the frame N back is done (the only host wait).
@@ -882,6 +937,13 @@ impl App {
                 if st.renderer.async_compute { "on" } else { "off" }
             ),
         ];
+        if self.settings.diffuse.enabled && (self.walk.is_some() || st.sim.is_some()) {
+            let [foam, spray, bubbles] = self.diffuse_counts;
+            t.push(format!(
+                "diffuse {} particles: foam {foam}  spray {spray}  bubbles {bubbles}   K: off",
+                foam + spray + bubbles
+            ));
+        }
         if let Some(sim) = &st.sim {
             t.push(format!(
                 "sim {}  t = {:.2} s  {} steps x {} iterations per frame  {}",
