@@ -170,6 +170,55 @@ fn shards_ranges_and_resumed_runs_give_the_same_frames() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Diffuse particles (#37): `meniscus foam --export` writes every frame (the types split as FoamGenerator
+/// splits them add up to the whole), and rendering a range with `--foam` — generated in time order, or read
+/// back from the export, with 1 or 2 frames in flight, whole or in shards — gives byte-identical frames, which
+/// differ from the frames without them. An export over the input is refused and writes nothing.
+#[test]
+fn foam_export_and_generated_foam_render_the_same_frames() {
+    let Some(dir) = common::shared_data("splishsplash/dambreak_6859/partio") else { return };
+    let seq = dir.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
+    let d = tmpdir("foam");
+    let export = d.join("foam").join("f_{}.bgeo").to_string_lossy().into_owned();
+    let o = meniscus().args(["foam", &seq, "--frames", "1..12", "--export", &export]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout).into_owned();
+    let last: Vec<usize> =
+        table.lines().last().unwrap().split('\t').skip(1).map(|c| c.parse().unwrap()).collect::<Vec<_>>();
+    assert!(last[0] + last[1] + last[2] > 100, "too few diffuse particles to test: {table}");
+    let f12 = meniscus::diffuse::load(&d.join("foam/f_0012.bgeo")).unwrap();
+    assert_eq!(f12.len(), last[0] + last[1] + last[2], "the file holds what the table says");
+    let split = d.join("split").join("f_{}.bgeo").to_string_lossy().into_owned();
+    let o =
+        meniscus().args(["foam", &seq, "--frames", "12..12", "--split-types", "--export", &split]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let parts: usize = ["foam", "spray", "bubbles"]
+        .iter()
+        .map(|k| meniscus::diffuse::load(&d.join(format!("split/f_0012_{k}.bgeo"))).unwrap().len())
+        .sum();
+    assert_eq!(parts, f12.len(), "the split files add up to the whole frame");
+    let (gen, read, sharded, plain) = (d.join("gen"), d.join("read"), d.join("sharded"), d.join("plain"));
+    render_seq(&seq, &gen, &["--frames", "10..12", "--foam"]);
+    render_seq(&seq, &read, &["--frames", "10..12", "--foam", &export, "--frames-in-flight", "1"]);
+    for k in 1..=2 {
+        render_seq(&seq, &sharded, &["--frames", "10..12", "--foam", "--shard", &format!("{k}/2")]);
+    }
+    render_seq(&seq, &plain, &["--frames", "10..12"]);
+    let want = frames_in(&gen);
+    assert_eq!(want.len(), 3);
+    assert!(frames_in(&read) == want, "frames from the exported set differ from generated ones");
+    assert!(frames_in(&sharded) == want, "frames rendered in shards differ");
+    assert!(frames_in(&plain) != want, "the diffuse particles changed nothing in the picture");
+    // Never over an input, nor into it: the export pattern names the sequence itself (its 4-digit names would
+    // become frames of it); nothing is written.
+    let listing = || std::fs::read_dir(&dir).unwrap().count();
+    let before = listing();
+    let o = meniscus().args(["foam", &seq, "--export", &seq]).output().unwrap();
+    assert!(!o.status.success() && stderr(&o).contains("input sequence"), "{}", stderr(&o));
+    assert_eq!(listing(), before, "the export wrote into the input's folder");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// Every file in `dir` is a complete PNG that decodes; returns how many there are and how many partial files
 /// were left.
 fn complete_pngs(dir: &Path) -> (usize, usize) {

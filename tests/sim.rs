@@ -240,8 +240,12 @@ fn a_resting_pool_stays_at_rest() {
     let mut sim = Simulation::new(&gpu, scene, params).unwrap();
     let frames = (2.0 * sim.params.fps) as usize;
     let mut rms_at = vec![];
+    // Diffuse particles (Ihmsen 2012, calibrated as the run goes): a resting pool generates none.
+    let mut live = meniscus::diffuse::Live::new(&Default::default(), sim.params.fps);
+    let mut spawned = 0;
     for f in 0..frames {
         sim.step_frame().unwrap();
+        spawned += live.step(&sim.read().unwrap(), sim.radius()).spawned;
         if f % 25 == 24 {
             let v = sim.read().unwrap().velocities.unwrap();
             rms_at.push((v.iter().map(|v| Vec3::from(*v).length_squared()).sum::<f32>() / v.len() as f32).sqrt());
@@ -284,6 +288,8 @@ fn a_resting_pool_stays_at_rest() {
     let mut ids: Vec<u32> = motion.iter().map(|m| m.id).collect();
     ids.sort_unstable();
     assert!(ids.windows(2).all(|w| w[0] != w[1]), "the motions' ids are not the particles' own");
+    eprintln!("diffuse particles spawned over 2 s: {spawned}");
+    assert_eq!(spawned, 0, "a resting pool generated diffuse particles");
     common::assert_clean(&gpu);
 }
 
@@ -361,9 +367,11 @@ fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
     let mut sim = Simulation::new(&gpu, scene, Params::default()).unwrap();
     let tank = 4.0;
     let mut worst = 0f32;
+    let mut live = meniscus::diffuse::Live::new(&Default::default(), sim.params.fps);
     for (t, file) in [(0.2, 6), (0.4, 11), (0.6, 16)] {
         while sim.time < t - 1e-6 {
             sim.step_frame().unwrap();
+            live.step(&sim.read().unwrap(), sim.radius());
         }
         let ours = sim.read().unwrap();
         assert_eq!(ours.len(), n, "particle count conserved");
@@ -383,6 +391,29 @@ fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
         eprintln!("t = {t:.1} s: {turbulent} of {n} particles at the noise's turbulent amplitude");
         assert!(turbulent > 0, "t = {t} s: no particle of the dam break is turbulent");
     }
+    // Diffuse particles at the breaking front within the first second: foam exists, and the last 0.5 m behind
+    // the surge front holds a larger share of the diffuse particles than of the water.
+    let [foam, spray, bubbles] = live.counts();
+    let fluid = sim.read().unwrap();
+    let x_front = front(&fluid.positions);
+    let share = |xs: &mut dyn Iterator<Item = f32>| {
+        let (mut near, mut all) = (0, 0);
+        for x in xs {
+            near += usize::from(x > x_front - 0.5);
+            all += 1;
+        }
+        near as f32 / all.max(1) as f32
+    };
+    let diffuse_share = share(&mut live.particles().iter().map(|p| p.position.x));
+    let fluid_share = share(&mut fluid.positions.iter().map(|p| p[0]));
+    eprintln!(
+        "t = 0.6 s: diffuse foam {foam}, spray {spray}, bubbles {bubbles}; within 0.5 m of the front ({x_front:.3} m): \
+         {:.1} % of them, {:.1} % of the water",
+        100.0 * diffuse_share,
+        100.0 * fluid_share
+    );
+    assert!(foam > 0, "no foam at the breaking front within the first second");
+    assert!(diffuse_share > fluid_share, "the diffuse particles are not at the front");
     assert!(worst < 0.10, "surge front off by {:.1} % of the tank length", worst * 100.0);
     common::assert_clean(&gpu);
 }

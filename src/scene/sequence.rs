@@ -92,6 +92,39 @@ pub fn is_sequence(spec: &str) -> bool {
     spec.contains("{}") || spec.contains('*') || spec.contains('?') || Path::new(spec).is_dir() || is_pvd(spec)
 }
 
+/// True when a file at `path` would be read as a frame of the sequence `spec` (a pattern with {}: the same
+/// folder, prefix and suffix around digits; a folder: a particle file in it; a glob: a match): an output there
+/// would join the input on its next read.
+pub fn would_join(spec: &str, path: &Path) -> bool {
+    let same_dir = |a: &Path, b: &Path| {
+        let canon = |p: &Path| {
+            let p = if p.as_os_str().is_empty() { Path::new(".") } else { p };
+            std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+        };
+        canon(a) == canon(b)
+    };
+    let name = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+    let dir = path.parent().unwrap_or(Path::new("."));
+    if let Some((pre, post)) = spec.split_once("{}") {
+        let pre_path = Path::new(pre);
+        let (sdir, prefix) = if pre.ends_with('/') {
+            (pre_path, String::new())
+        } else {
+            (
+                pre_path.parent().unwrap_or(Path::new(".")),
+                pre_path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
+            )
+        };
+        let mid = name.strip_prefix(&prefix).and_then(|m| m.strip_suffix(post));
+        return same_dir(sdir, dir) && mid.is_some_and(|m| !m.is_empty() && m.bytes().all(|b| b.is_ascii_digit()));
+    }
+    if Path::new(spec).is_dir() {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        return same_dir(Path::new(spec), dir) && super::format::extensions().any(|x| x == ext);
+    }
+    glob::Pattern::new(spec).is_ok_and(|g| g.matches_path(path))
+}
+
 fn is_pvd(spec: &str) -> bool {
     Path::new(spec).extension().is_some_and(|e| e.eq_ignore_ascii_case("pvd"))
 }
