@@ -79,6 +79,8 @@ pub struct Particle {
     pub velocity: Vec3,
     /// Seconds left to live.
     pub lifetime: f32,
+    /// Seconds since it was spawned (it fades in over `fade_in`).
+    pub age: f32,
 }
 
 /// The `[diffuse]` section of a settings file: how diffuse particles are generated and moved (this module), and
@@ -98,6 +100,8 @@ pub struct Params {
     pub opacity: f32,
     /// The last seconds of a particle's life, over which it fades out.
     pub fade: f32,
+    /// The first seconds of a particle's life, over which it fades in (no popping up at birth).
+    pub fade_in: f32,
     /// Depth below the fluid surface (radii) where foam still shows.
     pub foam_depth: f32,
     /// Depth of water (radii) that attenuates a bubble by 1/e.
@@ -143,6 +147,7 @@ impl Default for Params {
             shutter: 0.01,
             opacity: 0.35,
             fade: 0.5,
+            fade_in: 0.12,
             foam_depth: 1.5,
             bubble_depth: 4.0,
             color: [0.95, 0.97, 1.0],
@@ -198,6 +203,7 @@ impl Params {
         non_neg("shutter", self.shutter, 1.0)?;
         non_neg("opacity", self.opacity, 16.0)?;
         non_neg("fade", self.fade, 60.0)?;
+        non_neg("fade_in", self.fade_in, 60.0)?;
         non_neg("foam_depth", self.foam_depth, 64.0)?;
         pos("bubble_depth", self.bubble_depth, 1e4)?;
         if self.color.iter().any(|c| !(0.0..=1.0).contains(c)) {
@@ -617,6 +623,7 @@ impl Generator {
                     p.lifetime -= dt;
                 }
             }
+            p.age += dt;
             if !(p.position.y >= floor && p.position.is_finite()) {
                 p.lifetime = 0.0;
             }
@@ -662,6 +669,7 @@ impl Generator {
                             position: x + radial + h * axis,
                             velocity: radial + v,
                             lifetime: m.lifetime[0] + i_ke * u(3) * (m.lifetime[1] - m.lifetime[0]),
+                            age: 0.0,
                         }
                     })
                     .collect()
@@ -679,8 +687,8 @@ impl Generator {
     }
 }
 
-/// The particles as a file's attributes: `velocity`, `lifetime` (s), `type` (0 foam, 1 spray, 2 bubbles, as
-/// SPlisHSPlasH's FoamGenerator numbers them) and `id`.
+/// The particles as a file's attributes: `velocity`, `lifetime` (s left), `age` (s since spawned), `type` (0 foam,
+/// 1 spray, 2 bubbles, as SPlisHSPlasH's FoamGenerator numbers them) and `id`.
 pub fn to_particles(ps: &[Particle]) -> crate::scene::Particles {
     crate::scene::Particles {
         positions: ps.iter().map(|p| p.position.to_array()).collect(),
@@ -693,6 +701,11 @@ pub fn to_particles(ps: &[Particle]) -> crate::scene::Particles {
                 data: ps.iter().map(|p| p.lifetime as f64).collect(),
             },
             crate::scene::Attribute {
+                name: "age".into(),
+                components: 1,
+                data: ps.iter().map(|p| p.age as f64).collect(),
+            },
+            crate::scene::Attribute {
                 name: "type".into(),
                 components: 1,
                 data: ps.iter().map(|p| p.kind as u8 as f64).collect(),
@@ -702,12 +715,14 @@ pub fn to_particles(ps: &[Particle]) -> crate::scene::Particles {
     }
 }
 
-/// Diffuse particles from a file: its `type` (default foam) and `lifetime` (default 1 s) attributes, its
+/// Diffuse particles from a file: its `type` (default foam), `lifetime` (default 1 s) and `age` (default 1 s)
+/// attributes, its
 /// velocities (default 0) and ids (default the index).
 pub fn from_particles(p: &crate::scene::Particles) -> std::result::Result<Vec<Particle>, String> {
     let attr = |name: &str| p.extra.iter().find(|a| a.name == name && a.components == 1);
     let kinds = attr("type");
     let life = attr("lifetime");
+    let age = attr("age");
     (0..p.len())
         .map(|i| {
             let kind = match kinds {
@@ -722,6 +737,7 @@ pub fn from_particles(p: &crate::scene::Particles) -> std::result::Result<Vec<Pa
                 position: Vec3::from(p.positions[i]),
                 velocity: p.velocities.as_ref().map_or(Vec3::ZERO, |v| Vec3::from(v[i])),
                 lifetime: life.map_or(1.0, |a| a.data[i] as f32),
+                age: age.map_or(1.0, |a| a.data[i] as f32),
             })
         })
         .collect()
@@ -830,6 +846,7 @@ mod tests {
             position: Vec3::from(x),
             velocity: Vec3::ZERO,
             lifetime: 10.0,
+            age: 0.0,
         };
         // Far above the water: spray. Deep inside: bubble. At the top layer: foam.
         let top = 7.0 * 2.0 * r;
@@ -885,6 +902,7 @@ mod tests {
                 position: Vec3::new(i as f32 * 0.1, 1.0 / (1.0 + i as f32), -0.25),
                 velocity: Vec3::new(0.5, -(i as f32), 2.0),
                 lifetime: 0.1 * i as f32 + 0.05,
+                age: 0.02 * i as f32,
             })
             .collect();
         for name in ["f_0001.bgeo", "f_0001.vtk"] {
@@ -902,8 +920,15 @@ mod tests {
     #[test]
     fn export_round_trips_through_the_attributes() {
         let ps = vec![
-            Particle { id: 3, kind: Kind::Spray, position: Vec3::new(1.0, 2.0, 3.0), velocity: Vec3::X, lifetime: 0.5 },
-            Particle { id: 4, kind: Kind::Bubble, position: Vec3::ZERO, velocity: Vec3::Y, lifetime: 2.0 },
+            Particle {
+                id: 3,
+                kind: Kind::Spray,
+                position: Vec3::new(1.0, 2.0, 3.0),
+                velocity: Vec3::X,
+                lifetime: 0.5,
+                age: 0.0,
+            },
+            Particle { id: 4, kind: Kind::Bubble, position: Vec3::ZERO, velocity: Vec3::Y, lifetime: 2.0, age: 3.0 },
         ];
         assert_eq!(from_particles(&to_particles(&ps)).unwrap(), ps);
     }

@@ -461,3 +461,67 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
     }
     common::assert_clean(&gpu);
 }
+
+/// The flicker figure of the diffuse layer (#37): a waterfall — a steady flow once its stream runs — is
+/// simulated, its spray, foam and bubbles generated as the run goes (`diffuse::Live`) and drawn. The figure is
+/// the mean absolute change of the layer's coverage from one frame to the next, summed over 8×8-pixel blocks
+/// (so a particle drifting within a block is not counted, one popping in or out is), relative to the mean
+/// coverage. Particles fade in over their first 0.12 s and out over their last 0.5 s.
+#[test]
+fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
+    use meniscus::renderer::{read_image, Renderer};
+    let gpu = common::gpu();
+    let scene = SimScene::new("waterfall", 8000).unwrap();
+    let (lo, hi) = scene.container;
+    let mut sim = Simulation::new(&gpu, scene, Params::default()).unwrap();
+    let mut live = meniscus::diffuse::Live::new(&Default::default(), sim.params.fps);
+    let mut s = common::settings(sim.radius());
+    s.diffuse.enabled = true;
+    let (w, h) = (160usize, 96usize);
+    let c = 0.5 * (lo + hi);
+    let eye = c + Vec3::new(0.0, 0.3, 1.6) * (hi - lo).max_element();
+    let v = common::view(eye.to_array(), c.to_array(), w as u32, h as u32, 45.0);
+    let mut r = Renderer::new(&gpu).unwrap();
+    let units = meniscus::passes::diffuse::UNITS;
+    let (warm, measured) = (40, 16);
+    let mut blocks_before: Option<Vec<f32>> = None;
+    let (mut change, mut mean, mut counts) = (vec![], vec![], vec![]);
+    for f in 0..warm + measured {
+        sim.step_frame().unwrap();
+        let p = sim.read().unwrap();
+        live.step(&p, sim.radius());
+        if f < warm {
+            continue;
+        }
+        r.set_scene_particles(&p, &s).unwrap();
+        r.set_diffuse(live.particles(), &s).unwrap();
+        r.render(&v, &s).unwrap();
+        let t = r.targets.as_ref().unwrap();
+        let white: Vec<f32> = read_image(&gpu, &t.diffuse_white)
+            .unwrap()
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32 / units)
+            .collect();
+        let mut blocks = vec![0f32; (w / 8) * (h / 8)];
+        for y in 0..h {
+            for x in 0..w {
+                blocks[(y / 8) * (w / 8) + x / 8] += white[y * w + x];
+            }
+        }
+        if let Some(b) = &blocks_before {
+            change.push(blocks.iter().zip(b).map(|(a, b)| (a - b).abs()).sum::<f32>());
+            mean.push(0.5 * (blocks.iter().sum::<f32>() + b.iter().sum::<f32>()));
+        }
+        counts.push(live.particles().len());
+        blocks_before = Some(blocks);
+    }
+    let flicker = change.iter().sum::<f32>() / mean.iter().sum::<f32>().max(1e-9);
+    eprintln!(
+        "waterfall, frames {warm}…{}: diffuse particles {:?}; flicker (mean |Δ coverage| / coverage, 8×8 blocks) {flicker:.3}",
+        warm + measured - 1,
+        counts
+    );
+    assert!(mean.iter().sum::<f32>() > 10.0 * measured as f32, "too little of a diffuse layer to measure");
+    assert!(flicker < 0.5, "the diffuse layer flickers: {flicker:.3}");
+    common::assert_clean(&gpu);
+}

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meniscus::scene::procedural;
@@ -43,6 +43,8 @@ pub struct Workload {
     /// smoothed field) are measured in every frame, as `render` of a sequence pays them. Empty: one set of
     /// particles for every frame.
     pub sequence: Vec<Particles>,
+    /// The spray, foam and bubbles of each sequence frame (`--foam`), drawn by the `diffuse` pass.
+    pub diffuse: Vec<Vec<meniscus::diffuse::Particle>>,
 }
 
 /// Statistics of one series of milliseconds.
@@ -241,7 +243,11 @@ impl Series {
     fn frame(&mut self, r: &mut Renderer, w: &Workload, warmup: bool, last_warmup: bool) -> Result<()> {
         if !w.sequence.is_empty() {
             // The upload is recorded into the frame (its copy is on the GPU clock, not in a pass).
-            r.set_scene_particles(&w.sequence[self.rendered % w.sequence.len()], &self.s)?;
+            let k = self.rendered % w.sequence.len();
+            r.set_scene_particles(&w.sequence[k], &self.s)?;
+            if let Some(d) = w.diffuse.get(k) {
+                r.set_diffuse(d, &self.s)?;
+            }
         }
         self.rendered += 1;
         let t0 = Instant::now();
@@ -413,6 +419,10 @@ pub struct BenchArgs {
     /// `render` fits them.
     #[arg(long = "sequence-frames", value_name = "RANGE")]
     sequence_frames: Option<String>,
+    /// Sequence workloads: generate their spray, foam and bubbles (in time order from the sequence's first
+    /// frame, before timing) and draw them, so the `diffuse` pass is measured.
+    #[arg(long)]
+    foam: bool,
     /// Comma-separated WIDTHxHEIGHT list.
     #[arg(long, value_delimiter = ',')]
     resolutions: Vec<String>,
@@ -518,14 +528,20 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                     .map(|f| f.to_string_lossy().into_owned())
                     .unwrap_or(job.label.clone());
                 // A sequence: its first warm-up + measured frames, each rendered frame a new one.
-                let mut sequence = vec![];
+                let (mut sequence, mut diffuse) = (vec![], vec![]);
+                if a.foam && job.frames.is_none() {
+                    bail!("--foam applies to sequence workloads ({other} is one file)");
+                }
+                let mut walk = if a.foam { Some(crate::foam::Walk::new(&job)?) } else { None };
                 if let Some(frames) = &job.frames {
                     let n = (a.warmup + a.frames.max(1)) as usize;
                     for f in frames.iter().take(n) {
-                        sequence.push(
-                            meniscus::scene::load_with(&f.path, &job.load)
-                                .with_context(|| format!("{}", f.path.display()))?,
-                        );
+                        let p = meniscus::scene::load_with(&f.path, &job.load)
+                            .with_context(|| format!("{}", f.path.display()))?;
+                        if let Some(walk) = walk.as_mut() {
+                            diffuse.push(walk.advance(f.number, Some(&p))?.to_vec());
+                        }
+                        sequence.push(p);
                     }
                     let (lo, hi) = (frames[0].number, frames[sequence.len().max(1) - 1].number);
                     label = format!("{label} (frames {lo}…{hi}, a new one every frame)");
@@ -538,6 +554,7 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                         distance: 1.0,
                         camera: job.camera,
                         sequence,
+                        diffuse,
                     },
                     Some(job),
                 ));
@@ -545,7 +562,18 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
         }
     };
     let g = procedural::generate(scene, count)?;
-    Ok((Workload { label, particles: g.particles, radius: g.radius, distance, camera: None, sequence: vec![] }, None))
+    Ok((
+        Workload {
+            label,
+            particles: g.particles,
+            radius: g.radius,
+            distance,
+            camera: None,
+            sequence: vec![],
+            diffuse: vec![],
+        },
+        None,
+    ))
 }
 
 /// The async settings `--async` asks for: [false], [true] or both.
@@ -882,6 +910,7 @@ fn run_sweep(
                 distance: 1.0,
                 camera: None,
                 sequence: vec![],
+                diffuse: vec![],
             };
             let e = measure(r, &w, res.0, res.1, base, "sweep particles", a.warmup, a.frames)?;
             pts.push((e.particles as f64, chart_point(&e)));
@@ -899,6 +928,7 @@ fn run_sweep(
             distance: 1.0,
             camera: None,
             sequence: vec![],
+            diffuse: vec![],
         };
         let mut pts = vec![];
         for &(wd, ht) in &sizes {
