@@ -2008,7 +2008,8 @@ fn diffuse_matches_cpu_reference() {
             };
             let id = diffuse.len() as u32;
             let lifetime = 0.1 + 0.15 * id as f32;
-            diffuse.push(Particle { id, kind, position: glam::Vec3::new(x, y, z), velocity: vel, lifetime });
+            let age = 0.01 * id as f32;
+            diffuse.push(Particle { id, kind, position: glam::Vec3::new(x, y, z), velocity: vel, lifetime, age });
         }
     }
     let mut rr = Renderer::new(&gpu).unwrap();
