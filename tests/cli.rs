@@ -42,8 +42,10 @@ fn render_builtin_scene_writes_png_and_timings() {
         .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !["upsample", "anisotropy", "iso", "mesh"].contains(*p))
-    {
+    // Not recorded here: upsample (full resolution), anisotropy/iso/mesh (spheres), diffuse (no spray, no
+    // diffuse particles).
+    let absent = ["upsample", "anisotropy", "iso", "mesh", "diffuse"];
+    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !absent.contains(*p)) {
         assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
     }
     let img = image::open(&out).unwrap();
@@ -173,7 +175,7 @@ fn tiny_bench_writes_valid_json() {
     let want: Vec<&str> = meniscus::passes::PASS_NAMES
         .iter()
         .copied()
-        .filter(|p| !["upsample", "anisotropy", "iso", "mesh"].contains(p))
+        .filter(|p| !["upsample", "anisotropy", "iso", "mesh", "diffuse"].contains(p))
         .collect();
     assert_eq!(passes, want);
     assert!(e["memory_images_bytes"].as_u64().unwrap() > 0);
@@ -497,13 +499,21 @@ fn sim_exports_a_cache_that_loads_and_renders() {
     let d = tmpdir("sim");
     for ext in ["bgeo", "vtk"] {
         let pattern = d.join(format!("f_{{}}.{ext}"));
+        let foam = d.join(format!("foam/d_{{}}.{ext}"));
         let o = meniscus()
             .args(["sim", "dambreak", "--particles", "3000", "--frames", "4", "--validation", "--export"])
             .arg(&pattern)
+            .arg("--foam")
+            .arg(&foam)
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "stderr: {err}");
+        // The live diffuse particles: a file per frame that loads (the first frame spawns only from still water).
+        assert!(err.contains("files of diffuse particles"), "{err}");
+        for n in 1..=4 {
+            meniscus::diffuse::load(&d.join(format!("foam/d_{n}.{ext}"))).unwrap();
+        }
         assert!(err.contains("sim_solve") && err.contains("steps/s"), "no per-stage times: {err}");
         let first = meniscus::scene::load(&d.join(format!("f_1.{ext}"))).unwrap();
         let last = meniscus::scene::load(&d.join(format!("f_4.{ext}"))).unwrap();

@@ -40,6 +40,11 @@ pub struct SimArgs {
     /// that reports the times).
     #[arg(long)]
     pub export: Option<String>,
+    /// Also generate the water's spray, foam and bubbles as it runs (`meniscus::diffuse`, on the CPU from each
+    /// frame's state; `[diffuse]` in a settings file) and write them here: {} is the frame number; .bgeo or .vtk
+    /// with position, velocity, lifetime, age, type (0 foam, 1 spray, 2 bubbles) and id.
+    #[arg(long, value_name = "PATTERN")]
+    pub foam: Option<String>,
     /// Settings (the `[sim]` section holds the solver's constants).
     #[command(flatten)]
     pub settings: SettingsArgs,
@@ -84,9 +89,23 @@ pub fn run(a: &SimArgs) -> Result<()> {
             bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
         }
     }
+    if let Some(f) = &a.foam {
+        if !f.contains("{}") {
+            bail!("--foam {f:?}: the pattern needs {{}} where the frame number goes, e.g. 'foam/f_{{}}.bgeo'");
+        }
+        let kind = crate::args::out_kind("--foam", std::path::Path::new(f), &meniscus::output::PARTICLE_KINDS)?;
+        for n in 1..=a.frames.max(1) {
+            let path = std::path::PathBuf::from(f.replace("{}", &n.to_string()));
+            crate::args::check_out("--foam", &path, kind)?;
+            if a.export.as_ref().is_some_and(|e| meniscus::scene::sequence::would_join(e, &path)) {
+                bail!("--foam {f}: {} would become a frame of the --export sequence", path.display());
+            }
+        }
+    }
     if a.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    let diffuse = a.settings.resolve()?.diffuse;
     let gpu = a.gpu.open()?;
     let mut sim = Simulation::new(&gpu, scene, params)?;
     let c = sim.constants;
@@ -102,10 +121,26 @@ pub fn run(a: &SimArgs) -> Result<()> {
         sim.params.iterations,
         gpu.info.name
     );
-    let write = |sim: &Simulation, n: u32| -> Result<()> {
+    let mut live = a.foam.as_ref().map(|_| meniscus::diffuse::Live::new(&diffuse, sim.params.fps));
+    let mut foam_ms = vec![];
+    let mut write = |sim: &Simulation, n: u32| -> Result<()> {
+        if a.export.is_none() && a.foam.is_none() {
+            return Ok(());
+        }
+        let p = sim.read()?;
         if let Some(e) = &a.export {
             let path = std::path::PathBuf::from(e.replace("{}", &n.to_string()));
-            meniscus::scene::write_particles(&path, &sim.read()?)?;
+            meniscus::scene::write_particles(&path, &p)?;
+        }
+        if let (Some(f), Some(live)) = (&a.foam, live.as_mut()) {
+            let t0 = std::time::Instant::now();
+            live.step(&p, sim.radius());
+            foam_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+            let path = std::path::PathBuf::from(f.replace("{}", &n.to_string()));
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).with_context(|| format!("--foam: cannot create {}", dir.display()))?;
+            }
+            meniscus::scene::write_particles(&path, &meniscus::diffuse::to_particles(live.particles()))?;
         }
         Ok(())
     };
@@ -163,6 +198,16 @@ pub fn run(a: &SimArgs) -> Result<()> {
     }
     if let Some(e) = &a.export {
         eprintln!("wrote {} files: {e}", a.frames);
+    }
+    if let (Some(f), Some(live)) = (&a.foam, &live) {
+        let [foam, spray, bubbles] = live.counts();
+        foam_ms.sort_by(f64::total_cmp);
+        eprintln!(
+            "wrote {} files of diffuse particles: {f} (the last frame: foam {foam}, spray {spray}, bubbles {bubbles}; \
+             median {:.1} ms per frame to generate them on the CPU)",
+            a.frames,
+            foam_ms.get(foam_ms.len() / 2).copied().unwrap_or(0.0)
+        );
     }
     finish(&gpu)
 }
