@@ -54,6 +54,8 @@ void main() {
         float k = floor(b.w);
         kind = uint(k);
         fade = b.w - k;
+        // An empty slot of the live simulation's pool.
+        if (fade <= 0.0) return;
     } else {
         uint j = i - pc.diffuse;
         if (pc.spray == 0u || j >= pc.count) return;

@@ -69,8 +69,11 @@ impl Kind {
 /// One diffuse particle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Particle {
-    /// Unique over a run: spawns are numbered in order.
+    /// A hash of its source's id, the frame and the spawn's index ([`spawn_id`]): the same wherever it is
+    /// generated (CPU or GPU); it varies the particle's size.
     pub id: u32,
+    /// The id of the fluid particle that spawned it.
+    pub source: u32,
     /// Its type, from its fluid neighbours at the last step.
     pub kind: Kind,
     /// World position.
@@ -136,6 +139,9 @@ pub struct Params {
     pub min_neighbours: u32,
     /// At most this many diffuse particles live at once (spawns beyond it are dropped, in order).
     pub max_particles: u32,
+    /// At most this many living diffuse particles per fluid particle that spawned them (spawns beyond it are
+    /// dropped): bounds the memory of the live simulation's pool (this many slots per fluid particle).
+    pub per_particle: u32,
 }
 
 impl Default for Params {
@@ -165,6 +171,7 @@ impl Default for Params {
             bubble_above: 20,
             min_neighbours: 15,
             max_particles: 2_000_000,
+            per_particle: 8,
         }
     }
 }
@@ -227,6 +234,12 @@ impl Params {
                 ),
             ));
         }
+        if self.per_particle == 0 || self.per_particle > 64 {
+            return Err((
+                "per_particle",
+                format!("[diffuse] per_particle = {} is out of range (1 … 64)", self.per_particle),
+            ));
+        }
         if self.max_particles == 0 || self.max_particles > 64_000_000 {
             return Err((
                 "max_particles",
@@ -276,6 +289,11 @@ impl Kernel {
         Kernel { h, k: 8.0 / (std::f32::consts::PI * h3), l: 48.0 / (std::f32::consts::PI * h3) }
     }
 
+    /// The coefficients 8 / (π h³) of W and 48 / (π h³) of its derivative (the GPU stages' push constants).
+    pub fn coefficients(&self) -> (f32, f32) {
+        (self.k, self.l)
+    }
+
     /// W at distance `r`.
     pub fn w(&self, r: f32) -> f32 {
         let q = r / self.h;
@@ -299,6 +317,16 @@ impl Kernel {
             0.0
         }
     }
+}
+
+/// The model's particle mass for radius `r`: FoamGenerator's 0.8 (2r)³ ρ0 with ρ0 = 1000.
+pub fn model_mass(r: f32) -> f32 {
+    0.8 * (2.0 * r).powi(3) * 1000.0
+}
+
+/// The kinetic energy of a particle of `mass` moving at √(g h): the least kinetic energy that spawns.
+pub fn kinetic_floor(mass: f32, h: f32) -> f32 {
+    0.5 * mass * GRAVITY.length() * h
 }
 
 /// A frame of fluid with what the model needs of it: the neighbour grid, densities, surface normals and the
@@ -331,7 +359,7 @@ impl<'a> Fluid<'a> {
         let n = positions.len();
         let h = 4.0 * radius;
         let kernel = Kernel::new(h);
-        let mass = 0.8 * (2.0 * radius).powi(3) * 1000.0;
+        let mass = model_mass(radius);
         let grid = UniformGrid::new(positions, h);
         let neighbours: Vec<Vec<u32>> = (0..n)
             .into_par_iter()
@@ -379,7 +407,7 @@ impl<'a> Fluid<'a> {
     /// The kinetic energy of a particle moving at √(g h) (the speed of a fall through the kernel support): the
     /// least kinetic energy that spawns diffuse particles.
     pub fn kinetic_floor(&self) -> f32 {
-        0.5 * self.mass * GRAVITY.length() * self.h
+        kinetic_floor(self.mass, self.h)
     }
 
     /// Particles in the frame.
@@ -536,6 +564,20 @@ pub fn hash4(a: u32, b: u32, c: u32, d: u32) -> u32 {
     h
 }
 
+/// The id of the `k`-th spawn of fluid particle `source` in frame `frame`.
+pub fn spawn_id(source: u32, frame: u32, k: u32) -> u32 {
+    hash4(source, frame, k, 7)
+}
+
+/// Two unit vectors orthogonal to the unit vector `n` and to each other (Duff et al. 2017, "Building an
+/// orthonormal basis, revisited"; the same arithmetic as shaders_glsl/sim_diffuse.glsl's).
+pub fn orthonormal_pair(n: Vec3) -> (Vec3, Vec3) {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
 /// A uniform number in [0, 1) from a hash.
 pub fn unit(h: u32) -> f32 {
     (h >> 8) as f32 / (1u32 << 24) as f32
@@ -559,13 +601,12 @@ pub struct Generator {
     dt: f32,
     /// The living particles, in spawn order.
     pub particles: Vec<Particle>,
-    next_id: u32,
 }
 
 impl Generator {
     /// A generator for frames `dt` seconds apart with these limits (the model's own when not automatic).
     pub fn new(model: &Params, limits: Limits, dt: f32) -> Generator {
-        Generator { model: model.clone(), limits, dt, particles: Vec::new(), next_id: 0 }
+        Generator { model: model.clone(), limits, dt, particles: Vec::new() }
     }
 
     /// The limits in use.
@@ -634,6 +675,11 @@ impl Generator {
     fn spawn(&mut self, f: &Fluid, frame: u64) -> (usize, usize) {
         let (m, l, dt) = (&self.model, self.limits, self.dt);
         let frame32 = (frame ^ (frame >> 32)) as u32;
+        // Living children per source: a fluid particle spawns into at most `per_particle` places.
+        let mut living: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
+        for p in &self.particles {
+            *living.entry(p.source).or_default() += 1;
+        }
         let per: Vec<Vec<Particle>> = (0..f.len())
             .into_par_iter()
             .map(|i| {
@@ -649,22 +695,25 @@ impl Generator {
                     + 0.5)
                     .floor()
                     .max(0.0) as u32;
+                let id = f.ids[i];
+                let n = n.min(m.per_particle.saturating_sub(living.get(&id).copied().unwrap_or(0)));
                 if n == 0 {
                     return Vec::new();
                 }
                 let (x, v) = (Vec3::from(f.positions[i]), Vec3::from(f.velocities[i]));
-                let axis = v.normalize_or(Vec3::Y);
-                let (e1, e2) = axis.any_orthonormal_pair();
-                let id = f.ids[i];
+                let speed = v.length();
+                let axis = if speed > 0.0 { v / speed } else { Vec3::Y };
+                let (e1, e2) = orthonormal_pair(axis);
                 (0..n)
                     .map(|k| {
                         let u = |c: u32| unit(hash4(id, frame32, k, c));
                         let r = f.radius * u(0).sqrt();
                         let theta = std::f32::consts::TAU * u(1);
-                        let h = (u(2) - 0.5) * dt * v.length();
+                        let h = (u(2) - 0.5) * dt * speed;
                         let radial = r * theta.cos() * e1 + r * theta.sin() * e2;
                         Particle {
-                            id: 0,
+                            id: spawn_id(id, frame32, k),
+                            source: id,
                             kind: Kind::Foam,
                             position: x + radial + h * axis,
                             velocity: radial + v,
@@ -679,16 +728,16 @@ impl Generator {
         let total: usize = per.iter().map(Vec::len).sum();
         let mut spawned = 0;
         for p in per.into_iter().flatten().take(room) {
-            self.particles.push(Particle { id: self.next_id, ..p });
-            self.next_id = self.next_id.wrapping_add(1);
+            self.particles.push(p);
             spawned += 1;
         }
         (spawned, total - spawned)
     }
 }
 
-/// The particles as a file's attributes: `velocity`, `lifetime` (s left), `age` (s since spawned), `type` (0 foam,
-/// 1 spray, 2 bubbles, as SPlisHSPlasH's FoamGenerator numbers them) and `id`.
+/// The particles as a file's attributes: `velocity`, `lifetime` (s left), `age` (s since spawned), `source` (the
+/// spawning fluid particle's id), `type` (0 foam, 1 spray, 2 bubbles, as SPlisHSPlasH's FoamGenerator numbers
+/// them) and `id`.
 pub fn to_particles(ps: &[Particle]) -> crate::scene::Particles {
     crate::scene::Particles {
         positions: ps.iter().map(|p| p.position.to_array()).collect(),
@@ -699,6 +748,11 @@ pub fn to_particles(ps: &[Particle]) -> crate::scene::Particles {
                 name: "lifetime".into(),
                 components: 1,
                 data: ps.iter().map(|p| p.lifetime as f64).collect(),
+            },
+            crate::scene::Attribute {
+                name: "source".into(),
+                components: 1,
+                data: ps.iter().map(|p| p.source as f64).collect(),
             },
             crate::scene::Attribute {
                 name: "age".into(),
@@ -723,6 +777,7 @@ pub fn from_particles(p: &crate::scene::Particles) -> std::result::Result<Vec<Pa
     let kinds = attr("type");
     let life = attr("lifetime");
     let age = attr("age");
+    let source = attr("source");
     (0..p.len())
         .map(|i| {
             let kind = match kinds {
@@ -738,6 +793,7 @@ pub fn from_particles(p: &crate::scene::Particles) -> std::result::Result<Vec<Pa
                 velocity: p.velocities.as_ref().map_or(Vec3::ZERO, |v| Vec3::from(v[i])),
                 lifetime: life.map_or(1.0, |a| a.data[i] as f32),
                 age: age.map_or(1.0, |a| a.data[i] as f32),
+                source: source.map_or(0, |a| a.data[i] as u32),
             })
         })
         .collect()
@@ -842,6 +898,7 @@ mod tests {
         let mut g = Generator::new(&m, m.limits(), 0.04);
         let p = |x: [f32; 3]| Particle {
             id: 0,
+            source: 0,
             kind: Kind::Foam,
             position: Vec3::from(x),
             velocity: Vec3::ZERO,
@@ -897,7 +954,8 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let ps: Vec<Particle> = (0..50)
             .map(|i| Particle {
-                id: 1000 + i,
+                id: spawn_id(7 * i, 3, i),
+                source: 7 * i,
                 kind: Kind::ALL[i as usize % 3],
                 position: Vec3::new(i as f32 * 0.1, 1.0 / (1.0 + i as f32), -0.25),
                 velocity: Vec3::new(0.5, -(i as f32), 2.0),
@@ -922,13 +980,22 @@ mod tests {
         let ps = vec![
             Particle {
                 id: 3,
+                source: 1,
                 kind: Kind::Spray,
                 position: Vec3::new(1.0, 2.0, 3.0),
                 velocity: Vec3::X,
                 lifetime: 0.5,
                 age: 0.0,
             },
-            Particle { id: 4, kind: Kind::Bubble, position: Vec3::ZERO, velocity: Vec3::Y, lifetime: 2.0, age: 3.0 },
+            Particle {
+                id: 4,
+                source: 2,
+                kind: Kind::Bubble,
+                position: Vec3::ZERO,
+                velocity: Vec3::Y,
+                lifetime: 2.0,
+                age: 3.0,
+            },
         ];
         assert_eq!(from_particles(&to_particles(&ps)).unwrap(), ps);
     }

@@ -35,6 +35,8 @@ pub struct ParticleSet {
     fluid: Vec<[f32; 4]>,
     /// The diffuse particles, encoded.
     diffuse: Vec<[f32; 4]>,
+    /// Diffuse slots a GPU producer writes after the fluid (a simulation's pool), when the particles are external.
+    gpu_diffuse: u32,
     /// The next frame's particles are written on the GPU by `Hooks::produce`.
     external: bool,
     positions: Vec<[f32; 3]>,
@@ -90,6 +92,7 @@ impl ParticleSet {
             None => data.extend((0..n as u32).map(|id| Motion { id, accel: 0.0 }.encode())),
         }
         self.fluid = data;
+        self.gpu_diffuse = 0;
         self.staged = Some(([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0));
         self.external = false;
         self.count = n as u32;
@@ -102,7 +105,19 @@ impl ParticleSet {
     /// The next frame's `count` particles are written on the GPU by its `Hooks::produce` (positions and
     /// motions, see the module's layout); `bounds` contain them (the host copy becomes the box's corners).
     pub fn set_gpu(&mut self, limit: u64, count: u32, bounds: (glam::Vec3, glam::Vec3)) -> Result<()> {
-        if count as u64 * BYTES_PER_PARTICLE > limit {
+        self.set_gpu_with_diffuse(limit, count, bounds, 0)
+    }
+
+    /// [`ParticleSet::set_gpu`] with `slots` diffuse particles the producer writes after the fluid's positions
+    /// and motions (two vec4 each; an empty slot has fade 0).
+    pub fn set_gpu_with_diffuse(
+        &mut self,
+        limit: u64,
+        count: u32,
+        bounds: (glam::Vec3, glam::Vec3),
+        slots: u32,
+    ) -> Result<()> {
+        if (count as u64 + slots as u64) * BYTES_PER_PARTICLE > limit {
             return Err(Error::Limit(format!("{count} particles exceed this device's storage buffer limit")));
         }
         let (lo, hi) = bounds;
@@ -118,7 +133,11 @@ impl ParticleSet {
         self.fluid.clear();
         self.external = true;
         self.count = count;
-        // The producer writes the fluid part; the diffuse particles follow it.
+        self.gpu_diffuse = slots;
+        if slots > 0 {
+            self.diffuse.clear();
+        }
+        // The producer writes the fluid part; uploaded diffuse particles follow it.
         self.staged = (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), 2 * count as usize));
         self.spray = None;
         self.generation += 1;
@@ -138,6 +157,7 @@ impl ParticleSet {
             )));
         }
         self.diffuse = encoded.into_iter().flatten().collect();
+        self.gpu_diffuse = 0;
         self.staged = Some(if self.external {
             (self.diffuse.clone(), 2 * self.count as usize)
         } else {
@@ -148,7 +168,11 @@ impl ParticleSet {
 
     /// Diffuse particles on the device.
     pub fn diffuse_count(&self) -> u32 {
-        (self.diffuse.len() / 2) as u32
+        if self.gpu_diffuse > 0 {
+            self.gpu_diffuse
+        } else {
+            (self.diffuse.len() / 2) as u32
+        }
     }
 
     /// Particles on the device.
@@ -199,7 +223,7 @@ impl ParticleSet {
     /// before may still read this one), a one-queue frame into the same (queue order keeps it after the
     /// readers) — and grow it when too small, after every frame that may still read it.
     pub fn prepare(&mut self, gpu: &std::sync::Arc<Gpu>, executor: &Executor, split: bool) -> Result<()> {
-        let whole = (2 * self.count as u64 + self.diffuse.len() as u64) * 16;
+        let whole = (2 * self.count as u64 + 2 * self.diffuse_count() as u64) * 16;
         if self.staged.is_some() || self.external {
             let bytes = whole;
             let target = if split { 1 - self.current } else { self.current };

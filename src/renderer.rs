@@ -188,6 +188,17 @@ impl Renderer {
         self.particles.set_gpu(self.gpu.info.max_storage_buffer_range, count, bounds)
     }
 
+    /// [`Renderer::set_gpu_particles`] with `slots` diffuse particles the producer writes after the fluid (a
+    /// simulation's spray, foam and bubbles: `sim::Simulation::set_diffuse`, `diffuse_slots`).
+    pub fn set_gpu_particles_with_diffuse(
+        &mut self,
+        count: u32,
+        bounds: (glam::Vec3, glam::Vec3),
+        slots: u32,
+    ) -> Result<()> {
+        self.particles.set_gpu_with_diffuse(self.gpu.info.max_storage_buffer_range, count, bounds, slots)
+    }
+
     /// Set the diffuse particles (spray, foam, bubbles: [`crate::diffuse`]) drawn by the `diffuse` pass from the
     /// next frame on, sized and faded by `s.diffuse`; they stay until set again (an empty slice removes them).
     pub fn set_diffuse(&mut self, particles: &[crate::diffuse::Particle], s: &Settings) -> Result<()> {

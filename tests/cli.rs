@@ -625,7 +625,19 @@ fn sim_with_a_mesh_collider() {
 fn bench_sim_reports_stages_and_overlap() {
     let (_, v) = bench_json(
         "bench-sim",
-        &["--sim", "dambreak:2000", "--warmup", "0", "--frames", "1", "--resolutions", "64x48", "--async", "both"],
+        &[
+            "--sim",
+            "dambreak:2000",
+            "--warmup",
+            "0",
+            "--frames",
+            "1",
+            "--resolutions",
+            "64x48",
+            "--async",
+            "both",
+            "--foam",
+        ],
     );
     let stages: Vec<&str> =
         v["stages_ms_per_step"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
@@ -633,11 +645,16 @@ fn bench_sim_reports_stages_and_overlap() {
     let expected: Vec<&str> = meniscus::sim::STAGE_NAMES.iter().copied().filter(|n| *n != "sim_vorticity").collect();
     assert_eq!(stages, expected);
     assert!(v["steps_per_second"].as_f64().unwrap() > 0.0);
+    // With --foam the spray, foam and bubble stages, once per frame, apart from the step's.
+    let diffuse: Vec<&str> =
+        v["diffuse_stages_ms_per_frame"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
+    assert_eq!(diffuse, meniscus::sim::diffuse::STAGE_NAMES);
     let combined = v["combined"].as_array().unwrap();
     assert_eq!(combined.len(), 2);
     for c in combined {
         let names: Vec<&str> = c["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
-        assert!(names.contains(&"sim_solve") && names.contains(&"composite"), "{names:?}");
+        assert!(names.contains(&"sim_solve") && names.contains(&"sim_diffuse_spawn"), "{names:?}");
+        assert!(names.contains(&"diffuse") && names.contains(&"composite"), "{names:?}");
         assert!(c["union_ms"].as_f64().unwrap() > 0.0);
     }
 }

@@ -2009,7 +2009,8 @@ fn diffuse_matches_cpu_reference() {
             let id = diffuse.len() as u32;
             let lifetime = 0.1 + 0.15 * id as f32;
             let age = 0.01 * id as f32;
-            diffuse.push(Particle { id, kind, position: glam::Vec3::new(x, y, z), velocity: vel, lifetime, age });
+            let position = glam::Vec3::new(x, y, z);
+            diffuse.push(Particle { id, source: id, kind, position, velocity: vel, lifetime, age });
         }
     }
     let mut rr = Renderer::new(&gpu).unwrap();

@@ -206,13 +206,13 @@ fn inflate_bounded(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
     Ok(v)
 }
 
-/// Write classic BGEO v5 the way Partio does: every array (`id` and `type` as int, 3-component ones as vector,
+/// Write classic BGEO v5 the way Partio does: every array (`id`, `type` and `source` as int, 3-component ones as vector,
 /// others float), plain or gzip.
 pub fn write(p: &Raw, gzip: bool) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(b"BgeoV");
     let ty = |a: &Attribute| {
-        if a.name == "id" || a.name == "type" {
+        if a.name == "id" || a.name == "type" || a.name == "source" {
             T_INT
         } else if a.components == 3 {
             T_VECTOR
@@ -241,7 +241,7 @@ pub fn write(p: &Raw, gzip: bool) -> Vec<u8> {
             for c in 0..a.components {
                 let x = a.data[i * a.components + c];
                 if ty(a) == T_INT {
-                    out.extend_from_slice(&(x as i32).to_be_bytes());
+                    out.extend_from_slice(&((x as i64) as i32).to_be_bytes());
                 } else {
                     out.extend_from_slice(&(x as f32).to_be_bytes());
                 }

@@ -20,6 +20,7 @@
 //! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
 //! 25 fps frame).
 
+pub mod diffuse;
 pub mod reference;
 pub mod scene;
 pub mod sdf;
@@ -324,6 +325,8 @@ pub struct Simulation {
     /// A sphere collider the user moves (the demo's mouse), in addition to the scene's.
     pub pusher: Option<(Vec3, f32)>,
     timer: Option<Timer>,
+    /// The spray, foam and bubbles stages (`set_diffuse`).
+    diffuse: Option<diffuse::DiffuseStages>,
 }
 
 impl Simulation {
@@ -406,6 +409,7 @@ impl Simulation {
             frames: 0,
             pusher: None,
             timer: Some(Timer::new(gpu)?),
+            diffuse: None,
             scene,
         };
         sim.reset();
@@ -427,6 +431,48 @@ impl Simulation {
         self.pending = Some((0, init));
         self.time = 0.0;
         self.frames = 0;
+        if let Some(d) = self.diffuse.as_mut() {
+            d.reset();
+        }
+    }
+
+    /// Generate the water's spray, foam and bubbles on the GPU after every frame ([`diffuse::DiffuseStages`],
+    /// `params`: the `[diffuse]` settings), or stop (`None`). Their pool starts empty. A renderer fed by
+    /// [`Simulation::record_frame`] needs room for [`Simulation::diffuse_slots`] after the fluid
+    /// (`Renderer::set_gpu_particles_with_diffuse`).
+    pub fn set_diffuse(&mut self, params: Option<&crate::diffuse::Params>) -> Result<()> {
+        self.diffuse = match params {
+            Some(p) => Some(diffuse::DiffuseStages::new(&self.gpu, p, self.capacity())?),
+            None => None,
+        };
+        let slots = self.diffuse_slots() as u64;
+        let need = crate::shader_constants::BYTES_PER_PARTICLE * (self.capacity().max(1) as u64 + slots);
+        if self.particles.size < need {
+            self.particles = Buffer::new(
+                &self.gpu,
+                "sim_particles",
+                need,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Slots of the diffuse pool (0 without the stages): the renderer's buffer holds two vec4 per slot after the
+    /// fluid's positions and motions.
+    pub fn diffuse_slots(&self) -> u32 {
+        self.diffuse.as_ref().map_or(0, |d| d.slots())
+    }
+
+    /// The living diffuse particles after the last frame (waits for the device); empty without the stages.
+    pub fn read_diffuse(&self) -> Result<Vec<crate::diffuse::Particle>> {
+        match &self.diffuse {
+            Some(d) if self.frames > 0 => d.read(&self.gpu),
+            _ => Ok(vec![]),
+        }
     }
 
     /// Particles after the next frame's uploads (the count the renderer draws).
@@ -510,6 +556,18 @@ impl Simulation {
         let out = out.unwrap_or(&self.particles);
         for _ in 0..self.constants.substeps {
             self.record_step(ctx, k, out);
+        }
+        if let Some(d) = self.diffuse.as_mut() {
+            let f = diffuse::FluidBuffers {
+                uniforms: &self.uniforms[k],
+                grid: &self.grid,
+                state: &self.state[0],
+                n: self.n,
+                radius: self.scene.radius(),
+                dt: 1.0 / self.params.fps,
+                frame: self.frames,
+            };
+            d.record(ctx, &f, out);
         }
         self.time += 1.0 / self.params.fps as f64;
         self.frames += 1;

@@ -420,7 +420,8 @@ pub struct BenchArgs {
     #[arg(long = "sequence-frames", value_name = "RANGE")]
     sequence_frames: Option<String>,
     /// Sequence workloads: generate their spray, foam and bubbles (in time order from the sequence's first
-    /// frame, before timing) and draw them, so the `diffuse` pass is measured.
+    /// frame, before timing) and draw them, so the `diffuse` pass is measured. With --sim: the simulation's
+    /// diffuse stages run (on the GPU, timed per frame) and the frames draw their particles.
     #[arg(long)]
     foam: bool,
     /// Comma-separated WIDTHxHEIGHT list.
@@ -656,7 +657,8 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
     if let Some(sim) = &a.sim {
         let modes = async_modes(&a.async_mode);
-        return crate::bench_sim::run(&gpu, sim, &base, resolutions[0], a.warmup, a.frames, &modes, a.json.as_deref());
+        let (size, json) = (resolutions[0], a.json.as_deref());
+        return crate::bench_sim::run(&gpu, sim, &base, size, a.warmup, a.frames, &modes, json, a.foam);
     }
     let mut r = Renderer::new(&gpu)?;
     r.background.always_render = !a.cache_background;

@@ -45,6 +45,8 @@ struct SimReport {
     frames: u32,
     /// Stage → median GPU ms per step.
     stages_ms_per_step: Vec<(String, f64)>,
+    /// The spray, foam and bubble stages (`--foam`) → median GPU ms per frame (they run once per frame).
+    diffuse_stages_ms_per_frame: Vec<(String, f64)>,
     ms_per_step: f64,
     steps_per_second: f64,
     width: u32,
@@ -63,6 +65,7 @@ pub fn run(
     frames: u32,
     modes: &[bool],
     json: Option<&Path>,
+    foam: bool,
 ) -> Result<()> {
     let (name, count) = match spec.split_once(':') {
         Some((n, c)) => (n, c.parse::<usize>().with_context(|| format!("--sim {spec}: bad particle count"))?),
@@ -72,6 +75,9 @@ pub fn run(
     let frames = frames.max(1);
     // The solver alone.
     let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
+    if foam {
+        sim.set_diffuse(Some(&base.diffuse))?;
+    }
     let c = sim.constants;
     eprintln!(
         "sim {name}: {} particles, {} steps of {:.2} ms per frame, {} iterations",
@@ -101,7 +107,16 @@ pub fn run(
         .filter(|n| runs.iter().any(|t| t.get(n).is_some()))
         .map(|n| (n.to_string(), per_step(n)))
         .collect();
-    let mut totals: Vec<f64> = runs.iter().map(|t| t.total() / c.substeps as f64).collect();
+    let diffuse_names = meniscus::sim::diffuse::STAGE_NAMES;
+    let diffuse: Vec<(String, f64)> = diffuse_names
+        .iter()
+        .filter(|n| runs.iter().any(|t| t.get(n).is_some()))
+        .map(|n| (n.to_string(), per_step(n) * c.substeps as f64))
+        .collect();
+    let mut totals: Vec<f64> = runs
+        .iter()
+        .map(|t| (t.total() - diffuse_names.iter().filter_map(|n| t.get(n)).sum::<f64>()) / c.substeps as f64)
+        .collect();
     let ms_per_step = median(&mut totals);
     // Rendering and simulating together.
     let mut combined = vec![];
@@ -124,9 +139,12 @@ pub fn run(
     for &on in modes {
         r.async_compute = on;
         let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
+        if foam {
+            sim.set_diffuse(Some(&base.diffuse))?;
+        }
         let mut spans_all = vec![];
         for k in 0..warmup + frames {
-            r.set_gpu_particles(sim.count(), scene.container)?;
+            r.set_gpu_particles_with_diffuse(sim.count(), scene.container, sim.diffuse_slots())?;
             let cell = std::cell::RefCell::new(&mut sim);
             let err = std::cell::RefCell::new(None);
             let step = |ctx: &mut FrameCtx, out: &Buffer| {
@@ -201,6 +219,13 @@ pub fn run(
         println!("| {n} | {ms:.3} |");
     }
     println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |\n", 1e3 / ms_per_step);
+    if !diffuse.is_empty() {
+        println!("| diffuse stage (once per frame) | ms per frame |\n|---|---|");
+        for (n, ms) in &diffuse {
+            println!("| {n} | {ms:.3} |");
+        }
+        println!("| **diffuse** | **{:.3}** |\n", diffuse.iter().map(|d| d.1).sum::<f64>());
+    }
     println!("Render + simulate one frame at {width}×{height} (GPU ms per frame, medians):\n");
     println!("| async | main queue | compute queue | union |\n|---|---|---|---|");
     for cb in &combined {
@@ -235,6 +260,7 @@ pub fn run(
             warmup_frames: warmup,
             frames,
             stages_ms_per_step: stages,
+            diffuse_stages_ms_per_frame: diffuse,
             ms_per_step,
             steps_per_second: 1e3 / ms_per_step,
             width,

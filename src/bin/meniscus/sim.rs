@@ -40,9 +40,10 @@ pub struct SimArgs {
     /// that reports the times).
     #[arg(long)]
     pub export: Option<String>,
-    /// Also generate the water's spray, foam and bubbles as it runs (`meniscus::diffuse`, on the CPU from each
-    /// frame's state; `[diffuse]` in a settings file) and write them here: {} is the frame number; .bgeo or .vtk
-    /// with position, velocity, lifetime, age, type (0 foam, 1 spray, 2 bubbles) and id.
+    /// Also generate the water's spray, foam and bubbles as it runs (`meniscus::diffuse`'s model as stages of
+    /// the simulation on the GPU, timed with the others; `[diffuse]` in a settings file) and write them here: {}
+    /// is the frame number; .bgeo or .vtk with position, velocity, lifetime, age, source, type (0 foam, 1 spray,
+    /// 2 bubbles) and id.
     #[arg(long, value_name = "PATTERN")]
     pub foam: Option<String>,
     /// Settings (the `[sim]` section holds the solver's constants).
@@ -121,26 +122,26 @@ pub fn run(a: &SimArgs) -> Result<()> {
         sim.params.iterations,
         gpu.info.name
     );
-    let mut live = a.foam.as_ref().map(|_| meniscus::diffuse::Live::new(&diffuse, sim.params.fps));
-    let mut foam_ms = vec![];
+    if a.foam.is_some() {
+        sim.set_diffuse(Some(&diffuse))?;
+    }
+    let mut last_counts = [0usize; 3];
     let mut write = |sim: &Simulation, n: u32| -> Result<()> {
-        if a.export.is_none() && a.foam.is_none() {
-            return Ok(());
-        }
-        let p = sim.read()?;
         if let Some(e) = &a.export {
             let path = std::path::PathBuf::from(e.replace("{}", &n.to_string()));
-            meniscus::scene::write_particles(&path, &p)?;
+            meniscus::scene::write_particles(&path, &sim.read()?)?;
         }
-        if let (Some(f), Some(live)) = (&a.foam, live.as_mut()) {
-            let t0 = std::time::Instant::now();
-            live.step(&p, sim.radius());
-            foam_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        if let Some(f) = &a.foam {
+            let ps = sim.read_diffuse()?;
+            last_counts = [0; 3];
+            for p in &ps {
+                last_counts[p.kind as usize] += 1;
+            }
             let path = std::path::PathBuf::from(f.replace("{}", &n.to_string()));
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).with_context(|| format!("--foam: cannot create {}", dir.display()))?;
             }
-            meniscus::scene::write_particles(&path, &meniscus::diffuse::to_particles(live.particles()))?;
+            meniscus::scene::write_particles(&path, &meniscus::diffuse::to_particles(&ps))?;
         }
         Ok(())
     };
@@ -179,15 +180,25 @@ pub fn run(a: &SimArgs) -> Result<()> {
     bar.finish_and_clear();
     let med = meniscus::gpu::timer::median_times(&runs);
     if !runs.is_empty() {
-        let per_step = med.total() / c.substeps as f64;
+        // The solver's stages run every step; the diffuse stages once per frame.
+        let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);
+        let (step, frame): (Vec<_>, Vec<_>) = med.0.iter().partition(|(k, _)| !diffuse(k));
+        let per_step = step.iter().map(|(_, v)| v).sum::<f64>() / c.substeps as f64;
         eprintln!(
             "{} frames, {} particles at the end; median GPU time per step {:.2} ms ({:.1} steps/s): {}",
             runs.len(),
             sim.count(),
             per_step,
             1e3 / per_step,
-            med.0.iter().map(|(k, v)| format!("{k} {:.2}", v / c.substeps as f64)).collect::<Vec<_>>().join(", ")
+            step.iter().map(|(k, v)| format!("{k} {:.2}", v / c.substeps as f64)).collect::<Vec<_>>().join(", ")
         );
+        if !frame.is_empty() {
+            eprintln!(
+                "diffuse stages, median GPU ms per frame: {:.2} ({})",
+                frame.iter().map(|(_, v)| v).sum::<f64>(),
+                frame.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ")
+            );
+        }
     }
     let over = sim.neighbour_overflow()?;
     if over > 0 {
@@ -199,14 +210,13 @@ pub fn run(a: &SimArgs) -> Result<()> {
     if let Some(e) = &a.export {
         eprintln!("wrote {} files: {e}", a.frames);
     }
-    if let (Some(f), Some(live)) = (&a.foam, &live) {
-        let [foam, spray, bubbles] = live.counts();
-        foam_ms.sort_by(f64::total_cmp);
+    if let Some(f) = &a.foam {
+        let [foam, spray, bubbles] = last_counts;
         eprintln!(
             "wrote {} files of diffuse particles: {f} (the last frame: foam {foam}, spray {spray}, bubbles {bubbles}; \
-             median {:.1} ms per frame to generate them on the CPU)",
+             {} pool slots)",
             a.frames,
-            foam_ms.get(foam_ms.len() / 2).copied().unwrap_or(0.0)
+            sim.diffuse_slots()
         );
     }
     finish(&gpu)

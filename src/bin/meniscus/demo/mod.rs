@@ -206,8 +206,8 @@ struct App {
     motion: meniscus::motion::MotionTracker,
     /// A sequence's diffuse particles, generated in time order (`[diffuse] enabled`, K).
     walk: Option<crate::foam::Walk>,
-    /// A live simulation's diffuse particles (`[diffuse] enabled`, K).
-    live: Option<meniscus::diffuse::Live>,
+    /// The live simulation's diffuse stages are on (they follow `[diffuse] enabled`, K).
+    sim_diffuse: bool,
     /// Diffuse particles of each kind on the GPU (foam, spray, bubbles), for the overlay.
     diffuse_counts: [usize; 3],
     src: playback::Source,
@@ -260,11 +260,6 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
     } else {
         None
     };
-    let live = o
-        .sim
-        .as_ref()
-        .filter(|_| job.settings.diffuse.enabled)
-        .map(|_| meniscus::diffuse::Live::new(&job.settings.diffuse, job.settings.sim.fps));
     let src = match job.frames {
         Some(frames) => {
             let mut cache = HashMap::new();
@@ -320,7 +315,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         uploaded: None,
         motion: meniscus::motion::MotionTracker::new(motion_fps),
         walk,
-        live,
+        sim_diffuse: false,
         diffuse_counts: [0; 3],
     };
     event_loop.run_app(&mut app).map_err(|e| Error::Invalid(format!("window event loop failed: {e}")))?;
@@ -491,7 +486,6 @@ impl App {
                 if let Some(sim) = self.state.as_mut().and_then(|s| s.sim.as_mut()) {
                     sim.reset();
                     self.sim_step = true;
-                    self.live = None;
                 }
             }
             KeyCode::ArrowRight => {
@@ -702,27 +696,39 @@ impl App {
                 // The spheres and iso surfaces draw straight from the solver's buffer (the iso surface's grid is
                 // built on the GPU); the mesh surface and the particle view need the particles on the host (a
                 // readback per frame).
+                // Spray, foam and bubbles: stages of the simulation on the GPU, switched with [diffuse] enabled.
                 let diffuse = self.settings.diffuse.enabled;
-                if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles && !diffuse {
-                    st.renderer.set_gpu_particles(sim.count(), sim.scene.container)?;
-                    if st.renderer.diffuse_count() > 0 {
-                        st.renderer.set_diffuse(&[], &self.settings)?;
-                        self.diffuse_counts = [0; 3];
+                if diffuse != self.sim_diffuse {
+                    st.renderer.wait_idle()?;
+                    sim.set_diffuse(diffuse.then_some(&self.settings.diffuse))?;
+                    self.sim_diffuse = diffuse;
+                    self.diffuse_counts = [0; 3];
+                }
+                // Their counts for the overlay: read back twice a second (a wait for the device).
+                if diffuse && sim.frames % 12 == 11 {
+                    st.renderer.wait_idle()?;
+                    let mut c = [0; 3];
+                    for p in sim.read_diffuse()? {
+                        c[p.kind as usize] += 1;
                     }
+                    self.diffuse_counts = c;
+                }
+                if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles {
+                    st.renderer.set_gpu_particles_with_diffuse(
+                        sim.count(),
+                        sim.scene.container,
+                        sim.diffuse_slots(),
+                    )?;
                     produce = true;
                     self.sim_particles = None;
                 } else {
                     sim.step_frame()?;
                     let p = sim.read()?;
                     st.renderer.set_scene_particles_moving(&p, &self.settings, &sim.read_motion()?)?;
-                    // Spray, foam and bubbles from the state just read (the generation runs on the CPU).
                     if diffuse {
-                        let fps = self.settings.sim.fps;
-                        let live =
-                            self.live.get_or_insert_with(|| meniscus::diffuse::Live::new(&self.settings.diffuse, fps));
-                        live.step(&p, sim.radius());
-                        st.renderer.set_diffuse(live.particles(), &self.settings)?;
-                        self.diffuse_counts = live.counts();
+                        st.renderer.set_diffuse(&sim.read_diffuse()?, &self.settings)?;
+                    } else if st.renderer.diffuse_count() > 0 {
+                        st.renderer.set_diffuse(&[], &self.settings)?;
                     }
                     self.sim_particles = Some(p);
                 }
