@@ -25,9 +25,10 @@ pub struct FoamArgs {
     /// A sequence: a pattern with {} for the frame number, a folder, a glob or a .pvd. Its frames are walked
     /// in time order from the first (velocities from the files' `velocity`, else from the particles' motion).
     pub input: String,
-    /// Output pattern: {} is the frame number (4 digits); .bgeo or .vtk; a folder gets foam_NNNN.bgeo inside.
-    /// Each file holds the diffuse particles of its frame: position, velocity, lifetime (s), type (0 foam,
-    /// 1 spray, 2 bubbles) and id. Never written over an input; written whole or not at all.
+    /// Output pattern: {} is the frame number (4 digits); .bgeo or .vtk; a folder gets frame_NNNN.bgeo inside.
+    /// Each file holds the diffuse particles of its frame: position, velocity, lifetime (s left), age (s),
+    /// source (the spawning fluid particle's id), type (0 foam, 1 spray, 2 bubbles) and id. Never written over an
+    /// input or into the input sequence; written whole or not at all.
     #[arg(long, value_name = "PATTERN")]
     pub export: PathBuf,
     /// One file per type, as FoamGenerator's --splittypes: _foam, _spray and _bubbles before the extension.
