@@ -21,7 +21,7 @@ import numpy as np
 
 from . import _meniscus
 
-__all__ = ["Renderer", "Simulation", "reconstruct_surface", "load", "sim_scenes", "__version__"]
+__all__ = ["Renderer", "Simulation", "Foam", "reconstruct_surface", "load", "sim_scenes", "__version__"]
 __version__ = _meniscus.__version__
 
 ArrayLike = Any
@@ -82,12 +82,14 @@ class Renderer:
 
     def render(self, positions: Union[ArrayLike, "Simulation"], *, particle_radius: Optional[float] = None,
                camera: Optional[Camera] = None, velocities: Optional[ArrayLike] = None,
-               attributes: Optional[Dict[str, ArrayLike]] = None, alpha: bool = False) -> np.ndarray:
+               attributes: Optional[Dict[str, ArrayLike]] = None, alpha: bool = False,
+               foam: Optional["Foam"] = None) -> np.ndarray:
         """Render particles (N×3) — or a `Simulation`, from its GPU buffer without a copy through the host —
         and return the image as H×W×3 uint8 (H×W×4 with `alpha`). The camera is fitted to the particles'
         1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks and "id"
         (N integers, as `load` returns a file's) to seed each particle's surface noise as the CLI does (else the
-        index). Each call is one still frame: the noise keeps its calm amplitude."""
+        index). Each call is one still frame: the noise keeps its calm amplitude. `foam`: a `Foam` whose spray,
+        foam and bubbles are drawn with the particles."""
         if isinstance(positions, Simulation):
             img = self._r.render_sim(positions._s, _camera(camera))
         else:
@@ -107,7 +109,10 @@ class Renderer:
                 ids = np.ascontiguousarray(np.asarray(attributes["id"]), dtype=np.int64).reshape(-1)
                 if ids.shape[0] != pts.shape[0]:
                     raise ValueError(f"attributes['id']: {ids.shape[0]} values for {pts.shape[0]} particles")
-            img = self._r.render(pts, _radius(particle_radius), _camera(camera), vel, dens, ids)
+            if foam is not None and not isinstance(foam, Foam):
+                raise ValueError("foam: expected a meniscus.Foam")
+            img = self._r.render(pts, _radius(particle_radius), _camera(camera), vel, dens, ids,
+                                 None if foam is None else foam._f)
         return img if alpha else img[:, :, :3]
 
     def render_buffers(self, positions: Union[ArrayLike, "Simulation"], **kwargs: Any) -> Dict[str, np.ndarray]:
@@ -166,6 +171,43 @@ class Simulation:
     def frames(self) -> int:
         """Frames simulated so far."""
         return self._s.frames
+
+
+class Foam:
+    """Spray, foam and air bubbles (diffuse particles: Ihmsen et al. 2012) of a simulation you step yourself:
+    give `step` every frame's fluid in time order, and `Renderer.render(…, foam=f)` draws them. Fluid particles
+    spawn them where air is trapped and at wave crests, in proportion to their kinetic energy; they are spray
+    (ballistic), foam (carried by the water) or bubbles (rising) by their fluid neighbours, and age and fade.
+    The limits calibrate themselves as the run goes (Bender et al. 2019), so a resting pool stays clear at any
+    scale; the `[diffuse]` section of an optional TOML `settings` file sets them otherwise. Deterministic: the
+    same frames give the same particles (as `meniscus sim --foam` does on the GPU)."""
+
+    def __init__(self, *, particle_radius: float, fps: float = 25.0, settings: Optional[str] = None) -> None:
+        self._f = _meniscus.Foam(_radius(particle_radius), float(fps), settings)
+
+    def step(self, positions: ArrayLike, velocities: ArrayLike, ids: Optional[ArrayLike] = None) -> Tuple[int, int]:
+        """The next frame's fluid: positions and velocities (N×3, m and m/s) and optionally ids (N integers,
+        to follow particles a simulation reorders; else the index). Returns (spawned, died) this frame."""
+        pts = _points(positions, "positions")
+        vel = _points(velocities, "velocities")
+        if vel.shape != pts.shape:
+            raise ValueError(f"velocities: shape {vel.shape} does not match positions {pts.shape}")
+        idv = None
+        if ids is not None:
+            idv = np.ascontiguousarray(np.asarray(ids), dtype=np.int64).reshape(-1)
+            if idv.shape[0] != pts.shape[0]:
+                raise ValueError(f"ids: {idv.shape[0]} values for {pts.shape[0]} particles")
+        return tuple(self._f.step(pts, vel, idv))
+
+    def particles(self) -> Dict[str, np.ndarray]:
+        """The living particles: "positions", "velocities" (N×3 float32), "lifetime" (s left), "age" (s), "kind"
+        (uint8: 0 foam, 1 spray, 2 bubbles), "id" and "source" (the spawning fluid particle's id; uint32)."""
+        return dict(self._f.particles())
+
+    @property
+    def counts(self) -> Tuple[int, int, int]:
+        """Living particles of each kind: (foam, spray, bubbles)."""
+        return tuple(self._f.counts())
 
 
 def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,

@@ -1,6 +1,6 @@
 //! `meniscus._meniscus`: the native half of the Python package — thin wrappers of the library (no logic of the
-//! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), surface reconstruction
-//! (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
+//! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), spray, foam and bubbles (`Foam`:
+//! `meniscus::diffuse::Live`), surface reconstruction (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
 //! and are read in place; the GIL is released while the GPU or the CPU extraction works; library errors become
 //! `ValueError` (bad input), `OSError` (files) or `RuntimeError` (the device).
 
@@ -98,7 +98,8 @@ impl Renderer {
 
     /// Render particles; returns the image as H×W×4 RGBA bytes.
     /// `ids` seed each particle's noise (the `noise` pass), as a file's ids do in the CLI.
-    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None, ids=None))]
+    /// `foam`: spray, foam and bubbles to draw with them (the `diffuse` pass).
+    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None, ids=None, foam=None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &mut self,
@@ -109,6 +110,7 @@ impl Renderer {
         velocities: Option<PyReadonlyArray2<f32>>,
         densities: Option<PyReadonlyArray1<f32>>,
         ids: Option<PyReadonlyArray1<i64>>,
+        foam: Option<PyRef<'_, Foam>>,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         let mut s = self.settings.clone();
         s.radius = radius;
@@ -127,10 +129,14 @@ impl Renderer {
             .ok_or_else(|| PyValueError::new_err("no finite positions"))?;
         let view = View::around(&bounds, crate::camera(camera)?, self.size.0, self.size.1, &s);
         view.camera.check().map_err(py_err)?;
-        let work = OnThisThread((&mut self.core, &p, &view, &s));
+        let diffuse: &[meniscus::diffuse::Particle] = foam.as_ref().map_or(&[], |f| f.live.particles());
+        let work = OnThisThread((&mut self.core, &p, &view, &s, diffuse));
         let (img, times) = py.allow_threads(move || {
-            let (core, p, view, s) = work.into_inner();
+            let (core, p, view, s, diffuse) = work.into_inner();
             core.set_scene_particles(p, s)?;
+            if !diffuse.is_empty() || core.diffuse_count() > 0 {
+                core.set_diffuse(diffuse, s)?;
+            }
             let times = core.render(view, s)?;
             Ok::<_, meniscus::Error>((core.read_final()?, times))
         })
@@ -384,9 +390,79 @@ fn sim_scenes() -> Vec<(&'static str, usize, &'static str)> {
     meniscus::sim::SCENES.to_vec()
 }
 
+/// Spray, foam and bubbles of a simulation stepped by the caller (`meniscus::diffuse::Live`: Ihmsen et al. 2012,
+/// its limits calibrated as the run goes).
+#[pyclass(unsendable, module = "meniscus._meniscus")]
+struct Foam {
+    live: meniscus::diffuse::Live,
+    radius: f32,
+}
+
+#[pymethods]
+impl Foam {
+    #[new]
+    #[pyo3(signature = (radius, fps, settings_file=None))]
+    fn new(radius: f32, fps: f32, settings_file: Option<&str>) -> PyResult<Self> {
+        if !(radius.is_finite() && radius > 0.0 && fps.is_finite() && fps > 0.0) {
+            return Err(PyValueError::new_err("particle_radius and fps must be positive numbers"));
+        }
+        let params = settings("default", settings_file)?.diffuse;
+        params.check().map_err(|(_, reason)| PyValueError::new_err(reason))?;
+        Ok(Foam { live: meniscus::diffuse::Live::new(&params, fps), radius })
+    }
+
+    /// The next frame of fluid (positions and velocities N×3, ids N or None: the index); releases the GIL.
+    #[pyo3(signature = (positions, velocities, ids=None))]
+    fn step(
+        &mut self,
+        py: Python<'_>,
+        positions: PyReadonlyArray2<f32>,
+        velocities: PyReadonlyArray2<f32>,
+        ids: Option<PyReadonlyArray1<i64>>,
+    ) -> PyResult<(usize, usize)> {
+        let p = Particles {
+            positions: points(&positions)?,
+            velocities: Some(points(&velocities)?),
+            ids: ids.map(|d| d.as_array().to_vec()),
+            ..Default::default()
+        };
+        if p.ids.as_ref().is_some_and(|i| i.len() != p.positions.len()) {
+            return Err(PyValueError::new_err("ids: one per particle"));
+        }
+        let work = OnThisThread((&mut self.live, &p, self.radius));
+        let stats = py.allow_threads(move || {
+            let (live, p, r) = work.into_inner();
+            live.step(p, r)
+        });
+        Ok((stats.spawned, stats.died))
+    }
+
+    /// The living particles as arrays: positions, velocities (N×3 float32), lifetime, age (float32), kind
+    /// (uint8: 0 foam, 1 spray, 2 bubbles), id and source (uint32).
+    fn particles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let ps = self.live.particles();
+        let d = PyDict::new(py);
+        d.set_item("positions", vec3_array(py, ps.iter().map(|p| p.position.to_array()).collect())?)?;
+        d.set_item("velocities", vec3_array(py, ps.iter().map(|p| p.velocity.to_array()).collect())?)?;
+        d.set_item("lifetime", ps.iter().map(|p| p.lifetime).collect::<Vec<f32>>().into_pyarray(py))?;
+        d.set_item("age", ps.iter().map(|p| p.age).collect::<Vec<f32>>().into_pyarray(py))?;
+        d.set_item("kind", ps.iter().map(|p| p.kind as u8).collect::<Vec<u8>>().into_pyarray(py))?;
+        d.set_item("id", ps.iter().map(|p| p.id).collect::<Vec<u32>>().into_pyarray(py))?;
+        d.set_item("source", ps.iter().map(|p| p.source).collect::<Vec<u32>>().into_pyarray(py))?;
+        Ok(d)
+    }
+
+    /// Living particles of each kind: (foam, spray, bubbles).
+    fn counts(&self) -> (usize, usize, usize) {
+        let [a, b, c] = self.live.counts();
+        (a, b, c)
+    }
+}
+
 #[pymodule]
 fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Renderer>()?;
+    m.add_class::<Foam>()?;
     m.add_class::<Simulation>()?;
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
