@@ -739,31 +739,20 @@ impl Generator {
 /// spawning fluid particle's id), `type` (0 foam, 1 spray, 2 bubbles, as SPlisHSPlasH's FoamGenerator numbers
 /// them) and `id`.
 pub fn to_particles(ps: &[Particle]) -> crate::scene::Particles {
+    let scalar = |name: &str, value: fn(&Particle) -> f64| crate::scene::Attribute {
+        name: name.into(),
+        components: 1,
+        data: ps.iter().map(value).collect(),
+    };
     crate::scene::Particles {
         positions: ps.iter().map(|p| p.position.to_array()).collect(),
         velocities: Some(ps.iter().map(|p| p.velocity.to_array()).collect()),
         ids: Some(ps.iter().map(|p| p.id as i64).collect()),
         extra: vec![
-            crate::scene::Attribute {
-                name: "lifetime".into(),
-                components: 1,
-                data: ps.iter().map(|p| p.lifetime as f64).collect(),
-            },
-            crate::scene::Attribute {
-                name: "source".into(),
-                components: 1,
-                data: ps.iter().map(|p| p.source as f64).collect(),
-            },
-            crate::scene::Attribute {
-                name: "age".into(),
-                components: 1,
-                data: ps.iter().map(|p| p.age as f64).collect(),
-            },
-            crate::scene::Attribute {
-                name: "type".into(),
-                components: 1,
-                data: ps.iter().map(|p| p.kind as u8 as f64).collect(),
-            },
+            scalar("lifetime", |p| p.lifetime as f64),
+            scalar("source", |p| p.source as f64),
+            scalar("age", |p| p.age as f64),
+            scalar("type", |p| p.kind as u8 as f64),
         ],
         ..Default::default()
     }
