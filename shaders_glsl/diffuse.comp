@@ -10,7 +10,9 @@
 //! of the order of the atomics; `composite` turns a sum S into opacity 1 − exp(−S), so foam thickens where it
 //! gathers.
 //! In: particles (the `count` fluid positions, then their motions, then the diffuse particles, two vec4 each:
-//! xyz + world radius, velocity + kind (0 foam, 1 spray, 2 bubble) + fade), fluid depth, scene depth.
+//! xyz + world radius, velocity + kind (0 foam, 1 spray, 2 bubble) + fade — after a header vec4 when a GPU
+//! producer appended them: dispatch groups, 1, 1, their count, the dispatch being indirect), fluid depth, scene
+//! depth.
 //! Out: white (foam and spray), bubbles (r32ui, cleared by the pass).
 #include "common.glsl"
 #include "sphere.glsl"
@@ -29,6 +31,7 @@ layout(push_constant) uniform Push {
     float bubble_depth; // world units of water that attenuate a bubble by 1/e
     float spray_size;   // a patent spray particle's billboard radius, in its own radii
     float opacity;      // coverage at a billboard's centre
+    uint indirect;      // 1: the diffuse particles follow a header written on the GPU (x: groups, w: their count)
 } pc;
 
 const float UNITS = 4096.0;
@@ -40,14 +43,20 @@ vec2 to_pixel(vec3 c, vec2 size, float F) {
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
+    uint base = 2u * pc.count;
+    uint n_d = pc.diffuse;
+    if (pc.indirect != 0u) {
+        n_d = min(floatBitsToUint(particles[base].w), pc.diffuse);
+        base += 1u;
+    }
     vec3 x;
     vec3 v;
     float rad;
     uint kind;
     float fade;
-    if (i < pc.diffuse) {
-        vec4 a = particles[2u * pc.count + 2u * i];
-        vec4 b = particles[2u * pc.count + 2u * i + 1u];
+    if (i < n_d) {
+        vec4 a = particles[base + 2u * i];
+        vec4 b = particles[base + 2u * i + 1u];
         x = a.xyz;
         rad = a.w;
         v = b.xyz;
@@ -57,7 +66,7 @@ void main() {
         // An empty slot of the live simulation's pool.
         if (fade <= 0.0) return;
     } else {
-        uint j = i - pc.diffuse;
+        uint j = i - n_d;
         if (pc.spray == 0u || j >= pc.count) return;
         vec4 pr = particles[j];
         if (pr.w >= 0.0) return;

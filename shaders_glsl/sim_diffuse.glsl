@@ -39,8 +39,8 @@ layout(push_constant) uniform DiffusePush {
     float size_spread;
     float fade;         // seconds of fading out
     float fade_in;      // seconds of fading in
-    uint out_offset;    // vec4 index of the diffuse region in the renderer's particle buffer
-    uint pad;
+    uint out_offset;    // vec4 index of the diffuse header in the renderer's particle buffer (2 × fluid count)
+    uint draw_cap;      // at most this many are appended for drawing
 } pc;
 
 const uint FOAM = 0u;

@@ -121,8 +121,10 @@ pub struct FrameInputs<'a> {
     pub frame: &'a Buffer,
     /// The particle buffer and its count.
     pub particles: (&'a Buffer, u32),
-    /// Diffuse particles after the fluid particles in the buffer.
+    /// Diffuse particles after the fluid particles in the buffer (at most, when written on the GPU) …
     pub diffuse: u32,
+    /// … written on the GPU after a header: the `diffuse` pass dispatches indirectly.
+    pub diffuse_indirect: bool,
     /// Some fluid particles are marked as spray (drawn by the `diffuse` pass too).
     pub spray: bool,
     /// The surface technique the settings name, its resources prepared.
@@ -189,7 +191,8 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     if diffuse {
         let images =
             DiffuseImages { depth, scene_depth: &t.scene_depth, white: &t.diffuse_white, bubbles: &t.diffuse_bubbles };
-        p.diffuse.record(ctx, frame, f.particles, f.diffuse, f.spray, &images, &s.diffuse, s.radius);
+        let d = (f.diffuse, f.diffuse_indirect);
+        p.diffuse.record(ctx, frame, f.particles, d, f.spray, &images, &s.diffuse, s.radius);
     }
     let ctx = rec.part(Shade);
     p.ssr.record(ctx, frame, depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);

@@ -166,7 +166,13 @@ impl ParticleSet {
         Ok(())
     }
 
-    /// Diffuse particles on the device.
+    /// The diffuse particles are written on the GPU after a header (their count and the `diffuse` pass's
+    /// indirect dispatch: `Simulation::set_diffuse`), not uploaded.
+    pub fn diffuse_on_gpu(&self) -> bool {
+        self.gpu_diffuse > 0
+    }
+
+    /// Diffuse particles on the device (at most, for a GPU producer's).
     pub fn diffuse_count(&self) -> u32 {
         if self.gpu_diffuse > 0 {
             self.gpu_diffuse
@@ -223,7 +229,9 @@ impl ParticleSet {
     /// before may still read this one), a one-queue frame into the same (queue order keeps it after the
     /// readers) — and grow it when too small, after every frame that may still read it.
     pub fn prepare(&mut self, gpu: &std::sync::Arc<Gpu>, executor: &Executor, split: bool) -> Result<()> {
-        let whole = (2 * self.count as u64 + 2 * self.diffuse_count() as u64) * 16;
+        // A GPU producer's diffuse particles follow a header vec4 (the indirect dispatch of the `diffuse` pass).
+        let header = u64::from(self.gpu_diffuse > 0);
+        let whole = (2 * self.count as u64 + header + 2 * self.diffuse_count() as u64) * 16;
         if self.staged.is_some() || self.external {
             let bytes = whole;
             let target = if split { 1 - self.current } else { self.current };
@@ -234,7 +242,9 @@ impl ParticleSet {
                     gpu,
                     if target == 0 { "particles" } else { "particles (second)" },
                     size,
-                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                    vk::BufferUsageFlags::STORAGE_BUFFER
+                        | vk::BufferUsageFlags::TRANSFER_DST
+                        | vk::BufferUsageFlags::INDIRECT_BUFFER,
                     MemoryLocation::GpuOnly,
                 )?);
             }

@@ -524,6 +524,7 @@ impl Renderer {
             frame: uniforms,
             particles: (particles, count),
             diffuse: self.particles.diffuse_count(),
+            diffuse_indirect: self.particles.diffuse_on_gpu(),
             spray: self.particles.has_spray(),
             surface: self.surfaces.get(s.surface),
             background: &self.background,

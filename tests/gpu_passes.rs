@@ -2052,6 +2052,7 @@ fn diffuse_matches_cpu_reference() {
         bubble_depth: d.bubble_depth * r,
         spray_size: d.size,
         opacity: d.opacity,
+        indirect: 0,
     };
     let f = v.camera.focal_px(h as u32);
     let (want_w, want_b) = reference::accumulate(&boards, &depth, &scene_depth, (w, h), f, v.camera.near, &push);

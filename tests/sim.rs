@@ -580,3 +580,52 @@ fn diffuse_stages_match_the_cpu_model() {
     assert!(a == b, "two runs of the GPU stages differ");
     common::assert_clean(&gpu);
 }
+
+/// The simulation's diffuse particles drawn from the renderer's buffer as the GPU stages appended them (the
+/// `diffuse` pass dispatched indirectly from their header) give the coverage images the same particles give when
+/// read back and uploaded from the host.
+#[test]
+fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
+    use meniscus::gpu::{Buffer, FrameCtx};
+    use meniscus::renderer::{read_image, Hooks, Renderer};
+    let gpu = common::gpu();
+    let scene = SimScene::new("dambreak", 3000).unwrap();
+    let mut sim = Simulation::new(&gpu, scene.clone(), Params::default()).unwrap();
+    sim.set_diffuse(Some(&Default::default())).unwrap();
+    for _ in 0..8 {
+        sim.step_frame().unwrap();
+    }
+    let (p, d) = (sim.read().unwrap(), sim.read_diffuse().unwrap());
+    assert!(d.len() > 50, "too few diffuse particles to draw: {}", d.len());
+    let v = common::view([0.0, 1.5, 4.0], [-0.8, 0.3, 0.0], 96, 64, 45.0);
+    let s = common::settings(scene.radius());
+    let words = |r: &Renderer| -> Vec<u32> {
+        let t = r.targets.as_ref().unwrap();
+        read_image(&gpu, &t.diffuse_white)
+            .unwrap()
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+            .collect()
+    };
+    let mut host = Renderer::new(&gpu).unwrap();
+    host.set_particles(&p.positions, None).unwrap();
+    host.set_diffuse(&d, &s).unwrap();
+    host.render(&v, &s).unwrap();
+    let mut fed = Renderer::new(&gpu).unwrap();
+    fed.set_gpu_particles_with_diffuse(sim.count(), scene.container, sim.diffuse_slots()).unwrap();
+    let src = sim.particle_buffer();
+    let bytes = (2 * sim.count() as u64 + 1 + 2 * sim.diffuse_slots() as u64) * 16;
+    let copy = |ctx: &mut FrameCtx, out: &Buffer| {
+        ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes });
+    };
+    fed.render_spans_with(&v, &s, Hooks { produce: Some(&copy), ..Default::default() }).unwrap();
+    let (a, b) = (words(&host), words(&fed));
+    let covered = a.iter().filter(|x| **x > 0).count();
+    eprintln!("{} diffuse particles cover {covered} pixels", d.len());
+    assert!(covered > 30, "the diffuse particles cover only {covered} pixels");
+    let worst = a.iter().zip(&b).map(|(x, y)| x.abs_diff(*y)).max().unwrap();
+    let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    eprintln!("{differ} pixels differ, by at most {worst} units");
+    assert!(a == b, "the GPU-appended diffuse particles draw differently from the uploaded ones");
+    common::assert_clean(&gpu);
+}

@@ -139,6 +139,12 @@ impl<'t> FrameCtx<'t> {
         unsafe { self.gpu.device.cmd_fill_buffer(self.cmd, buf.raw, 0, vk::WHOLE_SIZE, value) };
     }
 
+    /// Fill `size` bytes of `buf` from byte `offset` (both multiples of 4) with the 32-bit `value`.
+    pub fn fill_range(&mut self, buf: &Buffer, offset: u64, size: u64, value: u32) {
+        self.barrier(&[Use::Buffer(buf, Access::TransferDst)]);
+        unsafe { self.gpu.device.cmd_fill_buffer(self.cmd, buf.raw, offset, size, value) };
+    }
+
     /// Copy `size` bytes from `src` to `dst` (offsets in bytes; transfer read and write, barriers derived).
     pub fn copy_buffer(&mut self, src: &Buffer, dst: &Buffer, region: vk::BufferCopy) {
         self.barrier(&[Use::Buffer(src, Access::TransferSrc), Use::Buffer(dst, Access::TransferDst)]);

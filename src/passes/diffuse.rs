@@ -41,6 +41,8 @@ pub struct Push {
     pub spray_size: f32,
     /// Coverage at a billboard's centre.
     pub opacity: f32,
+    /// 1: the diffuse particles follow a header written on the GPU (their count; the dispatch is indirect).
+    pub indirect: u32,
 }
 
 // Slots: frame, particles (+ motions, + diffuse), fluid depth, scene depth → white, bubbles (cleared first).
@@ -64,11 +66,13 @@ pub struct Diffuse {
 }
 
 /// The GPU layout of one diffuse particle: (xyz, billboard radius in world units), (velocity, kind + fade)
-/// with fade in (0, 1) (1: in full life; falls to 0 over the last `fade` seconds).
+/// with fade in (0, 1) (1: in full life; rises from 0 over its first `fade_in` seconds and falls to 0 over its
+/// last `fade` seconds). shaders_glsl/sim_diffuse_draw.comp does the same on the GPU.
 pub fn encode(p: &Particle, s: &Params, radius: f32) -> [[f32; 4]; 2] {
     let u = crate::diffuse::unit(crate::diffuse::hash4(p.id, 0x5eed, 0, 0));
     let size = s.size * radius * (1.0 + s.size_spread * (2.0 * u - 1.0));
-    let fade = if s.fade > 0.0 { (p.lifetime / s.fade).clamp(1e-3, 0.999) } else { 0.999 };
+    let ramp = |t: f32, over: f32| if over > 0.0 { t / over } else { 1.0 };
+    let fade = ramp(p.lifetime, s.fade).min(ramp(p.age, s.fade_in)).clamp(1e-3, 0.999);
     let kind = match p.kind {
         Kind::Foam => 0.0,
         Kind::Spray => 1.0,
@@ -84,14 +88,15 @@ impl Diffuse {
     }
 
     /// Draw the `diffuse` particles that follow the `count` fluid particles in `particles` (and, with `spray`,
-    /// the fluid particles marked as spray) into the coverage images.
+    /// the fluid particles marked as spray) into the coverage images. `indirect`: a GPU producer wrote them after a
+    /// header vec4 (the dispatch's groups, 1, 1, their count; at most `diffuse`), which the dispatch reads.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
         frame: &Buffer,
         particles: (&Buffer, u32),
-        diffuse: u32,
+        (diffuse, indirect): (u32, bool),
         spray: bool,
         i: &DiffuseImages,
         s: &Params,
@@ -110,10 +115,15 @@ impl Diffuse {
                 bubble_depth: s.bubble_depth * radius,
                 spray_size: s.size,
                 opacity: s.opacity,
+                indirect: indirect as u32,
             };
-            let threads = diffuse + if spray { count } else { 0 };
             let res = [frame.into(), buf.into(), i.depth.into(), i.scene_depth.into(), i.white.into(), i.bubbles.into()];
-            self.prog.dispatch(ctx, &res, &push, [threads.div_ceil(super::LOCAL_1D).max(1), 1, 1]);
+            if indirect {
+                self.prog.dispatch_indirect(ctx, &res, &push, buf, 2 * count as u64 * 16);
+            } else {
+                let threads = diffuse + if spray { count } else { 0 };
+                self.prog.dispatch(ctx, &res, &push, [threads.div_ceil(super::LOCAL_1D).max(1), 1, 1]);
+            }
         });
     }
 }

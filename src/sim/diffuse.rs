@@ -4,7 +4,8 @@
 //! `sim_diffuse_density` (ρ and the neighbour count), `sim_diffuse_normals` (colour-field normals),
 //! `sim_diffuse_potentials` (trapped air, wave crest, kinetic energy, their running maxima), `sim_diffuse_advect`
 //! (classify and move the pool's particles), `sim_diffuse_spawn` (into each fluid particle's own slots), and
-//! `sim_diffuse_draw` (the `diffuse` pass's layout, into the renderer's particle buffer after the fluid's).
+//! `sim_diffuse_draw` (the living ones in the `diffuse` pass's layout, appended to the renderer's particle buffer
+//! after the fluid's with a header the pass dispatches indirectly from).
 //! The pool: `per_particle` slots per fluid particle id, three vec4 each (shaders_glsl/sim_diffuse.glsl); a
 //! fluid particle only ever spawns into its own slots, so nothing is placed by atomics and the pool is the same
 //! on every run. The CPU model with the same `per_particle` is the reference the tests compare against.
@@ -85,10 +86,10 @@ pub struct Push {
     pub fade: f32,
     /// [`Params::fade_in`].
     pub fade_in: f32,
-    /// The vec4 index where the diffuse region of the renderer's particle buffer starts.
+    /// The vec4 index of the diffuse header in the renderer's particle buffer (2 × the fluid count).
     pub out_offset: u32,
-    /// Unused.
-    pub pad: u32,
+    /// At most this many are appended for drawing.
+    pub draw_cap: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<Push>() == 128);
@@ -185,9 +186,15 @@ impl DiffuseStages {
         })
     }
 
-    /// Slots in the pool (the diffuse region of the renderer's buffer holds two vec4 per slot).
+    /// Slots in the pool.
     pub fn slots(&self) -> u32 {
         self.slots
+    }
+
+    /// The most diffuse particles drawn (the pool's slots, at most `max_particles`): the renderer's buffer holds a
+    /// header vec4 and two vec4 per particle after the fluid's.
+    pub fn draw_cap(&self) -> u32 {
+        self.slots.min(self.params.max_particles)
     }
 
     /// The settings in use.
@@ -233,7 +240,7 @@ impl DiffuseStages {
             fade: p.fade,
             fade_in: p.fade_in,
             out_offset,
-            pad: 0,
+            draw_cap: self.draw_cap(),
         }
     }
 
@@ -269,6 +276,8 @@ impl DiffuseStages {
         run(ctx, STAGE_NAMES[3], &self.advect, &cells(u, g, s, &[&self.floor, &self.pool]), pool);
         let res = [u.into(), s.into(), (&self.pot).into(), (&self.run).into(), (&self.pool).into()];
         run(ctx, STAGE_NAMES[4], &self.spawn, &res, fluid);
+        // The header (indirect dispatch groups, 1, 1, count) is zeroed, then the draw stage appends.
+        ctx.fill_range(out, 2 * f.n as u64 * 16, 16, 0);
         run(ctx, STAGE_NAMES[5], &self.draw, &[u.into(), (&self.pool).into(), out.into()], pool);
     }
 

@@ -445,8 +445,8 @@ impl Simulation {
             Some(p) => Some(diffuse::DiffuseStages::new(&self.gpu, p, self.capacity())?),
             None => None,
         };
-        let slots = self.diffuse_slots() as u64;
-        let need = crate::shader_constants::BYTES_PER_PARTICLE * (self.capacity().max(1) as u64 + slots);
+        let drawn = self.diffuse_slots() as u64;
+        let need = crate::shader_constants::BYTES_PER_PARTICLE * (self.capacity().max(1) as u64 + drawn) + 16;
         if self.particles.size < need {
             self.particles = Buffer::new(
                 &self.gpu,
@@ -461,10 +461,10 @@ impl Simulation {
         Ok(())
     }
 
-    /// Slots of the diffuse pool (0 without the stages): the renderer's buffer holds two vec4 per slot after the
-    /// fluid's positions and motions.
+    /// The most diffuse particles a frame draws (0 without the stages): the renderer's buffer holds a header vec4
+    /// and two vec4 per particle after the fluid's positions and motions.
     pub fn diffuse_slots(&self) -> u32 {
-        self.diffuse.as_ref().map_or(0, |d| d.slots())
+        self.diffuse.as_ref().map_or(0, |d| d.draw_cap())
     }
 
     /// The living diffuse particles after the last frame (waits for the device); empty without the stages.
