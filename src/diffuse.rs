@@ -334,8 +334,8 @@ pub fn kinetic_floor(mass: f32, h: f32) -> f32 {
 pub struct Fluid<'a> {
     /// Positions.
     pub positions: &'a [[f32; 3]],
-    /// Velocities.
-    pub velocities: &'a [[f32; 3]],
+    /// Velocities (zero when the frame has none).
+    pub velocities: std::borrow::Cow<'a, [[f32; 3]]>,
     /// Ids (seed the spawns).
     pub ids: Vec<u32>,
     /// The kernel support.
@@ -344,6 +344,7 @@ pub struct Fluid<'a> {
     pub radius: f32,
     /// Mass of a particle (FoamGenerator's 0.8 (2r)³ ρ0, ρ0 = 1000).
     pub mass: f32,
+    kernel: Kernel,
     grid: UniformGrid,
     /// Neighbours of each particle (itself excluded), in the grid's order.
     neighbours: Vec<Vec<u32>>,
@@ -354,9 +355,16 @@ pub struct Fluid<'a> {
 }
 
 impl<'a> Fluid<'a> {
-    /// Prepare a frame: `ids` (else the index) seed the spawns; `radius`: the particle radius.
-    pub fn new(positions: &'a [[f32; 3]], velocities: &'a [[f32; 3]], ids: Option<&[i64]>, radius: f32) -> Fluid<'a> {
+    /// Prepare a frame: `velocities` (none: at rest); `ids` (else the index) seed the spawns; `radius`: the
+    /// particle radius.
+    pub fn new(
+        positions: &'a [[f32; 3]],
+        velocities: Option<&'a [[f32; 3]]>,
+        ids: Option<&[i64]>,
+        radius: f32,
+    ) -> Fluid<'a> {
         let n = positions.len();
+        let velocities = velocities.map_or_else(|| vec![[0.0; 3]; n].into(), std::borrow::Cow::Borrowed);
         let h = 4.0 * radius;
         let kernel = Kernel::new(h);
         let mass = model_mass(radius);
@@ -401,7 +409,7 @@ impl<'a> Fluid<'a> {
             .collect();
         let floor = positions.iter().map(|p| p[1]).filter(|y| y.is_finite()).fold(f32::INFINITY, f32::min);
         let ids = (0..n).map(|i| ids.map_or(i as u32, |ids| ids[i] as u32)).collect();
-        Fluid { positions, velocities, ids, h, radius, mass, grid, neighbours, densities, normals, floor }
+        Fluid { positions, velocities, ids, h, radius, mass, kernel, grid, neighbours, densities, normals, floor }
     }
 
     /// The kinetic energy of a particle moving at √(g h) (the speed of a fall through the kernel support): the
@@ -432,7 +440,7 @@ impl<'a> Fluid<'a> {
 
     /// Eq. 2, 4–7 and the kinetic energy of particle `i`, unclamped: (trapped air, wave crest, kinetic).
     pub fn potentials(&self, i: usize) -> [f32; 3] {
-        let kernel = Kernel::new(self.h);
+        let kernel = self.kernel;
         let (xi, vi, ni) = (Vec3::from(self.positions[i]), Vec3::from(self.velocities[i]), self.normals[i]);
         let (mut ta, mut wc) = (0.0f32, 0.0f32);
         for &j in &self.neighbours[i] {
@@ -460,7 +468,7 @@ impl<'a> Fluid<'a> {
 
     /// The SPH-interpolated fluid velocity at `x` and its number of fluid neighbours within h.
     pub fn velocity_at(&self, x: Vec3) -> (Vec3, u32) {
-        let kernel = Kernel::new(self.h);
+        let kernel = self.kernel;
         let (mut v, mut sum, mut n) = (Vec3::ZERO, 0.0f32, 0u32);
         self.grid.for_each_within(x.to_array(), self.h, |j, r| {
             let k = kernel.w(r);
@@ -501,7 +509,8 @@ pub fn calibrate(maxima: &[[f32; 3]], kinetic_floor: f32) -> Limits {
 pub struct Live {
     params: Params,
     gen: Generator,
-    maxima: Vec<[f32; 3]>,
+    /// The largest per-frame maxima of the potentials so far.
+    top: [f32; 3],
     frame: u64,
 }
 
@@ -511,27 +520,18 @@ impl Live {
         Live {
             params: params.clone(),
             gen: Generator::new(params, params.limits(), 1.0 / fps),
-            maxima: vec![],
+            top: [0.0; 3],
             frame: 0,
         }
     }
 
     /// The next frame's fluid (positions, velocities, ids; radius `radius`): calibrate, then step.
     pub fn step(&mut self, p: &crate::scene::Particles, radius: f32) -> StepStats {
-        let zero;
-        let v = match &p.velocities {
-            Some(v) => v.as_slice(),
-            None => {
-                zero = vec![[0.0; 3]; p.len()];
-                &zero
-            }
-        };
-        let f = Fluid::new(&p.positions, v, p.ids.as_deref(), radius);
+        let f = Fluid::new(&p.positions, p.velocities.as_deref(), p.ids.as_deref(), radius);
         if self.params.automatic {
             let m = frame_maxima(&f, self.params.min_neighbours);
-            let top = self.maxima.first().copied().unwrap_or([0.0; 3]);
-            self.maxima = vec![[top[0].max(m[0]), top[1].max(m[1]), top[2].max(m[2])]];
-            self.gen.limits = calibrate(&self.maxima, f.kinetic_floor());
+            self.top = std::array::from_fn(|k| self.top[k].max(m[k]));
+            self.gen.limits = calibrate(&[self.top], f.kinetic_floor());
         }
         let stats = self.gen.step(&f, self.frame);
         self.frame += 1;
@@ -848,7 +848,7 @@ mod tests {
         let r = 0.025;
         let pos = block(10, 6, 10, r);
         let vel = vec![[0.0; 3]; pos.len()];
-        let f = Fluid::new(&pos, &vel, None, r);
+        let f = Fluid::new(&pos, Some(&vel), None, r);
         let mut g = Generator::new(&Params::default(), Params::default().limits(), 0.04);
         for frame in 0..5 {
             assert_eq!(g.step(&f, frame).spawned, 0);
@@ -864,14 +864,14 @@ mod tests {
         let r = 0.025;
         let pos = vec![[0.0, 0.0, 0.0], [0.05, 0.0, 0.0]];
         let closing = vec![[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]];
-        let f = Fluid::new(&pos, &closing, None, r);
+        let f = Fluid::new(&pos, Some(&closing), None, r);
         let k = Kernel::new(0.1);
         let rho = f.mass * (k.w(0.0) + k.w(0.05));
         let want = 2.0 * (1.0 - (-1.0)) * f.mass / rho * k.w(0.05);
         let got = f.potentials(0)[0];
         assert!((got - want).abs() < 1e-5 * want, "{got} vs {want}");
         let apart = vec![[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
-        let f = Fluid::new(&pos, &apart, None, r);
+        let f = Fluid::new(&pos, Some(&apart), None, r);
         assert!(f.potentials(0)[0].abs() < 1e-6);
     }
 
@@ -882,7 +882,7 @@ mod tests {
         let r = 0.025;
         let pos = block(12, 8, 12, r);
         let vel = vec![[0.5, 0.0, 0.0]; pos.len()];
-        let f = Fluid::new(&pos, &vel, None, r);
+        let f = Fluid::new(&pos, Some(&vel), None, r);
         let m = Params::default();
         let mut g = Generator::new(&m, m.limits(), 0.04);
         let p = |x: [f32; 3]| Particle {
@@ -921,7 +921,7 @@ mod tests {
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
-                let f = Fluid::new(&pos, &vel, None, r);
+                let f = Fluid::new(&pos, Some(&vel), None, r);
                 let lim = calibrate(&[frame_maxima(&f, 15)], f.kinetic_floor());
                 let mut g = Generator::new(&Params::default(), lim, 0.04);
                 for frame in 0..4 {

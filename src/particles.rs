@@ -93,9 +93,9 @@ impl ParticleSet {
         }
         self.fluid = data;
         self.gpu_diffuse = 0;
-        self.staged = Some(([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0));
         self.external = false;
         self.count = n as u32;
+        self.restage();
         self.positions = positions.to_vec();
         self.spray = spray.map(|s| s.to_vec());
         self.generation += 1;
@@ -137,8 +137,7 @@ impl ParticleSet {
         if slots > 0 {
             self.diffuse.clear();
         }
-        // The producer writes the fluid part; uploaded diffuse particles follow it.
-        self.staged = (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), 2 * count as usize));
+        self.restage();
         self.spray = None;
         self.generation += 1;
         Ok(())
@@ -158,12 +157,18 @@ impl ParticleSet {
         }
         self.diffuse = encoded.into_iter().flatten().collect();
         self.gpu_diffuse = 0;
-        self.staged = Some(if self.external {
-            (self.diffuse.clone(), 2 * self.count as usize)
-        } else {
-            ([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0)
-        });
+        self.restage();
         Ok(())
+    }
+
+    /// Stage what the next frame copies: the fluid (positions, motions) and the uploaded diffuse particles
+    /// after it; for a GPU producer, which writes the fluid part, only the diffuse particles, at their place.
+    fn restage(&mut self) {
+        self.staged = if self.external {
+            (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), 2 * self.count as usize))
+        } else {
+            Some(([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0))
+        };
     }
 
     /// The diffuse particles are written on the GPU after a header (their count and the `diffuse` pass's
@@ -233,9 +238,8 @@ impl ParticleSet {
         let header = u64::from(self.gpu_diffuse > 0);
         let whole = (2 * self.count as u64 + header + 2 * self.diffuse_count() as u64) * 16;
         if self.staged.is_some() || self.external {
-            let bytes = whole;
             let target = if split { 1 - self.current } else { self.current };
-            let size = bytes.max(16);
+            let size = whole.max(16);
             if self.buffers[target].as_ref().is_none_or(|b| b.size < size) {
                 executor.wait_idle()?;
                 self.buffers[target] = Some(Buffer::new(

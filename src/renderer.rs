@@ -24,7 +24,7 @@ use crate::targets::{Targets, TargetsDesc};
 // The transfers between host and device live in `gpu::transfer`; the renderer's callers find them here too.
 use crate::gpu::transfer::record_image_copy;
 pub use crate::gpu::transfer::{
-    read_buffer, read_buffer_at, read_f32, read_image, record_upload, upload_buffer, upload_image,
+    read_buffer, read_buffer_at, read_f32, read_image, read_u32, record_upload, upload_buffer, upload_image,
 };
 
 /// Renders frames on one device.

@@ -8,7 +8,7 @@ mod common;
 
 use common::*;
 use meniscus::gpu::FrameCtx;
-use meniscus::renderer::{read_f32, read_image, upload_image, Renderer};
+use meniscus::renderer::{read_f32, read_image, read_u32, upload_image, Renderer};
 use meniscus::settings::Filter;
 
 /// One sphere of radius 0.5 at the origin, camera at z = 3: splat depth equals the exact ray–sphere entry.
@@ -1868,9 +1868,7 @@ fn noise_matches_cpu_reference() {
     rr.set_particles_moving(&pos, None, None, &motion).unwrap();
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
-    let words = |img| -> Vec<u32> {
-        read_image(&gpu, img).unwrap().chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
-    };
+    let words = |img| read_u32(&gpu, img).unwrap();
     let acc: Vec<i32> = words(&t.noise_accum).into_iter().map(|u| u as i32).collect();
     let noise = read_f32(&gpu, &t.noise).unwrap();
     let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
@@ -2018,9 +2016,7 @@ fn diffuse_matches_cpu_reference() {
     rr.set_diffuse(&diffuse, &s).unwrap();
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
-    let words = |img| -> Vec<u32> {
-        read_image(&gpu, img).unwrap().chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
-    };
+    let words = |img| read_u32(&gpu, img).unwrap();
     let (white, bubbles) = (words(&t.diffuse_white), words(&t.diffuse_bubbles));
     let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
     let scene_depth = read_f32(&gpu, &t.scene_depth).unwrap();

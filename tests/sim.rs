@@ -472,7 +472,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
 /// coverage. Particles fade in over their first 0.12 s and out over their last 0.5 s.
 #[test]
 fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
-    use meniscus::renderer::{read_image, Renderer};
+    use meniscus::renderer::{read_u32, Renderer};
     let gpu = common::gpu();
     let scene = SimScene::new("waterfall", 8000).unwrap();
     let (lo, hi) = scene.container;
@@ -500,11 +500,7 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
         r.set_diffuse(live.particles(), &s).unwrap();
         r.render(&v, &s).unwrap();
         let t = r.targets.as_ref().unwrap();
-        let white: Vec<f32> = read_image(&gpu, &t.diffuse_white)
-            .unwrap()
-            .chunks_exact(4)
-            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32 / units)
-            .collect();
+        let white: Vec<f32> = read_u32(&gpu, &t.diffuse_white).unwrap().into_iter().map(|u| u as f32 / units).collect();
         let mut blocks = vec![0f32; (w / 8) * (h / 8)];
         for y in 0..h {
             for x in 0..w {
@@ -587,7 +583,7 @@ fn diffuse_stages_match_the_cpu_model() {
 #[test]
 fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
     use meniscus::gpu::{Buffer, FrameCtx};
-    use meniscus::renderer::{read_image, Hooks, Renderer};
+    use meniscus::renderer::{read_u32, Hooks, Renderer};
     let gpu = common::gpu();
     let scene = SimScene::new("dambreak", 3000).unwrap();
     let mut sim = Simulation::new(&gpu, scene.clone(), Params::default()).unwrap();
@@ -599,14 +595,7 @@ fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
     assert!(d.len() > 50, "too few diffuse particles to draw: {}", d.len());
     let v = common::view([0.0, 1.5, 4.0], [-0.8, 0.3, 0.0], 96, 64, 45.0);
     let s = common::settings(scene.radius());
-    let words = |r: &Renderer| -> Vec<u32> {
-        let t = r.targets.as_ref().unwrap();
-        read_image(&gpu, &t.diffuse_white)
-            .unwrap()
-            .chunks_exact(4)
-            .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
-            .collect()
-    };
+    let words = |r: &Renderer| read_u32(&gpu, &r.targets.as_ref().unwrap().diffuse_white).unwrap();
     let mut host = Renderer::new(&gpu).unwrap();
     host.set_particles(&p.positions, None).unwrap();
     host.set_diffuse(&d, &s).unwrap();

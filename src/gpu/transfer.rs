@@ -100,6 +100,11 @@ pub fn read_f32(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<f32>> {
     Ok(bytemuck::pod_collect_to_vec(&read_image(gpu, img)?))
 }
 
+/// Read a 32-bit unsigned integer image (fixed-point accumulators, packed normals).
+pub fn read_u32(gpu: &Arc<Gpu>, img: &Image) -> Result<Vec<u32>> {
+    Ok(bytemuck::pod_collect_to_vec(&read_image(gpu, img)?))
+}
+
 /// Record a copy of tightly packed texels from `src` into the `extent` corner of every layer of `img` (its
 /// old contents dropped), after the barrier that makes `img` a transfer destination.
 pub fn record_upload(ctx: &mut FrameCtx, src: &Buffer, img: &Image, extent: vk::Extent2D) {

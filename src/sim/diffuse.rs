@@ -211,13 +211,13 @@ impl DiffuseStages {
     fn push(&self, f: &FluidBuffers, out_offset: u32) -> Push {
         let p = &self.params;
         let h = 4.0 * f.radius;
-        let k = crate::diffuse::Kernel::new(h);
+        let (kk, kl) = crate::diffuse::Kernel::new(h).coefficients();
         let mass = crate::diffuse::model_mass(f.radius);
         Push {
             h,
             mass,
-            kk: k.coefficients().0,
-            kl: k.coefficients().1,
+            kk,
+            kl,
             radius: f.radius,
             dt: f.dt,
             foam_scale: p.foam_scale,

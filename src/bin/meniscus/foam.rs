@@ -90,8 +90,8 @@ impl Walk {
             load: job.load.clone(),
             params: p.clone(),
             radius: job.settings.radius,
-            fps: fps(job),
-            gen: Generator::new(p, limits, 1.0 / fps(job)),
+            fps: job.frame_rate(),
+            gen: Generator::new(p, limits, 1.0 / job.frame_rate()),
             tracker: job.motion(),
             next: 0,
             last: StepStats::default(),
@@ -123,15 +123,7 @@ impl Walk {
                 }
             };
             drop(self.tracker.next(p));
-            let zero;
-            let v = match self.tracker.velocities() {
-                Some(v) => v,
-                None => {
-                    zero = vec![[0.0; 3]; p.len()];
-                    &zero
-                }
-            };
-            let fluid = Fluid::new(&p.positions, v, p.ids.as_deref(), self.radius);
+            let fluid = Fluid::new(&p.positions, self.tracker.velocities(), p.ids.as_deref(), self.radius);
             self.last = self.gen.step(&fluid, f.number);
             self.next += 1;
         }
@@ -142,11 +134,6 @@ impl Walk {
     pub fn counts(&self) -> [usize; 3] {
         self.gen.counts()
     }
-}
-
-/// The sequence's frame rate (its scene.json's, else the default): the generation's time step is one frame.
-fn fps(job: &Job) -> f32 {
-    job.fps.unwrap_or(meniscus::motion::DEFAULT_FPS)
 }
 
 /// Bender 2019's automatic limits from up to 17 frames spread evenly over the sequence (the first and the last
@@ -165,9 +152,7 @@ fn calibrate(job: &Job) -> Result<diffuse::Limits> {
             drop(t.next(&meniscus::scene::load_with(&job.whole[k - 1].path, &job.load)?));
         }
         drop(t.next(&p));
-        let zero = vec![[0.0; 3]; p.len()];
-        let v = t.velocities().unwrap_or(&zero);
-        let fluid = Fluid::new(&p.positions, v, p.ids.as_deref(), job.settings.radius);
+        let fluid = Fluid::new(&p.positions, t.velocities(), p.ids.as_deref(), job.settings.radius);
         maxima.push(diffuse::frame_maxima(&fluid, job.settings.diffuse.min_neighbours));
         floor = fluid.kinetic_floor();
         bar.inc(1);

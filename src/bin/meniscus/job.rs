@@ -253,10 +253,16 @@ impl Job {
         Ok(r.set_scene_particles(p, &self.settings)?)
     }
 
+    /// The sequence's frame rate (its scene.json's), else [`meniscus::motion::DEFAULT_FPS`]: the time between
+    /// frames for the particles' motion and the diffuse particles' steps.
+    pub fn frame_rate(&self) -> f32 {
+        self.fps.unwrap_or(meniscus::motion::DEFAULT_FPS)
+    }
+
     /// The tracker of the particles' motion over this job's frames, in time order (the `noise` pass's
-    /// amplitude): the sequence's frame rate, else [`meniscus::motion::DEFAULT_FPS`].
+    /// amplitude), at [`Job::frame_rate`].
     pub fn motion(&self) -> meniscus::motion::MotionTracker {
-        meniscus::motion::MotionTracker::new(self.fps.unwrap_or(meniscus::motion::DEFAULT_FPS))
+        meniscus::motion::MotionTracker::new(self.frame_rate())
     }
 
     /// Upload the next frame of a sequence walked in time order, its motion from `tracker`.
