@@ -18,6 +18,12 @@ pub const MAX_FILE_BYTES: u64 = 4 << 30;
 
 static INPUTS: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 
+/// Whether a file at a path would be read as a frame of an input sequence (`scene::sequence::would_join`).
+pub type Member = Box<dyn Fn(&Path) -> bool + Send>;
+
+/// The sequences this process reads, by their spec, with the test of what would join them.
+static SEQUENCES: Mutex<Vec<(String, Member)>> = Mutex::new(Vec::new());
+
 /// The canonical form of `path` for comparisons: the file's own if it exists, else its folder's joined with the
 /// name (an output that does not exist yet), else the path as given.
 pub fn canonical(path: &Path) -> PathBuf {
@@ -35,6 +41,21 @@ pub fn canonical(path: &Path) -> PathBuf {
 pub fn note(path: &Path) {
     let c = canonical(path);
     INPUTS.lock().unwrap_or_else(|e| e.into_inner()).insert(c);
+}
+
+/// Record the sequence `spec` as an input of this process: outputs may not become frames of it (`member` tells
+/// whether a path would be read as one).
+pub fn note_sequence(spec: &str, member: Member) {
+    let mut g = SEQUENCES.lock().unwrap_or_else(|e| e.into_inner());
+    if !g.iter().any(|(s, _)| s == spec) {
+        g.push((spec.to_string(), member));
+    }
+}
+
+/// The input sequence a file at `path` would become a frame of, if any.
+pub fn joined_sequence(path: &Path) -> Option<String> {
+    let g = SEQUENCES.lock().unwrap_or_else(|e| e.into_inner());
+    g.iter().find(|(_, member)| member(path)).map(|(spec, _)| spec.clone())
 }
 
 /// Whether `path` is a file this process has read or been told it will read.

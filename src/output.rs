@@ -129,7 +129,8 @@ fn one_of(items: &[String]) -> String {
 }
 
 /// Check that writing a file of `kind` at `path` destroys nothing: the extension matches `kind`, the path is
-/// not an input of this process, and an existing file there is empty or of the same kind.
+/// not an input of this process nor a name an input sequence would read as one of its frames, and an existing
+/// file there is empty or of the same kind.
 pub fn check_output(path: &Path, kind: Kind) -> Result<()> {
     let refuse = |reason: String| Err(Error::Output { path: path.to_path_buf(), reason });
     if Kind::by_extension(path, &[kind]).is_err() {
@@ -138,6 +139,9 @@ pub fn check_output(path: &Path, kind: Kind) -> Result<()> {
     }
     if crate::input::is_input(path) {
         return refuse("it is an input of this run; choose another output name".into());
+    }
+    if let Some(spec) = crate::input::joined_sequence(path) {
+        return refuse(format!("it would become a frame of the input sequence {spec}; choose another name or folder"));
     }
     match std::fs::symlink_metadata(path) {
         Err(_) => Ok(()),

@@ -191,7 +191,8 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
 }
 
 /// Every frame of a pattern, folder or glob, sorted by number; each file is recorded as an input of this
-/// process ([`crate::input::note`]), so no output of the run can overwrite a frame.
+/// process ([`crate::input::note`]), and the pattern, folder or glob itself ([`crate::input::note_sequence`]),
+/// so no output of the run can overwrite a frame or become one.
 pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
     let mut frames: Vec<Frame> = if is_pvd(spec) {
         read_pvd(Path::new(spec))?
@@ -245,6 +246,10 @@ pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
     frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
     for f in &frames {
         crate::input::note(&f.path);
+    }
+    if !is_pvd(spec) {
+        let owned = spec.to_string();
+        crate::input::note_sequence(spec, Box::new(move |p| would_join(&owned, p)));
     }
     Ok(frames)
 }
@@ -351,6 +356,25 @@ impl Drop for Prefetch {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Once a sequence is read, an output whose name it would read as a frame (the same folder, prefix and
+    /// suffix around digits) is refused; another name in the same folder is not.
+    #[test]
+    fn outputs_may_not_join_an_input_sequence() {
+        let dir = std::env::temp_dir().join(format!("meniscus-join-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for n in [1, 2] {
+            std::fs::write(dir.join(format!("f_{n}.bgeo")), b"").unwrap();
+        }
+        let spec = format!("{}/f_{{}}.bgeo", dir.display());
+        assert_eq!(resolve_all(&spec).unwrap().len(), 2);
+        let kind = crate::output::Kind::Bgeo;
+        let e = crate::output::check_output(&dir.join("f_0003.bgeo"), kind).unwrap_err().to_string();
+        assert!(e.contains("would become a frame of the input sequence"), "{e}");
+        crate::output::check_output(&dir.join("foam_0003.bgeo"), kind).unwrap();
+        crate::output::check_output(&dir.join("f_0003.bgeo.gz"), kind).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn ranges_and_shards() {

@@ -207,16 +207,8 @@ pub fn run(a: &FoamArgs) -> Result<()> {
     };
     for f in &frames {
         for (_, p) in outputs(f.number) {
+            // Refused there too: a name the input sequence would read as one of its frames.
             check_out("--export", &p, kind)?;
-            if meniscus::scene::sequence::would_join(&a.input, &p) {
-                bail!(
-                    "--export {}: {} would become a frame of the input sequence {}; export elsewhere (e.g. \
-                     'foam/f_{{}}.bgeo')",
-                    a.export.display(),
-                    p.display(),
-                    a.input
-                );
-            }
             if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).with_context(|| format!("--export: cannot create {}", dir.display()))?;
             }
