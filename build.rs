@@ -35,6 +35,8 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
         &[("MARK", "ISO_VOLUME_MARK"), ("ALLOC", "ISO_VOLUME_ALLOC"), ("", ""), ("APRON", "ISO_VOLUME_APRON")],
     ),
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
+    // The iso grid cells' empty distance, one axis per dispatch.
+    ("iso_empty.comp", &[("X", "ISO_EMPTY_X"), ("Y", "ISO_EMPTY_Y"), ("Z", "ISO_EMPTY_Z")]),
 ];
 const NBR: &[(&str, &str)] = &[("", ""), ("NBR16", "NBR16")];
 

@@ -10,5 +10,6 @@
 //! Out: the queue of rays unfinished after pc.steps.w samples (bindings 5, 6), which iso_rest.comp finishes.
 //! The march is in iso_cast.glsl; iso_aniso.comp is the same march over the anisotropic kernels' field.
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #include "iso_field.glsl"
 #include "iso_cast.glsl"

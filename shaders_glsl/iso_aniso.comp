@@ -3,6 +3,7 @@
 //! `anisotropy` pass (binding 7; Yu & Turk 2013): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j.
 //! In/out: as iso.comp; in: the kernels (three vec4 per sorted point).
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #define ISO_ANISO_BINDING 7
 #include "iso_field.glsl"
 #include "iso_cast.glsl"

@@ -2,6 +2,7 @@
 //! iso_aniso_rest — iso_rest.comp (the queued rays' second dispatch) over the anisotropic kernels' field (binding
 //! 7, the `anisotropy` pass; Yu & Turk 2013), as iso_aniso.comp is iso.comp's.
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #define ISO_ANISO_BINDING 7
 #include "iso_field.glsl"
 #define ISO_REST

@@ -4,6 +4,7 @@
 //! too small on screen for iso_fine.comp; unfinished rays are queued for iso_rest.comp as in iso.comp.
 //! In/out: depth. In: back, the grid. Out: the queue (bindings 5, 6).
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #include "iso_field.glsl"
 #define ISO_BLOCKS
 #include "iso_cast.glsl"

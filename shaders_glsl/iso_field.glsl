@@ -15,7 +15,13 @@
 layout(set = 0, binding = 1) uniform samplerBuffer iso_points_t;   // RGBA32F
 layout(set = 0, binding = 2) uniform usamplerBuffer iso_cells_t;   // RG32UI
 #define ISO_POINT(i) texelFetch(iso_points_t, int(i))
+#ifdef ISO_CELL_EMPTY
+// The casts read iso_empty's copy of the cell table: each cell's empty distance E in the count's top bits.
+const uint ISO_COUNT_MASK = 0xffffffffu >> ISO_EMPTY_BITS;
+#define ISO_CELL(i) (texelFetch(iso_cells_t, int(i)).xy & uvec2(0xffffffffu, ISO_COUNT_MASK))
+#else
 #define ISO_CELL(i) texelFetch(iso_cells_t, int(i)).xy
+#endif
 #ifdef ISO_VOLUME
 layout(set = 0, binding = 7) uniform usamplerBuffer iso_table_t;   // R32UI per brick: 0 or pool index + 1
 layout(set = 0, binding = 8) uniform usamplerBuffer iso_volume_t;  // RG32UI per voxel: (B, B c̄), fixed point
@@ -83,8 +89,21 @@ float iso_kernel(float q) {
     }
 
 /// Σ W(|x − x_j|) (weighted by 1/n_j when `weighted`) over the 3×3×3 cells around x; `dmin`: the distance
-/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far).
+/// to the nearest point, capped at the cell size (no point in the 27 cells is at least that far), or in the
+/// casts (ISO_CELL_EMPTY) the empty distance's bound where the 27 cells are empty.
 float iso_sum_points(vec3 x, bool weighted, out float dmin) {
+#ifdef ISO_CELL_EMPTY
+    // In a cell whose empty distance E is at least 2 the 27 cells are empty (φ = 0) and every point is at least
+    // E − 1 cells away (iso_empty.comp).
+    ivec3 ce = ivec3(floor((x - pc.origin.xyz) / pc.origin.w));
+    if (all(greaterThanEqual(ce, ivec3(0))) && all(lessThan(ce, ivec3(pc.dims.xyz)))) {
+        uint e = texelFetch(iso_cells_t, ce.x + int(pc.dims.x) * (ce.y + int(pc.dims.y) * ce.z)).y >> (32u - ISO_EMPTY_BITS);
+        if (e >= 2u) {
+            dmin = float(e - 1u) * pc.origin.w;
+            return 0.0;
+        }
+    }
+#endif
     float s = 0.0;
     float d2min = pc.origin.w * pc.origin.w;
     float inv_h = 1.0 / pc.params.x;
@@ -126,14 +145,30 @@ float iso_sum_points(vec3 x, bool weighted, out float dmin) {
 /// all in that brick's stored apron: one table lookup, 27 fetches. Measured on the dam-break frame at the
 /// sequence's camera (960×540, lavapipe, 8 samples per ray at most): 224 ms with a table lookup per tap's
 /// brick, more than the exact field's sum (148 ms).
-vec2 iso_volume_at(vec3 x) {
+/// `gap`: where that brick lies inside the table but is not allocated, a lower bound of the distance from x to
+/// every point (world units; else 0). iso_volume marks every brick within the deposit's reach + 1 voxel of a
+/// point's voxel, so each point lies more than pc.volume.w voxels (VolumeShape::empty_reach) beyond the box of
+/// positions whose nearest voxel is in an unmarked brick, along some axis: at least that plus x's depth inside
+/// the box away. The field is 0 there (the support is shorter), and the march skips by the gap instead of the
+/// exact sum's nearest point (which sees at most a cell, one support, away): the long rays from spray to the
+/// water behind it cross empty bricks in a few samples (CPU reference: VolumeShape::gap).
+vec2 iso_volume_at(vec3 x, out float gap) {
     vec3 u = (x - pc.aniso.xyz) / pc.aniso.w;
     vec3 c = floor(u + 0.5);
     vec3 t = u - c;
     ivec3 bd = ivec3(pc.aniso2.yzw);
     ivec3 g = ivec3(clamp(c, vec3(-8.0), vec3(bd * int(ISO_VOLUME_BRICK) + 8)));
     uint base = iso_brick_base(g >> 3, bd);
-    if (base == ISO_NONE) return vec2(0.0);
+    gap = 0.0;
+    if (base == ISO_NONE) {
+        ivec3 b = g >> 3;
+        if (all(greaterThanEqual(b, ivec3(0))) && all(lessThan(b, bd))) {
+            vec3 lo = vec3(b * int(ISO_VOLUME_BRICK)) - 0.5;
+            vec3 depth_in = min(u - lo, lo + float(ISO_VOLUME_BRICK) - u);
+            gap = (min(depth_in.x, min(depth_in.y, depth_in.z)) + pc.volume.w) * pc.aniso.w;
+        }
+        return vec2(0.0);
+    }
     vec3 a = 0.5 - t, b = 0.5 + t;
     mat3 w = mat3(0.5 * a * a, 0.75 - t * t, 0.5 * b * b);
     int o = int(base) + iso_store_index(g & 7);  // the footprint's first voxel: storage coordinate (g & 7) − 1 + 1
@@ -150,12 +185,17 @@ vec2 iso_volume_at(vec3 x) {
 }
 
 /// The cast's field sample F = φ + w(c̄) (B − φ), and how far the march may skip (as `dmin`: the march steps
-/// by dmin − bound, at least its smallest step). Where w < 1 the exact sum gives the nearest point's
-/// distance, as iso.comp skips by (the smoothed part there is thin water's: it does not reach past the
-/// bound spheres). Where w = 1, F = B, whose gradient is at most pc.volume.z (ISO_VOLUME_LIPSCHITZ / R), so no
-/// crossing lies nearer than (threshold − B) / that.
+/// by dmin − bound, at least its smallest step). In an unallocated brick F = 0 and the skip is its gap.
+/// Where w < 1 the exact sum gives the nearest point's distance, as iso.comp skips by (the smoothed part
+/// there is thin water's: it does not reach past the bound spheres). Where w = 1, F = B, whose gradient is
+/// at most pc.volume.z (ISO_VOLUME_LIPSCHITZ / R), so no crossing lies nearer than (threshold − B) / that.
 float iso_sum(vec3 x, bool weighted, out float dmin) {
-    vec2 bc = iso_volume_at(x);
+    float gap;
+    vec2 bc = iso_volume_at(x, gap);
+    if (gap > 0.0) {
+        dmin = gap;
+        return 0.0;
+    }
     float cbar = bc.x > 0.0 ? bc.y / bc.x : 0.0;
     float w = pc.volume.y > pc.volume.x ? smoothstep(pc.volume.x, pc.volume.y, cbar) : 1.0;
     if (w >= 1.0) {

@@ -7,6 +7,7 @@
 //! In/out: depth (the bound spheres' depth at this pixel, the surface at its marched neighbours; the surface
 //! out). In: back, the grid.
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #include "iso_field.glsl"
 #define ISO_FINE
 #include "iso_cast.glsl"

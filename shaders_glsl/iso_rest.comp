@@ -3,6 +3,7 @@
 //! its first pc.steps.w samples, one queue entry per invocation, dispatched indirectly from the queue header.
 //! In: the queue (bindings 5, 6), the grid, back. Out: depth at the queued pixels.
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #include "iso_field.glsl"
 #define ISO_REST
 #include "iso_cast.glsl"

@@ -10,6 +10,7 @@
 //! In: the weighted points (binding 1), cells (2), back (4), the lattice's table (7) and sums (8, RG32UI).
 //! In/out: depth (3). Out: the queue (5, 6).
 #include "common.glsl"
+#define ISO_CELL_EMPTY
 #define ISO_VOLUME
 #include "iso_field.glsl"
 #include "iso_cast.glsl"

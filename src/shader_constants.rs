@@ -36,6 +36,11 @@ pub const GRID_RUN: u32 = 32;
 pub const ISO_BACK_STEPS: u32 = 4;
 /// Samples after which the `iso` march's smallest step doubles (rays that long graze the surface's shell).
 pub const ISO_SHORT_STEPS: u32 = 8;
+/// Cells the iso casts' empty distance looks along each axis (iso_empty.comp): a position in a cell at least
+/// this + 1 cells (Chebyshev) from every cell holding a point is at least this many cells from every point.
+pub const ISO_EMPTY_REACH: u32 = 3;
+/// Top bits of the count in the casts' copy of the cell table that hold the cell's empty distance (≤ 15).
+pub const ISO_EMPTY_BITS: u32 = 4;
 /// Cubes per edge of a block of the GPU marching cubes (`mc` pass; the CPU path's blocks are 32).
 pub const MC_BLOCK: u32 = 8;
 /// Most triangles of one cube in the generated case table (mc_emit.comp's table stride).
@@ -60,6 +65,8 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("SPLAT_TILE", SPLAT_TILE),
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
+    ("ISO_EMPTY_REACH", ISO_EMPTY_REACH),
+    ("ISO_EMPTY_BITS", ISO_EMPTY_BITS),
     ("ISO_VOLUME_FIX_BITS", ISO_VOLUME_FIX_BITS),
     ("ISO_VOLUME_BRICK", ISO_VOLUME_BRICK),
     ("MAX_COLLIDERS", MAX_COLLIDERS),

@@ -1120,7 +1120,7 @@ fn smoothed_iso_field_matches_cpu() {
     let mut s = settings(r);
     s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = 1.5;
+    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
     rd.set_particles(&pts, None).unwrap();
@@ -1137,6 +1137,19 @@ fn smoothed_iso_field_matches_cpu() {
     let (alloc, acc_gpu, field_gpu) = read_lattice(&gpu, vol);
 
     let grid = IsoGrid::build(&pts, s.iso.support * r);
+    // The casts' copy of the cell table: the same cells, each with its empty distance (iso_empty.comp) in the
+    // count's top bits, as the CPU grid computes it; above the slab, around the droplet, cells of distance 2 (the
+    // casts skip by it there).
+    assert_eq!(b.shape.dims[..3], grid.dims, "the GPU grid has the CPU grid's shape");
+    let words: Vec<u32> = bytemuck::pod_collect_to_vec(
+        &meniscus::renderer::read_buffer(&gpu, &b.cells_empty, 8 * grid.cells.len() as u64).unwrap(),
+    );
+    let bits = 32 - meniscus::shader_constants::ISO_EMPTY_BITS;
+    for (k, (cell, &e)) in grid.cells.iter().zip(&grid.empty).enumerate() {
+        let got = [words[2 * k], words[2 * k + 1] & ((1 << bits) - 1), words[2 * k + 1] >> bits];
+        assert_eq!(got, [cell[0], cell[1], e as u32], "cell {k}");
+    }
+    assert!((0..=2).all(|e| grid.empty.contains(&e)), "empty distances {:?}", grid.empty);
     let inv = grid.inv_density();
     let c = grid.neighbour_weights();
     let p = meniscus::field::iso::IsoParams { near: v.camera.near, ..s.iso_params() };
@@ -1171,11 +1184,12 @@ fn smoothed_iso_field_matches_cpu() {
     }
     assert!(bulk > 100 && raw > 0, "{bulk} blurred and {raw} raw voxels inside the water");
     // The lone droplet keeps its exact field: the sphere of φ = 0.6 (radius ≈ 1.24 r), not a blurred-away blob.
-    let at = smoothed_field(&grid, &inv, &shape, &field, &p, glam::Vec3::from(lone)).0;
+    let at = smoothed_field(&grid, &inv, &shape, (&field, &marked), &p, glam::Vec3::from(lone)).0;
     assert!(at > 0.6, "the droplet's centre: field {at}");
 
-    let cast =
-        |eye, dir, start, end| march(|x| smoothed_field(&grid, &inv, &shape, &field, &p, x), &p, eye, dir, start, end);
+    let cast = |eye, dir, start, end| {
+        march(|x| smoothed_field(&grid, &inv, &shape, (&field, &marked), &p, x), &p, eye, dir, start, end)
+    };
     check_cast(&got, &pts, &v, &s, (w, h), |eye, dir| ray_end(&grid, eye, dir), cast, "smoothed", (0.01, 0.99));
     assert_clean(&gpu);
 }
@@ -1192,7 +1206,7 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     let mut s = settings(r);
     s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = 1.5;
+    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.set_particles(&pts, None).unwrap();
     let v = view([50.0, 50.0, 50.0], [12.0, 12.0, 12.0], 160, 120, 50.0);
@@ -1240,7 +1254,7 @@ fn smoothed_iso_surface_has_no_seams_at_voxel_faces() {
     let mut s = settings(r);
     s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = 1.5;
+    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     s.iso.bulk = [0.0, 0.0];
     // The march's depth to well below a pixel's normal step (its last linear interpolation alone leaves an
     // error that follows where each ray starts: the bound spheres' pattern).

@@ -35,6 +35,8 @@ pub struct IsoGrid {
     pub grid: UniformGrid,
     /// Kernel support h (world units).
     pub support: f32,
+    /// Each cell's empty distance (ISO_EMPTY_REACH; [`UniformGrid::empty_distance`]), which the casts skip by.
+    pub empty: Vec<u8>,
 }
 
 impl std::ops::Deref for IsoGrid {
@@ -54,7 +56,9 @@ impl IsoGrid {
     /// `reach − support` from their particle (anisotropic kernels with smoothed centres) are still found in the
     /// 3×3×3 cells around a point.
     pub fn build_reaching(positions: &[[f32; 3]], support: f32, reach: f32) -> IsoGrid {
-        IsoGrid { grid: UniformGrid::new(positions, reach.max(support)), support }
+        let grid = UniformGrid::new(positions, reach.max(support));
+        let empty = grid.empty_distance(crate::shader_constants::ISO_EMPTY_REACH);
+        IsoGrid { grid, support, empty }
     }
 
     /// 1 / n_j for every sorted point (the GPU's `iso` pass computes the same on the device).
@@ -71,7 +75,8 @@ impl IsoGrid {
             .collect()
     }
 
-    /// φ(x) and the distance to the nearest point (capped at the cell size).
+    /// φ(x) and the distance to the nearest point (capped at the cell size, or where the 27 cells around x are
+    /// empty the bound the cell's empty distance gives, as the casts skip by).
     pub fn field(&self, x: Vec3, inv_n: &[f32]) -> (f32, f32) {
         self.field_with(x, inv_n, None)
     }
@@ -80,6 +85,9 @@ impl IsoGrid {
     /// sorted points): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j. Also the distance to the nearest point
     /// (the particles themselves, not the kernel centres), capped at the cell size.
     pub fn field_with(&self, x: Vec3, inv_n: &[f32], aniso: Option<&[Aniso]>) -> (f32, f32) {
+        if let Some(e) = self.empty_at(x).filter(|&e| e >= 2) {
+            return (0.0, (e - 1) as f32 * self.cell);
+        }
         let mut s = 0.0;
         let mut dmin = self.cell;
         self.for_each_near(x, |i, y| {
@@ -94,6 +102,17 @@ impl IsoGrid {
             }
         });
         (s, dmin)
+    }
+
+    /// The empty distance of x's cell (None outside the grid): every point is at least (E − 1) cells from x.
+    pub fn empty_at(&self, x: Vec3) -> Option<u8> {
+        let c = ((x - self.origin) / self.cell).floor();
+        let d = self.dims;
+        if !c.is_finite() || c.min_element() < 0.0 || c.x >= d[0] as f32 || c.y >= d[1] as f32 || c.z >= d[2] as f32 {
+            return None;
+        }
+        let i = c.x as usize + d[0] as usize * (c.y as usize + d[1] as usize * c.z as usize);
+        self.empty.get(i).copied()
     }
 
     /// The weighted neighbourhood of sorted point `i` (Yu & Turk 2013 eq. 4–5, over the particles within
@@ -556,6 +575,33 @@ impl VolumeShape {
         m
     }
 
+    /// How far (voxels) every point lies, along some axis, beyond the box of positions whose nearest voxel is
+    /// in a brick [`VolumeShape::marked`] leaves unmarked: a point at voxel g marks the bricks of voxels g −
+    /// t … g + 1 + t (t = taps + 1), and such a position is within half a voxel of its brick's voxels, so more
+    /// than t + ½.
+    pub fn empty_reach(&self) -> f32 {
+        self.taps as f32 + 1.5
+    }
+
+    /// Where the brick of x's nearest voxel is inside the table and not `marked`: a lower bound of the distance
+    /// from x to every point (world units), its depth inside that box plus [`VolumeShape::empty_reach`]
+    /// voxels (iso_field.glsl's `iso_volume_at`, which the cast then skips by).
+    pub fn gap(&self, marked: &[bool], x: Vec3) -> Option<f32> {
+        let u = (x - self.origin) / self.spacing;
+        let c = (u + Vec3::splat(0.5)).floor();
+        let b = [c.x, c.y, c.z].map(|v| (v as i64).div_euclid(BRICK as i64));
+        if (0..3).any(|a| b[a] < 0 || b[a] >= self.bricks[a] as i64) {
+            return None;
+        }
+        let [bx, by, bz] = b.map(|v| v as u32);
+        if marked[(bx + self.bricks[0] * (by + self.bricks[1] * bz)) as usize] {
+            return None;
+        }
+        let lo = Vec3::new(bx as f32, by as f32, bz as f32) * BRICK as f32 - Vec3::splat(0.5);
+        let depth_in = (u - lo).min(lo + Vec3::splat(BRICK as f32) - u);
+        Some((depth_in.min_element() + self.empty_reach()) * self.spacing)
+    }
+
     /// The `iso_volume` deposit, densely: per point j (xyz, 1/n_j) and voxel v within R, w = K (1 − d²/R²)³
     /// / n_j and w c_j, each rounded to ISO_VOLUME_FIX_BITS fixed-point bits (as the shader's integer atomics).
     /// Voxels outside the box are dropped.
@@ -622,18 +668,22 @@ impl VolumeShape {
 }
 
 /// The smoothed iso field at x (the volume cast's sample, iso_field.glsl): F = φ + w(c̄) (B − φ) with B and
-/// B c̄ read from the lattice, φ the exact field (summed only where w < 1); and how far the march may skip, as
-/// the distance `march` takes less `c.bound`: the nearest point's distance where w < 1, else `c.bound` +
-/// (threshold − B) / [`VolumeParams::gradient_bound`].
+/// B c̄ read from the lattice (`field`, dense; `marked`: the bricks [`VolumeShape::marked`] allocates), φ the
+/// exact field (summed only where w < 1); and how far the march may skip, as the distance `march` takes less
+/// `c.bound`: [`VolumeShape::gap`] in an unallocated brick (F = 0 there), the nearest point's distance where
+/// w < 1, else `c.bound` + (threshold − B) / [`VolumeParams::gradient_bound`].
 pub fn smoothed_field(
     grid: &IsoGrid,
     inv_n: &[f32],
     shape: &VolumeShape,
-    field: &[[f32; 2]],
+    (field, marked): (&[[f32; 2]], &[bool]),
     c: &IsoParams,
     x: Vec3,
 ) -> (f32, f32) {
     let p = c.volume.expect("the smoothed field's parameters");
+    if let Some(gap) = shape.gap(marked, x) {
+        return (0.0, gap);
+    }
     let [b, bc] = shape.sample(field, x);
     let cbar = if b > 0.0 { bc / b } else { 0.0 };
     let w = bulk_weight(cbar, p.bulk);
@@ -783,5 +833,45 @@ mod tests {
         };
         let (iso, ani) = (cross(None), cross(Some(&a)));
         assert!(ani < iso, "anisotropic surface at {ani}, isotropic at {iso}");
+    }
+
+    /// The cast's skip through an unallocated brick ([`VolumeShape::gap`]) never passes a point: wherever it
+    /// gives a distance, every point is at least that far (brute force over a sparse scene of clusters and
+    /// strays, at positions all over the lattice's box), and the box holds such bricks.
+    #[test]
+    fn empty_brick_gap_is_a_lower_bound_of_the_nearest_point() {
+        let r = 0.01;
+        let p = VolumeParams { sigma: 1.1 * r, bulk: [4.0, 9.0], spacing: 2.0 * r, support: 4.0 * r };
+        let mut seed = 7u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut pts = vec![];
+        for c in [Vec3::ZERO, Vec3::new(1.1, 0.3, 0.2), Vec3::new(0.2, 0.9, 1.0)] {
+            for _ in 0..200 {
+                pts.push(c + Vec3::new(rnd(), rnd(), rnd()) * 0.1);
+            }
+        }
+        for _ in 0..20 {
+            pts.push(Vec3::new(rnd(), rnd(), rnd()) * 1.2);
+        }
+        let (lo, hi) =
+            pts.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &q| (a.min(q), b.max(q)));
+        let shape = VolumeShape::around(lo, hi, &p).unwrap();
+        let marked = shape.marked(pts.iter().copied());
+        assert!(marked.iter().any(|&m| !m), "the scene leaves bricks unallocated");
+        let size = Vec3::new(shape.dims()[0] as f32, shape.dims()[1] as f32, shape.dims()[2] as f32) * shape.spacing;
+        let mut gaps = 0;
+        for _ in 0..20_000 {
+            let x = shape.origin + Vec3::new(rnd(), rnd(), rnd()) * size;
+            if let Some(g) = shape.gap(&marked, x) {
+                let nearest = pts.iter().map(|q| q.distance(x)).fold(f32::MAX, f32::min);
+                assert!(g <= nearest, "gap {g} at {x}, nearest point {nearest}");
+                assert!(g >= shape.empty_reach() * shape.spacing);
+                gaps += 1;
+            }
+        }
+        assert!(gaps > 1000, "{gaps} samples in unallocated bricks");
     }
 }

@@ -86,6 +86,8 @@ impl Grid {
             self.buffers = Some(IsoBuffers {
                 points: buf("iso_points", cap as u64 * 16, IsoBuffers::POINTS)?,
                 cells: buf("iso_cells", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
+                cells_empty: buf("iso_cells_empty", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
+                empty_scratch: buf("iso_empty_scratch", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
                 weighted: buf("iso_weighted", cap as u64 * 16, IsoBuffers::WEIGHTED)?,
                 aniso: buf("iso_aniso", aniso_bytes(cap as u64), IsoBuffers::ANISO)?,
                 counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
@@ -132,10 +134,17 @@ impl Grid {
             IsoBuffers::ANISO,
         )?;
         let counts = buf("iso_counts", 4, vk::Format::R32_SFLOAT)?;
+        let cell_buf = |name: &str| {
+            let bytes = (grid.cells.len() as u64 * 8).max(16);
+            Buffer::texels(gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, IsoBuffers::CELLS)
+        };
+        let (cells_empty, empty_scratch) = (cell_buf("iso_cells_empty")?, cell_buf("iso_empty_scratch")?);
         let shape = crate::passes::iso::IsoPush::shape(&grid);
         self.buffers = Some(IsoBuffers {
             points,
             cells,
+            cells_empty,
+            empty_scratch,
             weighted,
             aniso,
             counts,
