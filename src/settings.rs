@@ -192,11 +192,14 @@ impl Settings {
         match name {
             "default" => {}
             // The SPH iso-surface exactly (what splashsurf reconstructs before its mesh smoothing): the field
-            // summed over the neighbours at every sample, no 3D smoothing, no filter.
+            // summed over the neighbours at every sample, no 3D smoothing, no filter; and the wider bound spheres
+            // (1.75 r), which lose fewer silhouettes than the default's 1.5 r (IoU 0.996 against 0.987 on the
+            // shared frame, tools/quality.sh).
             "quality" => {
                 s.surface = Surface::Iso;
                 s.smooth.filter = Filter::None;
                 s.iso.smoothing = 0.0;
+                s.iso.bound = 1.75;
             }
             // The cheapest picture: the particles' spheres, depth smoothed by the narrow-range filter, fewer
             // filter and blur pixels.
