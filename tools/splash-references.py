@@ -3,7 +3,8 @@
 to depth images at one camera, as ../shared/data/quality/ holds them for the shared frames (same parameters:
 -r R -l 2.0 -c 0.5 -t 0.6; smoothed: --mesh-cleanup, --mesh-smoothing-weights, 25 mesh and 10 normal smoothing
 iterations). Needs pysplashsurf (pip) and the meniscus package (`pip install ./python`) in the Python that runs
-it, and the quality tool of ../shared/tools/quality (QUALITY_BIN).
+it (pysplashsurf's mesh output needs meshio: `pip install pysplashsurf meshio`), and the quality tool of
+../shared/tools/quality (QUALITY_BIN).
 
 Usage: tools/splash-references.py OUTDIR RADIUS EYE TARGET FILE… — writes OUTDIR/<stem>_ref_depth.npy and
 OUTDIR/<stem>_smooth_ref_depth.npy per file (960×540, 45°), for tools/quality.sh with SCENE=custom."""
