@@ -1,7 +1,8 @@
 //! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
-//! (src/surface/iso/field.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
+//! (src/field/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
 //! Binding 1: the points sorted by cell: (xyz, 1/n_j) in the casts (`weighted`, iso_density's output), xyz in
-//! iso_density and the anisotropy pass (`points`); binding 2: cells (first point, count); with
+//! iso_density and the anisotropy pass (`points`); binding 2: cells (first point, count; in the casts,
+//! ISO_CELL_EMPTY, iso_empty's copy with each cell's empty distance in the count's top bits); with
 //! ISO_WRITES_WEIGHTS (iso_density) binding 3: the weighted points it writes. The casts read a point and its
 //! weight with one fetch (iso 7 % cheaper than a separate weight buffer on lavapipe). Every array the loops
 //! read at a per-point index is a texel buffer (Buffer::with_texel_view says why: on lavapipe a
