@@ -88,8 +88,10 @@ void main() {
     if (b >= bd.x * bd.y * bd.z || table[b] == 0u) return;
     uint i = atomicAdd(header[3], 1u);
     if (i >= pc.bdims.w) {
-        table[b] = 0u;  // over capacity: the host sized the pool from the same rule, so only a GPU-written set
-        return;         // of particles can get here (it reads the count and grows the pool)
+        // Over capacity: the host sized the pool from the same rule, so only a GPU-written set of particles can
+        // get here (it reads the count and grows the pool). Read as 0, but not skipped as empty by the cast.
+        table[b] = ISO_UNSTORED;
+        return;
     }
     table[b] = i + 1u;
     coords[i] = (b % bd.x) | (((b / bd.x) % bd.y) << 11) | ((b / (bd.x * bd.y)) << 22);
