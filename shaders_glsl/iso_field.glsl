@@ -24,7 +24,7 @@ const uint ISO_COUNT_MASK = 0xffffffffu >> ISO_EMPTY_BITS;
 #define ISO_CELL(i) texelFetch(iso_cells_t, int(i)).xy
 #endif
 #ifdef ISO_VOLUME
-layout(set = 0, binding = 7) uniform usamplerBuffer iso_table_t;   // R32UI per brick: 0 or pool index + 1
+layout(set = 0, binding = 7) uniform usamplerBuffer iso_table_t;   // R32UI per brick: 0, pool index + 1 or ISO_UNSTORED
 layout(set = 0, binding = 8) uniform usamplerBuffer iso_volume_t;  // RG32UI per voxel: (B, B c̄), fixed point
 #define ISO_TABLE(i) texelFetch(iso_table_t, int(i)).x
 #include "iso_volume.glsl"
