@@ -1145,11 +1145,11 @@ fn smoothed_iso_field_matches_cpu() {
         &meniscus::renderer::read_buffer(&gpu, &b.cells_empty, 8 * grid.cells.len() as u64).unwrap(),
     );
     let bits = 32 - meniscus::shader_constants::ISO_EMPTY_BITS;
-    for (k, (cell, &e)) in grid.cells.iter().zip(&grid.empty).enumerate() {
+    for (k, (cell, &e)) in grid.cells.iter().zip(grid.empty()).enumerate() {
         let got = [words[2 * k], words[2 * k + 1] & ((1 << bits) - 1), words[2 * k + 1] >> bits];
         assert_eq!(got, [cell[0], cell[1], e as u32], "cell {k}");
     }
-    assert!((0..=2).all(|e| grid.empty.contains(&e)), "empty distances {:?}", grid.empty);
+    assert!((0..=2).all(|e| grid.empty().contains(&e)), "empty distances {:?}", grid.empty());
     let inv = grid.inv_density();
     let c = grid.neighbour_weights();
     let p = meniscus::field::iso::IsoParams { near: v.camera.near, ..s.iso_params() };

@@ -35,8 +35,10 @@ pub struct IsoGrid {
     pub grid: UniformGrid,
     /// Kernel support h (world units).
     pub support: f32,
-    /// Each cell's empty distance (ISO_EMPTY_REACH; [`UniformGrid::empty_distance`]), which the casts skip by.
-    pub empty: Vec<u8>,
+    /// Each cell's empty distance (ISO_EMPTY_REACH; [`UniformGrid::empty_distance`]), which the casts skip by:
+    /// computed at the first cast's sample ([`IsoGrid::empty`]), so the grids of mesh extraction and of the
+    /// renderer's upload (whose GPU computes its own) never pay for it.
+    empty: std::sync::OnceLock<Vec<u8>>,
 }
 
 impl std::ops::Deref for IsoGrid {
@@ -56,9 +58,7 @@ impl IsoGrid {
     /// `reach − support` from their particle (anisotropic kernels with smoothed centres) are still found in the
     /// 3×3×3 cells around a point.
     pub fn build_reaching(positions: &[[f32; 3]], support: f32, reach: f32) -> IsoGrid {
-        let grid = UniformGrid::new(positions, reach.max(support));
-        let empty = grid.empty_distance(crate::shader_constants::ISO_EMPTY_REACH);
-        IsoGrid { grid, support, empty }
+        IsoGrid { grid: UniformGrid::new(positions, reach.max(support)), support, empty: Default::default() }
     }
 
     /// 1 / n_j for every sorted point (the GPU's `iso` pass computes the same on the device).
@@ -75,8 +75,7 @@ impl IsoGrid {
             .collect()
     }
 
-    /// φ(x) and the distance to the nearest point (capped at the cell size, or where the 27 cells around x are
-    /// empty the bound the cell's empty distance gives, as the casts skip by).
+    /// φ(x) and the distance to the nearest point (capped at the cell size).
     pub fn field(&self, x: Vec3, inv_n: &[f32]) -> (f32, f32) {
         self.field_with(x, inv_n, None)
     }
@@ -85,9 +84,6 @@ impl IsoGrid {
     /// sorted points): φ(x) = Σ_j det(M_j) W(|M_j (x − c_j)| / h) / n_j. Also the distance to the nearest point
     /// (the particles themselves, not the kernel centres), capped at the cell size.
     pub fn field_with(&self, x: Vec3, inv_n: &[f32], aniso: Option<&[Aniso]>) -> (f32, f32) {
-        if let Some(e) = self.empty_at(x).filter(|&e| e >= 2) {
-            return (0.0, (e - 1) as f32 * self.cell);
-        }
         let mut s = 0.0;
         let mut dmin = self.cell;
         self.for_each_near(x, |i, y| {
@@ -104,6 +100,21 @@ impl IsoGrid {
         (s, dmin)
     }
 
+    /// A cast's sample (the casts' iso_sum_points with ISO_CELL_EMPTY): [`IsoGrid::field_with`], except where
+    /// x's cell has an empty distance E ≥ 2: there the 27 cells are empty (φ = 0) and every point is at least
+    /// E − 1 cells away, the distance the march skips by.
+    pub fn cast_sample(&self, x: Vec3, inv_n: &[f32], aniso: Option<&[Aniso]>) -> (f32, f32) {
+        match self.empty_at(x) {
+            Some(e) if e >= 2 => (0.0, (e - 1) as f32 * self.cell),
+            _ => self.field_with(x, inv_n, aniso),
+        }
+    }
+
+    /// Each cell's empty distance (computed at the first call).
+    pub fn empty(&self) -> &[u8] {
+        self.empty.get_or_init(|| self.grid.empty_distance(crate::shader_constants::ISO_EMPTY_REACH))
+    }
+
     /// The empty distance of x's cell (None outside the grid): every point is at least (E − 1) cells from x.
     pub fn empty_at(&self, x: Vec3) -> Option<u8> {
         let c = ((x - self.origin) / self.cell).floor();
@@ -112,7 +123,7 @@ impl IsoGrid {
             return None;
         }
         let i = c.x as usize + d[0] as usize * (c.y as usize + d[1] as usize * c.z as usize);
-        self.empty.get(i).copied()
+        self.empty().get(i).copied()
     }
 
     /// The weighted neighbourhood of sorted point `i` (Yu & Turk 2013 eq. 4–5, over the particles within
@@ -368,7 +379,7 @@ pub fn cast_with(
     d_start: f32,
     d_end: f32,
 ) -> Option<f32> {
-    march(|x| grid.field_with(x, inv_n, aniso), p, origin, dir, d_start, d_end)
+    march(|x| grid.cast_sample(x, inv_n, aniso), p, origin, dir, d_start, d_end)
 }
 
 /// The march of `cast` over any field: `field(x)` gives the field and the distance to the nearest point (0
@@ -670,8 +681,8 @@ impl VolumeShape {
 /// The smoothed iso field at x (the volume cast's sample, iso_field.glsl): F = φ + w(c̄) (B − φ) with B and
 /// B c̄ read from the lattice (`field`, dense; `marked`: the bricks [`VolumeShape::marked`] allocates), φ the
 /// exact field (summed only where w < 1); and how far the march may skip, as the distance `march` takes less
-/// `c.bound`: [`VolumeShape::gap`] in an unallocated brick (F = 0 there), the nearest point's distance where
-/// w < 1, else `c.bound` + (threshold − B) / [`VolumeParams::gradient_bound`].
+/// `c.bound`: [`VolumeShape::gap`] in an unallocated brick (F = 0 there), [`IsoGrid::cast_sample`]'s distance
+/// where w < 1, else `c.bound` + (threshold − B) / [`VolumeParams::gradient_bound`].
 pub fn smoothed_field(
     grid: &IsoGrid,
     inv_n: &[f32],
@@ -690,7 +701,7 @@ pub fn smoothed_field(
     if w >= 1.0 {
         return (b, c.bound + (c.threshold - b).max(0.0) / p.gradient_bound());
     }
-    let (phi, d) = grid.field(x, inv_n);
+    let (phi, d) = grid.cast_sample(x, inv_n, None);
     (phi + w * (b - phi), d)
 }
 
