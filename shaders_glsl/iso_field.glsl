@@ -159,14 +159,15 @@ vec2 iso_volume_at(vec3 x, out float gap) {
     vec3 t = u - c;
     ivec3 bd = ivec3(pc.aniso2.yzw);
     ivec3 g = ivec3(clamp(c, vec3(-8.0), vec3(bd * int(ISO_VOLUME_BRICK) + 8)));
-    uint base = iso_brick_base(g >> 3, bd);
+    ivec3 brick = g >> 3;
+    uint entry = iso_brick_entry(brick, bd);
+    uint base = iso_entry_base(entry);
     gap = 0.0;
     if (base == ISO_NONE) {
-        // A gap only where the brick lies in the table unmarked (entry 0; a marked brick the pool had no room
-        // for reads 0 without one).
-        ivec3 b = g >> 3;
-        if (all(greaterThanEqual(b, ivec3(0))) && all(lessThan(b, bd)) && ISO_TABLE(b.x + bd.x * (b.y + bd.y * b.z)) == 0u) {
-            vec3 lo = vec3(b * int(ISO_VOLUME_BRICK)) - 0.5;
+        // A gap only where the brick lies in the table unmarked (entry 0; outside the table, or a marked brick
+        // the pool had no room for, reads 0 without one).
+        if (entry == 0u) {
+            vec3 lo = vec3(brick * int(ISO_VOLUME_BRICK)) - 0.5;
             vec3 depth_in = min(u - lo, lo + float(ISO_VOLUME_BRICK) - u);
             gap = (min(depth_in.x, min(depth_in.y, depth_in.z)) + pc.volume.w) * pc.aniso.w;
         }

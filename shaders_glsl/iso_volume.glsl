@@ -13,13 +13,19 @@ const uint ISO_NONE = 0xffffffffu;
 /// brick, but not empty space (points are near it), so the cast does not skip through it.
 const uint ISO_UNSTORED = 0xffffffffu;
 
-/// The pool index of brick b's first stored voxel, or ISO_NONE where no brick is allocated (or b is outside
-/// the table, `bd` bricks per axis).
-uint iso_brick_base(ivec3 b, ivec3 bd) {
-    if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, bd))) return ISO_NONE;
-    uint e = ISO_TABLE(b.x + bd.x * (b.y + bd.y * b.z));
-    return e == 0u || e == ISO_UNSTORED ? ISO_NONE : (e - 1u) * uint(ISO_STORE_VOXELS);
+/// Brick b's table entry (`bd` bricks per axis): 0 (unmarked), its pool index + 1, or ISO_UNSTORED — also
+/// outside the table, where every value is 0 but nothing is known to be empty.
+uint iso_brick_entry(ivec3 b, ivec3 bd) {
+    if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, bd))) return ISO_UNSTORED;
+    return ISO_TABLE(b.x + bd.x * (b.y + bd.y * b.z));
 }
+
+/// The pool index of the first stored voxel of the brick with table entry e, or ISO_NONE where none is stored.
+uint iso_entry_base(uint e) { return e == 0u || e == ISO_UNSTORED ? ISO_NONE : (e - 1u) * uint(ISO_STORE_VOXELS); }
+
+/// The pool index of brick b's first stored voxel, or ISO_NONE where no brick is allocated (or b is outside
+/// the table).
+uint iso_brick_base(ivec3 b, ivec3 bd) { return iso_entry_base(iso_brick_entry(b, bd)); }
 
 /// Index within a stored brick of storage coordinate t (0 … 9; the brick's own voxels at 1 … 8).
 int iso_store_index(ivec3 t) { return t.x + ISO_STORE * (t.y + ISO_STORE * t.z); }
