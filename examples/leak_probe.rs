@@ -126,10 +126,8 @@ fn main() -> meniscus::Result<()> {
                     thickness: if sampled_only { &tex } else { &t.thickness },
                     ssr: &t.ssr,
                     sky: &r.background.sky,
-                    noise: &t.noise,
-                    diffuse_drawn: false,
-                    diffuse_white: &t.diffuse_white,
-                    diffuse_bubbles: &t.diffuse_bubbles,
+                    noise: t.noise.as_ref().map(|n| &n.noise),
+                    diffuse: None,
                 };
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);

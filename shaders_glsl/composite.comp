@@ -12,7 +12,8 @@
 //! their lit colour by bubbles · (1 − exp(−B)) (they lie under the surface), then foam and spray's coverage S
 //! lays their lit colour over everything, water or background, by 1 − exp(−S).
 //! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), noise,
-//! diffuse white and bubbles (fixed point). Out: rgba8, gamma 2.2.
+//! diffuse white and bubbles (fixed point; each read only when its effect ran this frame, placeholders bound
+//! otherwise). Out: rgba8, gamma 2.2.
 #define SKY_BINDING 8
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
@@ -29,11 +30,12 @@ layout(set = 0, binding = 11, r32ui) uniform readonly uimage2D diffuse_bubbles;
 layout(push_constant) uniform Push {
     vec4 foam;    // rgb: colour; w: weight of the full tint
     vec4 range;   // x: |N| where the tint starts, y: where it is full; z: diffuse units per coverage, w: bubbles
-    vec4 diffuse; // rgb: colour of foam and spray
+    vec4 diffuse; // rgb: colour of foam and spray; w: 1 when the diffuse images hold this frame's particles
 } pc;
 
 /// Foam and spray over the colour `c` (lit by the ambient light and half the sun: small bright specks).
 vec3 add_white(vec3 c, ivec2 p) {
+    if (pc.diffuse.w == 0.0) return c;
     float S = float(imageLoad(diffuse_white, p).x) / pc.range.z;
     vec3 lit = pc.diffuse.rgb * (frame.fluid_color.w + 0.5 * frame.sun.w);
     return mix(c, lit, 1.0 - exp(-S));
@@ -90,10 +92,15 @@ void main() {
     float spec = frame.shading.w * pow(max(dot(n, H), 0.0), frame.shading2.x) * frame.sun.w;
 
     vec3 c = mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
-    float foam = pc.foam.w * smoothstep(pc.range.x, pc.range.y, abs(imageLoad(noise, p).x));
-    vec3 lit = pc.foam.rgb * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * 0.6);
-    c = mix(c, lit, foam);
-    float B = float(imageLoad(diffuse_bubbles, p).x) / pc.range.z;
-    c = mix(c, pc.diffuse.rgb * (frame.fluid_color.w + 0.3 * frame.sun.w), pc.range.w * (1.0 - exp(-B)));
+    // The effects' images are read only when their effect ran (else placeholders are bound).
+    if (pc.foam.w > 0.0) {
+        float foam = pc.foam.w * smoothstep(pc.range.x, pc.range.y, abs(imageLoad(noise, p).x));
+        vec3 lit = pc.foam.rgb * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * 0.6);
+        c = mix(c, lit, foam);
+    }
+    if (pc.diffuse.w != 0.0) {
+        float B = float(imageLoad(diffuse_bubbles, p).x) / pc.range.z;
+        c = mix(c, pc.diffuse.rgb * (frame.fluid_color.w + 0.3 * frame.sun.w), pc.range.w * (1.0 - exp(-B)));
+    }
     imageStore(out_color, p, encode(add_white(c, p)));
 }

@@ -14,6 +14,33 @@
 /// Depth below the surface, in falloffs, past which a particle adds nothing (see noise.comp).
 #define NOISE_DEEP 4.0
 
+/// Depth below the surface, in falloffs, past which a particle of amplitude `amp` adds nothing: its term
+/// amp · exp(−2q) · n · exp(−below²) (|n| < 2) is then under half a fixed-point unit (2^−16 radii) and rounds to 0,
+/// so the cut is exact. At most NOISE_DEEP.
+float noise_reach(float amp) {
+    return sqrt(clamp(log(4.0 * amp * 65536.0), 0.0, NOISE_DEEP * NOISE_DEEP));
+}
+
+/// The accumulator level a sprite of radius R pixels is evaluated on (noise.comp): the coarsest whose texels
+/// (2^L pixels) still sample the finer octave (2·freq cycles per R) NOISE_LOD_SAMPLES times per cycle.
+int noise_level(float R, float freq) {
+    float texel = R / (2.0 * freq * float(NOISE_LOD_SAMPLES));
+    return texel < 2.0 ? 0 : min(int(floor(log2(texel))), int(NOISE_LEVELS));
+}
+
+/// Level L's size for a W×H image: ⌈W/2^L⌉ × ⌈H/2^L⌉.
+ivec2 noise_level_size(ivec2 size, int L) {
+    return (size + (1 << L) - 1) >> L;
+}
+
+/// Where level L starts in the accumulator atlas: level 0 at the origin, the coarser ones stacked to its right.
+ivec2 noise_level_base(ivec2 size, int L) {
+    if (L == 0) return ivec2(0);
+    int y = 0;
+    for (int k = 1; k < L; ++k) y += noise_level_size(size, k).y;
+    return ivec2(size.x, y);
+}
+
 /// Integer hash (lowbias32, C. Wellons): every bit of the input reaches every bit of the output.
 uint noise_hash(uint x) {
     x ^= x >> 16;

@@ -4,15 +4,14 @@
 //! derivatives, turned into slopes per world unit at the pixel's depth (× r · F / d), are added to the normal
 //! (small waves): n' = normalize(n − k (∂h/∂X, ∂h/∂Y, 0)), view space. Along each axis the derivative is the
 //! central difference where both neighbours are on the same surface (depth jump under `edge`), else one-sided,
-//! else 0, as in `normals`. N itself is written for the composite's foam tint.
-//! In: accumulator (r32ui, fixed point), fluid depth (full resolution), normals (r32ui octahedral).
-//! Out: normals (perturbed in place), noise (r32f, N in radii; 0 where there is no fluid).
+//! else 0, as in `normals`.
+//! In: noise (r32f, N in radii: noise_resolve.comp), fluid depth (full resolution), normals (r32ui octahedral).
+//! Out: normals (perturbed in place).
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
-layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
+layout(set = 0, binding = 1, r32f) uniform readonly image2D noise;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
 layout(set = 0, binding = 3, r32ui) uniform uimage2D normals;
-layout(set = 0, binding = 4, r32f) uniform writeonly image2D noise;
 layout(push_constant) uniform Push {
     float strength; // scale of the slopes added to the normal
     float edge;     // depth jump (world units) that separates two surfaces
@@ -20,7 +19,7 @@ layout(push_constant) uniform Push {
 
 ivec2 g_size;
 
-float height(ivec2 q) { return float(int(imageLoad(accum, q).x)) * (1.0 / 65536.0); }
+float height(ivec2 q) { return imageLoad(noise, q).x; }
 
 bool same(ivec2 q, float d) {
     if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, g_size))) return false;
@@ -42,10 +41,7 @@ void main() {
     g_size = imageSize(noise);
     if (any(greaterThanEqual(p, g_size))) return;
     float d = imageLoad(depth, p).x;
-    if (!is_fluid(d)) {
-        imageStore(noise, p, vec4(0.0));
-        return;
-    }
+    if (!is_fluid(d)) return;
     float n0 = height(p);
     // World units of height per pixel step, per world unit across: r · F / d.
     float k = pc.strength * frame.fluid.x * focal_for(float(g_size.y)) / d;
@@ -53,5 +49,4 @@ void main() {
     float gy = -slope(p, d, n0, ivec2(0, 1)) * k; // image y grows downwards, view Y upwards
     vec3 n = unpack_normal(imageLoad(normals, p).x);
     imageStore(normals, p, uvec4(pack_normal(normalize(n - vec3(gx, gy, 0.0)))));
-    imageStore(noise, p, vec4(n0));
 }

@@ -183,14 +183,15 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         None => fluid_depth,
     };
     p.normals.record(ctx, frame, depth, &t.normals, s.normals.edge * s.radius);
-    if s.noise.enabled {
-        let images = NoiseImages { depth, normals: &t.normals, accum: &t.noise_accum, noise: &t.noise };
+    // The effects: each runs only while its images exist (its setting on, something to draw).
+    let noise = t.noise.as_ref().filter(|_| s.noise.enabled);
+    if let Some(own) = noise {
+        let images = NoiseImages { depth, normals: &t.normals, own };
         p.noise.record(ctx, frame, f.particles, &images, &s.noise, s.normals.edge * s.radius);
     }
-    let diffuse = s.diffuse.enabled && (f.diffuse > 0 || f.spray);
-    if diffuse {
-        let images =
-            DiffuseImages { depth, scene_depth: &t.scene_depth, white: &t.diffuse_white, bubbles: &t.diffuse_bubbles };
+    let diffuse = t.diffuse.as_ref().filter(|_| s.diffuse.enabled && (f.diffuse > 0 || f.spray));
+    if let Some(own) = diffuse {
+        let images = DiffuseImages { depth, scene_depth: &t.scene_depth, own };
         let d = (f.diffuse, f.diffuse_indirect);
         p.diffuse.record(ctx, frame, f.particles, d, f.spray, &images, &s.diffuse, s.radius);
     }
@@ -204,10 +205,8 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         thickness: &t.thickness,
         ssr: &t.ssr,
         sky,
-        noise: &t.noise,
-        diffuse_drawn: diffuse,
-        diffuse_white: &t.diffuse_white,
-        diffuse_bubbles: &t.diffuse_bubbles,
+        noise: noise.map(|n| &n.noise),
+        diffuse,
     };
     p.composite.record(ctx, frame, &inputs, &s.noise, &s.diffuse, &t.final_color);
     Ok(Frame { smoothed })

@@ -2,9 +2,10 @@
 //! - it refuses a path that is one of this process's inputs ([`crate::input::is_input`], canonical paths), an
 //!   extension that does not match what is written ([`Kind`]), and an existing file whose bytes are not of that
 //!   kind (a PNG is never written over particles or notes);
-//! - it writes `NAME.PID.partial` and renames it into place when complete, so an interrupted or failing run leaves
-//!   the old file or the new one, never a partial one; a signal handler in the binary removes the partial files
-//!   in flight ([`remove_partials`]), and a later write of the same name removes those of dead processes.
+//! - it writes `NAME.PID.HOST.partial` and renames it into place when complete, so an interrupted or failing run
+//!   leaves the old file or the new one, never a partial one; a signal handler in the binary removes the partial
+//!   files in flight ([`remove_partials`]), and a later run's first write into the folder removes those its
+//!   machine's dead processes left (`remove_stale_partials`).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -178,52 +179,80 @@ pub fn remove_partials() -> usize {
     n
 }
 
-/// The partial file of `path` for this process: `NAME.PID.partial` beside it.
+/// This machine's short name as it appears in partial names (letters, digits and '-'; "host" when unknown):
+/// a folder shared between machines (a cluster's shards) holds partial files of processes this one cannot see.
+fn host_tag() -> &'static str {
+    static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TAG.get_or_init(|| {
+        let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .ok()
+            .or_else(|| std::env::var("HOSTNAME").ok())
+            .unwrap_or_default();
+        let short: String = name
+            .trim()
+            .split('.')
+            .next()
+            .unwrap_or("")
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
+            .collect();
+        if short.is_empty() {
+            "host".into()
+        } else {
+            short
+        }
+    })
+}
+
+/// The partial file of `path` for this process: `NAME.PID.HOST.partial` beside it.
 fn partial_name(path: &Path, pid: u32) -> PathBuf {
     let mut tmp = path.as_os_str().to_owned();
-    tmp.push(format!(".{pid}.partial"));
+    tmp.push(format!(".{pid}.{}.partial", host_tag()));
     PathBuf::from(tmp)
 }
 
-/// The stale partial files of each folder this process writes into, listed once per folder: the folder of a
-/// long sequence is not read again for every frame.
-static STALE: Mutex<Option<std::collections::HashMap<PathBuf, Vec<PathBuf>>>> = Mutex::new(None);
-
-/// Remove `NAME.PID.partial` files beside `path` left by processes that no longer run (a killed run). The
-/// folder is listed at its first write by this process (what a killed run left is there by then).
-fn remove_stale_partials(path: &Path) {
-    let Some(name) = path.file_name() else { return };
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
-    let mut g = STALE.lock().unwrap_or_else(|e| e.into_inner());
-    let stale = g.get_or_insert_with(Default::default).entry(dir.clone()).or_insert_with(|| {
-        let Ok(rd) = std::fs::read_dir(&dir) else { return vec![] };
-        rd.flatten()
-            .map(|e| e.path())
-            .filter(|p| {
-                let f = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
-                let pid = f.strip_suffix(".partial").and_then(|r| r.rsplit_once('.')).map(|(_, pid)| pid);
-                pid.and_then(|p| p.parse::<u32>().ok())
-                    .is_some_and(|pid| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists())
-            })
-            .collect()
-    });
-    let prefix = format!("{}.", name.to_string_lossy());
-    stale.retain(|p| {
-        // NAME.PID.partial exactly: not the partial file of another name that starts with this one.
-        let mine = p.file_name().is_some_and(|f| {
-            let f = f.to_string_lossy();
-            f.strip_prefix(&prefix)
-                .and_then(|r| r.strip_suffix(".partial"))
-                .is_some_and(|pid| pid.parse::<u32>().is_ok())
-        });
-        if mine {
-            let _ = std::fs::remove_file(p);
-        }
-        !mine
-    });
+/// A partial file's name split into (NAME, PID, HOST); HOST is None in the older `NAME.PID.partial` form.
+fn parse_partial(file: &str) -> Option<(&str, u32, Option<&str>)> {
+    let rest = file.strip_suffix(".partial")?;
+    let (head, last) = rest.rsplit_once('.')?;
+    if let Ok(pid) = last.parse::<u32>() {
+        return Some((head, pid, None));
+    }
+    let (name, pid) = head.rsplit_once('.')?;
+    Some((name, pid.parse().ok()?, Some(last)))
 }
 
-/// A file being written under its partial name `NAME.PID.partial`, renamed into place by [`Partial::commit`] and
+/// Folders whose stale partial files this process has removed (each is listed once: the folder of a long
+/// sequence is not read again for every frame).
+static CLEANED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Remove the partial files a killed run left in `path`'s folder: at this process's first write there, every
+/// `NAME.PID.HOST.partial` of this machine (or in the older form `NAME.PID.partial`) whose process no longer
+/// runs, whatever its NAME (a killed run's frames that this run does not write too).
+/// A partial file of another machine (a folder shared by a cluster's shards) is never touched: its process
+/// cannot be seen from here.
+fn remove_stale_partials(path: &Path) {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    let dead = |pid: u32| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists();
+    let mut g = CLEANED.lock().unwrap_or_else(|e| e.into_inner());
+    if g.contains(&dir) {
+        return;
+    }
+    g.push(dir.clone());
+    drop(g);
+    let Ok(rd) = std::fs::read_dir(&dir) else { return };
+    for e in rd.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some((_, pid, host)) = parse_partial(&file) else { continue };
+        // The older form names no machine: taken as this one's.
+        let stale = host.is_none_or(|h| h == host_tag()) && dead(pid);
+        if stale {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// A file being written under its partial name `NAME.PID.HOST.partial`, renamed into place by [`Partial::commit`] and
 /// removed if dropped uncommitted (a failed write) or on SIGINT/SIGTERM ([`remove_partials`]). For writers whose
 /// bytes come from elsewhere (ffmpeg writes a movie to [`Partial::tmp`]); [`write_atomic`] is built on it.
 pub struct Partial {
@@ -274,7 +303,7 @@ impl Drop for Partial {
     }
 }
 
-/// Write a file of `kind` to `path` after [`check_output`], atomically: the bytes go to `NAME.PID.partial`,
+/// Write a file of `kind` to `path` after [`check_output`], atomically: the bytes go to `NAME.PID.HOST.partial`,
 /// which is synced and renamed into place only when complete.
 pub fn write_atomic(
     path: &Path,
@@ -296,6 +325,65 @@ pub fn write_atomic(
 /// Write an RGBA image as PNG.
 pub fn write_png(path: &Path, img: &image::RgbaImage) -> Result<()> {
     write_atomic(path, Kind::Png, |w| img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other))
+}
+
+/// Whether the PNG at `path` is whole and `width`×`height`: the signature, an IHDR of that size first, every
+/// chunk's length within the file and its CRC right, and IEND last at the file's end. Cheap (no decoding): what
+/// `--resume` checks before it counts a frame as done. The reason when it is not.
+pub fn check_png(path: &Path, width: u32, height: u32) -> std::result::Result<(), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot be read: {e}"))?;
+    if bytes.is_empty() {
+        return Err("it is empty".into());
+    }
+    if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        return Err("it is not a PNG image".into());
+    }
+    let mut at = 8usize;
+    let mut first = true;
+    let mut data = false;
+    loop {
+        if at + 8 > bytes.len() {
+            return Err(format!("it ends at byte {} before its IEND chunk (truncated)", bytes.len()));
+        }
+        let len = u32::from_be_bytes(bytes[at..at + 4].try_into().expect("4 bytes")) as usize;
+        let ty = &bytes[at + 4..at + 8];
+        let end = at.checked_add(12).and_then(|e| e.checked_add(len)).filter(|&e| e <= bytes.len());
+        let Some(end) = end else {
+            return Err(format!(
+                "its {} chunk at byte {at} runs past the end of the file (truncated)",
+                String::from_utf8_lossy(ty)
+            ));
+        };
+        let crc = u32::from_be_bytes(bytes[end - 4..end].try_into().expect("4 bytes"));
+        if crc32fast::hash(&bytes[at + 4..end - 4]) != crc {
+            return Err(format!(
+                "the CRC of its {} chunk at byte {at} is wrong (damaged)",
+                String::from_utf8_lossy(ty)
+            ));
+        }
+        if first {
+            if ty != b"IHDR" || len < 8 {
+                return Err("its first chunk is not IHDR".into());
+            }
+            let w = u32::from_be_bytes(bytes[at + 8..at + 12].try_into().expect("4 bytes"));
+            let h = u32::from_be_bytes(bytes[at + 12..at + 16].try_into().expect("4 bytes"));
+            if (w, h) != (width, height) {
+                return Err(format!("it is {w}×{h}, the frames are {width}×{height}"));
+            }
+            first = false;
+        }
+        data |= ty == b"IDAT";
+        if ty == b"IEND" {
+            return if !data {
+                Err("it holds no image data (IDAT)".into())
+            } else if end == bytes.len() {
+                Ok(())
+            } else {
+                Err(format!("{} bytes follow its IEND chunk", bytes.len() - end))
+            };
+        }
+        at = end;
+    }
 }
 
 /// Write a float32 array as NumPy `.npy` (C order, little-endian) with the given shape.

@@ -237,7 +237,15 @@ impl Renderer {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(Error::Invalid(format!("image size {width}×{height} is out of range (1 … 16384)")));
         }
-        let want = TargetsDesc::new(width, height, s, self.keep_raw_depth);
+        let drawn = self.particles.diffuse_count() > 0 || self.particles.has_spray();
+        let mut want = TargetsDesc::new(width, height, s, self.keep_raw_depth, drawn);
+        // The diffuse images, once made, stay while the rest stands: a sequence whose frames come and go
+        // without diffuse particles does not reallocate every frame.
+        if let Some(t) = &self.targets {
+            if t.desc.diffuse && s.diffuse.enabled && (TargetsDesc { diffuse: true, ..want }) == t.desc {
+                want.diffuse = true;
+            }
+        }
         if self.targets.as_ref().map(|t| t.desc) != Some(want) {
             self.executor.wait_idle()?;
             self.targets = None;

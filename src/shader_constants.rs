@@ -15,6 +15,11 @@ pub const MAX_BOXES: u32 = 8;
 pub const SSR_MISS: u32 = 0xffff_ffff;
 /// Per-thread pixel budget of the particle passes: a sphere covering more (it swallowed the camera) is skipped.
 pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
+/// Coarser levels of the `noise` pass's accumulator (level L holds texels of 2^L × 2^L pixels): a sprite is
+/// evaluated at the finest level that still samples its finer octave NOISE_LOD_SAMPLES times per cycle.
+pub const NOISE_LEVELS: u32 = 6;
+/// Samples per cycle of the noise's finer octave at which a sprite is evaluated (`noise` pass's level of detail).
+pub const NOISE_LOD_SAMPLES: u32 = 6;
 /// Bytes per particle of the renderer's particle buffer: its position (vec4) and, after all positions, its
 /// motion (vec4: id bits, |Δv|/Δt), read by the `noise` pass.
 pub const BYTES_PER_PARTICLE: u64 = 32;
@@ -58,6 +63,8 @@ const _: () = assert!(ISO_VOLUME_BRICK == 8);
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
     ("LOCAL_1D", LOCAL_1D),
+    ("NOISE_LEVELS", NOISE_LEVELS),
+    ("NOISE_LOD_SAMPLES", NOISE_LOD_SAMPLES),
     ("CURVATURE_LOCAL", CURVATURE_LOCAL),
     ("MAX_BOXES", MAX_BOXES),
     ("SSR_MISS", SSR_MISS),

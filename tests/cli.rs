@@ -551,7 +551,7 @@ fn sim_exports_a_cache_that_loads_and_renders() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success() && err.contains("warning: ignoring") && err.contains("byte 17"), "{err}");
     let o = meniscus()
-        .args(["sim", "dambreak", "--particles", "300", "--frames", "1", "--export"])
+        .args(["sim", "dambreak", "--particles", "300", "--frames", "1", "--overwrite", "--export"])
         .arg(d.join("f_{}.bgeo"))
         .output()
         .unwrap();

@@ -2,6 +2,9 @@
 //! bombs and devices, stray particles, top-down and non-finite cameras, headers that under-count their data,
 //! gaps and bad attributes in sequences, folders as outputs, failing writes, corrupt frames mid-sequence.
 //! Each ends in a clear one-line error with a non-zero exit, or (strays, top-down views) a correct picture.
+//! And the ways a run could lose or keep a broken file: a sequence written over another run's cache, a movie
+//! encoded onto a full disk, `--resume` trusting a damaged frame, an export that spoils its input folder, flags
+//! accepted and ignored, partial files a killed run left behind.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -194,6 +197,12 @@ fn top_down_views_render_and_non_finite_cameras_are_refused() {
         assert!(covered(&d.join("top.depth.npy")) > 300, "{cam}: the water is not seen");
     }
     let o = meniscus().arg("render").arg(&f).args(["--scale", "1e30", "--out"]).arg(d.join("x.png")).output().unwrap();
+    fails_with(&o, &["--scale 1e30", "[1e-6, 1e6]"]);
+    assert!(!d.join("x.png").exists());
+    // Coordinates a unit conversion cannot explain are refused by their size.
+    let far = block(4, &[]).positions.iter().map(|p| p.map(|x| 1e16 + x * 1e14)).collect();
+    write_bgeo(&d.join("far.bgeo"), &Particles { positions: far, ..Default::default() });
+    let o = meniscus().arg("render").arg(d.join("far.bgeo")).arg("--out").arg(d.join("x.png")).output().unwrap();
     fails_with(&o, &["coordinates reach", "--scale"]);
     assert!(!d.join("x.png").exists());
 }
@@ -309,4 +318,314 @@ fn frames_larger_than_the_device_holds_are_a_clear_error() {
         .output()
         .unwrap();
     fails_with(&o, &["16384×16384"]);
+}
+
+/// Whether this test may mount a small tmpfs (root, `mount` present). Without it the full-disk tests check
+/// nothing: a FAILURE under CI=true (CI runs as root), a note elsewhere.
+fn small_tmpfs(name: &str, kib: u32) -> Option<PathBuf> {
+    let d = tmpdir(name);
+    let o = Command::new("mount").args(["-t", "tmpfs", "-o", &format!("size={kib}k"), "tmpfs"]).arg(&d).output();
+    match o {
+        Ok(o) if o.status.success() => Some(d),
+        other => {
+            let why = match other {
+                Ok(o) => String::from_utf8_lossy(&o.stderr).trim().to_string(),
+                Err(e) => e.to_string(),
+            };
+            let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "0" && v != "false");
+            assert!(!ci, "cannot mount a tmpfs for the full-disk test (needs root) under CI=true: {why}");
+            eprintln!("cannot mount a tmpfs ({why}): the full-disk case checked nothing (it fails under CI=true)");
+            None
+        }
+    }
+}
+
+/// Fill the filesystem at `dir` until `free` bytes or fewer are left.
+fn fill_up(dir: &Path, free: u64) {
+    use std::io::Write;
+    let mut f = std::fs::File::create(dir.join("filler")).unwrap();
+    let chunk = vec![0u8; 4096];
+    while f.write_all(&chunk).is_ok() {}
+    drop(f);
+    let len = std::fs::metadata(dir.join("filler")).unwrap().len();
+    let f = std::fs::OpenOptions::new().write(true).open(dir.join("filler")).unwrap();
+    f.set_len(len.saturating_sub(free)).unwrap();
+}
+
+fn unmount(dir: &Path) {
+    let _ = Command::new("umount").arg(dir).status();
+}
+
+#[test]
+fn a_sequence_write_does_not_replace_another_runs_cache() {
+    let d = tmpdir("cache");
+    let partio = d.join("c/partio");
+    std::fs::create_dir_all(&partio).unwrap();
+    for n in 1..=3 {
+        write_bgeo(&partio.join(format!("ParticleData_Fluid_{n}.bgeo")), &block(3 + n, &[]));
+    }
+    let before: Vec<Vec<u8>> =
+        (1..=3).map(|n| std::fs::read(partio.join(format!("ParticleData_Fluid_{n}.bgeo"))).unwrap()).collect();
+    let pattern = partio.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
+    let sim = |extra: &[&str]| {
+        meniscus().args(["sim", "dambreak", "--particles", "2000", "--frames", "3"]).args(extra).output().unwrap()
+    };
+    let o = sim(&["--export", &pattern]);
+    fails_with(&o, &["--export", "3 of the 3 files to write exist already", "--overwrite"]);
+    for n in 1..=3 {
+        assert_eq!(std::fs::read(partio.join(format!("ParticleData_Fluid_{n}.bgeo"))).unwrap(), before[n - 1]);
+    }
+    assert!(!partio.join("scene.json").exists(), "a scene.json was dropped into the cache's folder");
+    // --foam onto an unrelated file.
+    std::fs::write(d.join("notes_2.bgeo"), scene::bgeo::write(&block(2, &[]).to_raw(), true)).unwrap();
+    let foam = d.join("notes_{}.bgeo").to_string_lossy().into_owned();
+    let o = sim(&["--foam", &foam]);
+    fails_with(&o, &["--foam", "1 of the 3 files to write exist already", "notes_2.bgeo"]);
+    // `foam --export` likewise.
+    let exported = d.join("f/foam_{}.bgeo").to_string_lossy().into_owned();
+    std::fs::create_dir_all(d.join("f")).unwrap();
+    std::fs::write(d.join("f/foam_0002.bgeo"), scene::bgeo::write(&block(2, &[]).to_raw(), true)).unwrap();
+    let o = meniscus().args(["foam", &pattern, "--radius", "0.01", "--export", &exported]).output().unwrap();
+    fails_with(&o, &["--export", "exist already", "--overwrite"]);
+    // With --overwrite the user asked for it.
+    let o = sim(&["--export", &pattern, "--overwrite"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ne!(std::fs::read(partio.join("ParticleData_Fluid_1.bgeo")).unwrap(), before[0]);
+}
+
+#[test]
+fn a_movie_on_a_full_disk_keeps_the_good_one() {
+    let d = tmpdir("movie-src");
+    for n in 1..=12 {
+        // Noisy frames: each costs the encoder some kilobytes.
+        let img = image::RgbaImage::from_fn(64, 48, |x, y| {
+            let h = (x * 7919 + y * 104_729 + n * 31) % 251;
+            image::Rgba([h as u8, (h * 3 % 251) as u8, (h * 7 % 251) as u8, 255])
+        });
+        img.save(d.join(format!("f_{n}.png"))).unwrap();
+    }
+    let Some(disk) = small_tmpfs("movie-disk", 1024) else { return };
+    let movie = disk.join("m.mp4");
+    let frames = d.join("f_{}.png").to_string_lossy().into_owned();
+    let o = meniscus().args(["encode", &frames, "--out"]).arg(&movie).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let good = std::fs::read(&movie).unwrap();
+    fill_up(&disk, 4096);
+    let o = meniscus().args(["encode", &frames, "--crf", "0", "--out"]).arg(&movie).output().unwrap();
+    let kept = std::fs::read(&movie).unwrap();
+    let leftovers: Vec<_> = std::fs::read_dir(&disk)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("partial"))
+        .collect();
+    unmount(&disk);
+    fails_with(&o, &["m.mp4"]);
+    assert!(kept == good, "the good movie was replaced");
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn resume_renders_damaged_frames_again() {
+    let d = tmpdir("resume");
+    for n in 1..=5 {
+        write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(5, &[]));
+    }
+    let seq = d.join("f_{}.bgeo").to_string_lossy().into_owned();
+    let small = ["--width", "40", "--height", "30", "--radius", "0.01"];
+    let out = d.join("png/f_{}.png").to_string_lossy().into_owned();
+    let o = meniscus().args(["render", &seq, "--out", &out]).args(small).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frame = |n: u32| d.join(format!("png/f_{n:04}.png"));
+    let good: Vec<Vec<u8>> = (1..=5).map(|n| std::fs::read(frame(n)).unwrap()).collect();
+    let png = &good[0];
+    std::fs::write(frame(1), &png[..png.len() / 2]).unwrap(); // truncated
+    let mut crc = png.clone();
+    let mid = crc.len() / 2;
+    crc[mid] ^= 0x55; // damaged inside a chunk: its CRC no longer matches
+    std::fs::write(frame(2), &crc).unwrap();
+    std::fs::write(frame(3), b"").unwrap(); // 0 bytes
+    std::fs::write(frame(4), &png[..33]).unwrap(); // signature and IHDR only
+    let o = meniscus().args(["render", &seq, "--resume", "--out", &out]).args(small).output().unwrap();
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    for (n, why) in [(1, "truncated"), (2, "CRC"), (3, "empty"), (4, "truncated")] {
+        assert!(e.contains(&format!("f_{n:04}.png: ")) && e.contains(why), "frame {n}: {why} not said: {e}");
+    }
+    assert!(e.contains("rendering it again") && !e.contains("f_0005.png: "), "{e}");
+    for n in 1..=5 {
+        assert!(std::fs::read(frame(n)).unwrap() == good[n as usize - 1], "frame {n} differs after --resume");
+    }
+    // A frame of another size is not this job's frame either.
+    let o = meniscus()
+        .args(["render", &seq, "--resume", "--out", &out, "--width", "41", "--height", "30"])
+        .args(&small[4..])
+        .output()
+        .unwrap();
+    assert!(o.status.success() && stderr(&o).contains("is 40×30, the frames are 41×30"), "{}", stderr(&o));
+}
+
+#[test]
+fn an_export_beside_its_input_does_not_spoil_the_folder() {
+    let d = tmpdir("spoil");
+    let p = d.join("p");
+    std::fs::create_dir_all(&p).unwrap();
+    for n in 1..=3 {
+        write_bgeo(&p.join(format!("ParticleData_Fluid_{n}.bgeo")), &block(6, &[]));
+    }
+    // The export's first frames hold no particles (nothing has spawned yet): valid frames for every reader.
+    let pattern = p.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
+    let foam = p.join("foam_{}.bgeo").to_string_lossy().into_owned();
+    let o = meniscus().args(["foam", &pattern, "--radius", "0.01", "--export", &foam]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = meniscus().arg("info").arg(p.join("foam_0001.bgeo")).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("particles:   0"), "{}", String::from_utf8_lossy(&o.stdout));
+    // The folder now holds two sequences: it names them instead of mixing them.
+    let o = meniscus()
+        .arg("render")
+        .arg(&p)
+        .args(["--radius", "0.01", "--width", "32", "--height", "24", "--out"])
+        .arg(d.join("out/"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["holds 2 particle sequences", "ParticleData_Fluid_{}.bgeo' (3 files)", "foam_{}.bgeo' (3 files)"]);
+    // Each reader takes a file without particles; what needs particles says so.
+    let empty = Particles::default();
+    write_bgeo(&d.join("empty.bgeo"), &empty);
+    std::fs::write(d.join("empty.vtk"), scene::vtk::write(&empty.to_raw(), true)).unwrap();
+    std::fs::write(d.join("empty.csv"), "x,y,z\n").unwrap();
+    std::fs::write(
+        d.join("empty.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+    )
+    .unwrap();
+    for f in ["empty.bgeo", "empty.vtk", "empty.csv", "empty.ply"] {
+        let got = scene::load(&d.join(f));
+        assert!(got.as_ref().is_ok_and(|p| p.is_empty()), "{f}: {:?}", got.err());
+    }
+    let o = meniscus().arg("render").arg(d.join("empty.bgeo")).arg("--out").arg(d.join("x.png")).output().unwrap();
+    fails_with(&o, &["holds no particles"]);
+    // A sequence whose first frame is empty fits its camera and radius to the first frame with particles.
+    let q = d.join("q");
+    std::fs::create_dir_all(&q).unwrap();
+    write_bgeo(&q.join("g_1.bgeo"), &empty);
+    write_bgeo(&q.join("g_2.bgeo"), &block(6, &[]));
+    let o = meniscus()
+        .arg("render")
+        .arg(q.join("g_{}.bgeo"))
+        .args(["--width", "32", "--height", "24", "--out"])
+        .arg(d.join("q-out/"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(d.join("q-out/frame_0001.png").is_file() && d.join("q-out/frame_0002.png").is_file());
+}
+
+#[test]
+fn errors_say_what_happened() {
+    let d = tmpdir("say");
+    // `encode` of a folder of PNG frames, as its help says.
+    let frames = d.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for n in 1..=3 {
+        image::RgbaImage::from_pixel(32, 24, image::Rgba([n as u8 * 60, 80, 120, 255]))
+            .save(frames.join(format!("frame_{n:04}.png")))
+            .unwrap();
+    }
+    let o = meniscus()
+        .arg("encode")
+        .arg(format!("{}/", frames.display()))
+        .arg("--out")
+        .arg(d.join("m.mp4"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("3 frames"), "{}", stderr(&o));
+    let o = meniscus().arg("encode").arg(&d).arg("--out").arg(d.join("n.mp4")).output().unwrap();
+    fails_with(&o, &["holds no PNG files"]);
+    // All particles at one point: why the radius cannot be estimated, and what to do.
+    let one = Particles { positions: vec![[1e-30; 3]; 500], ..Default::default() };
+    write_bgeo(&d.join("one.bgeo"), &one);
+    let o = meniscus().arg("info").arg(d.join("one.bgeo")).output().unwrap();
+    fails_with(&o, &["cannot estimate the particle radius", "500 particles within", "--radius"]);
+    // A GPU mesh larger than the device gives one buffer: the size, the flag and what to do.
+    let dense = d.join("dense.bgeo");
+    write_bgeo(&dense, &block(19, &[]));
+    let o = meniscus()
+        .arg("mesh")
+        .arg(&dense)
+        .args(["--radius", "0.01", "--gpu", "--cube-size", "0.06", "--out"])
+        .arg(d.join("g.ply"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["--cube-size 0.06", "GB", "larger --cube-size"]);
+    assert!(!stderr(&o).contains("Vulkan call"), "{}", stderr(&o));
+    // A legacy VTK whose POINTS count is too small for its data.
+    let raw = block(4, &[]).to_raw();
+    for binary in [false, true] {
+        let mut t = scene::vtk::write(&raw, binary);
+        let at = t.windows(9).position(|w| w == b"POINTS 64").unwrap();
+        t[at..at + 9].copy_from_slice(b"POINTS 60");
+        let e = scene::vtk::parse(Path::new("x.vtk"), &t).unwrap_err().to_string();
+        assert!(e.contains("the data of POINTS is longer than its count (60) says"), "binary {binary}: {e}");
+    }
+}
+
+#[test]
+fn flags_are_used_or_refused() {
+    let d = tmpdir("flags");
+    let o = meniscus().args(["bench", "--chart"]).arg(d.join("c.png")).output().unwrap();
+    fails_with(&o, &["--chart", "--sweep"]);
+    let o =
+        meniscus().args(["sim", "dambreak", "--particles", "2000", "--frames", "2", "--fps", "1e9"]).output().unwrap();
+    fails_with(&o, &["fps"]);
+    let o = meniscus()
+        .args(["sim", "dambreak", "--particles", "2000", "--frames", "2", "--fluid-scale", "0.3"])
+        .output()
+        .unwrap();
+    fails_with(&o, &["--fluid-scale", "draws nothing"]);
+    let f = d.join("p.bgeo");
+    write_bgeo(&f, &block(6, &[]));
+    let o = meniscus().arg("render").arg(&f).args(["--scale", "1e-20", "--out"]).arg(d.join("x.png")).output().unwrap();
+    fails_with(&o, &["--scale"]);
+    assert!(!d.join("x.png").exists());
+}
+
+#[test]
+fn a_killed_runs_partial_files_are_cleaned_by_the_next_run() {
+    let d = tmpdir("litter");
+    for n in 1..=4 {
+        write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(5, &[]));
+    }
+    let seq = d.join("f_{}.bgeo").to_string_lossy().into_owned();
+    let out = d.join("m/m.ply");
+    std::fs::create_dir_all(d.join("m")).unwrap();
+    // What a SIGKILL'ed `mesh SEQ` leaves: a partial file of a process that no longer runs.
+    let mut child = Command::new("sleep").arg("0").spawn().unwrap();
+    let dead = child.id();
+    child.wait().unwrap();
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    let host: String = host
+        .trim()
+        .split('.')
+        .next()
+        .unwrap_or("")
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
+        .collect();
+    let litter = d.join(format!("m/m_0004.ply.{dead}.{host}.partial"));
+    let older = d.join(format!("m/m_0003.ply.{dead}.partial"));
+    // Another machine's partial file (a cluster shard writing into the same folder) is never touched.
+    let other = d.join(format!("m/m_0004.ply.{dead}.othernode.partial"));
+    for f in [&litter, &older, &other] {
+        std::fs::write(f, b"ply\nhalf").unwrap();
+    }
+    // The next run, with fewer frames, still cleans them.
+    let o =
+        meniscus().args(["mesh", &seq, "--radius", "0.01", "--frames", "1..2", "--out"]).arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!litter.exists() && !older.exists(), "the killed run's partial files are still there");
+    assert!(other.exists(), "another machine's partial file was removed");
+    assert!(d.join("m/m_0001.ply").is_file());
 }

@@ -500,7 +500,11 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
         r.set_diffuse(live.particles(), &s).unwrap();
         r.render(&v, &s).unwrap();
         let t = r.targets.as_ref().unwrap();
-        let white: Vec<f32> = read_u32(&gpu, &t.diffuse_white).unwrap().into_iter().map(|u| u as f32 / units).collect();
+        let white: Vec<f32> = read_u32(&gpu, &t.diffuse.as_ref().expect("diffuse images").white)
+            .unwrap()
+            .into_iter()
+            .map(|u| u as f32 / units)
+            .collect();
         let mut blocks = vec![0f32; (w / 8) * (h / 8)];
         for y in 0..h {
             for x in 0..w {
@@ -595,7 +599,9 @@ fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
     assert!(d.len() > 50, "too few diffuse particles to draw: {}", d.len());
     let v = common::view([0.0, 1.5, 4.0], [-0.8, 0.3, 0.0], 96, 64, 45.0);
     let s = common::settings(scene.radius());
-    let words = |r: &Renderer| read_u32(&gpu, &r.targets.as_ref().unwrap().diffuse_white).unwrap();
+    let words = |r: &Renderer| {
+        read_u32(&gpu, &r.targets.as_ref().unwrap().diffuse.as_ref().expect("diffuse images").white).unwrap()
+    };
     let mut host = Renderer::new(&gpu).unwrap();
     host.set_particles(&p.positions, None).unwrap();
     host.set_diffuse(&d, &s).unwrap();

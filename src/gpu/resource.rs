@@ -261,9 +261,20 @@ impl Buffer {
         } else {
             ci.sharing_mode(vk::SharingMode::CONCURRENT).queue_family_indices(&families)
         };
-        let raw = unsafe { d.create_buffer(&ci, None) }.vk("vkCreateBuffer")?;
+        // A size the device refuses is the user's problem size (a cube size, a resolution): say which buffer
+        // and how large, not only the Vulkan call.
+        let too_large = |why: String| {
+            Error::Limit(format!(
+                "the GPU buffer {name} would need {size} bytes ({:.2} GB), more than this device gives one buffer \
+                 ({why}); make the problem smaller",
+                size as f64 / 1e9
+            ))
+        };
+        let raw = unsafe { d.create_buffer(&ci, None) }.map_err(|e| too_large(format!("vkCreateBuffer: {e}")))?;
         let req = unsafe { d.get_buffer_memory_requirements(raw) };
-        let alloc = allocate(gpu, name, req, location, true).inspect_err(|_| unsafe { d.destroy_buffer(raw, None) })?;
+        let alloc = allocate(gpu, name, req, location, true)
+            .map_err(|e| if size >= 1 << 30 { too_large(e.to_string()) } else { e })
+            .inspect_err(|_| unsafe { d.destroy_buffer(raw, None) })?;
         unsafe { d.bind_buffer_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindBufferMemory")?;
         Ok(Buffer {
             gpu: gpu.clone(),

@@ -56,9 +56,12 @@ impl Default for Params {
     }
 }
 
-/// The pass: its compute program(s), built once per device.
+/// The pass: its compute program(s), built once per device, and the 1×1 placeholders bound in place of an
+/// effect's images when the effect did not run (the shader does not read them then).
 pub struct Composite {
     prog: ComputeProgram<Push>,
+    none_f32: Image,
+    none_u32: Image,
 }
 
 /// The images the composite reads.
@@ -77,14 +80,10 @@ pub struct CompositeInputs<'a> {
     pub ssr: &'a Image,
     /// The sky cube map (placeholder when procedural).
     pub sky: &'a Image,
-    /// The `noise` pass's N (radii): the foam tint's magnitude (cleared here when the pass is off).
-    pub noise: &'a Image,
-    /// The `diffuse` pass ran this frame (else its images are cleared here).
-    pub diffuse_drawn: bool,
-    /// Coverage of foam and spray (the `diffuse` pass's fixed point).
-    pub diffuse_white: &'a Image,
-    /// Coverage of bubbles.
-    pub diffuse_bubbles: &'a Image,
+    /// The `noise` pass's N (radii), the foam tint's magnitude, when the pass ran this frame.
+    pub noise: Option<&'a Image>,
+    /// The `diffuse` pass's coverage of foam and spray and of bubbles, when it ran this frame.
+    pub diffuse: Option<&'a crate::passes::diffuse::DiffuseTargets>,
 }
 
 /// Push constants of composite.comp: the foam tint (`[noise]`).
@@ -96,7 +95,7 @@ pub struct Push {
     /// |N| where the tint starts (x) and is full (y); z: the diffuse images' units per unit of coverage, w: how
     /// much of the bubbles' coverage shows.
     pub range: [f32; 4],
-    /// Colour of foam and spray (rgb).
+    /// Colour of foam and spray (rgb); w: 1 when the diffuse images hold this frame's particles.
     pub diffuse: [f32; 4],
 }
 
@@ -110,7 +109,14 @@ declare_program!(pub PROGRAM: Push = compute(
 impl Composite {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Composite { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        use ash::vk;
+        let one = vk::Extent2D { width: 1, height: 1 };
+        let usage = vk::ImageUsageFlags::STORAGE;
+        Ok(Composite {
+            prog: ComputeProgram::new(gpu, &PROGRAM)?,
+            none_f32: Image::new(gpu, "composite_none_f32", one, vk::Format::R32_SFLOAT, usage, None)?,
+            none_u32: Image::new(gpu, "composite_none_u32", one, vk::Format::R32_UINT, usage, None)?,
+        })
     }
 
     /// Shade the fluid over the background into `out`, tinted toward foam by the noise (`noise`: its settings),
@@ -125,20 +131,13 @@ impl Composite {
         out: &Image,
     ) {
         ctx.pass(NAME, |ctx| {
-            // Without the `noise` pass its image holds nothing: a zero image tints nothing.
-            if !noise.enabled {
-                ctx.clear(i.noise, ash::vk::ClearColorValue { float32: [0.0; 4] });
-            }
-            if !i.diffuse_drawn {
-                ctx.clear(i.diffuse_white, ash::vk::ClearColorValue { uint32: [0; 4] });
-                ctx.clear(i.diffuse_bubbles, ash::vk::ClearColorValue { uint32: [0; 4] });
-            }
             let c = noise.foam_color;
             let d = diffuse.color;
+            let tint = if noise.enabled && i.noise.is_some() { noise.foam } else { 0.0 };
             let push = Push {
-                foam: [c[0], c[1], c[2], if noise.enabled { noise.foam } else { 0.0 }],
+                foam: [c[0], c[1], c[2], tint],
                 range: [noise.foam_from, noise.foam_full, crate::passes::diffuse::UNITS, diffuse.bubbles],
-                diffuse: [d[0], d[1], d[2], 0.0],
+                diffuse: [d[0], d[1], d[2], if i.diffuse.is_some() { 1.0 } else { 0.0 }],
             };
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             let res = [
@@ -151,9 +150,9 @@ impl Composite {
                 out.into(),
                 i.ssr.into(),
                 i.sky.into(),
-                i.noise.into(),
-                i.diffuse_white.into(),
-                i.diffuse_bubbles.into(),
+                i.noise.unwrap_or(&self.none_f32).into(),
+                i.diffuse.map_or(&self.none_u32, |d| &d.white).into(),
+                i.diffuse.map_or(&self.none_u32, |d| &d.bubbles).into(),
             ];
             self.prog.dispatch(ctx, &res, &push, g);
         });

@@ -54,10 +54,32 @@ pub struct DiffuseImages<'a> {
     pub depth: &'a Image,
     /// Background depth.
     pub scene_depth: &'a Image,
+    /// The pass's own images.
+    pub own: &'a DiffuseTargets,
+}
+
+/// What the pass owns per frame size, allocated only while it has something to draw (`Targets::diffuse`).
+pub struct DiffuseTargets {
     /// Coverage of foam and spray (R32_UINT, [`UNITS`]).
-    pub white: &'a Image,
+    pub white: Image,
     /// Coverage of bubbles, attenuated by the water above them (R32_UINT).
-    pub bubbles: &'a Image,
+    pub bubbles: Image,
+}
+
+impl DiffuseTargets {
+    /// The pass's images for a `width`×`height` output.
+    pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32) -> Result<DiffuseTargets> {
+        use vk::ImageUsageFlags as U;
+        let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
+        let full = vk::Extent2D { width, height };
+        let img = |name| Image::new(gpu, name, full, vk::Format::R32_UINT, storage, None);
+        Ok(DiffuseTargets { white: img("diffuse_white")?, bubbles: img("diffuse_bubbles")? })
+    }
+
+    /// (name, bytes) of each image, for the memory table.
+    pub fn memory(&self) -> Vec<(&str, u64)> {
+        vec![(self.white.name.as_str(), self.white.bytes()), (self.bubbles.name.as_str(), self.bubbles.bytes())]
+    }
 }
 
 /// The pass: its compute program, built once per device.
@@ -103,8 +125,8 @@ impl Diffuse {
         radius: f32,
     ) {
         ctx.pass(NAME, |ctx| {
-            ctx.clear(i.white, vk::ClearColorValue { uint32: [0; 4] });
-            ctx.clear(i.bubbles, vk::ClearColorValue { uint32: [0; 4] });
+            ctx.clear(&i.own.white, vk::ClearColorValue { uint32: [0; 4] });
+            ctx.clear(&i.own.bubbles, vk::ClearColorValue { uint32: [0; 4] });
             let (buf, count) = particles;
             let push = Push {
                 count,
@@ -117,7 +139,7 @@ impl Diffuse {
                 opacity: s.opacity,
                 indirect: indirect as u32,
             };
-            let res = [frame.into(), buf.into(), i.depth.into(), i.scene_depth.into(), i.white.into(), i.bubbles.into()];
+            let res = [frame.into(), buf.into(), i.depth.into(), i.scene_depth.into(), (&i.own.white).into(), (&i.own.bubbles).into()];
             if indirect {
                 self.prog.dispatch_indirect(ctx, &res, &push, buf, 2 * count as u64 * 16);
             } else {

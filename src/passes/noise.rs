@@ -131,6 +131,15 @@ pub struct SplatPush {
     pub threshold: f32,
 }
 
+/// Whether noise.comp's NOISE_ALONE variant (every sprite walked by its own thread) serves this device rather
+/// than the one that shares large sprites out over the work group. On a GPU a thread walking a large sprite holds
+/// its whole warp; on a CPU driver (lavapipe) a work group's lanes are SIMD lanes of one core, where the scan and
+/// the search per texel in shared memory cost more than they save (lavapipe, wave at 480×270 quarter framing:
+/// the pass took 1.5–2× longer shared).
+pub fn alone(gpu: &Gpu) -> bool {
+    gpu.info.device_type.contains("CPU")
+}
+
 /// Push constants of noise_apply.comp.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -141,14 +150,19 @@ pub struct ApplyPush {
     pub edge: f32,
 }
 
-// Splat: frame, particles (+ motions), fluid depth → accum (cleared first).
-declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite]));
-// Apply: frame, accum, fluid depth, normals (in place) → noise.
-declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite, ImgOverwrite]));
+// Splat: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first), work counts.
+declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
+// The same, every sprite by its own thread ([`alone`]).
+declare_program!(pub SPLAT_ALONE: SplatPush = compute(shaders::NOISE_ALONE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
+// Resolve: frame, accumulator atlas, fluid depth → noise (N in radii); the splat's coarsest level.
+declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
+// Apply: frame, noise, fluid depth, normals (in place).
+declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite]));
 
 /// The pass: its compute programs, built once per device.
 pub struct Noise {
     splat: ComputeProgram<SplatPush>,
+    resolve: ComputeProgram<()>,
     apply: ComputeProgram<ApplyPush>,
 }
 
@@ -158,19 +172,93 @@ pub struct NoiseImages<'a> {
     pub depth: &'a Image,
     /// Packed normals, perturbed in place.
     pub normals: &'a Image,
-    /// Fixed-point accumulator (R32_UINT).
-    pub accum: &'a Image,
+    /// The pass's own resources (the effect's images, allocated only while it is on).
+    pub own: &'a NoiseTargets,
+}
+
+/// What the pass owns per frame size: the accumulator atlas, the noise image and the work counts. Allocated
+/// only while `[noise] enabled` (`Targets::noise`).
+pub struct NoiseTargets {
+    /// Fixed-point accumulator atlas (R32_UINT): level 0 (the output's size) with the coarser levels stacked
+    /// to its right ([`atlas_extent`]).
+    pub accum: Image,
     /// N in radii (R32F), read by `composite`.
-    pub noise: &'a Image,
+    pub noise: Image,
+    /// The splat's work, u32 ×4: the coarsest level written, texels visited, sprites drawn, texels evaluated
+    /// ([`Work`]; host-readable).
+    pub work: Buffer,
+}
+
+/// The pass's work in one frame, as its counters hold it ([`NoiseTargets::work`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Work {
+    /// The coarsest accumulator level any sprite was evaluated on (0: every sprite at full resolution).
+    pub level: u32,
+    /// Sprite texels visited (each sprite's rectangle at its level).
+    pub texels: u64,
+    /// Sprites drawn (not culled as too deep, behind the camera or off screen).
+    pub sprites: u64,
+    /// Texels whose noise was evaluated (inside the sprite's disc, on the fluid, not too deep).
+    pub evaluated: u64,
+}
+
+/// The accumulator atlas of a `width`×`height` output: level 0 plus [`crate::shader_constants::NOISE_LEVELS`]
+/// coarser levels stacked in a column to its right (noise.glsl's `noise_level_base`).
+pub fn atlas_extent(width: u32, height: u32) -> vk::Extent2D {
+    let levels = crate::shader_constants::NOISE_LEVELS;
+    let column: u32 = (1..=levels).map(|l| height.div_ceil(1 << l)).sum();
+    vk::Extent2D { width: width + width.div_ceil(2), height: height.max(column) }
+}
+
+impl NoiseTargets {
+    /// The pass's resources for a `width`×`height` output.
+    pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32) -> Result<NoiseTargets> {
+        use vk::ImageUsageFlags as U;
+        let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
+        let full = vk::Extent2D { width, height };
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
+        Ok(NoiseTargets {
+            accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
+            noise: Image::new(gpu, "noise", full, vk::Format::R32_SFLOAT, storage, None)?,
+            work: Buffer::new(gpu, "noise_work", 16, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
+        })
+    }
+
+    /// The last recorded frame's work (read once its GPU work has finished).
+    pub fn work(&self) -> Result<Work> {
+        let b = self.work.read()?;
+        let w = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().expect("4 bytes"));
+        Ok(Work { level: w(0), texels: w(1) as u64, sprites: w(2) as u64, evaluated: w(3) as u64 })
+    }
+
+    /// (name, bytes) of each resource, for the memory table.
+    pub fn memory(&self) -> Vec<(&str, u64)> {
+        vec![
+            (self.accum.name.as_str(), self.accum.bytes()),
+            (self.noise.name.as_str(), self.noise.bytes()),
+            (self.work.name.as_str(), self.work.size),
+        ]
+    }
 }
 
 impl Noise {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Noise { splat: ComputeProgram::new(gpu, &SPLAT)?, apply: ComputeProgram::new(gpu, &APPLY)? })
+        Self::with_variant(gpu, alone(gpu))
     }
 
-    /// Splat the `count` particles' noise and perturb the normals; `edge`: the normals' depth jump (world).
+    /// The pass with a chosen splat variant: every sprite by its own thread (`alone`) or large sprites shared
+    /// out over the work group — the same sums either way (the tests run both on any device).
+    pub fn with_variant(gpu: &Arc<Gpu>, alone: bool) -> Result<Self> {
+        Ok(Noise {
+            splat: ComputeProgram::new(gpu, if alone { &SPLAT_ALONE } else { &SPLAT })?,
+            resolve: ComputeProgram::new(gpu, &RESOLVE)?,
+            apply: ComputeProgram::new(gpu, &APPLY)?,
+        })
+    }
+
+    /// Splat the `count` particles' noise, resolve it into N and perturb the normals; `edge`: the normals'
+    /// depth jump (world).
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
@@ -180,8 +268,10 @@ impl Noise {
         p: &Params,
         edge: f32,
     ) {
+        let own = i.own;
         ctx.pass(NAME, |ctx| {
-            ctx.clear(i.accum, vk::ClearColorValue { uint32: [0; 4] });
+            ctx.clear(&own.accum, vk::ClearColorValue { uint32: [0; 4] });
+            ctx.fill(&own.work, 0);
             let (buf, count) = particles;
             let push = SplatPush {
                 count,
@@ -192,10 +282,12 @@ impl Noise {
                 turbulent: p.turbulent,
                 threshold: p.threshold,
             };
-            let res = [frame.into(), buf.into(), i.depth.into(), i.accum.into()];
+            let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
             self.splat.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
-            let g = groups_2d(i.noise.extent.width, i.noise.extent.height, super::LOCAL_2D);
-            let res = [frame.into(), i.accum.into(), i.depth.into(), i.normals.into(), i.noise.into()];
+            let g = groups_2d(own.noise.extent.width, own.noise.extent.height, super::LOCAL_2D);
+            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
+            self.resolve.dispatch(ctx, &res, &(), g);
+            let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
             self.apply.dispatch(ctx, &res, &ApplyPush { strength: p.strength, edge }, g);
         });
     }
@@ -344,6 +436,45 @@ pub mod reference {
             }
         }
         acc
+    }
+
+    /// The reference's work: the pixels of every sprite's rectangle not culled at its centre (what noise.comp
+    /// visited per particle before its level of detail), to compare [`super::Work::texels`] with.
+    #[allow(clippy::too_many_arguments)]
+    pub fn work(
+        particles: &[Particle],
+        depth: &[f32],
+        width: usize,
+        height: usize,
+        f: f32,
+        r: f32,
+        near: f32,
+        p: &Params,
+    ) -> u64 {
+        let mut n = 0u64;
+        for pt in particles {
+            let z = -pt.c[2];
+            if z <= near {
+                continue;
+            }
+            let centre = [0.5 * width as f32 + f * pt.c[0] / z - 0.5, 0.5 * height as f32 - f * pt.c[1] / z - 0.5];
+            let rr = f * p.size * r / z;
+            let lo = [(centre[0] - rr).ceil().max(0.0) as i64, (centre[1] - rr).ceil().max(0.0) as i64];
+            let hi = [
+                ((centre[0] + rr).floor() as i64).min(width as i64 - 1),
+                ((centre[1] + rr).floor() as i64).min(height as i64 - 1),
+            ];
+            let mid = [
+                (centre[0].round() as i64).clamp(0, width as i64 - 1) as usize,
+                (centre[1].round() as i64).clamp(0, height as i64 - 1) as usize,
+            ];
+            let dc = depth[mid[1] * width + mid[0]];
+            if (dc < 1e30 && z - dc > (DEEP * p.falloff + p.size) * r) || lo[0] > hi[0] || lo[1] > hi[1] {
+                continue;
+            }
+            n += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
+        }
+        n
     }
 }
 

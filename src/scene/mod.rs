@@ -472,10 +472,12 @@ pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
         reason: format!("unknown particle format (expected one of: {})", format::describe()),
     })?;
     let raw = parse_raw(format, path, &bytes)?;
-    if raw.positions.is_empty() {
-        return Err(Error::Parse { path: path.to_path_buf(), offset: 0, reason: "the file holds no particles".into() });
+    // A file with no particles is a valid frame (an export's frame before anything spawned, a fluid that has
+    // drained): every reader takes it; what needs particles (a fitted camera or radius) says so itself.
+    let empty = raw.positions.is_empty();
+    if !empty {
+        check_required(path, &raw, o)?;
     }
-    check_required(path, &raw, o)?;
     let p = raw.into_particles(o);
     if p.dropped_non_finite > 0 {
         // The one warning a user sees: such particles are never rendered.
@@ -486,7 +488,7 @@ pub fn load_with(path: &Path, o: &LoadOptions) -> Result<Particles> {
             if p.dropped_non_finite == 1 { "" } else { "s" }
         );
     }
-    if p.is_empty() {
+    if p.is_empty() && !empty {
         return Err(Error::Parse {
             path: path.to_path_buf(),
             offset: 0,

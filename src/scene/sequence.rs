@@ -194,6 +194,56 @@ pub fn resolve(spec: &str, range: Option<FrameRange>, shard: Option<(usize, usiz
 /// process ([`crate::input::note`]), and the pattern, folder or glob itself ([`crate::input::note_sequence`]),
 /// so no output of the run can overwrite a frame or become one.
 pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
+    let exts: Vec<&str> = super::format::extensions().collect();
+    resolve_files(spec, &exts, "particle")
+}
+
+/// The pattern of a numbered file name: its last run of digits (in the stem) replaced by `{}`.
+fn name_pattern(name: &str) -> Option<String> {
+    let stem_len = name.rsplit_once('.').map_or(name.len(), |(s, _)| s.len());
+    let stem = &name[..stem_len];
+    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = stem[..end].rfind(|c: char| !c.is_ascii_digit()).map(|i| i + 1).unwrap_or(0);
+    Some(format!("{}{{}}{}", &name[..start], &name[end..]))
+}
+
+/// A folder's files with one of `exts` as one sequence: the files must share one numbered name pattern (or
+/// none be numbered, then they are taken in name order); a folder holding several sequences (the particles and
+/// an export beside them) is refused with the patterns it holds, so the user names one.
+fn folder_files(spec: &str, exts: &[&str], what: &str) -> Result<Vec<PathBuf>> {
+    let rd = std::fs::read_dir(spec).map_err(|e| Error::io(spec, e))?;
+    let mut files: Vec<PathBuf> = rd
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| exts.contains(&e.to_ascii_lowercase().as_str()))
+        })
+        .collect();
+    files.sort();
+    let mut groups: std::collections::BTreeMap<String, usize> = Default::default();
+    for f in &files {
+        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        *groups.entry(name_pattern(&name).unwrap_or(name)).or_default() += 1;
+    }
+    let numbered = groups.keys().filter(|k| k.contains("{}")).count();
+    if numbered > 1 || (numbered == 1 && groups.len() > 1) {
+        let dir = spec.trim_end_matches('/');
+        let list: Vec<String> =
+            groups.iter().map(|(k, n)| format!("'{dir}/{k}' ({n} file{})", if *n == 1 { "" } else { "s" })).collect();
+        return Err(Error::Invalid(format!(
+            "{spec}: the folder holds {} {what} sequences or files: {}; name the one to read by its pattern",
+            groups.len(),
+            list.join(", ")
+        )));
+    }
+    Ok(files)
+}
+
+/// Every frame of a pattern, folder or glob whose files are of `what` kind (a folder's files are those ending in
+/// one of `exts`), sorted by number, recorded as inputs like [`resolve_all`].
+pub fn resolve_files(spec: &str, exts: &[&str], what: &str) -> Result<Vec<Frame>> {
     let mut frames: Vec<Frame> = if is_pvd(spec) {
         read_pvd(Path::new(spec))?
     } else if let Some((pre, post)) = spec.split_once("{}") {
@@ -222,18 +272,7 @@ pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
             })
             .collect()
     } else if Path::new(spec).is_dir() {
-        let rd = std::fs::read_dir(spec).map_err(|e| Error::io(spec, e))?;
-        let mut files: Vec<PathBuf> = rd
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                p.is_file()
-                    && p.extension()
-                        .and_then(|e| e.to_str())
-                        .is_some_and(|e| super::format::extensions().any(|x| x == e.to_ascii_lowercase()))
-            })
-            .collect();
-        files.sort();
-        numbered(files)
+        numbered(folder_files(spec, exts, what)?)
     } else {
         let paths = glob::glob(spec).map_err(|e| Error::Invalid(format!("bad glob {spec:?}: {e}")))?;
         let mut files: Vec<PathBuf> = paths.filter_map(|p| p.ok()).filter(|p| p.is_file()).collect();
@@ -241,7 +280,11 @@ pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
         numbered(files)
     };
     if frames.is_empty() {
-        return Err(Error::Invalid(format!("{spec}: no particle files match")));
+        return Err(Error::Invalid(if Path::new(spec).is_dir() {
+            format!("{spec}: the folder holds no {what} files (.{})", exts.join(", ."))
+        } else {
+            format!("{spec}: no {what} files match")
+        }));
     }
     frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
     for f in &frames {

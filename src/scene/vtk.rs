@@ -68,9 +68,12 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let mut in_point_data = false;
     let mut n_point_data = 0usize;
     let mut n_cell_data = 0usize;
+    // The last section read, with its count: what a stray token after it most likely means.
+    let mut last: Option<(String, usize)> = None;
     while let Some(kw) = c.token() {
         let at = c.pos - kw.len();
-        match kw.to_ascii_uppercase().as_str() {
+        let upper = kw.to_ascii_uppercase();
+        match upper.as_str() {
             "DATASET" => {
                 let t = c.expect_token("dataset type")?;
                 if t.eq_ignore_ascii_case("STRUCTURED_POINTS") || t.eq_ignore_ascii_case("RECTILINEAR_GRID") {
@@ -183,8 +186,28 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 c.line();
                 while c.pos < c.d.len() && !c.line().trim().is_empty() {}
             }
-            other => return Err(c.err(at, format!("unexpected keyword {other:?}"))),
+            _ => {
+                let what = if kw.parse::<f64>().is_ok() { "a number" } else { "not a section keyword" };
+                let reason = match &last {
+                    // More data than the section's count says: the count is too small (or the file damaged).
+                    Some((sec, n)) => format!(
+                        "{kw:?} is {what}, found where the next section should start: the data of {sec} is longer \
+                         than its count ({n}) says (the count is too small, or the file is damaged)"
+                    ),
+                    None => {
+                        format!("{kw:?} is {what}, found where a section (POINTS, CELLS, POINT_DATA, …) should start")
+                    }
+                };
+                return Err(c.err(at, reason));
+            }
         }
+        let count = match upper.as_str() {
+            "POINTS" => positions.as_ref().map_or(0, |p| p.len()),
+            "DATASET" | "METADATA" => continue,
+            _ if in_point_data => n_point_data,
+            _ => n_cell_data,
+        };
+        last = Some((upper, count));
     }
     let positions = positions.ok_or_else(|| c.err(c.d.len(), "no POINTS section"))?;
     let n = positions.len();

@@ -109,8 +109,8 @@ impl Params {
     /// Reject values the solver cannot run with.
     pub fn validate(&self) -> Result<()> {
         let bad = |what: &str| Err(Error::Invalid(format!("[sim] {what}")));
-        if !(self.fps.is_finite() && self.fps > 0.0) {
-            return bad("fps must be positive");
+        if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 10_000.0) {
+            return bad("fps must be in (0, 10000] frames per simulated second");
         }
         if self.iterations == 0 || self.iterations > 100 {
             return bad("iterations must be 1..=100");

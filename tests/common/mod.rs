@@ -140,10 +140,13 @@ pub fn tile_back(centres: &[[f32; 3]], r: f32, w: usize, h: usize, f: f32, near:
     out
 }
 
-/// A folder or file of `../shared/data` (relative to it). Missing data FAILS under `CI=true` (the data is there in
-/// CI, so its absence means a broken set-up); outside CI it returns None and the test says it checked nothing.
+/// A folder or file of `../shared/data` (relative to it; `MENISCUS_SHARED_DATA` names another place, as the GPU
+/// bundle's copy of the test binaries does). Missing data FAILS under `CI=true` (the data is there in CI, so its
+/// absence means a broken set-up); outside CI it returns None and the test says it checked nothing.
 pub fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(rel);
+    let root = std::env::var_os("MENISCUS_SHARED_DATA").map(std::path::PathBuf::from);
+    let root = root.unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data"));
+    let p = root.join(rel);
     if p.exists() {
         return Some(p);
     }

@@ -59,8 +59,10 @@ impl LoadArgs {
         set(&mut o.radius, &self.radius_attr, "--radius-attr", 1);
         o.required = o_required;
         o.z_up = self.up == "z";
-        if !(self.scale.is_finite() && self.scale > 0.0) {
-            bail!("--scale must be a positive number");
+        // Unit conversions span km → µm; beyond that the particles' spacing leaves 32-bit floats (1e-20 makes
+        // every particle one point: an empty picture).
+        if !(self.scale.is_finite() && (1e-6..=1e6).contains(&self.scale)) {
+            bail!("--scale {:e}: expected a unit conversion factor in [1e-6, 1e6]", self.scale);
         }
         o.scale = self.scale;
         Ok(o)
@@ -138,6 +140,19 @@ pub struct SettingsArgs {
 }
 
 impl SettingsArgs {
+    /// The drawing flags given (`--fluid-scale`, `--filter`, `--surface`, `--kernel`, `--splat`), for a command
+    /// that draws nothing to refuse rather than ignore.
+    pub fn drawing_flags(&self) -> Vec<&'static str> {
+        let given = [
+            ("--fluid-scale", self.fluid_scale.is_some()),
+            ("--filter", self.filter.is_some()),
+            ("--surface", self.surface.is_some()),
+            ("--kernel", self.kernel.is_some()),
+            ("--splat", self.splat.is_some()),
+        ];
+        given.into_iter().filter(|(_, on)| *on).map(|(f, _)| f).collect()
+    }
+
     /// Preset, then the TOML file, then the flags (the radius is the job's to set).
     pub fn resolve(&self) -> Result<Settings> {
         let mut s = Settings::preset(&self.preset)?;
@@ -218,6 +233,25 @@ pub fn check_size(w: u32, h: u32) -> Result<()> {
 /// input of the run, an extension that is not `kind`'s, an existing file of another kind), named by the flag.
 pub fn check_out(flag: &str, path: &Path, kind: Kind) -> Result<()> {
     meniscus::output::check_output(path, kind).with_context(|| flag.to_string())
+}
+
+/// A sequence write makes a new cache: refuse when any of its frames exists already (they belong to another
+/// run, which this one would replace), unless the user said `--overwrite`. Names the count and the first.
+pub fn refuse_existing(flag: &str, paths: &[std::path::PathBuf], overwrite: bool) -> Result<()> {
+    if overwrite {
+        return Ok(());
+    }
+    let existing: Vec<&std::path::PathBuf> = paths.iter().filter(|p| std::fs::symlink_metadata(p).is_ok()).collect();
+    if let Some(first) = existing.first() {
+        bail!(
+            "{flag}: {} of the {} files to write exist already (first: {}); writing would replace another \
+             run's cache. Pass --overwrite to replace them, or choose another name or folder",
+            existing.len(),
+            paths.len(),
+            first.display()
+        );
+    }
+    Ok(())
 }
 
 /// The kind among `choices` that an output flag's extension names, or an error naming the flag.

@@ -110,6 +110,13 @@ pub struct Entry {
     /// grids, the smoothed field's lattice, simulation buffers, images). With `--also-presets` it covers every
     /// renderer of the run (they share the device).
     pub gpu_memory: meniscus::gpu::MemoryReport,
+    /// The `noise` pass's work in the last measured frame (its own counters; absent when the pass is off): the
+    /// coarsest level of detail, sprite texels visited, sprites drawn, texels evaluated — a GPU's cost follows
+    /// these, whatever the CPU driver's milliseconds say.
+    pub noise_work: Option<meniscus::passes::noise::Work>,
+    /// The effect images that exist (`noise_accum`, `noise`, `diffuse_white`, …), by name: none when the
+    /// effects are off.
+    pub effect_images: Vec<String>,
 }
 
 /// The whole benchmark run.
@@ -326,6 +333,13 @@ impl Series {
             pass_queues: self.pass_queues,
             rss_after_frames_bytes: rss_bytes(),
             gpu_memory: r.gpu.memory_report(),
+            noise_work: t.noise.as_ref().map(|n| n.work()).transpose()?,
+            effect_images: t
+                .memory()
+                .into_iter()
+                .map(|(n, _)| n.to_string())
+                .filter(|n| n.starts_with("noise") || n.starts_with("diffuse"))
+                .collect(),
         })
     }
 }
@@ -346,11 +360,11 @@ pub fn markdown(entries: &[Entry]) -> String {
     for n in &names {
         s.push_str(&format!(" {n} |"));
     }
-    s.push_str(" GPU total (median / p95) | CPU frame | fluid images MB |\n|---|---:|---|---|");
+    s.push_str(" GPU total (median / p95) | CPU frame | fluid images MB | noise texels (level) |\n|---|---:|---|---|");
     for _ in &names {
         s.push_str("---:|");
     }
-    s.push_str("---:|---:|---:|\n");
+    s.push_str("---:|---:|---:|---:|\n");
     for e in entries {
         s.push_str(&format!("| {} | {} | {}×{} | {} |", e.scene, e.particles, e.width, e.height, e.variant));
         for n in &names {
@@ -359,8 +373,9 @@ pub fn markdown(entries: &[Entry]) -> String {
                 None => s.push_str(" – |"),
             }
         }
+        let noise = e.noise_work.map_or("–".to_string(), |w| format!("{} ({})", w.texels, w.level));
         s.push_str(&format!(
-            " {:.3} / {:.3} | {:.3} | {:.1} |\n",
+            " {:.3} / {:.3} | {:.3} | {:.1} | {noise} |\n",
             e.gpu_total.median,
             e.gpu_total.p95,
             e.cpu_frame.median,
@@ -618,6 +633,9 @@ fn overlap_report(entries: &[Entry]) -> String {
 pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
     use meniscus::output::Kind;
+    if a.sweep.is_none() && (a.chart.is_some() || !a.sweep_particles.is_empty()) {
+        bail!("--chart and --sweep-particles apply to a sweep: add --sweep particles (or pixels)");
+    }
     for f in &a.scenes {
         meniscus::input::note(std::path::Path::new(f));
     }

@@ -34,6 +34,10 @@ pub struct FoamArgs {
     /// One file per type, as FoamGenerator's --splittypes: _foam, _spray and _bubbles before the extension.
     #[arg(long)]
     pub split_types: bool,
+    /// Replace exported files that exist already (without it, an export whose files exist is refused: they
+    /// belong to another run).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Write only these frames, FIRST..LAST[:STEP] (the generation still starts at the sequence's first frame).
     #[arg(long = "frames", value_name = "RANGE")]
     pub frames_range: Option<String>,
@@ -205,13 +209,15 @@ pub fn run(a: &FoamArgs) -> Result<()> {
             vec![(None, p)]
         }
     };
-    for f in &frames {
-        for (_, p) in outputs(f.number) {
-            // Refused there too: a name the input sequence would read as one of its frames.
-            check_out("--export", &p, kind)?;
-            if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).with_context(|| format!("--export: cannot create {}", dir.display()))?;
-            }
+    let all: Vec<PathBuf> = frames.iter().flat_map(|f| outputs(f.number)).map(|(_, p)| p).collect();
+    for p in &all {
+        // Refused there too: a name the input sequence would read as one of its frames.
+        check_out("--export", p, kind)?;
+    }
+    crate::args::refuse_existing("--export", &all, a.overwrite)?;
+    for p in &all {
+        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("--export: cannot create {}", dir.display()))?;
         }
     }
     eprintln!("{}", job.summary(None));

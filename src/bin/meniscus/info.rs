@@ -45,6 +45,18 @@ pub fn run(a: &InfoArgs) -> Result<()> {
         no_scene_json: false,
     };
     let t0 = std::time::Instant::now();
+    // A single file without particles is a valid file: described, though nothing can be fitted to it.
+    let path = std::path::Path::new(&input);
+    if !scene::sequence::is_sequence(&input) && path.is_file() {
+        let p = scene::load_with(path, &a.load.options()?)?;
+        if p.is_empty() {
+            describe_file(path, t0.elapsed().as_secs_f64() * 1e3)?;
+            println!("particles:   0");
+            println!("attributes:  {}", p.attribute_names().join(", "));
+            println!("bounds:      none (the file holds no particles)");
+            return Ok(());
+        }
+    }
     let job = Job::open(&scene_args, &a.load, meniscus::settings::Settings::default(), Select::default())?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     let file = match &job.frames {
@@ -62,14 +74,7 @@ pub fn run(a: &InfoArgs) -> Result<()> {
     };
     let p = &job.first;
     if file.exists() {
-        let bytes = meniscus::input::read(&file)?;
-        let format = scene::detect_format(&file, &bytes);
-        println!("file:        {} ({} bytes, loaded and analysed in {ms:.1} ms)", file.display(), bytes.len());
-        println!(
-            "format:      {}{}",
-            format.map(|f| f.name()).unwrap_or("?"),
-            if bytes.starts_with(&[0x1f, 0x8b]) { " (gzip)" } else { "" }
-        );
+        describe_file(&file, ms)?;
     }
     println!("particles:   {}", p.len());
     println!("attributes:  position{}", p.attribute_names().iter().map(|a| format!(", {a}")).collect::<String>());
@@ -87,6 +92,19 @@ pub fn run(a: &InfoArgs) -> Result<()> {
     }
     println!("radius:      {:.5} ({:?}) → --radius {:.5}", job.settings.radius, job.radius_from, job.settings.radius);
     eprintln!("{}", job.summary(None));
+    Ok(())
+}
+
+/// The file's name, size and format lines.
+fn describe_file(file: &std::path::Path, ms: f64) -> Result<()> {
+    let bytes = meniscus::input::read(file)?;
+    let format = scene::detect_format(file, &bytes);
+    println!("file:        {} ({} bytes, loaded and analysed in {ms:.1} ms)", file.display(), bytes.len());
+    println!(
+        "format:      {}{}",
+        format.map(|f| f.name()).unwrap_or("?"),
+        if bytes.starts_with(&[0x1f, 0x8b]) { " (gzip)" } else { "" }
+    );
     Ok(())
 }
 

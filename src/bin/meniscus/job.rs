@@ -124,7 +124,17 @@ impl Job {
                         if gaps.len() > 10 { ", …" } else { "" }
                     );
                 }
-                let first = scene::load_with(&all[0].path, &load)?;
+                // The first frame that holds particles (a 0-particle frame is valid, but nothing fits to it).
+                let mut first = scene::load_with(&all[0].path, &load)?;
+                for f in all.iter().skip(1) {
+                    if !first.is_empty() {
+                        break;
+                    }
+                    first = scene::load_with(&f.path, &load)?;
+                }
+                if first.is_empty() {
+                    bail!("{input}: no frame of the sequence holds particles");
+                }
                 if !scene_args.no_scene_json {
                     scene_json = find_scene_json(&all[0].path);
                 }
@@ -146,7 +156,11 @@ impl Job {
                     scene_json = find_scene_json(path);
                 }
                 let r = scene_json.as_ref().and_then(|s| s.radius).map(|r| (r, RadiusFrom::SceneJson));
-                (scene::load_with(path, &load)?, r, None, input.to_string())
+                let p = scene::load_with(path, &load)?;
+                if p.is_empty() {
+                    bail!("{input}: the file holds no particles: nothing to render or mesh (`meniscus info` reads it)");
+                }
+                (p, r, None, input.to_string())
             }
         };
         // Coordinates whose squares overflow 32-bit floats cannot be rendered or meshed (distances are squared).
@@ -162,8 +176,20 @@ impl Job {
             (Some(r), _) => (r, RadiusFrom::Flag),
             (None, Some(r)) => r,
             (None, None) => {
-                let r = scene::estimate_radius(&first.positions)
-                    .context("cannot estimate the particle radius (too few distinct particles); pass --radius")?;
+                let r = match scene::estimate_radius(&first.positions) {
+                    Some(r) => r,
+                    None => {
+                        let b = scene::percentile_bounds(&first.positions, 0.0);
+                        let extent = b.map_or(0.0, |b| (b.hi - b.lo).max_element());
+                        bail!(
+                            "{label}: cannot estimate the particle radius: {} particle{} within {extent:e} of \
+                             each other (fewer than two distinct positions a float can tell apart, or too few \
+                             particles); pass --radius, and check the units (--scale)",
+                            first.len(),
+                            if first.len() == 1 { "" } else { "s" }
+                        )
+                    }
+                };
                 (r, RadiusFrom::Estimated)
             }
         };

@@ -174,7 +174,18 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                 },
             };
             let (m, rep) =
-                meniscus::surface::mesh::reconstruct(&p.positions, &recon, gpu_mc.as_ref().map(|(g, mc)| (g, mc)))?;
+                meniscus::surface::mesh::reconstruct(&p.positions, &recon, gpu_mc.as_ref().map(|(g, mc)| (g, mc)))
+                    .with_context(|| {
+                        if a.gpu {
+                            format!(
+                                "mesh --gpu at --cube-size {} (radii): try a larger --cube-size, or the CPU path \
+                                 (without --gpu)",
+                                a.cube_size
+                            )
+                        } else {
+                            format!("mesh at --cube-size {} (radii)", a.cube_size)
+                        }
+                    })?;
             // The one stray-particle policy: particles far from the fluid are left out, and counted.
             if rep.strays > 0 {
                 eprintln!("{}", scene::stray_warning(rep.strays, "the mesh"));

@@ -143,10 +143,52 @@ impl Movie {
         if self.frames == 0 {
             bail!("{}: no frames to encode", self.path.display());
         }
+        // ffmpeg can exit 0 having failed to write its output (a full disk: "Error writing trailer", a file
+        // without its index). The movie replaces an existing one only when ffmpeg reported no error, the
+        // file is on disk (synced) and it decodes to every frame that was sent.
+        if let Some(line) = msg.lines().find(|l| {
+            let l = l.to_ascii_lowercase();
+            l.contains("error") || l.contains("no space left")
+        }) {
+            bail!("{}: ffmpeg reported an error, the movie is not kept: {}", self.path.display(), line.trim());
+        }
+        let partial = self.partial.take().expect("until finish");
+        std::fs::File::open(partial.tmp())
+            .and_then(|f| f.sync_all())
+            .with_context(|| format!("{}: the encoded movie could not be written to disk", self.path.display()))?;
+        let decoded = count_frames(partial.tmp())
+            .with_context(|| format!("{}: the encoded movie could not be checked", self.path.display()))?;
+        if decoded != self.frames {
+            bail!(
+                "{}: the encoded movie decodes to {decoded} of its {} frames (a full disk or a failed write?); \
+                 the movie is not kept",
+                self.path.display(),
+                self.frames
+            );
+        }
         let n = self.frames;
-        self.partial.take().expect("until finish").commit()?;
+        partial.commit()?;
         Ok(n)
     }
+}
+
+/// The frames a movie file decodes to (ffprobe, which comes with ffmpeg, decodes every frame); an error when
+/// it cannot be read at all.
+pub fn count_frames(path: &Path) -> Result<usize> {
+    let o = Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+        .args(["-show_entries", "stream=nb_read_frames", "-of", "csv=p=0"])
+        .arg(path)
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| anyhow::anyhow!("cannot run ffprobe (it comes with ffmpeg: apt-get install ffmpeg): {e}"))?;
+    let out = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr);
+    if !o.status.success() {
+        bail!("ffprobe cannot read it: {}", err.trim());
+    }
+    // No video stream (a file cut before its first frame) prints nothing.
+    Ok(out.trim().trim_end_matches(',').parse().unwrap_or(0))
 }
 
 impl Drop for Movie {
@@ -174,7 +216,7 @@ pub struct EncodeArgs {
 /// Encode numbered PNG frames (a `render` or a cluster's shards) into one movie.
 pub fn encode(a: &EncodeArgs) -> Result<()> {
     let kind = crate::args::out_kind("--out", &a.out, &MOVIE_KINDS)?;
-    let frames = meniscus::scene::sequence::resolve_all(&a.frames)?;
+    let frames = meniscus::scene::sequence::resolve_files(&a.frames, &["png"], "PNG")?;
     crate::args::check_out("--out", &a.out, kind)?;
     let gaps = meniscus::scene::sequence::missing(&frames);
     if !gaps.is_empty() {

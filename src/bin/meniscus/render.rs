@@ -193,8 +193,21 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             }
         }
     }
-    let frames: Vec<_> =
-        if a.resume { all.iter().filter(|f| !names.path(f.number).is_file()).cloned().collect() } else { all.clone() };
+    // --resume: a frame is done when its PNG is whole at this job's size; a broken one is rendered again.
+    let done = |n: u64| -> bool {
+        let p = names.path(n);
+        if !p.is_file() {
+            return false;
+        }
+        match meniscus::output::check_png(&p, a.width, a.height) {
+            Ok(()) => true,
+            Err(why) => {
+                eprintln!("--resume: {}: {why}; rendering it again", p.display());
+                false
+            }
+        }
+    };
+    let frames: Vec<_> = if a.resume { all.iter().filter(|f| !done(f.number)).cloned().collect() } else { all.clone() };
     if frames.is_empty() {
         eprintln!("--resume: all {} frames are already written", all.len());
         return Ok(());

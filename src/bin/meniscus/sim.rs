@@ -46,6 +46,10 @@ pub struct SimArgs {
     /// 2 bubbles) and id.
     #[arg(long, value_name = "PATTERN")]
     pub foam: Option<String>,
+    /// Replace files of --export and --foam that exist already (without it, a run whose outputs exist is
+    /// refused: a sequence write is a new cache, and the files there belong to another run).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Settings (the `[sim]` section holds the solver's constants).
     #[command(flatten)]
     pub settings: SettingsArgs,
@@ -56,6 +60,14 @@ pub struct SimArgs {
 impl SimArgs {
     /// The scene and the solver settings the flags ask for.
     pub fn resolve(&self) -> Result<(SimScene, meniscus::sim::Params)> {
+        let drawing = self.settings.drawing_flags();
+        if !drawing.is_empty() {
+            bail!(
+                "{} set how the water is drawn; `sim` writes particles and draws nothing (pass them to `render` of \
+                 the export, or to `demo --sim`)",
+                drawing.join(", ")
+            );
+        }
         let default = SCENES.iter().find(|s| s.0 == self.scene).map_or(10_000, |s| s.1);
         let mut scene = SimScene::new(&self.scene, self.particles.unwrap_or(default))?;
         if let Some(path) = &self.collider {
@@ -83,25 +95,30 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let (scene, params) = a.resolve()?;
     if let Some(e) = &a.export {
         let kind = crate::args::out_kind("--export", std::path::Path::new(e), &meniscus::output::PARTICLE_KINDS)?;
-        for n in 1..=a.frames.max(1) {
-            crate::args::check_out("--export", std::path::Path::new(&e.replace("{}", &n.to_string())), kind)?;
-        }
         if !e.contains("{}") {
             bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
         }
+        let paths: Vec<std::path::PathBuf> =
+            (1..=a.frames.max(1)).map(|n| std::path::PathBuf::from(e.replace("{}", &n.to_string()))).collect();
+        for p in &paths {
+            crate::args::check_out("--export", p, kind)?;
+        }
+        crate::args::refuse_existing("--export", &paths, a.overwrite)?;
     }
     if let Some(f) = &a.foam {
         if !f.contains("{}") {
             bail!("--foam {f:?}: the pattern needs {{}} where the frame number goes, e.g. 'foam/f_{{}}.bgeo'");
         }
         let kind = crate::args::out_kind("--foam", std::path::Path::new(f), &meniscus::output::PARTICLE_KINDS)?;
-        for n in 1..=a.frames.max(1) {
-            let path = std::path::PathBuf::from(f.replace("{}", &n.to_string()));
-            crate::args::check_out("--foam", &path, kind)?;
-            if a.export.as_ref().is_some_and(|e| meniscus::scene::sequence::would_join(e, &path)) {
+        let paths: Vec<std::path::PathBuf> =
+            (1..=a.frames.max(1)).map(|n| std::path::PathBuf::from(f.replace("{}", &n.to_string()))).collect();
+        for path in &paths {
+            crate::args::check_out("--foam", path, kind)?;
+            if a.export.as_ref().is_some_and(|e| meniscus::scene::sequence::would_join(e, path)) {
                 bail!("--foam {f}: {} would become a frame of the --export sequence", path.display());
             }
         }
+        crate::args::refuse_existing("--foam", &paths, a.overwrite)?;
     }
     if a.frames == 0 {
         bail!("--frames must be at least 1");
