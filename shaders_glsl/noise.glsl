@@ -41,6 +41,21 @@ ivec2 noise_level_base(ivec2 size, int L) {
     return ivec2(size.x, y);
 }
 
+/// Tiles (NOISE_TILE × NOISE_TILE texels) of level L: the tiled splat's bins.
+ivec2 noise_tiles(ivec2 size, int L) {
+    return (noise_level_size(size, L) + int(NOISE_TILE) - 1) / int(NOISE_TILE);
+}
+
+/// The index of level L's first tile (the levels' tiles are numbered level after level, rows within each).
+int noise_tile_base(ivec2 size, int L) {
+    int n = 0;
+    for (int k = 0; k < L; ++k) {
+        ivec2 t = noise_tiles(size, k);
+        n += t.x * t.y;
+    }
+    return n;
+}
+
 /// Integer hash (lowbias32, C. Wellons): every bit of the input reaches every bit of the output.
 uint noise_hash(uint x) {
     x ^= x >> 16;

@@ -252,6 +252,14 @@ impl Renderer {
             self.background.invalidate();
             self.targets = Some(Targets::new(&self.gpu, want)?);
         }
+        // The tiled noise splat's bins follow the particle count.
+        let count = self.particles.count();
+        if self.passes.noise.is_tiled() {
+            if let Some(n) = self.targets.as_mut().and_then(|t| t.noise.as_mut()).filter(|n| n.needs(count)) {
+                self.executor.wait_idle()?;
+                n.reserve(&self.gpu, count)?;
+            }
+        }
         Ok(())
     }
 

@@ -20,6 +20,10 @@ pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
 pub const NOISE_LEVELS: u32 = 6;
 /// Samples per cycle of the noise's finer octave at which a sprite is evaluated (`noise` pass's level of detail).
 pub const NOISE_LOD_SAMPLES: u32 = 6;
+/// Texels per edge of a tile of the `noise` pass's tiled splat (a 16×16 work group sums one tile).
+pub const NOISE_TILE: u32 = 16;
+/// Most tiles one sprite is binned to (a sprite's level keeps it under 39 texels across: at most 4 × 4 tiles).
+pub const NOISE_MAX_TILES: u32 = 16;
 /// Bytes per particle of the renderer's particle buffer: its position (vec4) and, after all positions, its
 /// motion (vec4: id bits, |Δv|/Δt), read by the `noise` pass.
 pub const BYTES_PER_PARTICLE: u64 = 32;
@@ -65,6 +69,8 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_1D", LOCAL_1D),
     ("NOISE_LEVELS", NOISE_LEVELS),
     ("NOISE_LOD_SAMPLES", NOISE_LOD_SAMPLES),
+    ("NOISE_TILE", NOISE_TILE),
+    ("NOISE_MAX_TILES", NOISE_MAX_TILES),
     ("CURVATURE_LOCAL", CURVATURE_LOCAL),
     ("MAX_BOXES", MAX_BOXES),
     ("SSR_MISS", SSR_MISS),

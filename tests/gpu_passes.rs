@@ -1879,12 +1879,12 @@ fn noise_level_of_detail_stays_within_tolerance_of_the_reference() {
     let tau = s.noise.threshold;
     let motion: Vec<Motion> =
         (0..pos.len()).map(|k| Motion { id: 1000 + 7 * k as u32, accel: (k % 3) as f32 * tau }).collect();
-    // Both splat variants (large sprites shared out over the work group, as on a GPU; every sprite by its own
-    // thread, as on a CPU driver) give the same sums.
+    // Both splats (binned to tiles, as on a GPU; every sprite by its own thread, as on a CPU driver) give the
+    // same sums.
     let mut runs = vec![];
-    for alone in [false, true] {
+    for tiled in [true, false] {
         let mut rr = Renderer::new(&gpu).unwrap();
-        rr.passes.noise = meniscus::passes::noise::Noise::with_variant(&gpu, alone).unwrap();
+        rr.passes.noise = meniscus::passes::noise::Noise::with_variant(&gpu, tiled).unwrap();
         rr.set_particles_moving(&pos, None, None, &motion).unwrap();
         rr.render(&v, &s).unwrap();
         let t = rr.targets.as_ref().unwrap();
@@ -1894,8 +1894,10 @@ fn noise_level_of_detail_stays_within_tolerance_of_the_reference() {
         let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
         runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap()));
     }
-    assert!(runs[0].3 == runs[1].3, "the two splat variants' accumulators differ");
-    assert_eq!(runs[0].0, runs[1].0, "the two splat variants' work differs");
+    assert!(runs[0].3 == runs[1].3, "the two splats' accumulators differ");
+    let (a, b) = (runs[0].0, runs[1].0);
+    assert_eq!((a.level, a.texels, a.sprites, a.evaluated), (b.level, b.texels, b.sprites, b.evaluated));
+    assert!(a.binned > 0 && a.skipped == 0, "the close-up's large sprites go to the tiles: {a:?}");
     let (work, noise, depth, _) = runs.pop().unwrap();
     let m = v.camera.view();
     let particles: Vec<reference::Particle> = pos
@@ -1972,6 +1974,14 @@ fn noise_matches_cpu_reference() {
     let noise = read_f32(&gpu, &own.noise).unwrap();
     let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
     let normals = words(&t.normals);
+    // The other splat (tiles on a CPU driver, one thread per sprite on a GPU) gives the same atlas.
+    let mut other = Renderer::new(&gpu).unwrap();
+    let tiled = !rr.passes.noise.is_tiled();
+    other.passes.noise = meniscus::passes::noise::Noise::with_variant(&gpu, tiled).unwrap();
+    other.set_particles_moving(&pos, None, None, &motion).unwrap();
+    other.render(&v, &s).unwrap();
+    let atlas2 = words(&other.targets.as_ref().unwrap().noise.as_ref().unwrap().accum);
+    assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
     let m = v.camera.view();
     let particles: Vec<reference::Particle> = pos
         .iter()

@@ -129,15 +129,36 @@ pub struct SplatPush {
     pub turbulent: f32,
     /// [`Params::threshold`].
     pub threshold: f32,
+    /// Tiles of every level of the atlas ([`tile_count`]; the tiled splat).
+    pub tiles: u32,
+    /// Sprites of at most this many texels are splatted with atomics rather than binned ([`SMALL_SPRITE`]).
+    pub small: u32,
 }
 
-/// Whether noise.comp's NOISE_ALONE variant (every sprite walked by its own thread) serves this device rather
-/// than the one that shares large sprites out over the work group. On a GPU a thread walking a large sprite holds
-/// its whole warp; on a CPU driver (lavapipe) a work group's lanes are SIMD lanes of one core, where the scan and
-/// the search per texel in shared memory cost more than they save (lavapipe, wave at 480×270 quarter framing:
-/// the pass took 1.5–2× longer shared).
-pub fn alone(gpu: &Gpu) -> bool {
-    gpu.info.device_type.contains("CPU")
+/// The tiled splat bins only sprites of more texels than this; smaller ones are splatted by their own thread
+/// with atomics (a tile's work group tests every sprite of the tile at all its texels: worth it for a sprite
+/// hundreds of texels across, not for one a few across). `MENISCUS_NOISE_SMALL` overrides it, for measuring.
+pub const SMALL_SPRITE: u32 = 64;
+
+/// Whether this device splats the noise through tiles (noise_bin, noise_scan, noise_gather: each tile's texels
+/// summed by one work group; sprites of at most 64 texels splatted by their own thread) rather than one thread per
+/// sprite with atomics (noise.comp). On a GPU the
+/// per-sprite splat leaves warps idle behind large sprites and its atomics contend (1.05 ms of the 59k frame at
+/// 1080p on an H100 for 5 M texels); on a CPU driver (lavapipe) a work group's lanes are SIMD lanes of one core,
+/// where every thread of a tile testing every sprite of the tile costs more than the atomics it saves.
+pub fn tiled(gpu: &Gpu) -> bool {
+    !gpu.info.device_type.contains("CPU")
+}
+
+/// Tiles (NOISE_TILE² texels) of every level of a `width`×`height` output's atlas (noise.glsl's numbering).
+pub fn tile_count(width: u32, height: u32) -> u32 {
+    use crate::shader_constants::{NOISE_LEVELS, NOISE_TILE};
+    (0..=NOISE_LEVELS)
+        .map(|l| {
+            let (w, h) = (width.div_ceil(1 << l), height.div_ceil(1 << l));
+            w.div_ceil(NOISE_TILE) * h.div_ceil(NOISE_TILE)
+        })
+        .sum()
 }
 
 /// Push constants of noise_apply.comp.
@@ -150,18 +171,43 @@ pub struct ApplyPush {
     pub edge: f32,
 }
 
-// Splat: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first), work counts.
+// Splat, one thread per sprite: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first),
+// work counts.
 declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
-// The same, every sprite by its own thread ([`alone`]).
-declare_program!(pub SPLAT_ALONE: SplatPush = compute(shaders::NOISE_ALONE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
+// The tiled splat: binning (count, then fill), the lists' starts, the tiles' sums.
+// Bin, count: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms.
+declare_program!(pub BIN: SplatPush = compute(shaders::NOISE_BIN, [Uniform, BufRead, ImgRead, BufWrite, BufWrite, BufWrite, ImgWrite]));
+// Bin, fill: frame, particles, fluid depth → tiles (cursors), lists.
+declare_program!(pub BIN_FILL: SplatPush = compute(shaders::NOISE_BIN_FILL, [Uniform, BufRead, ImgRead, BufWrite, BufWrite]));
+// Scan: tiles (counts → starts and cursors).
+declare_program!(pub SCAN: SplatPush = compute(shaders::NOISE_SCAN, [BufWrite]));
+// Gather: frame, sprite records, tiles, lists, fluid depth → accumulator atlas (cleared first), work.
+declare_program!(pub GATHER: SplatPush = compute(shaders::NOISE_GATHER, [Uniform, BufRead, BufRead, BufRead, ImgRead, ImgWrite, BufWrite]));
 // Resolve: frame, accumulator atlas, fluid depth → noise (N in radii); the splat's coarsest level.
 declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
 // Apply: frame, noise, fluid depth, normals (in place).
 declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite]));
 
+/// How the sprites reach the accumulator.
+enum Splat {
+    /// One thread per sprite, atomics (noise.comp).
+    Alone(ComputeProgram<SplatPush>),
+    /// Binned to tiles, each tile summed by a work group (noise_bin, noise_scan, noise_gather).
+    Tiled(Box<TiledSplat>),
+}
+
+/// The tiled splat's programs.
+struct TiledSplat {
+    bin: ComputeProgram<SplatPush>,
+    fill: ComputeProgram<SplatPush>,
+    scan: ComputeProgram<SplatPush>,
+    gather: ComputeProgram<SplatPush>,
+}
+
 /// The pass: its compute programs, built once per device.
 pub struct Noise {
-    splat: ComputeProgram<SplatPush>,
+    splat: Splat,
+    small: u32,
     resolve: ComputeProgram<()>,
     apply: ComputeProgram<ApplyPush>,
 }
@@ -176,17 +222,33 @@ pub struct NoiseImages<'a> {
     pub own: &'a NoiseTargets,
 }
 
-/// What the pass owns per frame size: the accumulator atlas, the noise image and the work counts. Allocated
-/// only while `[noise] enabled` (`Targets::noise`).
+/// What the pass owns per frame size: the accumulator atlas, the noise image and the work counts, and for the
+/// tiled splat its bins (grown with the particle count: [`NoiseTargets::reserve`]). Allocated only while
+/// `[noise] enabled` (`Targets::noise`).
 pub struct NoiseTargets {
     /// Fixed-point accumulator atlas (R32_UINT): level 0 (the output's size) with the coarser levels stacked
     /// to its right ([`atlas_extent`]).
     pub accum: Image,
     /// N in radii (R32F), read by `composite`.
     pub noise: Image,
-    /// The splat's work, u32 ×4: the coarsest level written, texels visited, sprites drawn, texels evaluated
-    /// ([`Work`]; host-readable).
+    /// The splat's work, u32 ×8 ([`Work`]; host-readable).
     pub work: Buffer,
+    /// The tiled splat's bins, once reserved.
+    pub bins: Option<Bins>,
+    width: u32,
+    height: u32,
+}
+
+/// The tiled splat's buffers for up to `particles` particles.
+pub struct Bins {
+    /// Per particle: centre, R, z; offset, amplitude (2 vec4).
+    pub sprites: Buffer,
+    /// Per tile: count, start, cursor (3 u32 × [`tile_count`]).
+    pub tiles: Buffer,
+    /// The tiles' lists of particle indices: at most NOISE_MAX_TILES per particle.
+    pub lists: Buffer,
+    /// Particles these buffers hold.
+    pub particles: u32,
 }
 
 /// The pass's work in one frame, as its counters hold it ([`NoiseTargets::work`]).
@@ -200,6 +262,10 @@ pub struct Work {
     pub sprites: u64,
     /// Texels whose noise was evaluated (inside the sprite's disc, on the fluid, not too deep).
     pub evaluated: u64,
+    /// Sprites left out of the tiled splat (more than NOISE_MAX_TILES tiles: larger than the screen).
+    pub skipped: u64,
+    /// Tile-list entries of the tiled splat (sprites × the tiles each touches).
+    pub binned: u64,
 }
 
 /// The accumulator atlas of a `width`×`height` output: level 0 plus [`crate::shader_constants::NOISE_LEVELS`]
@@ -220,45 +286,105 @@ impl NoiseTargets {
         Ok(NoiseTargets {
             accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
             noise: Image::new(gpu, "noise", full, vk::Format::R32_SFLOAT, storage, None)?,
-            work: Buffer::new(gpu, "noise_work", 16, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
+            work: Buffer::new(gpu, "noise_work", 32, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
+            bins: None,
+            width,
+            height,
         })
+    }
+
+    /// Whether [`NoiseTargets::reserve`] would allocate for `particles` (the caller waits for the GPU first).
+    pub fn needs(&self, particles: u32) -> bool {
+        self.bins.as_ref().is_none_or(|b| b.particles < particles)
+    }
+
+    /// Make the tiled splat's bins hold `particles` particles (with room for a quarter more, so a growing count
+    /// does not reallocate every frame). The GPU must not be using the old ones.
+    pub fn reserve(&mut self, gpu: &Arc<Gpu>, particles: u32) -> Result<()> {
+        if !self.needs(particles) {
+            return Ok(());
+        }
+        let n = particles.max(1024).saturating_add(particles / 4);
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
+        let gpu_only = gpu_allocator::MemoryLocation::GpuOnly;
+        let tiles = tile_count(self.width, self.height) as u64;
+        let max = crate::shader_constants::NOISE_MAX_TILES as u64;
+        self.bins = None;
+        self.bins = Some(Bins {
+            sprites: Buffer::new(gpu, "noise_sprites", 32 * n as u64, usage, gpu_only)?,
+            tiles: Buffer::new(gpu, "noise_tiles", 12 * tiles, usage, gpu_only)?,
+            lists: Buffer::new(gpu, "noise_lists", 4 * max * n as u64, usage, gpu_only)?,
+            particles: n,
+        });
+        Ok(())
     }
 
     /// The last recorded frame's work (read once its GPU work has finished).
     pub fn work(&self) -> Result<Work> {
         let b = self.work.read()?;
-        let w = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().expect("4 bytes"));
-        Ok(Work { level: w(0), texels: w(1) as u64, sprites: w(2) as u64, evaluated: w(3) as u64 })
+        let w = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().expect("4 bytes")) as u64;
+        Ok(Work {
+            level: w(0) as u32,
+            texels: w(1),
+            sprites: w(2),
+            evaluated: w(3),
+            skipped: w(4),
+            binned: w(5),
+        })
     }
 
     /// (name, bytes) of each resource, for the memory table.
     pub fn memory(&self) -> Vec<(&str, u64)> {
-        vec![
+        let mut m = vec![
             (self.accum.name.as_str(), self.accum.bytes()),
             (self.noise.name.as_str(), self.noise.bytes()),
             (self.work.name.as_str(), self.work.size),
-        ]
+        ];
+        if let Some(b) = &self.bins {
+            for buf in [&b.sprites, &b.tiles, &b.lists] {
+                m.push((buf.name.as_str(), buf.size));
+            }
+        }
+        m
     }
 }
 
 impl Noise {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Self::with_variant(gpu, alone(gpu))
+        Self::with_variant(gpu, tiled(gpu))
     }
 
-    /// The pass with a chosen splat variant: every sprite by its own thread (`alone`) or large sprites shared
-    /// out over the work group — the same sums either way (the tests run both on any device).
-    pub fn with_variant(gpu: &Arc<Gpu>, alone: bool) -> Result<Self> {
+    /// The pass with a chosen splat: tiled (GPUs) or one thread per sprite (CPU drivers) — the same sums either
+    /// way (the tests run both on any device).
+    pub fn with_variant(gpu: &Arc<Gpu>, tiled: bool) -> Result<Self> {
+        let splat = if tiled {
+            Splat::Tiled(Box::new(TiledSplat {
+                bin: ComputeProgram::new(gpu, &BIN)?,
+                fill: ComputeProgram::new(gpu, &BIN_FILL)?,
+                scan: ComputeProgram::new(gpu, &SCAN)?,
+                gather: ComputeProgram::new(gpu, &GATHER)?,
+            }))
+        } else {
+            Splat::Alone(ComputeProgram::new(gpu, &SPLAT)?)
+        };
+        let small = std::env::var("MENISCUS_NOISE_SMALL").ok().and_then(|v| v.parse().ok()).unwrap_or(SMALL_SPRITE);
         Ok(Noise {
-            splat: ComputeProgram::new(gpu, if alone { &SPLAT_ALONE } else { &SPLAT })?,
+            splat,
+            small,
             resolve: ComputeProgram::new(gpu, &RESOLVE)?,
             apply: ComputeProgram::new(gpu, &APPLY)?,
         })
     }
 
+    /// Whether this pass splats through tiles (then its targets need [`NoiseTargets::reserve`]).
+    pub fn is_tiled(&self) -> bool {
+        matches!(self.splat, Splat::Tiled(_))
+    }
+
     /// Splat the `count` particles' noise, resolve it into N and perturb the normals; `edge`: the normals'
-    /// depth jump (world).
+    /// depth jump (world). The tiled splat needs bins reserved for `count` particles (else the frame gets no
+    /// noise: the renderer reserves them before recording).
     pub fn record(
         &self,
         ctx: &mut FrameCtx,
@@ -270,9 +396,10 @@ impl Noise {
     ) {
         let own = i.own;
         ctx.pass(NAME, |ctx| {
-            ctx.clear(&own.accum, vk::ClearColorValue { uint32: [0; 4] });
             ctx.fill(&own.work, 0);
+            ctx.clear(&own.accum, vk::ClearColorValue { uint32: [0; 4] });
             let (buf, count) = particles;
+            let tiles = tile_count(own.noise.extent.width, own.noise.extent.height);
             let push = SplatPush {
                 count,
                 size: p.size,
@@ -281,9 +408,46 @@ impl Noise {
                 calm: p.calm,
                 turbulent: p.turbulent,
                 threshold: p.threshold,
+                tiles,
+                small: self.small,
             };
-            let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
-            self.splat.dispatch(ctx, &res, &push, [count.div_ceil(super::LOCAL_1D), 1, 1]);
+            let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
+            match (&self.splat, own.bins.as_ref().filter(|b| b.particles >= count)) {
+                (Splat::Tiled(t), Some(b)) => {
+                    let TiledSplat { bin, fill, scan, gather } = &**t;
+                    ctx.fill(&b.tiles, 0);
+                    let (particles, depth) = (buf.into(), i.depth.into());
+                    let res = [
+                        frame.into(),
+                        particles,
+                        depth,
+                        (&b.tiles).into(),
+                        (&b.sprites).into(),
+                        (&own.work).into(),
+                        (&own.accum).into(),
+                    ];
+                    bin.dispatch(ctx, &res, &push, groups);
+                    scan.dispatch(ctx, &[(&b.tiles).into()], &push, [1, 1, 1]);
+                    let res = [frame.into(), buf.into(), i.depth.into(), (&b.tiles).into(), (&b.lists).into()];
+                    fill.dispatch(ctx, &res, &push, groups);
+                    let res = [
+                        frame.into(),
+                        (&b.sprites).into(),
+                        (&b.tiles).into(),
+                        (&b.lists).into(),
+                        i.depth.into(),
+                        (&own.accum).into(),
+                        (&own.work).into(),
+                    ];
+                    gather.dispatch(ctx, &res, &push, [tiles, 1, 1]);
+                }
+                (Splat::Alone(splat), _) => {
+                    let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
+                    splat.dispatch(ctx, &res, &push, groups);
+                }
+                // Bins too small for these particles: no noise this frame rather than lost writes.
+                (Splat::Tiled(_), None) => {}
+            }
             let g = groups_2d(own.noise.extent.width, own.noise.extent.height, super::LOCAL_2D);
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
             self.resolve.dispatch(ctx, &res, &(), g);

@@ -1,0 +1,86 @@
+#version 460
+//! noise_gather — the tiled noise splat's sums (GPUs; NVIDIA patent US 8,947,430, eq. 15–17; method.md §8): one
+//! work group per tile of the accumulator atlas (NOISE_TILE² texels of one level); its threads load the tile's
+//! sprites in batches into shared memory and each thread adds every sprite's term at its own texel
+//! (noise_splat.glsl's `noise_term`, the same fixed-point terms noise.comp adds with atomics), reading its depth
+//! once, and adds its sum to its texel once (to the small sprites' terms noise_bin added): one uncontended atomic
+//! per texel instead of one per sprite and texel, the work spread by texels.
+//! In: sprite records (noise_bin), tiles (counts, starts), lists, the fluid depth. Out: the accumulator atlas
+//! (r32ui); work[3] (texels evaluated).
+#include "common.glsl"
+#include "noise.glsl"
+layout(local_size_x = NOISE_TILE, local_size_y = NOISE_TILE) in;
+layout(std430, set = 0, binding = 1) readonly buffer Sprites { vec4 sprites[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Tiles { uint tiles[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Lists { uint lists[]; };
+layout(set = 0, binding = 4, r32f) uniform readonly image2D depth;
+// Holds the small sprites' terms (noise_bin): a tile's sum is added to them.
+layout(set = 0, binding = 5, r32ui) uniform uimage2D accum;
+layout(std430, set = 0, binding = 6) buffer Work { uint work[8]; };
+layout(push_constant) uniform Push {
+    uint count;
+    float size;
+    float freq;
+    float falloff;
+    float calm;
+    float turbulent;
+    float threshold;
+    uint tiles;      // n
+    uint small;      // sprites of at most this many texels are not binned (noise_bin)
+} pc;
+#define NOISE_TERM_ONLY
+#include "noise_splat.glsl"
+
+#define BATCH (NOISE_TILE * NOISE_TILE)
+shared vec4 s_a[BATCH];
+shared vec4 s_b[BATCH];
+shared float s_reach[BATCH];
+shared uint s_evaluated;
+
+void main() {
+    uint tile = gl_WorkGroupID.x;
+    uint li = gl_LocalInvocationIndex;
+    ivec2 size = imageSize(depth);
+    // The tile's level and place.
+    int L = 0, base = 0;
+    ivec2 nt = noise_tiles(size, 0);
+    while (L < int(NOISE_LEVELS) && int(tile) >= base + nt.x * nt.y) {
+        base += nt.x * nt.y;
+        ++L;
+        nt = noise_tiles(size, L);
+    }
+    int k = int(tile) - base;
+    ivec2 q = ivec2(k % nt.x, k / nt.x) * int(NOISE_TILE) + ivec2(gl_LocalInvocationID.xy);
+    bool inside = all(lessThan(q, noise_level_size(size, L)));
+    float d = inside ? imageLoad(depth, noise_pick(q, L, size)).x : 1.0 / 0.0;
+    bool fluid = inside && is_fluid(d);
+    if (li == 0u) s_evaluated = 0u;
+    uint n = tiles[tile], start = tiles[pc.tiles + tile];
+    int sum = 0;
+    uint evaluated = 0u;
+    for (uint b0 = 0u; b0 < n; b0 += BATCH) {
+        barrier();
+        if (b0 + li < n) {
+            uint j = lists[start + b0 + li];
+            s_a[li] = sprites[2u * j];
+            s_b[li] = sprites[2u * j + 1u];
+            s_reach[li] = noise_reach(s_b[li].w);
+        }
+        barrier();
+        uint m = min(BATCH, n - b0);
+        if (fluid) {
+            for (uint u = 0u; u < m; ++u) {
+                vec4 a = s_a[u], b = s_b[u];
+                int units;
+                if (noise_term(q, L, a.xy, a.z, a.w, b.xyz, b.w, s_reach[u], d, units)) {
+                    ++evaluated;
+                    sum += units;
+                }
+            }
+        }
+    }
+    if (inside && sum != 0) imageAtomicAdd(accum, noise_level_base(size, L) + q, uint(sum));
+    if (evaluated > 0u) atomicAdd(s_evaluated, evaluated);
+    barrier();
+    if (li == 0u && s_evaluated > 0u) atomicAdd(work[3], s_evaluated);
+}

@@ -1,0 +1,75 @@
+//! noise_splat.glsl — one particle's noise sprite and one texel's term, shared by the splats of the `noise` pass
+//! (noise.comp: every sprite by its own thread, with atomics; noise_bin.comp + noise_gather.comp: sprites binned
+//! to tiles, each tile's texels summed by its own work group, no atomics). The sums are the same either way.
+//! Expects, declared before it: the particle buffer `particles`, the fluid depth image `depth`, and the push
+//! block `pc` (count, size, freq, falloff, calm, turbulent, threshold, tiles); with NOISE_TERM_ONLY defined only
+//! the texel term (`noise_term`), which needs `pc` alone. NVIDIA patent US 8,947,430 (eq.
+//! 15–17; method.md §8); the level of detail and the depth cut are noise.glsl's.
+
+/// A particle's sprite: centre (full-resolution pixels), radius R (pixels), eye depth z, noise offset o,
+/// amplitude, reach (falloffs), its level L and the level's texel rectangle [lo, hi].
+struct Sprite {
+    vec2 centre;
+    float R;
+    float z;
+    vec3 o;
+    float amp;
+    float reach;
+    int L;
+    ivec2 lo;
+    ivec2 hi;
+};
+
+#ifndef NOISE_TERM_ONLY
+/// Particle i's sprite on a `size` output; false when it draws nothing (spray, behind the camera, off screen,
+/// too large, or deep: more than DEEP falloffs plus the sprite's radius below the surface at its centre — the
+/// reference's rule).
+bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
+    Particle pt = load_particle(particles[i], 1.0);
+    vec4 motion = particles[pc.count + i];
+    s.z = -pt.c.z;
+    // Spray is drawn apart from the surface: it adds no waves to it.
+    if (pt.spray || s.z <= frame.proj.w) return false;
+    float F = focal_for(float(size.y));
+    float r = frame.fluid.x;
+    // Sprite centre and radius in pixels (pixel_dir's convention: pixel p's centre is at p + 0.5).
+    s.centre = vec2(0.5 * size.x + F * pt.c.x / s.z - 0.5, 0.5 * size.y - F * pt.c.y / s.z - 0.5);
+    s.R = F * pc.size * r / s.z;
+    s.L = noise_level(s.R, pc.freq);
+    float cell = float(1 << s.L);
+    // The texels whose positions lie within R of the centre (at level 0 the pixels, as the reference).
+    vec2 lo_f = s.L == 0 ? ceil(s.centre - s.R) : ceil((s.centre - s.R + 0.5) / cell - 0.5);
+    vec2 hi_f = s.L == 0 ? floor(s.centre + s.R) : floor((s.centre + s.R + 0.5) / cell - 0.5);
+    s.lo = max(ivec2(lo_f), ivec2(0));
+    s.hi = min(ivec2(hi_f), noise_level_size(size, s.L) - 1);
+    s.amp = noise_amplitude(motion.y, pc.calm, pc.turbulent, pc.threshold);
+    s.reach = noise_reach(s.amp);
+    s.o = noise_offset(floatBitsToUint(motion.x));
+    ivec2 mid = clamp(ivec2(round(s.centre)), ivec2(0), size - 1);
+    float dc = imageLoad(depth, mid).x;
+    bool deep = is_fluid(dc) && s.z - dc > (NOISE_DEEP * pc.falloff + pc.size) * r;
+    return !deep && all(lessThanEqual(s.lo, s.hi)) && !over_budget(s.lo, s.hi);
+}
+
+#endif
+
+/// The pixel whose depth level L's texel q reads.
+ivec2 noise_pick(ivec2 q, int L, ivec2 size) {
+    return L == 0 ? q : min(q * (1 << L) + (1 << (L - 1)), size - 1);
+}
+
+/// The fixed-point term of sprite (centre, R, z, o, amp, reach) at level L's texel q whose depth pixel holds the
+/// fluid at d; false (and 0) outside the sprite's disc or past its reach, where the noise is not evaluated.
+bool noise_term(ivec2 q, int L, vec2 centre, float R, float z, vec3 o, float amp, float reach, float d,
+                out int units) {
+    units = 0;
+    vec2 pos = L == 0 ? vec2(q) : (vec2(q) + 0.5) * float(1 << L) - 0.5;
+    vec2 uv = (pos - centre) / R;
+    float qq = dot(uv, uv);
+    if (qq > 1.0) return false;
+    float below = (z - d) / (pc.falloff * frame.fluid.x);
+    if (below > reach) return false;
+    float v = amp * exp(-2.0 * qq) * noise_sprite(uv, pc.freq, o) * exp(-below * below);
+    units = int(round(v * 65536.0));
+    return true;
+}
