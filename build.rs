@@ -37,8 +37,6 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
     // The iso grid cells' empty distance, one axis per dispatch.
     ("iso_empty.comp", &[("X", "ISO_EMPTY_X"), ("Y", "ISO_EMPTY_Y"), ("Z", "ISO_EMPTY_Z")]),
-    // The tiled noise splat's binning: the count pass, and the fill pass (src/passes/noise.rs).
-    ("noise_bin.comp", &[("", ""), ("FILL", "NOISE_FILL")]),
 ];
 const NBR: &[(&str, &str)] = &[("", ""), ("NBR16", "NBR16")];
 

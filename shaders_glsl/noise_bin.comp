@@ -1,16 +1,14 @@
 #version 460
 //! noise_bin — the tiled noise splat's binning (GPUs; NVIDIA patent US 8,947,430, eq. 15–17; method.md §8): each
 //! particle's sprite (noise_splat.glsl: its level of detail, rectangle and culling, as noise.comp) of more than
-//! `small` texels (a push constant, 64 by default) is counted into every tile (NOISE_TILE² texels of its level) its rectangle touches; with
-//! NOISE_FILL, after noise_scan gave each tile its start, the particle's index is written into those tiles'
-//! lists instead. The count pass also writes the sprite's record (centre, R, z; offset, amplitude) for
-//! noise_gather and the work counts, and splats a sprite of at most `small` texels itself, with atomics, as
-//! noise.comp does: a tile's work group tests each of its sprites at all its texels, which pays for a sprite
-//! hundreds of texels across and not for one a few texels across (the 814k waterfall at 960×540: 4.6 ms tiled,
-//! 0.23 ms with atomics, on an H100).
+//! `small` texels (a push constant, 64 by default) is counted into every tile (NOISE_TILE² texels of its level)
+//! its rectangle touches, its record (centre, R, z; offset, amplitude) written for noise_fill and noise_gather,
+//! and its index appended to the binned sprites (work[6] counts them). A sprite of at most `small` texels is
+//! splatted here, with atomics, as noise.comp does: a tile's work group tests each of its sprites at all its
+//! texels, which pays for a sprite hundreds of texels across and not for one a few texels across (the 814k
+//! waterfall at 960×540: 4.6 ms all tiled, 0.23 ms with atomics, on an H100).
 //! In: particles (positions, then motions), the fluid depth. Out: tile counts, sprite records (2 vec4 per
-//! particle), work counts and the small sprites' terms in the accumulator atlas (count pass); or the tile lists
-//! (fill pass: tiles[2n + t] is tile t's cursor).
+//! particle), the binned sprites' indices, work counts, the small sprites' terms in the accumulator atlas.
 #include "common.glsl"
 #include "sphere.glsl"
 #include "noise.glsl"
@@ -19,16 +17,12 @@ layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
 // [0, n): each tile's sprite count; [n, 2n): its list's start (noise_scan); [2n, 3n): its fill cursor.
 layout(std430, set = 0, binding = 3) buffer Tiles { uint tiles[]; };
-#ifdef NOISE_FILL
-layout(std430, set = 0, binding = 4) writeonly buffer Lists { uint lists[]; };
-#else
 layout(std430, set = 0, binding = 4) writeonly buffer Sprites { vec4 sprites[]; };
-// The work counts (noise.comp's layout).
+// The work counts (noise.comp's layout; [6]: sprites binned).
 layout(std430, set = 0, binding = 5) buffer Work { uint work[8]; };
 // The accumulator atlas (cleared to 0 before): the small sprites' terms.
 layout(set = 0, binding = 6, r32ui) uniform uimage2D accum;
-#endif
-
+layout(std430, set = 0, binding = 7) writeonly buffer Binned { uint binned[]; };
 layout(push_constant) uniform Push {
     uint count;
     float size;
@@ -38,7 +32,7 @@ layout(push_constant) uniform Push {
     float turbulent;
     float threshold;
     uint tiles;      // n: tiles of every level
-    uint small;      // sprites of at most this many texels are not binned (noise_bin)
+    uint small;      // sprites of at most this many texels are splatted here, not binned
 } pc;
 #include "noise_splat.glsl"
 
@@ -49,8 +43,10 @@ void main() {
     Sprite s;
     if (!noise_sprite_of(i, size, s)) return;
     uint texels = uint(s.hi.x - s.lo.x + 1) * uint(s.hi.y - s.lo.y + 1);
+    atomicMax(work[0], uint(s.L));
+    atomicAdd(work[1], texels);
+    atomicAdd(work[2], 1u);
     if (texels <= pc.small) {
-#ifndef NOISE_FILL
         ivec2 base = noise_level_base(size, s.L);
         uint evaluated = 0u;
         for (int y = s.lo.y; y <= s.hi.y; ++y) {
@@ -65,40 +61,23 @@ void main() {
                 }
             }
         }
-        atomicMax(work[0], uint(s.L));
-        atomicAdd(work[1], texels);
-        atomicAdd(work[2], 1u);
         atomicAdd(work[3], evaluated);
-#endif
         return;
     }
     ivec2 t0 = s.lo / int(NOISE_TILE), t1 = s.hi / int(NOISE_TILE);
     uint n = uint(t1.x - t0.x + 1) * uint(t1.y - t0.y + 1);
     // Only a sprite larger than the screen at the coarsest level (the camera inside the water) spans more.
     if (n > NOISE_MAX_TILES) {
-#ifndef NOISE_FILL
         atomicAdd(work[4], 1u);
-#endif
         return;
     }
     int base = noise_tile_base(size, s.L);
     int row = noise_tiles(size, s.L).x;
     for (int ty = t0.y; ty <= t1.y; ++ty) {
-        for (int tx = t0.x; tx <= t1.x; ++tx) {
-            uint t = uint(base + ty * row + tx);
-#ifdef NOISE_FILL
-            lists[atomicAdd(tiles[2u * pc.tiles + t], 1u)] = i;
-#else
-            atomicAdd(tiles[t], 1u);
-#endif
-        }
+        for (int tx = t0.x; tx <= t1.x; ++tx) atomicAdd(tiles[uint(base + ty * row + tx)], 1u);
     }
-#ifndef NOISE_FILL
     sprites[2u * i] = vec4(s.centre, s.R, s.z);
     sprites[2u * i + 1u] = vec4(s.o, s.amp);
-    atomicMax(work[0], uint(s.L));
-    atomicAdd(work[1], texels);
-    atomicAdd(work[2], 1u);
+    binned[atomicAdd(work[6], 1u)] = i;
     atomicAdd(work[5], n);
-#endif
 }

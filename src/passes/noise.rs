@@ -141,8 +141,9 @@ pub struct SplatPush {
 pub const SMALL_SPRITE: u32 = 64;
 
 /// Whether this device splats the noise through tiles (noise_bin, noise_scan, noise_gather: each tile's texels
-/// summed by one work group; sprites of at most 64 texels splatted by their own thread) rather than one thread per
-/// sprite with atomics (noise.comp). On a GPU the
+/// summed by one work group; sprites of at most 64 texels splatted by their own thread; the lists' fill and the
+/// tiles' sums dispatched indirectly, not at all when nothing was binned) rather than one thread per sprite with
+/// atomics (noise.comp). On a GPU the
 /// per-sprite splat leaves warps idle behind large sprites and its atomics contend (1.05 ms of the 59k frame at
 /// 1080p on an H100 for 5 M texels); on a CPU driver (lavapipe) a work group's lanes are SIMD lanes of one core,
 /// where every thread of a tile testing every sprite of the tile costs more than the atomics it saves.
@@ -175,12 +176,13 @@ pub struct ApplyPush {
 // work counts.
 declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
 // The tiled splat: binning (count, then fill), the lists' starts, the tiles' sums.
-// Bin, count: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms.
-declare_program!(pub BIN: SplatPush = compute(shaders::NOISE_BIN, [Uniform, BufRead, ImgRead, BufWrite, BufWrite, BufWrite, ImgWrite]));
-// Bin, fill: frame, particles, fluid depth → tiles (cursors), lists.
-declare_program!(pub BIN_FILL: SplatPush = compute(shaders::NOISE_BIN_FILL, [Uniform, BufRead, ImgRead, BufWrite, BufWrite]));
-// Scan: tiles (counts → starts and cursors).
-declare_program!(pub SCAN: SplatPush = compute(shaders::NOISE_SCAN, [BufWrite]));
+// Bin: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms, the binned
+// sprites' indices.
+declare_program!(pub BIN: SplatPush = compute(shaders::NOISE_BIN, [Uniform, BufRead, ImgRead, BufWrite, BufWrite, BufWrite, ImgWrite, BufWrite]));
+// Scan: tiles (counts → starts and cursors), work → the fill's and the gather's indirect dispatches.
+declare_program!(pub SCAN: SplatPush = compute(shaders::NOISE_SCAN, [BufWrite, BufRead, BufWrite]));
+// Fill: sprite records, binned indices, work, fluid depth (its size) → tiles (cursors), lists.
+declare_program!(pub FILL: SplatPush = compute(shaders::NOISE_FILL, [BufRead, BufRead, BufRead, ImgRead, BufWrite, BufWrite]));
 // Gather: frame, sprite records, tiles, lists, fluid depth → accumulator atlas (cleared first), work.
 declare_program!(pub GATHER: SplatPush = compute(shaders::NOISE_GATHER, [Uniform, BufRead, BufRead, BufRead, ImgRead, ImgWrite, BufWrite]));
 // Resolve: frame, accumulator atlas, fluid depth → noise (N in radii); the splat's coarsest level.
@@ -241,12 +243,17 @@ pub struct NoiseTargets {
 
 /// The tiled splat's buffers for up to `particles` particles.
 pub struct Bins {
-    /// Per particle: centre, R, z; offset, amplitude (2 vec4).
+    /// Per particle: centre, R, z; offset, amplitude (2 vec4; written for the binned sprites).
     pub sprites: Buffer,
     /// Per tile: count, start, cursor (3 u32 × [`tile_count`]).
     pub tiles: Buffer,
     /// The tiles' lists of particle indices: at most NOISE_MAX_TILES per particle.
     pub lists: Buffer,
+    /// The binned sprites' particle indices (noise_bin appends, noise_fill reads).
+    pub binned: Buffer,
+    /// The indirect dispatches of noise_fill and noise_gather (noise_scan writes them: none when nothing was
+    /// binned).
+    pub args: Buffer,
     /// Particles these buffers hold.
     pub particles: u32,
 }
@@ -314,6 +321,8 @@ impl NoiseTargets {
             sprites: Buffer::new(gpu, "noise_sprites", 32 * n as u64, usage, gpu_only)?,
             tiles: Buffer::new(gpu, "noise_tiles", 12 * tiles, usage, gpu_only)?,
             lists: Buffer::new(gpu, "noise_lists", 4 * max * n as u64, usage, gpu_only)?,
+            binned: Buffer::new(gpu, "noise_binned", 4 * n as u64, usage, gpu_only)?,
+            args: Buffer::new(gpu, "noise_args", 32, usage | vk::BufferUsageFlags::INDIRECT_BUFFER, gpu_only)?,
             particles: n,
         });
         Ok(())
@@ -341,7 +350,7 @@ impl NoiseTargets {
             (self.work.name.as_str(), self.work.size),
         ];
         if let Some(b) = &self.bins {
-            for buf in [&b.sprites, &b.tiles, &b.lists] {
+            for buf in [&b.sprites, &b.tiles, &b.lists, &b.binned, &b.args] {
                 m.push((buf.name.as_str(), buf.size));
             }
         }
@@ -361,7 +370,7 @@ impl Noise {
         let splat = if tiled {
             Splat::Tiled(Box::new(TiledSplat {
                 bin: ComputeProgram::new(gpu, &BIN)?,
-                fill: ComputeProgram::new(gpu, &BIN_FILL)?,
+                fill: ComputeProgram::new(gpu, &FILL)?,
                 scan: ComputeProgram::new(gpu, &SCAN)?,
                 gather: ComputeProgram::new(gpu, &GATHER)?,
             }))
@@ -416,20 +425,28 @@ impl Noise {
                 (Splat::Tiled(t), Some(b)) => {
                     let TiledSplat { bin, fill, scan, gather } = &**t;
                     ctx.fill(&b.tiles, 0);
-                    let (particles, depth) = (buf.into(), i.depth.into());
                     let res = [
                         frame.into(),
-                        particles,
-                        depth,
+                        buf.into(),
+                        i.depth.into(),
                         (&b.tiles).into(),
                         (&b.sprites).into(),
                         (&own.work).into(),
                         (&own.accum).into(),
+                        (&b.binned).into(),
                     ];
                     bin.dispatch(ctx, &res, &push, groups);
-                    scan.dispatch(ctx, &[(&b.tiles).into()], &push, [1, 1, 1]);
-                    let res = [frame.into(), buf.into(), i.depth.into(), (&b.tiles).into(), (&b.lists).into()];
-                    fill.dispatch(ctx, &res, &push, groups);
+                    let res = [(&b.tiles).into(), (&own.work).into(), (&b.args).into()];
+                    scan.dispatch(ctx, &res, &push, [1, 1, 1]);
+                    let res = [
+                        (&b.sprites).into(),
+                        (&b.binned).into(),
+                        (&own.work).into(),
+                        i.depth.into(),
+                        (&b.tiles).into(),
+                        (&b.lists).into(),
+                    ];
+                    fill.dispatch_indirect(ctx, &res, &push, &b.args, 0);
                     let res = [
                         frame.into(),
                         (&b.sprites).into(),
@@ -439,7 +456,7 @@ impl Noise {
                         (&own.accum).into(),
                         (&own.work).into(),
                     ];
-                    gather.dispatch(ctx, &res, &push, [tiles, 1, 1]);
+                    gather.dispatch_indirect(ctx, &res, &push, &b.args, 12);
                 }
                 (Splat::Alone(splat), _) => {
                     let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
