@@ -1716,13 +1716,23 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
             assert_eq!(m.vertices.len(), cpu.vertices.len(), "{what}: vertices");
             assert_eq!(m.triangles, cpu.triangles, "{what}: triangles");
             let h = cube * r;
-            let dmax = m
-                .vertices
-                .iter()
-                .zip(&cpu.vertices)
-                .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0f32, f32::max))
-                .fold(0f32, f32::max);
-            assert!(dmax <= 1e-3 * h, "{what}: vertices {dmax} apart (cube {h})");
+            // Vertices agree to 1e-3 of a cube, or — where the crossing is flat, so that the field's rounding
+            // (summation order, fused multiply-adds: lavapipe and NVIDIA differ) moves the interpolated vertex
+            // more — to the bound the arithmetic gives: h · 2δ / |v1 − v0| with δ = 256 ε · max(|v0|, |v1|, 1)
+            // the field values' rounding (a few hundred terms of at most 1 each).
+            let mut dmax = 0f32;
+            let mut conditioned = 0;
+            for (a, b) in m.vertices.iter().zip(&cpu.vertices) {
+                let d = (0..3).map(|k| (a[k] - b[k]).abs()).fold(0f32, f32::max);
+                dmax = dmax.max(d);
+                if d > 1e-3 * h {
+                    let (v0, v1) = meniscus::field::extract::edge_values(&grid, &inv, &p, *b);
+                    let delta = 256.0 * f32::EPSILON * v0.abs().max(v1.abs()).max(1.0);
+                    let bound = h * 2.0 * delta / (v1 - v0).abs().max(1e-30);
+                    assert!(d <= 1e-3 * h + bound, "{what}: vertex {b:?} {d} apart (cube {h}; edge {v0} → {v1})");
+                    conditioned += 1;
+                }
+            }
             let worst = m
                 .normals
                 .iter()
@@ -1738,7 +1748,8 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
             }
             assert!(st.gpu.get("mc_field").is_some() && st.gpu.get("mc_emit").is_some(), "{:?}", st.gpu);
             eprintln!(
-                "{what}: {} triangles, {} blocks, {open} open edges, GPU {:?}",
+                "{what}: {} triangles, {} blocks, {open} open edges, vertices up to {dmax} apart ({conditioned} past \
+                 1e-3 of a cube, within their edge's conditioning), GPU {:?}",
                 m.triangles.len(),
                 st.blocks,
                 st.gpu
