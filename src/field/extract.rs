@@ -720,19 +720,43 @@ fn march_block(
 /// Weld on keys: sorts `(key, item)` pairs and walks them; returns every item's vertex (the rank of its key among
 /// the distinct keys, so vertices come in key order) and, per vertex, the first item with its key (the lowest
 /// item index: its data stands for the vertex). Shared by the CPU block path and the GPU path's host weld.
+/// Parallel throughout (the sort, the run starts, their numbering by a prefix sum over chunks, the scatter of
+/// ranks): the walk it replaced was the extraction's serial part (0.06 s of 1.4 M vertices on the 59k frame).
 pub(crate) fn rank_by_key(mut keys: Vec<(i64, u32)>, items: usize) -> (Vec<u32>, Vec<u32>) {
+    use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
     keys.par_sort_unstable();
-    let mut rank = vec![0u32; items];
-    let mut first = vec![];
-    let mut last = None;
-    for &(key, item) in &keys {
-        if last != Some(key) {
-            last = Some(key);
-            first.push(item);
-        }
-        rank[item as usize] = first.len() as u32 - 1;
+    // Run starts, counted per chunk, then each chunk's first run number (a prefix sum over the chunks).
+    let chunk = (keys.len() / (4 * rayon::current_num_threads()).max(1)).max(1 << 14);
+    let starts = |c: usize| -> usize {
+        let lo = c * chunk;
+        let hi = (lo + chunk).min(keys.len());
+        (lo..hi).filter(|&i| i == 0 || keys[i].0 != keys[i - 1].0).count()
+    };
+    let chunks = keys.len().div_ceil(chunk);
+    let counts: Vec<usize> = (0..chunks).into_par_iter().map(starts).collect();
+    let mut offsets = Vec::with_capacity(chunks);
+    let mut total = 0usize;
+    for c in &counts {
+        offsets.push(total);
+        total += c;
     }
-    (rank, first)
+    let rank: Vec<AtomicU32> = (0..items).map(|_| AtomicU32::new(0)).collect();
+    let first: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+    (0..chunks).into_par_iter().for_each(|c| {
+        let lo = c * chunk;
+        let hi = (lo + chunk).min(keys.len());
+        // The run the chunk's first key belongs to: the one before this chunk's first start, unless it starts one.
+        let mut run = offsets[c] as i64 - 1;
+        for i in lo..hi {
+            let (key, item) = keys[i];
+            if i == 0 || key != keys[i - 1].0 {
+                run += 1;
+                first[run as usize].store(item, Relaxed);
+            }
+            rank[item as usize].store(run as u32, Relaxed);
+        }
+    });
+    (rank.into_iter().map(AtomicU32::into_inner).collect(), first.into_iter().map(AtomicU32::into_inner).collect())
 }
 
 /// Step 4 of [`extract_blocks`]: one vertex per edge key (blocks that share a face made the same vertex, bit for
@@ -750,10 +774,9 @@ fn weld_blocks(outs: Vec<BlockMesh>) -> TriMesh {
         .flat_map_iter(|(o, &b)| o.verts.iter().enumerate().map(move |(li, v)| (v.0, (b + li) as u32)))
         .collect();
     let (global, first) = rank_by_key(keys, base[outs.len()]);
-    let owner: Vec<u32> =
-        outs.iter().enumerate().flat_map(|(bi, o)| std::iter::repeat_n(bi as u32, o.verts.len())).collect();
+    // The block that made item i: the last block whose base is ≤ i (a search, not a table built serially).
     let vertex = |item: u32| {
-        let bi = owner[item as usize] as usize;
+        let bi = base.partition_point(|&b| b <= item as usize) - 1;
         &outs[bi].verts[item as usize - base[bi]]
     };
     let (vertices, normals) = first.par_iter().map(|&i| vertex(i)).map(|v| (v.1, v.2)).unzip();
