@@ -658,3 +658,48 @@ fn bench_sim_reports_stages_and_overlap() {
         assert!(c["union_ms"].as_f64().unwrap() > 0.0);
     }
 }
+
+/// `bench --mesh FILE`: every thread count and cube size gets a row with its phases, the first thread count a
+/// speed-up of 1, the same mesh at every thread count, and the JSON says so; flags of the analysis are refused
+/// without --mesh.
+#[test]
+fn bench_mesh_reports_phases_per_thread_count() {
+    let d = tmpdir("bench-mesh");
+    let mut pos = vec![];
+    for z in 0..10 {
+        for y in 0..10 {
+            for x in 0..10 {
+                pos.push([x as f32 * 0.02, y as f32 * 0.02, z as f32 * 0.02]);
+            }
+        }
+    }
+    let p = meniscus::scene::Particles { positions: pos, ..Default::default() };
+    let f = d.join("block.bgeo");
+    std::fs::write(&f, meniscus::scene::bgeo::write(&p.to_raw(), true)).unwrap();
+    let json = d.join("mesh.json");
+    let o = meniscus()
+        .arg("bench")
+        .arg("--mesh")
+        .arg(&f)
+        .args(["--radius", "0.01", "--threads", "1,2", "--cube-size", "1.0,0.75", "--mesh-repeat", "1", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("| 1 r | cpu | 1 |") && out.contains("| 0.75 r | cpu | 2 |"), "{out}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let rows: Vec<&serde_json::Value> = v["rows"].as_array().unwrap().iter().filter(|r| r["path"] == "cpu").collect();
+    assert_eq!(rows.len(), 4);
+    for pair in rows.chunks(2) {
+        assert_eq!(pair[0]["speedup"].as_f64(), Some(1.0));
+        assert_eq!(pair[0]["triangles"], pair[1]["triangles"], "the same mesh at every thread count");
+        for r in pair {
+            assert!(r["wall"].as_f64().unwrap() > 0.0 && r["blocks"].as_f64().unwrap() > 0.0, "{r}");
+            assert!(r["triangles"].as_u64().unwrap() > 100, "{r}");
+        }
+    }
+    let o = meniscus().args(["bench", "--threads", "2"]).output().unwrap();
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("apply to --mesh FILE"));
+}

@@ -481,6 +481,9 @@ pub struct ExtractTimes {
     pub march: f64,
     /// Welding the blocks' vertices and ordering the triangles (wall).
     pub weld: f64,
+    /// The blocks' scatter and march together (wall): with `scatter + march` (thread time), the parallel
+    /// efficiency of the block phase.
+    pub blocks_wall: f64,
 }
 
 /// [`extract_blocks`], and where its time went.
@@ -523,6 +526,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
         scatter: scatter_ns.into_inner() as f64 * 1e-9,
         march: march_ns.into_inner() as f64 * 1e-9,
         weld: (t0.elapsed() - t_blocks).as_secs_f64(),
+        blocks_wall: t_blocks.as_secs_f64(),
     };
     (mesh, times)
 }

@@ -502,6 +502,23 @@ pub struct BenchArgs {
     /// (with --async on/both: the step on the async compute queue, and the overlap it buys).
     #[arg(long, value_name = "SCENE[:N]")]
     pub sim: Option<String>,
+    /// Benchmark the mesh extraction instead (`meniscus mesh`'s path, Janisz's thread analysis): this particle
+    /// file at each --threads count, per phase (grid, blocks, weld, write) wall and thread time, speed-up and
+    /// parallel efficiency; splashsurf beside it when installed (SPLASHSURF or ~/.cache/meniscus/splashsurf).
+    #[arg(long, value_name = "FILE")]
+    pub mesh: Option<PathBuf>,
+    /// With --mesh: thread counts (comma-separated; default 1, 2, 4, … up to the cores).
+    #[arg(long, value_delimiter = ',')]
+    pub threads: Vec<usize>,
+    /// With --mesh: cube sizes in particle radii (comma-separated; default 0.5, 1.0).
+    #[arg(long = "cube-size", value_delimiter = ',', allow_negative_numbers = true)]
+    pub cube_size: Vec<f32>,
+    /// With --mesh: extract on the GPU too (`mesh --gpu`), its stages and host part beside the CPU rows.
+    #[arg(long = "mesh-gpu")]
+    pub mesh_gpu: bool,
+    /// With --mesh: runs per configuration (the median is reported).
+    #[arg(long = "mesh-repeat", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=20))]
+    pub mesh_repeat: u32,
     #[command(flatten)]
     load: LoadArgs,
     #[command(flatten)]
@@ -645,6 +662,19 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         if let Some(p) = path {
             crate::args::check_out(flag, p, kind)?;
         }
+    }
+    if let Some(file) = &a.mesh {
+        let opts = crate::bench_mesh::Options {
+            threads: a.threads.clone(),
+            cubes: a.cube_size.clone(),
+            radius: a.radius,
+            repeat: a.mesh_repeat,
+            gpu: a.mesh_gpu.then(|| a.gpu.clone()),
+        };
+        return crate::bench_mesh::run(file, &a.load, &opts, a.json.as_deref(), a.markdown.as_deref());
+    }
+    if !a.threads.is_empty() || !a.cube_size.is_empty() || a.mesh_gpu {
+        bail!("--threads, --cube-size and --mesh-gpu apply to --mesh FILE");
     }
     let table43 = a.preset == "table43";
     let moritz = a.preset == "moritz" || table43;

@@ -4,6 +4,7 @@
 
 mod args;
 mod bench;
+mod bench_mesh;
 mod bench_sim;
 mod chart;
 pub(crate) mod demo;
