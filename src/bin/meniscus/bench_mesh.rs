@@ -68,6 +68,11 @@ struct Report {
     rows: Vec<Row>,
 }
 
+/// One CPU run: wall, grid, the extraction's times, write, vertices, triangles.
+type CpuRun = (f64, f64, meniscus::field::extract::ExtractTimes, f64, usize, usize);
+/// One GPU run: wall, grid, GPU ms, host set-up and weld, write, vertices, triangles.
+type GpuRun = (f64, f64, f64, f64, f64, usize, usize);
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -140,7 +145,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
         let mut first_wall = None;
         for &t in &threads {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
-            let mut samples = vec![];
+            let mut samples: Vec<CpuRun> = vec![];
             for _ in 0..o.repeat {
                 let t0 = Instant::now();
                 let (m, rep) = pool.install(|| meniscus::surface::mesh::reconstruct(positions, &recon, None))?;
@@ -154,9 +159,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
                 };
                 samples.push((wall, rep.field_s, times, write, m.vertices.len(), m.triangles.len()));
             }
-            let pick = |f: &dyn Fn(&(f64, f64, meniscus::field::extract::ExtractTimes, f64, usize, usize)) -> f64| {
-                median(samples.iter().map(f).collect())
-            };
+            let pick = |f: &dyn Fn(&CpuRun) -> f64| median(samples.iter().map(f).collect());
             let wall = pick(&|s| s.0);
             let blocks = pick(&|s| s.2.blocks_wall);
             let blocks_thread = pick(&|s| s.2.scatter + s.2.march);
@@ -215,7 +218,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
             bar.inc(1);
         }
         if let Some((g, mc)) = &gpu {
-            let mut samples = vec![];
+            let mut samples: Vec<GpuRun> = vec![];
             for _ in 0..o.repeat {
                 let t0 = Instant::now();
                 let (m, rep) = meniscus::surface::mesh::reconstruct(positions, &recon, Some((g, mc)))?;
@@ -238,8 +241,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
                     m.triangles.len(),
                 ));
             }
-            let pick =
-                |f: &dyn Fn(&(f64, f64, f64, f64, f64, usize, usize)) -> f64| median(samples.iter().map(f).collect());
+            let pick = |f: &dyn Fn(&GpuRun) -> f64| median(samples.iter().map(f).collect());
             rows.push(Row {
                 cube_radii: cube,
                 path: "gpu".into(),
