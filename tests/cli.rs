@@ -688,7 +688,7 @@ fn bench_mesh_reports_phases_per_thread_count() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("| 1 r | cpu | 1 |") && out.contains("| 0.75 r | cpu | 2 |"), "{out}");
+    assert!(out.contains("| 1 r | 64 | cpu | 1 |") && out.contains("| 0.75 r | 64 | cpu | 2 |"), "{out}");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let rows: Vec<&serde_json::Value> = v["rows"].as_array().unwrap().iter().filter(|r| r["path"] == "cpu").collect();
     assert_eq!(rows.len(), 4);

@@ -159,7 +159,8 @@ pub struct ExtractParams {
     /// fluid (bubbles not connected to the outside), whose surfaces it does not reach.
     pub dense: bool,
     /// Cubes per edge of a block (the default path, [`extract_blocks`]); 0 = the per-corner paths above
-    /// (`dense`, or surface following). Changes nothing but the time and the memory.
+    /// (`dense`, or surface following); [`AUTO_BLOCK`] (the default) = chosen by the thread count
+    /// ([`auto_block`]). Changes nothing but the time and the memory.
     pub block: u32,
     /// The thesis' metaball field instead of the SPH colour field (Janisz §2.2, method.md §10):
     /// F(x) = Σ f(|x − x_j|), f(d) = (d/(√2 R_c))⁴ − (d/(√2 R_c))² + ¼ for d < R_c, else 0 — unnormalised
@@ -170,7 +171,37 @@ pub struct ExtractParams {
 impl ExtractParams {
     /// The default: the SPH colour field, blocks of 64³ cubes.
     pub fn new(cube: f32, threshold: f32) -> ExtractParams {
-        ExtractParams { cube, threshold, dense: false, block: 64, metaball: false }
+        ExtractParams { cube, threshold, dense: false, block: AUTO_BLOCK, metaball: false }
+    }
+}
+
+/// [`ExtractParams::block`]: choose the block size by the thread count ([`auto_block`]).
+pub const AUTO_BLOCK: u32 = u32::MAX;
+
+/// The block size for `threads` threads: 64 cubes per edge (the fastest on 1–2 threads: the one-corner margin
+/// costs least), else the largest of 64, 32, 16 that leaves at least 40 occupied blocks per thread, so that no
+/// thread waits long for the last blocks. Measured on the 16-core host of an H100 (59k dam break f20,
+/// `bench --mesh --block 64,32,16`; benches/results/nvidia-h100-host-bench-mesh-93097bc/): at 0.5 r and 16
+/// threads 64 → 0.30 s, 32 → 0.23, 16 → 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie.
+pub fn auto_block(grid: &IsoGrid, cube: f32, threads: usize) -> u32 {
+    if threads <= 2 || grid.points.is_empty() {
+        return 64;
+    }
+    let lat = Lattice::of(grid, cube.max(1e-6));
+    for b in [64, 32] {
+        if occupied_blocks(grid, &lat, b).0.len() >= 40 * threads {
+            return b as u32;
+        }
+    }
+    16
+}
+
+/// `p` with its block size decided ([`AUTO_BLOCK`] resolved for the current thread pool).
+pub fn resolve_block(grid: &IsoGrid, p: &ExtractParams) -> ExtractParams {
+    if p.block == AUTO_BLOCK {
+        ExtractParams { block: auto_block(grid, p.cube, rayon::current_num_threads()), ..*p }
+    } else {
+        *p
     }
 }
 
@@ -249,6 +280,7 @@ pub fn memory_estimate(grid: &IsoGrid, p: &ExtractParams, threads: usize) -> u64
     if grid.points.is_empty() {
         return 0;
     }
+    let p = &if p.block == AUTO_BLOCK { ExtractParams { block: auto_block(grid, p.cube, threads), ..*p } } else { *p };
     let lat = Lattice::of(grid, p.cube.max(1e-6));
     if (p.block > 0 && !p.dense) || p.metaball {
         let n = p.block.max(1) as u64 + 3;
@@ -292,6 +324,7 @@ pub fn extract_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> (TriMe
     if grid.points.is_empty() {
         return (TriMesh::default(), None);
     }
+    let p = &resolve_block(grid, p);
     if (p.block > 0 && !p.dense) || p.metaball {
         let (m, t) = extract_blocks_timed(grid, inv_n, &ExtractParams { block: p.block.max(1), ..*p });
         return (m, Some(t));
@@ -484,12 +517,15 @@ pub struct ExtractTimes {
     /// The blocks' scatter and march together (wall): with `scatter + march` (thread time), the parallel
     /// efficiency of the block phase.
     pub blocks_wall: f64,
+    /// Cubes per block edge (after [`AUTO_BLOCK`] was resolved).
+    pub block: u32,
 }
 
 /// [`extract_blocks`], and where its time went.
 pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> (TriMesh, ExtractTimes) {
     use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
     let t0 = std::time::Instant::now();
+    let p = &resolve_block(grid, p);
     let lat = Lattice::of(grid, p.cube.max(1e-6));
     let b = p.block.max(1) as i32;
     let (blocks, nb) = occupied_blocks(grid, &lat, b);
@@ -527,6 +563,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
         march: march_ns.into_inner() as f64 * 1e-9,
         weld: (t0.elapsed() - t_blocks).as_secs_f64(),
         blocks_wall: t_blocks.as_secs_f64(),
+        block: p.block,
     };
     (mesh, times)
 }

@@ -516,6 +516,10 @@ pub struct BenchArgs {
     /// With --mesh: extract on the GPU too (`mesh --gpu`), its stages and host part beside the CPU rows.
     #[arg(long = "mesh-gpu")]
     pub mesh_gpu: bool,
+    /// With --mesh: cubes per block edge of the CPU extraction (comma-separated; default: chosen by the thread
+    /// count, as `mesh --block` is).
+    #[arg(long = "block", value_delimiter = ',')]
+    pub block: Vec<u32>,
     /// With --mesh: runs per configuration (the median is reported).
     #[arg(long = "mesh-repeat", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=20))]
     pub mesh_repeat: u32,
@@ -667,14 +671,15 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         let opts = crate::bench_mesh::Options {
             threads: a.threads.clone(),
             cubes: a.cube_size.clone(),
+            blocks: a.block.clone(),
             radius: a.radius,
             repeat: a.mesh_repeat,
             gpu: a.mesh_gpu.then(|| a.gpu.clone()),
         };
         return crate::bench_mesh::run(file, &a.load, &opts, a.json.as_deref(), a.markdown.as_deref());
     }
-    if !a.threads.is_empty() || !a.cube_size.is_empty() || a.mesh_gpu {
-        bail!("--threads, --cube-size and --mesh-gpu apply to --mesh FILE");
+    if !a.threads.is_empty() || !a.cube_size.is_empty() || !a.block.is_empty() || a.mesh_gpu {
+        bail!("--threads, --cube-size, --block and --mesh-gpu apply to --mesh FILE");
     }
     let table43 = a.preset == "table43";
     let moritz = a.preset == "moritz" || table43;

@@ -25,6 +25,8 @@ pub struct Options {
     pub threads: Vec<usize>,
     /// Cube sizes in particle radii (empty: 0.5 and 1.0).
     pub cubes: Vec<f32>,
+    /// Cubes per block edge (empty: chosen by the thread count, as `mesh` does).
+    pub blocks: Vec<u32>,
     /// Particle radius (default: the job's: scene.json or estimated).
     pub radius: Option<f32>,
     /// Runs per configuration.
@@ -37,6 +39,8 @@ pub struct Options {
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
     pub cube_radii: f32,
+    /// Cubes per block edge (CPU rows).
+    pub block: u32,
     /// "cpu", "gpu" or "splashsurf".
     pub path: String,
     pub threads: usize,
@@ -107,6 +111,10 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
         bail!("--threads: counts must be 1 … 1024");
     }
     let cubes = if o.cubes.is_empty() { vec![0.5, 1.0] } else { o.cubes.clone() };
+    let block_sizes = if o.blocks.is_empty() { vec![meniscus::field::extract::AUTO_BLOCK] } else { o.blocks.clone() };
+    if block_sizes.iter().any(|&b| b != meniscus::field::extract::AUTO_BLOCK && !(8..=1024).contains(&b)) {
+        bail!("--block: 8 … 1024 cubes per block edge");
+    }
     if cubes.iter().any(|c| !(c.is_finite() && *c > 0.05 && *c <= 8.0)) {
         bail!("--cube-size must be in (0.05, 8] particle radii");
     }
@@ -134,11 +142,11 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
     });
     let gpu = gpu.transpose()?;
     let mut rows: Vec<Row> = vec![];
-    let bar = crate::args::progress((cubes.len() * threads.len()) as u64, "configurations");
-    for &cube in &cubes {
+    let bar = crate::args::progress((cubes.len() * block_sizes.len() * threads.len()) as u64, "configurations");
+    for (&cube, &block) in cubes.iter().flat_map(|c| block_sizes.iter().map(move |b| (c, b))) {
         let recon = Reconstruct {
             support: 4.0 * r,
-            extract: ExtractParams::new(cube * r, 0.6),
+            extract: ExtractParams { block, ..ExtractParams::new(cube * r, 0.6) },
             // `meniscus mesh`'s default: no smoothing afterwards.
             smoothing: meniscus::field::smooth::SmoothParams { iterations: 0, ..Default::default() },
         };
@@ -166,6 +174,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
             let first = *first_wall.get_or_insert(wall);
             rows.push(Row {
                 cube_radii: cube,
+                block: samples[0].2.block,
                 path: "cpu".into(),
                 threads: t,
                 wall,
@@ -180,7 +189,8 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
                 speedup: first / wall,
                 efficiency: blocks_thread / (blocks * t as f64).max(1e-12),
             });
-            if let Some(bin) = &ss {
+            // splashsurf once per cube size and thread count (the first block size).
+            if let Some(bin) = ss.as_ref().filter(|_| block == block_sizes[0]) {
                 let mut walls = vec![];
                 for _ in 0..o.repeat {
                     let t0 = Instant::now();
@@ -200,6 +210,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
                 }
                 rows.push(Row {
                     cube_radii: cube,
+                    block: 0,
                     path: "splashsurf".into(),
                     threads: t,
                     wall: median(walls),
@@ -217,7 +228,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
             }
             bar.inc(1);
         }
-        if let Some((g, mc)) = &gpu {
+        if let Some((g, mc)) = gpu.as_ref().filter(|_| block == block_sizes[0]) {
             let mut samples: Vec<GpuRun> = vec![];
             for _ in 0..o.repeat {
                 let t0 = Instant::now();
@@ -244,6 +255,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
             let pick = |f: &dyn Fn(&GpuRun) -> f64| median(samples.iter().map(f).collect());
             rows.push(Row {
                 cube_radii: cube,
+                block: 0,
                 path: "gpu".into(),
                 threads: rayon::current_num_threads(),
                 wall: pick(&|s| s.0),
@@ -288,9 +300,9 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
 fn table(file: &Path, particles: usize, r: f32, cores: usize, rows: &[Row]) -> String {
     let mut s = format!(
         "mesh extraction of {} ({particles} particles, radius {r}) on {cores} cores; medians, seconds; efficiency = \
-         thread time ÷ (wall × threads) of the block phase; the GPU rows' weld is the host's set-up and weld\n\n| cube | path | threads | wall | grid | blocks | \
+         thread time ÷ (wall × threads) of the block phase; the GPU rows' weld is the host's set-up and weld\n\n| cube | block | path | threads | wall | grid | blocks | \
          blocks thread time | weld | write | speed-up | efficiency | splashsurf | ratio | triangles |\n\
-         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         file.display()
     );
     for row in rows.iter().filter(|x| x.path != "splashsurf") {
@@ -302,8 +314,9 @@ fn table(file: &Path, particles: usize, r: f32, cores: usize, rows: &[Row]) -> S
         };
         let extra = if row.path == "gpu" { format!(" (GPU {:.1} ms)", row.gpu_ms) } else { String::new() };
         s.push_str(&format!(
-            "| {} r | {}{extra} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {ss} | {ratio} | {} |\n",
+            "| {} r | {} | {}{extra} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {ss} | {ratio} | {} |\n",
             row.cube_radii,
+            if row.block > 0 { row.block.to_string() } else { "–".into() },
             row.path,
             row.threads,
             row.wall,

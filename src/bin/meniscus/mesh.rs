@@ -65,11 +65,11 @@ pub struct MeshArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     rc: f32,
     /// Cubes per block edge: each block scatters its particles into its own corner values and marches its
-    /// cubes, in parallel. 0: the per-corner paths (every corner gathers its particles), surface following
-    /// unless --dense. Changes nothing but the time (measured on the dam-break frames, 1 and 2 threads: 64 is
-    /// 3–20 % faster than 32; benches/results/llvmpipe-race-splashsurf.md).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(0..=1024))]
-    block: u32,
+    /// cubes, in parallel. Default: chosen by the thread count (64 on 1–2 threads; with more, the largest of
+    /// 64, 32, 16 that leaves at least 40 blocks per thread: docs/mesh-extraction.md). 0: the per-corner paths
+    /// (every corner gathers its particles), surface following unless --dense. Changes nothing but the time.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    block: Option<u32>,
     /// With --block 0: evaluate the field at every cube corner within the kernel support (the reference)
     /// instead of following the surface in from the outside (which skips closed cavities inside the fluid).
     #[arg(long)]
@@ -152,7 +152,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         check_out("--out", &out, out_kind)?;
     }
     let r = job.settings.radius;
-    let params = ExtractParams { cube: a.cube_size * r, threshold, dense: a.dense, block: a.block, metaball };
+    let block = a.block.unwrap_or(meniscus::field::extract::AUTO_BLOCK);
+    let params = ExtractParams { cube: a.cube_size * r, threshold, dense: a.dense, block, metaball };
     let support = if metaball { a.rc } else { a.support };
     let gpu_mc = if a.gpu {
         let gpu = a.device.open()?;
@@ -212,7 +213,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                         Some(t) => format!(
                             "({threads} threads; grid and 1/n {t_field:.3} s, {} blocks of {}³ cubes: scatter \
                              {:.3} s, march {:.3} s (thread time), weld {:.3} s)",
-                            t.blocks, params.block, t.scatter, t.march, t.weld
+                            t.blocks, t.block, t.scatter, t.march, t.weld
                         ),
                         None => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
                     }
