@@ -52,6 +52,8 @@ pub struct Renderer {
     demo_passes: DemoPasses,
     /// GPU times of the frame a slot ran before the latest submission (read when the slot was reused).
     late_times: Option<PassTimes>,
+    /// Where the host's time went in the latest submission ([`Renderer::host_times`]).
+    host: HostTimes,
     /// Split each frame over two queues: the background and the thickness on the async compute queue, beside
     /// the fluid passes on the main queue (on a device with one queue both parts go to it, in order).
     pub async_compute: bool,
@@ -127,6 +129,7 @@ impl Renderer {
             background: Background::new(gpu)?,
             async_compute: false,
             late_times: None,
+            host: HostTimes::default(),
             keep_raw_depth: false,
             demo_passes: DemoPasses {
                 view: crate::passes::view::View::new(gpu)?,
@@ -404,6 +407,17 @@ impl Renderer {
         binary: crate::gpu::executor::Binary,
     ) -> Result<Submitted> {
         use crate::passes::view::ViewMode;
+        let t0 = std::time::Instant::now();
+        let mut host = HostTimes::default();
+        let mut lap = {
+            let mut last = t0;
+            move || {
+                let now = std::time::Instant::now();
+                let ms = (now - last).as_secs_f64() * 1e3;
+                last = now;
+                ms
+            }
+        };
         s.validate()?;
         if !self.passes.splat.supports(s.splat.mode) {
             return Err(Error::Invalid(format!(
@@ -423,9 +437,11 @@ impl Renderer {
         }
         self.particles.prepare(&self.gpu, &self.executor, split)?;
         let d_near = self.particles.nearest_depth(view, s.radius);
+        host.prepare = lap();
         // The slot: its previous frame is complete from here on, so its host memory may be rewritten.
         let (k, late) = self.executor.begin()?;
         self.late_times = late;
+        host.slot_wait = lap();
         let gpu = self.gpu.clone();
         let mem = &mut self.slots[k];
         let count = self.particles.count();
@@ -464,6 +480,7 @@ impl Renderer {
                 MemoryLocation::GpuToCpu,
             )?);
         }
+        host.stage = lap();
         let t = self.targets.as_ref().expect("ensured");
         let info = FrameInfo {
             focal_px: view.camera.focal_px(view.height),
@@ -559,7 +576,11 @@ impl Renderer {
             let touches = std::mem::take(&mut ctx.touches);
             drop(ctx);
             self.smoothed = sm;
-            return self.executor.submit_one(k, &binary, touches);
+            host.record = lap();
+            let sub = self.executor.submit_one(k, &binary, touches);
+            host.submit = lap();
+            self.host = host;
+            return sub;
         }
         // A split frame: the particle upload (async) ‖ the previous frame's passes; background + thickness
         // (async) ‖ the fluid passes (main); shading (main) after both. The waits between the queues — within
@@ -595,7 +616,18 @@ impl Renderer {
         ];
         drop((first, a, f, sh));
         self.smoothed = sm;
-        self.executor.submit_segments(k, segments, &binary)
+        host.record = lap();
+        let sub = self.executor.submit_segments(k, segments, &binary);
+        host.submit = lap();
+        self.host = host;
+        sub
+    }
+
+    /// Where the host's time went in the latest submission, ms: the frame's preparation (targets, the surface's
+    /// resources, the particle set, the nearest depth), the wait for its slot (the frame that used it before),
+    /// the staging (uniforms, the particle upload into host-visible memory), the recording and the submission.
+    pub fn host_times(&self) -> HostTimes {
+        self.host
     }
 
     /// The iso surface's grid and kernels on the device (after a frame with `surface = "iso"`), for tests.
@@ -626,6 +658,21 @@ impl Renderer {
         image::RgbaImage::from_raw(t.width, t.height, bytes)
             .ok_or_else(|| Error::Invalid("readback size mismatch".into()))
     }
+}
+
+/// The host's stages of one submitted frame, ms ([`Renderer::host_times`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct HostTimes {
+    /// Targets ensured, the surface's resources prepared (grids, lattice), the particle set, the nearest depth.
+    pub prepare: f64,
+    /// Waiting for the frame slot (its previous frame to finish on the GPU).
+    pub slot_wait: f64,
+    /// The frame uniforms and the particle staging copy written to host-visible memory.
+    pub stage: f64,
+    /// Recording the command buffers.
+    pub record: f64,
+    /// Submitting them.
+    pub submit: f64,
 }
 
 impl Drop for Renderer {

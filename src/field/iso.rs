@@ -573,8 +573,10 @@ impl VolumeShape {
         for x in points {
             let u = self.lattice(x).floor();
             let g = [u.x as i64, u.y as i64, u.z as i64];
-            let lo: Vec<i64> = (0..3).map(|a| (g[a] - t).div_euclid(BRICK as i64).max(0)).collect();
-            let hi: Vec<i64> = (0..3).map(|a| (g[a] + 1 + t).div_euclid(BRICK as i64).min(b[a] - 1)).collect();
+            // Fixed arrays: this runs for every particle of every sequence frame (two heap allocations per
+            // particle were most of its time).
+            let lo: [i64; 3] = std::array::from_fn(|a| (g[a] - t).div_euclid(BRICK as i64).max(0));
+            let hi: [i64; 3] = std::array::from_fn(|a| (g[a] + 1 + t).div_euclid(BRICK as i64).min(b[a] - 1));
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {

@@ -117,7 +117,14 @@ pub struct Entry {
     /// The effect images that exist (`noise_accum`, `noise`, `diffuse_white`, …), by name: none when the
     /// effects are off.
     pub effect_images: Vec<String>,
+    /// The host's stages per frame, ms ([`HOST_STAGES`]): a sequence frame's upload (`set_scene_particles`:
+    /// the spray classification and the copy into the particle set), then the renderer's own
+    /// (`Renderer::host_times`), and the wait for the GPU with the timestamps' read-back.
+    pub host_ms: Vec<(String, Stat)>,
 }
+
+/// The host stages `bench` times per frame (`Entry::host_ms`).
+pub const HOST_STAGES: [&str; 7] = ["upload", "prepare", "slot_wait", "stage", "record", "submit", "wait"];
 
 /// The whole benchmark run.
 #[derive(Clone, Debug, Serialize)]
@@ -207,6 +214,8 @@ struct Series {
     per_pass: Vec<(String, Vec<f64>)>,
     totals: Vec<f64>,
     cpu: Vec<f64>,
+    /// Per measured frame, the host's stages (ms, [`HOST_STAGES`] order).
+    host: Vec<[f64; 7]>,
     main_ms: Vec<f64>,
     compute_ms: Vec<f64>,
     union_ms: Vec<f64>,
@@ -237,6 +246,7 @@ impl Series {
             per_pass: vec![],
             totals: vec![],
             cpu: vec![],
+            host: vec![],
             main_ms: vec![],
             compute_ms: vec![],
             union_ms: vec![],
@@ -248,6 +258,7 @@ impl Series {
 
     /// Render one frame; a warm-up frame is not recorded (`last_warmup`: note the memory after it).
     fn frame(&mut self, r: &mut Renderer, w: &Workload, warmup: bool, last_warmup: bool) -> Result<()> {
+        let t_upload = Instant::now();
         if !w.sequence.is_empty() {
             // The upload is recorded into the frame (its copy is on the GPU clock, not in a pass).
             let k = self.rendered % w.sequence.len();
@@ -257,9 +268,13 @@ impl Series {
             }
         }
         self.rendered += 1;
+        let upload_ms = t_upload.elapsed().as_secs_f64() * 1e3;
         let t0 = Instant::now();
         let spans = r.render_spans(&self.view, &self.s)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let h = r.host_times();
+        let before = h.prepare + h.slot_wait + h.stage + h.record + h.submit;
+        let host = [upload_ms, h.prepare, h.slot_wait, h.stage, h.record, h.submit, (cpu_ms - before).max(0.0)];
         // Same-named scopes summed, in recording order.
         let mut times: Vec<(String, f64)> = vec![];
         for sp in &spans {
@@ -287,6 +302,7 @@ impl Series {
         }
         self.totals.push(times.total());
         self.cpu.push(cpu_ms);
+        self.host.push(host);
         // Per queue: the time its passes were busy; the union: first begin to last end over both queues
         // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
         use meniscus::gpu::schedule::QueueId;
@@ -334,6 +350,11 @@ impl Series {
             rss_after_frames_bytes: rss_bytes(),
             gpu_memory: r.gpu.memory_report(),
             noise_work: t.noise.as_ref().map(|n| n.work()).transpose()?,
+            host_ms: HOST_STAGES
+                .iter()
+                .enumerate()
+                .map(|(k, n)| (n.to_string(), Stat::of(&self.host.iter().map(|h| h[k]).collect::<Vec<_>>())))
+                .collect(),
             effect_images: t
                 .memory()
                 .into_iter()
@@ -380,6 +401,25 @@ pub fn markdown(entries: &[Entry]) -> String {
             e.gpu_total.p95,
             e.cpu_frame.median,
             e.memory_fluid_images_bytes as f64 / 1e6
+        ));
+    }
+    // The host's stages beside the GPU's time (medians, ms).
+    s.push_str(&format!(
+        "\nHost stages per frame (ms, medians):\n\n| scene | resolution | variant | {} | CPU frame | GPU total |\n|---|---|---|{}---:|---:|\n",
+        HOST_STAGES.join(" | "),
+        "---:|".repeat(HOST_STAGES.len())
+    ));
+    for e in entries {
+        let stages: Vec<String> = e.host_ms.iter().map(|(_, st)| format!("{:.3}", st.median)).collect();
+        s.push_str(&format!(
+            "| {} | {}×{} | {} | {} | {:.3} | {:.3} |\n",
+            e.scene,
+            e.width,
+            e.height,
+            e.variant,
+            stages.join(" | "),
+            e.cpu_frame.median,
+            e.gpu_total.median
         ));
     }
     // GPU memory: every live allocation after each workload's last entry (the JSON has them per entry).
