@@ -256,20 +256,27 @@ pub fn percentile_bounds(pos: &[[f32; 3]], p: f64) -> Option<Bounds> {
     if pos.is_empty() {
         return None;
     }
+    use rayon::prelude::*;
+    // The three axes in parallel (a sequence's every frame walks them).
+    let per_axis: Vec<Option<(f32, f32)>> = (0..3)
+        .into_par_iter()
+        .map(|a| {
+            let mut axis: Vec<f32> = pos.iter().map(|q| q[a]).filter(|x| x.is_finite()).collect();
+            if axis.is_empty() {
+                return None;
+            }
+            let n = axis.len();
+            let k_lo = ((n - 1) as f64 * p).round() as usize;
+            let k_hi = ((n - 1) as f64 * (1.0 - p)).round() as usize;
+            let lo = *axis.select_nth_unstable_by(k_lo, f32::total_cmp).1;
+            let hi = *axis.select_nth_unstable_by(k_hi, f32::total_cmp).1;
+            Some((lo, hi))
+        })
+        .collect();
     let mut lo = [0f32; 3];
     let mut hi = [0f32; 3];
-    let mut axis: Vec<f32> = Vec::with_capacity(pos.len());
-    for a in 0..3 {
-        axis.clear();
-        axis.extend(pos.iter().map(|q| q[a]).filter(|x| x.is_finite()));
-        if axis.is_empty() {
-            return None;
-        }
-        let n = axis.len();
-        let k_lo = ((n - 1) as f64 * p).round() as usize;
-        let k_hi = ((n - 1) as f64 * (1.0 - p)).round() as usize;
-        lo[a] = *axis.select_nth_unstable_by(k_lo, f32::total_cmp).1;
-        hi[a] = *axis.select_nth_unstable_by(k_hi, f32::total_cmp).1;
+    for (a, b) in per_axis.into_iter().enumerate() {
+        (lo[a], hi[a]) = b?;
     }
     Some(Bounds { lo: Vec3::from(lo), hi: Vec3::from(hi) })
 }
