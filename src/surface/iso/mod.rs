@@ -24,8 +24,11 @@ pub struct Grid {
     built_for: Option<u64>,
     /// The fluid's box and strays for (particle generation, reach bits): a still frame does not walk its
     /// particles again (2.4–6 ms a frame on the H100 machine's host for 59k–159k particles, 33 ms for 814k).
-    bounds: Option<(u64, u32, Option<(crate::scene::Bounds, usize)>)>,
+    bounds: Option<(u64, u32, FluidBox)>,
 }
+
+/// `scene::fluid_bounds` of a particle set: the box and the strays left out (None: no finite particle).
+type FluidBox = Option<(crate::scene::Bounds, usize)>;
 
 impl Grid {
     /// The buffers, once built.
