@@ -45,20 +45,7 @@ void main() {
     ivec2 size = imageSize(depth);
     Sprite s;
     if (!noise_sprite_of(i, size, s)) return;
-    ivec2 base = noise_level_base(size, s.L);
-    uint evaluated = 0u;
-    for (int y = s.lo.y; y <= s.hi.y; ++y) {
-        for (int x = s.lo.x; x <= s.hi.x; ++x) {
-            ivec2 q = ivec2(x, y);
-            float d = imageLoad(depth, noise_pick(q, s.L, size)).x;
-            if (!is_fluid(d)) continue;
-            int units;
-            if (noise_term(q, s.L, s.centre, s.R, s.z, s.o, s.amp, s.reach, d, units)) {
-                ++evaluated;
-                if (units != 0) imageAtomicAdd(accum, base + q, uint(units));
-            }
-        }
-    }
+    uint evaluated = noise_splat_alone(s, size);
     atomicMax(work[0], uint(s.L));
     atomicAdd(work[1], uint(s.hi.x - s.lo.x + 1) * uint(s.hi.y - s.lo.y + 1));
     atomicAdd(work[2], 1u);

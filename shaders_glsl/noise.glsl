@@ -41,6 +41,16 @@ ivec2 noise_level_base(ivec2 size, int L) {
     return ivec2(size.x, y);
 }
 
+/// The texels of level L whose positions lie within R of a sprite's centre (full-resolution pixels), clipped to
+/// the level: at level 0 the pixels, as the CPU reference walks them; texel i of level L sits at (i + ½)·2^L − ½.
+void noise_rect(vec2 centre, float R, int L, ivec2 size, out ivec2 lo, out ivec2 hi) {
+    float cell = float(1 << L);
+    vec2 lo_f = L == 0 ? ceil(centre - R) : ceil((centre - R + 0.5) / cell - 0.5);
+    vec2 hi_f = L == 0 ? floor(centre + R) : floor((centre + R + 0.5) / cell - 0.5);
+    lo = max(ivec2(lo_f), ivec2(0));
+    hi = min(ivec2(hi_f), noise_level_size(size, L) - 1);
+}
+
 /// Tiles (NOISE_TILE × NOISE_TILE texels) of level L: the tiled splat's bins.
 ivec2 noise_tiles(ivec2 size, int L) {
     return (noise_level_size(size, L) + int(NOISE_TILE) - 1) / int(NOISE_TILE);

@@ -47,21 +47,7 @@ void main() {
     atomicAdd(work[1], texels);
     atomicAdd(work[2], 1u);
     if (texels <= pc.small) {
-        ivec2 base = noise_level_base(size, s.L);
-        uint evaluated = 0u;
-        for (int y = s.lo.y; y <= s.hi.y; ++y) {
-            for (int x = s.lo.x; x <= s.hi.x; ++x) {
-                ivec2 q = ivec2(x, y);
-                float d = imageLoad(depth, noise_pick(q, s.L, size)).x;
-                if (!is_fluid(d)) continue;
-                int units;
-                if (noise_term(q, s.L, s.centre, s.R, s.z, s.o, s.amp, s.reach, d, units)) {
-                    ++evaluated;
-                    if (units != 0) imageAtomicAdd(accum, base + q, uint(units));
-                }
-            }
-        }
-        atomicAdd(work[3], evaluated);
+        atomicAdd(work[3], noise_splat_alone(s, size));
         return;
     }
     ivec2 t0 = s.lo / int(NOISE_TILE), t1 = s.hi / int(NOISE_TILE);

@@ -31,13 +31,10 @@ void main() {
     uint i = binned[k];
     ivec2 size = imageSize(depth);
     vec4 a = sprites[2u * i];
-    // noise_splat.glsl's rectangle, from the record (centre a.xy, radius a.z).
+    // The sprite's level and rectangle, from its record (centre a.xy, radius a.z), as noise_bin found them.
     int L = noise_level(a.z, pc.freq);
-    float cell = float(1 << L);
-    vec2 lo_f = L == 0 ? ceil(a.xy - a.z) : ceil((a.xy - a.z + 0.5) / cell - 0.5);
-    vec2 hi_f = L == 0 ? floor(a.xy + a.z) : floor((a.xy + a.z + 0.5) / cell - 0.5);
-    ivec2 lo = max(ivec2(lo_f), ivec2(0));
-    ivec2 hi = min(ivec2(hi_f), noise_level_size(size, L) - 1);
+    ivec2 lo, hi;
+    noise_rect(a.xy, a.z, L, size, lo, hi);
     ivec2 t0 = lo / int(NOISE_TILE), t1 = hi / int(NOISE_TILE);
     int base = noise_tile_base(size, L);
     int row = noise_tiles(size, L).x;

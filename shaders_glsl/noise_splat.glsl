@@ -3,7 +3,7 @@
 //! to tiles, each tile's texels summed by its own work group, no atomics). The sums are the same either way.
 //! Expects, declared before it: the particle buffer `particles`, the fluid depth image `depth`, and the push
 //! block `pc` (count, size, freq, falloff, calm, turbulent, threshold, tiles); with NOISE_TERM_ONLY defined only
-//! the texel term (`noise_term`), which needs `pc` alone. NVIDIA patent US 8,947,430 (eq.
+//! the texel term (`noise_term`), which needs `pc` alone. `noise_splat_alone` needs the atlas `accum` too. NVIDIA patent US 8,947,430 (eq.
 //! 15–17; method.md §8); the level of detail and the depth cut are noise.glsl's.
 
 /// A particle's sprite: centre (full-resolution pixels), radius R (pixels), eye depth z, noise offset o,
@@ -36,12 +36,7 @@ bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     s.centre = vec2(0.5 * size.x + F * pt.c.x / s.z - 0.5, 0.5 * size.y - F * pt.c.y / s.z - 0.5);
     s.R = F * pc.size * r / s.z;
     s.L = noise_level(s.R, pc.freq);
-    float cell = float(1 << s.L);
-    // The texels whose positions lie within R of the centre (at level 0 the pixels, as the reference).
-    vec2 lo_f = s.L == 0 ? ceil(s.centre - s.R) : ceil((s.centre - s.R + 0.5) / cell - 0.5);
-    vec2 hi_f = s.L == 0 ? floor(s.centre + s.R) : floor((s.centre + s.R + 0.5) / cell - 0.5);
-    s.lo = max(ivec2(lo_f), ivec2(0));
-    s.hi = min(ivec2(hi_f), noise_level_size(size, s.L) - 1);
+    noise_rect(s.centre, s.R, s.L, size, s.lo, s.hi);
     s.amp = noise_amplitude(motion.y, pc.calm, pc.turbulent, pc.threshold);
     s.reach = noise_reach(s.amp);
     s.o = noise_offset(floatBitsToUint(motion.x));
@@ -73,3 +68,25 @@ bool noise_term(ivec2 q, int L, vec2 centre, float R, float z, vec3 o, float amp
     units = int(round(v * 65536.0));
     return true;
 }
+
+#ifndef NOISE_TERM_ONLY
+/// Add sprite s's terms to the accumulator atlas `accum` (declared before this file) with one atomic per texel
+/// whose term is not 0, its own thread walking its rectangle; returns the texels whose noise was evaluated.
+uint noise_splat_alone(Sprite s, ivec2 size) {
+    ivec2 base = noise_level_base(size, s.L);
+    uint evaluated = 0u;
+    for (int y = s.lo.y; y <= s.hi.y; ++y) {
+        for (int x = s.lo.x; x <= s.hi.x; ++x) {
+            ivec2 q = ivec2(x, y);
+            float d = imageLoad(depth, noise_pick(q, s.L, size)).x;
+            if (!is_fluid(d)) continue;
+            int units;
+            if (noise_term(q, s.L, s.centre, s.R, s.z, s.o, s.amp, s.reach, d, units)) {
+                ++evaluated;
+                if (units != 0) imageAtomicAdd(accum, base + q, uint(units));
+            }
+        }
+    }
+    return evaluated;
+}
+#endif

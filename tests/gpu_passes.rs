@@ -1852,6 +1852,23 @@ fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
     assert_clean(&gpu);
 }
 
+/// The particles as the noise reference takes them: view-space centre, id, change of velocity.
+fn noise_reference_particles(
+    pos: &[[f32; 3]],
+    motion: &[meniscus::particles::Motion],
+    v: &meniscus::frame::View,
+) -> Vec<meniscus::passes::noise::reference::Particle> {
+    let m = v.camera.view();
+    pos.iter()
+        .zip(motion)
+        .map(|(p, mo)| meniscus::passes::noise::reference::Particle {
+            c: m.transform_point3(glam::Vec3::from(*p)).to_array(),
+            id: mo.id,
+            accel: mo.accel,
+        })
+        .collect()
+}
+
 /// A slab of particles five layers deep (the lowest ones too deep to add noise), `n`×`n` per layer, spacing 2r, centred at the origin (y up).
 fn noise_slab(n: usize, r: f32) -> Vec<[f32; 3]> {
     let mut p = vec![];
@@ -1910,16 +1927,7 @@ fn noise_level_of_detail_stays_within_tolerance_of_the_reference() {
     assert_eq!((a.level, a.texels, a.sprites, a.evaluated), (b.level, b.texels, b.sprites, b.evaluated));
     assert!(a.binned > 0 && a.skipped == 0, "the close-up's large sprites go to the tiles: {a:?}");
     let (work, noise, depth, _) = runs.pop().unwrap();
-    let m = v.camera.view();
-    let particles: Vec<reference::Particle> = pos
-        .iter()
-        .zip(&motion)
-        .map(|(p, mo)| reference::Particle {
-            c: m.transform_point3(glam::Vec3::from(*p)).to_array(),
-            id: mo.id,
-            accel: mo.accel,
-        })
-        .collect();
+    let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
     let want = reference::accumulate(&particles, &depth, w, h, f, r, v.camera.near, &s.noise);
     // The reference's work: every pixel of every sprite's rectangle that is not culled at its centre.
@@ -1993,16 +2001,7 @@ fn noise_matches_cpu_reference() {
     other.render(&v, &s).unwrap();
     let atlas2 = words(&other.targets.as_ref().unwrap().noise.as_ref().unwrap().accum);
     assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
-    let m = v.camera.view();
-    let particles: Vec<reference::Particle> = pos
-        .iter()
-        .zip(&motion)
-        .map(|(p, mo)| reference::Particle {
-            c: m.transform_point3(glam::Vec3::from(*p)).to_array(),
-            id: mo.id,
-            accel: mo.accel,
-        })
-        .collect();
+    let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
     let want = reference::accumulate(&particles, &depth, w, h, f, r, v.camera.near, &s.noise);
     let covered = depth.iter().filter(|d| **d < 1e30).count();
