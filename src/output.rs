@@ -181,7 +181,7 @@ pub fn remove_partials() -> usize {
 
 /// This machine's short name as it appears in partial names (letters, digits and '-'; "host" when unknown):
 /// a folder shared between machines (a cluster's shards) holds partial files of processes this one cannot see.
-fn host_tag() -> &'static str {
+pub fn host_tag() -> &'static str {
     static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     TAG.get_or_init(|| {
         let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
@@ -211,15 +211,15 @@ fn partial_name(path: &Path, pid: u32) -> PathBuf {
     PathBuf::from(tmp)
 }
 
-/// A partial file's name split into (NAME, PID, HOST); HOST is None in the older `NAME.PID.partial` form.
-fn parse_partial(file: &str) -> Option<(&str, u32, Option<&str>)> {
+/// A partial file's PID and HOST; HOST is None in the older `NAME.PID.partial` form.
+fn parse_partial(file: &str) -> Option<(u32, Option<&str>)> {
     let rest = file.strip_suffix(".partial")?;
     let (head, last) = rest.rsplit_once('.')?;
     if let Ok(pid) = last.parse::<u32>() {
-        return Some((head, pid, None));
+        return Some((pid, None));
     }
-    let (name, pid) = head.rsplit_once('.')?;
-    Some((name, pid.parse().ok()?, Some(last)))
+    let (_, pid) = head.rsplit_once('.')?;
+    Some((pid.parse().ok()?, Some(last)))
 }
 
 /// Folders whose stale partial files this process has removed (each is listed once: the folder of a long
@@ -243,7 +243,7 @@ fn remove_stale_partials(path: &Path) {
     let Ok(rd) = std::fs::read_dir(&dir) else { return };
     for e in rd.flatten() {
         let file = e.file_name().to_string_lossy().into_owned();
-        let Some((_, pid, host)) = parse_partial(&file) else { continue };
+        let Some((pid, host)) = parse_partial(&file) else { continue };
         // The older form names no machine: taken as this one's.
         let stale = host.is_none_or(|h| h == host_tag()) && dead(pid);
         if stale {

@@ -605,15 +605,7 @@ fn a_killed_runs_partial_files_are_cleaned_by_the_next_run() {
     let mut child = Command::new("sleep").arg("0").spawn().unwrap();
     let dead = child.id();
     child.wait().unwrap();
-    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
-    let host: String = host
-        .trim()
-        .split('.')
-        .next()
-        .unwrap_or("")
-        .chars()
-        .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
-        .collect();
+    let host = meniscus::output::host_tag();
     let litter = d.join(format!("m/m_0004.ply.{dead}.{host}.partial"));
     let older = d.join(format!("m/m_0003.ply.{dead}.partial"));
     // Another machine's partial file (a cluster shard writing into the same folder) is never touched.

@@ -78,12 +78,18 @@ pub fn parse_shard(s: &str) -> Result<(usize, usize)> {
     Ok((k, n))
 }
 
-/// The last run of digits in a file name, as a frame number.
-fn frame_number(name: &str) -> Option<u64> {
+/// Where the last run of digits in a file name's stem (before its last '.') starts and ends.
+fn last_digits(name: &str) -> Option<(usize, usize)> {
     let stem = name.rsplit_once('.').map(|(s, _)| s).unwrap_or(name);
     let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
     let start = stem[..end].rfind(|c: char| !c.is_ascii_digit()).map(|i| i + 1).unwrap_or(0);
-    stem[start..end].parse().ok()
+    Some((start, end))
+}
+
+/// The last run of digits in a file name, as a frame number.
+fn frame_number(name: &str) -> Option<u64> {
+    let (start, end) = last_digits(name)?;
+    name[start..end].parse().ok()
 }
 
 /// True when `spec` names a sequence rather than one file: a pattern with {}, a glob, a folder, or a ParaView
@@ -200,10 +206,7 @@ pub fn resolve_all(spec: &str) -> Result<Vec<Frame>> {
 
 /// The pattern of a numbered file name: its last run of digits (in the stem) replaced by `{}`.
 fn name_pattern(name: &str) -> Option<String> {
-    let stem_len = name.rsplit_once('.').map_or(name.len(), |(s, _)| s.len());
-    let stem = &name[..stem_len];
-    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
-    let start = stem[..end].rfind(|c: char| !c.is_ascii_digit()).map(|i| i + 1).unwrap_or(0);
+    let (start, end) = last_digits(name)?;
     Some(format!("{}{{}}{}", &name[..start], &name[end..]))
 }
 

@@ -45,19 +45,26 @@ pub fn run(a: &InfoArgs) -> Result<()> {
         no_scene_json: false,
     };
     let t0 = std::time::Instant::now();
-    // A single file without particles is a valid file: described, though nothing can be fitted to it.
-    let path = std::path::Path::new(&input);
-    if !scene::sequence::is_sequence(&input) && path.is_file() {
-        let p = scene::load_with(path, &a.load.options()?)?;
-        if p.is_empty() {
-            describe_file(path, t0.elapsed().as_secs_f64() * 1e3)?;
-            println!("particles:   0");
-            println!("attributes:  {}", p.attribute_names().join(", "));
-            println!("bounds:      none (the file holds no particles)");
-            return Ok(());
+    let job = match Job::open(&scene_args, &a.load, meniscus::settings::Settings::default(), Select::default()) {
+        Ok(job) => job,
+        Err(e) => {
+            // A single file without particles is a valid file (the job refuses it: nothing to fit a camera or
+            // radius to): described; any other failure stands.
+            let path = std::path::Path::new(&input);
+            if !scene::sequence::is_sequence(&input) && path.is_file() {
+                if let Ok(p) = scene::load_with(path, &a.load.options()?) {
+                    if p.is_empty() {
+                        describe_file(path, t0.elapsed().as_secs_f64() * 1e3)?;
+                        println!("particles:   0");
+                        println!("attributes:  {}", p.attribute_names().join(", "));
+                        println!("bounds:      none (the file holds no particles)");
+                        return Ok(());
+                    }
+                }
+            }
+            return Err(e);
         }
-    }
-    let job = Job::open(&scene_args, &a.load, meniscus::settings::Settings::default(), Select::default())?;
+    };
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     let file = match &job.frames {
         Some(frames) => {
