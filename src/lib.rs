@@ -10,6 +10,7 @@
 pub mod background;
 pub mod diffuse;
 pub mod error;
+pub mod export;
 pub mod field;
 pub mod frame;
 pub mod gpu;

@@ -38,6 +38,10 @@ pub enum Kind {
     Webm,
     /// An animated GIF.
     Gif,
+    /// A USD stage (`.usda` text; an existing `.usd` may be text or binary crate).
+    Usd,
+    /// An OpenVDB volume.
+    Vdb,
 }
 
 impl Kind {
@@ -55,6 +59,8 @@ impl Kind {
             Kind::Mp4 => &["mp4"],
             Kind::Webm => &["webm"],
             Kind::Gif => &["gif"],
+            Kind::Usd => &["usda", "usd"],
+            Kind::Vdb => &["vdb"],
         }
     }
 
@@ -72,6 +78,8 @@ impl Kind {
             Kind::Mp4 => "MP4 movie",
             Kind::Webm => "WebM movie",
             Kind::Gif => "GIF",
+            Kind::Usd => "USD stage",
+            Kind::Vdb => "OpenVDB file",
         }
     }
 
@@ -105,6 +113,8 @@ impl Kind {
             Kind::Mp4 => head.len() >= 8 && &head[4..8] == b"ftyp",
             Kind::Webm => head.starts_with(&[0x1a, 0x45, 0xdf, 0xa3]),
             Kind::Gif => head.starts_with(b"GIF8"),
+            Kind::Usd => head.starts_with(b"#usda") || head.starts_with(b"PXR-USDC"),
+            Kind::Vdb => head.starts_with(&[0x20, 0x42, 0x44, 0x56]),
         }
     }
 
@@ -281,6 +291,18 @@ impl Partial {
         Ok(Partial { path: path.to_path_buf(), tmp, committed: false })
     }
 
+    /// A scratch file beside `path` for a writer that assembles its file from parts (the USD writer spools
+    /// each attribute's time samples): `NAME.TAG.PID.HOST.partial`, removed when dropped and on
+    /// SIGINT/SIGTERM, never committed.
+    pub fn scratch(path: &Path, tag: &str) -> Result<Partial> {
+        let mut named = path.as_os_str().to_owned();
+        named.push(format!(".{tag}"));
+        let named = PathBuf::from(named);
+        let tmp = partial_name(&named, std::process::id());
+        PARTIALS.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+        Ok(Partial { path: named, tmp, committed: false })
+    }
+
     /// Where the bytes go until the file is complete.
     pub fn tmp(&self) -> &Path {
         &self.tmp
@@ -443,6 +465,9 @@ pub struct MeshData<'a> {
 
 /// The formats a fluid mesh is written in ([`write_mesh`]).
 pub const MESH_KINDS: [Kind; 3] = [Kind::Ply, Kind::Obj, Kind::Vtk];
+/// The formats `meniscus mesh` writes: the mesh formats, a USD stage (time-sampled, the whole sequence in one
+/// file: `crate::export::usd`) and an OpenVDB level set (`crate::export::vdb`).
+pub const SURFACE_KINDS: [Kind; 5] = [Kind::Ply, Kind::Obj, Kind::Vtk, Kind::Usd, Kind::Vdb];
 /// The formats a particle cache is written in ([`write_particles`]).
 pub const PARTICLE_KINDS: [Kind; 2] = [Kind::Bgeo, Kind::Vtk];
 

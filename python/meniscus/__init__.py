@@ -21,7 +21,8 @@ import numpy as np
 
 from . import _meniscus
 
-__all__ = ["Renderer", "Simulation", "Foam", "reconstruct_surface", "load", "sim_scenes", "__version__"]
+__all__ = ["Renderer", "Simulation", "Foam", "reconstruct_surface", "load", "device_info", "sim_scenes",
+           "UsdStage", "write_vdb", "__version__"]
 __version__ = _meniscus.__version__
 
 ArrayLike = Any
@@ -212,20 +213,84 @@ class Foam:
 
 def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,
                         cube_size: float = 0.5, iso_surface_threshold: float = 0.6, mesh_smoothing_iters: int = 0,
-                        gpu: bool = True, device: Optional[str] = None
-                        ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        gpu: bool = True, device: Optional[str] = None, velocities: Optional[ArrayLike] = None
+                        ) -> Tuple[np.ndarray, ...]:
     """The SPH iso-surface of the particles as a triangle mesh (pysplashsurf's parameter names: the kernel's
     support is 2 × `smoothing_length` × `particle_radius`, the marching-cubes edge `cube_size` ×
     `particle_radius`). Returns (vertices N×3 float32, triangles M×3 uint32, normals N×3 float32): the mesh
-    `meniscus mesh` writes (`--gpu` when `gpu`). Without a real GPU pass `gpu=False`: on lavapipe the GPU path
-    runs emulated on the CPU, about 40× slower than the CPU extraction (benches/results/llvmpipe-python-binding.md)."""
+    `meniscus mesh` writes (`--gpu` when `gpu`); with `velocities` (one row per particle) a fourth array, the
+    velocity at each vertex (SPH-interpolated, as `meniscus mesh --out X.usda` writes it: motion blur). Without a
+    real GPU pass `gpu=False`: on lavapipe the GPU path runs emulated on the CPU, about 40× slower than the CPU
+    extraction (benches/results/llvmpipe-python-binding.md)."""
     pts = _points(particles, "particles")
+    vel = None if velocities is None else _points(velocities, "velocities")
+    if vel is not None and len(vel) != len(pts):
+        raise ValueError(f"velocities: {len(vel)} rows for {len(pts)} particles")
     if not (smoothing_length > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
         raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
     if int(mesh_smoothing_iters) < 0 or int(mesh_smoothing_iters) > 1000:
         raise ValueError("mesh_smoothing_iters must be in [0, 1000]")
-    return _meniscus.reconstruct(pts, _radius(particle_radius), 2.0 * float(smoothing_length), float(cube_size),
-                                 float(iso_surface_threshold), int(mesh_smoothing_iters), bool(gpu), device)
+    v, t, n, mv = _meniscus.reconstruct(pts, _radius(particle_radius), 2.0 * float(smoothing_length),
+                                        float(cube_size), float(iso_surface_threshold), int(mesh_smoothing_iters),
+                                        bool(gpu), device, vel)
+    return (v, t, n) if vel is None else (v, t, n, mv)
+
+
+def device_info(device: Optional[str] = None) -> Dict[str, str]:
+    """The Vulkan device Meniscus finds (`device`: part of a name; default the best one, as the CLI picks):
+    {"name", "driver", "api_version", "device_type"}. Raises RuntimeError with what to install when there is no
+    Vulkan loader (libvulkan.so.1) or no usable device; the loader may be named by MENISCUS_VULKAN_LOADER."""
+    return dict(_meniscus.device_info(device))
+
+
+class UsdStage:
+    """A USD stage written frame by frame, as `meniscus mesh SEQ --out water.usda` writes it: one UsdGeomMesh
+    `/water/surface` with time-sampled points, faces, normals, velocities and extent, and with `diffuse=True` a
+    UsdGeomPoints `/water/diffuse` (widths, velocities, an int `kind` primvar: 0 foam, 1 spray, 2 bubbles).
+    Time codes are frame numbers at `fps`; add frames in increasing time, then `finish()` (the stage appears
+    whole, or not at all; an existing file of another kind or an input is never replaced).
+
+        stage = meniscus.UsdStage("water.usda", fps=25)
+        for t, frame in frames:
+            v, tri, n, vel = meniscus.reconstruct_surface(frame["positions"], particle_radius=r,
+                                                          velocities=frame["velocity"], gpu=False)
+            stage.add_mesh(t, v, tri, n, vel)
+        stage.finish()
+    """
+
+    def __init__(self, path: str, fps: float, meters_per_unit: float = 1.0, diffuse: bool = False) -> None:
+        self._s = _meniscus.UsdStage(str(path), float(fps), float(meters_per_unit), bool(diffuse))
+
+    def add_mesh(self, time: float, vertices: ArrayLike, triangles: ArrayLike, normals: ArrayLike,
+                 velocities: Optional[ArrayLike] = None) -> None:
+        v = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1, 3)
+        t = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
+        n = np.ascontiguousarray(normals, dtype=np.float32).reshape(-1, 3)
+        vel = np.zeros_like(v) if velocities is None else np.ascontiguousarray(velocities, dtype=np.float32).reshape(-1, 3)
+        self._s.add_mesh(float(time), v, t, n, vel)
+
+    def add_points(self, time: float, positions: ArrayLike, velocities: ArrayLike, widths: ArrayLike,
+                   kinds: ArrayLike) -> None:
+        p = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1, 3)
+        self._s.add_points(float(time), p, np.ascontiguousarray(velocities, dtype=np.float32).reshape(-1, 3),
+                           np.ascontiguousarray(widths, dtype=np.float32).reshape(-1),
+                           np.ascontiguousarray(kinds, dtype=np.int32).reshape(-1))
+
+    def finish(self) -> None:
+        self._s.finish()
+
+
+def write_vdb(path: str, particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,
+              cube_size: float = 0.5, iso_surface_threshold: float = 0.6, half_width: float = 3.0,
+              fog: bool = False) -> int:
+    """Write the particles' SPH iso-surface as an OpenVDB narrow-band level set (grid `surface`, voxel =
+    `cube_size` × `particle_radius`, half-width `half_width` voxels), with `fog` also the field as a fog volume
+    (grid `density`) — `meniscus mesh FILE --out X.vdb [--vdb-fog]`. Returns the level set's active voxels."""
+    pts = _points(particles, "particles")
+    if not (smoothing_length > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
+        raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
+    return _meniscus.write_vdb(str(path), pts, _radius(particle_radius), 2.0 * float(smoothing_length),
+                               float(cube_size), float(iso_surface_threshold), float(half_width), bool(fog))
 
 
 def load(path: str) -> Dict[str, np.ndarray]:

@@ -307,12 +307,18 @@ fn vec3_array(py: Python<'_>, v: Vec<[f32; 3]>) -> PyResult<Bound<'_, PyArray2<f
     flat.into_pyarray(py).reshape([n, 3])
 }
 
-/// A mesh as arrays: vertices, triangles, normals.
-type MeshArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>, Bound<'py, PyArray2<f32>>);
+/// A mesh as arrays: vertices, triangles, normals, and the vertices' velocities when asked for.
+type MeshArrays<'py> = (
+    Bound<'py, PyArray2<f32>>,
+    Bound<'py, PyArray2<u32>>,
+    Bound<'py, PyArray2<f32>>,
+    Option<Bound<'py, PyArray2<f32>>>,
+);
 
-/// The iso surface of particles as a mesh — `meniscus mesh`'s (surface::mesh::reconstruct).
+/// The iso surface of particles as a mesh — `meniscus mesh`'s (surface::mesh::reconstruct_field) — and, given
+/// per-particle velocities, their SPH interpolation at the vertices (USD's `velocities`).
 #[pyfunction]
-#[pyo3(signature = (positions, radius, support, cube, threshold, smoothing_iters, gpu, device=None))]
+#[pyo3(signature = (positions, radius, support, cube, threshold, smoothing_iters, gpu, device=None, velocities=None))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -324,10 +330,15 @@ fn reconstruct<'py>(
     smoothing_iters: u32,
     gpu: bool,
     device: Option<String>,
+    velocities: Option<PyReadonlyArray2<f32>>,
 ) -> PyResult<MeshArrays<'py>> {
     use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
     use meniscus::surface::mesh::Reconstruct;
     let pts = points(&positions)?;
+    let vel = velocities.as_ref().map(points).transpose()?;
+    if vel.as_ref().is_some_and(|v| v.len() != pts.len()) {
+        return Err(PyValueError::new_err("velocities: expected one row per particle"));
+    }
     let r = Reconstruct {
         support: support * radius,
         extract: ExtractParams::new(cube * radius, threshold),
@@ -340,11 +351,13 @@ fn reconstruct<'py>(
     } else {
         None
     };
-    let work = OnThisThread((&pts, &r, dev.as_ref()));
-    let m = py
+    let work = OnThisThread((&pts, &r, dev.as_ref(), vel.as_deref()));
+    let (m, mv) = py
         .allow_threads(move || {
-            let (pts, r, dev) = work.into_inner();
-            meniscus::surface::mesh::reconstruct(pts, r, dev.map(|(g, mc)| (g, mc))).map(|(m, _)| m)
+            let (pts, r, dev, vel) = work.into_inner();
+            let rec = meniscus::surface::mesh::reconstruct_field(pts, r, dev.map(|(g, mc)| (g, mc)))?;
+            let mv = vel.map(|v| rec.at_vertices(v));
+            Ok::<_, meniscus::Error>((rec.mesh, mv))
         })
         .map_err(py_err)?;
     let tris: Vec<u32> = m.triangles.iter().flatten().copied().collect();
@@ -353,7 +366,139 @@ fn reconstruct<'py>(
         vec3_array(py, m.vertices)?,
         tris.into_pyarray(py).reshape([nt, 3])?,
         vec3_array(py, m.normals)?,
+        mv.map(|v| vec3_array(py, v)).transpose()?,
     ))
+}
+
+/// The Vulkan device the package renders and meshes on (`device`: a part of its name, else the best one):
+/// its name, driver, Vulkan version and type. RuntimeError when there is no Vulkan loader or device.
+#[pyfunction]
+#[pyo3(signature = (device=None))]
+fn device_info<'py>(py: Python<'py>, device: Option<String>) -> PyResult<Bound<'py, PyDict>> {
+    let g = crate::device(device)?;
+    let d = PyDict::new(py);
+    d.set_item("name", &g.info.name)?;
+    d.set_item("driver", &g.info.driver)?;
+    d.set_item("api_version", &g.info.api_version)?;
+    d.set_item("device_type", &g.info.device_type)?;
+    Ok(d)
+}
+
+/// A USD stage being written (`meniscus::export::usd::UsdWriter`): frames added in time order, then `finish`.
+#[pyclass(unsendable, module = "meniscus._meniscus")]
+struct UsdStage {
+    writer: Option<meniscus::export::usd::UsdWriter>,
+}
+
+fn rows_u32(a: &PyReadonlyArray2<u32>) -> PyResult<Vec<[u32; 3]>> {
+    let s = a.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous M×3 uint32 array"))?;
+    Ok(s.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+#[pymethods]
+impl UsdStage {
+    #[new]
+    #[pyo3(signature = (path, fps, meters_per_unit=1.0, diffuse=false))]
+    fn new(path: &str, fps: f64, meters_per_unit: f64, diffuse: bool) -> PyResult<Self> {
+        let w = meniscus::export::usd::UsdWriter::create(
+            std::path::Path::new(path),
+            fps,
+            meters_per_unit,
+            diffuse,
+            "meniscus (Python)",
+        )
+        .map_err(py_err)?;
+        Ok(UsdStage { writer: Some(w) })
+    }
+
+    fn add_mesh(
+        &mut self,
+        time: f64,
+        vertices: PyReadonlyArray2<f32>,
+        triangles: PyReadonlyArray2<u32>,
+        normals: PyReadonlyArray2<f32>,
+        velocities: PyReadonlyArray2<f32>,
+    ) -> PyResult<()> {
+        let w = self.writer.as_mut().ok_or_else(|| PyValueError::new_err("the stage is finished"))?;
+        let (v, t, n, vel) = (points(&vertices)?, rows_u32(&triangles)?, points(&normals)?, points(&velocities)?);
+        if n.len() != v.len() || vel.len() != v.len() {
+            return Err(PyValueError::new_err("normals and velocities: one row per vertex"));
+        }
+        if t.iter().flatten().any(|&i| i as usize >= v.len()) {
+            return Err(PyValueError::new_err("triangles: a vertex index is out of range"));
+        }
+        w.add_mesh(time, &v, &n, &t, &vel).map_err(py_err)
+    }
+
+    fn add_points(
+        &mut self,
+        time: f64,
+        positions: PyReadonlyArray2<f32>,
+        velocities: PyReadonlyArray2<f32>,
+        widths: PyReadonlyArray1<f32>,
+        kinds: PyReadonlyArray1<i32>,
+    ) -> PyResult<()> {
+        let w = self.writer.as_mut().ok_or_else(|| PyValueError::new_err("the stage is finished"))?;
+        let (p, v) = (points(&positions)?, points(&velocities)?);
+        let (wd, k) = (widths.as_slice()?.to_vec(), kinds.as_slice()?.to_vec());
+        if v.len() != p.len() || wd.len() != p.len() || k.len() != p.len() {
+            return Err(PyValueError::new_err("velocities, widths and kinds: one per point"));
+        }
+        let frame =
+            meniscus::export::usd::PointsFrame { positions: &p, velocities: &v, widths: &wd, kinds: &k };
+        w.add_points(time, &frame).map_err(py_err)
+    }
+
+    fn finish(&mut self) -> PyResult<()> {
+        let w = self.writer.take().ok_or_else(|| PyValueError::new_err("the stage is finished"))?;
+        w.finish().map_err(py_err)
+    }
+}
+
+/// The SPH iso-surface of particles as an OpenVDB file: the narrow-band level set `surface` (and with `fog` the
+/// field as the fog volume `density`), on the marching-cubes lattice of `cube` radii — `meniscus mesh --out
+/// X.vdb`'s. Returns the level set's active voxel count.
+#[pyfunction]
+#[pyo3(signature = (path, positions, radius, support, cube, threshold, half_width=3.0, fog=false))]
+#[allow(clippy::too_many_arguments)]
+fn write_vdb(
+    py: Python<'_>,
+    path: &str,
+    positions: PyReadonlyArray2<f32>,
+    radius: f32,
+    support: f32,
+    cube: f32,
+    threshold: f32,
+    half_width: f32,
+    fog: bool,
+) -> PyResult<u64> {
+    use meniscus::export::vdb;
+    use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
+    let pts = points(&positions)?;
+    if !(half_width.is_finite() && (1.0..=32.0).contains(&half_width)) {
+        return Err(PyValueError::new_err("half_width must be in [1, 32] voxels"));
+    }
+    let r = meniscus::surface::mesh::Reconstruct {
+        support: support * radius,
+        extract: ExtractParams::new(cube * radius, threshold),
+        smoothing: SmoothParams { iterations: 0, ..Default::default() },
+    };
+    let path = std::path::PathBuf::from(path);
+    py.allow_threads(move || {
+        let rec = meniscus::surface::mesh::reconstruct_field(&pts, &r, None)?;
+        let ls = rec.level_set(half_width);
+        let bg = ls.background;
+        let tile = |x: glam::Vec3| if rec.inside(x) { -bg } else { bg };
+        let zero = |_: glam::Vec3| 0.0;
+        let fogv = fog.then(|| rec.fog());
+        let mut grids = vec![vdb::Grid { name: "surface", class: vdb::GridClass::LevelSet, volume: &ls, tile: &tile }];
+        if let Some(f) = &fogv {
+            grids.push(vdb::Grid { name: "density", class: vdb::GridClass::FogVolume, volume: f, tile: &zero });
+        }
+        vdb::write(&path, &grids)?;
+        Ok::<_, meniscus::Error>(ls.active_voxels())
+    })
+    .map_err(py_err)
 }
 
 /// Read a particle file of any format the CLI reads: positions (N×3 float32) and every per-particle array by
@@ -466,6 +611,9 @@ fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Simulation>()?;
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(device_info, m)?)?;
+    m.add_function(wrap_pyfunction!(write_vdb, m)?)?;
+    m.add_class::<UsdStage>()?;
     m.add_function(wrap_pyfunction!(sim_scenes, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

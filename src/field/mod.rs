@@ -4,6 +4,7 @@
 //! the references the surfaces' GPU passes are tested against, and the CPU path of `meniscus mesh`. They sit
 //! below the passes and the surface techniques (both read their types), so the modules form no cycle.
 
+pub mod export;
 pub mod extract;
 pub mod iso;
 pub mod smooth;

@@ -288,8 +288,13 @@ impl Gpu {
     pub fn new(opts: &GpuOptions) -> Result<Arc<Gpu>> {
         let validation_wanted =
             opts.validation || std::env::var("MENISCUS_VALIDATION").map(|v| v != "0" && !v.is_empty()).unwrap_or(false);
-        // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?;
+        // SAFETY: loading the system Vulkan loader (or the one MENISCUS_VULKAN_LOADER names); failure is
+        // reported, not assumed.
+        let entry = match std::env::var_os("MENISCUS_VULKAN_LOADER").filter(|p| !p.is_empty()) {
+            Some(p) => unsafe { ash::Entry::load_from(&p) }
+                .map_err(|e| Error::NoLoader(format!("MENISCUS_VULKAN_LOADER={}: {e}", p.to_string_lossy())))?,
+            None => unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?,
+        };
 
         let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
         let has_validation = layers.iter().any(|l| cstr_of(&l.layer_name) == "VK_LAYER_KHRONOS_validation");

@@ -334,6 +334,21 @@ pub fn without_strays(pos: &[[f32; 3]], margin: f32) -> (std::borrow::Cow<'_, [[
     }
 }
 
+/// The indices of the particles [`without_strays`] keeps (in order), or None when it keeps them all.
+pub fn kept_indices(pos: &[[f32; 3]], margin: f32) -> Option<Vec<u32>> {
+    match fluid_bounds(pos, margin) {
+        Some((b, strays)) if strays > 0 => Some(
+            (0..pos.len() as u32)
+                .filter(|&i| {
+                    let p = Vec3::from(pos[i as usize]);
+                    p.cmpge(b.lo).all() && p.cmple(b.hi).all()
+                })
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
 /// Median nearest-neighbour distance over (up to) 4,096 sample particles. SPH samplers start particles on a
 /// lattice one spacing (2 r) apart; once the fluid moves, neighbours crowd in a disordered packing and this
 /// distance shrinks (dam break 59k: 2 r at frame 1, 1.75 r at frame 20), so it is only a length scale here:

@@ -13,7 +13,10 @@ use meniscus::scene::sequence::{FrameRange, Prefetch};
 use meniscus::scene::{self, Particles};
 use meniscus::surface::mesh::Extraction;
 
+use meniscus::export::usd::{PointsFrame, UsdWriter};
+use meniscus::export::vdb;
 use meniscus::output::Kind;
+use meniscus::surface::mesh::Reconstructed;
 
 use crate::args::{check_out, out_kind, LoadArgs, SceneArgs};
 use crate::job::{Job, Select};
@@ -25,9 +28,11 @@ pub struct MeshArgs {
     scene: SceneArgs,
     #[command(flatten)]
     load: LoadArgs,
-    /// Output mesh, .ply (binary, with normals), .obj or .vtk (legacy binary POLYDATA, with normals); for a
-    /// sequence {} in the name is the frame number (4 digits), else _NNNN is added before the extension.
-    /// Default: mesh.ply (none with --compare alone).
+    /// Output: a mesh, .ply (binary, with normals), .obj or .vtk (legacy binary POLYDATA, with normals); a USD
+    /// stage, .usda or .usd (text; a sequence's frames as time samples of one mesh, with per-vertex velocities
+    /// for motion blur); or an OpenVDB level set, .vdb (the field's narrow band on the marching-cubes lattice).
+    /// For a sequence of .ply/.obj/.vtk/.vdb, {} in the name is the frame number (4 digits), else _NNNN is
+    /// added before the extension. Default: mesh.ply (none with --compare alone).
     #[arg(short, long)]
     out: Option<PathBuf>,
     /// Sequence: frames FIRST..LAST[:STEP] (inclusive, by the numbers in the file names), e.g. 10..40:2.
@@ -88,6 +93,22 @@ pub struct MeshArgs {
     /// Prints the GPU ms of each stage.
     #[arg(long)]
     gpu: bool,
+    /// USD: frames per second (time codes are frame numbers). Default: the sequence's scene.json, else 25.
+    #[arg(long)]
+    fps: Option<f64>,
+    /// USD: the stage's metersPerUnit (SPlisHSPlasH's scenes are in metres: 1).
+    #[arg(long, default_value_t = 1.0)]
+    meters_per_unit: f64,
+    /// USD, sequences: add the diffuse particles (spray, foam, bubbles; `[diffuse]` of --settings) as a
+    /// UsdGeomPoints with widths, velocities and a `kind` primvar (0 foam, 1 spray, 2 bubbles).
+    #[arg(long)]
+    foam: bool,
+    /// VDB: also write the field as a fog volume (grid `density`, clamped to [0, 1]).
+    #[arg(long)]
+    vdb_fog: bool,
+    /// VDB: the level set's half-width in voxels (OpenVDB's default: 3).
+    #[arg(long, default_value_t = 3.0)]
+    vdb_half_width: f32,
 }
 
 /// Run the extraction.
@@ -97,7 +118,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         check_out("--compare", p, Kind::Png)?;
     }
     let out_kind = match &a.out {
-        Some(p) => out_kind("--out", p, &meniscus::output::MESH_KINDS)?,
+        Some(p) => out_kind("--out", p, &meniscus::output::SURFACE_KINDS)?,
         None => Kind::Ply,
     };
     if !(a.cube_size.is_finite() && a.cube_size > 0.05 && a.cube_size <= 8.0) {
@@ -118,6 +139,31 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let top = if metaball { 0.25 } else { 1.0 };
     if !(threshold > 0.0 && threshold < top) {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
+    }
+    if out_kind != Kind::Usd && (a.fps.is_some() || a.foam) {
+        bail!("--fps and --foam apply to a USD stage (--out NAME.usda)");
+    }
+    if out_kind != Kind::Vdb && a.vdb_fog {
+        bail!("--vdb-fog applies to --out NAME.vdb");
+    }
+    if let Some(f) = a.fps {
+        if !(f.is_finite() && f > 0.0 && f <= 10000.0) {
+            bail!("--fps must be in (0, 10000]");
+        }
+    }
+    if !(a.meters_per_unit.is_finite() && a.meters_per_unit > 0.0) {
+        bail!("--meters-per-unit must be positive");
+    }
+    if out_kind == Kind::Vdb {
+        if metaball {
+            bail!("--out .vdb writes the SPH field's level set; drop --field metaball");
+        }
+        if a.smoothing_iters > 0 {
+            bail!("--out .vdb writes the field's level set, which --smoothing-iters (a mesh operation) does not change; drop it");
+        }
+        if !(a.vdb_half_width.is_finite() && (1.0..=32.0).contains(&a.vdb_half_width)) {
+            bail!("--vdb-half-width must be in [1, 32] voxels");
+        }
     }
     if a.compare.is_some() && metaball {
         bail!("--compare renders the SPH field (the one the iso pass ray-casts); drop --field metaball");
@@ -162,7 +208,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     } else {
         None
     };
-    let one = |p: &Particles, out: &PathBuf| -> Result<String> {
+    // Extract one frame: the mesh with its field, and a line saying where the time went.
+    let extract = |p: &Particles| -> Result<(Reconstructed, String, f64)> {
         let t0 = std::time::Instant::now();
         let (m, how) = pool.install(|| -> Result<_> {
             let recon = meniscus::surface::mesh::Reconstruct {
@@ -174,8 +221,11 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                     ..Default::default()
                 },
             };
-            let (m, rep) =
-                meniscus::surface::mesh::reconstruct(&p.positions, &recon, gpu_mc.as_ref().map(|(g, mc)| (g, mc)))
+            let rec = meniscus::surface::mesh::reconstruct_field(
+                &p.positions,
+                &recon,
+                gpu_mc.as_ref().map(|(g, mc)| (g, mc)),
+            )
                     .with_context(|| {
                         if a.gpu {
                             format!(
@@ -187,6 +237,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                             format!("mesh at --cube-size {} (radii)", a.cube_size)
                         }
                     })?;
+            let rep = &rec.report;
             // The one stray-particle policy: particles far from the fluid are left out, and counted.
             if rep.strays > 0 {
                 eprintln!("{}", scene::stray_warning(rep.strays, "the mesh"));
@@ -224,39 +275,122 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             } else {
                 how
             };
-            Ok((m, how))
+            Ok((rec, how))
         })?;
-        let secs = t0.elapsed().as_secs_f64();
+        Ok((m, how, t0.elapsed().as_secs_f64()))
+    };
+    let vdb = |rec: &Reconstructed, out: &PathBuf| -> Result<()> {
+        pool.install(|| -> Result<()> {
+            let ls = rec.level_set(a.vdb_half_width);
+            let bg = ls.background;
+            let tile = |x: glam::Vec3| if rec.inside(x) { -bg } else { bg };
+            let mut grids =
+                vec![vdb::Grid { name: "surface", class: vdb::GridClass::LevelSet, volume: &ls, tile: &tile }];
+            let fog = a.vdb_fog.then(|| rec.fog());
+            let zero = |_: glam::Vec3| 0.0;
+            if let Some(f) = &fog {
+                grids.push(vdb::Grid { name: "density", class: vdb::GridClass::FogVolume, volume: f, tile: &zero });
+            }
+            Ok(vdb::write(out, &grids)?)
+        })
+    };
+    let mut usd = match out_kind {
+        Kind::Usd => {
+            let fps = a.fps.unwrap_or(job.frame_rate() as f64);
+            let comment = format!("meniscus mesh {} (cube {} r, support {} r)", job.label, a.cube_size, support);
+            Some(UsdWriter::create(&out, fps, a.meters_per_unit, a.foam, &comment)?)
+        }
+        _ => None,
+    };
+    if a.foam && job.frames.is_none() {
+        bail!("--foam generates diffuse particles from a sequence (a pattern with {{}}, a folder or a glob)");
+    }
+    let mut walk = if a.foam { Some(crate::foam::Walk::new(&job)?) } else { None };
+    let mut no_velocities = false;
+    let per_frame_files = usd.is_none();
+    let mut one = |p: &Particles, number: u64, out: &PathBuf| -> Result<String> {
+        let (rec, how, secs) = extract(p)?;
+        let m = &rec.mesh;
         let t_write = std::time::Instant::now();
-        meniscus::output::write_mesh(out, m.data())?;
+        let shown = match usd.as_mut() {
+            Some(w) => {
+                let vel = match &p.velocities {
+                    Some(v) => pool.install(|| rec.at_vertices(v)),
+                    None => {
+                        if !no_velocities {
+                            eprintln!(
+                                "warning: {} has no velocities: the stage's velocities are zero (no motion blur)",
+                                job.label
+                            );
+                            no_velocities = true;
+                        }
+                        vec![[0.0; 3]; m.vertices.len()]
+                    }
+                };
+                pool.install(|| w.add_mesh(number as f64, &m.vertices, &m.normals, &m.triangles, &vel))?;
+                if let Some(walk) = walk.as_mut() {
+                    let ps = walk.advance(number, Some(p))?;
+                    let size = job.settings.diffuse.size * job.settings.radius * 2.0;
+                    let pos: Vec<[f32; 3]> = ps.iter().map(|d| d.position.to_array()).collect();
+                    let vel: Vec<[f32; 3]> = ps.iter().map(|d| d.velocity.to_array()).collect();
+                    let widths = vec![size; ps.len()];
+                    let kinds: Vec<i32> = ps.iter().map(|d| d.kind as i32).collect();
+                    let frame = PointsFrame { positions: &pos, velocities: &vel, widths: &widths, kinds: &kinds };
+                    w.add_points(number as f64, &frame)?;
+                }
+                format!("{} (time {number})", out.display())
+            }
+            None if out_kind == Kind::Vdb => {
+                vdb(&rec, out)?;
+                out.display().to_string()
+            }
+            None => {
+                meniscus::output::write_mesh(out, m.data())?;
+                out.display().to_string()
+            }
+        };
         Ok(format!(
             "{} particles → {} vertices, {} triangles in {secs:.2} s {how}, written in {:.3} s → {}",
             p.len(),
             m.vertices.len(),
             m.triangles.len(),
             t_write.elapsed().as_secs_f64(),
-            out.display()
+            shown
         ))
     };
     // Validation messages (--validation) fail the run at its end.
     let done = || gpu_mc.as_ref().map_or(Ok(()), |(gpu, _)| crate::args::finish(gpu));
     let Some(frames) = job.frames.clone() else {
-        eprintln!("{}", one(&job.first, &out).with_context(|| job.label.clone())?);
+        // One file: one time sample, at 0.
+        eprintln!("{}", one(&job.first, 0, &out).with_context(|| job.label.clone())?);
+        drop(one);
+        if let Some(w) = usd {
+            w.finish()?;
+        }
         return done();
     };
-    let names = crate::args::Numbered::new(&out, "ply");
-    for f in &frames {
-        check_out("--out", &names.path(f.number), out_kind)?;
+    let names = crate::args::Numbered::new(&out, out_kind.extensions()[0]);
+    if per_frame_files {
+        for f in &frames {
+            check_out("--out", &names.path(f.number), out_kind)?;
+        }
     }
     let bar = crate::args::progress(frames.len() as u64, "meshes");
     let (t0, mut last) = (std::time::Instant::now(), String::new());
     for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
         let p: scene::Particles = loaded?;
-        last = one(&p, &names.path(frame.number)).with_context(|| frame.path.display().to_string())?;
+        let path = if out_kind == Kind::Usd { out.clone() } else { names.path(frame.number) };
+        last = one(&p, frame.number, &path).with_context(|| frame.path.display().to_string())?;
         bar.set_message(last.clone());
         bar.inc(1);
     }
     bar.finish();
+    drop(one);
+    if let Some(w) = usd {
+        let t = std::time::Instant::now();
+        w.finish()?;
+        eprintln!("{}: {} time samples assembled in {:.2} s", out.display(), frames.len(), t.elapsed().as_secs_f64());
+    }
     // The bar is hidden when stderr is not a terminal: say what was done either way.
     eprintln!("{} meshes in {:.1} s; the last: {last}", frames.len(), t0.elapsed().as_secs_f64());
     done()

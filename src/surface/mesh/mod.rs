@@ -117,9 +117,59 @@ pub fn reconstruct(
     r: &Reconstruct,
     gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::passes::mc::Mc)>,
 ) -> Result<(extract::TriMesh, ReconstructReport)> {
+    reconstruct_field(positions, r, gpu).map(|x| (x.mesh, x.report))
+}
+
+/// [`reconstruct`]'s mesh with the field it was made of, for what the exporters derive from it: velocities at
+/// the vertices, the level set and the fog volume (`crate::field::export`).
+pub struct Reconstructed {
+    /// The mesh.
+    pub mesh: extract::TriMesh,
+    /// Where the time went.
+    pub report: ReconstructReport,
+    /// The field's grid (of the kept particles).
+    pub grid: crate::field::iso::IsoGrid,
+    /// 1 / n_j of the grid's sorted points.
+    pub inv_n: Vec<f32>,
+    /// The input index of each kept particle (None: all were kept).
+    pub kept: Option<Vec<u32>>,
+    /// How it was made.
+    pub params: Reconstruct,
+}
+
+impl Reconstructed {
+    /// The per-particle `values` (one per input particle, e.g. velocities) interpolated at the mesh's vertices.
+    pub fn at_vertices(&self, values: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        crate::field::export::interpolate(&self.grid, &self.inv_n, values, self.kept.as_deref(), &self.mesh.vertices)
+    }
+
+    /// The surface as a narrow-band level set on the extraction's lattice, `half_width` voxels each side.
+    pub fn level_set(&self, half_width: f32) -> crate::field::export::Volume {
+        let e = &self.params.extract;
+        crate::field::export::level_set(&self.grid, &self.inv_n, e.cube, e.threshold, half_width, &self.mesh.vertices)
+    }
+
+    /// The field as a fog volume on the extraction's lattice.
+    pub fn fog(&self) -> crate::field::export::Volume {
+        crate::field::export::fog(&self.grid, &self.inv_n, self.params.extract.cube)
+    }
+
+    /// Whether a world point is inside the surface (a level set's empty regions).
+    pub fn inside(&self, x: glam::Vec3) -> bool {
+        crate::field::export::inside(&self.grid, &self.inv_n, self.params.extract.threshold, x)
+    }
+}
+
+/// [`reconstruct`], keeping the field ([`Reconstructed`]).
+pub fn reconstruct_field(
+    positions: &[[f32; 3]],
+    r: &Reconstruct,
+    gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::passes::mc::Mc)>,
+) -> Result<Reconstructed> {
     let t0 = std::time::Instant::now();
-    let (kept, strays) = crate::scene::without_strays(positions, r.support);
-    let grid = crate::field::iso::IsoGrid::build(&kept, r.support);
+    let (kept_pos, strays) = crate::scene::without_strays(positions, r.support);
+    let kept = if strays > 0 { crate::scene::kept_indices(positions, r.support) } else { None };
+    let grid = crate::field::iso::IsoGrid::build(&kept_pos, r.support);
     extract::check_lattice(&grid, r.extract.cube)?;
     extract::check_memory(&grid, &r.extract, rayon::current_num_threads())?;
     let inv = grid.inv_density();
@@ -136,5 +186,6 @@ pub fn reconstruct(
     };
     let t_smooth = std::time::Instant::now();
     smooth::smooth(&mut m, &grid, &inv, &r.smoothing);
-    Ok((m, ReconstructReport { strays, field_s, extraction, smooth_s: t_smooth.elapsed().as_secs_f64() }))
+    let report = ReconstructReport { strays, field_s, extraction, smooth_s: t_smooth.elapsed().as_secs_f64() };
+    Ok(Reconstructed { mesh: m, report, grid, inv_n: inv, kept, params: *r })
 }

@@ -1,0 +1,224 @@
+//! What the exporters take from the SPH colour field (`crate::field::iso`) besides the mesh:
+//! - [`interpolate`]: a per-particle vector (the velocity) at arbitrary points — the mesh's vertices for USD's
+//!   `velocities` (motion blur) — by Shepard-normalised SPH interpolation, A(x) = Σ_j A_j W_j(x)/n_j ÷ Σ_j W_j(x)/n_j
+//!   (Monaghan 1992, §2; the same kernel and 1/n_j volumes the field uses);
+//! - [`level_set`]: the surface as a narrow band of signed distances on the marching-cubes lattice, for an
+//!   OpenVDB level set (`crate::export::vdb`): φ = (c − F)/|∇F| (the first-order distance to the iso-surface
+//!   F = c; negative inside, as OpenVDB's level sets are), central differences for ∇F, clamped to ± the band's
+//!   half-width, and at a voxel whose lattice edges cross the surface no larger than the distance along them to
+//!   the crossing (so the level set's zero lies within a quarter voxel of each marching-cubes vertex); the
+//!   leaves (8³ voxels) those within the band of some mesh vertex touch;
+//! - [`fog`]: the field itself (clamped to [0, 1]) on every leaf some particle's support reaches, a fog volume.
+//!
+//! Voxel (i, j, k) of both volumes is the lattice corner `lo + h·(i, j, k)` of `extract::Lattice`, the corners
+//! the marching cubes evaluate the field at.
+
+use glam::{IVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::field::extract::Lattice;
+use crate::field::iso::{kernel, IsoGrid};
+
+/// Voxels per edge of a leaf (OpenVDB's `LeafNode<float, 3>`).
+pub const LEAF: i32 = 8;
+/// Voxels of a leaf.
+pub const LEAF_VOXELS: usize = 512;
+
+/// One 8³ leaf of a sparse volume: its lowest voxel's index (a multiple of 8 on every axis), its values in
+/// OpenVDB's order (z fastest: `(x·8 + y)·8 + z`), and which are active (bit n of word n / 64).
+#[derive(Clone, Debug)]
+pub struct Leaf {
+    /// Index of the leaf's first voxel.
+    pub origin: IVec3,
+    /// Values, z fastest.
+    pub values: Box<[f32; LEAF_VOXELS]>,
+    /// Active voxels, 512 bits.
+    pub active: [u64; 8],
+}
+
+/// A sparse volume on the lattice: voxel (i, j, k) at `origin + voxel·(i, j, k)`.
+#[derive(Clone, Debug)]
+pub struct Volume {
+    /// World position of voxel (0, 0, 0).
+    pub origin: Vec3,
+    /// Voxel edge (world units): the marching-cubes cube size.
+    pub voxel: f32,
+    /// The value outside the leaves: + half-width × voxel for a level set (outside), 0 for fog.
+    pub background: f32,
+    /// The leaves, sorted by origin (x, then y, then z).
+    pub leaves: Vec<Leaf>,
+}
+
+impl Volume {
+    /// Active voxels.
+    pub fn active_voxels(&self) -> u64 {
+        self.leaves.iter().map(|l| l.active.iter().map(|w| w.count_ones() as u64).sum::<u64>()).sum()
+    }
+}
+
+/// `values` (one per particle of the grid's input, `source[i]` naming the input index of grid point i's particle
+/// when the grid was built from a subset) interpolated at `at`: Σ_j v_j W_j / n_j ÷ Σ_j W_j / n_j; zero where no
+/// particle reaches.
+pub fn interpolate(
+    grid: &IsoGrid,
+    inv_n: &[f32],
+    values: &[[f32; 3]],
+    source: Option<&[u32]>,
+    at: &[[f32; 3]],
+) -> Vec<[f32; 3]> {
+    let sorted: Vec<Vec3> = grid
+        .order
+        .iter()
+        .map(|&o| {
+            let i = source.map_or(o as usize, |s| s[o as usize] as usize);
+            values.get(i).map_or(Vec3::ZERO, |v| Vec3::from(*v))
+        })
+        .collect();
+    at.par_iter()
+        .map(|x| {
+            let x = Vec3::from(*x);
+            let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+            grid.for_each_near(x, |i, y| {
+                let w = kernel(x.distance(y) / grid.support) * inv_n[i];
+                sum += w * sorted[i];
+                weight += w;
+            });
+            if weight > 0.0 {
+                (sum / weight).to_array()
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
+/// The bit and value index of voxel `d` (0..8 per axis) within its leaf.
+fn leaf_offset(d: IVec3) -> usize {
+    ((d.x * LEAF + d.y) * LEAF + d.z) as usize
+}
+
+/// Leaves (origins) covering every voxel within `band` voxels of the lattice points `u` (lattice coordinates).
+fn leaves_around(points: impl ParallelIterator<Item = Vec3>, band: f32) -> Vec<IVec3> {
+    let mut keys: Vec<IVec3> = points
+        .flat_map_iter(|u| {
+            let a = (u - band).floor().as_ivec3().div_euclid(IVec3::splat(LEAF));
+            let b = (u + band).ceil().as_ivec3().div_euclid(IVec3::splat(LEAF));
+            (a.x..=b.x).flat_map(move |x| (a.y..=b.y).flat_map(move |y| (a.z..=b.z).map(move |z| IVec3::new(x, y, z))))
+        })
+        .map(|l| l * LEAF)
+        .collect();
+    keys.par_sort_unstable_by_key(|k| (k.x, k.y, k.z));
+    keys.dedup();
+    keys
+}
+
+/// The narrow-band level set of the field's iso-surface F = `threshold` on the lattice of cube `cube`
+/// ([`Lattice`]), `half_width` voxels each side (OpenVDB's default is 3), around the mesh `vertices` extracted
+/// from the same field and lattice.
+pub fn level_set(
+    grid: &IsoGrid,
+    inv_n: &[f32],
+    cube: f32,
+    threshold: f32,
+    half_width: f32,
+    vertices: &[[f32; 3]],
+) -> Volume {
+    let lat = Lattice::of(grid, cube.max(1e-6));
+    let (lo, h) = (lat.lo, lat.h);
+    let background = half_width * h;
+    let origins = leaves_around(vertices.par_iter().map(|v| (Vec3::from(*v) - lo) / h), half_width + 1.0);
+    let leaves = origins
+        .into_par_iter()
+        .filter_map(|origin| {
+            // The field on the leaf and a one-voxel margin (for the central differences).
+            const M: i32 = LEAF + 2;
+            let mut f = [0.0f32; (M * M * M) as usize];
+            for x in 0..M {
+                for y in 0..M {
+                    for z in 0..M {
+                        let c = origin + IVec3::new(x, y, z) - 1;
+                        f[((x * M + y) * M + z) as usize] = grid.field(lo + c.as_vec3() * h, inv_n).0;
+                    }
+                }
+            }
+            let at = |x: i32, y: i32, z: i32| f[((x * M + y) * M + z) as usize];
+            let mut values = Box::new([background; LEAF_VOXELS]);
+            let mut active = [0u64; 8];
+            for x in 1..=LEAF {
+                for y in 1..=LEAF {
+                    for z in 1..=LEAF {
+                        let g = Vec3::new(
+                            at(x + 1, y, z) - at(x - 1, y, z),
+                            at(x, y + 1, z) - at(x, y - 1, z),
+                            at(x, y, z + 1) - at(x, y, z - 1),
+                        ) / (2.0 * h);
+                        let f0 = at(x, y, z);
+                        let d = threshold - f0;
+                        let len = g.length();
+                        let mut dist = if len * background > d.abs() { d.abs() / len } else { background };
+                        // Along a crossed lattice edge, no farther than its crossing (where marching cubes puts
+                        // the vertex): the zero crossing of the two ends' values then lies within a quarter
+                        // voxel of the vertex whatever ∇F does between them.
+                        for f1 in [
+                            at(x + 1, y, z),
+                            at(x - 1, y, z),
+                            at(x, y + 1, z),
+                            at(x, y - 1, z),
+                            at(x, y, z + 1),
+                            at(x, y, z - 1),
+                        ] {
+                            if (f0 > threshold) != (f1 > threshold) {
+                                dist = dist.min(h * d / (f1 - f0));
+                            }
+                        }
+                        let phi = dist.copysign(d);
+                        let n = leaf_offset(IVec3::new(x - 1, y - 1, z - 1));
+                        values[n] = phi;
+                        if phi.abs() < background {
+                            active[n / 64] |= 1 << (n % 64);
+                        }
+                    }
+                }
+            }
+            active.iter().any(|&w| w != 0).then_some(Leaf { origin, values, active })
+        })
+        .collect();
+    Volume { origin: lo, voxel: h, background, leaves }
+}
+
+/// Whether the world point `x` is inside the surface F = `threshold` (for the level set's tiles: regions no leaf
+/// covers lie wholly inside or wholly outside).
+pub fn inside(grid: &IsoGrid, inv_n: &[f32], threshold: f32, x: Vec3) -> bool {
+    grid.field(x, inv_n).0 > threshold
+}
+
+/// The field as a fog volume on the same lattice: F clamped to [0, 1] on every leaf some particle's support
+/// reaches; voxels with F > 0 active; background 0.
+pub fn fog(grid: &IsoGrid, inv_n: &[f32], cube: f32) -> Volume {
+    let lat = Lattice::of(grid, cube.max(1e-6));
+    let (lo, h) = (lat.lo, lat.h);
+    let reach = grid.support / h;
+    let origins = leaves_around(grid.points.par_iter().map(|p| (Vec3::new(p[0], p[1], p[2]) - lo) / h), reach);
+    let leaves = origins
+        .into_par_iter()
+        .filter_map(|origin| {
+            let mut values = Box::new([0.0f32; LEAF_VOXELS]);
+            let mut active = [0u64; 8];
+            for x in 0..LEAF {
+                for y in 0..LEAF {
+                    for z in 0..LEAF {
+                        let d = IVec3::new(x, y, z);
+                        let v = grid.field(lo + (origin + d).as_vec3() * h, inv_n).0.clamp(0.0, 1.0);
+                        let n = leaf_offset(d);
+                        values[n] = v;
+                        if v > 0.0 {
+                            active[n / 64] |= 1 << (n % 64);
+                        }
+                    }
+                }
+            }
+            active.iter().any(|&w| w != 0).then_some(Leaf { origin, values, active })
+        })
+        .collect();
+    Volume { origin: lo, voxel: h, background: 0.0, leaves }
+}
