@@ -38,7 +38,7 @@ pub enum Kind {
     Webm,
     /// An animated GIF.
     Gif,
-    /// A USD stage (`.usda` text; an existing `.usd` may be text or binary crate).
+    /// A USD stage (`.usd`/`.usdc` binary crate, `.usda` text).
     Usd,
     /// An OpenVDB volume.
     Vdb,
@@ -59,7 +59,7 @@ impl Kind {
             Kind::Mp4 => &["mp4"],
             Kind::Webm => &["webm"],
             Kind::Gif => &["gif"],
-            Kind::Usd => &["usda", "usd"],
+            Kind::Usd => &["usd", "usda", "usdc"],
             Kind::Vdb => &["vdb"],
         }
     }

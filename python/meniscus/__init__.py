@@ -22,7 +22,7 @@ import numpy as np
 from . import _meniscus
 
 __all__ = ["Renderer", "Simulation", "Foam", "reconstruct_surface", "load", "device_info", "sim_scenes",
-           "UsdStage", "write_vdb", "__version__"]
+           "UsdStage", "write_vdb", "sequence", "__version__"]
 __version__ = _meniscus.__version__
 
 ArrayLike = Any
@@ -291,6 +291,14 @@ def write_vdb(path: str, particles: ArrayLike, *, particle_radius: float, smooth
         raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
     return _meniscus.write_vdb(str(path), pts, _radius(particle_radius), 2.0 * float(smoothing_length),
                                float(cube_size), float(iso_surface_threshold), float(half_width), bool(fog))
+
+
+def sequence(spec: str) -> Dict[str, Any]:
+    """A particle sequence as `meniscus mesh`/`render` resolve it (a pattern with {}, a folder, a glob, a .pvd, or
+    one file of a numbered sequence): {"frames": [(number, path), …], "radius": the particle radius the CLI
+    uses (a SPlisHSPlasH scene.json beside the files, else estimated; None if it cannot be), "radius_from",
+    "fps": the scene.json's export rate or None}."""
+    return dict(_meniscus.sequence(str(spec)))
 
 
 def load(path: str) -> Dict[str, np.ndarray]:

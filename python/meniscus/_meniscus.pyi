@@ -1,5 +1,5 @@
 """Type stubs of the native module (the public API is meniscus/__init__.py)."""
-from typing import Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -53,3 +53,4 @@ class UsdStage:
 
 def write_vdb(path: str, positions: np.ndarray, radius: float, support: float, cube: float, threshold: float,
               half_width: float = ..., fog: bool = ...) -> int: ...
+def sequence(spec: str) -> Dict[str, Any]: ...

@@ -501,6 +501,58 @@ fn write_vdb(
     .map_err(py_err)
 }
 
+/// A particle sequence as the CLI resolves it (a pattern with {}, a folder, a glob, a .pvd, or one file of a
+/// numbered sequence): its frames (number, path), and the particle radius and frame rate the CLI would use —
+/// a SPlisHSPlasH scene.json beside the files, else the radius estimated from the first non-empty frame.
+#[pyfunction]
+fn sequence<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyDict>> {
+    use meniscus::scene::sequence;
+    let mut frames = sequence::resolve_all(spec).map_err(py_err)?;
+    if frames.len() == 1 {
+        // One file of a numbered sequence: its siblings.
+        let name = frames[0].path.to_string_lossy().into_owned();
+        if let Some(pat) = numbered_pattern(&name) {
+            if let Ok(all) = sequence::resolve_all(&pat) {
+                if all.len() > 1 {
+                    frames = all;
+                }
+            }
+        }
+    }
+    let scene = meniscus::scene::splishsplash::SceneJson::find_for(&frames[0].path).map_err(py_err)?;
+    let (radius, from) = match scene.as_ref().and_then(|s| s.radius) {
+        Some(r) => (Some(r), "scene.json"),
+        None => {
+            let mut r = None;
+            for f in frames.iter().take(8) {
+                let p = meniscus::scene::load_with(&f.path, &Default::default()).map_err(py_err)?;
+                if !p.positions.is_empty() {
+                    r = meniscus::scene::estimate_radius(&p.positions);
+                    break;
+                }
+            }
+            (r, "estimated")
+        }
+    };
+    let d = PyDict::new(py);
+    let list: Vec<(u64, String)> =
+        frames.iter().map(|f| (f.number, f.path.to_string_lossy().into_owned())).collect();
+    d.set_item("frames", list)?;
+    d.set_item("radius", radius)?;
+    d.set_item("radius_from", from)?;
+    d.set_item("fps", scene.as_ref().and_then(|s| s.fps))?;
+    Ok(d)
+}
+
+/// `dir/name_16.bgeo` → `dir/name_{}.bgeo` (the last run of digits in the file name).
+fn numbered_pattern(path: &str) -> Option<String> {
+    let cut = path.rfind('/').map_or(0, |i| i + 1);
+    let name = &path[cut..];
+    let end = name.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = name[..end].rfind(|c: char| !c.is_ascii_digit()).map_or(0, |i| i + 1);
+    Some(format!("{}{}{{}}{}", &path[..cut], &name[..start], &name[end..]))
+}
+
 /// Read a particle file of any format the CLI reads: positions (N×3 float32) and every per-particle array by
 /// name (float64; vectors N×3).
 #[pyfunction]
@@ -613,6 +665,7 @@ fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
     m.add_function(wrap_pyfunction!(write_vdb, m)?)?;
+    m.add_function(wrap_pyfunction!(sequence, m)?)?;
     m.add_class::<UsdStage>()?;
     m.add_function(wrap_pyfunction!(sim_scenes, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -49,20 +49,26 @@ def sequence(shared):
     return shared("splishsplash/dambreak_6859")
 
 
-def test_usd_stage_holds_the_sequence_with_velocities(cli, sequence, tmp_path):
+@pytest.mark.parametrize("ext", ["usd", "usda"])
+def test_usd_stage_holds_the_sequence_with_velocities(cli, sequence, tmp_path, ext):
     pxr = need("pxr")
-    from pxr import Usd, UsdGeom
+    from pxr import Sdf, Usd, UsdGeom
     pattern = sequence / "partio" / "ParticleData_Fluid_{}.bgeo"
-    usd = tmp_path / "water.usda"
+    usd = tmp_path / f"water.{ext}"
     run(cli, "mesh", pattern, "--frames", "16..20", "--out", usd)
     run(cli, "mesh", pattern, "--frames", "16..20", "--out", tmp_path / "ply" / "f_{}.ply")
     stage = Usd.Stage.Open(str(usd))
     assert stage is not None and pxr is not None
+    # .usd is the binary crate encoding, .usda text.
+    assert usd.read_bytes()[:8] == (b"PXR-USDC" if ext == "usd" else b"#usda 1.")
+    assert Sdf.Layer.FindOrOpen(str(usd)).GetFileFormat().formatId == ("usd" if ext == "usd" else "usda")
     assert stage.GetTimeCodesPerSecond() == 25.0  # the scene.json's dataExportFPS
     assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (16.0, 20.0)
     assert UsdGeom.GetStageUpAxis(stage) == "Y" and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/water/surface"))
     assert mesh and stage.GetDefaultPrim().GetPath() == "/water"
+    assert Usd.ModelAPI(stage.GetPrimAtPath("/water")).GetKind() == "component"
+    assert (mesh.GetOrientationAttr().Get(), mesh.GetSubdivisionSchemeAttr().Get()) == ("rightHanded", "none")
     assert mesh.GetPointsAttr().GetTimeSamples() == [16.0, 17.0, 18.0, 19.0, 20.0]
     assert mesh.GetNormalsInterpolation() == "vertex"
     import meniscus
@@ -85,10 +91,11 @@ def test_usd_stage_holds_the_sequence_with_velocities(cli, sequence, tmp_path):
     assert np.linalg.norm(vel.mean(axis=0) - pv.mean(axis=0)) < 0.5 * np.linalg.norm(pv.mean(axis=0)) + 0.05
 
 
-def test_usd_with_diffuse_particles(cli, sequence, tmp_path):
+@pytest.mark.parametrize("ext", ["usdc", "usda"])
+def test_usd_with_diffuse_particles(cli, sequence, tmp_path, ext):
     need("pxr")
     from pxr import Usd, UsdGeom
-    usd = tmp_path / "foam.usda"
+    usd = tmp_path / f"foam.{ext}"
     run(cli, "mesh", sequence / "partio" / "ParticleData_Fluid_{}.bgeo", "--frames", "24..26", "--cube-size", "1.0",
         "--foam", "--out", usd)
     stage = Usd.Stage.Open(str(usd))

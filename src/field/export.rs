@@ -78,7 +78,7 @@ pub fn interpolate(
         .map(|x| {
             let x = Vec3::from(*x);
             let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-            grid.for_each_near(x, |i, y| {
+            grid.for_each_in_reach(x, grid.support, |i, y| {
                 let w = kernel(x.distance(y) / grid.support) * inv_n[i];
                 sum += w * sorted[i];
                 weight += w;
@@ -137,7 +137,7 @@ pub fn level_set(
                 for y in 0..M {
                     for z in 0..M {
                         let c = origin + IVec3::new(x, y, z) - 1;
-                        f[((x * M + y) * M + z) as usize] = grid.field(lo + c.as_vec3() * h, inv_n).0;
+                        f[((x * M + y) * M + z) as usize] = grid.field_value(lo + c.as_vec3() * h, inv_n);
                     }
                 }
             }
@@ -189,7 +189,7 @@ pub fn level_set(
 /// Whether the world point `x` is inside the surface F = `threshold` (for the level set's tiles: regions no leaf
 /// covers lie wholly inside or wholly outside).
 pub fn inside(grid: &IsoGrid, inv_n: &[f32], threshold: f32, x: Vec3) -> bool {
-    grid.field(x, inv_n).0 > threshold
+    grid.field_value(x, inv_n) > threshold
 }
 
 /// The field as a fog volume on the same lattice: F clamped to [0, 1] on every leaf some particle's support
@@ -208,7 +208,7 @@ pub fn fog(grid: &IsoGrid, inv_n: &[f32], cube: f32) -> Volume {
                 for y in 0..LEAF {
                     for z in 0..LEAF {
                         let d = IVec3::new(x, y, z);
-                        let v = grid.field(lo + (origin + d).as_vec3() * h, inv_n).0.clamp(0.0, 1.0);
+                        let v = grid.field_value(lo + (origin + d).as_vec3() * h, inv_n).clamp(0.0, 1.0);
                         let n = leaf_offset(d);
                         values[n] = v;
                         if v > 0.0 {
@@ -221,4 +221,87 @@ pub fn fog(grid: &IsoGrid, inv_n: &[f32], cube: f32) -> Volume {
         })
         .collect();
     Volume { origin: lo, voxel: h, background: 0.0, leaves }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cloud() -> Vec<[f32; 3]> {
+        let mut seed = 7u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        (0..400).map(|_| [rnd() * 0.4, rnd() * 0.3, rnd() * 0.2]).collect()
+    }
+
+    /// The exporters' field evaluation skips unreachable cells and changes no bit of the field.
+    #[test]
+    fn field_value_is_the_field_bit_for_bit() {
+        let pts = cloud();
+        let grid = IsoGrid::build(&pts, 0.05);
+        let inv = grid.inv_density();
+        for k in 0..2000 {
+            let t = k as f32 / 2000.0;
+            let x = Vec3::new(0.5 * t - 0.05, (t * 37.0).fract() * 0.4 - 0.05, (t * 91.0).fract() * 0.3 - 0.05);
+            assert_eq!(grid.field_value(x, &inv).to_bits(), grid.field(x, &inv).0.to_bits(), "at {x}");
+        }
+    }
+
+    /// Interpolating a linear velocity field reproduces it inside the cloud (Shepard interpolation is exact
+    /// for constants and close for linear fields), and a constant exactly.
+    #[test]
+    fn interpolation_reproduces_constant_and_linear_fields() {
+        let pts = cloud();
+        let grid = IsoGrid::build(&pts, 0.08);
+        let inv = grid.inv_density();
+        let at: Vec<[f32; 3]> = vec![[0.2, 0.15, 0.1], [0.1, 0.1, 0.05], [0.3, 0.2, 0.15]];
+        let c = interpolate(&grid, &inv, &vec![[1.0, -2.0, 0.5]; pts.len()], None, &at);
+        for v in &c {
+            assert!((Vec3::from(*v) - Vec3::new(1.0, -2.0, 0.5)).length() < 1e-5, "{v:?}");
+        }
+        let lin: Vec<[f32; 3]> = pts.iter().map(|p| [p[0], 0.0, 0.0]).collect();
+        for (x, v) in at.iter().zip(interpolate(&grid, &inv, &lin, None, &at)) {
+            assert!((v[0] - x[0]).abs() < 0.02, "{x:?} → {v:?}");
+        }
+        // A subset's source indices pick the right rows.
+        let source: Vec<u32> = (0..pts.len() as u32).collect();
+        assert_eq!(interpolate(&grid, &inv, &lin, Some(&source), &at), interpolate(&grid, &inv, &lin, None, &at));
+    }
+
+    /// The level set is negative inside, positive outside, ±background beyond the band, and its active
+    /// voxels lie within the band.
+    #[test]
+    fn level_set_signs_and_band() {
+        // A ball of particles on a lattice.
+        let mut pts = vec![];
+        for i in -6..=6 {
+            for j in -6..=6 {
+                for k in -6..=6 {
+                    if i * i + j * j + k * k <= 36 {
+                        pts.push([i as f32 * 0.02, j as f32 * 0.02, k as f32 * 0.02]);
+                    }
+                }
+            }
+        }
+        let grid = IsoGrid::build(&pts, 0.04);
+        let inv = grid.inv_density();
+        let p = crate::field::extract::ExtractParams::new(0.005, 0.6);
+        let m = crate::field::extract::extract(&grid, &inv, &p);
+        let ls = level_set(&grid, &inv, 0.005, 0.6, 3.0, &m.vertices);
+        assert!(!ls.leaves.is_empty() && ls.active_voxels() > 0);
+        assert_eq!(ls.background, 3.0 * 0.005);
+        for l in &ls.leaves {
+            for (n, v) in l.values.iter().enumerate() {
+                let active = l.active[n / 64] >> (n % 64) & 1 == 1;
+                assert!(v.abs() <= ls.background && active == (v.abs() < ls.background));
+                let d = IVec3::new(n as i32 / 64, (n as i32 / 8) % 8, n as i32 % 8);
+                let x = ls.origin + (l.origin + d).as_vec3() * ls.voxel;
+                let inside = grid.field(x, &inv).0 > 0.6;
+                assert_eq!(*v < 0.0, inside, "sign at {x}");
+            }
+        }
+        assert!(inside(&grid, &inv, 0.6, Vec3::ZERO) && !inside(&grid, &inv, 0.6, Vec3::splat(0.3)));
+    }
 }

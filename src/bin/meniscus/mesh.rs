@@ -29,8 +29,8 @@ pub struct MeshArgs {
     #[command(flatten)]
     load: LoadArgs,
     /// Output: a mesh, .ply (binary, with normals), .obj or .vtk (legacy binary POLYDATA, with normals); a USD
-    /// stage, .usda or .usd (text; a sequence's frames as time samples of one mesh, with per-vertex velocities
-    /// for motion blur); or an OpenVDB level set, .vdb (the field's narrow band on the marching-cubes lattice).
+    /// stage, .usd or .usdc (binary) or .usda (text), a sequence's frames as time samples of one mesh with
+    /// per-vertex velocities for motion blur; or an OpenVDB level set, .vdb (the field's narrow band on the marching-cubes lattice).
     /// For a sequence of .ply/.obj/.vtk/.vdb, {} in the name is the frame number (4 digits), else _NNNN is
     /// added before the extension. Default: mesh.ply (none with --compare alone).
     #[arg(short, long)]
@@ -141,7 +141,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
     }
     if out_kind != Kind::Usd && (a.fps.is_some() || a.foam) {
-        bail!("--fps and --foam apply to a USD stage (--out NAME.usda)");
+        bail!("--fps and --foam apply to a USD stage (--out NAME.usd)");
     }
     if out_kind != Kind::Vdb && a.vdb_fog {
         bail!("--vdb-fog applies to --out NAME.vdb");
