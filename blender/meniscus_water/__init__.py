@@ -82,7 +82,7 @@ class MeniscusWaterSettings(bpy.types.PropertyGroup):
     bake_format: bpy.props.EnumProperty(
         name="Bake to", items=[("USD", "USD stage", "One .usda with every frame as a time sample"),
                                ("VDB", "OpenVDB", "One level set .vdb per frame")], default="USD")
-    bake_path: bpy.props.StringProperty(name="Bake path", subtype="FILE_PATH", default="//water.usda")
+    bake_path: bpy.props.StringProperty(name="Bake path", subtype="FILE_PATH", default="//water.usd")
 
 
 def _settings(scene):

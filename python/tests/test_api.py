@@ -167,3 +167,20 @@ def test_foam_equals_the_simulations_gpu_stages_and_draws(cli, tmp_path):
         meniscus.Foam(particle_radius=-1.0)
     with pytest.raises(ValueError):
         foam.step(f["positions"], f["velocity"][:5].astype(np.float32))
+
+
+def test_device_info_and_no_loader_error(tmp_path):
+    """The package names its Vulkan device; without a Vulkan loader a GPU call is a RuntimeError saying what to
+    install, not a crash (a process of its own: the loader is opened once per process)."""
+    import os
+    import sys
+    info = meniscus.device_info()
+    assert info["name"] and info["api_version"].startswith("1.") and info["device_type"]
+    code = ("import meniscus\ntry:\n    meniscus.device_info()\nexcept RuntimeError as e:\n    print('RuntimeError:', e)\n"
+            "import numpy as np\nv, t, n = meniscus.reconstruct_surface(np.zeros((8, 3)) + np.arange(8)[:, None] * 0.01,"
+            " particle_radius=0.01, gpu=False)\nprint('cpu mesh ok', len(t))\n")
+    env = {**os.environ, "MENISCUS_VULKAN_LOADER": str(tmp_path / "no-libvulkan.so.1")}
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "RuntimeError: cannot load the Vulkan loader" in r.stdout and "apt-get install libvulkan1" in r.stdout
+    assert "cpu mesh ok" in r.stdout

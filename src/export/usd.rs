@@ -144,7 +144,10 @@ impl UsdWriter {
     pub fn create(path: &Path, fps: f64, meters_per_unit: f64, points: bool, comment: &str) -> Result<UsdWriter> {
         crate::output::check_output(path, Kind::Usd)?;
         if !(fps.is_finite() && fps > 0.0) {
-            return Err(Error::Output { path: path.into(), reason: format!("the frame rate must be positive ({fps})") });
+            return Err(Error::Output {
+                path: path.into(),
+                reason: format!("the frame rate must be positive ({fps})"),
+            });
         }
         if !(meters_per_unit.is_finite() && meters_per_unit > 0.0) {
             return Err(Error::Output {
@@ -193,7 +196,10 @@ impl UsdWriter {
             });
         }
         if triangles.iter().flatten().any(|&i| i as usize >= vertices.len()) || triangles.len() > i32::MAX as usize {
-            return Err(Error::Output { path: self.path.clone(), reason: "a triangle's vertex is out of range".into() });
+            return Err(Error::Output {
+                path: self.path.clone(),
+                reason: "a triangle's vertex is out of range".into(),
+            });
         }
         let counts = vec![3i32; triangles.len()];
         self.sample(0, time, Sample::Vec3(&extent(vertices)))?;
@@ -213,7 +219,10 @@ impl UsdWriter {
         }
         let n = p.positions.len();
         if p.velocities.len() != n || p.widths.len() != n || p.kinds.len() != n {
-            return Err(Error::Output { path: self.path.clone(), reason: "diffuse arrays of different lengths".into() });
+            return Err(Error::Output {
+                path: self.path.clone(),
+                reason: "diffuse arrays of different lengths".into(),
+            });
         }
         let at = POINTS_FROM;
         self.sample(at, time, Sample::Vec3(&extent(p.positions)))?;
@@ -334,7 +343,8 @@ impl TextSpools {
                 }
                 let tag = format!("{}-{}", PRIMS[a.prim].0, a.name.replace(':', "-"));
                 let file = Partial::scratch(path, &tag)?;
-                let out = BufWriter::with_capacity(1 << 20, File::create(file.tmp()).map_err(|e| Error::io(file.tmp(), e))?);
+                let out =
+                    BufWriter::with_capacity(1 << 20, File::create(file.tmp()).map_err(|e| Error::io(file.tmp(), e))?);
                 Ok(Some(Spool { file, out }))
             })
             .collect::<Result<Vec<_>>>()?;
@@ -387,7 +397,11 @@ impl TextSpools {
                     let Some(Spool { file, out }) = spools[i].take() else { continue };
                     out.into_inner().map_err(|e| e.into_error())?;
                     if let Some(interp) = a.interpolation {
-                        write!(w, "        {} {} (\n            interpolation = \"{interp}\"\n        )\n", a.type_name, a.name)?;
+                        write!(
+                            w,
+                            "        {} {} (\n            interpolation = \"{interp}\"\n        )\n",
+                            a.type_name, a.name
+                        )?;
                     }
                     writeln!(w, "        {} {}.timeSamples = {{", a.type_name, a.name)?;
                     let mut f = File::open(file.tmp())?;

@@ -125,13 +125,7 @@ fn group<T>(items: Vec<(IVec3, T)>, child: i32, dim: i32) -> Vec<Node<T>> {
 }
 
 /// The masks and values block of an internal node of log2 edge `dim` whose children are 2^child wide.
-fn put_internal<T>(
-    w: &mut impl Write,
-    g: &Grid,
-    node: &Node<T>,
-    child: i32,
-    dim: i32,
-) -> std::io::Result<()> {
+fn put_internal<T>(w: &mut impl Write, g: &Grid, node: &Node<T>, child: i32, dim: i32) -> std::io::Result<()> {
     let slots = 1usize << (3 * dim);
     let mut child_mask = vec![0u64; slots / 64];
     for (n, _) in &node.children {
@@ -183,13 +177,7 @@ fn uuid() -> String {
     let b = crate::diffuse::hash4(a, (t >> 64) as u32, 1, 2);
     let c = crate::diffuse::hash4(b, a, 3, 4);
     let d = crate::diffuse::hash4(c, b, 5, 6);
-    format!(
-        "{a:08x}-{:04x}-4{:03x}-{:04x}-{:04x}{d:08x}",
-        b >> 16,
-        b & 0xfff,
-        (c >> 16) & 0x3fff | 0x8000,
-        c & 0xffff
-    )
+    format!("{a:08x}-{:04x}-4{:03x}-{:04x}-{:04x}{d:08x}", b >> 16, b & 0xfff, (c >> 16) & 0x3fff | 0x8000, c & 0xffff)
 }
 
 fn put_grid<W: Write + Seek>(w: &mut W, g: &Grid) -> std::io::Result<()> {
@@ -201,9 +189,10 @@ fn put_grid<W: Write + Seek>(w: &mut W, g: &Grid) -> std::io::Result<()> {
     let grid_pos = w.stream_position()?;
     put_u32(w, 0)?; // compression: none
     let v = g.volume;
-    let (lo, hi) = v.leaves.iter().fold((IVec3::MAX, IVec3::MIN), |(a, b), l| {
-        (a.min(l.origin), b.max(l.origin + IVec3::splat(LEAF - 1)))
-    });
+    let (lo, hi) = v
+        .leaves
+        .iter()
+        .fold((IVec3::MAX, IVec3::MIN), |(a, b), l| (a.min(l.origin), b.max(l.origin + IVec3::splat(LEAF - 1))));
     let (lo, hi) = if v.leaves.is_empty() { (IVec3::ZERO, IVec3::ZERO) } else { (lo, hi) };
     let i3 = |c: IVec3| -> Vec<u8> { c.to_array().iter().flat_map(|x| x.to_le_bytes()).collect() };
     put_u32(w, 7)?;

@@ -226,17 +226,17 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                 &recon,
                 gpu_mc.as_ref().map(|(g, mc)| (g, mc)),
             )
-                    .with_context(|| {
-                        if a.gpu {
-                            format!(
-                                "mesh --gpu at --cube-size {} (radii): try a larger --cube-size, or the CPU path \
+            .with_context(|| {
+                if a.gpu {
+                    format!(
+                        "mesh --gpu at --cube-size {} (radii): try a larger --cube-size, or the CPU path \
                                  (without --gpu)",
-                                a.cube_size
-                            )
-                        } else {
-                            format!("mesh at --cube-size {} (radii)", a.cube_size)
-                        }
-                    })?;
+                        a.cube_size
+                    )
+                } else {
+                    format!("mesh at --cube-size {} (radii)", a.cube_size)
+                }
+            })?;
             let rep = &rec.report;
             // The one stray-particle policy: particles far from the fluid are left out, and counted.
             if rep.strays > 0 {
@@ -314,6 +314,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         let t_write = std::time::Instant::now();
         let shown = match usd.as_mut() {
             Some(w) => {
+                let t_vel = std::time::Instant::now();
                 let vel = match &p.velocities {
                     Some(v) => pool.install(|| rec.at_vertices(v)),
                     None => {
@@ -327,6 +328,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                         vec![[0.0; 3]; m.vertices.len()]
                     }
                 };
+                let vel_s = t_vel.elapsed().as_secs_f64();
                 pool.install(|| w.add_mesh(number as f64, &m.vertices, &m.normals, &m.triangles, &vel))?;
                 if let Some(walk) = walk.as_mut() {
                     let ps = walk.advance(number, Some(p))?;
@@ -338,7 +340,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                     let frame = PointsFrame { positions: &pos, velocities: &vel, widths: &widths, kinds: &kinds };
                     w.add_points(number as f64, &frame)?;
                 }
-                format!("{} (time {number})", out.display())
+                format!("{} (time {number}; vertex velocities {vel_s:.3} s)", out.display())
             }
             None if out_kind == Kind::Vdb => {
                 vdb(&rec, out)?;
@@ -363,7 +365,6 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let Some(frames) = job.frames.clone() else {
         // One file: one time sample, at 0.
         eprintln!("{}", one(&job.first, 0, &out).with_context(|| job.label.clone())?);
-        drop(one);
         if let Some(w) = usd {
             w.finish()?;
         }
@@ -385,7 +386,6 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         bar.inc(1);
     }
     bar.finish();
-    drop(one);
     if let Some(w) = usd {
         let t = std::time::Instant::now();
         w.finish()?;
