@@ -624,3 +624,94 @@ fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
     assert!(a == b, "the GPU-appended diffuse particles draw differently from the uploaded ones");
     common::assert_clean(&gpu);
 }
+
+/// SPlisHSPlasH scene files as input: each shared sequence's own scene.json lays out the particles
+/// SPlisHSPlasH's frame 1 holds (count within 1 %, bounds within one spacing), in the container its RigidBodies
+/// name, with the double dam break's sphere as a mesh collider; the frame rate and frame count come from
+/// dataExportFPS and stopAt; what the solver does not do is named, one warning per key.
+#[test]
+fn splishsplash_scene_files_lay_out_the_first_frame() {
+    for (dir, container) in [
+        ("dambreak_6859", ([-2.0, 0.0, -0.75], [2.0, 3.0, 0.75])),
+        ("dambreak_59k", ([-2.0, 0.0, -0.75], [2.0, 3.0, 0.75])),
+        ("doubledambreak_sphere_25k", ([-1.55, -0.05, -1.55], [1.55, 3.05, 1.55])),
+    ] {
+        let Some(root) = common::shared_data(&format!("splishsplash/{dir}")) else { return };
+        let f = meniscus::sim::SceneFile::load(&root.join("scene.json")).unwrap();
+        let first = meniscus::scene::load(&root.join("partio/ParticleData_Fluid_1.bgeo")).unwrap();
+        let (n, want) = (f.scene.positions.len() as f64, first.positions.len() as f64);
+        assert!((n - want).abs() <= 0.01 * want, "{dir}: {n} particles, SPlisHSPlasH {want}");
+        let bounds = |p: &[[f32; 3]]| {
+            p.iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), q| (a.min(Vec3::from(*q)), b.max(Vec3::from(*q))))
+        };
+        let (lo, hi) = bounds(&f.scene.positions);
+        let (wlo, whi) = bounds(&first.positions);
+        let d = f.scene.spacing;
+        assert!(
+            (lo - wlo).abs().max_element() <= d && (hi - whi).abs().max_element() <= d,
+            "{dir}: {lo}..{hi} vs {wlo}..{whi}"
+        );
+        let (clo, chi) = f.scene.container;
+        assert!((clo - Vec3::from(container.0)).abs().max_element() < 1e-5, "{dir}: container {clo}");
+        assert!((chi - Vec3::from(container.1)).abs().max_element() < 1e-5, "{dir}: container {chi}");
+        assert_eq!((f.fps, f.frames), (Some(25.0), Some(51)), "{dir}");
+        assert_eq!(f.gravity, Some([0.0, -9.81, 0.0]));
+        assert!(f.warnings.iter().any(|w| w.contains("simulationMethod")), "{dir}: the solver's choice is named");
+        assert_eq!(f.scene.mesh_collider.is_some(), dir.starts_with("double"), "{dir}: the sphere is a collider");
+        // One warning per key: no key is named twice.
+        let keys: Vec<&str> = f.warnings.iter().filter_map(|w| w.split(": ").nth(1)).collect();
+        let mut unique = keys.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(keys.len(), unique.len(), "{dir}: {keys:?}");
+    }
+}
+
+/// A scene file that cannot be run says which key, and bad types are errors, not silent defaults.
+#[test]
+fn scene_file_errors_name_the_key() {
+    let dir = std::env::temp_dir().join(format!("meniscus-scene-file-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cases = [
+        (r#"{"Configuration": {}}"#, "particleRadius"),
+        (r#"{"Configuration": {"particleRadius": "big"}}"#, "particleRadius"),
+        (
+            r#"{"Configuration": {"particleRadius": 0.05}, "FluidBlocks": [{"start": [0,0,0], "end": [1,1,1]}]}"#,
+            "container",
+        ),
+        (
+            r#"{"Configuration": {"particleRadius": 0.05}, "RigidBodies": [{"geometryFile": "UnitBox.obj", "isWall": true, "scale": [4,4,4]}], "FluidBlocks": [{"start": [0,0,0]}]}"#,
+            "FluidBlocks[0].end",
+        ),
+        ("[1, 2]", "JSON object"),
+        ("{", "line"),
+    ];
+    for (i, (text, want)) in cases.iter().enumerate() {
+        let p = dir.join(format!("case{i}.json"));
+        std::fs::write(&p, text).unwrap();
+        let e = meniscus::sim::SceneFile::load(&p).unwrap_err().to_string();
+        assert!(e.contains(want), "case {i}: {e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `meniscus sim validate`'s dam break, small (1,200 particles): the front starts at the column's edge, only
+/// advances, and with the fitted gate shift stays within 15 % of every published point up to T = 3 (the
+/// full-size run and its table: docs/simulation.md; the 5 % target is reported there, not asserted).
+#[test]
+fn dam_break_front_follows_the_experiments() {
+    use meniscus::sim::validate;
+    let gpu = common::gpu();
+    let scene = validate::column_for(1200);
+    let params = Params { fps: 200.0, ..Params::default() };
+    let mut sim = Simulation::new(&gpu, scene, params).unwrap();
+    let series = validate::front(&mut sim, 3.2).unwrap();
+    assert!((series[0].1 - 1.0).abs() < 1e-3, "Z/L at T = 0: {}", series[0].1);
+    assert!(series.windows(2).all(|w| w[1].1 >= w[0].1 - 0.02), "the front went back: {series:?}");
+    assert!(series.last().unwrap().0 >= 3.0);
+    let (shift, worst) = validate::best_shift(&series, 3.0);
+    assert!(worst < 0.15, "largest error {worst} with shift {shift}");
+    assert_eq!(validate::compare(&series, 3.0, shift).len(), 8 + 4 + 5);
+    common::assert_clean(&gpu);
+}

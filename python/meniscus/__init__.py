@@ -132,8 +132,9 @@ class Renderer:
 
 class Simulation:
     """The GPU fluid simulation (Position Based Fluids) of a built-in scene: "dambreak", "drop", "waterfall"
-    or "pool" (`sim_scenes()`), with `particles` particles (default: the scene's own), on `device`, with the
-    `[sim]` section of an optional TOML `settings` file. Deterministic: the same scene and count give the
+    or "pool" (`sim_scenes()`), with `particles` particles (default: the scene's own) — or of a SPlisHSPlasH
+    scene file ("path/scene.json": its fluid blocks, container, colliders, gravity, fps and viscosity; unsupported
+    keys are named on stderr) — on `device`, with the `[sim]` section of an optional TOML `settings` file. Deterministic: the same scene and count give the
     same particles as `meniscus sim SCENE --particles N`."""
 
     def __init__(self, scene: str, *, particles: Optional[int] = None, device: Optional[str] = None,

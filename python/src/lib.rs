@@ -241,9 +241,15 @@ impl Simulation {
     #[new]
     #[pyo3(signature = (scene, particles=None, device=None, settings_file=None))]
     fn new(scene: &str, particles: Option<usize>, device: Option<String>, settings_file: Option<&str>) -> PyResult<Self> {
-        let n = meniscus::sim::SCENES.iter().find(|s| s.0 == scene).map_or(10_000, |s| s.1);
-        let sc = meniscus::sim::SimScene::new(scene, particles.unwrap_or(n)).map_err(py_err)?;
-        let params = settings("default", settings_file)?.sim;
+        // A built-in scene, or a SPlisHSPlasH scene file (its radius, blocks, container, gravity, fps, viscosity).
+        let (sc, file) = meniscus::sim::scene_file::resolve(scene, particles).map_err(py_err)?;
+        let mut params = settings("default", settings_file)?.sim;
+        if let Some(f) = &file {
+            f.apply(&mut params);
+            for w in &f.warnings {
+                eprintln!("warning: {w}");
+            }
+        }
         params.validate().map_err(py_err)?;
         let gpu = crate::device(device)?;
         let core = meniscus::sim::Simulation::new(&gpu, sc, params).map_err(py_err)?;

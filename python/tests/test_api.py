@@ -184,3 +184,17 @@ def test_device_info_and_no_loader_error(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "RuntimeError: cannot load the Vulkan loader" in r.stdout and "apt-get install libvulkan1" in r.stdout
     assert "cpu mesh ok" in r.stdout
+
+
+def test_simulation_of_a_splishsplash_scene_file(shared):
+    """A SPlisHSPlasH scene.json runs as it is: its fluid block's particles (SPlisHSPlasH's frame 1: 6,859), the
+    radius its particleRadius says; a particle count does not apply to it."""
+    scene = shared("splishsplash/dambreak_6859/scene.json")
+    sim = meniscus.Simulation(str(scene))
+    assert sim.count == 6859 and sim.particle_radius == pytest.approx(0.025)
+    first = meniscus.load(str(scene.parent / "partio" / "ParticleData_Fluid_1.bgeo"))["positions"]
+    assert np.allclose(np.sort(sim.positions()[:, 0]), np.sort(first[:, 0]), atol=0.05)
+    sim.step(1)
+    assert np.isfinite(sim.positions()).all()
+    with pytest.raises(ValueError, match="particleRadius"):
+        meniscus.Simulation(str(scene), particles=1000)

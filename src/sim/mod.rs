@@ -23,8 +23,10 @@
 pub mod diffuse;
 pub mod reference;
 pub mod scene;
+pub mod scene_file;
 pub mod sdf;
 pub mod stages;
+pub mod validate;
 
 use std::sync::Arc;
 
@@ -37,6 +39,7 @@ use crate::gpu::{Buffer, FrameCtx, Gpu, PassTimes, Timer};
 use crate::passes::grid::{Grid, GridBuffers, GridShape};
 use crate::shader_constants::MAX_COLLIDERS;
 pub use scene::{Collider, SimScene, SCENES};
+pub use scene_file::SceneFile;
 pub use stages::STAGE_NAMES;
 
 /// Solver settings: the `[sim]` section of a settings file.

@@ -537,7 +537,8 @@ pub struct BenchArgs {
     /// by --preset moritz and table43).
     #[arg(long)]
     quarter_framing: bool,
-    /// Benchmark the live simulation instead: SCENE or SCENE:PARTICLES (dambreak, drop, waterfall, pool). Reports
+    /// Benchmark the live simulation instead: SCENE or SCENE:PARTICLES (dambreak, drop, waterfall, pool), or a
+    /// SPlisHSPlasH scene.json (its set-up and solver settings). Reports
     /// per-stage ms per step and steps/s, then frames that step and render together at the first resolution
     /// (with --async on/both: the step on the async compute queue, and the overlap it buys).
     #[arg(long, value_name = "SCENE[:N]")]

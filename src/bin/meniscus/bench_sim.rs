@@ -17,7 +17,7 @@ use meniscus::gpu::{Buffer, FrameCtx, Gpu};
 use meniscus::renderer::{Hooks, Renderer};
 use meniscus::scene::{Bounds, Camera};
 use meniscus::settings::Settings;
-use meniscus::sim::{SimScene, Simulation, SCENES, STAGE_NAMES};
+use meniscus::sim::{Simulation, STAGE_NAMES};
 
 /// One render + simulation configuration.
 #[derive(Serialize)]
@@ -67,11 +67,20 @@ pub fn run(
     json: Option<&Path>,
     foam: bool,
 ) -> Result<()> {
-    let (name, count) = match spec.split_once(':') {
-        Some((n, c)) => (n, c.parse::<usize>().with_context(|| format!("--sim {spec}: bad particle count"))?),
-        None => (spec, SCENES.iter().find(|s| s.0 == spec).map_or(10_000, |s| s.1)),
+    // NAME, NAME:COUNT or a SPlisHSPlasH scene file (whose settings apply to the solver).
+    let (name, count) = match spec.split_once(':').filter(|_| !meniscus::sim::scene_file::is_scene_file(spec)) {
+        Some((n, c)) => (n, Some(c.parse::<usize>().with_context(|| format!("--sim {spec}: bad particle count"))?)),
+        None => (spec, None),
     };
-    let scene = SimScene::new(name, count)?;
+    let (scene, file) = meniscus::sim::scene_file::resolve(name, count)?;
+    let mut base = base.clone();
+    if let Some(f) = &file {
+        f.apply(&mut base.sim);
+        for w in &f.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    let base = &base;
     let frames = frames.max(1);
     // The solver alone.
     let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;

@@ -88,7 +88,8 @@ pub struct DemoArgs {
     #[arg(long, hide = true)]
     exercise_resize: bool,
     /// Play a live simulation of this scene instead of a file: dambreak, drop, waterfall or pool (`--particles`
-    /// sets the count; the `[sim]` settings section the solver). Keys: Space pause, → one frame, Backspace
+    /// sets the count; the `[sim]` settings section the solver), or a SPlisHSPlasH scene.json (its particles,
+    /// container, colliders, gravity and viscosity). Keys: Space pause, → one frame, Backspace
     /// restart, hold Ctrl and move the mouse to push the water with a sphere.
     #[arg(long, value_name = "SCENE")]
     sim: Option<String>,
@@ -116,8 +117,14 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
     let settings = a.set.resolve()?;
     let (sim, job) = match &a.sim {
         Some(name) => {
-            let n = meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1);
-            let mut scene = meniscus::sim::SimScene::new(name, a.scene.particles.unwrap_or(n))?;
+            let particles = a.scene.particles.or_else(|| {
+                (!meniscus::sim::scene_file::is_scene_file(name))
+                    .then(|| meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1))
+            });
+            let (mut scene, file) = meniscus::sim::scene_file::resolve(name, particles)?;
+            for w in file.iter().flat_map(|f| &f.warnings) {
+                eprintln!("warning: {w}");
+            }
             // The background mesh (read once, for the job too) is also a collider of the live water — when it can
             // be one (scenery outside the tank, or one too fine for the lattice, is still drawn).
             let mesh =
@@ -129,7 +136,11 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
                 }
             }
             let job = Job::simulated(&scene, &a.scene, mesh, settings.clone())?;
-            (Some((scene, settings.sim)), job)
+            let mut params = settings.sim;
+            if let Some(f) = &file {
+                f.apply(&mut params);
+            }
+            (Some((scene, params)), job)
         }
         None => (None, Job::open(&a.scene, &a.load, settings, Select::default())?),
     };
