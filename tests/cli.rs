@@ -432,7 +432,7 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert!(obj.lines().any(|l| l.starts_with("f ")));
     let o = run("d.stl", "1");
     assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains(".ply, .obj or .vtk"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".ply, .obj, .vtk, .usd or .vdb"));
     assert!(!d.join("d.stl").exists() && !d.join("d.stl.partial").exists());
     // Particles too far apart for one lattice at this cube size: an error naming the file, no output.
     std::fs::write(d.join("far.csv"), "x,y,z\n0,0,0\n1000000,1000000,1000000\n").unwrap();

@@ -93,7 +93,7 @@ fn no_writer_destroys_an_input_or_a_file_of_another_kind() {
     refused(&o, &["--out", "is an input of this run"], &vtk, &vtk_bytes);
     let o =
         meniscus().arg("mesh").arg(&vtk).args(["--radius", "0.01", "--out"]).arg(d.join("m.bgeo")).output().unwrap();
-    refused(&o, &["--out", ".ply, .obj or .vtk"], &vtk, &vtk_bytes);
+    refused(&o, &["--out", ".ply, .obj, .vtk, .usd or .vdb"], &vtk, &vtk_bytes);
 
     // sim: an export pattern of the wrong kind, or over a file of another kind.
     let o = meniscus().args(["sim", "pool", "--frames", "1", "--export"]).arg(d.join("f_{}.png")).output().unwrap();

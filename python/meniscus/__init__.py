@@ -22,7 +22,7 @@ import numpy as np
 from . import _meniscus
 
 __all__ = ["Renderer", "Simulation", "Foam", "reconstruct_surface", "load", "device_info", "sim_scenes",
-           "UsdStage", "write_vdb", "sequence", "__version__"]
+           "UsdStage", "write_vdb", "sequence", "mesh_edges", "__version__"]
 __version__ = _meniscus.__version__
 
 ArrayLike = Any
@@ -235,6 +235,14 @@ def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothi
                                         float(cube_size), float(iso_surface_threshold), int(mesh_smoothing_iters),
                                         bool(gpu), device, vel)
     return (v, t, n) if vel is None else (v, t, n, mv)
+
+
+def mesh_edges(triangles: ArrayLike) -> Tuple[np.ndarray, np.ndarray]:
+    """The edges of a triangle mesh as Blender stores them: (E×2 uint32 vertex pairs, each edge once; 3M uint32:
+    per corner of each triangle the edge from it to the next corner). For building a mesh in Blender without its
+    own edge derivation (the add-on's)."""
+    t = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
+    return _meniscus.mesh_edges(t)
 
 
 def device_info(device: Optional[str] = None) -> Dict[str, str]:

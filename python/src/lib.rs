@@ -376,6 +376,47 @@ fn reconstruct<'py>(
     ))
 }
 
+/// A triangle mesh's edges as Blender stores them: every distinct edge once (vertex pairs, in the order of their
+/// sorted keys) and, per corner of each triangle, the edge from that corner to the next.
+#[pyfunction]
+fn mesh_edges<'py>(
+    py: Python<'py>,
+    triangles: PyReadonlyArray2<u32>,
+) -> PyResult<(Bound<'py, PyArray2<u32>>, Bound<'py, PyArray1<u32>>)> {
+    use rayon::prelude::*;
+    let t = triangles.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous M×3 uint32 array"))?;
+    if t.len() % 3 != 0 || t.len() / 3 > (u32::MAX / 3) as usize {
+        return Err(PyValueError::new_err("triangles: expected an M×3 array"));
+    }
+    let corners = t.len();
+    let work = OnThisThread(t);
+    let (edges, corner_edge) = py.allow_threads(move || {
+        let t = work.into_inner();
+        let mut keys: Vec<(u64, u32)> = (0..corners as u32)
+            .into_par_iter()
+            .map(|c| {
+                let (a, b) = (t[c as usize], t[(c - c % 3 + (c + 1) % 3) as usize]);
+                ((a.min(b) as u64) << 32 | a.max(b) as u64, c)
+            })
+            .collect();
+        keys.par_sort_unstable();
+        let mut edges: Vec<u32> = Vec::with_capacity(corners);
+        let mut corner_edge = vec![0u32; corners];
+        let mut last = u64::MAX;
+        for &(k, c) in &keys {
+            if k != last {
+                edges.push((k >> 32) as u32);
+                edges.push(k as u32);
+                last = k;
+            }
+            corner_edge[c as usize] = (edges.len() / 2 - 1) as u32;
+        }
+        (edges, corner_edge)
+    });
+    let ne = edges.len() / 2;
+    Ok((edges.into_pyarray(py).reshape([ne, 2])?, corner_edge.into_pyarray(py)))
+}
+
 /// The Vulkan device the package renders and meshes on (`device`: a part of its name, else the best one):
 /// its name, driver, Vulkan version and type. RuntimeError when there is no Vulkan loader or device.
 #[pyfunction]
@@ -672,6 +713,7 @@ fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
     m.add_function(wrap_pyfunction!(write_vdb, m)?)?;
     m.add_function(wrap_pyfunction!(sequence, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_edges, m)?)?;
     m.add_class::<UsdStage>()?;
     m.add_function(wrap_pyfunction!(sim_scenes, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
