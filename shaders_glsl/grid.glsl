@@ -1,4 +1,4 @@
-//! grid.glsl — THE GPU neighbour grid (the `grid` pass, src/passes/grid.rs): points counting-sorted into a
+//! grid.glsl — THE GPU neighbour grid (the `grid` pass, src/compute/grid.rs): points counting-sorted into a
 //! dense uniform grid of cubic cells, x fastest. Cell of a point: floor((p − origin) / cell), clamped to the
 //! grid, so points outside the box land in its border cells. Queries walk the 3×3×3 cells around a point with
 //! `start[c]` (first sorted point of cell c) and `counts[c]`.

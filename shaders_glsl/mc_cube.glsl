@@ -1,5 +1,5 @@
 //! mc_cube.glsl — one cube of a block, for mc_count and mc_emit: its local corner and inside mask.
-//! The table buffer (src/passes/mc.rs `table_words`): 12 packed edges (corner a | corner b << 4 | axis << 8),
+//! The table buffer (src/compute/mc.rs `table_words`): 12 packed edges (corner a | corner b << 4 | axis << 8),
 //! then 256 triangle counts, then per case MC_MAX_TRIS × 3 edge indices.
 #define MC_COUNTS 12u
 #define MC_EDGES (12u + 256u)

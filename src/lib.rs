@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod background;
+pub mod compute;
 pub mod diffuse;
 pub mod error;
 pub mod export;

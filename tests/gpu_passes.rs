@@ -1686,7 +1686,7 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
     use meniscus::field::extract::{extract_blocks, open_or_flipped_edges, ExtractParams};
     use meniscus::field::iso::IsoGrid;
     let gpu = gpu();
-    let mc = meniscus::passes::mc::Mc::new(&gpu).unwrap();
+    let mc = meniscus::compute::mc::Mc::new(&gpu).unwrap();
     let mut seed = 4242u32;
     let mut rnd = || {
         seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);

@@ -3,8 +3,8 @@
 mod common;
 
 use glam::Vec3;
+use meniscus::compute::grid::{Grid, GridBuffers, GridShape};
 use meniscus::gpu::FrameCtx;
-use meniscus::passes::grid::{Grid, GridBuffers, GridShape};
 use meniscus::renderer::{read_buffer, upload_buffer};
 use meniscus::sim::{reference, Params, SimScene, Simulation};
 

@@ -352,7 +352,7 @@ fn reconstruct<'py>(
     };
     let dev = if gpu {
         let g = crate::device(device)?;
-        let mc = meniscus::passes::mc::Mc::new(&g).map_err(py_err)?;
+        let mc = meniscus::compute::mc::Mc::new(&g).map_err(py_err)?;
         Some((g, mc))
     } else {
         None

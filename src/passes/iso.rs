@@ -127,7 +127,7 @@ pub struct IsoBuffers {
     pub shape: IsoPush,
     /// The GPU grid (`grid` pass + `iso_gather`) that fills `points` and `cells` from the particle buffer;
     /// `None` when the CPU built and uploaded them.
-    pub gpu: Option<crate::passes::grid::GridBuffers>,
+    pub gpu: Option<crate::compute::grid::GridBuffers>,
     /// The GPU grid must be rebuilt by the next frame (its particles changed).
     pub rebuild: std::cell::Cell<bool>,
     /// `weighted` must be recomputed (`iso_density`) before the next cast: the particles or the support changed.
@@ -335,7 +335,7 @@ pub struct Iso {
     rest: ComputeProgram<IsoPush>,
     rest_aniso: ComputeProgram<IsoPush>,
     fine: ComputeProgram<IsoPush>,
-    grid: crate::passes::grid::Grid,
+    grid: crate::compute::grid::Grid,
     gather: ComputeProgram<GatherPush>,
     volume: [ComputeProgram<VolPush>; 4],
     cast_vol: ComputeProgram<IsoPush>,
@@ -440,7 +440,7 @@ impl Iso {
             rest: ComputeProgram::new(gpu, &REST)?,
             rest_aniso: ComputeProgram::new(gpu, &REST_ANISO)?,
             fine: ComputeProgram::new(gpu, &FINE)?,
-            grid: crate::passes::grid::Grid::new(gpu)?,
+            grid: crate::compute::grid::Grid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
             volume: [
                 ComputeProgram::new(gpu, &VOLUME_MARK)?,
@@ -460,7 +460,7 @@ impl Iso {
         if !b.rebuild.replace(false) {
             return;
         }
-        ctx.pass(crate::passes::grid::NAME, |ctx| {
+        ctx.pass(crate::compute::grid::NAME, |ctx| {
             self.grid.record(ctx, particles, n, g);
             let cells = g.shape.cells();
             let (order, start, counts, keys) = (&g.order, &g.start, &g.counts, &g.keys);

@@ -56,8 +56,6 @@ frame_passes! {
 }
 
 // The demo's passes (not part of the frame function).
-pub mod grid;
-pub mod mc;
 pub mod overlay;
 pub mod particles;
 pub mod view;

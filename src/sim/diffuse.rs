@@ -14,11 +14,11 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use crate::compute::grid::GridBuffers;
 use crate::declare_program;
 use crate::diffuse::{Kind, Params, Particle};
 use crate::error::Result;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
-use crate::passes::grid::GridBuffers;
 use crate::shader_constants::LOCAL_1D;
 use crate::shaders;
 

@@ -2,7 +2,7 @@
 //! as compute passes on the GPU, feeding the renderer's particle buffer directly (no CPU copy per frame).
 //!
 //! One step (Δt = frame time / substeps), every stage a pass with its own name and GPU timestamp:
-//! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `passes::grid`: a
+//! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `compute::grid`: a
 //! counting sort of x* into cells one kernel radius wide) → `sim_reorder` (particles moved into grid order, by
 //! index within a cell: deterministic) → `iterations` × (`sim_density`: ρ, λ; `sim_solve`: Δp with the
 //! tensile-instability term, collisions) → `sim_velocity` (v = (x* − x)/Δt, static friction on the container's
@@ -34,9 +34,9 @@ use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 
+use crate::compute::grid::{Grid, GridBuffers, GridShape};
 use crate::error::{Error, Result};
 use crate::gpu::{Buffer, FrameCtx, Gpu, PassTimes, Timer};
-use crate::passes::grid::{Grid, GridBuffers, GridShape};
 use crate::shader_constants::MAX_COLLIDERS;
 pub use scene::{Collider, SimScene, SCENES};
 pub use scene_file::SceneFile;
@@ -615,7 +615,7 @@ impl Simulation {
         let [a, b] = &self.state;
         let (g, s) = (&self.stages, &self.grid);
         g.predict(ctx, u, a, &self.pred[0], &self.sdf, n);
-        ctx.pass(crate::passes::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
+        ctx.pass(crate::compute::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
         g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], n);
         let nb = &self.neighbours;
         g.neighbours(ctx, u, s, &self.pred[1], nb, n);

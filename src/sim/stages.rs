@@ -1,15 +1,15 @@
 //! The simulation's stages: one program each, named like its shader (`sim_predict` ↔
 //! shaders_glsl/sim_predict.comp ↔ debug label ↔ timestamp key ↔ JSON key). The neighbour grid between
-//! predict and reorder is the shared `grid` pass (src/passes/grid.rs). Binding 0 of every stage is the
+//! predict and reorder is the shared `grid` pass (src/compute/grid.rs). Binding 0 of every stage is the
 //! simulation's uniform block (sim_common.glsl). The stages live in one module because they share that block
 //! and the particle layout; each is one declaration and one small record function.
 use std::sync::Arc;
 
+use crate::compute::grid::GridBuffers;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::pipeline::ProgramDecl;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
-use crate::passes::grid::GridBuffers;
 
 /// Every particle's neighbour list (sim_neighbours.comp's outputs, read by the later stages at bindings 1, 2).
 pub struct Neighbours {

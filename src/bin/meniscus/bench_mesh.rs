@@ -137,7 +137,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
     let ss = splashsurf();
     let gpu = o.gpu.as_ref().map(|g| -> Result<_> {
         let gpu = g.open()?;
-        let mc = meniscus::passes::mc::Mc::new(&gpu)?;
+        let mc = meniscus::compute::mc::Mc::new(&gpu)?;
         Ok((gpu, mc))
     });
     let gpu = gpu.transpose()?;

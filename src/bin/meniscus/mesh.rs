@@ -1,7 +1,7 @@
 //! `meniscus mesh`: extract the SPH iso-surface of a particle file (or of every frame of a sequence) as a
 //! triangle mesh — marching cubes over the colour field the `iso` pass ray-casts (`meniscus::field::extract`) — and
 //! write it as PLY, OBJ or VTK. On the CPU (rayon; `--threads` changes nothing but the time) or, with `--gpu`, on
-//! the GPU (the `mc` pass, src/passes/mc.rs: the same mesh up to float rounding).
+//! the GPU (the `mc` pass, src/compute/mc.rs: the same mesh up to float rounding).
 
 use std::path::PathBuf;
 
@@ -203,7 +203,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let support = if metaball { a.rc } else { a.support };
     let gpu_mc = if a.gpu {
         let gpu = a.device.open()?;
-        let mc = meniscus::passes::mc::Mc::new(&gpu)?;
+        let mc = meniscus::compute::mc::Mc::new(&gpu)?;
         Some((gpu, mc))
     } else {
         None

@@ -71,7 +71,7 @@ impl Grid {
             let n = particles.count();
             let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
             let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, reach, n as usize);
-            let shape = crate::passes::grid::GridShape {
+            let shape = crate::compute::grid::GridShape {
                 origin_cell: [lo.x, lo.y, lo.z, cell],
                 dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
             };
@@ -107,7 +107,7 @@ impl Grid {
                 aniso: buf("iso_aniso", aniso_bytes(cap as u64), IsoBuffers::ANISO)?,
                 counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
                 shape: push,
-                gpu: Some(crate::passes::grid::GridBuffers::new(gpu, shape, cap)?),
+                gpu: Some(crate::compute::grid::GridBuffers::new(gpu, shape, cap)?),
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),

@@ -106,7 +106,7 @@ pub enum Extraction {
     /// On the CPU (times of the block path, when it ran).
     Cpu(Option<extract::ExtractTimes>),
     /// On the GPU (the `mc` pass).
-    Gpu(crate::passes::mc::McStats),
+    Gpu(crate::compute::mc::McStats),
 }
 
 /// The iso surface of `positions` as a triangle mesh: strays left out (`scene::without_strays`), the field's
@@ -115,7 +115,7 @@ pub enum Extraction {
 pub fn reconstruct(
     positions: &[[f32; 3]],
     r: &Reconstruct,
-    gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::passes::mc::Mc)>,
+    gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::compute::mc::Mc)>,
 ) -> Result<(extract::TriMesh, ReconstructReport)> {
     reconstruct_field(positions, r, gpu).map(|x| (x.mesh, x.report))
 }
@@ -164,7 +164,7 @@ impl Reconstructed {
 pub fn reconstruct_field(
     positions: &[[f32; 3]],
     r: &Reconstruct,
-    gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::passes::mc::Mc)>,
+    gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::compute::mc::Mc)>,
 ) -> Result<Reconstructed> {
     let t0 = std::time::Instant::now();
     let (kept_pos, strays) = crate::scene::without_strays(positions, r.support);

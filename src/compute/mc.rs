@@ -18,12 +18,12 @@ use glam::IVec3;
 use gpu_allocator::MemoryLocation;
 use rayon::prelude::*;
 
+use crate::compute::grid::{ScanPush, SCAN};
 use crate::declare_program;
 use crate::error::Result;
 use crate::field::extract::{case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
 use crate::field::iso::IsoGrid;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
-use crate::passes::grid::{ScanPush, SCAN};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
 
