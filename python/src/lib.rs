@@ -376,13 +376,16 @@ fn reconstruct<'py>(
     ))
 }
 
+/// Edge vertex pairs (E×2) and each corner's edge (3M).
+type EdgeArrays<'py> = (Bound<'py, PyArray2<u32>>, Bound<'py, PyArray1<u32>>);
+
 /// A triangle mesh's edges as Blender stores them: every distinct edge once (vertex pairs, in the order of their
 /// sorted keys) and, per corner of each triangle, the edge from that corner to the next.
 #[pyfunction]
 fn mesh_edges<'py>(
     py: Python<'py>,
     triangles: PyReadonlyArray2<u32>,
-) -> PyResult<(Bound<'py, PyArray2<u32>>, Bound<'py, PyArray1<u32>>)> {
+) -> PyResult<EdgeArrays<'py>> {
     use rayon::prelude::*;
     let t = triangles.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous M×3 uint32 array"))?;
     if t.len() % 3 != 0 || t.len() / 3 > (u32::MAX / 3) as usize {
