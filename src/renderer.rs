@@ -27,6 +27,21 @@ pub use crate::gpu::transfer::{
     read_buffer, read_buffer_at, read_f32, read_image, read_u32, record_upload, upload_buffer, upload_image,
 };
 
+/// Every frame pass name, in frame order (timestamp keys, JSON keys, `--timings` rows).
+pub fn pass_names() -> &'static [&'static str] {
+    crate::passes::PASS_NAMES
+}
+
+/// A pixel of the read-back `normals` buffer (octahedral, 2 × snorm16) as a unit view-space normal.
+pub fn unpack_normal(packed: u32) -> [f32; 3] {
+    crate::passes::normals::unpack(packed)
+}
+
+/// A pixel of the read-back `ssr` buffer: the reflection hit's uv, or None.
+pub fn decode_ssr(hit: u32) -> Option<[f32; 2]> {
+    crate::passes::ssr::decode(hit)
+}
+
 /// Renders frames on one device.
 pub struct Renderer {
     /// The device.
@@ -347,7 +362,7 @@ impl Renderer {
         &mut self,
         view: &View,
         s: &Settings,
-        mode: crate::passes::view::ViewMode,
+        mode: crate::view::ViewMode,
         values: Option<&Buffer>,
         overlay: Option<&Image>,
         hooks: Hooks,
@@ -374,7 +389,7 @@ impl Renderer {
         &mut self,
         view: &View,
         s: &Settings,
-        mode: crate::passes::view::ViewMode,
+        mode: crate::view::ViewMode,
         values: Option<&Buffer>,
         overlay: Option<&Image>,
     ) -> Result<PassTimes> {
@@ -390,7 +405,7 @@ impl Renderer {
         &mut self,
         view: &View,
         s: &Settings,
-        demo: Option<(crate::passes::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
+        demo: Option<(crate::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
         readback: bool,
     ) -> Result<Submitted> {
         self.record_and_submit_with(view, s, demo, readback, Hooks::default(), Default::default())
@@ -401,12 +416,12 @@ impl Renderer {
         &mut self,
         view: &View,
         s: &Settings,
-        demo: Option<(crate::passes::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
+        demo: Option<(crate::view::ViewMode, Option<&Buffer>, Option<&Image>)>,
         readback: bool,
         hooks: Hooks,
         binary: crate::gpu::executor::Binary,
     ) -> Result<Submitted> {
-        use crate::passes::view::ViewMode;
+        use crate::view::ViewMode;
         let t0 = std::time::Instant::now();
         let mut host = HostTimes::default();
         let mut lap = {

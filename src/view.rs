@@ -72,3 +72,47 @@ impl View {
         View { camera, width, height, env: Environment::around(bounds, s.radius, s) }
     }
 }
+
+/// What the demo shows: the shaded frame or one of the frame's buffers (the `view` pass draws them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewMode {
+    /// The shaded fluid.
+    Final,
+    /// Raw splatted depth.
+    Depth,
+    /// Smoothed depth.
+    Smoothed,
+    /// Thickness (heat map).
+    Thickness,
+    /// View-space normals.
+    Normals,
+    /// Screen-space reflection hits.
+    Ssr,
+    /// The particles as lit spheres coloured by an attribute.
+    Particles,
+}
+
+impl ViewMode {
+    /// Every mode, in key order.
+    pub const ALL: [ViewMode; 7] = [
+        ViewMode::Final,
+        ViewMode::Depth,
+        ViewMode::Smoothed,
+        ViewMode::Thickness,
+        ViewMode::Normals,
+        ViewMode::Ssr,
+        ViewMode::Particles,
+    ];
+    /// The mode's name in the overlay.
+    pub fn name(self) -> &'static str {
+        match self {
+            ViewMode::Final => "final",
+            ViewMode::Depth => "raw depth",
+            ViewMode::Smoothed => "smoothed depth",
+            ViewMode::Thickness => "thickness",
+            ViewMode::Normals => "normals",
+            ViewMode::Ssr => "ssr hits",
+            ViewMode::Particles => "particles",
+        }
+    }
+}

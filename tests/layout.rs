@@ -71,3 +71,31 @@ fn the_top_level_modules_form_no_cycle() {
         }
     }
 }
+
+/// The applications (the CLI, demo and bench in `src/bin`, the Python package) use the library's public API:
+/// none of them reaches into `passes` (a frame pass's internals: read-back decoders and pass names are
+/// `renderer` functions, the GPU marching cubes and neighbour grid live in `compute`).
+#[test]
+fn apps_do_not_reach_into_the_passes() {
+    fn scan(dir: &Path, hits: &mut Vec<String>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                scan(&p, hits);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                for (i, line) in text.lines().enumerate() {
+                    let code = line.split("//").next().unwrap();
+                    if code.contains("meniscus::passes") {
+                        hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
+                    }
+                }
+            }
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut hits = vec![];
+    scan(&root.join("src/bin"), &mut hits);
+    scan(&root.join("python/src"), &mut hits);
+    assert!(hits.is_empty(), "apps reach into meniscus::passes:\n{}", hits.join("\n"));
+}

@@ -211,7 +211,7 @@ impl Renderer {
         let words: Vec<u32> = raw.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
         let mut n = Vec::with_capacity(words.len() * 3);
         for w in words {
-            n.extend_from_slice(&if w == 0 { [0.0; 3] } else { meniscus::passes::normals::unpack(w) });
+            n.extend_from_slice(&if w == 0 { [0.0; 3] } else { meniscus::renderer::unpack_normal(w) });
         }
         let (w, h) = (t.normals.extent.width as usize, t.normals.extent.height as usize);
         d.set_item("normals", PyArray1::from_vec(py, n).reshape([h, w, 3])?)?;

@@ -11,50 +11,6 @@ use crate::shaders;
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `view`.
 pub const NAME: &str = "view";
 
-/// What the demo shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ViewMode {
-    /// The shaded fluid.
-    Final,
-    /// Raw splatted depth.
-    Depth,
-    /// Smoothed depth.
-    Smoothed,
-    /// Thickness (heat map).
-    Thickness,
-    /// View-space normals.
-    Normals,
-    /// Screen-space reflection hits.
-    Ssr,
-    /// The particles as lit spheres coloured by an attribute.
-    Particles,
-}
-
-impl ViewMode {
-    /// Every mode, in key order.
-    pub const ALL: [ViewMode; 7] = [
-        ViewMode::Final,
-        ViewMode::Depth,
-        ViewMode::Smoothed,
-        ViewMode::Thickness,
-        ViewMode::Normals,
-        ViewMode::Ssr,
-        ViewMode::Particles,
-    ];
-    /// The mode's name in the overlay.
-    pub fn name(self) -> &'static str {
-        match self {
-            ViewMode::Final => "final",
-            ViewMode::Depth => "raw depth",
-            ViewMode::Smoothed => "smoothed depth",
-            ViewMode::Thickness => "thickness",
-            ViewMode::Normals => "normals",
-            ViewMode::Ssr => "ssr hits",
-            ViewMode::Particles => "particles",
-        }
-    }
-}
-
 /// Push constants of view.comp.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

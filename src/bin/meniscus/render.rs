@@ -438,7 +438,7 @@ fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Res
                 let words: Vec<u32> = bytemuck::pod_collect_to_vec(&raw);
                 let mut data = Vec::with_capacity(words.len() * 3);
                 for w in words {
-                    let n = if w == 0 { [0.0; 3] } else { meniscus::passes::normals::unpack(w) };
+                    let n = if w == 0 { [0.0; 3] } else { meniscus::renderer::unpack_normal(w) };
                     data.extend_from_slice(&n);
                 }
                 let p = path(d, "npy");
@@ -464,7 +464,7 @@ fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Res
                     bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.scene_color)?);
                 let (w, h) = (view.width, view.height);
                 let png = image::RgbaImage::from_fn(w, h, |x, y| {
-                    match meniscus::passes::ssr::decode(hits[(y * w + x) as usize]) {
+                    match meniscus::renderer::decode_ssr(hits[(y * w + x) as usize]) {
                         Some([u, v]) => {
                             let sx = ((u * w as f32) as u32).min(w - 1);
                             let sy = ((v * h as f32) as u32).min(h - 1);

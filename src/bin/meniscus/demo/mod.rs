@@ -34,10 +34,10 @@ use meniscus::error::{Error, Result, VkContext};
 use meniscus::frame::{Environment, View};
 use meniscus::gpu::executor::Binary;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes};
-use meniscus::passes::view::ViewMode;
 use meniscus::renderer::{Hooks, Renderer};
 use meniscus::scene::{Camera, LoadOptions, Particles};
 use meniscus::settings::{Filter, Settings, Surface};
+use meniscus::view::ViewMode;
 
 use crate::args::{GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
 use crate::job::{Job, Select};
