@@ -685,6 +685,10 @@ fn scene_file_errors_name_the_key() {
             "FluidBlocks[0].end",
         ),
         ("[1, 2]", "JSON object"),
+        (
+            r#"{"Configuration": {"particleRadius": 0.00001}, "RigidBodies": [{"geometryFile": "UnitBox.obj", "isWall": true, "scale": [4,4,4]}], "FluidBlocks": [{"start": [0,0,0], "end": [1,1,1]}]}"#,
+            "more than 50000000",
+        ),
         ("{", "line"),
     ];
     for (i, (text, want)) in cases.iter().enumerate() {

@@ -66,6 +66,9 @@ pub fn resolve(spec: &str, particles: Option<usize>) -> Result<(SimScene, Option
     }
 }
 
+/// Most particles a scene file may lay out (the simulation's state is 32 bytes a particle, and more).
+pub const MAX_PARTICLES: usize = 50_000_000;
+
 /// Whether a scene argument names a scene file rather than a built-in scene.
 pub fn is_scene_file(spec: &str) -> bool {
     spec.ends_with(".json") || Path::new(spec).is_file()
@@ -291,6 +294,16 @@ impl SceneFile {
                     }
                 }
                 let (lo, hi) = ((start * s + t).min(end * s + t), (start * s + t).max(end * s + t));
+                // Counted before anything is allocated: a tiny radius in a large block is refused, not filled.
+                let count = ((hi - lo) / d).round().max(Vec3::ONE) - 1.0;
+                let count = count.x as f64 * count.y as f64 * count.z as f64;
+                if count + positions.len() as f64 > MAX_PARTICLES as f64 {
+                    return Err(invalid(
+                        path,
+                        &at("end"),
+                        &format!("{count:.3e} particles at radius {radius}: more than {MAX_PARTICLES} in all"),
+                    ));
+                }
                 let block = fill_block(lo, hi, d);
                 velocities.extend(std::iter::repeat_n(v0.to_array(), block.len()));
                 positions.extend(block);

@@ -105,10 +105,17 @@ impl SimArgs {
 /// `meniscus sim validate`: the dam break against Martin & Moyce (1952) and Koshizuka & Oka (1996)
 /// (`meniscus::sim::validate`): the surge front Z/L per measured point up to T = 3, with the error.
 fn validate(a: &SimArgs) -> Result<()> {
-    if a.export.is_some() || a.foam.is_some() || a.collider.is_some() {
-        bail!("sim validate writes no files and takes no collider: drop --export, --foam and --collider");
+    if a.export.is_some() || a.foam.is_some() || a.collider.is_some() || a.frames.is_some() {
+        bail!(
+            "sim validate writes no files, takes no collider and runs to T = 3.2: drop --export, --foam, --collider \
+             and --frames"
+        );
     }
-    let scene = meniscus::sim::validate::column_for(a.particles.unwrap_or(12_000));
+    let particles = a.particles.unwrap_or(12_000);
+    if !(100..=20_000_000).contains(&particles) {
+        bail!("sim validate --particles {particles}: between 100 and 20,000,000");
+    }
+    let scene = meniscus::sim::validate::column_for(particles);
     let mut p = a.settings.resolve()?.sim;
     p.fps = a.fps.unwrap_or(200.0);
     if let Some(s) = a.substeps {
