@@ -683,10 +683,15 @@ fn bench_mesh_reports_phases_per_thread_count() {
         .arg(&f)
         .args(["--radius", "0.01", "--threads", "1,2", "--cube-size", "1.0,0.75", "--mesh-repeat", "1", "--json"])
         .arg(&json)
+        .arg("--chart")
+        .arg(d.join("scaling.png"))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
+    // The scaling chart: one panel per cube size, side by side.
+    let chart = image::open(d.join("scaling.png")).unwrap();
+    assert_eq!((chart.width(), chart.height()), (1440, 560));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("| 1 r | 64 | cpu | 1 |") && out.contains("| 0.75 r | 64 | cpu | 2 |"), "{out}");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();

@@ -545,7 +545,8 @@ pub struct BenchArgs {
     /// With --sweep: particle counts (comma-separated) instead of 10k, 40k, 160k, 640k, 2.56M, 4M.
     #[arg(long, value_delimiter = ',')]
     sweep_particles: Vec<usize>,
-    /// With --sweep: write the chart (per-pass ms against particles and pixels) as PNG here.
+    /// With --sweep: write the chart (per-pass ms against particles and pixels) as PNG here. With --mesh: the
+    /// scaling chart (wall time against threads per cube size, splashsurf and ideal scaling beside it).
     #[arg(long)]
     chart: Option<PathBuf>,
     /// TOML settings over the preset.
@@ -720,8 +721,11 @@ fn overlap_report(entries: &[Entry]) -> String {
 pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
     use meniscus::output::Kind;
-    if a.sweep.is_none() && (a.chart.is_some() || !a.sweep_particles.is_empty()) {
-        bail!("--chart and --sweep-particles apply to a sweep: add --sweep particles (or pixels)");
+    if a.sweep.is_none() && a.mesh.is_none() && a.chart.is_some() {
+        bail!("--chart applies to a sweep or --mesh: add --sweep particles (or pixels), or --mesh FILE");
+    }
+    if a.sweep.is_none() && !a.sweep_particles.is_empty() {
+        bail!("--sweep-particles applies to a sweep: add --sweep particles (or pixels)");
     }
     for f in &a.scenes {
         meniscus::input::note(std::path::Path::new(f));
@@ -742,7 +746,14 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             repeat: a.mesh_repeat,
             gpu: a.mesh_gpu.then(|| a.gpu.clone()),
         };
-        return crate::bench_mesh::run(file, &a.load, &opts, a.json.as_deref(), a.markdown.as_deref());
+        return crate::bench_mesh::run(
+            file,
+            &a.load,
+            &opts,
+            a.json.as_deref(),
+            a.markdown.as_deref(),
+            a.chart.as_deref(),
+        );
     }
     if !a.threads.is_empty() || !a.cube_size.is_empty() || !a.block.is_empty() || a.mesh_gpu {
         bail!("--threads, --cube-size, --block and --mesh-gpu apply to --mesh FILE");
@@ -1070,7 +1081,9 @@ fn run_sweep(
         let series: Vec<crate::chart::Series> = panels
             .into_iter()
             .map(|(x, points)| crate::chart::Series {
+                title: String::new(),
                 x_label: if x == "particles" { "particles" } else { "pixels" },
+                y_label: "GPU ms (median)",
                 points,
             })
             .collect();

@@ -92,11 +92,21 @@ fn splashsurf() -> Option<PathBuf> {
 }
 
 /// Run the analysis.
-pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markdown: Option<&Path>) -> Result<()> {
+pub fn run(
+    file: &Path,
+    load: &LoadArgs,
+    o: &Options,
+    json: Option<&Path>,
+    markdown: Option<&Path>,
+    chart: Option<&Path>,
+) -> Result<()> {
     use meniscus::output::Kind;
     meniscus::input::note(file);
     if let Some(p) = json {
         crate::args::check_out("--json", p, Kind::Json)?;
+    }
+    if let Some(p) = chart {
+        crate::args::check_out("--chart", p, Kind::Png)?;
     }
     if let Some(p) = markdown {
         crate::args::check_out("--markdown", p, Kind::Markdown)?;
@@ -275,6 +285,7 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
     bar.finish_and_clear();
     let _ = std::fs::remove_file(&scratch);
     let md = table(file, positions.len(), r, cores, &rows);
+    let panels = chart.map(|_| scaling_panels(&rows));
     print!("{md}");
     if let Some(p) = markdown {
         meniscus::output::write_atomic(p, Kind::Markdown, |w| std::io::Write::write_all(w, md.as_bytes()))?;
@@ -293,7 +304,56 @@ pub fn run(file: &Path, load: &LoadArgs, o: &Options, json: Option<&Path>, markd
         meniscus::output::write_atomic(p, Kind::Json, |w| std::io::Write::write_all(w, text.as_bytes()))?;
         eprintln!("wrote {}", p.display());
     }
+    // The measurements first, so a chart that cannot be drawn (no font) loses nothing.
+    if let (Some(p), Some(panels)) = (chart, panels) {
+        crate::chart::write(
+            p,
+            &format!("meniscus bench --mesh {}", file.file_name().unwrap_or_default().to_string_lossy()),
+            &panels,
+        )?;
+        eprintln!("wrote {}", p.display());
+    }
     Ok(())
+}
+
+/// One panel per cube size: wall seconds against threads for each block size of the CPU path, the GPU path,
+/// splashsurf, and the first CPU line's ideal scaling (its 1-thread wall ÷ threads).
+fn scaling_panels(rows: &[Row]) -> Vec<crate::chart::Series<'static>> {
+    let mut cubes: Vec<f32> = rows.iter().map(|r| r.cube_radii).collect();
+    cubes.sort_by(f32::total_cmp);
+    cubes.dedup();
+    cubes
+        .into_iter()
+        .map(|cube| {
+            let here: Vec<&Row> = rows.iter().filter(|r| r.cube_radii == cube).collect();
+            let mut threads: Vec<usize> = here.iter().map(|r| r.threads).collect();
+            threads.sort_unstable();
+            threads.dedup();
+            let name = |r: &Row| match r.path.as_str() {
+                "cpu" => format!("meniscus, blocks of {}³", r.block),
+                "gpu" => "meniscus --gpu".to_string(),
+                other => other.to_string(),
+            };
+            let first_cpu = here.iter().find(|r| r.path == "cpu").map(|r| (r.block, r.threads, r.wall));
+            let points = threads
+                .iter()
+                .map(|&t| {
+                    let mut ys: Vec<(String, f64)> =
+                        here.iter().filter(|r| r.threads == t).map(|r| (name(r), r.wall)).collect();
+                    if let Some((_, t0, w0)) = first_cpu {
+                        ys.push(("ideal (first line ÷ threads)".into(), w0 * t0 as f64 / t as f64));
+                    }
+                    (t as f64, ys)
+                })
+                .collect();
+            crate::chart::Series {
+                title: format!("cube {cube} r"),
+                x_label: "threads",
+                y_label: "wall s (median)",
+                points,
+            }
+        })
+        .collect()
 }
 
 /// The markdown table: one row per configuration; splashsurf's wall and our ratio to it beside our rows.

@@ -1,5 +1,6 @@
-//! The scaling chart of `meniscus bench --sweep`: per-pass GPU ms against particle count and against pixel
-//! count, two panels, log-scaled x, written as PNG (plotters' bitmap backend, encoded by `image`).
+//! The scaling charts of `meniscus bench`: `--sweep` (per-pass GPU ms against particle count and against pixel
+//! count) and `--mesh` (the extraction's wall time against the thread count, splashsurf beside it): panels side
+//! by side, log-scaled x, written as PNG (plotters' bitmap backend, encoded by `image`).
 
 use std::path::Path;
 
@@ -7,9 +8,11 @@ use plotters::prelude::*;
 
 use meniscus::error::{Error, Result};
 
-/// One sweep: its x label and points (x, [(pass, ms)]).
+/// One panel: its title, axis labels and points (x, [(line, y)]).
 pub struct Series<'a> {
+    pub title: String,
     pub x_label: &'a str,
+    pub y_label: &'a str,
     pub points: Vec<(f64, Vec<(String, f64)>)>,
 }
 
@@ -61,6 +64,7 @@ pub fn write(path: &Path, title: &str, panels: &[Series]) -> Result<()> {
             let (x0, x1) = (xs.iter().cloned().fold(f64::INFINITY, f64::min), xs.iter().cloned().fold(0.0, f64::max));
             let ymax = s.points.iter().flat_map(|p| p.1.iter().map(|q| q.1)).fold(0.0, f64::max).max(1e-3) * 1.1;
             let mut chart = ChartBuilder::on(area)
+                .caption(&s.title, ("sans-serif", 16))
                 .margin(16)
                 .x_label_area_size(44)
                 .y_label_area_size(64)
@@ -69,7 +73,7 @@ pub fn write(path: &Path, title: &str, panels: &[Series]) -> Result<()> {
             chart
                 .configure_mesh()
                 .x_desc(s.x_label)
-                .y_desc("GPU ms (median)")
+                .y_desc(s.y_label)
                 .x_label_formatter(&|x| {
                     if *x >= 1e6 {
                         format!("{:.1}M", x / 1e6)
