@@ -386,36 +386,13 @@ fn mesh_edges<'py>(
     py: Python<'py>,
     triangles: PyReadonlyArray2<u32>,
 ) -> PyResult<EdgeArrays<'py>> {
-    use rayon::prelude::*;
     let t = triangles.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous M×3 uint32 array"))?;
     if t.len() % 3 != 0 || t.len() / 3 > (u32::MAX / 3) as usize {
         return Err(PyValueError::new_err("triangles: expected an M×3 array"));
     }
-    let corners = t.len();
-    let work = OnThisThread(t);
-    let (edges, corner_edge) = py.allow_threads(move || {
-        let t = work.into_inner();
-        let mut keys: Vec<(u64, u32)> = (0..corners as u32)
-            .into_par_iter()
-            .map(|c| {
-                let (a, b) = (t[c as usize], t[(c - c % 3 + (c + 1) % 3) as usize]);
-                ((a.min(b) as u64) << 32 | a.max(b) as u64, c)
-            })
-            .collect();
-        keys.par_sort_unstable();
-        let mut edges: Vec<u32> = Vec::with_capacity(corners);
-        let mut corner_edge = vec![0u32; corners];
-        let mut last = u64::MAX;
-        for &(k, c) in &keys {
-            if k != last {
-                edges.push((k >> 32) as u32);
-                edges.push(k as u32);
-                last = k;
-            }
-            corner_edge[c as usize] = (edges.len() / 2 - 1) as u32;
-        }
-        (edges, corner_edge)
-    });
+    let tris: Vec<[u32; 3]> = t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let (edges, corner_edge) = py.allow_threads(move || meniscus::field::extract::mesh_edges(&tris));
+    let edges: Vec<u32> = edges.into_iter().flatten().collect();
     let ne = edges.len() / 2;
     Ok((edges.into_pyarray(py).reshape([ne, 2])?, corner_edge.into_pyarray(py)))
 }
@@ -522,7 +499,6 @@ fn write_vdb(
     half_width: f32,
     fog: bool,
 ) -> PyResult<u64> {
-    use meniscus::export::vdb;
     use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
     let pts = points(&positions)?;
     if !(half_width.is_finite() && (1.0..=32.0).contains(&half_width)) {
@@ -536,17 +512,7 @@ fn write_vdb(
     let path = std::path::PathBuf::from(path);
     py.allow_threads(move || {
         let rec = meniscus::surface::mesh::reconstruct_field(&pts, &r, None)?;
-        let ls = rec.level_set(half_width);
-        let bg = ls.background;
-        let tile = |x: glam::Vec3| if rec.inside(x) { -bg } else { bg };
-        let zero = |_: glam::Vec3| 0.0;
-        let fogv = fog.then(|| rec.fog());
-        let mut grids = vec![vdb::Grid { name: "surface", class: vdb::GridClass::LevelSet, volume: &ls, tile: &tile }];
-        if let Some(f) = &fogv {
-            grids.push(vdb::Grid { name: "density", class: vdb::GridClass::FogVolume, volume: f, tile: &zero });
-        }
-        vdb::write(&path, &grids)?;
-        Ok::<_, meniscus::Error>(ls.active_voxels())
+        meniscus::export::vdb::write_surface(&path, &rec, half_width, fog)
     })
     .map_err(py_err)
 }
@@ -560,8 +526,7 @@ fn sequence<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyDict>> {
     let mut frames = sequence::resolve_all(spec).map_err(py_err)?;
     if frames.len() == 1 {
         // One file of a numbered sequence: its siblings.
-        let name = frames[0].path.to_string_lossy().into_owned();
-        if let Some(pat) = numbered_pattern(&name) {
+        if let Some(pat) = sequence::numbered_pattern(&frames[0].path) {
             if let Ok(all) = sequence::resolve_all(&pat) {
                 if all.len() > 1 {
                     frames = all;
@@ -592,15 +557,6 @@ fn sequence<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("radius_from", from)?;
     d.set_item("fps", scene.as_ref().and_then(|s| s.fps))?;
     Ok(d)
-}
-
-/// `dir/name_16.bgeo` → `dir/name_{}.bgeo` (the last run of digits in the file name).
-fn numbered_pattern(path: &str) -> Option<String> {
-    let cut = path.rfind('/').map_or(0, |i| i + 1);
-    let name = &path[cut..];
-    let end = name.rfind(|c: char| c.is_ascii_digit())? + 1;
-    let start = name[..end].rfind(|c: char| !c.is_ascii_digit()).map_or(0, |i| i + 1);
-    Some(format!("{}{}{{}}{}", &path[..cut], &name[..start], &name[end..]))
 }
 
 /// Read a particle file of any format the CLI reads: positions (N×3 float32) and every per-particle array by

@@ -145,6 +145,29 @@ fn put_internal<T>(w: &mut impl Write, g: &Grid, node: &Node<T>, child: i32, dim
     put_values(w, &values)
 }
 
+/// Write a reconstruction's surface to `path`: grid `surface`, its narrow-band level set `half_width` voxels each
+/// side (empty regions ± the background by the field's sign at their centre), and with `fog` grid `density`, the
+/// field as a fog volume. Returns the level set's active voxels. (`meniscus mesh --out X.vdb`, Python's
+/// `write_vdb`.)
+pub fn write_surface(
+    path: &Path,
+    rec: &crate::surface::mesh::Reconstructed,
+    half_width: f32,
+    fog: bool,
+) -> Result<u64> {
+    let ls = rec.level_set(half_width);
+    let bg = ls.background;
+    let tile = |x: Vec3| if rec.inside(x) { -bg } else { bg };
+    let zero = |_: Vec3| 0.0;
+    let fog = fog.then(|| rec.fog());
+    let mut grids = vec![Grid { name: "surface", class: GridClass::LevelSet, volume: &ls, tile: &tile }];
+    if let Some(f) = &fog {
+        grids.push(Grid { name: "density", class: GridClass::FogVolume, volume: f, tile: &zero });
+    }
+    write(path, &grids)?;
+    Ok(ls.active_voxels())
+}
+
 /// Write `grids` to `path` (atomically; the output checks of `crate::output`).
 pub fn write(path: &Path, grids: &[Grid]) -> Result<()> {
     let partial = crate::output::Partial::begin(path, Kind::Vdb)?;

@@ -147,6 +147,30 @@ impl TriMesh {
     }
 }
 
+/// The edges of a triangle mesh: every distinct edge once (its two vertices, lower first, in key order) and, per
+/// corner of each triangle, the index of the edge from that corner to the next (Blender's `.edge_verts` and
+/// `.corner_edge`). Ranked by [`rank_by_key`] like the extraction's weld.
+pub fn mesh_edges(triangles: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<u32>) {
+    let keys: Vec<(i64, u32)> = (0..triangles.len() * 3)
+        .into_par_iter()
+        .map(|c| {
+            let t = &triangles[c / 3];
+            let (a, b) = (t[c % 3], t[(c % 3 + 1) % 3]);
+            ((a.min(b) as i64) << 32 | a.max(b) as i64, c as u32)
+        })
+        .collect();
+    let (corner_edge, first) = rank_by_key(keys, triangles.len() * 3);
+    let edges = first
+        .iter()
+        .map(|&c| {
+            let t = &triangles[c as usize / 3];
+            let (a, b) = (t[c as usize % 3], t[(c as usize % 3 + 1) % 3]);
+            [a.min(b), a.max(b)]
+        })
+        .collect();
+    (edges, corner_edge)
+}
+
 /// How to extract.
 #[derive(Clone, Copy, Debug)]
 pub struct ExtractParams {

@@ -127,7 +127,28 @@ impl UniformGrid {
 
     /// Visit every sorted point in the (2k+1)³ cells around `x` (a superset of the points within k cell sizes),
     /// in the shaders' order (rows of cells, x fastest): `f(sorted index, position)`.
-    pub fn for_each_within_cells(&self, x: Vec3, k: i32, mut f: impl FnMut(usize, Vec3)) {
+    pub fn for_each_within_cells(&self, x: Vec3, k: i32, f: impl FnMut(usize, Vec3)) {
+        self.walk_cells(x, k, |_| true, f)
+    }
+
+    /// [`UniformGrid::for_each_near`] without the cells wholly farther than `r` (≤ the cell size) from `x`:
+    /// the same points within `r`, in the same order, about half the cells skipped — for sums whose terms
+    /// vanish beyond `r` (a kernel of support `r`), which come out bit for bit the same.
+    pub fn for_each_in_reach(&self, x: Vec3, r: f32, f: impl FnMut(usize, Vec3)) {
+        let frac = (x - self.origin) / self.cell - ((x - self.origin) / self.cell).floor();
+        // Squared distance (in cells) from x to the neighbouring slab −1, 0, +1 along one axis.
+        let gap = |d: i32, t: f32| match d {
+            -1 => t * t,
+            1 => (1.0 - t) * (1.0 - t),
+            _ => 0.0,
+        };
+        let r2 = (r / self.cell) * (r / self.cell);
+        self.walk_cells(x, 1, |d| gap(d.x, frac.x) + gap(d.y, frac.y) + gap(d.z, frac.z) <= r2, f)
+    }
+
+    /// The cell walk of both: the (2k+1)³ cells around `x`'s cell that `keep(offset)` accepts, rows of cells x
+    /// fastest, each cell's sorted points in order.
+    fn walk_cells(&self, x: Vec3, k: i32, keep: impl Fn(IVec3) -> bool, mut f: impl FnMut(usize, Vec3)) {
         if !x.is_finite() || self.points.is_empty() {
             return;
         }
@@ -136,49 +157,9 @@ impl UniformGrid {
         for dz in -k..=k {
             for dy in -k..=k {
                 for dx in -k..=k {
-                    let q = c + IVec3::new(dx, dy, dz);
-                    if q.min_element() < 0 || q.cmpge(dims).any() {
-                        continue;
-                    }
-                    let [s, n] =
-                        self.cells[(q.x as u32 + self.dims[0] * (q.y as u32 + self.dims[1] * q.z as u32)) as usize];
-                    for i in s..s + n {
-                        let p = self.points[i as usize];
-                        f(i as usize, Vec3::new(p[0], p[1], p[2]));
-                    }
-                }
-            }
-        }
-    }
-
-    /// [`UniformGrid::for_each_near`] without the cells wholly farther than `r` (≤ the cell size) from `x`:
-    /// the same points within `r`, in the same order, about half the cells skipped — for sums whose terms
-    /// vanish beyond `r` (a kernel of support `r`), which come out bit for bit the same.
-    pub fn for_each_in_reach(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, Vec3)) {
-        if !x.is_finite() || self.points.is_empty() {
-            return;
-        }
-        let rel = (x - self.origin) / self.cell;
-        let c = rel.floor().as_ivec3();
-        let frac = rel - c.as_vec3();
-        // Squared distance (in cells) from x to the neighbouring slab −1, 0, +1 along one axis.
-        let gap = |d: i32, t: f32| match d {
-            -1 => t * t,
-            1 => (1.0 - t) * (1.0 - t),
-            _ => 0.0,
-        };
-        let r2 = (r / self.cell) * (r / self.cell);
-        let dims = IVec3::new(self.dims[0] as i32, self.dims[1] as i32, self.dims[2] as i32);
-        for dz in -1..=1 {
-            let gz = gap(dz, frac.z);
-            for dy in -1..=1 {
-                let gy = gz + gap(dy, frac.y);
-                for dx in -1..=1 {
-                    if gy + gap(dx, frac.x) > r2 {
-                        continue;
-                    }
-                    let q = c + IVec3::new(dx, dy, dz);
-                    if q.min_element() < 0 || q.cmpge(dims).any() {
+                    let d = IVec3::new(dx, dy, dz);
+                    let q = c + d;
+                    if q.min_element() < 0 || q.cmpge(dims).any() || !keep(d) {
                         continue;
                     }
                     let [s, n] =

@@ -325,27 +325,21 @@ pub fn stray_warning(strays: usize, what: &str) -> String {
 
 /// The positions inside [`fluid_bounds`] (in order), and how many strays were left out.
 pub fn without_strays(pos: &[[f32; 3]], margin: f32) -> (std::borrow::Cow<'_, [[f32; 3]]>, usize) {
-    match fluid_bounds(pos, margin) {
-        Some((b, strays)) if strays > 0 => {
-            let inside = |p: &&[f32; 3]| Vec3::from(**p).cmpge(b.lo).all() && Vec3::from(**p).cmple(b.hi).all();
-            (pos.iter().filter(inside).copied().collect::<Vec<_>>().into(), strays)
-        }
-        _ => (pos.into(), 0),
+    match kept_indices(pos, margin) {
+        (Some(kept), strays) => (kept.iter().map(|&i| pos[i as usize]).collect::<Vec<_>>().into(), strays),
+        (None, _) => (pos.into(), 0),
     }
 }
 
-/// The indices of the particles [`without_strays`] keeps (in order), or None when it keeps them all.
-pub fn kept_indices(pos: &[[f32; 3]], margin: f32) -> Option<Vec<u32>> {
+/// The indices of the particles [`without_strays`] keeps (in order), or None when it keeps them all; and how
+/// many strays were left out.
+pub fn kept_indices(pos: &[[f32; 3]], margin: f32) -> (Option<Vec<u32>>, usize) {
     match fluid_bounds(pos, margin) {
-        Some((b, strays)) if strays > 0 => Some(
-            (0..pos.len() as u32)
-                .filter(|&i| {
-                    let p = Vec3::from(pos[i as usize]);
-                    p.cmpge(b.lo).all() && p.cmple(b.hi).all()
-                })
-                .collect(),
-        ),
-        _ => None,
+        Some((b, strays)) if strays > 0 => {
+            let inside = |p: Vec3| p.cmpge(b.lo).all() && p.cmple(b.hi).all();
+            ((0..pos.len() as u32).filter(|&i| inside(Vec3::from(pos[i as usize]))).collect::<Vec<_>>().into(), strays)
+        }
+        _ => (None, 0),
     }
 }
 

@@ -210,6 +210,12 @@ fn name_pattern(name: &str) -> Option<String> {
     Some(format!("{}{{}}{}", &name[..start], &name[end..]))
 }
 
+/// The sequence pattern a numbered file belongs to (`dir/f_16.bgeo` → `dir/f_{}.bgeo`), for [`resolve_all`].
+pub fn numbered_pattern(path: &Path) -> Option<String> {
+    let name = name_pattern(&path.file_name()?.to_string_lossy())?;
+    Some(path.with_file_name(name).to_string_lossy().into_owned())
+}
+
 /// A folder's files with one of `exts` as one sequence: the files must share one numbered name pattern (or
 /// none be numbered, then they are taken in name order); a folder holding several sequences (the particles and
 /// an export beside them) is refused with the patterns it holds, so the user names one.

@@ -280,19 +280,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         Ok((m, how, t0.elapsed().as_secs_f64()))
     };
     let vdb = |rec: &Reconstructed, out: &PathBuf| -> Result<()> {
-        pool.install(|| -> Result<()> {
-            let ls = rec.level_set(a.vdb_half_width);
-            let bg = ls.background;
-            let tile = |x: glam::Vec3| if rec.inside(x) { -bg } else { bg };
-            let mut grids =
-                vec![vdb::Grid { name: "surface", class: vdb::GridClass::LevelSet, volume: &ls, tile: &tile }];
-            let fog = a.vdb_fog.then(|| rec.fog());
-            let zero = |_: glam::Vec3| 0.0;
-            if let Some(f) = &fog {
-                grids.push(vdb::Grid { name: "density", class: vdb::GridClass::FogVolume, volume: f, tile: &zero });
-            }
-            Ok(vdb::write(out, &grids)?)
-        })
+        pool.install(|| vdb::write_surface(out, rec, a.vdb_half_width, a.vdb_fog))?;
+        Ok(())
     };
     let mut usd = match out_kind {
         Kind::Usd => {

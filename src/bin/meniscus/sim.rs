@@ -64,6 +64,20 @@ pub struct SimArgs {
 }
 
 impl SimArgs {
+    /// `--fps`, `--substeps` and `--iterations` over `p`, then `p` validated.
+    fn solver_flags(&self, p: &mut meniscus::sim::Params) -> Result<()> {
+        if let Some(f) = self.fps {
+            p.fps = f;
+        }
+        if let Some(s) = self.substeps {
+            p.substeps = s;
+        }
+        if let Some(i) = self.iterations {
+            p.iterations = i;
+        }
+        Ok(p.validate()?)
+    }
+
     /// The scene, the solver settings and the frame count the flags ask for.
     pub fn resolve(&self) -> Result<(SimScene, meniscus::sim::Params, u32)> {
         let drawing = self.settings.drawing_flags();
@@ -87,16 +101,7 @@ impl SimArgs {
         if let Some(f) = &file {
             f.apply(&mut p);
         }
-        if let Some(f) = self.fps {
-            p.fps = f;
-        }
-        if let Some(s) = self.substeps {
-            p.substeps = s;
-        }
-        if let Some(i) = self.iterations {
-            p.iterations = i;
-        }
-        p.validate()?;
+        self.solver_flags(&mut p)?;
         let frames = self.frames.or(file.and_then(|f| f.frames)).unwrap_or(50);
         Ok((scene, p, frames))
     }
@@ -117,14 +122,8 @@ fn validate(a: &SimArgs) -> Result<()> {
     }
     let scene = meniscus::sim::validate::column_for(particles);
     let mut p = a.settings.resolve()?.sim;
-    p.fps = a.fps.unwrap_or(200.0);
-    if let Some(s) = a.substeps {
-        p.substeps = s;
-    }
-    if let Some(i) = a.iterations {
-        p.iterations = i;
-    }
-    p.validate()?;
+    p.fps = 200.0;
+    a.solver_flags(&mut p)?;
     let gpu = a.gpu.open()?;
     let mut sim = Simulation::new(&gpu, scene, p)?;
     eprintln!(

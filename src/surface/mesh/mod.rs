@@ -167,8 +167,11 @@ pub fn reconstruct_field(
     gpu: Option<(&std::sync::Arc<crate::gpu::Gpu>, &crate::compute::mc::Mc)>,
 ) -> Result<Reconstructed> {
     let t0 = std::time::Instant::now();
-    let (kept_pos, strays) = crate::scene::without_strays(positions, r.support);
-    let kept = if strays > 0 { crate::scene::kept_indices(positions, r.support) } else { None };
+    let (kept, strays) = crate::scene::kept_indices(positions, r.support);
+    let kept_pos: std::borrow::Cow<[[f32; 3]]> = match &kept {
+        Some(k) => k.iter().map(|&i| positions[i as usize]).collect::<Vec<_>>().into(),
+        None => positions.into(),
+    };
     let grid = crate::field::iso::IsoGrid::build(&kept_pos, r.support);
     extract::check_lattice(&grid, r.extract.cube)?;
     extract::check_memory(&grid, &r.extract, rayon::current_num_threads())?;

@@ -117,11 +117,7 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
     let settings = a.set.resolve()?;
     let (sim, job) = match &a.sim {
         Some(name) => {
-            let particles = a.scene.particles.or_else(|| {
-                (!meniscus::sim::scene_file::is_scene_file(name))
-                    .then(|| meniscus::sim::SCENES.iter().find(|s| s.0 == name).map_or(20_000, |s| s.1))
-            });
-            let (mut scene, file) = meniscus::sim::scene_file::resolve(name, particles)?;
+            let (mut scene, file) = meniscus::sim::scene_file::resolve(name, a.scene.particles)?;
             for w in file.iter().flat_map(|f| &f.warnings) {
                 eprintln!("warning: {w}");
             }
