@@ -79,7 +79,7 @@ impl Kind {
             Kind::Webm => "WebM movie",
             Kind::Gif => "GIF",
             Kind::Usd => "USD stage",
-            Kind::Vdb => "OpenVDB file",
+            Kind::Vdb => "VDB volume",
         }
     }
 

@@ -690,6 +690,8 @@ fn scene_file_errors_name_the_key() {
             "more than 50000000",
         ),
         ("{", "line"),
+        // A syntax error names its byte offset.
+        ("{\"Configuration\": x}", "byte 18"),
     ];
     for (i, (text, want)) in cases.iter().enumerate() {
         let p = dir.join(format!("case{i}.json"));

@@ -157,13 +157,19 @@ def test_export_flags_are_checked(cli, frame, tmp_path):
     assert r.returncode != 0 and "metaball" in r.stderr
     r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.ply", "--foam", ok=False)
     assert r.returncode != 0 and "USD" in r.stderr
+    for flag, value, out in (("--meters-per-unit", "0.01", "a.ply"), ("--vdb-half-width", "4", "a.usd"),
+                             ("--vdb-fog", None, "a.ply")):
+        r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / out, flag, *([value] if value else []),
+                ok=False)
+        assert r.returncode != 0 and flag in r.stderr and not (tmp_path / out).exists(), r.stderr
     r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.usda", "--foam", ok=False)
     assert r.returncode != 0 and "sequence" in r.stderr
     # Never over an input, never a stray scratch file left.
     r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", frame.with_suffix(".usda"))
     assert frame.with_suffix(".usda").read_bytes().startswith(b"#usda 1.0")
     assert not [p for p in os.listdir(frame.parent) if p.endswith(".partial")]
-    bad = tmp_path / "notes.usda"
-    bad.write_text("my notes\n")
-    r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", bad, ok=False)
-    assert r.returncode != 0 and bad.read_text() == "my notes\n"
+    for name in ("notes.usda", "notes.usd", "notes.vdb"):
+        bad = tmp_path / name
+        bad.write_text("my notes\n")
+        r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", bad, ok=False)
+        assert r.returncode != 0 and bad.read_text() == "my notes\n"

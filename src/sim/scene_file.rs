@@ -126,8 +126,8 @@ impl SceneFile {
         let text = crate::input::read_text(path)?;
         let root: Value = serde_json::from_str(&text).map_err(|e| Error::Parse {
             path: path.to_path_buf(),
-            offset: 0,
-            reason: format!("line {} column {}: {e}", e.line(), e.column()),
+            offset: crate::scene::splishsplash::offset_of(&text, e.line(), e.column()),
+            reason: e.to_string(),
         })?;
         let Some(top) = root.as_object() else {
             return Err(invalid(path, "(top level)", "expected a JSON object"));

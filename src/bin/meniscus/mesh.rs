@@ -96,9 +96,9 @@ pub struct MeshArgs {
     /// USD: frames per second (time codes are frame numbers). Default: the sequence's scene.json, else 25.
     #[arg(long)]
     fps: Option<f64>,
-    /// USD: the stage's metersPerUnit (SPlisHSPlasH's scenes are in metres: 1).
-    #[arg(long, default_value_t = 1.0)]
-    meters_per_unit: f64,
+    /// USD: the stage's metersPerUnit (default 1: SPlisHSPlasH's scenes are in metres).
+    #[arg(long)]
+    meters_per_unit: Option<f64>,
     /// USD, sequences: add the diffuse particles (spray, foam, bubbles; `[diffuse]` of --settings) as a
     /// UsdGeomPoints with widths, velocities and a `kind` primvar (0 foam, 1 spray, 2 bubbles).
     #[arg(long)]
@@ -106,9 +106,9 @@ pub struct MeshArgs {
     /// VDB: also write the field as a fog volume (grid `density`, clamped to [0, 1]).
     #[arg(long)]
     vdb_fog: bool,
-    /// VDB: the level set's half-width in voxels (OpenVDB's default: 3).
-    #[arg(long, default_value_t = 3.0)]
-    vdb_half_width: f32,
+    /// VDB: the level set's half-width in voxels (default: 3, OpenVDB's).
+    #[arg(long)]
+    vdb_half_width: Option<f32>,
 }
 
 /// Run the extraction.
@@ -143,15 +143,20 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if out_kind != Kind::Usd && (a.fps.is_some() || a.foam) {
         bail!("--fps and --foam apply to a USD stage (--out NAME.usd)");
     }
-    if out_kind != Kind::Vdb && a.vdb_fog {
-        bail!("--vdb-fog applies to --out NAME.vdb");
+    if out_kind != Kind::Usd && a.meters_per_unit.is_some() {
+        bail!("--meters-per-unit applies to a USD stage (--out NAME.usd)");
     }
+    if out_kind != Kind::Vdb && (a.vdb_fog || a.vdb_half_width.is_some()) {
+        bail!("--vdb-fog and --vdb-half-width apply to --out NAME.vdb");
+    }
+    let meters_per_unit = a.meters_per_unit.unwrap_or(1.0);
+    let vdb_half_width = a.vdb_half_width.unwrap_or(3.0);
     if let Some(f) = a.fps {
         if !(f.is_finite() && f > 0.0 && f <= 10000.0) {
             bail!("--fps must be in (0, 10000]");
         }
     }
-    if !(a.meters_per_unit.is_finite() && a.meters_per_unit > 0.0) {
+    if !(meters_per_unit.is_finite() && meters_per_unit > 0.0) {
         bail!("--meters-per-unit must be positive");
     }
     if out_kind == Kind::Vdb {
@@ -161,7 +166,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         if a.smoothing_iters > 0 {
             bail!("--out .vdb writes the field's level set, which --smoothing-iters (a mesh operation) does not change; drop it");
         }
-        if !(a.vdb_half_width.is_finite() && (1.0..=32.0).contains(&a.vdb_half_width)) {
+        if !(vdb_half_width.is_finite() && (1.0..=32.0).contains(&vdb_half_width)) {
             bail!("--vdb-half-width must be in [1, 32] voxels");
         }
     }
@@ -280,14 +285,14 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         Ok((m, how, t0.elapsed().as_secs_f64()))
     };
     let vdb = |rec: &Reconstructed, out: &PathBuf| -> Result<()> {
-        pool.install(|| vdb::write_surface(out, rec, a.vdb_half_width, a.vdb_fog))?;
+        pool.install(|| vdb::write_surface(out, rec, vdb_half_width, a.vdb_fog))?;
         Ok(())
     };
     let mut usd = match out_kind {
         Kind::Usd => {
             let fps = a.fps.unwrap_or(job.frame_rate() as f64);
             let comment = format!("meniscus mesh {} (cube {} r, support {} r)", job.label, a.cube_size, support);
-            Some(UsdWriter::create(&out, fps, a.meters_per_unit, a.foam, &comment)?)
+            Some(UsdWriter::create(&out, fps, meters_per_unit, a.foam, &comment)?)
         }
         _ => None,
     };
