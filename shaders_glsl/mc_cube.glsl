@@ -1,4 +1,5 @@
-//! mc_cube.glsl — one cube of a block, for mc_count and mc_emit: its local corner and inside mask.
+//! mc_cube.glsl — one cube of a block, for mc_count and mc_emit: its local corner and inside mask, and the
+//! crossed edges it owns (those starting at its lower corner: a cube numbers the vertices of its own edges).
 //! The table buffer (src/compute/mc.rs `table_words`): 12 packed edges (corner a | corner b << 4 | axis << 8),
 //! then 256 triangle counts, then per case MC_MAX_TRIS × 3 edge indices.
 #define MC_COUNTS 12u
@@ -18,4 +19,11 @@ uint cube_mask(uint id, out uvec3 l) {
         if (field[b * MC_NC + corner_index(l + d)] >= pc.field.z) mask |= 1u << m;
     }
     return mask;
+}
+
+// The crossed edges a cube with inside mask `mask` owns: bit a set when its edge along axis a (from corner 0 to
+// corner 1, 2 or 4) is crossed. Its vertices are numbered in axis order.
+uint owned_edges(uint mask) {
+    uint c0 = mask & 1u;
+    return (c0 ^ ((mask >> 1) & 1u)) | (c0 ^ ((mask >> 2) & 1u)) << 1 | (c0 ^ ((mask >> 4) & 1u)) << 2;
 }

@@ -1710,11 +1710,31 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
             let threshold = if metaball { meniscus::field::extract::metaball_threshold(*r, support) } else { 0.6 };
             let p = ExtractParams { metaball, ..ExtractParams::new(cube * r, threshold) };
             let cpu = extract_blocks(&grid, &inv, &p);
-            let (m, st) = mc.extract(&gpu, &grid, &inv, &p).unwrap();
+            let (gm, keys, st) = mc.extract_keyed(&gpu, &grid, &inv, &p).unwrap();
             let what = format!("{label}, cube {cube} r, metaball {metaball}");
             assert!(!cpu.triangles.is_empty(), "{what}: empty");
-            assert_eq!(m.vertices.len(), cpu.vertices.len(), "{what}: vertices");
-            assert_eq!(m.triangles, cpu.triangles, "{what}: triangles");
+            assert_eq!(gm.vertices.len(), cpu.vertices.len(), "{what}: vertices");
+            assert_eq!(gm.triangles.len(), cpu.triangles.len(), "{what}: triangles");
+            // The GPU numbers its vertices itself (edge owners, block by block); the CPU's are in edge-key order.
+            // Put the GPU's in key order (each edge once: the weld is exact), then compare the triangle sets.
+            let mut order: Vec<usize> = (0..keys.len()).collect();
+            order.sort_by_key(|&i| keys[i]);
+            assert!(order.windows(2).all(|w| keys[w[0]] < keys[w[1]]), "{what}: an edge has two vertices");
+            let mut rank = vec![0u32; keys.len()];
+            for (k, &i) in order.iter().enumerate() {
+                rank[i] = k as u32;
+            }
+            let m = meniscus::field::extract::TriMesh {
+                vertices: order.iter().map(|&i| gm.vertices[i]).collect(),
+                normals: order.iter().map(|&i| gm.normals[i]).collect(),
+                triangles: gm.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect(),
+            };
+            let sorted = |t: &[[u32; 3]]| {
+                let mut t = t.to_vec();
+                t.sort_unstable();
+                t
+            };
+            assert_eq!(sorted(&m.triangles), sorted(&cpu.triangles), "{what}: triangles");
             let h = cube * r;
             // Vertices agree to 1e-3 of a cube, or — where the crossing is flat, so that the field's rounding
             // (summation order, fused multiply-adds: lavapipe and NVIDIA differ) moves the interpolated vertex

@@ -2,14 +2,18 @@
 //! sparse over the same blocks and lattice as the CPU block extraction (src/field/extract.rs), so the two meshes are
 //! the same mesh up to float rounding (the tests hold them to it):
 //! 1. `mc_field`: every corner of every occupied block gathers the field from the neighbour grid;
-//! 2. `mc_count`: triangles per cube from the case table;
-//! 3. `mc_scan`: exclusive prefix sum of the counts (the `grid` pass's scan);
-//! 4. `mc_emit`: every cube writes its triangles at its place, with vertex normals from the corner values.
+//! 2. `mc_count`: triangles per cube from the case table, and the crossed edges each cube owns (those starting at
+//!    its lower corner: every crossed edge of the lattice has one owner);
+//! 3. `mc_scan`: exclusive prefix sums of both counts (the `grid` pass's scan);
+//! 4. `mc_emit`: every cube writes its own edges' vertices (with normals from the corner values) and its
+//!    triangles as indices of those vertices (a triangle's edge owned by a neighbouring cube, in the block or the
+//!    next block, is found there), so the mesh comes out welded and indexed: shared vertices, watertight.
 //!
-//! The host enumerates the occupied blocks (a few ms; the same function the CPU path uses), reads the triangle
-//! total between the count and the emit (the output's size), and welds the vertices on global edge keys after
-//! the emit (shared vertices, watertight; the CPU path's vertex and triangle order). Shaders: mc_*.comp,
-//! mc_common.glsl, mc_cube.glsl.
+//! The host enumerates the occupied blocks (the same function the CPU path uses), reads the two totals between
+//! the count and the emit (the output's size), and copies the indexed mesh: it does not weld. Vertices come in
+//! the GPU's order (block by block, cube by cube, edges in axis order), triangles in cube order within blocks:
+//! the CPU path's mesh up to the order of vertices and triangles (the tests compare them in edge-key order,
+//! [`Mc::extract_keyed`]). Shaders: mc_*.comp, mc_common.glsl, mc_cube.glsl.
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -20,10 +24,10 @@ use rayon::prelude::*;
 
 use crate::compute::grid::{ScanPush, SCAN};
 use crate::declare_program;
-use crate::error::Result;
-use crate::field::extract::{case_table, corner_delta, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
+use crate::error::{Error, Result};
+use crate::field::extract::{case_table, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
 use crate::field::iso::IsoGrid;
-use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
+use crate::gpu::{Access, Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer, Use};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
 
@@ -48,10 +52,10 @@ pub struct McPush {
 
 // Field: points, cells, weights, blocks → corner values.
 declare_program!(pub FIELD: McPush = compute(shaders::MC_FIELD, [BufRead, BufRead, BufRead, BufRead, BufWrite]));
-// Count: corner values, blocks, table → triangles per cube.
-declare_program!(pub COUNT: McPush = compute(shaders::MC_COUNT, [BufRead, BufRead, BufRead, BufWrite]));
-// Emit: corner values, blocks, table, start → positions, normals, triangle records.
-declare_program!(pub EMIT: McPush = compute(shaders::MC_EMIT, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite]));
+// Count: corner values, blocks, table → triangles and owned crossed edges per cube.
+declare_program!(pub COUNT: McPush = compute(shaders::MC_COUNT, [BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+// Emit: corner values, blocks, table, triangle start, vertex start → positions, normals, triangles, vertex edges.
+declare_program!(pub EMIT: McPush = compute(shaders::MC_EMIT, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite, BufWrite]));
 
 /// The case table as the shaders read it: 12 packed edges, 256 counts, then MC_MAX_TRIS × 3 edges per case.
 pub fn table_words() -> Vec<u32> {
@@ -78,10 +82,24 @@ pub struct McStats {
     pub blocks: usize,
     /// GPU ms per stage (`mc_field`, `mc_count`, `mc_scan`, `mc_emit`).
     pub gpu: PassTimes,
-    /// Host ms: block enumeration and upload; read-back and welding.
+    /// Host ms: the occupied blocks' enumeration.
     pub host_setup_ms: f64,
-    /// Host ms of the read-back and the weld.
-    pub host_weld_ms: f64,
+    /// Host ms: the particles, cells, weights, blocks and table copied to the device.
+    pub host_upload_ms: f64,
+    /// Host ms: the indexed mesh copied back (the host does not weld).
+    pub host_copy_ms: f64,
+}
+
+impl McStats {
+    /// GPU ms, all stages.
+    pub fn gpu_ms(&self) -> f64 {
+        self.gpu.0.iter().map(|(_, t)| t).sum()
+    }
+
+    /// Host ms: set-up, upload and copy.
+    pub fn host_ms(&self) -> f64 {
+        self.host_setup_ms + self.host_upload_ms + self.host_copy_ms
+    }
 }
 
 /// The pass's programs.
@@ -116,7 +134,7 @@ impl Mc {
 
     /// Extract the iso-surface of `grid`'s field (weights `inv_n`, see [`IsoGrid::inv_density`]) on the GPU:
     /// the same lattice, threshold and field as [`crate::field::extract::extract_blocks`] (`p.block` is ignored: the
-    /// GPU's blocks are MC_BLOCK³ cubes; `p.dense` too).
+    /// GPU's blocks are MC_BLOCK³ cubes; `p.dense` too). The mesh comes back indexed from the GPU.
     pub fn extract(
         &self,
         gpu: &Arc<Gpu>,
@@ -124,17 +142,41 @@ impl Mc {
         inv_n: &[f32],
         p: &ExtractParams,
     ) -> Result<(TriMesh, McStats)> {
+        self.run(gpu, grid, inv_n, p, false).map(|(m, _, st)| (m, st))
+    }
+
+    /// [`Mc::extract`], and each vertex's lattice edge as the CPU path keys it (`(corner key) · 3 + axis`; the
+    /// CPU path's vertices are in ascending key order): what a comparison of the two meshes needs.
+    pub fn extract_keyed(
+        &self,
+        gpu: &Arc<Gpu>,
+        grid: &IsoGrid,
+        inv_n: &[f32],
+        p: &ExtractParams,
+    ) -> Result<(TriMesh, Vec<i64>, McStats)> {
+        self.run(gpu, grid, inv_n, p, true)
+    }
+
+    fn run(
+        &self,
+        gpu: &Arc<Gpu>,
+        grid: &IsoGrid,
+        inv_n: &[f32],
+        p: &ExtractParams,
+        keyed: bool,
+    ) -> Result<(TriMesh, Vec<i64>, McStats)> {
         let mut stats = McStats::default();
         if grid.points.is_empty() {
-            return Ok((TriMesh::default(), stats));
+            return Ok((TriMesh::default(), vec![], stats));
         }
         let t0 = Instant::now();
         let lat = Lattice::of(grid, p.cube.max(1e-6));
         let b = MC_BLOCK as i32;
         let (keys, nb) = occupied_blocks(grid, &lat, b);
         stats.blocks = keys.len();
+        // Block lower corners (with the margin), in key order = (x, y, z) order: mc_emit searches them.
         let c0s: Vec<[i32; 4]> = keys
-            .iter()
+            .par_iter()
             .map(|&k| {
                 let bi = IVec3::new(
                     (k / nb.z as i64 / nb.y as i64) as i32,
@@ -147,6 +189,8 @@ impl Mc {
             .collect();
         let g = &grid.grid;
         let weights: Vec<f32> = if p.metaball { vec![1.0; g.points.len()] } else { inv_n.to_vec() };
+        stats.host_setup_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t0 = Instant::now();
         let up = |name: &str, data: &[u8]| crate::gpu::transfer::upload_buffer(gpu, name, data, None);
         let points = up("mc_points", bytemuck::cast_slice(&g.points))?;
         let cells = up("mc_cells", bytemuck::cast_slice(&g.cells))?;
@@ -159,6 +203,8 @@ impl Mc {
         let field = device_buffer(gpu, "mc_field", 4 * nc * nblocks as u64)?;
         let counts = device_buffer(gpu, "mc_counts", 4 * ncubes as u64)?;
         let start = device_buffer(gpu, "mc_start", 4 * ncubes as u64)?;
+        let vcounts = device_buffer(gpu, "mc_vcounts", 4 * ncubes as u64)?;
+        let vstart = device_buffer(gpu, "mc_vstart", 4 * ncubes as u64)?;
         let sums = device_buffer(gpu, "mc_sums", 4 * ncubes.div_ceil(SCAN_BLOCK) as u64)?;
         let push = McPush {
             lat: [lat.lo.x, lat.lo.y, lat.lo.z, lat.h],
@@ -167,7 +213,7 @@ impl Mc {
             ldims: [lat.dims.x, lat.dims.y, lat.dims.z, nblocks as i32],
             field: [grid.support, 1.0 / grid.support, p.threshold, 0.0],
         };
-        stats.host_setup_ms = t0.elapsed().as_secs_f64() * 1e3;
+        stats.host_upload_ms = t0.elapsed().as_secs_f64() * 1e3;
         let mut timer = Timer::new(gpu)?;
         gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(gpu, cmd, Some(&mut timer));
@@ -176,34 +222,38 @@ impl Mc {
                 self.field.dispatch(ctx, &res, &push, groups_2d(nblocks));
             });
             ctx.pass("mc_count", |ctx| {
-                let res = [(&field).into(), (&blocks).into(), (&table).into(), (&counts).into()];
+                let res = [(&field).into(), (&blocks).into(), (&table).into(), (&counts).into(), (&vcounts).into()];
                 self.count.dispatch(ctx, &res, &push, groups_2d(ncubes.div_ceil(LOCAL_1D)));
             });
             ctx.pass("mc_scan", |ctx| {
-                let res = [(&counts).into(), (&start).into(), (&sums).into()];
                 let sb = ncubes.div_ceil(SCAN_BLOCK);
-                self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 0 }, [sb, 1, 1]);
-                self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 1 }, [1, 1, 1]);
                 let g2 = ncubes.div_ceil(SCAN_LOCAL);
-                self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 2 }, [g2, 1, 1]);
+                for (c, st) in [(&counts, &start), (&vcounts, &vstart)] {
+                    let res = [c.into(), st.into(), (&sums).into()];
+                    self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 0 }, [sb, 1, 1]);
+                    self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 1 }, [1, 1, 1]);
+                    self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 2 }, [g2, 1, 1]);
+                }
             });
             Ok(())
         })?;
         let mut times = timer.read()?.0;
-        // The triangle total: the last cube's start plus its count.
+        // The totals: the last cube's start plus its count, for triangles and vertices.
         let last = 4 * (ncubes as u64 - 1);
-        let s = crate::gpu::transfer::read_buffer_at(gpu, &start, last, 4)?;
-        let c = crate::gpu::transfer::read_buffer_at(gpu, &counts, last, 4)?;
-        let total = u32::from_le_bytes(s[..4].try_into().expect("4 bytes"))
-            + u32::from_le_bytes(c[..4].try_into().expect("4 bytes"));
+        let t_copy = Instant::now();
+        let tails = read_back(gpu, &[(&start, last, 4), (&counts, last, 4), (&vstart, last, 4), (&vcounts, last, 4)])?;
+        let word = |i: usize| -> Result<u32> { Ok(host_vec::<u32>(&tails[i], 1)?[0]) };
+        let (total, vtotal) = (word(0)? + word(1)?, word(2)? + word(3)?);
+        stats.host_copy_ms = t_copy.elapsed().as_secs_f64() * 1e3;
         if total == 0 {
             // No cube crosses the threshold: nothing to emit (and no zero-sized copies to make).
             stats.gpu = PassTimes(times);
-            return Ok((TriMesh::default(), stats));
+            return Ok((TriMesh::default(), vec![], stats));
         }
-        let pos = device_buffer(gpu, "mc_pos", 48 * total as u64)?;
-        let nrm = device_buffer(gpu, "mc_nrm", 48 * total as u64)?;
-        let tri = device_buffer(gpu, "mc_tri", 16 * total as u64)?;
+        let pos = device_buffer(gpu, "mc_pos", 12 * vtotal as u64)?;
+        let nrm = device_buffer(gpu, "mc_nrm", 12 * vtotal as u64)?;
+        let tri = device_buffer(gpu, "mc_tri", 12 * total as u64)?;
+        let edge = device_buffer(gpu, "mc_edge", 16 * vtotal as u64)?;
         let mut timer = Timer::new(gpu)?;
         gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(gpu, cmd, Some(&mut timer));
@@ -213,9 +263,11 @@ impl Mc {
                     (&blocks).into(),
                     (&table).into(),
                     (&start).into(),
+                    (&vstart).into(),
                     (&pos).into(),
                     (&nrm).into(),
                     (&tri).into(),
+                    (&edge).into(),
                 ];
                 self.emit.dispatch(ctx, &res, &push, groups_2d(ncubes.div_ceil(LOCAL_1D)));
             });
@@ -224,41 +276,52 @@ impl Mc {
         times.extend(timer.read()?.0);
         stats.gpu = PassTimes(times);
         let t1 = Instant::now();
-        let pos: Vec<[f32; 4]> =
-            bytemuck::pod_collect_to_vec(&crate::gpu::transfer::read_buffer(gpu, &pos, 48 * total as u64)?);
-        let nrm: Vec<[f32; 4]> =
-            bytemuck::pod_collect_to_vec(&crate::gpu::transfer::read_buffer(gpu, &nrm, 48 * total as u64)?);
-        let tri: Vec<[i32; 4]> =
-            bytemuck::pod_collect_to_vec(&crate::gpu::transfer::read_buffer(gpu, &tri, 16 * total as u64)?);
-        let mesh = weld(&lat, &pos, &nrm, &tri);
-        stats.host_weld_ms = t1.elapsed().as_secs_f64() * 1e3;
-        Ok((mesh, stats))
+        let (v3, t3) = (12 * vtotal as u64, 12 * total as u64);
+        let mut ranges = vec![(&pos, 0, v3), (&nrm, 0, v3), (&tri, 0, t3)];
+        if keyed {
+            ranges.push((&edge, 0, 16 * vtotal as u64));
+        }
+        let host = read_back(gpu, &ranges)?;
+        let (nv, nt) = (vtotal as usize, total as usize);
+        let vertices: Vec<[f32; 3]> = host_vec(&host[0], nv)?;
+        let normals: Vec<[f32; 3]> = host_vec(&host[1], nv)?;
+        let triangles: Vec<[u32; 3]> = host_vec(&host[2], nt)?;
+        let edges: Vec<[i32; 4]> = if keyed { host_vec(&host[3], nv)? } else { vec![] };
+        // Every triangle corner names a vertex (an owner the emit could not find would be u32::MAX).
+        if triangles.par_iter().any(|t| t.iter().any(|&i| i >= vtotal)) {
+            return Err(Error::Invalid(format!(
+                "mc: a triangle of the GPU mesh names no vertex ({vtotal} vertices, {total} triangles): the owner \
+                 of a crossed edge was not among the {nblocks} blocks"
+            )));
+        }
+        let edge_keys = edges.par_iter().map(|e| lat.key(IVec3::new(e[0], e[1], e[2])) * 3 + e[3] as i64).collect();
+        stats.host_copy_ms += t1.elapsed().as_secs_f64() * 1e3;
+        Ok((TriMesh { vertices, normals, triangles }, edge_keys, stats))
     }
 }
 
-/// Shared vertices on global edge keys (vertices in key order, triangles in cube order, then table order: the
-/// CPU block path's order). Ranks (edge key, corner) pairs (`extract::rank_by_key`, as the CPU path), not whole
-/// vertices, with no searches (commit 0b5cc2b; the weld was 0.39 s of the H200's 0.81 s).
-fn weld(lat: &Lattice, pos: &[[f32; 4]], nrm: &[[f32; 4]], tri: &[[i32; 4]]) -> TriMesh {
-    let key_of = |t: &[i32; 4], v: usize| -> i64 {
-        let e = (t[3] as u32 >> (8 + 4 * v) & 15) as usize;
-        let (a, _, axis) = EDGES[e];
-        lat.key(IVec3::new(t[0], t[1], t[2]) + corner_delta(a)) * 3 + axis as i64
-    };
-    let keys: Vec<(i64, u32)> =
-        (0..tri.len() * 3).into_par_iter().map(|k| (key_of(&tri[k / 3], k % 3), k as u32)).collect();
-    let (rank, first) = crate::field::extract::rank_by_key(keys, tri.len() * 3);
-    let (vertices, normals) = first
-        .par_iter()
-        .map(|&k| (pos[k as usize], nrm[k as usize]))
-        .map(|(p, n)| ([p[0], p[1], p[2]], [n[0], n[1], n[2]]))
-        .unzip();
-    let mut order: Vec<(i64, u32, u32)> = tri
-        .par_iter()
-        .enumerate()
-        .map(|(i, t)| (lat.key(IVec3::new(t[0], t[1], t[2])), t[3] as u32 & 255, i as u32))
-        .collect();
-    order.par_sort_unstable();
-    let triangles = order.par_iter().map(|&(_, _, i)| [0, 1, 2].map(|v| rank[3 * i as usize + v])).collect();
-    TriMesh { vertices, normals, triangles }
+/// Copy several ranges `(buffer, offset, bytes)` of device buffers (TRANSFER_SRC usage) into host-visible
+/// buffers in one submission; [`host_vec`] takes each out as a vector (one copy, out of the mapped memory).
+fn read_back(gpu: &Arc<Gpu>, ranges: &[(&Buffer, u64, u64)]) -> Result<Vec<Buffer>> {
+    let bufs = ranges
+        .iter()
+        .map(|&(_, _, bytes)| {
+            Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    gpu.one_shot(|cmd| {
+        let mut ctx = FrameCtx::new(gpu, cmd, None);
+        for (&(src, offset, bytes), dst) in ranges.iter().zip(&bufs) {
+            ctx.copy_buffer(src, dst, vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes });
+        }
+        let uses: Vec<Use> = bufs.iter().map(|b| Use::Buffer(b, Access::HostRead)).collect();
+        ctx.barrier(&uses);
+        Ok(())
+    })?;
+    Ok(bufs)
+}
+
+/// The first `n` items of a read-back buffer.
+fn host_vec<T: bytemuck::Pod>(b: &Buffer, n: usize) -> Result<Vec<T>> {
+    Ok(bytemuck::pod_collect_to_vec(&b.read()?[..n * std::mem::size_of::<T>()]))
 }

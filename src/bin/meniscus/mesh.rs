@@ -251,15 +251,16 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             let how = match &rep.extraction {
                 Extraction::Gpu(st) => {
                     let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
-                    let gpu_ms: f64 = st.gpu.0.iter().map(|(_, t)| t).sum();
                     format!(
-                        "on {} ({} blocks; GPU {gpu_ms:.2} ms: {}; host: grid and 1/n {t_field:.3} s, set-up {:.1} \
-                         ms, read-back and weld {:.1} ms)",
+                        "on {} ({} blocks; host: grid and 1/n {t_field:.3} s, blocks {:.1} ms, upload {:.1} ms; GPU \
+                         {:.2} ms: {}; copy of the indexed mesh {:.1} ms)",
                         gpu_mc.as_ref().map_or("", |(g, _)| g.info.name.as_str()),
                         st.blocks,
-                        stages.join(", "),
                         st.host_setup_ms,
-                        st.host_weld_ms
+                        st.host_upload_ms,
+                        st.gpu_ms(),
+                        stages.join(", "),
+                        st.host_copy_ms
                     )
                 }
                 Extraction::Cpu(t) => {
