@@ -28,11 +28,17 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_solve.comp", NBR),
     ("sim_vorticity.comp", NBR),
     ("sim_viscosity.comp", NBR),
-    // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited, the bricks'
-    // aprons copied; the cast over the volume and its queued rays.
+    // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited (two 32-bit
+    // atomics, or one 64-bit where the device has them), the bricks' aprons copied; the cast over the volume and its queued rays.
     (
         "iso_volume.comp",
-        &[("MARK", "ISO_VOLUME_MARK"), ("ALLOC", "ISO_VOLUME_ALLOC"), ("", ""), ("APRON", "ISO_VOLUME_APRON")],
+        &[
+            ("MARK", "ISO_VOLUME_MARK"),
+            ("ALLOC", "ISO_VOLUME_ALLOC"),
+            ("", ""),
+            ("DEPOSIT64", "ISO_VOLUME_DEPOSIT64"),
+            ("APRON", "ISO_VOLUME_APRON"),
+        ],
     ),
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
     // The iso grid cells' empty distance, one axis per dispatch.

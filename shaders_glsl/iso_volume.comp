@@ -1,4 +1,8 @@
 #version 460
+#if defined(ISO_VOLUME_DEPOSIT64)
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_shader_atomic_int64 : require
+#endif
 //! iso_volume — builds the sparse lattice of the smoothed iso field (`[iso] smoothing` > 0) once per set of
 //! particles, after iso_density (which gives each sorted point j its weight 1/n_j and its neighbour count c_j =
 //! Σ_{k≠j} max(0, 1 − |x_j − x_k|²/h²), splashsurf's feature weight, Löschner et al. 2023). Three dispatches:
@@ -11,7 +15,10 @@
 //!     spread over the voxels within R by the smooth kernel K(d) = (1 − d²/R²)³ / (0.6383 R³) (C² where it
 //!     ends), and M_j c_j likewise: B(v) = Σ_j M_j K(|v − x_j|) is the blurred colour field sampled at the
 //!     voxel, B c̄ its neighbour count interpolated (Shepard). Fixed point (ISO_VOLUME_FIX_BITS), integer
-//!     atomics: the same sums in any order, on any device;
+//!     atomics: the same sums in any order, on any device. ISO_VOLUME_DEPOSIT64 (devices with
+//!     shaderBufferInt64Atomics) adds both sums of a voxel with one 64-bit atomic — the pair is one
+//!     little-endian uint64 (B in the low word, B c̄ in the high), and no low sum reaches 2³² (B < 4096 at
+//!     ISO_VOLUME_FIX_BITS = 20; the colour field is about 1 inside water), so no carry crosses: the same words as two 32-bit atomics, half the atomics;
 //! ISO_VOLUME_APRON — per stored voxel of the allocated bricks, the apron copied from the neighbour brick
 //!     (iso_volume.glsl).
 //! R is chosen so K's per-axis variance (R²/11) plus the cast's quadratic B-spline read (s²/4) equals the
@@ -53,7 +60,11 @@ layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
 layout(set = 0, binding = 1) uniform samplerBuffer points_t;
 layout(set = 0, binding = 2) uniform samplerBuffer counts_t;
 layout(set = 0, binding = 3) uniform usamplerBuffer table_t;
+#if defined(ISO_VOLUME_DEPOSIT64)
+layout(std430, set = 0, binding = 4) buffer Acc { uint64_t acc[]; };
+#else
 layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
+#endif
 #define ISO_TABLE(i) texelFetch(table_t, int(i)).x
 #endif
 #include "iso_volume.glsl"
@@ -129,8 +140,12 @@ void main() {
                 uint slot = iso_voxel_slot(ivec3(x, y, z), bd);
                 if (slot == ISO_NONE) continue;
                 float w = q * q * q * m;
+#if defined(ISO_VOLUME_DEPOSIT64)
+                atomicAdd(acc[slot], uint64_t(uint(w + 0.5)) | (uint64_t(uint(w * c + 0.5)) << 32));
+#else
                 atomicAdd(acc[slot].x, uint(w + 0.5));
                 atomicAdd(acc[slot].y, uint(w * c + 0.5));
+#endif
             }
         }
     }

@@ -1231,6 +1231,45 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     assert_clean(&gpu);
 }
 
+/// The deposit's two paths give the same sums: one 64-bit atomic per voxel (devices with
+/// shaderBufferInt64Atomics, lavapipe among them) and two 32-bit atomics (`no_int64_atomics`, as on devices
+/// without them) write the same words at every voxel of the same lattice (integer sums, in any order).
+#[test]
+fn the_64_bit_deposit_equals_the_32_bit_one() {
+    let r = 0.05f32;
+    let pts = jittered_slab(99, [12, 6, 9], [-0.6, -0.2, -0.45], r, [1.0, 1.2, 1.0]);
+    let mut s = settings(r);
+    s.smooth.filter = Filter::None;
+    s.surface = meniscus::settings::Surface::Iso;
+    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
+    let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], 96, 64, 45.0);
+    let lattice = |no_int64_atomics: bool| {
+        let gpu = meniscus::gpu::Gpu::new(&meniscus::gpu::GpuOptions {
+            validation: true,
+            no_int64_atomics,
+            ..Default::default()
+        })
+        .unwrap();
+        let mut rd = Renderer::new(&gpu).unwrap();
+        rd.set_particles(&pts, None).unwrap();
+        rd.render(&v, &s).unwrap();
+        let out = read_lattice(&gpu, rd.iso_buffers().unwrap().volume.as_ref().expect("the lattice"));
+        assert_clean(&gpu);
+        (gpu.info.int64_atomics, gpu.info.name.clone(), out)
+    };
+    let (wide, name, (alloc64, acc64, _)) = lattice(false);
+    let (narrow, _, (alloc32, acc32, _)) = lattice(true);
+    if name.contains("llvmpipe") {
+        assert!(wide, "lavapipe has shaderBufferInt64Atomics: the 64-bit path must run here");
+    }
+    eprintln!("{name}: 64-bit buffer atomics {wide}");
+    assert!(!narrow, "no_int64_atomics leaves them off");
+    assert_eq!(alloc64, alloc32, "the same bricks");
+    assert!(acc64.iter().filter(|a| a[0] > 0).count() > 1000, "the slab deposited its sums");
+    let differ = acc64.iter().zip(&acc32).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "{differ} voxels differ between the 64-bit and the 32-bit deposit");
+}
+
 /// No creases at voxel faces: a flat, tilted sheet of water (a lattice of particles rotated against the voxel
 /// axes, the field blurred everywhere so the surface is the lattice's alone) rendered from above has normals
 /// that vary smoothly. Measured: the largest angle between horizontally or vertically adjacent pixels'

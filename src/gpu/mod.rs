@@ -41,6 +41,9 @@ pub struct GpuOptions {
     /// Instance extensions a window surface needs (from `ash_window::enumerate_required_extensions`); when
     /// given, the device is created with VK_KHR_swapchain.
     pub surface_extensions: Vec<&'static std::ffi::CStr>,
+    /// Leave 64-bit buffer atomics off where the device has them (the iso deposit then takes two 32-bit atomics
+    /// per voxel, as on devices without them): to compare the two paths.
+    pub no_int64_atomics: bool,
 }
 
 /// Counts of validation messages, shared with the messenger callback.
@@ -156,6 +159,11 @@ pub struct DeviceInfo {
     pub max_storage_buffer_range: u64,
     /// maxTexelBufferElements: the most texels a texel view (`Buffer::with_texel_view`) may cover.
     pub max_texel_buffer_elements: u64,
+    /// shaderInt64 and shaderBufferInt64Atomics enabled: the iso deposit adds both of a voxel's sums with one
+    /// 64-bit atomic.
+    pub int64_atomics: bool,
+    /// pipelineStatisticsQuery enabled: `bench` counts each pass's compute invocations.
+    pub pipeline_statistics: bool,
 }
 
 /// The device and everything that lives as long as it.
@@ -520,6 +528,8 @@ impl Gpu {
             subgroup_size: subgroup.subgroup_size,
             max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
             max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
+            int64_atomics: false,
+            pipeline_statistics: false,
         };
 
         // Features: synchronization2 and dynamic rendering (1.3), demote-to-helper (shaderc turns `discard`
@@ -540,10 +550,16 @@ impl Gpu {
         if f12.timeline_semaphore == vk::FALSE {
             return Err(Error::NoDevice(format!("{} lacks timeline semaphores", info.name)));
         }
+        info.int64_atomics =
+            !opts.no_int64_atomics && base.shader_int64 == vk::TRUE && f12.shader_buffer_int64_atomics == vk::TRUE;
+        info.pipeline_statistics = base.pipeline_statistics_query == vk::TRUE;
         let mut e12 = vk::PhysicalDeviceVulkan12Features::default()
             .host_query_reset(f12.host_query_reset == vk::TRUE)
+            .shader_buffer_int64_atomics(info.int64_atomics)
             .timeline_semaphore(true);
         let base_enable = vk::PhysicalDeviceFeatures::default()
+            .shader_int64(info.int64_atomics)
+            .pipeline_statistics_query(info.pipeline_statistics)
             .fragment_stores_and_atomics(base.fragment_stores_and_atomics == vk::TRUE)
             .vertex_pipeline_stores_and_atomics(base.vertex_pipeline_stores_and_atomics == vk::TRUE)
             .shader_storage_image_extended_formats(base.shader_storage_image_extended_formats == vk::TRUE)

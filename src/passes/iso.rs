@@ -391,6 +391,8 @@ declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelR
 declare_program!(pub VOLUME_MARK: VolPush = compute(shaders::ISO_VOLUME_MARK, [Uniform, TexelRead, BufWrite]));
 declare_program!(pub VOLUME_ALLOC: VolPush = compute(shaders::ISO_VOLUME_ALLOC, [Uniform, BufWrite, BufWrite, BufWrite]));
 declare_program!(pub VOLUME: VolPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
+// The same deposit with one 64-bit atomic per voxel (devices with shaderBufferInt64Atomics: `DeviceInfo::int64_atomics`).
+declare_program!(pub VOLUME_DEPOSIT64: VolPush = compute(shaders::ISO_VOLUME_DEPOSIT64, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
 // Each allocated brick's apron copied from its neighbours.
 declare_program!(pub VOLUME_APRON: VolPush = compute(shaders::ISO_VOLUME_APRON, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
 // The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
@@ -445,7 +447,7 @@ impl Iso {
             volume: [
                 ComputeProgram::new(gpu, &VOLUME_MARK)?,
                 ComputeProgram::new(gpu, &VOLUME_ALLOC)?,
-                ComputeProgram::new(gpu, &VOLUME)?,
+                ComputeProgram::new(gpu, if gpu.info.int64_atomics { &VOLUME_DEPOSIT64 } else { &VOLUME })?,
                 ComputeProgram::new(gpu, &VOLUME_APRON)?,
             ],
             cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,

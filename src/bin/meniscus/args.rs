@@ -190,6 +190,10 @@ pub struct GpuArgs {
     /// Use the first device whose name contains this (also MENISCUS_DEVICE).
     #[arg(long)]
     pub device: Option<String>,
+    /// Leave 64-bit buffer atomics off where the device has them (the iso deposit then adds a voxel's two sums
+    /// with two 32-bit atomics, as on devices without them): to compare the two paths.
+    #[arg(long)]
+    pub no_int64_atomics: bool,
 }
 
 impl GpuArgs {
@@ -198,6 +202,7 @@ impl GpuArgs {
         Ok(Gpu::new(&GpuOptions {
             validation: self.validation,
             device_filter: self.device.clone(),
+            no_int64_atomics: self.no_int64_atomics,
             ..Default::default()
         })?)
     }

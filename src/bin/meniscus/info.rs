@@ -117,7 +117,7 @@ fn describe_file(file: &std::path::Path, ms: f64) -> Result<()> {
 
 /// `meniscus info --device [NAME]`.
 fn device(filter: Option<String>) -> Result<()> {
-    let gpu = crate::args::GpuArgs { validation: false, device: filter }.open()?;
+    let gpu = crate::args::GpuArgs { validation: false, device: filter, no_int64_atomics: false }.open()?;
     let i = &gpu.info;
     println!("device:      {} ({})", i.name, i.device_type);
     println!("driver:      {}", i.driver);
@@ -135,6 +135,15 @@ fn device(filter: Option<String>) -> Result<()> {
     println!(
         "calibrated timestamps: {} (the per-queue spans of a split frame share the device time domain)",
         if i.calibrated_timestamps { "enabled" } else { "not available" }
+    );
+    println!(
+        "64-bit buffer atomics: {} (the iso deposit: {})",
+        if i.int64_atomics { "enabled" } else { "off" },
+        if i.int64_atomics { "one 64-bit atomic per voxel" } else { "two 32-bit atomics per voxel" }
+    );
+    println!(
+        "pipeline statistics: {} (bench's per-pass compute invocations)",
+        if i.pipeline_statistics { "enabled" } else { "not available" }
     );
     // What a default frame holds on this device: every allocation by name (the renderer's images, the particle
     // buffer, the iso grid and the smoothed field's lattice).

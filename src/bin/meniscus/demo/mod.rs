@@ -149,6 +149,7 @@ pub fn main(a: &DemoArgs) -> anyhow::Result<()> {
             vsync: !a.no_vsync,
             validation: a.gpu.validation,
             device: a.gpu.device.clone(),
+            no_int64_atomics: a.gpu.no_int64_atomics,
             frames: a.frames,
             screenshot: a.screenshot.clone(),
             record: a.record.clone(),
@@ -169,6 +170,8 @@ pub struct DemoOptions {
     pub vsync: bool,
     pub validation: bool,
     pub device: Option<String>,
+    /// Leave 64-bit buffer atomics off (`--no-int64-atomics`).
+    pub no_int64_atomics: bool,
     /// Run this many frames, then exit (after writing `screenshot` if given).
     pub frames: Option<u64>,
     pub screenshot: Option<PathBuf>,
@@ -426,6 +429,7 @@ impl App {
             validation: self.o.validation,
             device_filter: self.o.device.clone(),
             surface_extensions,
+            no_int64_atomics: self.o.no_int64_atomics,
         })?;
         // SAFETY: the handles come from a live window that outlives the surface (State drops the surface first).
         let surface = unsafe { ash_window::create_surface(&gpu.entry, &gpu.instance, display, wh, None) }
