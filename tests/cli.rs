@@ -188,6 +188,18 @@ fn tiny_bench_writes_valid_json() {
         sum_min += stat(&p[1], "min");
     }
     assert!(stat(&e["gpu_total"], "min") + 1e-9 >= sum_min, "total {} < sum of minima {sum_min}", e["gpu_total"]);
+    // The work each pass did (pipeline statistics, which lavapipe has): every pass counted, the composite at
+    // least one invocation per pixel.
+    if v["device"]["pipeline_statistics"] == true {
+        let inv = e["invocations"].as_array().unwrap();
+        let count = |p: &str| inv.iter().find(|x| x[0] == p).and_then(|x| x[1].as_u64());
+        for p in &want {
+            assert!(count(p).is_some_and(|n| n > 0), "{p}: no invocations in {inv:?}");
+        }
+        assert!(count("composite").unwrap() >= 64 * 64, "{inv:?}");
+    } else {
+        assert!(!v["device"]["name"].as_str().unwrap().contains("llvmpipe"), "lavapipe has pipeline statistics");
+    }
     // Host memory at the start and end of the run (issue #17).
     assert!(v["rss_start_bytes"].as_u64().unwrap() > 0 && v["rss_end_bytes"].as_u64().unwrap() > 0);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));

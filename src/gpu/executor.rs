@@ -76,6 +76,9 @@ pub struct Span {
     pub begin_ns: f64,
     /// End, device clock, ns.
     pub end_ns: f64,
+    /// Compute shader invocations it ran (a pipeline-statistics query; None where the device has none, or for a
+    /// scope inside another, whose invocations its parent counts).
+    pub invocations: Option<u64>,
 }
 
 /// One segment of a split frame, in recording (= valid serial) order.
@@ -188,11 +191,17 @@ impl Executor {
             .timer
             .spans()?
             .into_iter()
-            .map(|(name, b, e)| Span { name, queue: QueueId::Main, begin_ns: b, end_ns: e })
+            .map(|(name, b, e, n)| Span { name, queue: QueueId::Main, begin_ns: b, end_ns: e, invocations: n })
             .collect();
         if s.split {
             for (t, q) in s.segment_timers.iter().zip([QueueId::Compute, QueueId::Main, QueueId::Main]) {
-                out.extend(t.spans()?.into_iter().map(|(name, b, e)| Span { name, queue: q, begin_ns: b, end_ns: e }));
+                out.extend(t.spans()?.into_iter().map(|(name, b, e, n)| Span {
+                    name,
+                    queue: q,
+                    begin_ns: b,
+                    end_ns: e,
+                    invocations: n,
+                }));
             }
         }
         Ok(out)

@@ -121,6 +121,10 @@ pub struct Entry {
     /// the spray classification and the copy into the particle set), then the renderer's own
     /// (`Renderer::host_times`), and the wait for the GPU with the timestamps' read-back.
     pub host_ms: Vec<(String, Stat)>,
+    /// Compute shader invocations per pass in the last measured frame (a pipeline-statistics query, where the
+    /// device has them: `info --device`), in frame order; a pass timed inside another is counted in its parent.
+    /// The work a pass did, device-independent: a change's GPU cost can be judged from it on lavapipe.
+    pub invocations: Vec<(String, u64)>,
 }
 
 /// The host stages `bench` times per frame (`Entry::host_ms`).
@@ -220,6 +224,8 @@ struct Series {
     compute_ms: Vec<f64>,
     union_ms: Vec<f64>,
     pass_queues: Vec<(String, String)>,
+    /// Compute invocations per pass, the last measured frame.
+    invocations: Vec<(String, u64)>,
     rss_after_warmup: Option<u64>,
     /// Frames rendered (the next sequence frame to upload).
     rendered: usize,
@@ -251,6 +257,7 @@ impl Series {
             compute_ms: vec![],
             union_ms: vec![],
             pass_queues: vec![],
+            invocations: vec![],
             rss_after_warmup: rss_bytes(),
             rendered: 0,
         })
@@ -293,6 +300,16 @@ impl Series {
         }
         if warmup {
             return Ok(());
+        }
+        // Invocations per pass (same-named scopes summed), the last measured frame's.
+        self.invocations.clear();
+        for sp in &spans {
+            if let Some(n) = sp.invocations {
+                match self.invocations.iter_mut().find(|(p, _)| *p == sp.name) {
+                    Some(e) => e.1 += n,
+                    None => self.invocations.push((sp.name.clone(), n)),
+                }
+            }
         }
         for (name, ms) in &times.0 {
             match self.per_pass.iter_mut().find(|(n, _)| n == name) {
@@ -362,6 +379,7 @@ impl Series {
                 .enumerate()
                 .map(|(k, n)| (n.to_string(), Stat::of(&self.host.iter().map(|h| h[k]).collect::<Vec<_>>())))
                 .collect(),
+            invocations: self.invocations,
             effect_images: t
                 .memory()
                 .into_iter()
@@ -446,6 +464,46 @@ pub fn markdown(entries: &[Entry]) -> String {
             e.cpu_frame.median,
             e.gpu_total.median
         ));
+    }
+    // The work each pass did: compute invocations (pipeline statistics), the last measured frame.
+    if entries.iter().any(|e| !e.invocations.is_empty()) {
+        let counted: Vec<&str> = names
+            .iter()
+            .copied()
+            .filter(|n| entries.iter().any(|e| e.invocations.iter().any(|(p, _)| p == n)))
+            .collect();
+        s.push_str(&format!(
+            "
+Compute invocations per pass (pipeline statistics, last measured frame; thousands):
+
+| scene | resolution | variant | {} | total |
+|---|---|---|{}---:|
+",
+            counted.join(" | "),
+            "---:|".repeat(counted.len())
+        ));
+        for e in entries {
+            let cells: Vec<String> = counted
+                .iter()
+                .map(|n| {
+                    e.invocations
+                        .iter()
+                        .find(|(p, _)| p == n)
+                        .map_or("–".into(), |(_, k)| format!("{:.1}", *k as f64 / 1e3))
+                })
+                .collect();
+            let total: u64 = e.invocations.iter().map(|(_, k)| k).sum();
+            s.push_str(&format!(
+                "| {} | {}×{} | {} | {} | {:.1} |
+",
+                e.scene,
+                e.width,
+                e.height,
+                e.variant,
+                cells.join(" | "),
+                total as f64 / 1e3
+            ));
+        }
     }
     // GPU memory: every live allocation after each workload's last entry (the JSON has them per entry).
     for (i, e) in entries.iter().enumerate() {
