@@ -1155,7 +1155,7 @@ fn smoothed_iso_field_matches_cpu() {
     let p = meniscus::field::iso::IsoParams { near: v.camera.near, ..s.iso_params() };
     let vp = p.volume.expect("smoothing on");
     let weighted: Vec<[f32; 4]> = grid.points.iter().zip(&inv).map(|(q, &i)| [q[0], q[1], q[2], i]).collect();
-    let marked = shape.marked(grid.points.iter().map(|q| glam::Vec3::new(q[0], q[1], q[2])));
+    let marked = shape.marked(&grid.points, |q| glam::Vec3::new(q[0], q[1], q[2]));
     assert_eq!(alloc, marked, "the allocated bricks are the ones the reference marks");
     let used = marked.iter().filter(|&&m| m).count();
     assert!(used < marked.len(), "{used} of {} bricks: the lattice is sparse", marked.len());
@@ -1218,7 +1218,7 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     assert!(shape.voxels() > 16 << 20, "the box holds {} voxels", shape.voxels());
     let (alloc, _, field) = read_lattice(&gpu, vol);
     let used = alloc.iter().filter(|&&a| a).count();
-    let marked = shape.marked(pts.iter().map(|q| glam::Vec3::from(*q))).iter().filter(|&&m| m).count();
+    let marked = shape.marked(&pts, |&q| glam::Vec3::from(q)).iter().filter(|&&m| m).count();
     assert_eq!(used, marked);
     // Memory follows the occupied bricks: the pool holds them with at most a quarter to spare.
     assert!((vol.capacity as usize) <= used + used / 4 + 1, "pool {} for {used} bricks", vol.capacity);

@@ -501,6 +501,28 @@ pub const STORED_BRICK_VOXELS: u32 = (BRICK + 2) * (BRICK + 2) * (BRICK + 2);
 /// Most bricks per axis of the lattice (iso_volume packs a brick's coordinates in 11 + 11 + 10 bits).
 pub const MAX_BRICKS_PER_AXIS: [u32; 3] = [2047, 2047, 1023];
 
+/// For per-axis sets of brick offsets −1, 0, +1 (3 bits each, x | y << 3 | z << 6), the neighbours of a brick
+/// they span together: bit (x + 1) + 3 (y + 1) + 9 (z + 1) for each offset (x, y, z) of the product
+/// ([`VolumeShape::marked`]).
+static NEIGHBOURS: [u32; 512] = {
+    let mut t = [0u32; 512];
+    let mut i = 0;
+    while i < 512 {
+        let mut m = 0u32;
+        let mut j = 0;
+        while j < 27 {
+            let (x, y, z) = (j % 3, (j / 3) % 3, j / 9);
+            if (i >> x) & 1 != 0 && (i >> (3 + y)) & 1 != 0 && (i >> (6 + z)) & 1 != 0 {
+                m |= 1 << j;
+            }
+            j += 1;
+        }
+        t[i] = m;
+        i += 1;
+    }
+    t
+};
+
 /// The sparse lattice the smoothed field lives on: voxel (i, j, k) at origin + (i, j, k)·spacing, in bricks
 /// of [`BRICK`]³ voxels; a brick exists only where a particle's deposit reaches within the blur's taps
 /// ([`VolumeShape::marked`]), every voxel elsewhere is 0. The CPU reference holds the whole box densely
@@ -565,6 +587,7 @@ impl VolumeShape {
 
     /// Lattice coordinates of x, clamped 2 voxels outside the box (as iso_volume.comp: a stray point far from
     /// the water marks and deposits nothing).
+    #[inline]
     pub fn lattice(&self, x: Vec3) -> Vec3 {
         let d = self.dims();
         ((x - self.origin) / self.spacing)
@@ -574,22 +597,78 @@ impl VolumeShape {
     /// The bricks the points need (iso_volume's ISO_VOLUME_MARK): the voxels within the deposit's reach + 1 of
     /// the point's voxel (the cast's 3³ read around a voxel next to a nonzero one finds its brick). One flag
     /// per table entry.
-    pub fn marked(&self, points: impl Iterator<Item = Vec3>) -> Vec<bool> {
-        let mut m = vec![false; self.table_len()];
+    pub fn marked<T: Sync>(&self, points: &[T], pos: impl Fn(&T) -> Vec3 + Sync) -> Vec<bool> {
+        use rayon::prelude::*;
+        let n = self.table_len();
         let b = self.bricks.map(|n| n as i64);
         let t = self.taps as i64 + 1;
-        for x in points {
-            let u = self.lattice(x).floor();
-            let g = [u.x as i64, u.y as i64, u.z as i64];
-            // Fixed arrays: this runs for every particle of every sequence frame (two heap allocations per
-            // particle were most of its time).
-            let lo: [i64; 3] = std::array::from_fn(|a| (g[a] - t).div_euclid(BRICK as i64).max(0));
-            let hi: [i64; 3] = std::array::from_fn(|a| (g[a] + 1 + t).div_euclid(BRICK as i64).min(b[a] - 1));
+        // Floor division by the brick side as a shift (BRICK is a power of two).
+        let shift = BRICK.trailing_zeros();
+        const { assert!(BRICK.is_power_of_two()) };
+        let at = |x: i64, y: i64, z: i64| (x + b[0] * (y + b[1] * z)) as usize;
+        // `floor` without the libm call baseline x86-64 makes of it (exact: |u| is far below 2³¹).
+        let floor = |x: f32| {
+            let i = x as i64;
+            i - (x < i as f32) as i64
+        };
+        // Every sequence frame and every new particle set counts its bricks here (the host's part of a frame),
+        // so each point does one write: its own brick's mask of the 3³ neighbours its box reaches (a point's
+        // box spans at most its brick and one either side while t < BRICK), OR-ed over chunks of points in
+        // parallel, expanded once per brick after. A point whose box spans more, or whose brick is outside the
+        // table, has its box listed and marked directly.
+        type Boxes = Vec<([i64; 3], [i64; 3])>;
+        let chunk = |pts: &[T]| -> (Vec<u32>, Boxes) {
+            let mut reach = vec![0u32; n];
+            let mut boxes = vec![];
+            for q in pts {
+                let u = self.lattice(pos(q));
+                let g = [floor(u.x), floor(u.y), floor(u.z)];
+                let lo: [i64; 3] = std::array::from_fn(|a| ((g[a] - t) >> shift).max(0));
+                let hi: [i64; 3] = std::array::from_fn(|a| ((g[a] + 1 + t) >> shift).min(b[a] - 1));
+                let home: [i64; 3] = std::array::from_fn(|a| g[a] >> shift);
+                let near = (0..3).all(|a| (0..b[a]).contains(&home[a]) && lo[a] >= home[a] - 1 && hi[a] <= home[a] + 1);
+                if near {
+                    // Per axis the offsets −1, 0, +1 it reaches (bits 0–2); their product over the 27 neighbours.
+                    let bits: [u32; 3] = std::array::from_fn(|a| {
+                        let (l, h) = (lo[a] - home[a] + 1, hi[a] - home[a] + 1);
+                        ((1u32 << (h + 1)) - 1) & !((1u32 << l) - 1)
+                    });
+                    reach[at(home[0], home[1], home[2])] |=
+                        NEIGHBOURS[(bits[0] | bits[1] << 3 | bits[2] << 6) as usize];
+                } else {
+                    boxes.push((lo, hi));
+                }
+            }
+            (reach, boxes)
+        };
+        let (reach, boxes) = points.par_chunks(8192).map(chunk).reduce(
+            || (vec![0u32; n], vec![]),
+            |(mut r, mut b), (r2, b2)| {
+                r.iter_mut().zip(&r2).for_each(|(x, y)| *x |= y);
+                b.extend(b2);
+                (r, b)
+            },
+        );
+        let mut m = vec![false; n];
+        for (lo, hi) in boxes {
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
-                        m[(x + b[0] * (y + b[1] * z)) as usize] = true;
+                        m[at(x, y, z)] = true;
                     }
+                }
+            }
+        }
+        for (k, &r) in reach.iter().enumerate().filter(|(_, &r)| r != 0) {
+            let k = k as i64;
+            let home = [k % b[0], (k / b[0]) % b[1], k / (b[0] * b[1])];
+            let mut bits = r;
+            while bits != 0 {
+                let j = bits.trailing_zeros() as i64;
+                bits &= bits - 1;
+                let (x, y, z) = (home[0] + j % 3 - 1, home[1] + (j / 3) % 3 - 1, home[2] + j / 9 - 1);
+                if (0..b[0]).contains(&x) && (0..b[1]).contains(&y) && (0..b[2]).contains(&z) {
+                    m[at(x, y, z)] = true;
                 }
             }
         }
@@ -856,6 +935,49 @@ mod tests {
         assert!(ani < iso, "anisotropic surface at {ani}, isotropic at {iso}");
     }
 
+    /// `marked` (one neighbour mask per point's brick, chunks in parallel) marks exactly the bricks of every
+    /// point's box, as marking each box brick by brick does: points inside the box, on brick faces, and
+    /// outside it on every side (clamped into the lattice's margin).
+    #[test]
+    fn marked_bricks_are_each_points_box() {
+        let r = 0.01;
+        let p = VolumeParams { sigma: 1.1 * r, bulk: [4.0, 9.0], spacing: 2.0 * r, support: 4.0 * r };
+        let shape = VolumeShape::around(Vec3::ZERO, Vec3::new(0.8, 0.5, 0.6), &p).unwrap();
+        let mut seed = 11u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut pts: Vec<Vec3> = (0..60).map(|_| Vec3::new(rnd(), rnd(), rnd()) * 1.6 - 0.4).collect();
+        // A dense cluster (many points to a brick: the masks OR-ed across chunks).
+        pts.extend((0..30_000).map(|_| Vec3::new(0.2, 0.1, 0.3) + Vec3::new(rnd(), rnd(), rnd()) * 0.15));
+        // Points on brick faces (voxel coordinates multiples of BRICK) and far outside.
+        for k in 0..20 {
+            let v = Vec3::splat((k % 9 * BRICK) as f32) * shape.spacing + shape.origin;
+            pts.push(v + Vec3::new(0.0, rnd() * 0.3, rnd() * 0.3));
+        }
+        pts.extend([Vec3::splat(-1e6), Vec3::splat(1e6), Vec3::new(-1e6, 0.2, 1e6)]);
+        let b = shape.bricks.map(|n| n as i64);
+        let t = shape.taps as i64 + 1;
+        let mut want = vec![false; shape.table_len()];
+        for &x in &pts {
+            let u = shape.lattice(x).floor();
+            let g = [u.x as i64, u.y as i64, u.z as i64];
+            let lo: [i64; 3] = std::array::from_fn(|a| (g[a] - t).div_euclid(BRICK as i64).max(0));
+            let hi: [i64; 3] = std::array::from_fn(|a| (g[a] + 1 + t).div_euclid(BRICK as i64).min(b[a] - 1));
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        want[(x + b[0] * (y + b[1] * z)) as usize] = true;
+                    }
+                }
+            }
+        }
+        let got = shape.marked(&pts, |&x| x);
+        assert!(want.iter().any(|&m| m) && want.iter().any(|&m| !m), "a partly marked table");
+        assert_eq!(got, want);
+    }
+
     /// The cast's skip through an unallocated brick ([`VolumeShape::gap`]) never passes a point: wherever it
     /// gives a distance, every point is at least that far (brute force over a sparse scene of clusters and
     /// strays, at positions all over the lattice's box), and the box holds such bricks.
@@ -880,7 +1002,7 @@ mod tests {
         let (lo, hi) =
             pts.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &q| (a.min(q), b.max(q)));
         let shape = VolumeShape::around(lo, hi, &p).unwrap();
-        let marked = shape.marked(pts.iter().copied());
+        let marked = shape.marked(&pts, |&q| q);
         assert!(marked.iter().any(|&m| !m), "the scene leaves bricks unallocated");
         let size = Vec3::new(shape.dims()[0] as f32, shape.dims()[1] as f32, shape.dims()[2] as f32) * shape.spacing;
         let mut gaps = 0;

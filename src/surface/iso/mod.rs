@@ -200,8 +200,7 @@ impl Grid {
         let bricks = if p.particles.is_external() {
             shape.table_len()
         } else {
-            let pts = p.particles.positions().iter().map(|x| glam::Vec3::from(*x));
-            shape.marked(pts).iter().filter(|&&m| m).count()
+            shape.marked(p.particles.positions(), |&x| glam::Vec3::from(x)).iter().filter(|&&m| m).count()
         } as u32;
         // A sequence's box and bricks change every frame: the buffers are kept while they hold the new lattice
         // (its field is rebuilt for the new particles anyway), and grow by a quarter when they do not.
