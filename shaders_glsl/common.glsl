@@ -25,6 +25,8 @@ layout(std140, set = 0, binding = 0) uniform Frame {
     vec4 box_max[MAX_BOXES];
 } frame;
 
+#include "particle_layout.glsl"
+
 #define INF uintBitsToFloat(0x7f800000u)
 
 bool is_fluid(float d) { return d < 1e30; }

@@ -43,20 +43,16 @@ vec2 to_pixel(vec3 c, vec2 size, float F) {
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    uint base = 2u * pc.count;
-    uint n_d = pc.diffuse;
-    if (pc.indirect != 0u) {
-        n_d = min(floatBitsToUint(particles[base].w), pc.diffuse);
-        base += 1u;
-    }
+    bool header = pc.indirect != 0u;
+    uint n_d = header ? min(floatBitsToUint(particles[particle_diffuse_header(pc.count)].w), pc.diffuse) : pc.diffuse;
     vec3 x;
     vec3 v;
     float rad;
     uint kind;
     float fade;
     if (i < n_d) {
-        vec4 a = particles[base + 2u * i];
-        vec4 b = particles[base + 2u * i + 1u];
+        vec4 a = particles[particle_diffuse(pc.count, header, i)];
+        vec4 b = particles[particle_diffuse(pc.count, header, i) + 1u];
         x = a.xyz;
         rad = a.w;
         v = b.xyz;

@@ -26,7 +26,7 @@ struct Sprite {
 /// reference's rule).
 bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     Particle pt = load_particle(particles[i], 1.0);
-    vec4 motion = particles[pc.count + i];
+    vec4 motion = particles[particle_motion(pc.count, i)];
     s.z = -pt.c.z;
     // Spray is drawn apart from the surface: it adds no waves to it.
     if (pt.spray || s.z <= frame.proj.w) return false;

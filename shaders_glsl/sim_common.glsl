@@ -5,6 +5,7 @@
 //! Particles live in two arrays: State {x (w: id bits), v} and the predicted positions x*, both in grid order
 //! after the `sim_reorder` stage.
 #include "grid.glsl"
+#include "particle_layout.glsl"
 
 layout(std140, binding = 0) uniform Sim {
     GridShape grid;

@@ -38,6 +38,7 @@ void main() {
     float u = unit(hash4(floatBitsToUint(c.x), 0x5eedu, 0u, 0u));
     float size = pc.size * pc.radius * (1.0 + pc.size_spread * (2.0 * u - 1.0));
     float fade = clamp(min(ramp(a.w, pc.fade), ramp(b.w, pc.fade_in)), 1e-3, 0.999);
-    put(hdr + 1u + 2u * at, vec4(a.xyz, size));
-    put(hdr + 2u + 2u * at, vec4(b.xyz, c.y + fade));
+    // After the header (particle_layout.glsl: the diffuse particles follow it, DIFFUSE_VEC4S each).
+    put(hdr + 1u + DIFFUSE_VEC4S * at, vec4(a.xyz, size));
+    put(hdr + 2u + DIFFUSE_VEC4S * at, vec4(b.xyz, c.y + fade));
 }

@@ -53,6 +53,6 @@ void main() {
     float accel = mix(vs.w, length(v - (vs.xyz - sim.lo_dt.w * sim.gravity_mass.xyz)) / sim.lo_dt.w, sim.visc.w);
     state[i] = State(vec4(xi, xs.w), vec4(v, accel));
     particles[i] = vec4(xi, 0.0);
-    // The renderer's motion entry (particles.rs): the id bits and the change of velocity.
-    particles[sim.counts.x + i] = vec4(xs.w, accel, 0.0, 0.0);
+    // The renderer's motion entry (particle_layout.glsl): the id bits and the change of velocity.
+    particles[particle_motion(sim.counts.x, i)] = vec4(xs.w, accel, 0.0, 0.0);
 }

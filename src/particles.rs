@@ -3,10 +3,11 @@
 //! producer such as the simulation), the host copy of the positions (the nearest depth, the CPU-built grids),
 //! the spray marks, and a generation that every change bumps — what the surface techniques key their caches to.
 //!
-//! Layout on the device: `count` vec4 positions (xyz, w: radius and spray mark) then `count` vec4 motions
-//! ([`Motion`]: the particle's id bits and how fast its velocity changes), read by the `noise` pass, then the
-//! diffuse particles (spray, foam, bubbles: two vec4 each, `crate::passes::diffuse::encode`), read by the
-//! `diffuse` pass. Every other pass reads only the first `count` entries.
+//! Layout on the device ([`ParticleLayout`], the shaders' particle_layout.glsl): `count` vec4 positions (xyz, w:
+//! radius and spray mark) then `count` vec4 motions ([`Motion`]: the particle's id bits and how fast its velocity
+//! changes), read by the `noise` pass, then (a GPU producer's) a header vec4, then the diffuse particles (spray,
+//! foam, bubbles: two vec4 each, `crate::passes::diffuse::encode`), read by the `diffuse` pass. Every other pass
+//! reads only the first `count` entries.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -17,6 +18,7 @@ use crate::gpu::{Buffer, Gpu};
 use crate::view::View;
 
 pub use crate::motion::Motion;
+use crate::shader_constants::ParticleLayout;
 pub use crate::shader_constants::BYTES_PER_PARTICLE;
 
 /// An upload: vec4s and the vec4 offset in the particle buffer they go to.
@@ -165,7 +167,7 @@ impl ParticleSet {
     /// after it; for a GPU producer, which writes the fluid part, only the diffuse particles, at their place.
     fn restage(&mut self) {
         self.staged = if self.external {
-            (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), 2 * self.count as usize))
+            (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), self.layout().diffuse() as usize))
         } else {
             Some(([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0))
         };
@@ -184,6 +186,11 @@ impl ParticleSet {
         } else {
             (self.diffuse.len() / 2) as u32
         }
+    }
+
+    /// The buffer's layout: a GPU producer's diffuse particles follow a header vec4.
+    pub fn layout(&self) -> ParticleLayout {
+        ParticleLayout { count: self.count, header: self.gpu_diffuse > 0, diffuse: self.diffuse_count() }
     }
 
     /// Particles on the device.
@@ -234,9 +241,7 @@ impl ParticleSet {
     /// before may still read this one), a one-queue frame into the same (queue order keeps it after the
     /// readers) — and grow it when too small, after every frame that may still read it.
     pub fn prepare(&mut self, gpu: &std::sync::Arc<Gpu>, executor: &Executor, split: bool) -> Result<()> {
-        // A GPU producer's diffuse particles follow a header vec4 (the indirect dispatch of the `diffuse` pass).
-        let header = u64::from(self.gpu_diffuse > 0);
-        let whole = (2 * self.count as u64 + header + 2 * self.diffuse_count() as u64) * 16;
+        let whole = self.layout().bytes();
         if self.staged.is_some() || self.external {
             let target = if split { 1 - self.current } else { self.current };
             let size = whole.max(16);

@@ -24,9 +24,50 @@ pub const NOISE_LOD_SAMPLES: u32 = 6;
 pub const NOISE_TILE: u32 = 16;
 /// Most tiles one sprite is binned to (a sprite's level keeps it under 39 texels across: at most 4 × 4 tiles).
 pub const NOISE_MAX_TILES: u32 = 16;
-/// Bytes per particle of the renderer's particle buffer: its position (vec4) and, after all positions, its
-/// motion (vec4: id bits, |Δv|/Δt), read by the `noise` pass.
-pub const BYTES_PER_PARTICLE: u64 = 32;
+/// Vec4s per fluid particle in the renderer's particle buffer ([`ParticleLayout`]): its position and, after all
+/// positions, its motion (id bits, |Δv|/Δt), read by the `noise` pass.
+pub const PARTICLE_VEC4S: u32 = 2;
+/// Vec4s per diffuse particle in the renderer's particle buffer ([`ParticleLayout`]).
+pub const DIFFUSE_VEC4S: u32 = 2;
+/// Bytes per particle of the renderer's particle buffer (PARTICLE_VEC4S vec4s).
+pub const BYTES_PER_PARTICLE: u64 = 16 * PARTICLE_VEC4S as u64;
+/// Where everything lives in the particle buffer, in vec4s — the one definition of its layout (the shaders
+/// compute the same offsets with shaders_glsl/particle_layout.glsl): `count` positions, `count` motions, a
+/// header vec4 when a GPU producer writes the diffuse particles (the `diffuse` pass's indirect dispatch:
+/// groups, 1, 1, particles drawn), then `diffuse` diffuse particles of two vec4 each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(dead_code)] // build.rs includes this file too
+pub struct ParticleLayout {
+    /// Fluid particles.
+    pub count: u32,
+    /// Whether the diffuse particles follow a header (a GPU producer's).
+    pub header: bool,
+    /// Diffuse particles (at most, for a GPU producer's).
+    pub diffuse: u32,
+}
+
+#[allow(dead_code)]
+impl ParticleLayout {
+    /// The first motion (vec4 index).
+    pub fn motions(&self) -> u64 {
+        self.count as u64
+    }
+
+    /// The diffuse header (vec4 index; written only when `header`).
+    pub fn diffuse_header(&self) -> u64 {
+        PARTICLE_VEC4S as u64 * self.count as u64
+    }
+
+    /// The first diffuse particle (vec4 index).
+    pub fn diffuse(&self) -> u64 {
+        self.diffuse_header() + u64::from(self.header)
+    }
+
+    /// Bytes of the whole buffer.
+    pub fn bytes(&self) -> u64 {
+        16 * (self.diffuse() + DIFFUSE_VEC4S as u64 * self.diffuse as u64)
+    }
+}
 /// Tile size of the splat's occlusion bound (`splat_cull`).
 pub const SPLAT_TILE: u32 = 8;
 /// Colliders of a simulation scene (sim_common.glsl's uniform block).
@@ -86,6 +127,8 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("MAX_NEIGHBOURS", MAX_NEIGHBOURS),
     ("SCAN_LOCAL", SCAN_LOCAL),
     ("MC_BLOCK", MC_BLOCK),
+    ("PARTICLE_VEC4S", PARTICLE_VEC4S),
+    ("DIFFUSE_VEC4S", DIFFUSE_VEC4S),
     ("MC_MAX_TRIS", MC_MAX_TRIS),
     ("SCAN_BLOCK", SCAN_BLOCK),
     ("GRID_RUN", GRID_RUN),

@@ -141,7 +141,8 @@ impl Diffuse {
             };
             let res = [frame.into(), buf.into(), i.depth.into(), i.scene_depth.into(), (&i.own.white).into(), (&i.own.bubbles).into()];
             if indirect {
-                self.prog.dispatch_indirect(ctx, &res, &push, buf, 2 * count as u64 * 16);
+                let layout = crate::shader_constants::ParticleLayout { count, header: true, diffuse };
+                self.prog.dispatch_indirect(ctx, &res, &push, buf, 16 * layout.diffuse_header());
             } else {
                 let threads = diffuse + if spray { count } else { 0 };
                 self.prog.dispatch(ctx, &res, &push, [threads.div_ceil(super::LOCAL_1D).max(1), 1, 1]);

@@ -252,7 +252,8 @@ impl DiffuseStages {
             self.clear = false;
         }
         ctx.fill(&self.floor, u32::MAX);
-        let push = self.push(f, 2 * f.n);
+        let layout = crate::shader_constants::ParticleLayout { count: f.n, header: true, diffuse: self.slots };
+        let push = self.push(f, layout.diffuse_header() as u32);
         let (u, g, s) = (f.uniforms, f.grid, f.state);
         let fluid = [f.n.div_ceil(LOCAL_1D).max(1), 1, 1];
         let pool = [self.slots.div_ceil(LOCAL_1D).max(1), 1, 1];
@@ -277,7 +278,7 @@ impl DiffuseStages {
         let res = [u.into(), s.into(), (&self.pot).into(), (&self.run).into(), (&self.pool).into()];
         run(ctx, STAGE_NAMES[4], &self.spawn, &res, fluid);
         // The header (indirect dispatch groups, 1, 1, count) is zeroed, then the draw stage appends.
-        ctx.fill_range(out, 2 * f.n as u64 * 16, 16, 0);
+        ctx.fill_range(out, 16 * layout.diffuse_header(), 16, 0);
         run(ctx, STAGE_NAMES[5], &self.draw, &[u.into(), (&self.pool).into(), out.into()], pool);
     }
 

@@ -37,6 +37,7 @@ use gpu_allocator::MemoryLocation;
 use crate::compute::grid::{Grid, GridBuffers, GridShape};
 use crate::error::{Error, Result};
 use crate::gpu::{Buffer, FrameCtx, Gpu, PassTimes, Timer};
+use crate::shader_constants::ParticleLayout;
 use crate::shader_constants::MAX_COLLIDERS;
 pub use scene::{Collider, SimScene, SCENES};
 pub use scene_file::SceneFile;
@@ -448,8 +449,8 @@ impl Simulation {
             Some(p) => Some(diffuse::DiffuseStages::new(&self.gpu, p, self.capacity())?),
             None => None,
         };
-        let drawn = self.diffuse_slots() as u64;
-        let need = crate::shader_constants::BYTES_PER_PARTICLE * (self.capacity().max(1) as u64 + drawn) + 16;
+        let layout = ParticleLayout { count: self.capacity().max(1), header: true, diffuse: self.diffuse_slots() };
+        let need = layout.bytes();
         if self.particles.size < need {
             self.particles = Buffer::new(
                 &self.gpu,
