@@ -28,6 +28,10 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_solve.comp", NBR),
     ("sim_vorticity.comp", NBR),
     ("sim_viscosity.comp", NBR),
+    // DFSPH's list readers (src/sim/dfsph.rs).
+    ("sim_dfsph_alpha.comp", NBR),
+    ("sim_dfsph_rate.comp", NBR),
+    ("sim_dfsph_update.comp", NBR),
     // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited (two 32-bit
     // atomics, or one 64-bit where the device has them), the bricks' aprons copied; the cast over the volume and its queued rays.
     (

@@ -1,6 +1,6 @@
 """Run a SPlisHSPlasH scene with Meniscus' solver and compare it with SPlisHSPlasH's own output, frame by frame:
     target/python-venv/bin/python tools/compare-splishsplash.py ../shared/data/splishsplash/doubledambreak_sphere_25k \
-        [--frames N] [--bin target/release/meniscus]
+        [--frames N] [--solver pbf|dfsph] [--bin target/release/meniscus]
 The folder holds scene.json and SPlisHSPlasH's partio/ParticleData_Fluid_<n>.bgeo. `meniscus sim FOLDER/scene.json`
 writes the same frames (file n at t = (n − 1)/fps); per frame the table gives, for both: the front (the largest
 |x| or |z| of any particle: how far the water has spread from the centre), the centre of mass height, the mean
@@ -21,6 +21,7 @@ ap = argparse.ArgumentParser()
 ap.add_argument("folder")
 ap.add_argument("--frames", type=int, default=None)
 ap.add_argument("--bin", default=str(pathlib.Path(__file__).resolve().parents[1] / "target/release/meniscus"))
+ap.add_argument("--solver", choices=["pbf", "dfsph"], default="pbf")
 a = ap.parse_args()
 folder = pathlib.Path(a.folder)
 scene = json.loads((folder / "scene.json").read_text())
@@ -42,14 +43,14 @@ def metrics(d):
 
 
 with tempfile.TemporaryDirectory() as tmp:
-    cmd = [a.bin, "sim", str(folder / "scene.json"), "--export", f"{tmp}/f_{{}}.bgeo"]
+    cmd = [a.bin, "sim", str(folder / "scene.json"), "--solver", a.solver, "--export", f"{tmp}/f_{{}}.bgeo"]
     if a.frames:
         cmd += ["--frames", str(a.frames)]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         sys.exit(run.stderr)
     print("<!-- " + " ".join(cmd) + " -->")
-    print(run.stderr.strip().splitlines()[-3])
+    print("\n".join(l for l in run.stderr.strip().splitlines() if l.startswith(("sim:", "DFSPH")) or "median GPU" in l))
     print()
     print("| frame | t (s) | front S / M | ratio | centre of mass y S / M | ratio | ½v² (J/kg) S / M | ratio | run-up S / M | ratio |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")

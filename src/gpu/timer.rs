@@ -29,6 +29,9 @@ impl PassTimes {
     }
 }
 
+/// One scope of a frame: its name, begin and end (ns, device clock), compute invocations where counted.
+pub type ScopeSpan = (String, f64, f64, Option<u64>);
+
 /// A timestamp query pool and the names of the scopes written into it; a pipeline-statistics pool beside it
 /// where the device counts invocations.
 pub struct Timer {
@@ -156,7 +159,7 @@ impl Timer {
 
     /// Begin and end of every scope of the last frame in nanoseconds of the device clock, and its compute
     /// invocations where counted (waits for them).
-    pub fn spans(&self) -> Result<Vec<(String, f64, f64, Option<u64>)>> {
+    pub fn spans(&self) -> Result<Vec<ScopeSpan>> {
         let period = self.gpu.info.timestamp_period as f64;
         Ok(self
             .names

@@ -20,6 +20,7 @@
 //! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
 //! 25 fps frame).
 
+pub mod dfsph;
 pub mod diffuse;
 pub mod reference;
 pub mod scene;
@@ -85,6 +86,39 @@ pub struct Params {
     pub gravity: [f32; 3],
     /// Rest density (kg/m³).
     pub rest_density: f32,
+    /// The pressure solver: `pbf` (Position Based Fluids, `iterations` Jacobi iterations; the live default) or
+    /// `dfsph` (Divergence-free SPH: the divergence-free and constant-density solves iterated to their error
+    /// bounds, [`dfsph`]).
+    pub solver: Solver,
+    /// DFSPH: the constant-density solve's bound on the average density error, percent of ρ0 (SPlisHSPlasH's
+    /// `maxError`).
+    pub max_density_error: f32,
+    /// DFSPH: the divergence-free solve's bound on the average density change over a step, percent of ρ0
+    /// (SPlisHSPlasH's `maxErrorV`).
+    pub max_divergence_error: f32,
+    /// DFSPH: most corrections per solve (each is recorded; the solves stop on the GPU once converged).
+    pub max_solver_iterations: u32,
+}
+
+/// The pressure solver of a [`Simulation`] (`[sim] solver`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Solver {
+    /// Position Based Fluids (Macklin & Müller 2013): a fixed iteration count.
+    #[default]
+    Pbf,
+    /// Divergence-free SPH (Bender & Koschier 2015): two velocity solves to error bounds.
+    Dfsph,
+}
+
+impl Solver {
+    /// The name in settings, on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Solver::Pbf => "pbf",
+            Solver::Dfsph => "dfsph",
+        }
+    }
 }
 
 impl Default for Params {
@@ -105,6 +139,10 @@ impl Default for Params {
             wall_friction: 1.0,
             gravity: [0.0, -9.81, 0.0],
             rest_density: 1000.0,
+            solver: Solver::Pbf,
+            max_density_error: 0.05,
+            max_divergence_error: 0.1,
+            max_solver_iterations: 20,
         }
     }
 }
@@ -136,6 +174,18 @@ impl Params {
         }
         if !(self.wall_friction.is_finite() && (0.0..=10.0).contains(&self.wall_friction)) {
             return bad("wall_friction must be 0..=10");
+        }
+        if !(self.max_density_error.is_finite() && self.max_density_error > 0.0 && self.max_density_error <= 10.0) {
+            return bad("max_density_error must be in (0, 10] percent");
+        }
+        if !(self.max_divergence_error.is_finite()
+            && self.max_divergence_error > 0.0
+            && self.max_divergence_error <= 100.0)
+        {
+            return bad("max_divergence_error must be in (0, 100] percent");
+        }
+        if !(2..=200).contains(&self.max_solver_iterations) {
+            return bad("max_solver_iterations must be 2..=200");
         }
         if let Some(c) = self.xsph {
             if !(0.0..=XSPH_MAX).contains(&c) {
@@ -331,6 +381,8 @@ pub struct Simulation {
     timer: Option<Timer>,
     /// The spray, foam and bubbles stages (`set_diffuse`).
     diffuse: Option<diffuse::DiffuseStages>,
+    /// The DFSPH stages and buffers (`[sim] solver = "dfsph"`).
+    dfsph: Option<dfsph::Dfsph>,
 }
 
 impl Simulation {
@@ -341,6 +393,7 @@ impl Simulation {
             return Err(Error::Limit(format!("a scene has at most {} colliders", MAX_COLLIDERS - 1)));
         }
         let constants = Constants::new(&scene, &params);
+        let solver = params.solver;
         let cap = scene.capacity.max(1) as u64;
         if cap * 32 > gpu.info.max_storage_buffer_range {
             return Err(Error::Limit(format!(
@@ -414,6 +467,10 @@ impl Simulation {
             pusher: None,
             timer: Some(Timer::new(gpu)?),
             diffuse: None,
+            dfsph: match solver {
+                Solver::Dfsph => Some(dfsph::Dfsph::new(gpu, cap, scene.mesh_collider.is_some())?),
+                Solver::Pbf => None,
+            },
             scene,
         };
         sim.reset();
@@ -558,6 +615,9 @@ impl Simulation {
         let u = self.uniforms_now();
         self.uniforms[k].write(0, bytemuck::bytes_of(&u))?;
         let out = out.unwrap_or(&self.particles);
+        if let Some(d) = &self.dfsph {
+            d.clear_stats(ctx);
+        }
         for _ in 0..self.constants.substeps {
             self.record_step(ctx, k, out);
         }
@@ -611,6 +671,9 @@ impl Simulation {
     }
 
     fn record_step(&self, ctx: &mut FrameCtx, k: usize, out: &Buffer) {
+        if let Some(d) = &self.dfsph {
+            return self.record_dfsph_step(ctx, d, k, out);
+        }
         let n = self.n;
         let u = &self.uniforms[k];
         let [a, b] = &self.state;
@@ -633,6 +696,45 @@ impl Simulation {
             g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
         }
         g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, n);
+    }
+
+    /// One DFSPH step ([`dfsph`]): the grid on x, the two solves, then PBF's end of step (velocity from the
+    /// positions, XSPH, the state and the renderer's particles).
+    fn record_dfsph_step(&self, ctx: &mut FrameCtx, d: &dfsph::Dfsph, k: usize, out: &Buffer) {
+        let n = self.n;
+        let u = &self.uniforms[k];
+        let [a, b] = &self.state;
+        let (g, s) = (&self.stages, &self.grid);
+        d.begin(ctx, u, a, &self.pred[0], n);
+        ctx.pass(crate::compute::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
+        g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], n);
+        let nb = &self.neighbours;
+        g.neighbours(ctx, u, s, &self.pred[1], nb, n);
+        let bufs = dfsph::StepBuffers {
+            uniforms: u,
+            neighbours: nb,
+            sorted: b,
+            x: &self.pred[1],
+            x_new: &self.pred[0],
+            vel: &self.vel,
+            density: &self.density,
+            sdf: &self.sdf,
+        };
+        d.solve(ctx, &bufs, &self.params, n);
+        let x = &self.pred[0];
+        g.velocity(ctx, u, b, x, &self.vel, n);
+        if self.params.vorticity > 0.0 {
+            g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
+        }
+        g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, n);
+    }
+
+    /// The DFSPH solves' statistics over the last recorded frame (None for PBF; waits for the device).
+    pub fn solver_stats(&self) -> Result<Option<dfsph::SolverStats>> {
+        match &self.dfsph {
+            Some(d) if self.frames > 0 => Ok(Some(d.read_stats(&self.gpu)?)),
+            _ => Ok(None),
+        }
     }
 
     /// Simulate one frame in its own submission and wait for it; per-stage GPU times (summed over the steps).

@@ -43,7 +43,7 @@ enum Cmd {
     Mesh(mesh::MeshArgs),
     /// Generate the spray, foam and air bubbles of a sequence (Ihmsen 2012) and write them per frame (.bgeo/.vtk).
     Foam(foam::FoamArgs),
-    /// Simulate a built-in scene on the GPU (Position Based Fluids) and write a particle cache (.bgeo/.vtk).
+    /// Simulate a built-in scene or a SPlisHSPlasH scene file on the GPU (Position Based Fluids or DFSPH) and write a particle cache (.bgeo/.vtk).
     Sim(sim::SimArgs),
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
     #[command(after_help = demo::HELP)]

@@ -35,9 +35,13 @@ pub struct SimArgs {
     /// Steps per frame (0: from the CFL bound, at most 5 ms).
     #[arg(long)]
     pub substeps: Option<u32>,
-    /// Solver iterations per step.
+    /// Solver iterations per step (PBF).
     #[arg(long)]
     pub iterations: Option<u32>,
+    /// The pressure solver: pbf (Position Based Fluids, the default) or dfsph (Divergence-free SPH, iterated to
+    /// `[sim] max_density_error` and `max_divergence_error`); also `[sim] solver` in a settings file.
+    #[arg(long, value_parser = ["pbf", "dfsph"])]
+    pub solver: Option<String>,
     /// A closed triangle mesh (OBJ, world coordinates) the water cannot enter; water that starts inside it is
     /// removed. The export's scene.json lists it, so `render` of the export draws it.
     #[arg(long, value_name = "FILE.obj")]
@@ -74,6 +78,11 @@ impl SimArgs {
         }
         if let Some(i) = self.iterations {
             p.iterations = i;
+        }
+        match self.solver.as_deref() {
+            Some("dfsph") => p.solver = meniscus::sim::Solver::Dfsph,
+            Some(_) => p.solver = meniscus::sim::Solver::Pbf,
+            None => {}
         }
         Ok(p.validate()?)
     }
@@ -198,8 +207,15 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let gpu = a.gpu.open()?;
     let mut sim = Simulation::new(&gpu, scene, params)?;
     let c = sim.constants;
+    let solver = match sim.params.solver {
+        meniscus::sim::Solver::Pbf => format!("PBF, {} iterations", sim.params.iterations),
+        meniscus::sim::Solver::Dfsph => format!(
+            "DFSPH to {} % density error and {} % divergence per step, at most {} corrections per solve",
+            sim.params.max_density_error, sim.params.max_divergence_error, sim.params.max_solver_iterations
+        ),
+    };
     eprintln!(
-        "sim: {} with {} particles (radius {:.5} m, capacity {}), {} steps of {:.2} ms per frame at {} fps, {} iterations, on {}",
+        "sim: {} with {} particles (radius {:.5} m, capacity {}), {} steps of {:.2} ms per frame at {} fps, {solver}, on {}",
         sim.scene.name,
         sim.count(),
         sim.radius(),
@@ -207,7 +223,6 @@ pub fn run(a: &SimArgs) -> Result<()> {
         c.substeps,
         c.dt * 1e3,
         sim.params.fps,
-        sim.params.iterations,
         gpu.info.name
     );
     if a.foam.is_some() {
@@ -258,14 +273,46 @@ pub fn run(a: &SimArgs) -> Result<()> {
     }
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
+    let mut solves: Vec<meniscus::sim::dfsph::SolverStats> = vec![];
     for n in 2..=frames {
         let t = sim.step_frame()?;
-        bar.set_message(format!("{:.1} ms/step", t.total() / c.substeps as f64));
+        let mut msg = format!("{:.1} ms/step", t.total() / c.substeps as f64);
+        if let Some(st) = sim.solver_stats()? {
+            msg += &format!(
+                ", density error {:.3} %, {:.1} corrections/step",
+                100.0 * st.density.max_error,
+                st.density.corrections as f64 / st.density.steps.max(1) as f64
+            );
+            solves.push(st);
+        }
+        bar.set_message(msg);
         runs.push(t);
         write(&sim, n)?;
         bar.inc(1);
     }
     bar.finish_and_clear();
+    if !solves.is_empty() {
+        // Per step: the average error each solve stopped at, its corrections.
+        for (name, pick) in [
+            ("constant-density", (|s: &meniscus::sim::dfsph::SolverStats| s.density) as fn(&_) -> _),
+            ("divergence-free", |s: &meniscus::sim::dfsph::SolverStats| s.divergence),
+        ] {
+            let all: Vec<meniscus::sim::dfsph::SolveStats> = solves.iter().map(pick).collect();
+            let steps: u32 = all.iter().map(|s| s.steps).sum();
+            let corr: u32 = all.iter().map(|s| s.corrections).sum();
+            let max_corr = all.iter().map(|s| s.max_corrections).max().unwrap_or(0);
+            let mean = all.iter().map(|s| s.mean_error as f64 * s.steps as f64).sum::<f64>() / steps.max(1) as f64;
+            let max = all.iter().map(|s| s.max_error).fold(0f32, f32::max);
+            let unconverged: u32 = all.iter().map(|s| s.unconverged).sum();
+            eprintln!(
+                "DFSPH {name} solve over {steps} steps: average error per step {:.4} % (largest {:.4} %), {:.1} \
+                 corrections per step (most {max_corr}), {unconverged} steps stopped at the iteration limit",
+                100.0 * mean,
+                100.0 * max,
+                corr as f64 / steps.max(1) as f64
+            );
+        }
+    }
     let med = meniscus::gpu::timer::median_times(&runs);
     if !runs.is_empty() {
         // The solver's stages run every step; the diffuse stages once per frame.

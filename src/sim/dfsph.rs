@@ -1,0 +1,261 @@
+//! Divergence-free SPH (Bender & Koschier, SCA 2015 and TVCG 2017, "Divergence-Free SPH for Incompressible and
+//! Viscous Fluids"; SPlisHSPlasH's TimeStepDFSPH in its density-ratio form), the simulation's second pressure
+//! solver (`[sim] solver = "dfsph"`), on the same grid, neighbour lists, colliders and end of step as PBF.
+//!
+//! One step, every stage a pass with its own name and GPU timestamp:
+//! `sim_dfsph_begin` (the grid is built on x, not on a prediction) → `grid` → `sim_reorder` (grid order; it adds
+//! Δt·g to the velocities: gravity is applied before the solves) → `sim_neighbours` → `sim_dfsph_alpha` (ρ̂ and
+//! the factor α) → the divergence-free solve → the constant-density solve → `sim_dfsph_integrate` (x + Δt v,
+//! collisions) → `sim_velocity` → (`sim_vorticity`) → `sim_viscosity` (XSPH; the state and the renderer's
+//! particles), the last three shared with PBF. Each solve is `sim_dfsph_rate` (κ from the density change, the
+//! error per work group) and `sim_dfsph_check` (the average error against its bound), then up to
+//! `max_solver_iterations` × (`sim_dfsph_update`, `sim_dfsph_rate`, `sim_dfsph_check`) dispatched indirectly:
+//! the check writes the next iteration's work groups, 0 once converged, so no iteration waits for the host and
+//! a converged solve's remaining dispatches do nothing. The walls of the container enter as PBF's do (their
+//! density F and its gradient, sim_common.glsl's wall_density); other colliders are position projections.
+//!
+//! What each solve used (corrections, the average error when it stopped, the steps that ran out of iterations)
+//! accumulates on the GPU ([`SolverStats`], `Simulation::solver_stats`).
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::stages::Neighbours;
+use crate::declare_program;
+use crate::error::Result;
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
+use crate::shader_constants::LOCAL_1D;
+use crate::shaders;
+
+/// The DFSPH stages in a step's order (timestamp keys and bench rows), beside [`super::STAGE_NAMES`]'s shared ones.
+pub const STAGE_NAMES: &[&str] = &[
+    "sim_dfsph_begin",
+    "sim_dfsph_alpha",
+    "sim_dfsph_rate",
+    "sim_dfsph_check",
+    "sim_dfsph_update",
+    "sim_dfsph_integrate",
+];
+
+/// Push constants of sim_dfsph_check.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct CheckPush {
+    /// Work groups of a per-particle dispatch.
+    pub groups: u32,
+    /// 1: the solve's first evaluation.
+    pub init: u32,
+    /// Corrections before convergence may stop the solve.
+    pub min_iter: u32,
+    /// Corrections at most.
+    pub max_iter: u32,
+    /// The bound on the average error.
+    pub eta: f32,
+    /// 0: divergence-free solve, 1: constant-density solve.
+    pub solve: u32,
+}
+
+declare_program!(pub BEGIN: () = compute(shaders::SIM_DFSPH_BEGIN, [Uniform, TexelRead, BufWrite]));
+declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub RATE: () = compute(shaders::SIM_DFSPH_RATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
+declare_program!(pub RATE_NBR16: () = compute(shaders::SIM_DFSPH_RATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
+declare_program!(pub UPDATE: () = compute(shaders::SIM_DFSPH_UPDATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub UPDATE_NBR16: () = compute(shaders::SIM_DFSPH_UPDATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub CHECK: CheckPush = compute(shaders::SIM_DFSPH_CHECK, [Uniform, BufRead, BufWrite, BufWrite]));
+declare_program!(pub INTEGRATE: () = compute(shaders::SIM_DFSPH_INTEGRATE, [Uniform, TexelRead, TexelRead, BufWrite, BufRead]));
+
+/// What the solves did since the last [`Dfsph::clear_stats`], per solve (read back by `Simulation::solver_stats`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SolveStats {
+    /// Steps (solves run).
+    pub steps: u32,
+    /// Corrections, summed over the steps.
+    pub corrections: u32,
+    /// The most corrections one step needed.
+    pub max_corrections: u32,
+    /// The average error when the last solve stopped (a fraction of ρ0: density error, or density change over
+    /// a step).
+    pub last_error: f32,
+    /// The largest of those over the steps.
+    pub max_error: f32,
+    /// Their mean over the steps.
+    pub mean_error: f32,
+    /// Steps that stopped at `max_solver_iterations` above the bound.
+    pub unconverged: u32,
+}
+
+/// Both solves' statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SolverStats {
+    /// The divergence-free solve.
+    pub divergence: SolveStats,
+    /// The constant-density solve.
+    pub density: SolveStats,
+}
+
+impl SolverStats {
+    fn from_words(w: &[u32]) -> SolverStats {
+        let one = |b: usize| {
+            let steps = w[b];
+            SolveStats {
+                steps,
+                corrections: w[b + 1],
+                max_corrections: w[b + 2],
+                last_error: f32::from_bits(w[b + 3]),
+                max_error: f32::from_bits(w[b + 4]),
+                mean_error: f32::from_bits(w[b + 5]) / steps.max(1) as f32,
+                unconverged: w[b + 6],
+            }
+        };
+        SolverStats { divergence: one(0), density: one(8) }
+    }
+}
+
+/// The list readers for one list format.
+struct Listed {
+    alpha: ComputeProgram,
+    rate: [ComputeProgram; 2],
+    update: ComputeProgram,
+}
+
+/// The DFSPH programs and their buffers.
+pub struct Dfsph {
+    begin: ComputeProgram,
+    integrate: ComputeProgram,
+    check: ComputeProgram<CheckPush>,
+    /// By list format: [32-bit, 16-bit].
+    listed: [Listed; 2],
+    /// Per particle: ρ̂ (density / ρ0), the factor α (vec4 texels).
+    factor: Buffer,
+    /// Per particle: κ (R32F texels).
+    kappa: Buffer,
+    /// Per work group of sim_dfsph_rate: its particles' summed error.
+    partials: Buffer,
+    /// The next iteration's indirect dispatch (x: work groups, y, z: 1; w: corrections so far).
+    args: Buffer,
+    /// [`SolverStats`] as words.
+    stats: Buffer,
+}
+
+/// What a DFSPH step reads and writes of the simulation's buffers.
+pub struct StepBuffers<'a> {
+    /// The uniform block of this frame.
+    pub uniforms: &'a Buffer,
+    /// The neighbour lists.
+    pub neighbours: &'a Neighbours,
+    /// The sorted state (grid order; its v has Δt·g added).
+    pub sorted: &'a Buffer,
+    /// x in grid order.
+    pub x: &'a Buffer,
+    /// The new positions.
+    pub x_new: &'a Buffer,
+    /// The velocities the solves correct.
+    pub vel: &'a Buffer,
+    /// Densities (kg/m³) for the exports.
+    pub density: &'a Buffer,
+    /// The mesh collider's distances.
+    pub sdf: &'a Buffer,
+}
+
+impl Dfsph {
+    /// The pipelines (`mesh_collider`: sim_common.glsl's specialization constant 1) and buffers for `capacity`
+    /// particles.
+    pub fn new(gpu: &Arc<Gpu>, capacity: u64, mesh_collider: bool) -> Result<Dfsph> {
+        let m = mesh_collider as u32;
+        let listed = |alpha, rate, update| -> Result<Listed> {
+            Ok(Listed {
+                alpha: ComputeProgram::new(gpu, alpha)?,
+                rate: [
+                    ComputeProgram::specialized(gpu, rate, &[4, m, 0, 0])?,
+                    ComputeProgram::specialized(gpu, rate, &[4, m, 0, 1])?,
+                ],
+                update: ComputeProgram::new(gpu, update)?,
+            })
+        };
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC;
+        let cap = capacity.max(1);
+        let groups = cap.div_ceil(LOCAL_1D as u64);
+        Ok(Dfsph {
+            begin: ComputeProgram::new(gpu, &BEGIN)?,
+            integrate: ComputeProgram::specialized(gpu, &INTEGRATE, &[4, m])?,
+            check: ComputeProgram::new(gpu, &CHECK)?,
+            listed: [listed(&ALPHA, &RATE, &UPDATE)?, listed(&ALPHA_NBR16, &RATE_NBR16, &UPDATE_NBR16)?],
+            factor: Buffer::texels(gpu, "sim_dfsph_factor", 16 * cap, usage, vk::Format::R32G32B32A32_SFLOAT)?,
+            kappa: Buffer::texels(gpu, "sim_dfsph_kappa", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
+            partials: Buffer::new(gpu, "sim_dfsph_partials", 4 * groups.max(4), usage, MemoryLocation::GpuOnly)?,
+            args: Buffer::new(
+                gpu,
+                "sim_dfsph_args",
+                16,
+                usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                MemoryLocation::GpuOnly,
+            )?,
+            stats: Buffer::new(gpu, "sim_dfsph_stats", 64, usage, MemoryLocation::GpuOnly)?,
+        })
+    }
+
+    /// Zero the solver statistics (recorded).
+    pub fn clear_stats(&self, ctx: &mut FrameCtx) {
+        ctx.fill(&self.stats, 0);
+    }
+
+    /// The statistics since the last clear (waits for the device).
+    pub fn read_stats(&self, gpu: &Arc<Gpu>) -> Result<SolverStats> {
+        let b = crate::gpu::transfer::read_buffer(gpu, &self.stats, 64)?;
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&b);
+        Ok(SolverStats::from_words(&w))
+    }
+
+    /// `sim_dfsph_begin`: x of the unsorted state → `pred` (what the grid sorts).
+    pub fn begin(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, n: u32) {
+        ctx.pass("sim_dfsph_begin", |ctx| {
+            self.begin.dispatch(ctx, &[u.into(), state.into(), pred.into()], &(), [n.div_ceil(LOCAL_1D), 1, 1])
+        });
+    }
+
+    /// Everything between the neighbour lists and sim_velocity: ρ̂ and α, the two solves, the new positions.
+    pub fn solve(&self, ctx: &mut FrameCtx, b: &StepBuffers, p: &super::Params, n: u32) {
+        let groups = n.div_ceil(LOCAL_1D).max(1);
+        let l = &self.listed[b.neighbours.packed as usize];
+        fn lists<'b>(b: &'b StepBuffers, rest: &[&'b Buffer]) -> Vec<Res<'b>> {
+            let mut r: Vec<Res> = vec![b.uniforms.into(), (&b.neighbours.count).into(), (&b.neighbours.list).into()];
+            r.extend(rest.iter().map(|&x| Res::from(x)));
+            r
+        }
+        ctx.pass("sim_dfsph_alpha", |ctx| {
+            let res = lists(b, &[b.x, b.sorted, &self.factor, b.vel, b.density]);
+            l.alpha.dispatch(ctx, &res, &(), [groups, 1, 1]);
+        });
+        // The divergence-free solve (at least one correction, SPlisHSPlasH's rule), then the constant-density
+        // solve (at least two) — their bounds as fractions of ρ0.
+        let solves = [(0usize, 1u32, p.max_divergence_error), (1, 2, p.max_density_error)];
+        for (solve, min_iter, percent) in solves {
+            let rate = lists(b, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
+            let update = lists(b, &[b.x, &self.kappa, b.vel]);
+            let check_res = [b.uniforms.into(), (&self.partials).into(), (&self.args).into(), (&self.stats).into()];
+            let check = |init: u32| CheckPush {
+                groups,
+                init,
+                min_iter,
+                max_iter: p.max_solver_iterations,
+                eta: percent * 0.01,
+                solve: solve as u32,
+            };
+            ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch(ctx, &rate, &(), [groups, 1, 1]));
+            ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(1), [1, 1, 1]));
+            for _ in 0..p.max_solver_iterations {
+                ctx.pass("sim_dfsph_update", |ctx| l.update.dispatch_indirect(ctx, &update, &(), &self.args, 0));
+                ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch_indirect(ctx, &rate, &(), &self.args, 0));
+                ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(0), [1, 1, 1]));
+            }
+        }
+        ctx.pass("sim_dfsph_integrate", |ctx| {
+            let res = [b.uniforms.into(), b.x.into(), b.vel.into(), b.x_new.into(), b.sdf.into()];
+            self.integrate.dispatch(ctx, &res, &(), [groups, 1, 1]);
+        });
+    }
+}
