@@ -131,15 +131,27 @@ class Renderer:
 
 
 class Simulation:
-    """The GPU fluid simulation (Position Based Fluids) of a built-in scene: "dambreak", "drop", "waterfall"
-    or "pool" (`sim_scenes()`), with `particles` particles (default: the scene's own) — or of a SPlisHSPlasH
-    scene file ("path/scene.json": its fluid blocks, container, colliders, gravity, fps and viscosity; unsupported
-    keys are named on stderr) — on `device`, with the `[sim]` section of an optional TOML `settings` file. Deterministic: the same scene and count give the
-    same particles as `meniscus sim SCENE --particles N`."""
+    """The GPU fluid simulation of a built-in scene: "dambreak", "drop", "waterfall" or "pool" (`sim_scenes()`),
+    with `particles` particles (default: the scene's own) — or of a SPlisHSPlasH scene file ("path/scene.json":
+    its fluid blocks, container, colliders, gravity, fps and viscosity; unsupported keys are named on stderr) —
+    on `device`, with the `[sim]` section of an optional TOML `settings` file. `solver`: "pbf" (Position Based
+    Fluids, the default) or "dfsph" (Divergence-free SPH, iterated to its error bounds). Deterministic: the same
+    scene and count give the same particles as `meniscus sim SCENE --particles N`."""
 
     def __init__(self, scene: str, *, particles: Optional[int] = None, device: Optional[str] = None,
-                 settings: Optional[str] = None) -> None:
-        self._s = _meniscus.Simulation(scene, particles, device, settings)
+                 settings: Optional[str] = None, solver: Optional[str] = None) -> None:
+        self._s = _meniscus.Simulation(scene, particles, device, settings, solver)
+
+    @property
+    def solver(self) -> str:
+        """The pressure solver: "pbf" or "dfsph"."""
+        return self._s.solver
+
+    def solver_stats(self) -> Optional[Dict[str, Dict[str, float]]]:
+        """DFSPH: what its two solves ("density", "divergence") did over the last frame — steps, corrections,
+        max_corrections, last_error, max_error, mean_error (fractions of the rest density) and unconverged
+        steps; None for PBF or before the first frame."""
+        return self._s.solver_stats()
 
     def step(self, n: int = 1) -> None:
         """Simulate `n` frames."""

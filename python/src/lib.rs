@@ -239,8 +239,14 @@ struct Simulation {
 #[pymethods]
 impl Simulation {
     #[new]
-    #[pyo3(signature = (scene, particles=None, device=None, settings_file=None))]
-    fn new(scene: &str, particles: Option<usize>, device: Option<String>, settings_file: Option<&str>) -> PyResult<Self> {
+    #[pyo3(signature = (scene, particles=None, device=None, settings_file=None, solver=None))]
+    fn new(
+        scene: &str,
+        particles: Option<usize>,
+        device: Option<String>,
+        settings_file: Option<&str>,
+        solver: Option<&str>,
+    ) -> PyResult<Self> {
         // A built-in scene, or a SPlisHSPlasH scene file (its radius, blocks, container, gravity, fps, viscosity).
         let (sc, file) = meniscus::sim::scene_file::resolve(scene, particles).map_err(py_err)?;
         let mut params = settings("default", settings_file)?.sim;
@@ -250,6 +256,17 @@ impl Simulation {
                 eprintln!("warning: {w}");
             }
         }
+        // The pressure solver (`[sim] solver` of the settings file otherwise).
+        params.solver = match solver {
+            None => params.solver,
+            Some("pbf") => meniscus::sim::Solver::Pbf,
+            Some("dfsph") => meniscus::sim::Solver::Dfsph,
+            Some(other) => {
+                return Err(PyValueError::new_err(format!(
+                    "solver {other:?}: \"pbf\" or \"dfsph\""
+                )))
+            }
+        };
         params.validate().map_err(py_err)?;
         let gpu = crate::device(device)?;
         let core = meniscus::sim::Simulation::new(&gpu, sc, params).map_err(py_err)?;
@@ -292,6 +309,32 @@ impl Simulation {
     #[getter]
     fn count(&self) -> u32 {
         self.core.count()
+    }
+
+    /// The pressure solver ("pbf" or "dfsph").
+    #[getter]
+    fn solver(&self) -> &'static str {
+        self.core.params.solver.name()
+    }
+
+    /// DFSPH: what its two solves did over the last frame (a dict per solve: steps, corrections,
+    /// max_corrections, last_error, max_error, mean_error — fractions of ρ0 — and unconverged); None for PBF or
+    /// before the first frame.
+    fn solver_stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(st) = self.core.solver_stats().map_err(py_err)? else { return Ok(None) };
+        let d = PyDict::new(py);
+        for (name, s) in [("density", st.density), ("divergence", st.divergence)] {
+            let e = PyDict::new(py);
+            e.set_item("steps", s.steps)?;
+            e.set_item("corrections", s.corrections)?;
+            e.set_item("max_corrections", s.max_corrections)?;
+            e.set_item("last_error", s.last_error)?;
+            e.set_item("max_error", s.max_error)?;
+            e.set_item("mean_error", s.mean_error)?;
+            e.set_item("unconverged", s.unconverged)?;
+            d.set_item(name, e)?;
+        }
+        Ok(Some(d))
     }
 
     /// The particle radius (m).

@@ -198,3 +198,20 @@ def test_simulation_of_a_splishsplash_scene_file(shared):
     assert np.isfinite(sim.positions()).all()
     with pytest.raises(ValueError, match="particleRadius"):
         meniscus.Simulation(str(scene), particles=1000)
+
+
+def test_simulation_with_dfsph_reports_its_solves(cli, tmp_path):
+    """solver="dfsph" runs the divergence-free solver: the same particles as `meniscus sim --solver dfsph`, and
+    its solves' statistics within their bounds; a solver of another name is a ValueError."""
+    run(cli, "sim", "dambreak", "--particles", "2000", "--frames", "3", "--solver", "dfsph", "--export",
+        tmp_path / "f_{}.bgeo")
+    want = meniscus.load(tmp_path / "f_3.bgeo")
+    sim = meniscus.Simulation("dambreak", particles=2000, solver="dfsph")
+    assert sim.solver == "dfsph" and sim.solver_stats() is None
+    sim.step(2)
+    assert np.array_equal(sim.positions(), want["positions"])
+    st = sim.solver_stats()
+    assert st["density"]["steps"] > 0 and st["density"]["corrections"] >= 2 * st["density"]["steps"]
+    assert meniscus.Simulation("dambreak", particles=2000).solver == "pbf"
+    with pytest.raises(ValueError, match="dfsph"):
+        meniscus.Simulation("dambreak", particles=2000, solver="sph")

@@ -39,7 +39,12 @@ struct SimReport {
     particles: u32,
     radius: f32,
     substeps: u32,
+    /// The pressure solver (`pbf`, `dfsph`).
+    solver: String,
+    /// PBF's iterations per step.
     iterations: u32,
+    /// DFSPH: what its solves did over the measured frames (corrections, the errors they stopped at).
+    dfsph: Option<meniscus::sim::dfsph::SolverStats>,
     dt_ms: f32,
     warmup_frames: u32,
     frames: u32,
@@ -88,12 +93,18 @@ pub fn run(
         sim.set_diffuse(Some(&base.diffuse))?;
     }
     let c = sim.constants;
+    let solver = match sim.params.solver {
+        meniscus::sim::Solver::Pbf => format!("PBF, {} iterations", sim.params.iterations),
+        meniscus::sim::Solver::Dfsph => format!(
+            "DFSPH to {} % density error, {} % divergence",
+            sim.params.max_density_error, sim.params.max_divergence_error
+        ),
+    };
     eprintln!(
-        "sim {name}: {} particles, {} steps of {:.2} ms per frame, {} iterations",
+        "sim {name}: {} particles, {} steps of {:.2} ms per frame, {solver}",
         sim.count(),
         c.substeps,
-        c.dt * 1e3,
-        sim.params.iterations
+        c.dt * 1e3
     );
     let bar = indicatif::ProgressBar::new((warmup + frames) as u64 * (1 + modes.len() as u64));
     bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {msg} [{elapsed}]")?);
@@ -102,8 +113,22 @@ pub fn run(
         bar.inc(1);
     }
     let mut runs = vec![];
+    let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
     for _ in 0..frames {
         runs.push(sim.step_frame()?);
+        if let Some(st) = sim.solver_stats()? {
+            let acc = solves.get_or_insert_with(Default::default);
+            for (a, s) in [(&mut acc.divergence, st.divergence), (&mut acc.density, st.density)] {
+                a.mean_error =
+                    (a.mean_error * a.steps as f32 + s.mean_error * s.steps as f32) / (a.steps + s.steps).max(1) as f32;
+                a.steps += s.steps;
+                a.corrections += s.corrections;
+                a.max_corrections = a.max_corrections.max(s.max_corrections);
+                a.last_error = s.last_error;
+                a.max_error = a.max_error.max(s.max_error);
+                a.unconverged += s.unconverged;
+            }
+        }
         bar.inc(1);
     }
     let per_step = |name: &str| {
@@ -113,6 +138,7 @@ pub fn run(
     // The stages that ran (sim_vorticity only with confinement on), in order.
     let stages: Vec<(String, f64)> = STAGE_NAMES
         .iter()
+        .chain(meniscus::sim::dfsph::STAGE_NAMES)
         .filter(|n| runs.iter().any(|t| t.get(n).is_some()))
         .map(|n| (n.to_string(), per_step(n)))
         .collect();
@@ -216,11 +242,10 @@ pub fn run(
     bar.finish_and_clear();
     // Report.
     println!(
-        "## sim {name}: {} particles on {} ({} steps × {} iterations per frame, Δt {:.2} ms)\n",
+        "## sim {name}: {} particles on {} ({} steps per frame, {solver}, Δt {:.2} ms)\n",
         sim.count(),
         gpu.info.name,
         c.substeps,
-        sim.params.iterations,
         c.dt * 1e3
     );
     println!("| stage | ms per step (median of {frames} frames) |\n|---|---|");
@@ -228,6 +253,21 @@ pub fn run(
         println!("| {n} | {ms:.3} |");
     }
     println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |\n", 1e3 / ms_per_step);
+    if let Some(st) = &solves {
+        for (label, s) in [("constant-density", st.density), ("divergence-free", st.divergence)] {
+            println!(
+                "DFSPH {label} solve: {:.1} corrections per step (most {}), average error {:.4} % (largest {:.4} %), \
+                 {} of {} steps at the iteration limit",
+                s.corrections as f64 / s.steps.max(1) as f64,
+                s.max_corrections,
+                100.0 * s.mean_error,
+                100.0 * s.max_error,
+                s.unconverged,
+                s.steps
+            );
+        }
+        println!();
+    }
     if !diffuse.is_empty() {
         println!("| diffuse stage (once per frame) | ms per frame |\n|---|---|");
         for (n, ms) in &diffuse {
@@ -264,7 +304,9 @@ pub fn run(
             particles: sim.count(),
             radius: scene.radius(),
             substeps: c.substeps,
+            solver: sim.params.solver.name().to_string(),
             iterations: sim.params.iterations,
+            dfsph: solves,
             dt_ms: c.dt * 1e3,
             warmup_frames: warmup,
             frames,
