@@ -4,9 +4,12 @@
 //! share, sim_common.glsl's wall_density), and
 //!   factor_i = −1 / (|Σ_j V ∇W_ij + ∇F_i|² + Σ_j |V ∇W_ij|²)   (0 where that sum vanishes),
 //! with the spiky gradient, V = m/ρ0 the particle volume. The velocity the solves start from is the sorted
-//! state's (sim_reorder added Δt·g to it), copied to `vel`, which the solves update in place.
-//! In: the neighbour lists, pred (x, grid order), the sorted state. Out: dfsph (ρ̂, factor), vel, density (kg/m³,
-//! exported with the cache).
+//! state's (sim_reorder added Δt·g to it), copied to `vel`, which the solves update in place. The warm start of
+//! the constant-density solve: half the κ the particle's last solve summed (pred.w, carried by sim_dfsph_begin),
+//! applied as one correction before the solve (Bender & Koschier 2017 §4.4; SPlisHSPlasH's USE_WARMSTART);
+//! this step's sum starts at 0.
+//! In: the neighbour lists, pred (x, grid order; w: the last κ sum), the sorted state. Out: dfsph (ρ̂, factor),
+//! vel, density (kg/m³, exported with the cache), kappa_warm, kappa_sum.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
@@ -15,6 +18,8 @@ layout(binding = 4) uniform usamplerBuffer sorted;   // read with state_v
 layout(std430, binding = 5) writeonly buffer Dfsph { vec4 dfsph[]; };
 layout(std430, binding = 6) writeonly buffer Vel { vec4 vel[]; };
 layout(std430, binding = 7) writeonly buffer Density { float density[]; };
+layout(std430, binding = 8) writeonly buffer KappaWarm { float kappa_warm[]; };
+layout(std430, binding = 9) writeonly buffer KappaSum { float kappa_sum[]; };
 
 void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float g2) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
@@ -28,7 +33,8 @@ void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float g2) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= sim.counts.x) return;
-    vec3 xi = texelFetch(pred, int(i)).xyz;
+    vec4 pi = texelFetch(pred, int(i));
+    vec3 xi = pi.xyz;
     float wsum = poly6(0.0);
     vec3 gsum = vec3(0.0);
     float g2 = 0.0;
@@ -40,4 +46,6 @@ void main() {
     dfsph[i] = vec4(rho, s > 1e-6 ? -1.0 / s : 0.0, 0.0, 0.0);
     vel[i] = vec4(state_v(sorted, i).xyz, 0.0);
     density[i] = rho * sim.solver.x;
+    kappa_warm[i] = 0.5 * pi.w;
+    kappa_sum[i] = 0.0;
 }

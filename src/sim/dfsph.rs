@@ -56,13 +56,13 @@ pub struct CheckPush {
     pub solve: u32,
 }
 
-declare_program!(pub BEGIN: () = compute(shaders::SIM_DFSPH_BEGIN, [Uniform, TexelRead, BufWrite]));
-declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
-declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub BEGIN: () = compute(shaders::SIM_DFSPH_BEGIN, [Uniform, TexelRead, BufWrite, TexelRead]));
+declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
 declare_program!(pub RATE: () = compute(shaders::SIM_DFSPH_RATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
 declare_program!(pub RATE_NBR16: () = compute(shaders::SIM_DFSPH_RATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
-declare_program!(pub UPDATE: () = compute(shaders::SIM_DFSPH_UPDATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite]));
-declare_program!(pub UPDATE_NBR16: () = compute(shaders::SIM_DFSPH_UPDATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub UPDATE: () = compute(shaders::SIM_DFSPH_UPDATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite]));
+declare_program!(pub UPDATE_NBR16: () = compute(shaders::SIM_DFSPH_UPDATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
 declare_program!(pub CHECK: CheckPush = compute(shaders::SIM_DFSPH_CHECK, [Uniform, BufRead, BufWrite, BufWrite]));
 declare_program!(pub INTEGRATE: () = compute(shaders::SIM_DFSPH_INTEGRATE, [Uniform, TexelRead, TexelRead, BufWrite, BufRead]));
 
@@ -116,8 +116,10 @@ impl SolverStats {
 /// The list readers for one list format.
 struct Listed {
     alpha: ComputeProgram,
+    /// By solve: [divergence-free, constant-density].
     rate: [ComputeProgram; 2],
-    update: ComputeProgram,
+    /// By solve: [divergence-free, constant-density (sums the κ it applies)].
+    update: [ComputeProgram; 2],
 }
 
 /// The DFSPH programs and their buffers.
@@ -131,6 +133,11 @@ pub struct Dfsph {
     factor: Buffer,
     /// Per particle: κ (R32F texels).
     kappa: Buffer,
+    /// Per particle: the constant-density solve's warm start, half the κ its last step summed (R32F texels).
+    kappa_warm: Buffer,
+    /// Per particle: the κ this step's constant-density solve applied, summed (R32F texels; the next step's warm
+    /// start, in the order the state is written in).
+    kappa_sum: Buffer,
     /// Per work group of sim_dfsph_rate: its particles' summed error.
     partials: Buffer,
     /// The next iteration's indirect dispatch (x: work groups, y, z: 1; w: corrections so far).
@@ -171,7 +178,10 @@ impl Dfsph {
                     ComputeProgram::specialized(gpu, rate, &[4, m, 0, 0])?,
                     ComputeProgram::specialized(gpu, rate, &[4, m, 0, 1])?,
                 ],
-                update: ComputeProgram::new(gpu, update)?,
+                update: [
+                    ComputeProgram::specialized(gpu, update, &[4, m, 0, 0])?,
+                    ComputeProgram::specialized(gpu, update, &[4, m, 0, 1])?,
+                ],
             })
         };
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
@@ -186,6 +196,8 @@ impl Dfsph {
             listed: [listed(&ALPHA, &RATE, &UPDATE)?, listed(&ALPHA_NBR16, &RATE_NBR16, &UPDATE_NBR16)?],
             factor: Buffer::texels(gpu, "sim_dfsph_factor", 16 * cap, usage, vk::Format::R32G32B32A32_SFLOAT)?,
             kappa: Buffer::texels(gpu, "sim_dfsph_kappa", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
+            kappa_warm: Buffer::texels(gpu, "sim_dfsph_kappa_warm", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
+            kappa_sum: Buffer::texels(gpu, "sim_dfsph_kappa_sum", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
             partials: Buffer::new(gpu, "sim_dfsph_partials", 4 * groups.max(4), usage, MemoryLocation::GpuOnly)?,
             args: Buffer::new(
                 gpu,
@@ -203,6 +215,11 @@ impl Dfsph {
         ctx.fill(&self.stats, 0);
     }
 
+    /// Forget the warm start (recorded): new or reset particles have no last κ.
+    pub fn clear_warm_start(&self, ctx: &mut FrameCtx) {
+        ctx.fill(&self.kappa_sum, 0);
+    }
+
     /// The statistics since the last clear (waits for the device).
     pub fn read_stats(&self, gpu: &Arc<Gpu>) -> Result<SolverStats> {
         let b = crate::gpu::transfer::read_buffer(gpu, &self.stats, 64)?;
@@ -213,7 +230,8 @@ impl Dfsph {
     /// `sim_dfsph_begin`: x of the unsorted state → `pred` (what the grid sorts).
     pub fn begin(&self, ctx: &mut FrameCtx, u: &Buffer, state: &Buffer, pred: &Buffer, n: u32) {
         ctx.pass("sim_dfsph_begin", |ctx| {
-            self.begin.dispatch(ctx, &[u.into(), state.into(), pred.into()], &(), [n.div_ceil(LOCAL_1D), 1, 1])
+            let res = [u.into(), state.into(), pred.into(), (&self.kappa_sum).into()];
+            self.begin.dispatch(ctx, &res, &(), [n.div_ceil(LOCAL_1D), 1, 1])
         });
     }
 
@@ -227,7 +245,7 @@ impl Dfsph {
             r
         }
         ctx.pass("sim_dfsph_alpha", |ctx| {
-            let res = lists(b, &[b.x, b.sorted, &self.factor, b.vel, b.density]);
+            let res = lists(b, &[b.x, b.sorted, &self.factor, b.vel, b.density, &self.kappa_warm, &self.kappa_sum]);
             l.alpha.dispatch(ctx, &res, &(), [groups, 1, 1]);
         });
         // The divergence-free solve (at least one correction, SPlisHSPlasH's rule), then the constant-density
@@ -235,7 +253,12 @@ impl Dfsph {
         let solves = [(0usize, 1u32, p.max_divergence_error), (1, 2, p.max_density_error)];
         for (solve, min_iter, percent) in solves {
             let rate = lists(b, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
-            let update = lists(b, &[b.x, &self.kappa, b.vel]);
+            let update = lists(b, &[b.x, &self.kappa, b.vel, &self.kappa_sum]);
+            if solve == 1 {
+                // The warm start: one correction with half the κ each particle's last solve summed.
+                let warm = lists(b, &[b.x, &self.kappa_warm, b.vel, &self.kappa_sum]);
+                ctx.pass("sim_dfsph_update", |ctx| l.update[1].dispatch(ctx, &warm, &(), [groups, 1, 1]));
+            }
             let check_res = [b.uniforms.into(), (&self.partials).into(), (&self.args).into(), (&self.stats).into()];
             let check = |init: u32| CheckPush {
                 groups,
@@ -248,7 +271,7 @@ impl Dfsph {
             ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch(ctx, &rate, &(), [groups, 1, 1]));
             ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(1), [1, 1, 1]));
             for _ in 0..p.max_solver_iterations {
-                ctx.pass("sim_dfsph_update", |ctx| l.update.dispatch_indirect(ctx, &update, &(), &self.args, 0));
+                ctx.pass("sim_dfsph_update", |ctx| l.update[solve].dispatch_indirect(ctx, &update, &(), &self.args, 0));
                 ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch_indirect(ctx, &rate, &(), &self.args, 0));
                 ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(0), [1, 1, 1]));
             }

@@ -610,6 +610,9 @@ impl Simulation {
             if at == 0 {
                 ctx.fill(&self.neighbours.overflow, 0);
             }
+            if let Some(d) = &self.dfsph {
+                d.clear_warm_start(ctx);
+            }
             self.n = at + data.len() as u32;
         }
         let u = self.uniforms_now();
