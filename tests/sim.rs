@@ -657,7 +657,12 @@ fn splishsplash_scene_files_lay_out_the_first_frame() {
         assert!((chi - Vec3::from(container.1)).abs().max_element() < 1e-5, "{dir}: container {chi}");
         assert_eq!((f.fps, f.frames), (Some(25.0), Some(51)), "{dir}");
         assert_eq!(f.gravity, Some([0.0, -9.81, 0.0]));
-        assert!(f.warnings.iter().any(|w| w.contains("simulationMethod")), "{dir}: the solver's choice is named");
+        // simulationMethod 4: DFSPH, with the file's bounds; nothing warned about the method.
+        assert_eq!(f.solver, Some(meniscus::sim::Solver::Dfsph), "{dir}");
+        assert_eq!(f.max_error_v, Some(0.1), "{dir}");
+        assert_eq!(f.max_error, Some(if dir.starts_with("double") { 0.01 } else { 0.05 }), "{dir}");
+        assert!(!f.warnings.iter().any(|w| w.contains("simulationMethod")), "{dir}: {:?}", f.warnings);
+        assert!(f.warnings.iter().any(|w| w.contains("DFSPH.maxIterations")), "{dir}: the iteration limits are named");
         assert_eq!(f.scene.mesh_collider.is_some(), dir.starts_with("double"), "{dir}: the sphere is a collider");
         // One warning per key: no key is named twice.
         let keys: Vec<&str> = f.warnings.iter().filter_map(|w| w.split(": ").nth(1)).collect();
@@ -692,6 +697,9 @@ fn scene_file_errors_name_the_key() {
         ("{", "line"),
         // A syntax error names its byte offset.
         ("{\"Configuration\": x}", "byte 18"),
+        // A method or bound of the wrong type.
+        (r#"{"Configuration": {"particleRadius": 0.05, "simulationMethod": "DFSPH"}}"#, "simulationMethod"),
+        (r#"{"Configuration": {"particleRadius": 0.05, "DFSPH": {"maxError": [1]}}}"#, "DFSPH.maxError"),
     ];
     for (i, (text, want)) in cases.iter().enumerate() {
         let p = dir.join(format!("case{i}.json"));

@@ -3,7 +3,8 @@
 //!
 //! Read: `Configuration` — `particleRadius` (the spacing is its double), `gravitation`, `dataExportFPS` (frames
 //! per second), `stopAt` (the frame count: stopAt × fps + 1, file 1 the initial state), `cflFactor` and
-//! `cflMaxTimeStepSize` (the automatic step; with `cflMethod` 0 the fixed `timeStepSize`); `Materials` —
+//! `cflMaxTimeStepSize` (the automatic step; with `cflMethod` 0 the fixed `timeStepSize`), `simulationMethod`
+//! (2 PBF, 4 DFSPH; the others run as DFSPH, warned) and `DFSPH.maxError` / `maxErrorV`; `Materials` —
 //! `density0`, and with `viscosityMethod` 1 ("Standard") its `viscosity` as the kinematic viscosity, with
 //! `vorticityMethod` 1 ("Vorticity confinement") its `vorticity`; `FluidBlocks` — `start`, `end`, `translation`,
 //! `scale`, `denseMode` 0 and `initialVelocity`, filled as SPlisHSPlasH does (per axis round(width / 2r) − 1
@@ -42,6 +43,13 @@ pub struct SceneFile {
     pub cfl: Option<f32>,
     /// `cflMaxTimeStepSize` (or the fixed `timeStepSize` when `cflMethod` is 0).
     pub max_dt: Option<f32>,
+    /// The pressure solver `simulationMethod` names (PBF for 2, DFSPH for 4 and, the nearest, for the methods
+    /// not built here); None without the key.
+    pub solver: Option<super::Solver>,
+    /// `DFSPH.maxError` (percent).
+    pub max_error: Option<f32>,
+    /// `DFSPH.maxErrorV` (percent).
+    pub max_error_v: Option<f32>,
     /// Steps per frame when the step is fixed (`cflMethod` 0).
     pub substeps: Option<u32>,
     /// What the file says that the solver does not do: one line per key.
@@ -159,7 +167,46 @@ impl SceneFile {
         } else {
             (cfl_max.filter(|t| *t > 0.0), None)
         };
-        const READ: [&str; 8] = [
+        // The pressure solver: SPlisHSPlasH's simulationMethod (0 WCSPH, 1 PCISPH, 2 PBF, 3 IISPH, 4 DFSPH, 5
+        // Projective Fluids, 6 ICSPH); the methods not built here run as DFSPH, the nearest (a pressure solve
+        // iterated to an error bound), and say so. Without the key, `[sim] solver` decides.
+        let method = checked(path, "Configuration.simulationMethod", config.get("simulationMethod"), num)?;
+        let solver = match method.map(|m| m as i64) {
+            None => None,
+            Some(2) => Some(super::Solver::Pbf),
+            Some(4) => Some(super::Solver::Dfsph),
+            Some(m) => {
+                let name = ["WCSPH", "PCISPH", "PBF", "IISPH", "DFSPH", "Projective Fluids", "ICSPH"]
+                    .get(m as usize)
+                    .copied()
+                    .unwrap_or("an unknown method");
+                warn(
+                    "Configuration.simulationMethod".into(),
+                    &format!("{m} ({name}) is not built here: DFSPH runs, the nearest (an iterated pressure solve)"),
+                );
+                Some(super::Solver::Dfsph)
+            }
+        };
+        // DFSPH's bounds (percent, as here); the corrections per solve are Meniscus' own limit.
+        let (mut max_error, mut max_error_v) = (None, None);
+        if let Some(df) = config.get("DFSPH").and_then(Value::as_object) {
+            for (key, v) in df {
+                let at = format!("Configuration.DFSPH.{key}");
+                match key.as_str() {
+                    "maxError" => max_error = checked(path, &at, Some(v), num)?.filter(|e| *e > 0.0),
+                    "maxErrorV" => max_error_v = checked(path, &at, Some(v), num)?.filter(|e| *e > 0.0),
+                    "maxIterations" | "maxIterationsV" | "minIterations" | "minIterationsV" => warn(
+                        at,
+                        "the corrections per solve are `[sim] max_solver_iterations` here (each is recorded ahead \
+                         on the GPU; at least 2 and 1): ignored",
+                    ),
+                    "enableDivergenceSolver" if v.as_bool() == Some(true) => {}
+                    "enableDivergenceSolver" => warn(at, "the divergence-free solve always runs here: ignored"),
+                    _ => warn(at, "not supported: ignored"),
+                }
+            }
+        }
+        const READ: [&str; 10] = [
             "particleRadius",
             "gravitation",
             "dataExportFPS",
@@ -168,11 +215,13 @@ impl SceneFile {
             "cflFactor",
             "cflMaxTimeStepSize",
             "timeStepSize",
+            "simulationMethod",
+            "DFSPH",
         ];
         for key in config.keys().filter(|k| !READ.contains(&k.as_str())) {
             let why = match key.as_str() {
-                "simulationMethod" | "DFSPH" | "WCSPH" | "PCISPH" | "PBF" | "IISPH" | "DFSPHSolver" => {
-                    "the solver here is Position Based Fluids (docs/simulation.md): ignored"
+                "WCSPH" | "PCISPH" | "PBF" | "IISPH" | "DFSPHSolver" => {
+                    "another solver's settings (the solvers here: PBF and DFSPH, docs/simulation.md): ignored"
                 }
                 "boundaryHandlingMethod" => "boundaries here are the container's faces and collider distances: ignored",
                 "enablePartioExport"
@@ -389,6 +438,9 @@ impl SceneFile {
             cfl,
             max_dt,
             substeps,
+            solver,
+            max_error,
+            max_error_v,
             warnings,
         })
     }
@@ -418,6 +470,15 @@ impl SceneFile {
         }
         if let Some(s) = self.substeps {
             params.substeps = s;
+        }
+        if let Some(s) = self.solver {
+            params.solver = s;
+        }
+        if let Some(e) = self.max_error {
+            params.max_density_error = e;
+        }
+        if let Some(e) = self.max_error_v {
+            params.max_divergence_error = e;
         }
     }
 }
