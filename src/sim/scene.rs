@@ -54,15 +54,24 @@ impl Collider {
     }
 }
 
-/// Particles entering the scene through a rectangle.
+/// Particles entering the scene through a rectangle (or the disc inscribed in it), one lattice layer each time
+/// the water has moved one spacing (SPlisHSPlasH's emitters work the same way).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Emitter {
     /// Centre of the rectangle.
     pub centre: Vec3,
     /// Velocity of the emitted water (the rectangle faces along it).
     pub velocity: Vec3,
-    /// Half extents of the rectangle (across the flow: horizontal, vertical).
+    /// Half extents of the rectangle (across the flow: along `width_axis`, then the axis across both).
     pub half: [f32; 2],
+    /// The rectangle's first axis; zero: horizontal, across the flow (velocity × y).
+    pub width_axis: Vec3,
+    /// Emission from `start` to `end` seconds of simulated time.
+    pub start: f64,
+    /// See `start`.
+    pub end: f64,
+    /// Only the lattice points within the ellipse inscribed in the rectangle (SPlisHSPlasH's emitter type 1).
+    pub circle: bool,
 }
 
 /// A scene with its particles laid out.
@@ -166,6 +175,10 @@ impl SimScene {
                     centre: Vec3::new(-1.85, 1.45, 0.0),
                     velocity: Vec3::new(1.6, 0.0, 0.0),
                     half: [0.3, 0.12],
+                    width_axis: Vec3::ZERO,
+                    start: 0.0,
+                    end: f64::INFINITY,
+                    circle: false,
                 };
                 // About 6 s of emission fill the capacity.
                 let rate = 4.0 * emitter.half[0] * emitter.half[1] * emitter.velocity.length();
@@ -246,21 +259,29 @@ impl SimScene {
             return vec![];
         }
         let dir = e.velocity / speed as f32;
-        let across = dir.cross(Vec3::Y).normalize_or(Vec3::Z);
+        // The width axis made perpendicular to the flow (or the horizontal across it).
+        let w = e.width_axis - dir * e.width_axis.dot(dir);
+        let across = if w.length_squared() > 1e-12 { w.normalize() } else { dir.cross(Vec3::Y).normalize_or(Vec3::Z) };
         let up = across.cross(dir);
         let (na, nu) = ((2.0 * e.half[0] / self.spacing) as i32, (2.0 * e.half[1] / self.spacing) as i32);
         let mut out = vec![];
-        // Layer k leaves the rectangle at t = k d / speed; a layer emitted at t has travelled speed (to − t).
-        let (k0, k1) = ((from * speed / d).ceil() as i64, (to * speed / d).ceil() as i64);
+        // Layer k leaves the rectangle at t = start + k d / speed (until `end`); a layer emitted at t has
+        // travelled speed (to − t).
+        let layer = |t: f64| ((t.min(e.end) - e.start).max(0.0) * speed / d).ceil() as i64;
+        let (k0, k1) = (layer(from), layer(to));
         for k in k0..k1 {
-            let travelled = (to - k as f64 * d / speed) * speed;
+            let travelled = (to - e.start - k as f64 * d / speed) * speed;
             for a in 0..na {
                 for u in 0..nu {
                     if out.len() >= room {
                         return out;
                     }
-                    let off = across * ((a as f32 + 0.5) * self.spacing - e.half[0])
-                        + up * ((u as f32 + 0.5) * self.spacing - e.half[1]);
+                    let (oa, ou) =
+                        ((a as f32 + 0.5) * self.spacing - e.half[0], (u as f32 + 0.5) * self.spacing - e.half[1]);
+                    if e.circle && (oa / e.half[0]).powi(2) + (ou / e.half[1]).powi(2) > 1.0 {
+                        continue;
+                    }
+                    let off = across * oa + up * ou;
                     let p = e.centre + off + dir * travelled as f32;
                     out.push((p.to_array(), e.velocity.to_array()));
                 }

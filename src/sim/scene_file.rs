@@ -11,7 +11,9 @@
 //! particles, 2r apart, the first 2r in from `start`); `RigidBodies` — a `UnitBox.obj` that `isWall` (or
 //! `mapInvert`) is the container, another box a solid box, any other OBJ a mesh collider (one per scene), with
 //! their translation, rotation and scale. Everything else is named in one warning per key (per section for the
-//! rigid-body and cloth solver's `Simulation` section), never silently dropped; a scene that cannot be run
+//! rigid-body and cloth solver's `Simulation` section), never silently dropped. `Emitters` — the first: its
+//! `width` × `height` particles, `translation`, `rotationAxis`/`rotationAngle`, `velocity`, `type` (box or
+//! circle), `emitStartTime`/`emitEndTime`, with `Materials.maxEmitterParticles` the room (default 10,000); a scene that cannot be run
 //! (no radius, no fluid, no container) is an error naming the key.
 
 use std::path::Path;
@@ -240,6 +242,8 @@ impl SceneFile {
         }
         // Materials: the first fluid's density, viscosity and vorticity.
         let (mut rest_density, mut viscosity, mut vorticity) = (None, None, None);
+        // SPlisHSPlasH's default room for emitted particles.
+        let mut max_emitted: usize = 10_000;
         if let Some(mats) = top.get("Materials").and_then(Value::as_array) {
             for (i, m) in mats.iter().enumerate() {
                 let Some(m) = m.as_object() else { continue };
@@ -256,6 +260,18 @@ impl SceneFile {
                         "Vorticity confinement" => {
                             vorticity = checked(path, &format!("{at}.vorticity"), v.get("vorticity"), num)?;
                         }
+                        "maxEmitterParticles" => {
+                            let n = checked(path, &at, Some(v), num)?.unwrap_or(0.0);
+                            if !(0.0..=50e6).contains(&n) {
+                                return Err(invalid(path, &at, "must be 0 … 50,000,000"));
+                            }
+                            max_emitted = n as usize;
+                        }
+                        "emitterReuseParticles" if v.as_bool() != Some(true) => {}
+                        "emitterReuseParticles" | "emitterBoxMin" | "emitterBoxMax" => warn(
+                            at,
+                            "emitted particles are not recycled here (they stay until the room is used up): ignored",
+                        ),
                         _ => warn(at, "not supported: ignored"),
                     }
                 }
@@ -377,8 +393,57 @@ impl SceneFile {
                 }
             }
         }
-        if top.contains_key("Emitters") {
-            warn("Emitters".into(), "not supported yet (the built-in `waterfall` scene has an emitter): ignored");
+        // Emitters: the first one (a rectangle of width × height particles, or the disc in it, emitting along its
+        // rotated x axis, its width along the rotated z axis, as SPlisHSPlasH's do).
+        let mut emitter = None;
+        if let Some(list) = top.get("Emitters").and_then(Value::as_array) {
+            if let Some(e) = list.first().and_then(Value::as_object) {
+                let at = |k: &str| format!("Emitters[0].{k}");
+                let get = |k: &str| checked(path, &at(k), e.get(k), num);
+                let width = get("width")?.unwrap_or(5.0).round();
+                let height = get("height")?.unwrap_or(5.0).round();
+                if !(1.0..=10_000.0).contains(&width) || !(1.0..=10_000.0).contains(&height) {
+                    return Err(invalid(path, &at("width"), "width and height must be 1 … 10,000 particles"));
+                }
+                let centre = checked(path, &at("translation"), e.get("translation"), vec3)?.unwrap_or(Vec3::ZERO);
+                let axis = checked(path, &at("rotationAxis"), e.get("rotationAxis"), vec3)?.unwrap_or(Vec3::Z);
+                let angle = get("rotationAngle")?.unwrap_or(0.0);
+                let q = glam::Quat::from_axis_angle(axis.normalize_or(Vec3::Z), angle);
+                let speed = get("velocity")?.unwrap_or(1.0);
+                let kind = get("type")?.unwrap_or(0.0);
+                if kind != 0.0 && kind != 1.0 {
+                    return Err(invalid(path, &at("type"), "0 (box) or 1 (circle)"));
+                }
+                let start = get("emitStartTime")?.unwrap_or(0.0) as f64;
+                let end = get("emitEndTime")?.map_or(f64::INFINITY, |t| t as f64);
+                emitter = Some(super::scene::Emitter {
+                    centre,
+                    velocity: q * Vec3::X * speed,
+                    half: [0.5 * width * d, 0.5 * height * d],
+                    width_axis: q * Vec3::Z,
+                    start,
+                    end,
+                    circle: kind == 1.0,
+                });
+                let known = [
+                    "width",
+                    "height",
+                    "translation",
+                    "rotationAxis",
+                    "rotationAngle",
+                    "velocity",
+                    "type",
+                    "emitStartTime",
+                    "emitEndTime",
+                    "id",
+                ];
+                for key in e.keys().filter(|k| !known.contains(&k.as_str())) {
+                    warn(at(key), "not supported: ignored");
+                }
+            }
+            if list.len() > 1 {
+                warn("Emitters".into(), &format!("{} emitters: the first emits, the others are ignored", list.len()));
+            }
         }
         // Water outside the container is dropped, as SPlisHSPlasH's boundary would push it in.
         let keep: Vec<bool> = positions
@@ -393,14 +458,21 @@ impl SceneFile {
             let mut k = keep.iter();
             velocities.retain(|_| *k.next().unwrap_or(&true));
         }
-        if positions.len() < 8 {
+        if positions.len() < 8 && emitter.is_none() {
             return Err(invalid(
                 path,
                 "FluidBlocks",
-                &format!("{} particles: a simulation needs at least 8", positions.len()),
+                &format!("{} particles and no emitter: a simulation needs at least 8", positions.len()),
             ));
         }
         let n = positions.len();
+        if emitter.is_some() && n + max_emitted == 0 {
+            return Err(invalid(
+                path,
+                "Materials[0].maxEmitterParticles",
+                "0 and no fluid blocks: nothing to simulate",
+            ));
+        }
         let mut scene = SimScene {
             name: "scene.json",
             container,
@@ -408,8 +480,8 @@ impl SceneFile {
             spacing: d,
             positions,
             velocities,
-            capacity: n,
-            emitter: None,
+            capacity: if emitter.is_some() { n + max_emitted } else { n },
+            emitter,
             viscosity: viscosity.unwrap_or(0.01),
             mesh_collider: None,
         };
