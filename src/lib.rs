@@ -32,6 +32,7 @@ pub mod shader_constants {
 }
 pub mod targets;
 pub mod view;
+pub mod work;
 
 /// SPIR-V of every shader in shaders_glsl/, compiled by build.rs.
 pub mod shaders {

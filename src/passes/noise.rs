@@ -13,6 +13,7 @@ use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
+use crate::work::NoiseWork;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `noise`.
 pub const NAME: &str = "noise";
@@ -233,7 +234,7 @@ pub struct NoiseTargets {
     pub accum: Image,
     /// N in radii (R32F), read by `composite`.
     pub noise: Image,
-    /// The splat's work, u32 ×8 ([`Work`]; host-readable).
+    /// The splat's work, u32 ×8 ([`NoiseWork`]; host-readable).
     pub work: Buffer,
     /// The tiled splat's bins, once reserved.
     pub bins: Option<Bins>,
@@ -256,23 +257,6 @@ pub struct Bins {
     pub args: Buffer,
     /// Particles these buffers hold.
     pub particles: u32,
-}
-
-/// The pass's work in one frame, as its counters hold it ([`NoiseTargets::work`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct Work {
-    /// The coarsest accumulator level any sprite was evaluated on (0: every sprite at full resolution).
-    pub level: u32,
-    /// Sprite texels visited (each sprite's rectangle at its level).
-    pub texels: u64,
-    /// Sprites drawn (not culled as too deep, behind the camera or off screen).
-    pub sprites: u64,
-    /// Texels whose noise was evaluated (inside the sprite's disc, on the fluid, not too deep).
-    pub evaluated: u64,
-    /// Sprites left out of the tiled splat (more than NOISE_MAX_TILES tiles: larger than the screen).
-    pub skipped: u64,
-    /// Tile-list entries of the tiled splat (sprites × the tiles each touches).
-    pub binned: u64,
 }
 
 /// The accumulator atlas of a `width`×`height` output: level 0 plus [`crate::shader_constants::NOISE_LEVELS`]
@@ -329,10 +313,10 @@ impl NoiseTargets {
     }
 
     /// The last recorded frame's work (read once its GPU work has finished).
-    pub fn work(&self) -> Result<Work> {
+    pub fn work(&self) -> Result<NoiseWork> {
         let b = self.work.read()?;
         let w = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().expect("4 bytes")) as u64;
-        Ok(Work {
+        Ok(NoiseWork {
             level: w(0) as u32,
             texels: w(1),
             sprites: w(2),
@@ -620,7 +604,7 @@ pub mod reference {
     }
 
     /// The reference's work: the pixels of every sprite's rectangle not culled at its centre (what noise.comp
-    /// visited per particle before its level of detail), to compare [`super::Work::texels`] with.
+    /// visited per particle before its level of detail), to compare [`NoiseWork::texels`] with.
     #[allow(clippy::too_many_arguments)]
     pub fn work(
         particles: &[Particle],

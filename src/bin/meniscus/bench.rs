@@ -113,7 +113,7 @@ pub struct Entry {
     /// The `noise` pass's work in the last measured frame (its own counters; absent when the pass is off): the
     /// coarsest level of detail, sprite texels visited, sprites drawn, texels evaluated — a GPU's cost follows
     /// these, whatever the CPU driver's milliseconds say.
-    pub noise_work: Option<NoiseWork>,
+    pub noise_work: Option<meniscus::work::NoiseWork>,
     /// The effect images that exist (`noise_accum`, `noise`, `diffuse_white`, …), by name: none when the
     /// effects are off.
     pub effect_images: Vec<String>,
@@ -366,14 +366,7 @@ impl Series {
             pass_queues: self.pass_queues,
             rss_after_frames_bytes: rss_bytes(),
             gpu_memory: r.gpu.memory_report(),
-            noise_work: t.noise.as_ref().map(|n| n.work()).transpose()?.map(|w| NoiseWork {
-                level: w.level,
-                texels: w.texels,
-                sprites: w.sprites,
-                evaluated: w.evaluated,
-                skipped: w.skipped,
-                binned: w.binned,
-            }),
+            noise_work: t.noise.as_ref().map(|n| n.work()).transpose()?,
             host_ms: HOST_STAGES
                 .iter()
                 .enumerate()
@@ -388,24 +381,6 @@ impl Series {
                 .collect(),
         })
     }
-}
-
-/// The `noise` pass's counters in bench's report (JSON `noise_work`): the coarsest level of detail, sprite texels
-/// visited, sprites drawn, texels evaluated, sprites left out of the tiled splat, tile-list entries.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct NoiseWork {
-    /// The coarsest accumulator level any sprite was evaluated on.
-    pub level: u32,
-    /// Sprite texels visited.
-    pub texels: u64,
-    /// Sprites drawn.
-    pub sprites: u64,
-    /// Texels whose noise was evaluated.
-    pub evaluated: u64,
-    /// Sprites left out of the tiled splat.
-    pub skipped: u64,
-    /// Tile-list entries of the tiled splat.
-    pub binned: u64,
 }
 
 /// Markdown table of entries, one row each, columns = passes (medians, ms), like Moritz tables 4.1–4.4.

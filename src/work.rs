@@ -1,0 +1,21 @@
+//! What a pass did, counted on the device: beside its time, the measure of a change's GPU cost that every
+//! device gives alike (lavapipe's milliseconds do not follow a GPU's; these counts do). The `noise` pass counts
+//! its own work ([`NoiseWork`]); `meniscus bench` reports it (JSON `noise_work`) beside every pass's compute
+//! invocations (the GPU timer's pipeline-statistics queries, `crate::gpu::timer`).
+
+/// The `noise` pass's work in one frame, as its counters hold it (`passes::noise::NoiseTargets::work`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct NoiseWork {
+    /// The coarsest accumulator level any sprite was evaluated on (0: every sprite at full resolution).
+    pub level: u32,
+    /// Sprite texels visited (each sprite's rectangle at its level).
+    pub texels: u64,
+    /// Sprites drawn (not culled as too deep, behind the camera or off screen).
+    pub sprites: u64,
+    /// Texels whose noise was evaluated (inside the sprite's disc, on the fluid, not too deep).
+    pub evaluated: u64,
+    /// Sprites left out of the tiled splat (more than NOISE_MAX_TILES tiles: larger than the screen).
+    pub skipped: u64,
+    /// Tile-list entries of the tiled splat (sprites × the tiles each touches).
+    pub binned: u64,
+}
