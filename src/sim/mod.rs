@@ -1,5 +1,7 @@
 //! Live fluid: a Position Based Fluids solver (Macklin & Müller, SIGGRAPH 2013; ../shared/docs/method.md §12)
-//! as compute passes on the GPU, feeding the renderer's particle buffer directly (no CPU copy per frame).
+//! as compute passes on the GPU, feeding the renderer's particle buffer directly (no CPU copy per frame); beside
+//! it, Divergence-free SPH on the same grid, lists and end of step ([`dfsph`], `[sim] solver = "dfsph"`). What
+//! follows describes PBF's step, the live default.
 //!
 //! One step (Δt = frame time / substeps), every stage a pass with its own name and GPU timestamp:
 //! `sim_predict` (gravity, x* = x + Δt v, collisions) → `grid` (THE GPU neighbour grid, `compute::grid`: a

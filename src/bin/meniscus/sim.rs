@@ -137,14 +137,14 @@ fn validate(a: &SimArgs) -> Result<()> {
     let mut sim = Simulation::new(&gpu, scene, p)?;
     eprintln!(
         "sim validate: a column {:.3} m wide, 2× high, {} particles (spacing {:.4} m, 6 deep, free-slip walls), \
-         {} steps of {:.2} ms per frame at {} fps, {} iterations, on {}",
+         {} steps of {:.2} ms per frame at {} fps, {}, on {}",
         meniscus::sim::validate::L,
         sim.count(),
         sim.scene.spacing,
         sim.constants.substeps,
         sim.constants.dt * 1e3,
         sim.params.fps,
-        sim.params.iterations,
+        solver_line(&sim.params),
         gpu.info.name
     );
     let series = meniscus::sim::validate::front(&mut sim, 3.2)?;
@@ -207,13 +207,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let gpu = a.gpu.open()?;
     let mut sim = Simulation::new(&gpu, scene, params)?;
     let c = sim.constants;
-    let solver = match sim.params.solver {
-        meniscus::sim::Solver::Pbf => format!("PBF, {} iterations", sim.params.iterations),
-        meniscus::sim::Solver::Dfsph => format!(
-            "DFSPH to {} % density error and {} % divergence per step, at most {} corrections per solve",
-            sim.params.max_density_error, sim.params.max_divergence_error, sim.params.max_solver_iterations
-        ),
-    };
+    let solver = solver_line(&sim.params);
     eprintln!(
         "sim: {} with {} particles (radius {:.5} m, capacity {}), {} steps of {:.2} ms per frame at {} fps, {solver}, on {}",
         sim.scene.name,
@@ -355,6 +349,17 @@ pub fn run(a: &SimArgs) -> Result<()> {
         );
     }
     finish(&gpu)
+}
+
+/// The solver and its settings, for the log lines of `sim` and `sim validate`.
+fn solver_line(p: &meniscus::sim::Params) -> String {
+    match p.solver {
+        meniscus::sim::Solver::Pbf => format!("PBF, {} iterations", p.iterations),
+        meniscus::sim::Solver::Dfsph => format!(
+            "DFSPH to {} % density error and {} % divergence per step, at most {} corrections per solve",
+            p.max_density_error, p.max_divergence_error, p.max_solver_iterations
+        ),
+    }
 }
 
 /// The log line for a mesh collider (`sim --collider`, `demo --sim --background-obj`).
