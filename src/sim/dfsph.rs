@@ -215,9 +215,12 @@ impl Dfsph {
         ctx.fill(&self.stats, 0);
     }
 
-    /// Forget the warm start (recorded): new or reset particles have no last κ.
-    pub fn clear_warm_start(&self, ctx: &mut FrameCtx) {
-        ctx.fill(&self.kappa_sum, 0);
+    /// Forget the warm start of particles `from` … `from + count` (recorded): new or reset particles have no
+    /// last κ (the others keep theirs: an emitter's new layer does not cool the water already there).
+    pub fn clear_warm_start(&self, ctx: &mut FrameCtx, from: u32, count: u32) {
+        if count > 0 {
+            ctx.fill_range(&self.kappa_sum, 4 * from as u64, 4 * count as u64, 0);
+        }
     }
 
     /// The statistics since the last clear (waits for the device).

@@ -613,7 +613,7 @@ impl Simulation {
                 ctx.fill(&self.neighbours.overflow, 0);
             }
             if let Some(d) = &self.dfsph {
-                d.clear_warm_start(ctx);
+                d.clear_warm_start(ctx, at, data.len() as u32);
             }
             self.n = at + data.len() as u32;
         }
