@@ -1722,7 +1722,25 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
 /// meshes are closed and consistently oriented, and the run is free of validation messages.
 #[test]
 fn gpu_marching_cubes_match_the_cpu_blocks() {
-    use meniscus::field::extract::{extract_blocks, open_or_flipped_edges, ExtractParams};
+    use meniscus::field::extract::{extract_blocks_keyed, open_or_flipped_edges, ExtractParams, TriMesh};
+    // A mesh in edge-key order (vertices sorted by their edge keys; triangles renumbered, then sorted): the GPU
+    // and the CPU blocks each number their vertices in their own order.
+    let key_order = |m: &TriMesh, keys: &[i64], what: &str| {
+        let mut order: Vec<usize> = (0..keys.len()).collect();
+        order.sort_by_key(|&i| keys[i]);
+        assert!(order.windows(2).all(|w| keys[w[0]] < keys[w[1]]), "{what}: an edge has two vertices");
+        let mut rank = vec![0u32; keys.len()];
+        for (k, &i) in order.iter().enumerate() {
+            rank[i] = k as u32;
+        }
+        let mut triangles: Vec<[u32; 3]> = m.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect();
+        triangles.sort_unstable();
+        TriMesh {
+            vertices: order.iter().map(|&i| m.vertices[i]).collect(),
+            normals: order.iter().map(|&i| m.normals[i]).collect(),
+            triangles,
+        }
+    };
     use meniscus::field::iso::IsoGrid;
     let gpu = gpu();
     let mc = meniscus::compute::mc::Mc::new(&gpu).unwrap();
@@ -1748,32 +1766,15 @@ fn gpu_marching_cubes_match_the_cpu_blocks() {
             let inv = grid.inv_density();
             let threshold = if metaball { meniscus::field::extract::metaball_threshold(*r, support) } else { 0.6 };
             let p = ExtractParams { metaball, ..ExtractParams::new(cube * r, threshold) };
-            let cpu = extract_blocks(&grid, &inv, &p);
-            let (gm, keys, st) = mc.extract_keyed(&gpu, &grid, &inv, &p).unwrap();
             let what = format!("{label}, cube {cube} r, metaball {metaball}");
-            assert!(!cpu.triangles.is_empty(), "{what}: empty");
-            assert_eq!(gm.vertices.len(), cpu.vertices.len(), "{what}: vertices");
-            assert_eq!(gm.triangles.len(), cpu.triangles.len(), "{what}: triangles");
-            // The GPU numbers its vertices itself (edge owners, block by block); the CPU's are in edge-key order.
-            // Put the GPU's in key order (each edge once: the weld is exact), then compare the triangle sets.
-            let mut order: Vec<usize> = (0..keys.len()).collect();
-            order.sort_by_key(|&i| keys[i]);
-            assert!(order.windows(2).all(|w| keys[w[0]] < keys[w[1]]), "{what}: an edge has two vertices");
-            let mut rank = vec![0u32; keys.len()];
-            for (k, &i) in order.iter().enumerate() {
-                rank[i] = k as u32;
-            }
-            let m = meniscus::field::extract::TriMesh {
-                vertices: order.iter().map(|&i| gm.vertices[i]).collect(),
-                normals: order.iter().map(|&i| gm.normals[i]).collect(),
-                triangles: gm.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect(),
-            };
-            let sorted = |t: &[[u32; 3]]| {
-                let mut t = t.to_vec();
-                t.sort_unstable();
-                t
-            };
-            assert_eq!(sorted(&m.triangles), sorted(&cpu.triangles), "{what}: triangles");
+            let (cm, ckeys, _) = extract_blocks_keyed(&grid, &inv, &p);
+            let (gm, keys, st) = mc.extract_keyed(&gpu, &grid, &inv, &p).unwrap();
+            assert!(!cm.triangles.is_empty(), "{what}: empty");
+            assert_eq!(gm.vertices.len(), cm.vertices.len(), "{what}: vertices");
+            assert_eq!(gm.triangles.len(), cm.triangles.len(), "{what}: triangles");
+            // Both in edge-key order (each edge once: the welds are exact), then the same triangles.
+            let (m, cpu) = (key_order(&gm, &keys, &what), key_order(&cm, &ckeys, &what));
+            assert_eq!(m.triangles, cpu.triangles, "{what}: triangles");
             let h = cube * r;
             // Vertices agree to 1e-3 of a cube, or — where the crossing is flat, so that the field's rounding
             // (summation order, fused multiply-adds: lavapipe and NVIDIA differ) moves the interpolated vertex

@@ -12,7 +12,9 @@
 //!   kernel support of some particle); each block, in parallel (rayon), SCATTERS the particles that reach it into
 //!   a dense array of its corner values (with a one-corner margin), then marches its cubes. Every corner is
 //!   summed over the same particles in the same global order whichever block computes it, so shared faces
-//!   agree bit for bit: watertight, and the same mesh for any block size and thread count.
+//!   agree bit for bit: watertight, and the same mesh for any block size and thread count. A crossed edge
+//!   belongs to the block of the cube it starts at, which numbers its vertex (a prefix sum over the blocks): the
+//!   mesh comes out indexed, vertices block by block, with no sort.
 //! * Vertex normals (default path): the negative field gradient by central differences of the corner values,
 //!   interpolated along the edge (Lorensen & Cline's choice): the surface's own normal, smooth across
 //!   triangles, where angle-weighted face normals would show the cubes, and free once the corners are known.
@@ -512,12 +514,14 @@ pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64
 ///    crossing edge's vertex once (linear interpolation) with its normal: the negative field gradient, central
 ///    differences of the corner values interpolated along the edge (the margin is what makes them available),
 ///    i.e. the field's own normal;
-/// 4. the blocks' vertices are welded on global edge keys (one sort of the keys: vertices shared by two blocks
-///    were made twice, identically) and the triangles put in cube order (one sort).
+/// 4. each crossed edge is owned by the block of the cube it starts at: the blocks' owned vertices are numbered
+///    by a prefix sum over the blocks, a triangle corner on a neighbour's edge finds it in that neighbour's face
+///    list, the triangles follow in block order ([`weld_blocks`]: no sort, parallel throughout).
 ///
 /// Every corner's value is summed over the same particles in the same (global) order whichever block computes
 /// it, so blocks that share a face agree bit for bit: the mesh is watertight, and the same for any block size
-/// and thread count (vertices in edge-key order, triangles in cube order).
+/// and thread count up to the order of vertices and triangles (the same order for one block size on any thread
+/// count; [`extract_blocks_keyed`] gives each vertex's edge key, for comparisons in edge-key order).
 ///
 /// Speed (commit 0b5cc2b, dam break 59k frame 20 at 0.5 r, 1 thread): 2.2 s → 1.0 s, as fast as splashsurf 0.14,
 /// from making each vertex once per block instead of once per triangle corner (and sorting 4.3 M of them),
@@ -547,6 +551,14 @@ pub struct ExtractTimes {
 
 /// [`extract_blocks`], and where its time went.
 pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> (TriMesh, ExtractTimes) {
+    let (m, _, t) = extract_blocks_keyed(grid, inv_n, p);
+    (m, t)
+}
+
+/// [`extract_blocks_timed`], and each vertex's lattice edge key (`(corner key) · 3 + axis`): the block path
+/// numbers its vertices block by block, so comparisons with other paths (the per-corner reference, the GPU)
+/// put both in key order.
+pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> (TriMesh, Vec<i64>, ExtractTimes) {
     use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
     let t0 = std::time::Instant::now();
     let p = &resolve_block(grid, p);
@@ -568,7 +580,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
                     (bk % nb.z as i64) as i32,
                 );
                 // Corners of the block with the margin: global c0 − 1 … c0 + b + 1.
-                let blk = BlockShape { c0: bi * b - 1, n, b };
+                let blk = BlockShape { c0: bi * b - 1, n, b, nb };
                 let t = std::time::Instant::now();
                 scatter_block(grid, inv_n, p, &lat, &blk, v);
                 let t_scatter = t.elapsed();
@@ -580,7 +592,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
         )
         .collect();
     let t_blocks = t0.elapsed();
-    let mesh = weld_blocks(outs);
+    let (mesh, keys) = weld_blocks(outs, &blocks);
     let times = ExtractTimes {
         blocks: blocks.len(),
         scatter: scatter_ns.into_inner() as f64 * 1e-9,
@@ -589,7 +601,7 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
         blocks_wall: t_blocks.as_secs_f64(),
         block: p.block,
     };
-    (mesh, times)
+    (mesh, keys, times)
 }
 
 /// A block's place in the lattice: its corners (margin included) are global `c0 + (0 … n − 1)` per axis, its
@@ -598,6 +610,8 @@ struct BlockShape {
     c0: glam::IVec3,
     n: i32,
     b: i32,
+    /// Blocks per axis (block keys).
+    nb: glam::IVec3,
 }
 
 impl BlockShape {
@@ -606,13 +620,25 @@ impl BlockShape {
     }
 }
 
-/// What one block emits: its vertices (edge key, position, normal; one per crossing edge the block's cubes use)
-/// and its triangles (cube key, vertices as indices into the block's list; a cube's triangles consecutive, in
-/// table order).
+/// What one block emits. A crossed edge is OWNED by the block of the cube it starts at (its own cubes are local
+/// 1 … b), so every edge has one owner: the block makes the vertices of the edges it owns (`verts`, in the order
+/// made) and names the others by key and owner (`foreign`); its triangles refer to either (`FOREIGN` marks the
+/// second kind), a cube's triangles consecutive, in table order.
 struct BlockMesh {
+    /// Owned vertices: edge key, position, normal.
     verts: Vec<(i64, [f32; 3], [f32; 3])>,
-    tris: Vec<(i64, [u32; 3])>,
+    /// The owned vertices on the block's lower faces — the only ones a neighbour's triangles reach: (key, index
+    /// into `verts`), sorted by key.
+    face: Vec<(i64, u32)>,
+    /// Edges owned by a neighbour: key, the owner's block key, and the vertex as made here (the owner makes the
+    /// same, bit for bit; kept should the owner not be found).
+    foreign: Vec<(i64, i64, [f32; 3], [f32; 3])>,
+    /// Triangles: indices into `verts`, or `FOREIGN | index into foreign`.
+    tris: Vec<[u32; 3]>,
 }
+
+/// Marks a triangle corner of [`BlockMesh::tris`] that names a neighbour's vertex.
+const FOREIGN: u32 = 1 << 31;
 
 /// `floor` without the libm call baseline x86-64 makes of `f32::floor` (no SSE4.1 round): exact for |x| < 2³¹.
 #[inline(always)]
@@ -736,7 +762,7 @@ fn march_block(
             0
         };
     }
-    let mut out = BlockMesh { verts: vec![], tris: vec![] };
+    let mut out = BlockMesh { verts: vec![], face: vec![], foreign: vec![], tris: vec![] };
     for k in 1..=ke {
         for j in 1..=je {
             let r = (k * n + j) as usize;
@@ -752,8 +778,6 @@ fn march_block(
                 if mask == 0 || mask == 255 {
                     continue;
                 }
-                let gc = c0 + l;
-                let cube_key = lat.key(gc);
                 for t in &table[mask as usize] {
                     let tri = t.map(|e| {
                         let (a, bb, axis) = EDGES[e as usize];
@@ -769,22 +793,36 @@ fn march_block(
                             let pos = pa + d * tt;
                             let nrm = -(grad(la) * (1.0 - tt) + grad(lb) * tt).normalize_or_zero();
                             let key = lat.key(c0 + la) * 3 + axis as i64;
-                            *s = out.verts.len() as u32;
-                            out.verts.push((key, pos.to_array(), nrm.to_array()));
+                            // Owned when its start corner is one of the block's own cubes (local 1 … b).
+                            if la.cmple(glam::IVec3::splat(b)).all() {
+                                *s = out.verts.len() as u32;
+                                if la.cmpeq(glam::IVec3::ONE).any() {
+                                    out.face.push((key, *s));
+                                }
+                                out.verts.push((key, pos.to_array(), nrm.to_array()));
+                            } else {
+                                let owner = (c0 + la).div_euclid(glam::IVec3::splat(b));
+                                let nb = blk.nb;
+                                let owner_key =
+                                    (owner.x as i64 * nb.y as i64 + owner.y as i64) * nb.z as i64 + owner.z as i64;
+                                *s = FOREIGN | out.foreign.len() as u32;
+                                out.foreign.push((key, owner_key, pos.to_array(), nrm.to_array()));
+                            }
                         }
                         *s
                     });
-                    out.tris.push((cube_key, tri));
+                    out.tris.push(tri);
                 }
             }
         }
     }
+    out.face.sort_unstable();
     out
 }
 
 /// Weld on keys: sorts `(key, item)` pairs and walks them; returns every item's vertex (the rank of its key among
 /// the distinct keys, so vertices come in key order) and, per vertex, the first item with its key (the lowest
-/// item index: its data stands for the vertex). Used by the CPU block path's weld and by [`mesh_edges`].
+/// item index: its data stands for the vertex). Used by [`mesh_edges`].
 /// Parallel throughout (the sort, the run starts, their numbering by a prefix sum over chunks, the scatter of
 /// ranks): the walk it replaced was the extraction's serial part (0.06 s of 1.4 M vertices on the 59k frame).
 pub(crate) fn rank_by_key(mut keys: Vec<(i64, u32)>, items: usize) -> (Vec<u32>, Vec<u32>) {
@@ -824,42 +862,71 @@ pub(crate) fn rank_by_key(mut keys: Vec<(i64, u32)>, items: usize) -> (Vec<u32>,
     (rank.into_iter().map(AtomicU32::into_inner).collect(), first.into_iter().map(AtomicU32::into_inner).collect())
 }
 
-/// Step 4 of [`extract_blocks`]: one vertex per edge key (blocks that share a face made the same vertex, bit for
-/// bit), in key order; triangles in cube order (a cube's triangles all come from one block, in table order).
-fn weld_blocks(outs: Vec<BlockMesh>) -> TriMesh {
-    // Block b's vertices are items base[b] … base[b + 1] − 1.
+/// Step 4 of [`extract_blocks`]: the blocks' owned vertices numbered by a prefix sum over the blocks (block
+/// order, then the order made), the triangles' foreign corners found in their owner's face list (a binary search
+/// of the sorted block keys, then of the owner's face keys), the triangles in block order — no sort of the mesh,
+/// every step parallel. Returns the mesh and each vertex's edge key. (Sorting every vertex key and every
+/// triangle's cube key instead took 0.148 s of the 59k frame's 0.65 s at 0.5 r on 2 threads, this 0.045 s:
+/// docs/mesh-extraction.md.)
+fn weld_blocks(outs: Vec<BlockMesh>, blocks: &[i64]) -> (TriMesh, Vec<i64>) {
     let mut base = Vec::with_capacity(outs.len() + 1);
     base.push(0usize);
     for o in &outs {
         base.push(base.last().copied().unwrap_or(0) + o.verts.len());
     }
-    let keys: Vec<(i64, u32)> = outs
+    let owned = base[outs.len()];
+    // Each foreign corner's vertex: its owner's, or (an owner not found: not expected) the block's own copy,
+    // appended after the owned vertices.
+    let resolved: Vec<Vec<Result<u32, (i64, [f32; 3], [f32; 3])>>> = outs
         .par_iter()
-        .zip(&base)
-        .flat_map_iter(|(o, &b)| o.verts.iter().enumerate().map(move |(li, v)| (v.0, (b + li) as u32)))
-        .collect();
-    let (global, first) = rank_by_key(keys, base[outs.len()]);
-    // The block that made item i: the last block whose base is ≤ i (a search, not a table built serially).
-    let vertex = |item: u32| {
-        let bi = base.partition_point(|&b| b <= item as usize) - 1;
-        &outs[bi].verts[item as usize - base[bi]]
-    };
-    let (vertices, normals) = first.par_iter().map(|&i| vertex(i)).map(|v| (v.1, v.2)).unzip();
-    // Triangles in cube order: sorted by (cube key, block, index in the block).
-    let mut order: Vec<(i64, u32, u32)> = outs
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(bi, o)| o.tris.iter().enumerate().map(move |(ti, t)| (t.0, bi as u32, ti as u32)))
-        .collect();
-    order.par_sort_unstable();
-    let triangles = order
-        .par_iter()
-        .map(|&(_, bi, ti)| {
-            let g = &global[base[bi as usize]..];
-            outs[bi as usize].tris[ti as usize].1.map(|li| g[li as usize])
+        .map(|o| {
+            o.foreign
+                .iter()
+                .map(|&(key, owner, p, n)| {
+                    blocks
+                        .binary_search(&owner)
+                        .ok()
+                        .and_then(|ob| {
+                            let f = &outs[ob].face;
+                            f.binary_search_by_key(&key, |e| e.0).ok().map(|k| (base[ob] + f[k].1 as usize) as u32)
+                        })
+                        .ok_or((key, p, n))
+                })
+                .collect()
         })
         .collect();
-    TriMesh { vertices, normals, triangles }
+    let mut extra: Vec<(i64, [f32; 3], [f32; 3])> = vec![];
+    let resolved: Vec<Vec<u32>> = resolved
+        .into_iter()
+        .map(|r| {
+            r.into_iter()
+                .map(|x| {
+                    x.unwrap_or_else(|v| {
+                        let i = extra.iter().position(|e| e.0 == v.0).unwrap_or_else(|| {
+                            extra.push(v);
+                            extra.len() - 1
+                        });
+                        (owned + i) as u32
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let all = || outs.par_iter().flat_map_iter(|o| o.verts.iter()).chain(extra.par_iter());
+    let vertices = all().map(|v| v.1).collect();
+    let normals = all().map(|v| v.2).collect();
+    let keys = all().map(|v| v.0).collect();
+    let triangles = outs
+        .par_iter()
+        .zip(&resolved)
+        .zip(&base)
+        .flat_map_iter(|((o, r), &b)| {
+            o.tris
+                .iter()
+                .map(move |t| t.map(|i| if i & FOREIGN != 0 { r[(i & !FOREIGN) as usize] } else { b as u32 + i }))
+        })
+        .collect();
+    (TriMesh { vertices, normals, triangles }, keys)
 }
 
 /// Add one particle's kernel to a row of corner values: corner `o` of `seg` is global lattice index `i0 + o`
@@ -1067,6 +1134,25 @@ mod tests {
 
     /// One particle: a closed sphere whose vertices sit where the field equals the threshold; two far
     /// particles: two components; random clouds: closed and consistently oriented; 1 and 2 threads agree.
+    /// A block mesh in edge-key order (the per-corner paths' order): vertices sorted by their keys, triangles
+    /// renumbered and sorted.
+    fn key_order(m: &TriMesh, keys: &[i64]) -> TriMesh {
+        let mut order: Vec<usize> = (0..keys.len()).collect();
+        order.sort_by_key(|&i| keys[i]);
+        assert!(order.windows(2).all(|w| keys[w[0]] < keys[w[1]]), "an edge has two vertices");
+        let mut rank = vec![0u32; keys.len()];
+        for (k, &i) in order.iter().enumerate() {
+            rank[i] = k as u32;
+        }
+        let mut triangles: Vec<[u32; 3]> = m.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect();
+        triangles.sort_unstable();
+        TriMesh {
+            vertices: order.iter().map(|&i| m.vertices[i]).collect(),
+            normals: order.iter().map(|&i| m.normals[i]).collect(),
+            triangles,
+        }
+    }
+
     #[test]
     fn single_pair_and_random_particles() {
         let r = 0.1f32;
@@ -1118,24 +1204,35 @@ mod tests {
         assert_eq!(open_or_flipped_edges(&a), 0);
         let b = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| extract(&g, &inv, &p));
         assert_eq!(a, b, "1 thread and the default pool give the same mesh");
-        // Blocks: one big block and many small ones (and 1 or 2 threads) give exactly the same mesh ...
-        let big = extract(&g, &inv, &ExtractParams { block: 256, ..p });
+        // Blocks: one big block and many small ones (and 1 or 2 threads) give exactly the same mesh up to the order
+        // of vertices and triangles (each block numbers its own edges' vertices), in edge-key order the same ...
+        let blocks = |block: u32| {
+            let (m, keys, _) = extract_blocks_keyed(&g, &inv, &ExtractParams { block, ..p });
+            assert_eq!(open_or_flipped_edges(&m), 0, "block {block}");
+            key_order(&m, &keys)
+        };
+        let big = blocks(256);
         for block in [3, 8, 32] {
-            assert_eq!(extract(&g, &inv, &ExtractParams { block, ..p }), big, "block {block} differs from one block");
+            assert_eq!(blocks(block), big, "block {block} differs from one block");
         }
-        let one = rayon::ThreadPoolBuilder::new()
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| blocks(8));
+        assert_eq!(one, big, "1 thread differs");
+        // ... and one block size gives the same mesh in the same order on any thread count.
+        let (m8, _, _) = extract_blocks_keyed(&g, &inv, &ExtractParams { block: 8, ..p });
+        let (m8_one, _, _) = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap()
-            .install(|| extract(&g, &inv, &ExtractParams { block: 8, ..p }));
-        assert_eq!(one, big, "1 thread differs");
-        assert_eq!(open_or_flipped_edges(&big), 0);
+            .install(|| extract_blocks_keyed(&g, &inv, &ExtractParams { block: 8, ..p }));
+        assert_eq!(m8, m8_one, "block 8 on 1 thread and on the pool");
         // ... and the surface of the per-corner reference: the corner values differ only in the order of their
         // sums, so the same triangles and vertices within 1e-5 of the cube; normals (lattice central
         // differences over one cube, Lorensen & Cline's choice, vs the field's gradient over a quarter cube) within
         // 2° at the median and 12° at the 99th percentile (measured 1.2° and ~10°: thin features of a random
         // cloud vary within one cube).
-        assert_eq!(big.triangles, a.triangles);
+        let mut a_tris = a.triangles.clone();
+        a_tris.sort_unstable();
+        assert_eq!(big.triangles, a_tris);
         let mut angles = vec![];
         for ((v, w), (n, m)) in big.vertices.iter().zip(&a.vertices).zip(big.normals.iter().zip(&a.normals)) {
             assert!((Vec3::from(*v) - Vec3::from(*w)).length() < 1e-5 * p.cube.max(1.0));
