@@ -625,8 +625,8 @@ impl BlockShape {
 /// made) and names the others by key and owner (`foreign`); its triangles refer to either (`FOREIGN` marks the
 /// second kind), a cube's triangles consecutive, in table order.
 struct BlockMesh {
-    /// Owned vertices: edge key, position, normal.
-    verts: Vec<(i64, [f32; 3], [f32; 3])>,
+    /// Owned vertices.
+    verts: Vec<MadeVertex>,
     /// The owned vertices on the block's lower faces — the only ones a neighbour's triangles reach: (key, index
     /// into `verts`), sorted by key.
     face: Vec<(i64, u32)>,
@@ -636,6 +636,9 @@ struct BlockMesh {
     /// Triangles: indices into `verts`, or `FOREIGN | index into foreign`.
     tris: Vec<[u32; 3]>,
 }
+
+/// A vertex as a block makes it: edge key, position, normal.
+type MadeVertex = (i64, [f32; 3], [f32; 3]);
 
 /// Marks a triangle corner of [`BlockMesh::tris`] that names a neighbour's vertex.
 const FOREIGN: u32 = 1 << 31;
@@ -877,7 +880,7 @@ fn weld_blocks(outs: Vec<BlockMesh>, blocks: &[i64]) -> (TriMesh, Vec<i64>) {
     let owned = base[outs.len()];
     // Each foreign corner's vertex: its owner's, or (an owner not found: not expected) the block's own copy,
     // appended after the owned vertices.
-    let resolved: Vec<Vec<Result<u32, (i64, [f32; 3], [f32; 3])>>> = outs
+    let resolved: Vec<Vec<Result<u32, MadeVertex>>> = outs
         .par_iter()
         .map(|o| {
             o.foreign
@@ -895,7 +898,7 @@ fn weld_blocks(outs: Vec<BlockMesh>, blocks: &[i64]) -> (TriMesh, Vec<i64>) {
                 .collect()
         })
         .collect();
-    let mut extra: Vec<(i64, [f32; 3], [f32; 3])> = vec![];
+    let mut extra: Vec<MadeVertex> = vec![];
     let resolved: Vec<Vec<u32>> = resolved
         .into_iter()
         .map(|r| {
