@@ -1723,23 +1723,9 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
 #[test]
 fn gpu_marching_cubes_match_the_cpu_blocks() {
     use meniscus::field::extract::{extract_blocks_keyed, open_or_flipped_edges, ExtractParams, TriMesh};
-    // A mesh in edge-key order (vertices sorted by their edge keys; triangles renumbered, then sorted): the GPU
-    // and the CPU blocks each number their vertices in their own order.
+    // The GPU and the CPU blocks each number their vertices in their own order: both compared in edge-key order.
     let key_order = |m: &TriMesh, keys: &[i64], what: &str| {
-        let mut order: Vec<usize> = (0..keys.len()).collect();
-        order.sort_by_key(|&i| keys[i]);
-        assert!(order.windows(2).all(|w| keys[w[0]] < keys[w[1]]), "{what}: an edge has two vertices");
-        let mut rank = vec![0u32; keys.len()];
-        for (k, &i) in order.iter().enumerate() {
-            rank[i] = k as u32;
-        }
-        let mut triangles: Vec<[u32; 3]> = m.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect();
-        triangles.sort_unstable();
-        TriMesh {
-            vertices: order.iter().map(|&i| m.vertices[i]).collect(),
-            normals: order.iter().map(|&i| m.normals[i]).collect(),
-            triangles,
-        }
+        m.in_key_order(keys).unwrap_or_else(|| panic!("{what}: an edge has two vertices"))
     };
     use meniscus::field::iso::IsoGrid;
     let gpu = gpu();

@@ -27,7 +27,8 @@ use crate::declare_program;
 use crate::error::{Error, Result};
 use crate::field::extract::{case_table, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
 use crate::field::iso::IsoGrid;
-use crate::gpu::{Access, Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer, Use};
+use crate::gpu::transfer::{host_vec, read_back};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
 
@@ -298,30 +299,4 @@ impl Mc {
         stats.host_copy_ms += t1.elapsed().as_secs_f64() * 1e3;
         Ok((TriMesh { vertices, normals, triangles }, edge_keys, stats))
     }
-}
-
-/// Copy several ranges `(buffer, offset, bytes)` of device buffers (TRANSFER_SRC usage) into host-visible
-/// buffers in one submission; [`host_vec`] takes each out as a vector (one copy, out of the mapped memory).
-fn read_back(gpu: &Arc<Gpu>, ranges: &[(&Buffer, u64, u64)]) -> Result<Vec<Buffer>> {
-    let bufs = ranges
-        .iter()
-        .map(|&(_, _, bytes)| {
-            Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
-        })
-        .collect::<Result<Vec<_>>>()?;
-    gpu.one_shot(|cmd| {
-        let mut ctx = FrameCtx::new(gpu, cmd, None);
-        for (&(src, offset, bytes), dst) in ranges.iter().zip(&bufs) {
-            ctx.copy_buffer(src, dst, vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes });
-        }
-        let uses: Vec<Use> = bufs.iter().map(|b| Use::Buffer(b, Access::HostRead)).collect();
-        ctx.barrier(&uses);
-        Ok(())
-    })?;
-    Ok(bufs)
-}
-
-/// The first `n` items of a read-back buffer.
-fn host_vec<T: bytemuck::Pod>(b: &Buffer, n: usize) -> Result<Vec<T>> {
-    Ok(bytemuck::pod_collect_to_vec(&b.read()?[..n * std::mem::size_of::<T>()]))
 }

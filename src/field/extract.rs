@@ -147,6 +147,29 @@ impl TriMesh {
     pub fn data(&self) -> crate::output::MeshData<'_> {
         crate::output::MeshData { vertices: &self.vertices, normals: &self.normals, triangles: &self.triangles }
     }
+
+    /// The same mesh in edge-key order, given each vertex's lattice edge key ([`extract_blocks_keyed`],
+    /// `compute::mc::Mc::extract_keyed`): vertices sorted by key, triangles renumbered and sorted — the one order
+    /// in which meshes that number their vertices differently (block sizes, the per-corner paths, the GPU)
+    /// compare. None when a key repeats (an edge with two vertices: a weld that failed).
+    pub fn in_key_order(&self, keys: &[i64]) -> Option<TriMesh> {
+        let mut order: Vec<usize> = (0..keys.len()).collect();
+        order.sort_by_key(|&i| keys[i]);
+        if !order.windows(2).all(|w| keys[w[0]] < keys[w[1]]) {
+            return None;
+        }
+        let mut rank = vec![0u32; keys.len()];
+        for (k, &i) in order.iter().enumerate() {
+            rank[i] = k as u32;
+        }
+        let mut triangles: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect();
+        triangles.sort_unstable();
+        Some(TriMesh {
+            vertices: order.iter().map(|&i| self.vertices[i]).collect(),
+            normals: order.iter().map(|&i| self.normals[i]).collect(),
+            triangles,
+        })
+    }
 }
 
 /// The edges of a triangle mesh: every distinct edge once (its two vertices, lower first, in key order) and, per
@@ -645,7 +668,7 @@ const FOREIGN: u32 = 1 << 31;
 
 /// `floor` without the libm call baseline x86-64 makes of `f32::floor` (no SSE4.1 round): exact for |x| < 2³¹.
 #[inline(always)]
-fn floor_i(x: f32) -> i32 {
+pub(crate) fn floor_i(x: f32) -> i32 {
     let i = x as i32;
     i - (x < i as f32) as i32
 }
@@ -1137,25 +1160,6 @@ mod tests {
 
     /// One particle: a closed sphere whose vertices sit where the field equals the threshold; two far
     /// particles: two components; random clouds: closed and consistently oriented; 1 and 2 threads agree.
-    /// A block mesh in edge-key order (the per-corner paths' order): vertices sorted by their keys, triangles
-    /// renumbered and sorted.
-    fn key_order(m: &TriMesh, keys: &[i64]) -> TriMesh {
-        let mut order: Vec<usize> = (0..keys.len()).collect();
-        order.sort_by_key(|&i| keys[i]);
-        assert!(order.windows(2).all(|w| keys[w[0]] < keys[w[1]]), "an edge has two vertices");
-        let mut rank = vec![0u32; keys.len()];
-        for (k, &i) in order.iter().enumerate() {
-            rank[i] = k as u32;
-        }
-        let mut triangles: Vec<[u32; 3]> = m.triangles.iter().map(|t| t.map(|i| rank[i as usize])).collect();
-        triangles.sort_unstable();
-        TriMesh {
-            vertices: order.iter().map(|&i| m.vertices[i]).collect(),
-            normals: order.iter().map(|&i| m.normals[i]).collect(),
-            triangles,
-        }
-    }
-
     #[test]
     fn single_pair_and_random_particles() {
         let r = 0.1f32;
@@ -1212,7 +1216,7 @@ mod tests {
         let blocks = |block: u32| {
             let (m, keys, _) = extract_blocks_keyed(&g, &inv, &ExtractParams { block, ..p });
             assert_eq!(open_or_flipped_edges(&m), 0, "block {block}");
-            key_order(&m, &keys)
+            m.in_key_order(&keys).expect("an edge has two vertices")
         };
         let big = blocks(256);
         for block in [3, 8, 32] {

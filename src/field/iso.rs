@@ -606,11 +606,8 @@ impl VolumeShape {
         let shift = BRICK.trailing_zeros();
         const { assert!(BRICK.is_power_of_two()) };
         let at = |x: i64, y: i64, z: i64| (x + b[0] * (y + b[1] * z)) as usize;
-        // `floor` without the libm call baseline x86-64 makes of it (exact: |u| is far below 2³¹).
-        let floor = |x: f32| {
-            let i = x as i64;
-            i - (x < i as f32) as i64
-        };
+        // `floor` without the libm call (exact: the lattice coordinates are clamped far below 2³¹).
+        let floor = |x: f32| crate::field::extract::floor_i(x) as i64;
         // Every sequence frame and every new particle set counts its bricks here (the host's part of a frame),
         // so each point does one write: its own brick's mask of the 3³ neighbours its box reaches (a point's
         // box spans at most its brick and one either side while t < BRICK), OR-ed over chunks of points in

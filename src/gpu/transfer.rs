@@ -55,15 +55,34 @@ pub fn read_buffer(gpu: &Arc<Gpu>, src: &Buffer, bytes: u64) -> Result<Vec<u8>> 
 /// (clipped to the buffer).
 pub fn read_buffer_at(gpu: &Arc<Gpu>, src: &Buffer, offset: u64, bytes: u64) -> Result<Vec<u8>> {
     let bytes = bytes.min(src.size.saturating_sub(offset));
-    let buf =
-        Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+    let buf = read_back(gpu, &[(src, offset, bytes)])?;
+    Ok(buf[0].read()?[..bytes as usize].to_vec())
+}
+
+/// Copy several ranges `(buffer, offset, bytes)` of device buffers (TRANSFER_SRC usage) into host-visible
+/// buffers in one submission; [`host_vec`] takes each out as a vector (one copy, out of the mapped memory).
+pub fn read_back(gpu: &Arc<Gpu>, ranges: &[(&Buffer, u64, u64)]) -> Result<Vec<Buffer>> {
+    let bufs = ranges
+        .iter()
+        .map(|&(_, _, bytes)| {
+            Buffer::new(gpu, "readback", bytes.max(16), vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
+        })
+        .collect::<Result<Vec<_>>>()?;
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(gpu, cmd, None);
-        ctx.copy_buffer(src, &buf, vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes });
-        ctx.barrier(&[Use::Buffer(&buf, Access::HostRead)]);
+        for (&(src, offset, bytes), dst) in ranges.iter().zip(&bufs) {
+            ctx.copy_buffer(src, dst, vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes });
+        }
+        let uses: Vec<Use> = bufs.iter().map(|b| Use::Buffer(b, Access::HostRead)).collect();
+        ctx.barrier(&uses);
         Ok(())
     })?;
-    Ok(buf.read()?[..bytes as usize].to_vec())
+    Ok(bufs)
+}
+
+/// The first `n` items of a buffer [`read_back`] filled.
+pub fn host_vec<T: bytemuck::Pod>(b: &Buffer, n: usize) -> Result<Vec<T>> {
+    Ok(bytemuck::pod_collect_to_vec(&b.read()?[..n * std::mem::size_of::<T>()]))
 }
 
 /// Copy a whole image into host memory (tightly packed texels).

@@ -24,7 +24,7 @@ use gpu_allocator::MemoryLocation;
 use super::stages::Neighbours;
 use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu};
 use crate::shader_constants::LOCAL_1D;
 use crate::shaders;
 
@@ -95,7 +95,47 @@ pub struct SolverStats {
     pub density: SolveStats,
 }
 
+impl SolveStats {
+    /// Add `other`'s steps (a later frame's) to these.
+    pub fn merge(&mut self, other: &SolveStats) {
+        let steps = self.steps + other.steps;
+        self.mean_error =
+            (self.mean_error * self.steps as f32 + other.mean_error * other.steps as f32) / steps.max(1) as f32;
+        self.steps = steps;
+        self.corrections += other.corrections;
+        self.max_corrections = self.max_corrections.max(other.max_corrections);
+        self.last_error = other.last_error;
+        self.max_error = self.max_error.max(other.max_error);
+        self.unconverged += other.unconverged;
+    }
+
+    /// One line: corrections per step, the errors the solve stopped at (percent of ρ0), the steps at the limit.
+    pub fn summary(&self) -> String {
+        format!(
+            "{:.1} corrections per step (most {}), average error {:.4} % (largest {:.4} %), {} of {} steps at the \
+             iteration limit",
+            self.corrections as f64 / self.steps.max(1) as f64,
+            self.max_corrections,
+            100.0 * self.mean_error,
+            100.0 * self.max_error,
+            self.unconverged,
+            self.steps
+        )
+    }
+}
+
 impl SolverStats {
+    /// Add `other`'s steps (a later frame's) to these.
+    pub fn merge(&mut self, other: &SolverStats) {
+        self.divergence.merge(&other.divergence);
+        self.density.merge(&other.density);
+    }
+
+    /// Both solves, labelled: ("constant-density", its stats), ("divergence-free", its stats).
+    pub fn labelled(&self) -> [(&'static str, SolveStats); 2] {
+        [("constant-density", self.density), ("divergence-free", self.divergence)]
+    }
+
     fn from_words(w: &[u32]) -> SolverStats {
         let one = |b: usize| {
             let steps = w[b];
@@ -242,24 +282,21 @@ impl Dfsph {
     pub fn solve(&self, ctx: &mut FrameCtx, b: &StepBuffers, p: &super::Params, n: u32) {
         let groups = n.div_ceil(LOCAL_1D).max(1);
         let l = &self.listed[b.neighbours.packed as usize];
-        fn lists<'b>(b: &'b StepBuffers, rest: &[&'b Buffer]) -> Vec<Res<'b>> {
-            let mut r: Vec<Res> = vec![b.uniforms.into(), (&b.neighbours.count).into(), (&b.neighbours.list).into()];
-            r.extend(rest.iter().map(|&x| Res::from(x)));
-            r
-        }
         ctx.pass("sim_dfsph_alpha", |ctx| {
-            let res = lists(b, &[b.x, b.sorted, &self.factor, b.vel, b.density, &self.kappa_warm, &self.kappa_sum]);
+            let res = b
+                .neighbours
+                .bound(b.uniforms, &[b.x, b.sorted, &self.factor, b.vel, b.density, &self.kappa_warm, &self.kappa_sum]);
             l.alpha.dispatch(ctx, &res, &(), [groups, 1, 1]);
         });
         // The divergence-free solve (at least one correction, SPlisHSPlasH's rule), then the constant-density
         // solve (at least two) — their bounds as fractions of ρ0.
         let solves = [(0usize, 1u32, p.max_divergence_error), (1, 2, p.max_density_error)];
         for (solve, min_iter, percent) in solves {
-            let rate = lists(b, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
-            let update = lists(b, &[b.x, &self.kappa, b.vel, &self.kappa_sum]);
+            let rate = b.neighbours.bound(b.uniforms, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
+            let update = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa, b.vel, &self.kappa_sum]);
             if solve == 1 {
                 // The warm start: one correction with half the κ each particle's last solve summed.
-                let warm = lists(b, &[b.x, &self.kappa_warm, b.vel, &self.kappa_sum]);
+                let warm = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa_warm, b.vel, &self.kappa_sum]);
                 ctx.pass("sim_dfsph_update", |ctx| l.update[1].dispatch(ctx, &warm, &(), [groups, 1, 1]));
             }
             let check_res = [b.uniforms.into(), (&self.partials).into(), (&self.args).into(), (&self.stats).into()];

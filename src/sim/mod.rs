@@ -150,6 +150,17 @@ impl Default for Params {
 }
 
 impl Params {
+    /// The solver and its settings in words, for the log lines of `sim`, `sim validate` and `bench --sim`.
+    pub fn solver_summary(&self) -> String {
+        match self.solver {
+            Solver::Pbf => format!("PBF, {} iterations", self.iterations),
+            Solver::Dfsph => format!(
+                "DFSPH to {} % density error and {} % divergence per step, at most {} corrections per solve",
+                self.max_density_error, self.max_divergence_error, self.max_solver_iterations
+            ),
+        }
+    }
+
     /// Reject values the solver cannot run with.
     pub fn validate(&self) -> Result<()> {
         let bad = |what: &str| Err(Error::Invalid(format!("[sim] {what}")));
@@ -675,59 +686,50 @@ impl Simulation {
         }
     }
 
+    /// One step: the positions the grid sorts (PBF's prediction x*, DFSPH's x), the grid, the reorder and the
+    /// neighbour lists; the solver's iterations; then the end both share (velocity from the positions with the
+    /// static friction, vorticity confinement when on, XSPH, the state and the renderer's particles).
     fn record_step(&self, ctx: &mut FrameCtx, k: usize, out: &Buffer) {
-        if let Some(d) = &self.dfsph {
-            return self.record_dfsph_step(ctx, d, k, out);
-        }
         let n = self.n;
         let u = &self.uniforms[k];
         let [a, b] = &self.state;
         let (g, s) = (&self.stages, &self.grid);
-        g.predict(ctx, u, a, &self.pred[0], &self.sdf, n);
+        match &self.dfsph {
+            Some(d) => d.begin(ctx, u, a, &self.pred[0], n),
+            None => g.predict(ctx, u, a, &self.pred[0], &self.sdf, n),
+        }
         ctx.pass(crate::compute::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
         g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], n);
         let nb = &self.neighbours;
         g.neighbours(ctx, u, s, &self.pred[1], nb, n);
-        let mut cur = 1;
-        for _ in 0..self.params.iterations {
-            g.density(ctx, u, nb, &self.pred[cur], &self.pos_lambda, &self.density, n);
-            g.solve(ctx, u, nb, &self.pos_lambda, &self.pred[1 - cur], &self.sdf, n);
-            cur = 1 - cur;
-        }
-        let x = &self.pred[cur];
+        // The positions the step ends at.
+        let x = match &self.dfsph {
+            Some(d) => {
+                let bufs = dfsph::StepBuffers {
+                    uniforms: u,
+                    neighbours: nb,
+                    sorted: b,
+                    x: &self.pred[1],
+                    x_new: &self.pred[0],
+                    vel: &self.vel,
+                    density: &self.density,
+                    sdf: &self.sdf,
+                };
+                d.solve(ctx, &bufs, &self.params, n);
+                &self.pred[0]
+            }
+            None => {
+                let mut cur = 1;
+                for _ in 0..self.params.iterations {
+                    g.density(ctx, u, nb, &self.pred[cur], &self.pos_lambda, &self.density, n);
+                    g.solve(ctx, u, nb, &self.pos_lambda, &self.pred[1 - cur], &self.sdf, n);
+                    cur = 1 - cur;
+                }
+                &self.pred[cur]
+            }
+        };
         g.velocity(ctx, u, b, x, &self.vel, n);
         // Without confinement (ε = 0, the default) nothing reads ω: the stage is not recorded.
-        if self.params.vorticity > 0.0 {
-            g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
-        }
-        g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, n);
-    }
-
-    /// One DFSPH step ([`dfsph`]): the grid on x, the two solves, then PBF's end of step (velocity from the
-    /// positions, XSPH, the state and the renderer's particles).
-    fn record_dfsph_step(&self, ctx: &mut FrameCtx, d: &dfsph::Dfsph, k: usize, out: &Buffer) {
-        let n = self.n;
-        let u = &self.uniforms[k];
-        let [a, b] = &self.state;
-        let (g, s) = (&self.stages, &self.grid);
-        d.begin(ctx, u, a, &self.pred[0], n);
-        ctx.pass(crate::compute::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
-        g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], n);
-        let nb = &self.neighbours;
-        g.neighbours(ctx, u, s, &self.pred[1], nb, n);
-        let bufs = dfsph::StepBuffers {
-            uniforms: u,
-            neighbours: nb,
-            sorted: b,
-            x: &self.pred[1],
-            x_new: &self.pred[0],
-            vel: &self.vel,
-            density: &self.density,
-            sdf: &self.sdf,
-        };
-        d.solve(ctx, &bufs, &self.params, n);
-        let x = &self.pred[0];
-        g.velocity(ctx, u, b, x, &self.vel, n);
         if self.params.vorticity > 0.0 {
             g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
         }

@@ -28,6 +28,14 @@ pub struct Neighbours {
 }
 
 impl Neighbours {
+    /// The bindings of a stage that walks the lists: the uniform block `u`, the lists (bindings 1, 2), then
+    /// `rest` (PBF's list stages and DFSPH's, src/sim/dfsph.rs).
+    pub fn bound<'a>(&'a self, u: &'a Buffer, rest: &[&'a Buffer]) -> Vec<Res<'a>> {
+        let mut r: Vec<Res> = vec![u.into(), (&self.count).into(), (&self.list).into()];
+        r.extend(rest.iter().map(|&b| Res::from(b)));
+        r
+    }
+
     /// Most particles 16-bit lists can index.
     pub const PACKED_MAX: u64 = 1 << 16;
 
@@ -172,9 +180,7 @@ impl Stages {
         rest: &[&Buffer],
         n: u32,
     ) {
-        let mut res: Vec<Res> = vec![u.into(), (&g.count).into(), (&g.list).into()];
-        res.extend(rest.iter().map(|&b| Res::from(b)));
-        self.run(ctx, name, program(self.listed(g)), &res, n);
+        self.run(ctx, name, program(self.listed(g)), &g.bound(u, rest), n);
     }
 
     /// `sim_predict`: state → pred (x* from v + Δt g, which sim_reorder stores); `sdf`: the mesh collider's

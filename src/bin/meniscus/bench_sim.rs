@@ -93,13 +93,7 @@ pub fn run(
         sim.set_diffuse(Some(&base.diffuse))?;
     }
     let c = sim.constants;
-    let solver = match sim.params.solver {
-        meniscus::sim::Solver::Pbf => format!("PBF, {} iterations", sim.params.iterations),
-        meniscus::sim::Solver::Dfsph => format!(
-            "DFSPH to {} % density error, {} % divergence",
-            sim.params.max_density_error, sim.params.max_divergence_error
-        ),
-    };
+    let solver = sim.params.solver_summary();
     eprintln!(
         "sim {name}: {} particles, {} steps of {:.2} ms per frame, {solver}",
         sim.count(),
@@ -117,17 +111,7 @@ pub fn run(
     for _ in 0..frames {
         runs.push(sim.step_frame()?);
         if let Some(st) = sim.solver_stats()? {
-            let acc = solves.get_or_insert_with(Default::default);
-            for (a, s) in [(&mut acc.divergence, st.divergence), (&mut acc.density, st.density)] {
-                a.mean_error =
-                    (a.mean_error * a.steps as f32 + s.mean_error * s.steps as f32) / (a.steps + s.steps).max(1) as f32;
-                a.steps += s.steps;
-                a.corrections += s.corrections;
-                a.max_corrections = a.max_corrections.max(s.max_corrections);
-                a.last_error = s.last_error;
-                a.max_error = a.max_error.max(s.max_error);
-                a.unconverged += s.unconverged;
-            }
+            solves.get_or_insert_with(Default::default).merge(&st);
         }
         bar.inc(1);
     }
@@ -254,17 +238,8 @@ pub fn run(
     }
     println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |\n", 1e3 / ms_per_step);
     if let Some(st) = &solves {
-        for (label, s) in [("constant-density", st.density), ("divergence-free", st.divergence)] {
-            println!(
-                "DFSPH {label} solve: {:.1} corrections per step (most {}), average error {:.4} % (largest {:.4} %), \
-                 {} of {} steps at the iteration limit",
-                s.corrections as f64 / s.steps.max(1) as f64,
-                s.max_corrections,
-                100.0 * s.mean_error,
-                100.0 * s.max_error,
-                s.unconverged,
-                s.steps
-            );
+        for (label, s) in st.labelled() {
+            println!("DFSPH {label} solve: {}", s.summary());
         }
         println!();
     }

@@ -144,7 +144,7 @@ fn validate(a: &SimArgs) -> Result<()> {
         sim.constants.substeps,
         sim.constants.dt * 1e3,
         sim.params.fps,
-        solver_line(&sim.params),
+        sim.params.solver_summary(),
         gpu.info.name
     );
     let series = meniscus::sim::validate::front(&mut sim, 3.2)?;
@@ -207,7 +207,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let gpu = a.gpu.open()?;
     let mut sim = Simulation::new(&gpu, scene, params)?;
     let c = sim.constants;
-    let solver = solver_line(&sim.params);
+    let solver = sim.params.solver_summary();
     eprintln!(
         "sim: {} with {} particles (radius {:.5} m, capacity {}), {} steps of {:.2} ms per frame at {} fps, {solver}, on {}",
         sim.scene.name,
@@ -267,7 +267,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     }
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
-    let mut solves: Vec<meniscus::sim::dfsph::SolverStats> = vec![];
+    let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
     for n in 2..=frames {
         let t = sim.step_frame()?;
         let mut msg = format!("{:.1} ms/step", t.total() / c.substeps as f64);
@@ -277,7 +277,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
                 100.0 * st.density.max_error,
                 st.density.corrections as f64 / st.density.steps.max(1) as f64
             );
-            solves.push(st);
+            solves.get_or_insert_with(Default::default).merge(&st);
         }
         bar.set_message(msg);
         runs.push(t);
@@ -285,27 +285,9 @@ pub fn run(a: &SimArgs) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if !solves.is_empty() {
-        // Per step: the average error each solve stopped at, its corrections.
-        for (name, pick) in [
-            ("constant-density", (|s: &meniscus::sim::dfsph::SolverStats| s.density) as fn(&_) -> _),
-            ("divergence-free", |s: &meniscus::sim::dfsph::SolverStats| s.divergence),
-        ] {
-            let all: Vec<meniscus::sim::dfsph::SolveStats> = solves.iter().map(pick).collect();
-            let steps: u32 = all.iter().map(|s| s.steps).sum();
-            let corr: u32 = all.iter().map(|s| s.corrections).sum();
-            let max_corr = all.iter().map(|s| s.max_corrections).max().unwrap_or(0);
-            let mean = all.iter().map(|s| s.mean_error as f64 * s.steps as f64).sum::<f64>() / steps.max(1) as f64;
-            let max = all.iter().map(|s| s.max_error).fold(0f32, f32::max);
-            let unconverged: u32 = all.iter().map(|s| s.unconverged).sum();
-            eprintln!(
-                "DFSPH {name} solve over {steps} steps: average error per step {:.4} % (largest {:.4} %), {:.1} \
-                 corrections per step (most {max_corr}), {unconverged} steps stopped at the iteration limit",
-                100.0 * mean,
-                100.0 * max,
-                corr as f64 / steps.max(1) as f64
-            );
-        }
+    // Per step: the corrections each solve took, the average error it stopped at.
+    for (name, s) in solves.iter().flat_map(|st| st.labelled()) {
+        eprintln!("DFSPH {name} solve: {}", s.summary());
     }
     let med = meniscus::gpu::timer::median_times(&runs);
     if !runs.is_empty() {
@@ -349,17 +331,6 @@ pub fn run(a: &SimArgs) -> Result<()> {
         );
     }
     finish(&gpu)
-}
-
-/// The solver and its settings, for the log lines of `sim` and `sim validate`.
-fn solver_line(p: &meniscus::sim::Params) -> String {
-    match p.solver {
-        meniscus::sim::Solver::Pbf => format!("PBF, {} iterations", p.iterations),
-        meniscus::sim::Solver::Dfsph => format!(
-            "DFSPH to {} % density error and {} % divergence per step, at most {} corrections per solve",
-            p.max_density_error, p.max_divergence_error, p.max_solver_iterations
-        ),
-    }
 }
 
 /// The log line for a mesh collider (`sim --collider`, `demo --sim --background-obj`).
