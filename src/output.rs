@@ -463,6 +463,27 @@ pub struct MeshData<'a> {
     pub triangles: &'a [[u32; 3]],
 }
 
+/// A binary little-endian PLY body: per vertex x y z nx ny nz (f32), per triangle the count 3 (u8) and three
+/// u32 indices; packed in parallel (rayon's current pool), the same bytes on any thread count.
+fn ply_body(m: MeshData) -> Vec<u8> {
+    use rayon::prelude::*;
+    let split = 24 * m.vertices.len();
+    let mut body = vec![0u8; split + 13 * m.triangles.len()];
+    let (vs, ts) = body.split_at_mut(split);
+    vs.par_chunks_mut(24).zip(m.vertices.par_iter().zip(m.normals)).with_min_len(4096).for_each(|(out, (v, n))| {
+        for (k, x) in v.iter().chain(n).enumerate() {
+            out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
+        }
+    });
+    ts.par_chunks_mut(13).zip(m.triangles.par_iter()).with_min_len(4096).for_each(|(out, t)| {
+        out[0] = 3;
+        for (k, i) in t.iter().enumerate() {
+            out[1 + 4 * k..5 + 4 * k].copy_from_slice(&i.to_le_bytes());
+        }
+    });
+    body
+}
+
 /// The formats a fluid mesh is written in ([`write_mesh`]).
 pub const MESH_KINDS: [Kind; 3] = [Kind::Ply, Kind::Obj, Kind::Vtk];
 /// The formats `meniscus mesh` writes: the mesh formats, a USD stage (time-sampled, the whole sequence in one
@@ -485,21 +506,10 @@ pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
                 m.vertices.len(),
                 m.triangles.len()
             )?;
-            // The body is packed into memory and written at once (4-byte writes through the BufWriter cost
-            // 0.06 s on the 1.4 M-triangle dam-break mesh).
-            let mut body = Vec::with_capacity(24 * m.vertices.len() + 13 * m.triangles.len());
-            for (v, n) in m.vertices.iter().zip(m.normals) {
-                for x in v.iter().chain(n) {
-                    body.extend_from_slice(&x.to_le_bytes());
-                }
-            }
-            for t in m.triangles {
-                body.push(3u8);
-                for i in t {
-                    body.extend_from_slice(&i.to_le_bytes());
-                }
-            }
-            w.write_all(&body)?;
+            // The body is packed into memory by every thread, each record at its own offset, and written at
+            // once: 4-byte writes through the BufWriter cost 0.06 s on the 1.4 M-triangle dam-break mesh, and
+            // one thread packing it 0.07 s of a 0.21 s `mesh` on 16 cores (the serial part Amdahl's law keeps).
+            w.write_all(&ply_body(m))?;
             Ok(())
         }),
         Kind::Obj => write_atomic(path, Kind::Obj, |w| {
@@ -539,5 +549,33 @@ pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
             writeln!(w)?;
             Ok(())
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The parallel PLY body is the records one after another, as a serial writer puts them.
+    #[test]
+    fn the_ply_body_is_the_records_in_order() {
+        let n = 10_000usize;
+        let vertices: Vec<[f32; 3]> = (0..n).map(|i| [i as f32, -(i as f32) * 0.5, 1.0 / (i as f32 + 1.0)]).collect();
+        let normals: Vec<[f32; 3]> = (0..n).map(|i| [0.0, (i % 7) as f32, 1.0]).collect();
+        let triangles: Vec<[u32; 3]> = (0..n as u32 - 2).map(|i| [i, i + 1, i + 2]).collect();
+        let mut serial = vec![];
+        for (v, nn) in vertices.iter().zip(&normals) {
+            for x in v.iter().chain(nn) {
+                serial.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        for t in &triangles {
+            serial.push(3);
+            for i in t {
+                serial.extend_from_slice(&i.to_le_bytes());
+            }
+        }
+        let body = ply_body(MeshData { vertices: &vertices, normals: &normals, triangles: &triangles });
+        assert_eq!(body, serial);
     }
 }

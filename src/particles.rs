@@ -44,6 +44,8 @@ pub struct ParticleSet {
     positions: Vec<[f32; 3]>,
     spray: Option<Vec<bool>>,
     generation: u64,
+    /// The last [`ParticleSet::nearest_depth`]: for (generation, view matrix, radius), its value.
+    nearest: std::sync::Mutex<Option<(u64, [u32; 16], u32, f32)>>,
 }
 
 impl ParticleSet {
@@ -227,14 +229,28 @@ impl ParticleSet {
     }
 
     /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
+    /// Every frame asks; it is computed once per particle set, camera and radius (a still scene's frames and a
+    /// sequence's frame after the first ask again), over the particles in parallel (the minimum is exact in any
+    /// order).
     pub fn nearest_depth(&self, view: &View, radius: f32) -> f32 {
+        use rayon::prelude::*;
         let m = view.camera.view();
-        self.positions
-            .iter()
+        let key = (self.generation, m.to_cols_array().map(f32::to_bits), radius.to_bits());
+        let mut last = self.nearest.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((g, v, r, d)) = *last {
+            if (g, v, r) == key {
+                return d.max(view.camera.near);
+            }
+        }
+        let d = self
+            .positions
+            .par_iter()
+            .with_min_len(4096)
             .map(|p| -(m.transform_point3(glam::Vec3::from(*p)).z) - radius)
             .filter(|d| *d > -radius)
-            .fold(f32::INFINITY, f32::min)
-            .max(view.camera.near)
+            .reduce(|| f32::INFINITY, f32::min);
+        *last = Some((key.0, key.1, key.2, d));
+        d.max(view.camera.near)
     }
 
     /// Before recording a frame: pick the buffer it reads — a split frame uploads into the other one (the frame

@@ -293,6 +293,16 @@ impl Renderer {
         self.finish(sub)
     }
 
+    /// Render one frame and wait for it; returns its final image — copied into host memory by the frame itself
+    /// (the slot's read-back buffer, kept from frame to frame: no second submission, no new buffer) — and the
+    /// GPU time of each pass. What the Python package's `render` returns.
+    pub fn render_image(&mut self, view: &View, s: &Settings, hooks: Hooks) -> Result<(image::RgbaImage, PassTimes)> {
+        let sub = self.record_and_submit_with(view, s, None, true, hooks, Default::default())?;
+        let slot = sub.slot;
+        let img = self.read_submitted(sub)?;
+        Ok((img, self.executor.times(slot)?))
+    }
+
     /// [`Renderer::render`] with caller hooks (e.g. a simulation's particles copied in through `Hooks::produce`).
     pub fn render_with(&mut self, view: &View, s: &Settings, hooks: Hooks) -> Result<PassTimes> {
         let sub = self.record_and_submit_with(view, s, None, false, hooks, Default::default())?;

@@ -137,8 +137,7 @@ impl Renderer {
             if !diffuse.is_empty() || core.diffuse_count() > 0 {
                 core.set_diffuse(diffuse, s)?;
             }
-            let times = core.render(view, s)?;
-            Ok::<_, meniscus::Error>((core.read_final()?, times))
+            core.render_image(view, s, Hooks::default())
         })
         .map_err(py_err)?;
         self.times = times;
@@ -171,11 +170,11 @@ impl Renderer {
         let work = OnThisThread((&mut self.core, &view, &s, src, initial));
         let (img, times) = py.allow_threads(move || {
             let (core, view, s, src, initial) = work.into_inner();
-            let times = match initial {
+            match initial {
                 // Not stepped yet: the scene's initial particles, from the host.
                 Some(p) => {
                     core.set_particles(&p.positions, None)?;
-                    core.render(view, s)?
+                    core.render_image(view, s, Hooks::default())
                 }
                 None => {
                     core.set_gpu_particles(n, (lo, hi))?;
@@ -184,10 +183,9 @@ impl Renderer {
                         let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
                         ctx.copy_buffer(src, out, region);
                     };
-                    core.render_with(view, s, Hooks { produce: Some(&copy), ..Default::default() })?
+                    core.render_image(view, s, Hooks { produce: Some(&copy), ..Default::default() })
                 }
-            };
-            Ok::<_, meniscus::Error>((core.read_final()?, times))
+            }
         })
         .map_err(py_err)?;
         self.times = times;

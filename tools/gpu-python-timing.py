@@ -1,0 +1,55 @@
+"""The Python package's per-call cost on a device (#46: `Renderer.render` at 1080p ≤ 6 ms per call): renders the
+59k dam-break frame through `meniscus.Renderer` and prints the wall time per call beside the GPU passes' times,
+then the live simulation's step + render and the positions read-back at 1M particles.
+
+Usage: python3 tools/gpu-python-timing.py FRAME.bgeo [--calls N]   (the GPU bundle's `python` step runs it)
+"""
+import argparse
+import sys
+import time
+
+import numpy as np
+
+import meniscus
+
+
+def per_call(fn, calls):
+    fn()  # the first call creates pipelines and images
+    fn()
+    t = []
+    for _ in range(calls):
+        t0 = time.perf_counter()
+        fn()
+        t.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(t))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("frame")
+    ap.add_argument("--calls", type=int, default=20)
+    a = ap.parse_args()
+    print("device:", meniscus.device_info())
+    d = meniscus.load(a.frame)
+    pts = d["positions"]
+    attrs = {"id": d["id"]} if "id" in d else None
+    cam = ((0.0, 2.5, 6.0), (0.0, 0.3, 0.0), 45.0)
+    for preset in ("default", "fast"):
+        for w, h in ((1920, 1080), (960, 540)):
+            r = meniscus.Renderer(w, h, preset=preset)
+            ms = per_call(lambda: r.render(pts, particle_radius=0.0125, camera=cam, attributes=attrs), a.calls)
+            gpu = sum(r.timings().values())
+            print(f"render 59k {preset} {w}x{h}: {ms:.2f} ms/call wall (median of {a.calls}), GPU passes {gpu:.2f} ms,"
+                  f" host share {ms - gpu:.2f} ms")
+            print("   ", {k: round(v, 3) for k, v in r.timings().items()})
+    sim = meniscus.Simulation("dambreak", particles=1_000_000)
+    r = meniscus.Renderer(1920, 1080)
+    ms = per_call(lambda: (sim.step(1), r.render(sim)), 10)
+    print(f"sim 1M step+render (default, 1080p): {ms:.2f} ms per frame; render passes {sum(r.timings().values()):.2f} ms")
+    ms = per_call(lambda: sim.positions(), 10)
+    print(f"positions() 1M read-back: {ms:.2f} ms")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
