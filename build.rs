@@ -45,6 +45,8 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
         ],
     ),
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
+    // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
+    ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),
     // The iso grid cells' empty distance, one axis per dispatch.
     ("iso_empty.comp", &[("X", "ISO_EMPTY_X"), ("Y", "ISO_EMPTY_Y"), ("Z", "ISO_EMPTY_Z")]),
 ];

@@ -179,6 +179,29 @@ impl<'t> FrameCtx<'t> {
         self.end_pass();
         r
     }
+
+    /// A part of the open pass (`name` = "pass/part"), timed on its own scope where the environment sets
+    /// `MENISCUS_PARTS=1` (what a pass's dispatches each cost, on a device; every part's timestamps drain the
+    /// pipeline, so the pass itself reads slower then), else simply `f`. Parts are not passes: frame totals
+    /// and per-queue sums leave them out ([`super::PassTimes::total`], [`is_part`]).
+    pub fn part<R>(&mut self, name: &str, f: impl FnOnce(&mut Self) -> R) -> R {
+        if parts_timed() {
+            self.pass(name, f)
+        } else {
+            f(self)
+        }
+    }
+}
+
+/// Whether `MENISCUS_PARTS=1` asks for the parts of passes to be timed ([`FrameCtx::part`]).
+pub fn parts_timed() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var("MENISCUS_PARTS").is_ok_and(|v| v == "1"))
+}
+
+/// Whether a timed scope is a part of a pass ("pass/part", [`FrameCtx::part`]) rather than a pass.
+pub fn is_part(name: &str) -> bool {
+    name.contains('/')
 }
 
 fn image_barrier(img: &Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {

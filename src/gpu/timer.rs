@@ -23,9 +23,9 @@ impl PassTimes {
     pub fn get(&self, name: &str) -> Option<f64> {
         self.0.iter().find(|(n, _)| n == name).map(|(_, t)| *t)
     }
-    /// Sum over all passes.
+    /// Sum over all passes (the parts of a pass, [`super::context::is_part`], are inside it).
     pub fn total(&self) -> f64 {
-        self.0.iter().map(|(_, t)| t).sum()
+        self.0.iter().filter(|(n, _)| !super::context::is_part(n)).map(|(_, t)| t).sum()
     }
 }
 

@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::compute::clear::Clear;
 use crate::declare_program;
 use crate::diffuse::{Kind, Params, Particle};
 use crate::error::Result;
@@ -85,6 +86,8 @@ impl DiffuseTargets {
 /// The pass: its compute program, built once per device.
 pub struct Diffuse {
     prog: ComputeProgram<Push>,
+    /// The two accumulators' clears.
+    clear: Clear,
 }
 
 /// The GPU layout of one diffuse particle: (xyz, billboard radius in world units), (velocity, kind + fade)
@@ -106,7 +109,7 @@ pub fn encode(p: &Particle, s: &Params, radius: f32) -> [[f32; 4]; 2] {
 impl Diffuse {
     /// Build the pass's pipeline (its slot list was checked against the shader at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Diffuse { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        Ok(Diffuse { prog: ComputeProgram::new(gpu, &PROGRAM)?, clear: Clear::new(gpu)? })
     }
 
     /// Draw the `diffuse` particles that follow the `count` fluid particles in `particles` (and, with `spray`,
@@ -125,8 +128,8 @@ impl Diffuse {
         radius: f32,
     ) {
         ctx.pass(NAME, |ctx| {
-            ctx.clear(&i.own.white, vk::ClearColorValue { uint32: [0; 4] });
-            ctx.clear(&i.own.bubbles, vk::ClearColorValue { uint32: [0; 4] });
+            self.clear.record(ctx, &i.own.white, 0);
+            self.clear.record(ctx, &i.own.bubbles, 0);
             let (buf, count) = particles;
             let push = Push {
                 count,

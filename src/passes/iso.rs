@@ -512,19 +512,23 @@ impl Iso {
         let n = b.shape.dims[3];
         let per_point = [n.div_ceil(super::LOCAL_1D), 1, 1];
         ctx.pass(VOLUME_NAME, |ctx| {
-            ctx.fill(&v.table, 0);
-            ctx.fill(&v.header, 0);
-            ctx.fill(&v.acc, 0);
+            ctx.part("iso_volume/clear", |ctx| {
+                ctx.fill(&v.table, 0);
+                ctx.fill(&v.header, 0);
+                ctx.fill(&v.acc, 0);
+            });
             let push = v.vol_push(p, n);
-            self.volume[0].dispatch(ctx, &[frame.into(), (&b.weighted).into(), (&v.table).into()], &push, per_point);
+            let mark = [frame.into(), (&b.weighted).into(), (&v.table).into()];
+            ctx.part("iso_volume/mark", |ctx| self.volume[0].dispatch(ctx, &mark, &push, per_point));
             let table = [(v.shape.table_len() as u32).div_ceil(super::LOCAL_1D), 1, 1];
             let alloc = [frame.into(), (&v.table).into(), (&v.header).into(), (&v.coords).into()];
-            self.volume[1].dispatch(ctx, &alloc, &push, table);
+            ctx.part("iso_volume/alloc", |ctx| self.volume[1].dispatch(ctx, &alloc, &push, table));
             let dep = [frame.into(), (&b.weighted).into(), (&b.counts).into(), (&v.table).into(), (&v.acc).into()];
-            self.volume[2].dispatch(ctx, &dep, &push, per_point);
+            ctx.part("iso_volume/deposit", |ctx| self.volume[2].dispatch(ctx, &dep, &push, per_point));
             let apron = [frame.into(), (&v.table).into(), (&v.coords).into(), (&v.header).into(), (&v.acc).into()];
             let stored = v.capacity as u64 * crate::field::iso::STORED_BRICK_VOXELS as u64;
-            self.volume[3].dispatch(ctx, &apron, &push, [stored.div_ceil(super::LOCAL_1D as u64) as u32, 1, 1]);
+            let groups = [stored.div_ceil(super::LOCAL_1D as u64) as u32, 1, 1];
+            ctx.part("iso_volume/apron", |ctx| self.volume[3].dispatch(ctx, &apron, &push, groups));
         });
     }
 
@@ -584,15 +588,17 @@ impl Iso {
                 (None, None) => (&self.cast, &self.rest),
             };
             let fine = push.fine[0] > 0.0;
-            (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g);
+            ctx.part("iso/cast", |ctx| (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g));
             if push.steps[3] < push.steps[0] {
-                rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0);
+                ctx.part("iso/rest", |ctx| rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0));
             }
             if fine {
                 let phase = |k: f32| IsoPush { fine: [push.fine[0], k, push.fine[2], push.fine[3]], ..push };
-                self.fine.dispatch(ctx, &all, &phase(0.0), g);
-                self.fine.dispatch(ctx, &all, &phase(1.0), g);
-                rest.dispatch_indirect(ctx, &all, &phase(1.0), &queue.header, 16);
+                ctx.part("iso/fine", |ctx| {
+                    self.fine.dispatch(ctx, &all, &phase(0.0), g);
+                    self.fine.dispatch(ctx, &all, &phase(1.0), g);
+                });
+                ctx.part("iso/fine_rest", |ctx| rest.dispatch_indirect(ctx, &all, &phase(1.0), &queue.header, 16));
             }
         });
     }

@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::compute::clear::Clear;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
@@ -213,6 +214,8 @@ pub struct Noise {
     small: u32,
     resolve: ComputeProgram<()>,
     apply: ComputeProgram<ApplyPush>,
+    /// The atlas's clear, each frame.
+    clear: Clear,
 }
 
 /// The images the pass reads and writes.
@@ -365,6 +368,7 @@ impl Noise {
         Ok(Noise {
             splat,
             small,
+            clear: Clear::new(gpu)?,
             resolve: ComputeProgram::new(gpu, &RESOLVE)?,
             apply: ComputeProgram::new(gpu, &APPLY)?,
         })
@@ -389,8 +393,10 @@ impl Noise {
     ) {
         let own = i.own;
         ctx.pass(NAME, |ctx| {
-            ctx.fill(&own.work, 0);
-            ctx.clear(&own.accum, vk::ClearColorValue { uint32: [0; 4] });
+            ctx.part("noise/clear", |ctx| {
+                ctx.fill(&own.work, 0);
+                self.clear.record(ctx, &own.accum, 0);
+            });
             let (buf, count) = particles;
             let tiles = tile_count(own.noise.extent.width, own.noise.extent.height);
             let push = SplatPush {
@@ -419,9 +425,9 @@ impl Noise {
                         (&own.accum).into(),
                         (&b.binned).into(),
                     ];
-                    bin.dispatch(ctx, &res, &push, groups);
+                    ctx.part("noise/bin", |ctx| bin.dispatch(ctx, &res, &push, groups));
                     let res = [(&b.tiles).into(), (&own.work).into(), (&b.args).into()];
-                    scan.dispatch(ctx, &res, &push, [1, 1, 1]);
+                    ctx.part("noise/scan", |ctx| scan.dispatch(ctx, &res, &push, [1, 1, 1]));
                     let res = [
                         (&b.sprites).into(),
                         (&b.binned).into(),
@@ -430,7 +436,7 @@ impl Noise {
                         (&b.tiles).into(),
                         (&b.lists).into(),
                     ];
-                    fill.dispatch_indirect(ctx, &res, &push, &b.args, 0);
+                    ctx.part("noise/fill", |ctx| fill.dispatch_indirect(ctx, &res, &push, &b.args, 0));
                     let res = [
                         frame.into(),
                         (&b.sprites).into(),
@@ -440,20 +446,20 @@ impl Noise {
                         (&own.accum).into(),
                         (&own.work).into(),
                     ];
-                    gather.dispatch_indirect(ctx, &res, &push, &b.args, 12);
+                    ctx.part("noise/gather", |ctx| gather.dispatch_indirect(ctx, &res, &push, &b.args, 12));
                 }
                 (Splat::Alone(splat), _) => {
                     let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
-                    splat.dispatch(ctx, &res, &push, groups);
+                    ctx.part("noise/splat", |ctx| splat.dispatch(ctx, &res, &push, groups));
                 }
                 // Bins too small for these particles: no noise this frame rather than lost writes.
                 (Splat::Tiled(_), None) => {}
             }
             let g = groups_2d(own.noise.extent.width, own.noise.extent.height, super::LOCAL_2D);
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
-            self.resolve.dispatch(ctx, &res, &(), g);
+            ctx.part("noise/resolve", |ctx| self.resolve.dispatch(ctx, &res, &(), g));
             let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
-            self.apply.dispatch(ctx, &res, &ApplyPush { strength: p.strength, edge }, g);
+            ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &ApplyPush { strength: p.strength, edge }, g));
         });
     }
 }

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::compute::clear::Clear;
 use crate::declare_program;
 use crate::error::{Error, Result};
 use crate::passes::FrameInfo;
@@ -39,6 +40,8 @@ pub use crate::shader_constants::SPLAT_TILE as TILE;
 pub struct Splat {
     prog: ComputeProgram<SplatPush>,
     cull: ComputeProgram<CullPush>,
+    /// The depth, tile and far-bound images' clears.
+    clear: Clear,
     /// Rasterised variants, by mode; None where the device lacks what the variant needs.
     raster: Vec<(SplatMode, Option<GraphicsProgram<RasterPush>>)>,
 }
@@ -146,7 +149,12 @@ impl Splat {
             };
             raster.push((mode, prog));
         }
-        Ok(Splat { prog: ComputeProgram::new(gpu, &SPLAT)?, cull: ComputeProgram::new(gpu, &CULL)?, raster })
+        Ok(Splat {
+            prog: ComputeProgram::new(gpu, &SPLAT)?,
+            cull: ComputeProgram::new(gpu, &CULL)?,
+            clear: Clear::new(gpu)?,
+            raster,
+        })
     }
 
     /// Whether `mode` can run on this device.
@@ -230,11 +238,13 @@ impl Splat {
             _ => depth,
         };
         ctx.pass(NAME, |ctx| {
-            ctx.clear(depth, vk::ClearColorValue { float32: [f32::INFINITY; 4] });
-            ctx.clear(tiles, vk::ClearColorValue { uint32: [f32::INFINITY.to_bits(); 4] });
-            if let Some(BackBound::Pixel(i) | BackBound::Tile(i)) = bound {
-                ctx.clear(i, vk::ClearColorValue { float32: [0.0; 4] });
-            }
+            ctx.part("splat/clear", |ctx| {
+                self.clear.record(ctx, depth, f32::INFINITY.to_bits());
+                self.clear.record(ctx, tiles, f32::INFINITY.to_bits());
+                if let Some(BackBound::Pixel(i) | BackBound::Tile(i)) = bound {
+                    self.clear.record(ctx, i, 0.0f32.to_bits());
+                }
+            });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             if cull {
                 let push = CullPush {
@@ -245,7 +255,7 @@ impl Splat {
                     size: [depth.extent.width, depth.extent.height],
                 };
                 let res = [frame.into(), particles.into(), tiles.into(), tile_back.into()];
-                self.cull.dispatch(ctx, &res, &push, groups);
+                ctx.part("splat/cull", |ctx| self.cull.dispatch(ctx, &res, &push, groups));
             }
             let push = SplatPush {
                 count,
@@ -257,7 +267,7 @@ impl Splat {
                 back: matches!(bound, Some(BackBound::Pixel(_))) as u32,
             };
             let res = [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into(), pixel_back.into()];
-            self.prog.dispatch(ctx, &res, &push, groups);
+            ctx.part("splat/spheres", |ctx| self.prog.dispatch(ctx, &res, &push, groups));
         });
         bound
     }

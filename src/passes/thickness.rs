@@ -2,8 +2,8 @@
 //! then a 2D Gaussian blur. Shaders: shaders_glsl/thickness.comp, shaders_glsl/thickness_blur.comp.
 use std::sync::Arc;
 
-use ash::vk;
 
+use crate::compute::clear::Clear;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
@@ -32,6 +32,8 @@ impl Default for Params {
 pub struct Thickness {
     accumulate: ComputeProgram<AccumulatePush>,
     blur: ComputeProgram<BlurPush>,
+    /// The accumulator's clear.
+    clear: Clear,
 }
 
 /// Push constants of thickness.comp.
@@ -65,7 +67,11 @@ declare_program!(pub BLUR: BlurPush = compute(shaders::THICKNESS_BLUR, [Uniform,
 impl Thickness {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Thickness { accumulate: ComputeProgram::new(gpu, &ACCUMULATE)?, blur: ComputeProgram::new(gpu, &BLUR)? })
+        Ok(Thickness {
+            accumulate: ComputeProgram::new(gpu, &ACCUMULATE)?,
+            blur: ComputeProgram::new(gpu, &BLUR)?,
+            clear: Clear::new(gpu)?,
+        })
     }
 
     /// `accum` (R32_UINT) is cleared and filled; `out` (R32_SFLOAT, world units) receives the blurred result.
@@ -85,7 +91,7 @@ impl Thickness {
         ellipsoids: Option<(&Buffer, f32)>,
     ) {
         ctx.pass(NAME, |ctx| {
-            ctx.clear(accum, vk::ClearColorValue { uint32: [0; 4] });
+            self.clear.record(ctx, accum, 0);
             let (kernels, stretch) = ellipsoids.unwrap_or((particles, 1.0));
             let push = AccumulatePush { count, ellipsoid: ellipsoids.is_some() as u32, stretch };
             let res = [frame.into(), particles.into(), scene_depth.into(), accum.into(), kernels.into()];

@@ -322,9 +322,12 @@ impl Series {
         self.host.push(host);
         // Per queue: the time its passes were busy; the union: first begin to last end over both queues
         // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
-        use meniscus::gpu::schedule::QueueId;
+        use meniscus::gpu::{context::is_part, schedule::QueueId};
         let busy =
-            |q: QueueId| spans.iter().filter(|x| x.queue == q).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum::<f64>();
+            |q: QueueId| {
+            let own = spans.iter().filter(|x| x.queue == q && !is_part(&x.name));
+            own.map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum::<f64>()
+        };
         self.main_ms.push(busy(QueueId::Main));
         self.compute_ms.push(busy(QueueId::Compute));
         let first = spans.iter().map(|x| x.begin_ns).fold(f64::INFINITY, f64::min);
