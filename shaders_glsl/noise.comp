@@ -36,6 +36,7 @@ layout(push_constant) uniform Push {
     float threshold; // velocity change (world units / s²)
     uint tiles;      // tiles of every level (the tiled splat)
     uint small;      // sprites of at most this many texels are not binned (noise_bin)
+    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
 } pc;
 #include "noise_splat.glsl"
 

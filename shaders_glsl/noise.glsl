@@ -22,9 +22,10 @@ float noise_reach(float amp) {
 }
 
 /// The accumulator level a sprite of radius R pixels is evaluated on (noise.comp): the coarsest whose texels
-/// (2^L pixels) still sample the finer octave (2·freq cycles per R) NOISE_LOD_SAMPLES times per cycle.
-int noise_level(float R, float freq) {
-    float texel = R / (2.0 * freq * float(NOISE_LOD_SAMPLES));
+/// (2^L pixels) still sample the finer octave (2·freq cycles per R) `samples` times per cycle ([noise]
+/// lod_samples).
+int noise_level(float R, float freq, float samples) {
+    float texel = R / (2.0 * freq * samples);
     return texel < 2.0 ? 0 : min(int(floor(log2(texel))), int(NOISE_LEVELS));
 }
 

@@ -33,6 +33,7 @@ layout(push_constant) uniform Push {
     float threshold;
     uint tiles;      // n: tiles of every level
     uint small;      // sprites of at most this many texels are splatted here, not binned
+    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
 } pc;
 #include "noise_splat.glsl"
 

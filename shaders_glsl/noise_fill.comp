@@ -23,6 +23,7 @@ layout(push_constant) uniform Push {
     float threshold;
     uint tiles;      // n: tiles of every level
     uint small;
+    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
 } pc;
 
 void main() {
@@ -32,7 +33,7 @@ void main() {
     ivec2 size = imageSize(depth);
     vec4 a = sprites[2u * i];
     // The sprite's level and rectangle, from its record (centre a.xy, radius a.z), as noise_bin found them.
-    int L = noise_level(a.z, pc.freq);
+    int L = noise_level(a.z, pc.freq, pc.lod);
     ivec2 lo, hi;
     noise_rect(a.xy, a.z, L, size, lo, hi);
     ivec2 t0 = lo / int(NOISE_TILE), t1 = hi / int(NOISE_TILE);

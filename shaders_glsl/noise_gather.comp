@@ -27,6 +27,7 @@ layout(push_constant) uniform Push {
     float threshold;
     uint tiles;      // n
     uint small;      // sprites of at most this many texels are not binned (noise_bin)
+    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
 } pc;
 #define NOISE_TERM_ONLY
 #include "noise_splat.glsl"

@@ -2,7 +2,7 @@
 //! (noise.comp: every sprite by its own thread, with atomics; noise_bin.comp + noise_gather.comp: sprites binned
 //! to tiles, each tile's texels summed by its own work group, no atomics). The sums are the same either way.
 //! Expects, declared before it: the particle buffer `particles`, the fluid depth image `depth`, and the push
-//! block `pc` (count, size, freq, falloff, calm, turbulent, threshold, tiles); with NOISE_TERM_ONLY defined only
+//! block `pc` (count, size, freq, falloff, calm, turbulent, threshold, tiles, small, lod); with NOISE_TERM_ONLY defined only
 //! the texel term (`noise_term`), which needs `pc` alone. `noise_splat_alone` needs the atlas `accum` too. NVIDIA patent US 8,947,430 (eq.
 //! 15–17; method.md §8); the level of detail and the depth cut are noise.glsl's.
 
@@ -35,7 +35,7 @@ bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     // Sprite centre and radius in pixels (pixel_dir's convention: pixel p's centre is at p + 0.5).
     s.centre = vec2(0.5 * size.x + F * pt.c.x / s.z - 0.5, 0.5 * size.y - F * pt.c.y / s.z - 0.5);
     s.R = F * pc.size * r / s.z;
-    s.L = noise_level(s.R, pc.freq);
+    s.L = noise_level(s.R, pc.freq, pc.lod);
     noise_rect(s.centre, s.R, s.L, size, s.lo, s.hi);
     s.amp = noise_amplitude(motion.y, pc.calm, pc.turbulent, pc.threshold);
     s.reach = noise_reach(s.amp);

@@ -16,9 +16,10 @@ pub const SSR_MISS: u32 = 0xffff_ffff;
 /// Per-thread pixel budget of the particle passes: a sphere covering more (it swallowed the camera) is skipped.
 pub const MAX_PIXELS_PER_PARTICLE: u32 = 1 << 20;
 /// Coarser levels of the `noise` pass's accumulator (level L holds texels of 2^L × 2^L pixels): a sprite is
-/// evaluated at the finest level that still samples its finer octave NOISE_LOD_SAMPLES times per cycle.
+/// evaluated at the coarsest level that still samples its finer octave `[noise] lod_samples` times per cycle.
 pub const NOISE_LEVELS: u32 = 6;
-/// Samples per cycle of the noise's finer octave at which a sprite is evaluated (`noise` pass's level of detail).
+/// The most samples per cycle of the noise's finer octave a sprite's level keeps (`[noise] lod_samples`, the
+/// `noise` pass's level of detail; default 4): NOISE_MAX_TILES assumes no more.
 pub const NOISE_LOD_SAMPLES: u32 = 6;
 /// Texels per edge of a tile of the `noise` pass's tiled splat (a 16×16 work group sums one tile).
 pub const NOISE_TILE: u32 = 16;

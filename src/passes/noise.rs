@@ -47,6 +47,12 @@ pub struct Params {
     pub threshold: f32,
     /// Scale of the noise's slopes added to the normals.
     pub strength: f32,
+    /// Level of detail: a sprite is evaluated on the coarsest level of the accumulator (texels of 2^L pixels)
+    /// that still samples its finer octave this many times per cycle, and interpolated from there (2 …
+    /// NOISE_LOD_SAMPLES = 6). Fewer: fewer texels evaluated (a quarter per level) and softer small waves. At 4
+    /// (level 1 from sprites of 12.8 px radius) the 59k sequence at 1080p evaluates 3.5× fewer texels than at 6
+    /// and its image differs by 0.04 / 255 on average (0.08 % of pixels by more than 8 / 255) at a close camera.
+    pub lod_samples: f32,
     /// |N| (radii) where the foam tint starts …
     pub foam_from: f32,
     /// … and where it is full.
@@ -68,6 +74,7 @@ impl Default for Params {
             turbulent: 0.6,
             threshold: 10.0,
             strength: 1.0,
+            lod_samples: 4.0,
             foam_from: 0.12,
             foam_full: 0.5,
             foam: 0.85,
@@ -100,6 +107,10 @@ impl Params {
         non_neg("turbulent", self.turbulent, 8.0)?;
         pos("threshold", self.threshold, 1e9)?;
         non_neg("strength", self.strength, 64.0)?;
+        let most = crate::shader_constants::NOISE_LOD_SAMPLES as f32;
+        if !(2.0..=most).contains(&self.lod_samples) {
+            return Err(("lod_samples", format!("[noise] lod_samples = {} is out of range (2 ≤ lod_samples ≤ {most})", self.lod_samples)));
+        }
         non_neg("foam_from", self.foam_from, 64.0)?;
         pos("foam_full", self.foam_full, 64.0)?;
         if self.foam_full <= self.foam_from {
@@ -135,6 +146,8 @@ pub struct SplatPush {
     pub tiles: u32,
     /// Sprites of at most this many texels are splatted with atomics rather than binned ([`SMALL_SPRITE`]).
     pub small: u32,
+    /// [`Params::lod_samples`].
+    pub lod: f32,
 }
 
 /// The tiled splat bins only sprites of more texels than this; smaller ones are splatted by their own thread
@@ -409,6 +422,7 @@ impl Noise {
                 threshold: p.threshold,
                 tiles,
                 small: self.small,
+                lod: p.lod_samples,
             };
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             match (&self.splat, own.bins.as_ref().filter(|b| b.particles >= count)) {
@@ -671,5 +685,8 @@ mod tests {
         assert!(p.check().is_ok());
         assert_eq!(Params { size: 0.0, ..p.clone() }.check().unwrap_err().0, "size");
         assert_eq!(Params { foam_full: 0.1, ..p.clone() }.check().unwrap_err().0, "foam_full");
+        assert_eq!(Params { lod_samples: 1.5, ..p.clone() }.check().unwrap_err().0, "lod_samples");
+        assert_eq!(Params { lod_samples: 8.0, ..p.clone() }.check().unwrap_err().0, "lod_samples");
+        assert!(Params { lod_samples: 3.0, ..p.clone() }.check().is_ok());
     }
 }
