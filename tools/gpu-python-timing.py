@@ -41,7 +41,8 @@ def main():
             gpu = sum(r.timings().values())
             print(f"render 59k {preset} {w}x{h}: {ms:.2f} ms/call wall (median of {a.calls}), GPU passes {gpu:.2f} ms,"
                   f" host share {ms - gpu:.2f} ms")
-            print("   ", {k: round(v, 3) for k, v in r.timings().items()})
+            print("    GPU:", {k: round(v, 3) for k, v in r.timings().items()})
+            print("    host:", {k: round(v, 3) for k, v in r.host_timings().items()})
     sim = meniscus.Simulation("dambreak", particles=1_000_000)
     r = meniscus.Renderer(1920, 1080)
     ms = per_call(lambda: (sim.step(1), r.render(sim)), 10)

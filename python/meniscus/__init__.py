@@ -129,6 +129,13 @@ class Renderer:
         """The last frame's GPU time of each pass in milliseconds (the frame's order)."""
         return dict(self._r.timings())
 
+    def host_timings(self) -> Dict[str, float]:
+        """The last `render` of an array's host stages in milliseconds: "arrays" (read, camera framed),
+        "upload" (particles set), the renderer's "prepare", "slot_wait", "stage", "record", "submit" (as `meniscus
+        bench` reports them), "wait_and_readback" (the GPU's frame and the image's copy out of it) and
+        "to_numpy"."""
+        return dict(self._r.host_timings())
+
 
 class Simulation:
     """The GPU fluid simulation of a built-in scene: "dambreak", "drop", "waterfall" or "pool" (`sim_scenes()`),

@@ -81,6 +81,8 @@ struct Renderer {
     settings: Settings,
     size: (u32, u32),
     times: PassTimes,
+    /// The last `render`'s host stages, ms.
+    host: Vec<(String, f64)>,
 }
 
 #[pymethods]
@@ -93,7 +95,8 @@ impl Renderer {
         }
         let s = settings(preset, settings_file)?;
         let gpu = crate::device(device)?;
-        Ok(Renderer { core: Core::new(&gpu).map_err(py_err)?, settings: s, size: (width, height), times: PassTimes::default() })
+        let core = Core::new(&gpu).map_err(py_err)?;
+        Ok(Renderer { core, settings: s, size: (width, height), times: PassTimes::default(), host: vec![] })
     }
 
     /// Render particles; returns the image as H×W×4 RGBA bytes.
@@ -112,6 +115,7 @@ impl Renderer {
         ids: Option<PyReadonlyArray1<i64>>,
         foam: Option<PyRef<'_, Foam>>,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        let t0 = std::time::Instant::now();
         let mut s = self.settings.clone();
         s.radius = radius;
         s.validate().map_err(py_err)?;
@@ -130,18 +134,38 @@ impl Renderer {
         let view = View::around(&bounds, crate::camera(camera)?, self.size.0, self.size.1, &s);
         view.camera.check().map_err(py_err)?;
         let diffuse: &[meniscus::diffuse::Particle] = foam.as_ref().map_or(&[], |f| f.live.particles());
+        let arrays = ms(t0);
         let work = OnThisThread((&mut self.core, &p, &view, &s, diffuse));
-        let (img, times) = py.allow_threads(move || {
+        let (img, times, upload, frame) = py.allow_threads(move || {
             let (core, p, view, s, diffuse) = work.into_inner();
+            let t1 = std::time::Instant::now();
             core.set_scene_particles(p, s)?;
             if !diffuse.is_empty() || core.diffuse_count() > 0 {
                 core.set_diffuse(diffuse, s)?;
             }
-            core.render_image(view, s, Hooks::default())
+            let upload = ms(t1);
+            let t2 = std::time::Instant::now();
+            let (img, times) = core.render_image(view, s, Hooks::default())?;
+            Ok::<_, meniscus::Error>((img, times, upload, ms(t2)))
         })
         .map_err(py_err)?;
         self.times = times;
-        image_array(py, img)
+        let t3 = std::time::Instant::now();
+        let out = image_array(py, img);
+        let h = self.core.host_times();
+        let before = h.prepare + h.slot_wait + h.stage + h.record + h.submit;
+        self.host = vec![
+            ("arrays".into(), arrays),
+            ("upload".into(), upload),
+            ("prepare".into(), h.prepare),
+            ("slot_wait".into(), h.slot_wait),
+            ("stage".into(), h.stage),
+            ("record".into(), h.record),
+            ("submit".into(), h.submit),
+            ("wait_and_readback".into(), (frame - before).max(0.0)),
+            ("to_numpy".into(), ms(t3)),
+        ];
+        out
     }
 
     /// Render a simulation's particles where they are, on the device (copied on the GPU, never through the
@@ -220,6 +244,18 @@ impl Renderer {
     fn timings(&self) -> Vec<(String, f64)> {
         self.times.0.clone()
     }
+
+    /// The last `render` of an array's host stages, in milliseconds: the arrays read and the camera framed,
+    /// the particles set, the renderer's own stages (as `meniscus bench` reports them), the wait for the GPU
+    /// with the image's copy out of the frame's read-back buffer, and the NumPy array made of it.
+    fn host_timings(&self) -> Vec<(String, f64)> {
+        self.host.clone()
+    }
+}
+
+/// Milliseconds since `t`.
+fn ms(t: std::time::Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
 }
 
 fn image_array(py: Python<'_>, img: image::RgbaImage) -> PyResult<Bound<'_, PyArray3<u8>>> {

@@ -37,6 +37,10 @@ def test_render_equals_the_cli_png(cli, frame, tmp_path, preset):
     assert np.array_equal(r.render(pos.astype(np.float64), particle_radius=0.025, camera=CAM, attributes=ids), want)
     t = r.timings()
     assert "composite" in t and all(v >= 0 for v in t.values())
+    # The host's stages of the same call, by name.
+    h = r.host_timings()
+    assert list(h) == ["arrays", "upload", "prepare", "slot_wait", "stage", "record", "submit", "wait_and_readback",
+                       "to_numpy"] and all(v >= 0 for v in h.values())
 
 
 def test_render_buffers_and_a_view_matrix(frame):
