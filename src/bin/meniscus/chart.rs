@@ -25,7 +25,9 @@ const FONT_PATHS: &[&str] = &[
 fn register_font() -> Result<()> {
     static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *ONCE.get_or_init(|| {
-        for p in FONT_PATHS {
+        // MENISCUS_FONT: a TTF file of one's own (a machine without fonts, such as the GPU bundle's).
+        let own = std::env::var("MENISCUS_FONT").ok();
+        for p in own.as_deref().into_iter().chain(FONT_PATHS.iter().copied()) {
             if let Ok(bytes) = std::fs::read(p) {
                 let leaked: &'static [u8] = Box::leak(bytes.into_boxed_slice());
                 if plotters::style::register_font("sans-serif", FontStyle::Normal, leaked).is_ok() {
@@ -38,7 +40,9 @@ fn register_font() -> Result<()> {
     if ok {
         Ok(())
     } else {
-        Err(Error::Invalid("the chart needs a TTF font: apt-get install fonts-dejavu-core".into()))
+        Err(Error::Invalid(
+            "the chart needs a TTF font: apt-get install fonts-dejavu-core, or MENISCUS_FONT=path/to/font.ttf".into(),
+        ))
     }
 }
 
