@@ -101,7 +101,8 @@ impl ParticleSet {
         self.count = n as u32;
         self.restage();
         self.positions = positions.to_vec();
-        self.spray = spray.map(|s| s.to_vec());
+        // Kept only where a particle is marked (every frame asks whether any is).
+        self.spray = spray.filter(|s| s.iter().any(|&x| x)).map(|s| s.to_vec());
         self.generation += 1;
         Ok(())
     }
@@ -207,7 +208,7 @@ impl ParticleSet {
 
     /// Whether any particle is marked as spray.
     pub fn has_spray(&self) -> bool {
-        self.spray.as_ref().is_some_and(|s| s.iter().any(|&x| x))
+        self.spray.is_some()
     }
 
     /// The positions of the particles that make the surface (spray left out).
