@@ -90,7 +90,8 @@ class Renderer:
         1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks and "id"
         (N integers, as `load` returns a file's) to seed each particle's surface noise as the CLI does (else the
         index). Each call is one still frame: the noise keeps its calm amplitude. `foam`: a `Foam` whose spray,
-        foam and bubbles are drawn with the particles."""
+        foam and bubbles are drawn with the particles. The same particles as the last call's (equal arrays, radius
+        and spray settings) are not uploaded again: rendering one frame from many cameras pays its upload once."""
         if isinstance(positions, Simulation):
             img = self._r.render_sim(positions._s, _camera(camera))
         else:

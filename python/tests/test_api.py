@@ -219,3 +219,20 @@ def test_simulation_with_dfsph_reports_its_solves(cli, tmp_path):
     assert meniscus.Simulation("dambreak", particles=2000).solver == "pbf"
     with pytest.raises(ValueError, match="dfsph"):
         meniscus.Simulation("dambreak", particles=2000, solver="sph")
+
+
+def test_render_of_the_same_particles_again_is_the_same_and_a_change_is_seen(frame):
+    """The renderer keeps the last array's particles and does not upload equal ones again: the image is the same;
+    a changed array (even a copy changed in place) is uploaded and drawn as a new renderer draws it."""
+    r = meniscus.Renderer(96, 64)
+    pos = meniscus.load(frame)["positions"]
+    a = r.render(pos, particle_radius=0.025, camera=CAM)
+    assert np.array_equal(a, r.render(pos.copy(), particle_radius=0.025, camera=CAM))
+    moved = pos.copy()
+    moved[:, 1] += 0.05
+    c = r.render(moved, particle_radius=0.025, camera=CAM)
+    assert not np.array_equal(a, c)
+    assert np.array_equal(c, meniscus.Renderer(96, 64).render(moved, particle_radius=0.025, camera=CAM))
+    # Another radius is another set of particles.
+    d = r.render(moved, particle_radius=0.03, camera=CAM)
+    assert np.array_equal(d, meniscus.Renderer(96, 64).render(moved, particle_radius=0.03, camera=CAM))
