@@ -44,8 +44,15 @@ pub struct ParticleSet {
     positions: Vec<[f32; 3]>,
     spray: Option<Vec<bool>>,
     generation: u64,
-    /// The last [`ParticleSet::nearest_depth`]: for (generation, view matrix, radius), its value.
-    nearest: std::sync::Mutex<Option<(u64, [u32; 16], u32, f32)>>,
+    /// The last [`ParticleSet::nearest_depth`].
+    nearest: std::sync::Mutex<Option<NearestDepth>>,
+}
+
+/// A nearest particle depth and what it was computed for (particle set, view matrix and radius bits).
+#[derive(Clone, Copy, PartialEq)]
+struct NearestDepth {
+    key: (u64, [u32; 16], u32),
+    depth: f32,
 }
 
 impl ParticleSet {
@@ -238,10 +245,8 @@ impl ParticleSet {
         let m = view.camera.view();
         let key = (self.generation, m.to_cols_array().map(f32::to_bits), radius.to_bits());
         let mut last = self.nearest.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((g, v, r, d)) = *last {
-            if (g, v, r) == key {
-                return d.max(view.camera.near);
-            }
+        if let Some(n) = last.filter(|n| n.key == key) {
+            return n.depth.max(view.camera.near);
         }
         let d = self
             .positions
@@ -250,7 +255,7 @@ impl ParticleSet {
             .map(|p| -(m.transform_point3(glam::Vec3::from(*p)).z) - radius)
             .filter(|d| *d > -radius)
             .reduce(|| f32::INFINITY, f32::min);
-        *last = Some((key.0, key.1, key.2, d));
+        *last = Some(NearestDepth { key, depth: d });
         d.max(view.camera.near)
     }
 

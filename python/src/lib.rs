@@ -92,7 +92,13 @@ struct Renderer {
 impl Renderer {
     #[new]
     #[pyo3(signature = (width, height, device=None, preset="default", settings_file=None))]
-    fn new(width: u32, height: u32, device: Option<String>, preset: &str, settings_file: Option<&str>) -> PyResult<Self> {
+    fn new(
+        width: u32,
+        height: u32,
+        device: Option<String>,
+        preset: &str,
+        settings_file: Option<&str>,
+    ) -> PyResult<Self> {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(PyValueError::new_err(format!("size {width}×{height} is out of range (1 … 16384 each)")));
         }
@@ -141,21 +147,22 @@ impl Renderer {
         let key = (s.radius.to_bits(), s.spray.clone());
         let held = self.held.as_ref().is_some_and(|(q, r, sp)| *r == key.0 && *sp == key.1 && *q == p);
         let work = OnThisThread((&mut self.core, &p, &view, &s, diffuse));
-        let (img, times, upload, frame) = py.allow_threads(move || {
-            let (core, p, view, s, diffuse) = work.into_inner();
-            let t1 = std::time::Instant::now();
-            if !held {
-                core.set_scene_particles(p, s)?;
-            }
-            if !diffuse.is_empty() || core.diffuse_count() > 0 {
-                core.set_diffuse(diffuse, s)?;
-            }
-            let upload = ms(t1);
-            let t2 = std::time::Instant::now();
-            let (img, times) = core.render_image(view, s, Hooks::default())?;
-            Ok::<_, meniscus::Error>((img, times, upload, ms(t2)))
-        })
-        .map_err(py_err)?;
+        let (img, times, upload, frame) = py
+            .allow_threads(move || {
+                let (core, p, view, s, diffuse) = work.into_inner();
+                let t1 = std::time::Instant::now();
+                if !held {
+                    core.set_scene_particles(p, s)?;
+                }
+                if !diffuse.is_empty() || core.diffuse_count() > 0 {
+                    core.set_diffuse(diffuse, s)?;
+                }
+                let upload = ms(t1);
+                let t2 = std::time::Instant::now();
+                let (img, times) = core.render_image(view, s, Hooks::default())?;
+                Ok::<_, meniscus::Error>((img, times, upload, ms(t2)))
+            })
+            .map_err(py_err)?;
         if !held {
             self.held = Some((p, key.0, key.1));
         }
@@ -204,26 +211,27 @@ impl Renderer {
         let first = sim.core.frames == 0;
         let initial = if first { Some(sim.core.read().map_err(py_err)?) } else { None };
         let work = OnThisThread((&mut self.core, &view, &s, src, initial));
-        let (img, times) = py.allow_threads(move || {
-            let (core, view, s, src, initial) = work.into_inner();
-            match initial {
-                // Not stepped yet: the scene's initial particles, from the host.
-                Some(p) => {
-                    core.set_particles(&p.positions, None)?;
-                    core.render_image(view, s, Hooks::default())
+        let (img, times) = py
+            .allow_threads(move || {
+                let (core, view, s, src, initial) = work.into_inner();
+                match initial {
+                    // Not stepped yet: the scene's initial particles, from the host.
+                    Some(p) => {
+                        core.set_particles(&p.positions, None)?;
+                        core.render_image(view, s, Hooks::default())
+                    }
+                    None => {
+                        core.set_gpu_particles(n, (lo, hi))?;
+                        let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
+                            let size = n as u64 * meniscus::particles::BYTES_PER_PARTICLE;
+                            let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
+                            ctx.copy_buffer(src, out, region);
+                        };
+                        core.render_image(view, s, Hooks { produce: Some(&copy), ..Default::default() })
+                    }
                 }
-                None => {
-                    core.set_gpu_particles(n, (lo, hi))?;
-                    let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
-                        let size = n as u64 * meniscus::particles::BYTES_PER_PARTICLE;
-                        let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
-                        ctx.copy_buffer(src, out, region);
-                    };
-                    core.render_image(view, s, Hooks { produce: Some(&copy), ..Default::default() })
-                }
-            }
-        })
-        .map_err(py_err)?;
+            })
+            .map_err(py_err)?;
         self.times = times;
         image_array(py, img)
     }
@@ -307,11 +315,7 @@ impl Simulation {
             None => params.solver,
             Some("pbf") => meniscus::sim::Solver::Pbf,
             Some("dfsph") => meniscus::sim::Solver::Dfsph,
-            Some(other) => {
-                return Err(PyValueError::new_err(format!(
-                    "solver {other:?}: \"pbf\" or \"dfsph\""
-                )))
-            }
+            Some(other) => return Err(PyValueError::new_err(format!("solver {other:?}: \"pbf\" or \"dfsph\""))),
         };
         params.validate().map_err(py_err)?;
         let gpu = crate::device(device)?;
@@ -471,10 +475,7 @@ type EdgeArrays<'py> = (Bound<'py, PyArray2<u32>>, Bound<'py, PyArray1<u32>>);
 /// A triangle mesh's edges as Blender stores them: every distinct edge once (vertex pairs, in the order of their
 /// sorted keys) and, per corner of each triangle, the edge from that corner to the next.
 #[pyfunction]
-fn mesh_edges<'py>(
-    py: Python<'py>,
-    triangles: PyReadonlyArray2<u32>,
-) -> PyResult<EdgeArrays<'py>> {
+fn mesh_edges<'py>(py: Python<'py>, triangles: PyReadonlyArray2<u32>) -> PyResult<EdgeArrays<'py>> {
     let t = triangles.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous M×3 uint32 array"))?;
     if t.len() % 3 != 0 || t.len() / 3 > (u32::MAX / 3) as usize {
         return Err(PyValueError::new_err("triangles: expected an M×3 array"));
@@ -560,8 +561,7 @@ impl UsdStage {
         if v.len() != p.len() || wd.len() != p.len() || k.len() != p.len() {
             return Err(PyValueError::new_err("velocities, widths and kinds: one per point"));
         }
-        let frame =
-            meniscus::export::usd::PointsFrame { positions: &p, velocities: &v, widths: &wd, kinds: &k };
+        let frame = meniscus::export::usd::PointsFrame { positions: &p, velocities: &v, widths: &wd, kinds: &k };
         w.add_points(time, &frame).map_err(py_err)
     }
 
@@ -639,8 +639,7 @@ fn sequence<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyDict>> {
         }
     };
     let d = PyDict::new(py);
-    let list: Vec<(u64, String)> =
-        frames.iter().map(|f| (f.number, f.path.to_string_lossy().into_owned())).collect();
+    let list: Vec<(u64, String)> = frames.iter().map(|f| (f.number, f.path.to_string_lossy().into_owned())).collect();
     d.set_item("frames", list)?;
     d.set_item("radius", radius)?;
     d.set_item("radius_from", from)?;

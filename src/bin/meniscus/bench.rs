@@ -323,8 +323,7 @@ impl Series {
         // Per queue: the time its passes were busy; the union: first begin to last end over both queues
         // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
         use meniscus::gpu::{context::is_part, schedule::QueueId};
-        let busy =
-            |q: QueueId| {
+        let busy = |q: QueueId| {
             let own = spans.iter().filter(|x| x.queue == q && !is_part(&x.name));
             own.map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum::<f64>()
         };
