@@ -132,7 +132,7 @@ fn main() -> meniscus::Result<()> {
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);
                     let noise = meniscus::passes::noise::Params::default();
-                    let diffuse = meniscus::diffuse::Params::default();
+                    let diffuse = meniscus::diffuse::params::Params::default();
                     r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &diffuse, &t.final_color);
                     Ok(())
                 })

@@ -123,7 +123,7 @@ pub struct Settings {
     /// `[noise]`: the patent's waves and foam on the surface.
     pub noise: crate::passes::noise::Params,
     /// `[diffuse]`: spray, foam and bubbles — how they are generated and drawn.
-    pub diffuse: crate::diffuse::Params,
+    pub diffuse: crate::diffuse::params::Params,
     /// `[ssr]`: screen-space reflections.
     pub ssr: crate::passes::ssr::Params,
     /// `[composite]`: shading.

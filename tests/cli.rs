@@ -533,7 +533,7 @@ fn sim_exports_a_cache_that_loads_and_renders() {
         // The live diffuse particles: a file per frame that loads (the first frame spawns only from still water).
         assert!(err.contains("files of diffuse particles"), "{err}");
         for n in 1..=4 {
-            meniscus::diffuse::load(&d.join(format!("foam/d_{n}.{ext}"))).unwrap();
+            meniscus::diffuse::io::load(&d.join(format!("foam/d_{n}.{ext}"))).unwrap();
         }
         assert!(err.contains("sim_solve") && err.contains("steps/s"), "no per-stage times: {err}");
         let first = meniscus::scene::load(&d.join(format!("f_1.{ext}"))).unwrap();

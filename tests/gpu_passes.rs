@@ -1524,7 +1524,7 @@ fn composite_matches_cpu_reference() {
         };
         // Without the noise and diffuse passes: no foam (no images, the tint's weight is 0).
         let noise = meniscus::passes::noise::Params { enabled: false, ..Default::default() };
-        let diffuse = meniscus::diffuse::Params::default();
+        let diffuse = meniscus::diffuse::params::Params::default();
         r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &diffuse, &t.final_color);
         Ok(())
     })

@@ -186,7 +186,7 @@ fn foam_export_and_generated_foam_render_the_same_frames() {
     let last: Vec<usize> =
         table.lines().last().unwrap().split('\t').skip(1).map(|c| c.parse().unwrap()).collect::<Vec<_>>();
     assert!(last[0] + last[1] + last[2] > 100, "too few diffuse particles to test: {table}");
-    let f12 = meniscus::diffuse::load(&d.join("foam/f_0012.bgeo")).unwrap();
+    let f12 = meniscus::diffuse::io::load(&d.join("foam/f_0012.bgeo")).unwrap();
     assert_eq!(f12.len(), last[0] + last[1] + last[2], "the file holds what the table says");
     let split = d.join("split").join("f_{}.bgeo").to_string_lossy().into_owned();
     let o =
@@ -194,7 +194,7 @@ fn foam_export_and_generated_foam_render_the_same_frames() {
     assert!(o.status.success(), "{}", stderr(&o));
     let parts: usize = ["foam", "spray", "bubbles"]
         .iter()
-        .map(|k| meniscus::diffuse::load(&d.join(format!("split/f_0012_{k}.bgeo"))).unwrap().len())
+        .map(|k| meniscus::diffuse::io::load(&d.join(format!("split/f_0012_{k}.bgeo"))).unwrap().len())
         .sum();
     assert_eq!(parts, f12.len(), "the split files add up to the whole frame");
     let (gen, read, sharded, plain) = (d.join("gen"), d.join("read"), d.join("sharded"), d.join("plain"));

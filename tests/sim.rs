@@ -241,8 +241,8 @@ fn a_resting_pool_stays_at_rest() {
     let frames = (2.0 * sim.params.fps) as usize;
     let mut rms_at = vec![];
     // Diffuse particles (Ihmsen 2012, calibrated as the run goes): a resting pool generates none, on the CPU
-    // (diffuse::Live) or in the simulation's GPU stages.
-    let mut live = meniscus::diffuse::Live::new(&Default::default(), sim.params.fps);
+    // (diffuse::generator::Live) or in the simulation's GPU stages.
+    let mut live = meniscus::diffuse::generator::Live::new(&Default::default(), sim.params.fps);
     sim.set_diffuse(Some(&Default::default())).unwrap();
     let mut spawned = 0;
     for f in 0..frames {
@@ -370,7 +370,7 @@ fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
     let mut sim = Simulation::new(&gpu, scene, Params::default()).unwrap();
     let tank = 4.0;
     let mut worst = 0f32;
-    let mut live = meniscus::diffuse::Live::new(&Default::default(), sim.params.fps);
+    let mut live = meniscus::diffuse::generator::Live::new(&Default::default(), sim.params.fps);
     for (t, file) in [(0.2, 6), (0.4, 11), (0.6, 16)] {
         while sim.time < t - 1e-6 {
             sim.step_frame().unwrap();
@@ -466,7 +466,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
 }
 
 /// The flicker figure of the diffuse layer (#37): a waterfall — a steady flow once its stream runs — is
-/// simulated, its spray, foam and bubbles generated as the run goes (`diffuse::Live`) and drawn. The figure is
+/// simulated, its spray, foam and bubbles generated as the run goes (`diffuse::generator::Live`) and drawn. The figure is
 /// the mean absolute change of the layer's coverage from one frame to the next, summed over 8×8-pixel blocks
 /// (so a particle drifting within a block is not counted, one popping in or out is), relative to the mean
 /// coverage. Particles fade in over their first 0.12 s and out over their last 0.5 s.
@@ -477,7 +477,7 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
     let scene = SimScene::new("waterfall", 8000).unwrap();
     let (lo, hi) = scene.container;
     let mut sim = Simulation::new(&gpu, scene, Params::default()).unwrap();
-    let mut live = meniscus::diffuse::Live::new(&Default::default(), sim.params.fps);
+    let mut live = meniscus::diffuse::generator::Live::new(&Default::default(), sim.params.fps);
     let mut s = common::settings(sim.radius());
     s.diffuse.enabled = true;
     let (w, h) = (160usize, 96usize);
@@ -529,7 +529,7 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
     common::assert_clean(&gpu);
 }
 
-/// The live diffuse stages on the GPU (`sim::diffuse`) against the CPU model (`diffuse::Live`: the same
+/// The live diffuse stages on the GPU (`sim::diffuse`) against the CPU model (`diffuse::generator::Live`: the same
 /// equations, the same running limits, the same slots per fluid particle) on the state each frame leaves: a dam
 /// break of 6,000 particles, frames 1–12. The GPU pool and the CPU's particles match one to one by (source,
 /// spawn id), with equal kinds and positions within float rounding; a second run gives the same pool bit for bit.
@@ -539,9 +539,9 @@ fn diffuse_stages_match_the_cpu_model() {
     let gpu = common::gpu();
     let run = |frames: usize, check: bool| {
         let mut sim = Simulation::new(&gpu, SimScene::new("dambreak", 6000).unwrap(), Params::default()).unwrap();
-        let params = meniscus::diffuse::Params::default();
+        let params = meniscus::diffuse::params::Params::default();
         sim.set_diffuse(Some(&params)).unwrap();
-        let mut live = meniscus::diffuse::Live::new(&params, sim.params.fps);
+        let mut live = meniscus::diffuse::generator::Live::new(&params, sim.params.fps);
         let mut worst = 0f32;
         let (mut matched, mut total) = (0usize, 0usize);
         for f in 0..frames {

@@ -1,6 +1,6 @@
 //! `meniscus._meniscus`: the native half of the Python package — thin wrappers of the library (no logic of the
 //! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), spray, foam and bubbles (`Foam`:
-//! `meniscus::diffuse::Live`), surface reconstruction (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
+//! `meniscus::diffuse::generator::Live`), surface reconstruction (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
 //! and are read in place; the GIL is released while the GPU or the CPU extraction works; library errors become
 //! `ValueError` (bad input), `OSError` (files) or `RuntimeError` (the device).
 
@@ -681,11 +681,11 @@ fn sim_scenes() -> Vec<(&'static str, usize, &'static str)> {
     meniscus::sim::SCENES.to_vec()
 }
 
-/// Spray, foam and bubbles of a simulation stepped by the caller (`meniscus::diffuse::Live`: Ihmsen et al. 2012,
+/// Spray, foam and bubbles of a simulation stepped by the caller (`meniscus::diffuse::generator::Live`: Ihmsen et al. 2012,
 /// its limits calibrated as the run goes).
 #[pyclass(unsendable, module = "meniscus._meniscus")]
 struct Foam {
-    live: meniscus::diffuse::Live,
+    live: meniscus::diffuse::generator::Live,
     radius: f32,
 }
 
@@ -699,7 +699,7 @@ impl Foam {
         }
         let params = settings("default", settings_file)?.diffuse;
         params.check().map_err(|(_, reason)| PyValueError::new_err(reason))?;
-        Ok(Foam { live: meniscus::diffuse::Live::new(&params, fps), radius })
+        Ok(Foam { live: meniscus::diffuse::generator::Live::new(&params, fps), radius })
     }
 
     /// The next frame of fluid (positions and velocities N×3, ids N or None: the index); releases the GIL.

@@ -196,10 +196,10 @@ pub fn write(path: &Path, grids: &[Grid]) -> Result<()> {
 /// A version-4-shaped UUID from the time and the process (the file's identity; not a security token).
 fn uuid() -> String {
     let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
-    let a = crate::diffuse::hash4(t as u32, (t >> 32) as u32, std::process::id(), 0x5644_4220);
-    let b = crate::diffuse::hash4(a, (t >> 64) as u32, 1, 2);
-    let c = crate::diffuse::hash4(b, a, 3, 4);
-    let d = crate::diffuse::hash4(c, b, 5, 6);
+    let a = crate::diffuse::generator::hash4(t as u32, (t >> 32) as u32, std::process::id(), 0x5644_4220);
+    let b = crate::diffuse::generator::hash4(a, (t >> 64) as u32, 1, 2);
+    let c = crate::diffuse::generator::hash4(b, a, 3, 4);
+    let d = crate::diffuse::generator::hash4(c, b, 5, 6);
     format!("{a:08x}-{:04x}-4{:03x}-{:04x}-{:04x}{d:08x}", b >> 16, b & 0xfff, (c >> 16) & 0x3fff | 0x8000, c & 0xffff)
 }
 

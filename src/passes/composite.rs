@@ -127,7 +127,7 @@ impl Composite {
         frame: &Buffer,
         i: &CompositeInputs,
         noise: &crate::passes::noise::Params,
-        diffuse: &crate::diffuse::Params,
+        diffuse: &crate::diffuse::params::Params,
         out: &Image,
     ) {
         ctx.pass(NAME, |ctx| {

@@ -11,7 +11,7 @@ use ash::vk;
 
 use crate::compute::clear::Clear;
 use crate::declare_program;
-use crate::diffuse::{Kind, Params, Particle};
+use crate::diffuse::{Kind, Particle, params::Params};
 use crate::error::Result;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
@@ -94,7 +94,7 @@ pub struct Diffuse {
 /// with fade in (0, 1) (1: in full life; rises from 0 over its first `fade_in` seconds and falls to 0 over its
 /// last `fade` seconds). shaders_glsl/sim_diffuse_draw.comp does the same on the GPU.
 pub fn encode(p: &Particle, s: &Params, radius: f32) -> [[f32; 4]; 2] {
-    let u = crate::diffuse::unit(crate::diffuse::hash4(p.id, 0x5eed, 0, 0));
+    let u = crate::diffuse::generator::unit(crate::diffuse::generator::hash4(p.id, 0x5eed, 0, 0));
     let size = s.size * radius * (1.0 + s.size_spread * (2.0 * u - 1.0));
     let ramp = |t: f32, over: f32| if over > 0.0 { t / over } else { 1.0 };
     let fade = ramp(p.lifetime, s.fade).min(ramp(p.age, s.fade_in)).clamp(1e-3, 0.999);

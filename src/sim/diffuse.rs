@@ -16,7 +16,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::compute::grid::GridBuffers;
 use crate::declare_program;
-use crate::diffuse::{Kind, Params, Particle};
+use crate::diffuse::{params::Params, Kind, Particle};
 use crate::error::Result;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
 use crate::shader_constants::LOCAL_1D;
@@ -211,8 +211,8 @@ impl DiffuseStages {
     fn push(&self, f: &FluidBuffers, out_offset: u32) -> Push {
         let p = &self.params;
         let h = 4.0 * f.radius;
-        let (kk, kl) = crate::diffuse::Kernel::new(h).coefficients();
-        let mass = crate::diffuse::model_mass(f.radius);
+        let (kk, kl) = crate::diffuse::potentials::Kernel::new(h).coefficients();
+        let mass = crate::diffuse::potentials::model_mass(f.radius);
         Push {
             h,
             mass,
@@ -221,7 +221,7 @@ impl DiffuseStages {
             radius: f.radius,
             dt: f.dt,
             foam_scale: p.foam_scale,
-            ke_floor: crate::diffuse::kinetic_floor(mass, h),
+            ke_floor: crate::diffuse::potentials::kinetic_floor(mass, h),
             life: p.lifetime,
             buoyancy: p.buoyancy,
             drag: p.drag,

@@ -514,7 +514,7 @@ impl Simulation {
     /// `params`: the `[diffuse]` settings), or stop (`None`). Their pool starts empty. A renderer fed by
     /// [`Simulation::record_frame`] needs room for [`Simulation::diffuse_slots`] after the fluid
     /// (`Renderer::set_gpu_particles_with_diffuse`).
-    pub fn set_diffuse(&mut self, params: Option<&crate::diffuse::Params>) -> Result<()> {
+    pub fn set_diffuse(&mut self, params: Option<&crate::diffuse::params::Params>) -> Result<()> {
         self.diffuse = match params {
             Some(p) => Some(diffuse::DiffuseStages::new(&self.gpu, p, self.capacity())?),
             None => None,

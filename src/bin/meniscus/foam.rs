@@ -8,7 +8,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::diffuse::{self, Fluid, Generator, Kind, Particle, StepStats};
+use meniscus::diffuse::{
+    self,
+    generator::{Generator, StepStats},
+    potentials::Fluid,
+    Kind, Particle,
+};
 use meniscus::motion::MotionTracker;
 use meniscus::output::{Kind as OutKind, PARTICLE_KINDS};
 use meniscus::scene::Particles;
@@ -60,7 +65,7 @@ pub struct FoamArgs {
 pub struct Walk {
     whole: Vec<meniscus::scene::sequence::Frame>,
     load: meniscus::scene::LoadOptions,
-    params: diffuse::Params,
+    params: diffuse::params::Params,
     radius: f32,
     fps: f32,
     gen: Generator,
@@ -142,7 +147,7 @@ impl Walk {
 
 /// Bender 2019's automatic limits from up to 17 frames spread evenly over the sequence (the first and the last
 /// included); a frame without velocities gets them from the frame before it.
-fn calibrate(job: &Job) -> Result<diffuse::Limits> {
+fn calibrate(job: &Job) -> Result<diffuse::params::Limits> {
     let n = job.whole.len();
     let picks: Vec<usize> = if n <= 17 { (0..n).collect() } else { (0..17).map(|k| k * (n - 1) / 16).collect() };
     let bar = crate::args::progress(picks.len() as u64, "frames");
@@ -157,12 +162,12 @@ fn calibrate(job: &Job) -> Result<diffuse::Limits> {
         }
         drop(t.next(&p));
         let fluid = Fluid::new(&p.positions, t.velocities(), p.ids.as_deref(), job.settings.radius);
-        maxima.push(diffuse::frame_maxima(&fluid, job.settings.diffuse.min_neighbours));
+        maxima.push(diffuse::potentials::frame_maxima(&fluid, job.settings.diffuse.min_neighbours));
         floor = fluid.kinetic_floor();
         bar.inc(1);
     }
     bar.finish_and_clear();
-    Ok(diffuse::calibrate(&maxima, floor))
+    Ok(diffuse::potentials::calibrate(&maxima, floor))
 }
 
 /// `path` with `_suffix` before its particle-file extension (.bgeo, .bgeo.gz, .vtk).
@@ -245,7 +250,7 @@ pub fn run(a: &FoamArgs) -> Result<()> {
         }
         for (k, path) in outputs(f.number) {
             let part: Vec<Particle> = ps.iter().filter(|p| k.is_none_or(|k| p.kind == k)).copied().collect();
-            meniscus::scene::write_particles(&path, &diffuse::to_particles(&part))?;
+            meniscus::scene::write_particles(&path, &diffuse::io::to_particles(&part))?;
         }
         bar.set_message(format!("{} diffuse particles", ps.len()));
         bar.inc(1);

@@ -321,7 +321,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                         let path = files.get(&frame.number).with_context(|| {
                             format!("--foam: no file of diffuse particles for frame {}", frame.number)
                         })?;
-                        meniscus::diffuse::load(path)?
+                        meniscus::diffuse::io::load(path)?
                     }
                 };
                 diffuse_total += ps.len();

@@ -238,7 +238,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).with_context(|| format!("--foam: cannot create {}", dir.display()))?;
             }
-            meniscus::scene::write_particles(&path, &meniscus::diffuse::to_particles(&ps))?;
+            meniscus::scene::write_particles(&path, &meniscus::diffuse::io::to_particles(&ps))?;
         }
         Ok(())
     };
