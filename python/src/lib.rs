@@ -339,8 +339,8 @@ impl Simulation {
 
     /// Particle positions (N×3 float32), in the order of the last step.
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let p = self.core.read().map_err(py_err)?;
-        vec3_array(py, p.positions)
+        let p = self.core.read_positions().map_err(py_err)?;
+        vec3_array(py, p)
     }
 
     /// Particle velocities (N×3 float32), in the order of the last step.

@@ -384,6 +384,9 @@ pub struct Simulation {
     n: u32,
     /// Particles to upload at the next recorded frame (the initial state, or emitted ones) at this index.
     pending: Option<(u32, Vec<[f32; 8]>)>,
+    /// The host-visible buffer [`Simulation::read`] and [`Simulation::read_positions`] copy the state into, kept
+    /// between calls (a new 36 MB buffer per call cost a 1M-particle read-back most of its time).
+    readback: std::sync::Mutex<Option<Buffer>>,
     next_id: u32,
     /// Simulated time (s).
     pub time: f64,
@@ -474,6 +477,7 @@ impl Simulation {
             },
             n: 0,
             pending: None,
+            readback: std::sync::Mutex::new(None),
             next_id: 0,
             time: 0.0,
             frames: 0,
@@ -803,20 +807,8 @@ impl Simulation {
             });
         }
         let n = self.n as u64;
-        let rb = Buffer::new(
-            &self.gpu,
-            "sim_readback",
-            (36 * n).max(16),
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        self.gpu.one_shot(|cmd| {
-            let mut ctx = FrameCtx::new(&self.gpu, cmd, None);
-            ctx.copy_buffer(&self.state[0], &rb, vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 32 * n });
-            ctx.copy_buffer(&self.density, &rb, vk::BufferCopy { src_offset: 0, dst_offset: 32 * n, size: 4 * n });
-            ctx.barrier(&[crate::gpu::Use::Buffer(&rb, crate::gpu::Access::HostRead)]);
-            Ok(())
-        })?;
+        let held = self.read_back_state(true)?;
+        let rb = held.as_ref().expect("read back");
         let bytes = rb.read()?;
         let state: &[[f32; 8]] = bytemuck::cast_slice(&bytes[..32 * n as usize]);
         let density: Vec<f32> = bytemuck::cast_slice::<u8, f32>(&bytes[32 * n as usize..36 * n as usize]).to_vec();
@@ -827,6 +819,43 @@ impl Simulation {
             ids: Some(state.iter().map(|s| s[3].to_bits() as i64).collect()),
             ..Default::default()
         })
+    }
+
+    /// The particles' positions only (what Python's `Simulation.positions()` returns): the state copied into the
+    /// kept read-back buffer, the positions taken out of it by every thread.
+    pub fn read_positions(&self) -> Result<Vec<[f32; 3]>> {
+        use rayon::prelude::*;
+        if self.frames == 0 {
+            return Ok(self.scene.positions.clone());
+        }
+        let held = self.read_back_state(false)?;
+        let bytes = held.as_ref().expect("read back").read()?;
+        let state: &[[f32; 8]] = bytemuck::cast_slice(&bytes[..32 * self.n as usize]);
+        Ok(state.par_iter().with_min_len(4096).map(|s| [s[0], s[1], s[2]]).collect())
+    }
+
+    /// Copy the state (and with `density` the densities after it) into the kept read-back buffer, grown when too
+    /// small; returns it locked.
+    fn read_back_state(&self, density: bool) -> Result<std::sync::MutexGuard<'_, Option<Buffer>>> {
+        let n = self.n as u64;
+        let mut held = self.readback.lock().unwrap_or_else(|e| e.into_inner());
+        if held.as_ref().is_none_or(|b| b.size < 36 * n) {
+            *held = None;
+            let usage = vk::BufferUsageFlags::TRANSFER_DST;
+            *held = Some(Buffer::new(&self.gpu, "sim_readback", (36 * n).max(16), usage, MemoryLocation::GpuToCpu)?);
+        }
+        let rb = held.as_ref().expect("set");
+        self.gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&self.gpu, cmd, None);
+            ctx.copy_buffer(&self.state[0], rb, vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 32 * n });
+            if density {
+                let region = vk::BufferCopy { src_offset: 0, dst_offset: 32 * n, size: 4 * n };
+                ctx.copy_buffer(&self.density, rb, region);
+            }
+            ctx.barrier(&[crate::gpu::Use::Buffer(rb, crate::gpu::Access::HostRead)]);
+            Ok(())
+        })?;
+        Ok(held)
     }
 }
 
