@@ -3,6 +3,18 @@
 //! its own work ([`NoiseWork`]); `meniscus bench` reports it (JSON `noise_work`) beside every pass's compute
 //! invocations (the GPU timer's pipeline-statistics queries, `crate::gpu::timer`).
 
+/// The `iso` pass's work in one frame that its queue counts: the rays its first dispatch left unfinished
+/// (after `[iso] first_steps` samples) for the second to finish, and the coarse-to-fine cast's fallbacks
+/// (`passes::iso::IsoQueue::work`). The second dispatch's cost follows the first count and how far those rays
+/// march.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct IsoWork {
+    /// Rays queued by the first dispatch.
+    pub queued: u64,
+    /// Rays the coarse-to-fine cast queued to march from their start.
+    pub fallbacks: u64,
+}
+
 /// The `noise` pass's work in one frame, as its counters hold it (`passes::noise::NoiseTargets::work`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct NoiseWork {

@@ -419,10 +419,17 @@ impl IsoQueue {
                 gpu,
                 "iso_queue_header",
                 32,
-                U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST,
+                U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
                 MemoryLocation::GpuOnly,
             )?,
         })
+    }
+
+    /// The last frame's queued rays (waits for the device: for `bench` and tests, after a frame).
+    pub fn work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::IsoWork> {
+        let host = crate::gpu::transfer::read_back(gpu, &[(&self.header, 0, 32)])?;
+        let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 8)?;
+        Ok(crate::work::IsoWork { queued: w[3] as u64, fallbacks: w[7] as u64 })
     }
 }
 

@@ -114,6 +114,9 @@ pub struct Entry {
     /// coarsest level of detail, sprite texels visited, sprites drawn, texels evaluated — a GPU's cost follows
     /// these, whatever the CPU driver's milliseconds say.
     pub noise_work: Option<meniscus::work::NoiseWork>,
+    /// The `iso` pass's queued rays in the last measured frame (absent when the frame had no `iso` pass): the
+    /// rays its first dispatch left for the second, whose cost does not shrink with the pixels.
+    pub iso_work: Option<meniscus::work::IsoWork>,
     /// The effect images that exist (`noise_accum`, `noise`, `diffuse_white`, …), by name: none when the
     /// effects are off.
     pub effect_images: Vec<String>,
@@ -338,6 +341,7 @@ impl Series {
     fn finish(self, r: &Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
         let t = r.targets.as_ref().expect("rendered");
         let memory: Vec<Mem> = t.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
+        let iso_ran = self.per_pass.iter().any(|(n, _)| n == "iso");
         Ok(Entry {
             scene: w.label.clone(),
             particles: w.particles.len(),
@@ -369,6 +373,10 @@ impl Series {
             rss_after_frames_bytes: rss_bytes(),
             gpu_memory: r.gpu.memory_report(),
             noise_work: t.noise.as_ref().map(|n| n.work()).transpose()?,
+            iso_work: match iso_ran {
+                true => t.iso_queue.as_ref().map(|q| q.work(&r.gpu)).transpose()?,
+                false => None,
+            },
             host_ms: HOST_STAGES
                 .iter()
                 .enumerate()
@@ -401,11 +409,13 @@ pub fn markdown(entries: &[Entry]) -> String {
     for n in &names {
         s.push_str(&format!(" {n} |"));
     }
-    s.push_str(" GPU total (median / p95) | CPU frame | fluid images MB | noise texels (level) |\n|---|---:|---|---|");
+    s.push_str(
+        " GPU total (median / p95) | CPU frame | fluid images MB | noise texels (level) | iso rays queued |\n|---|---:|---|---|",
+    );
     for _ in &names {
         s.push_str("---:|");
     }
-    s.push_str("---:|---:|---:|---:|\n");
+    s.push_str("---:|---:|---:|---:|---:|\n");
     for e in entries {
         s.push_str(&format!("| {} | {} | {}×{} | {} |", e.scene, e.particles, e.width, e.height, e.variant));
         for n in &names {
@@ -415,8 +425,9 @@ pub fn markdown(entries: &[Entry]) -> String {
             }
         }
         let noise = e.noise_work.map_or("–".to_string(), |w| format!("{} ({})", w.texels, w.level));
+        let iso = e.iso_work.map_or("–".to_string(), |w| (w.queued + w.fallbacks).to_string());
         s.push_str(&format!(
-            " {:.3} / {:.3} | {:.3} | {:.1} | {noise} |\n",
+            " {:.3} / {:.3} | {:.3} | {:.1} | {noise} | {iso} |\n",
             e.gpu_total.median,
             e.gpu_total.p95,
             e.cpu_frame.median,
