@@ -8,7 +8,7 @@
 //! one thread per sprite with atomics is the cheapest; GPUs bin the sprites to tiles instead (noise_bin.comp,
 //! noise_gather.comp: the same sums, no atomics).
 //! Work follows the visible surface (noise_splat.glsl, noise.glsl): a sprite is evaluated on the coarsest
-//! accumulator level that still samples its finer octave NOISE_LOD_SAMPLES times per cycle, so a close-up sprite
+//! accumulator level that still samples its finer octave `[noise] lod_samples` (pc.lod) times per cycle, so a close-up sprite
 //! hundreds of pixels across costs as many texels as one 40 pixels across; a texel where the particle lies
 //! deeper than its term can reach is skipped before the noise is evaluated (exact: the term rounds to 0 there).
 //! Level 0 is evaluated exactly as the CPU reference (`passes::noise::reference`) does.
