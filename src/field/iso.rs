@@ -614,9 +614,8 @@ impl VolumeShape {
         // parallel, expanded once per brick after. A point whose box spans more, or whose brick is outside the
         // table, has its box listed and marked directly.
         type Boxes = Vec<([i64; 3], [i64; 3])>;
-        let chunk = |pts: &[T]| -> (Vec<u32>, Boxes) {
-            let mut reach = vec![0u32; n];
-            let mut boxes = vec![];
+        // Each split of the points (about one per thread) ORs its chunks into one mask, not one per chunk.
+        let chunk = |(mut reach, mut boxes): (Vec<u32>, Boxes), pts: &[T]| -> (Vec<u32>, Boxes) {
             for q in pts {
                 let u = self.lattice(pos(q));
                 let g = [floor(u.x), floor(u.y), floor(u.z)];
@@ -638,7 +637,7 @@ impl VolumeShape {
             }
             (reach, boxes)
         };
-        let (reach, boxes) = points.par_chunks(8192).map(chunk).reduce(
+        let (reach, boxes) = points.par_chunks(8192).fold(|| (vec![0u32; n], vec![]), chunk).reduce(
             || (vec![0u32; n], vec![]),
             |(mut r, mut b), (r2, b2)| {
                 r.iter_mut().zip(&r2).for_each(|(x, y)| *x |= y);
