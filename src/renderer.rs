@@ -700,6 +700,14 @@ pub struct HostTimes {
     pub submit: f64,
 }
 
+impl HostTimes {
+    /// The stages together: the host's part of a frame up to its submission (what `bench` and Python's
+    /// `host_timings` take from a frame's wall time to leave the wait for the GPU).
+    pub fn total(&self) -> f64 {
+        self.prepare + self.slot_wait + self.stage + self.record + self.submit
+    }
+}
+
 impl Drop for Renderer {
     fn drop(&mut self) {
         // Frames in flight still use the images and buffers dropped next.

@@ -170,7 +170,7 @@ impl Renderer {
         let t3 = std::time::Instant::now();
         let out = image_array(py, img);
         let h = self.core.host_times();
-        let before = h.prepare + h.slot_wait + h.stage + h.record + h.submit;
+        let before = h.total();
         self.host = vec![
             ("arrays".into(), arrays),
             ("upload".into(), upload),

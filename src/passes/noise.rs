@@ -110,7 +110,8 @@ impl Params {
         non_neg("strength", self.strength, 64.0)?;
         let most = crate::shader_constants::NOISE_LOD_SAMPLES as f32;
         if !(2.0..=most).contains(&self.lod_samples) {
-            return Err(("lod_samples", format!("[noise] lod_samples = {} is out of range (2 ≤ lod_samples ≤ {most})", self.lod_samples)));
+            let v = self.lod_samples;
+            return Err(("lod_samples", format!("[noise] lod_samples = {v} is out of range (2 ≤ lod_samples ≤ {most})")));
         }
         non_neg("foam_from", self.foam_from, 64.0)?;
         pos("foam_full", self.foam_full, 64.0)?;

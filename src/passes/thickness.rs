@@ -2,7 +2,6 @@
 //! then a 2D Gaussian blur. Shaders: shaders_glsl/thickness.comp, shaders_glsl/thickness_blur.comp.
 use std::sync::Arc;
 
-
 use crate::compute::clear::Clear;
 use crate::declare_program;
 use crate::error::Result;

@@ -283,7 +283,7 @@ impl Series {
         let spans = r.render_spans(&self.view, &self.s)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
         let h = r.host_times();
-        let before = h.prepare + h.slot_wait + h.stage + h.record + h.submit;
+        let before = h.total();
         let host = [upload_ms, h.prepare, h.slot_wait, h.stage, h.record, h.submit, (cpu_ms - before).max(0.0)];
         // Same-named scopes summed, in recording order.
         let mut times: Vec<(String, f64)> = vec![];
