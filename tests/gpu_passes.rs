@@ -2152,6 +2152,40 @@ fn noise_of_still_water_does_not_flicker() {
     assert_clean(&gpu);
 }
 
+/// Every image a frame accumulates into is cleared first (the compute clears of the splat's depth and tiles, the
+/// thickness and the noise accumulators): a renderer that drew other particles the frame before draws the same
+/// picture, noise image and depth as a new renderer.
+#[test]
+fn a_frame_keeps_nothing_of_the_frame_before() {
+    let gpu = gpu();
+    let r = 0.1f32;
+    let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], 96, 64, 40.0);
+    let mut s = settings(r);
+    s.noise.enabled = true;
+    let a = meniscus::scene::Particles { positions: noise_slab(10, r), ..Default::default() };
+    // B: a smaller slab, moved: pixels A covered are empty in B.
+    let b_pos: Vec<[f32; 3]> = noise_slab(6, r).iter().map(|p| [p[0] + 0.35, p[1] - 0.1, p[2] + 0.2]).collect();
+    let b = meniscus::scene::Particles { positions: b_pos, ..Default::default() };
+    let frame = |rr: &mut Renderer| {
+        rr.set_scene_particles(&b, &s).unwrap();
+        rr.render(&v, &s).unwrap();
+        let t = rr.targets.as_ref().unwrap();
+        let noise = read_f32(&gpu, &t.noise.as_ref().unwrap().noise).unwrap();
+        let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
+        (rr.read_final().unwrap(), noise, depth)
+    };
+    let mut used = Renderer::new(&gpu).unwrap();
+    used.set_scene_particles(&a, &s).unwrap();
+    used.render(&v, &s).unwrap();
+    let (img, noise, depth) = frame(&mut used);
+    let (img0, noise0, depth0) = frame(&mut Renderer::new(&gpu).unwrap());
+    assert!(depth0.iter().any(|d| d.is_finite()) && noise0.iter().any(|x| *x != 0.0), "too little to test");
+    assert!(depth == depth0, "the depth kept something of the frame before");
+    assert!(noise == noise0, "the noise image kept something of the frame before");
+    assert!(img == img0, "the picture kept something of the frame before");
+    assert_clean(&gpu);
+}
+
 /// The `diffuse` pass against its CPU reference (`passes::diffuse::reference`): foam riding a slab's surface,
 /// spray above it (some moving: streaks), bubbles under it (attenuated by the water above them), and one fluid
 /// particle marked as spray (the patent's low-density spray, drawn the same way). The accumulators equal the
