@@ -126,15 +126,11 @@ fn main() -> meniscus::Result<()> {
                     thickness: if sampled_only { &tex } else { &t.thickness },
                     ssr: &t.ssr,
                     sky: &r.background.sky,
-                    noise: t.noise.as_ref().map(|n| &n.noise),
-                    diffuse: None,
                 };
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);
-                    let noise = meniscus::passes::noise::Params::default();
-                    let diffuse = meniscus::diffuse::params::Params::default();
-                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &diffuse, &t.final_color);
-                    Ok(())
+                    let layers = r.effects.layers(&meniscus::settings::Settings::default())?;
+                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &layers, &t.final_color)
                 })
             })
         }

@@ -5,15 +5,14 @@
 //! n.xy·min(T·α, β) (eq. 3.27 with the min fix), attenuated by exp(−η·T) as well; τ = exp(−γ·T) (eq. 3.28);
 //! F = Schlick Fresnel; c_reflect = the `ssr` hit where there is one, else the sky in the reflected direction;
 //! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
-//! Foam (NVIDIA patent US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): the
-//! result is mixed toward the foam colour, lit by the ambient light and the sun (Lambert), with weight
-//! foam.w · smoothstep(from, full, |N|) of the `noise` pass's N.
-//! Diffuse particles (the `diffuse` pass, Ihmsen et al. 2012): the bubbles' coverage B mixes the water toward
-//! their lit colour by bubbles · (1 − exp(−B)) (they lie under the surface), then foam and spray's coverage S
-//! lays their lit colour over everything, water or background, by 1 − exp(−S).
-//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), noise,
-//! diffuse white and bubbles (fixed point; each read only when its effect ran this frame, placeholders bound
-//! otherwise). Out: rgba8, gamma 2.2.
+//! Layers (the effects', `crate::effect::Layer`), in the order given, at most COMPOSITE_LAYERS: each an r32ui
+//! image v with a colour (rgb), a weight w and a blend. `tint` (the noise's whitecaps, NVIDIA patent
+//! US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): v holds f32 bits; the water
+//! mixes toward the colour lit by the ambient light and the sun (Lambert × s) by w·smoothstep(from, full, |v|).
+//! `under` (bubbles, Ihmsen et al. 2012): coverage C = v / units mixes the water toward the colour lit by
+//! ambient + s·sun by w·(1 − exp(−C)). `over` (foam and spray): the same over everything, water or background.
+//! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), the
+//! layers' images (placeholders bound past the last layer; never read). Out: rgba8, gamma 2.2.
 #define SKY_BINDING 8
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
@@ -24,21 +23,56 @@ layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D normals;
 layout(set = 0, binding = 5) uniform sampler2D thickness;
 layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ssr;
-layout(set = 0, binding = 9, r32f) uniform readonly image2D noise;
-layout(set = 0, binding = 10, r32ui) uniform readonly uimage2D diffuse_white;
-layout(set = 0, binding = 11, r32ui) uniform readonly uimage2D diffuse_bubbles;
+layout(set = 0, binding = 9, r32ui) uniform readonly uimage2D layer0;
+layout(set = 0, binding = 10, r32ui) uniform readonly uimage2D layer1;
+layout(set = 0, binding = 11, r32ui) uniform readonly uimage2D layer2;
+layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D layer3;
+#if COMPOSITE_LAYERS != 4
+#error "one binding per layer: composite.comp declares four"
+#endif
+// Blends (crate::effect::Blend): 0 = no layer.
+#define BLEND_TINT 1.0
+#define BLEND_UNDER 2.0
+#define BLEND_OVER 3.0
 layout(push_constant) uniform Push {
-    vec4 foam;    // rgb: colour; w: weight of the full tint
-    vec4 range;   // x: |N| where the tint starts, y: where it is full; z: diffuse units per coverage, w: bubbles
-    vec4 diffuse; // rgb: colour of foam and spray; w: 1 when the diffuse images hold this frame's particles
+    vec4 color[COMPOSITE_LAYERS]; // rgb: colour; w: weight
+    vec4 blend[COMPOSITE_LAYERS]; // x: blend; tint: y from, z full; under/over: y units; w: the sun's share s
 } pc;
 
-/// Foam and spray over the colour `c` (lit by the ambient light and half the sun: small bright specks).
-vec3 add_white(vec3 c, ivec2 p) {
-    if (pc.diffuse.w == 0.0) return c;
-    float S = float(imageLoad(diffuse_white, p).x) / pc.range.z;
-    vec3 lit = pc.diffuse.rgb * (frame.fluid_color.w + 0.5 * frame.sun.w);
-    return mix(c, lit, 1.0 - exp(-S));
+uint layer(int k, ivec2 p) {
+    switch (k) {
+    case 0: return imageLoad(layer0, p).x;
+    case 1: return imageLoad(layer1, p).x;
+    case 2: return imageLoad(layer2, p).x;
+    default: return imageLoad(layer3, p).x;
+    }
+}
+
+/// Layer `k` over the colour `c` at pixel `p` (`n`, `L`: the water's normal and the sun, view space; `water`:
+/// the pixel shows water).
+vec3 lay(int k, vec3 c, ivec2 p, bool water, vec3 n, vec3 L) {
+    vec4 b = pc.blend[k];
+    vec3 col = pc.color[k].rgb;
+    float w = pc.color[k].w;
+    if (b.x == BLEND_TINT) {
+        if (!water) return c;
+        float t = w * smoothstep(b.y, b.z, abs(uintBitsToFloat(layer(k, p))));
+        return mix(c, col * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * b.w), t);
+    }
+    if (b.x == BLEND_UNDER || b.x == BLEND_OVER) {
+        if (b.x == BLEND_UNDER && !water) return c;
+        float C = float(layer(k, p)) / b.y;
+        return mix(c, col * (frame.fluid_color.w + b.w * frame.sun.w), w * (1.0 - exp(-C)));
+    }
+    return c;
+}
+
+/// Every layer over `c`, in order.
+vec3 layers(vec3 c, ivec2 p, bool water, vec3 n, vec3 L) {
+    for (int k = 0; k < int(COMPOSITE_LAYERS); k++) {
+        c = lay(k, c, p, water, n, L);
+    }
+    return c;
 }
 
 vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
@@ -52,7 +86,7 @@ void main() {
     float sd = imageLoad(scene_depth, p).x;
     float d = imageLoad(fluid_depth, p).x;
     if (!is_fluid(d) || d >= sd) {
-        imageStore(out_color, p, encode(add_white(bg, p)));
+        imageStore(out_color, p, encode(layers(bg, p, false, vec3(0.0), vec3(0.0))));
         return;
     }
     vec3 n = unpack_normal(imageLoad(normals, p).x);
@@ -92,15 +126,5 @@ void main() {
     float spec = frame.shading.w * pow(max(dot(n, H), 0.0), frame.shading2.x) * frame.sun.w;
 
     vec3 c = mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
-    // The effects' images are read only when their effect ran (else placeholders are bound).
-    if (pc.foam.w > 0.0) {
-        float foam = pc.foam.w * smoothstep(pc.range.x, pc.range.y, abs(imageLoad(noise, p).x));
-        vec3 lit = pc.foam.rgb * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * 0.6);
-        c = mix(c, lit, foam);
-    }
-    if (pc.diffuse.w != 0.0) {
-        float B = float(imageLoad(diffuse_bubbles, p).x) / pc.range.z;
-        c = mix(c, pc.diffuse.rgb * (frame.fluid_color.w + 0.3 * frame.sun.w), pc.range.w * (1.0 - exp(-B)));
-    }
-    imageStore(out_color, p, encode(add_white(c, p)));
+    imageStore(out_color, p, encode(layers(c, p, true, n, L)));
 }

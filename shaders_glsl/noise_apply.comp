@@ -5,11 +5,11 @@
 //! (small waves): n' = normalize(n − k (∂h/∂X, ∂h/∂Y, 0)), view space. Along each axis the derivative is the
 //! central difference where both neighbours are on the same surface (depth jump under `edge`), else one-sided,
 //! else 0, as in `normals`.
-//! In: noise (r32f, N in radii: noise_resolve.comp), fluid depth (full resolution), normals (r32ui octahedral).
+//! In: noise (r32ui holding f32 bits, N in radii: noise_resolve.comp), fluid depth (full resolution), normals (r32ui octahedral).
 //! Out: normals (perturbed in place).
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
-layout(set = 0, binding = 1, r32f) uniform readonly image2D noise;
+layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D noise; // f32 bits
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
 layout(set = 0, binding = 3, r32ui) uniform uimage2D normals;
 layout(push_constant) uniform Push {
@@ -19,7 +19,7 @@ layout(push_constant) uniform Push {
 
 ivec2 g_size;
 
-float height(ivec2 q) { return imageLoad(noise, q).x; }
+float height(ivec2 q) { return uintBitsToFloat(imageLoad(noise, q).x); }
 
 bool same(ivec2 q, float d) {
     if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, g_size))) return false;

@@ -6,13 +6,13 @@
 //! close-up sprite's noise reaches the silhouette instead of fading towards it. 0 where there is no fluid.
 //! NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is noise.comp's.
 //! In: accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest level).
-//! Out: noise (r32f).
+//! Out: noise (r32ui holding f32 bits: the composite reads it as a layer, `crate::effect::Blend::Tint`).
 #include "common.glsl"
 #include "noise.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
-layout(set = 0, binding = 3, r32f) uniform writeonly image2D noise;
+layout(set = 0, binding = 3, r32ui) uniform writeonly uimage2D noise; // f32 bits: a composite layer
 // noise.comp's work counts: [0] the coarsest level it wrote.
 layout(std430, set = 0, binding = 4) readonly buffer Work { uint work[4]; };
 
@@ -21,7 +21,7 @@ void main() {
     ivec2 size = imageSize(noise);
     if (any(greaterThanEqual(p, size))) return;
     if (!is_fluid(imageLoad(depth, p).x)) {
-        imageStore(noise, p, vec4(0.0));
+        imageStore(noise, p, uvec4(floatBitsToUint(0.0)));
         return;
     }
     float n = float(int(imageLoad(accum, p).x));
@@ -45,5 +45,5 @@ void main() {
         }
         if (wsum > 0.0) n += sum / wsum;
     }
-    imageStore(noise, p, vec4(n * (1.0 / 65536.0)));
+    imageStore(noise, p, uvec4(floatBitsToUint(n * (1.0 / 65536.0))));
 }

@@ -5,11 +5,10 @@
 use glam::{Mat4, Vec3};
 
 use crate::background::Background;
+use crate::effect::{EffectFrame, Effects, FrameParticles};
 use crate::error::Result;
 use crate::gpu::Buffer;
 use crate::passes::composite::CompositeInputs;
-use crate::passes::diffuse::DiffuseImages;
-use crate::passes::noise::NoiseImages;
 use crate::settings::Settings;
 use crate::surface::{SurfaceFrame, Technique};
 use crate::targets::Targets;
@@ -102,6 +101,18 @@ impl FrameUniforms {
 
 pub use crate::gpu::recording::{Part, Recording};
 pub use crate::passes::{FrameInfo, Passes};
+
+/// Every pass name in frame order — the frame's passes with the built-in effects after `normals` (timestamp
+/// keys, JSON keys, `--timings` rows).
+pub fn pass_names() -> &'static [&'static str] {
+    static NAMES: std::sync::LazyLock<Vec<&'static str>> = std::sync::LazyLock::new(|| {
+        let mut names = crate::passes::PASS_NAMES.to_vec();
+        let at = names.iter().position(|n| *n == crate::passes::normals::NAME).map_or(names.len(), |k| k + 1);
+        names.splice(at..at, Effects::BUILT_IN.iter().copied());
+        names
+    });
+    &NAMES
+}
 pub use crate::view::{Environment, View};
 
 /// What `record_frame` produced.
@@ -119,16 +130,12 @@ pub struct FrameInputs<'a> {
     pub targets: &'a Targets,
     /// The frame uniform block.
     pub frame: &'a Buffer,
-    /// The particle buffer and its count.
-    pub particles: (&'a Buffer, u32),
-    /// Diffuse particles after the fluid particles in the buffer (at most, when written on the GPU) …
-    pub diffuse: u32,
-    /// … written on the GPU after a header: the `diffuse` pass dispatches indirectly.
-    pub diffuse_indirect: bool,
-    /// Some fluid particles are marked as spray (drawn by the `diffuse` pass too).
-    pub spray: bool,
+    /// The particle buffer: fluid particles, their motions, diffuse particles.
+    pub particles: FrameParticles<'a>,
     /// The surface technique the settings name, its resources prepared.
     pub surface: &'a dyn Technique,
+    /// The effects, their images prepared.
+    pub effects: &'a Effects,
     /// The scene behind the fluid.
     pub background: &'a Background,
     /// The background images still show this view: the `background` pass is skipped.
@@ -143,8 +150,9 @@ pub struct FrameInputs<'a> {
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. The surface technique records
 /// its own passes (`crate::surface`): what `thickness` needs first (grids, kernels), then the fluid's depth.
-/// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1),
-/// `noise` (`[noise] enabled`), `diffuse` (`[diffuse] enabled`, and diffuse or spray particles to draw).
+/// The effects (`crate::effect`) record after the normals and give the composite its layers.
+/// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1), each
+/// effect (while it draws: `noise` with `[noise] enabled`, `diffuse` with `[diffuse] enabled` and something to draw).
 pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     use Part::*;
     let (p, t, s, frame) = (f.passes, f.targets, f.settings, f.frame);
@@ -152,12 +160,13 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     if !f.background_cached {
         p.background.record(rec.part(Async), frame, sky, f.background.geometry(), &t.scene_color, &t.scene_depth);
     }
-    let surface = SurfaceFrame { passes: p, targets: t, frame, particles: f.particles, settings: s, info: f.info };
+    let particles = (f.particles.buffer, f.particles.count);
+    let surface = SurfaceFrame { passes: p, targets: t, frame, particles, settings: s, info: f.info };
     let kernels = f.surface.record_kernels(rec, &surface);
     // Spray still adds thickness: with spray the grid (built on the CPU then) leaves it out, so the thickness
     // keeps the spheres of every particle.
     let th = kernels.filter(|k| k.all_particles);
-    let (th_particles, th_count) = th.map_or(f.particles, |k| (k.points, k.count));
+    let (th_particles, th_count) = th.map_or(particles, |k| (k.points, k.count));
     let th_kernels = th.map(|k| (k.aniso, k.stretch));
     let (accum, blur) = (&t.thickness_accum, s.thickness.blur_px);
     p.thickness.record(
@@ -183,18 +192,9 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         None => fluid_depth,
     };
     p.normals.record(ctx, frame, depth, &t.normals, s.normals.edge * s.radius);
-    // The effects: each runs only while its images exist (its setting on, something to draw).
-    let noise = t.noise.as_ref().filter(|_| s.noise.enabled);
-    if let Some(own) = noise {
-        let images = NoiseImages { depth, normals: &t.normals, own };
-        p.noise.record(ctx, frame, f.particles, &images, &s.noise, s.normals.edge * s.radius);
-    }
-    let diffuse = t.diffuse.as_ref().filter(|_| s.diffuse.enabled && (f.diffuse > 0 || f.spray));
-    if let Some(own) = diffuse {
-        let images = DiffuseImages { depth, scene_depth: &t.scene_depth, own };
-        let d = (f.diffuse, f.diffuse_indirect);
-        p.diffuse.record(ctx, frame, f.particles, d, f.spray, &images, &s.diffuse, s.radius);
-    }
+    let scene_depth = &t.scene_depth;
+    let effect = EffectFrame { frame, particles: f.particles, depth, normals: &t.normals, scene_depth, settings: s };
+    f.effects.record(ctx, &effect);
     let ctx = rec.part(Shade);
     p.ssr.record(ctx, frame, depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {
@@ -205,9 +205,7 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         thickness: &t.thickness,
         ssr: &t.ssr,
         sky,
-        noise: noise.map(|n| &n.noise),
-        diffuse,
     };
-    p.composite.record(ctx, frame, &inputs, &s.noise, &s.diffuse, &t.final_color);
+    p.composite.record(ctx, frame, &inputs, &f.effects.layers(s)?, &t.final_color)?;
     Ok(Frame { smoothed })
 }

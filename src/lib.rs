@@ -10,6 +10,7 @@
 pub mod background;
 pub mod compute;
 pub mod diffuse;
+pub mod effect;
 pub mod error;
 pub mod export;
 pub mod field;

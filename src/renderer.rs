@@ -10,6 +10,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::background::Background;
+use crate::effect::{Effect, EffectPrepare, Effects, FrameParticles};
 use crate::error::{Error, Result};
 use crate::frame::{record_frame, FrameInputs, FrameUniforms, Passes, Recording, View};
 use crate::gpu::executor::{Executor, Submitted};
@@ -29,7 +30,7 @@ pub use crate::gpu::transfer::{
 
 /// Every frame pass name, in frame order (timestamp keys, JSON keys, `--timings` rows).
 pub fn pass_names() -> &'static [&'static str] {
-    crate::passes::PASS_NAMES
+    crate::frame::pass_names()
 }
 
 /// A pixel of the read-back `normals` buffer (octahedral, 2 × snorm16) as a unit view-space normal.
@@ -74,6 +75,8 @@ pub struct Renderer {
     pub async_compute: bool,
     /// The surface techniques, each with its resources (grids, lattice, mesh).
     pub surfaces: Surfaces,
+    /// The effects (noise, diffuse, any added with [`Renderer::add_effect`]), each with its images.
+    pub effects: Effects,
 }
 
 /// Recording work given the frame context and the frame's final image.
@@ -141,6 +144,7 @@ impl Renderer {
             slots,
             smoothed: Smoothed::Input,
             surfaces: Surfaces::new(),
+            effects: Effects::new(gpu)?,
             background: Background::new(gpu)?,
             async_compute: false,
             late_times: None,
@@ -255,30 +259,19 @@ impl Renderer {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(Error::Invalid(format!("image size {width}×{height} is out of range (1 … 16384)")));
         }
-        let drawn = self.particles.diffuse_count() > 0 || self.particles.has_spray();
-        let mut want = TargetsDesc::new(width, height, s, self.keep_raw_depth, drawn);
-        // The diffuse images, once made, stay while the rest stands: a sequence whose frames come and go
-        // without diffuse particles does not reallocate every frame.
-        if let Some(t) = &self.targets {
-            if t.desc.diffuse && s.diffuse.enabled && (TargetsDesc { diffuse: true, ..want }) == t.desc {
-                want.diffuse = true;
-            }
-        }
+        let want = TargetsDesc::new(width, height, s, self.keep_raw_depth);
         if self.targets.as_ref().map(|t| t.desc) != Some(want) {
             self.executor.wait_idle()?;
             self.targets = None;
             self.background.invalidate();
             self.targets = Some(Targets::new(&self.gpu, want)?);
         }
-        // The tiled noise splat's bins follow the particle count.
-        let count = self.particles.count();
-        if self.passes.noise.is_tiled() {
-            if let Some(n) = self.targets.as_mut().and_then(|t| t.noise.as_mut()).filter(|n| n.needs(count)) {
-                self.executor.wait_idle()?;
-                n.reserve(&self.gpu, count)?;
-            }
-        }
         Ok(())
+    }
+
+    /// Add an effect after the built-in ones (`crate::effect`): it records after them and its layers lie on top.
+    pub fn add_effect(&mut self, e: Box<dyn Effect>) {
+        self.effects.push(e);
     }
 
     /// Write the frame uniform block.
@@ -456,6 +449,11 @@ impl Renderer {
         // The surface brings its resources up to date (grids, lattice, mesh) for these particles and settings.
         let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s };
         self.surfaces.get_mut(s.surface).prepare(&prep)?;
+        let (width, height) = (view.width, view.height);
+        let (gpu, executor, particles) = (&self.gpu, &self.executor, &self.particles);
+        self.effects.prepare(&EffectPrepare { gpu, executor, particles, settings: s, width, height })?;
+        // Too many layers for the composite is the caller's error, found before a frame slot is begun.
+        self.effects.layers(s)?;
         let split = self.async_compute;
         if self.particles.is_external() && hooks.produce.is_none() {
             return Err(Error::Invalid("set_gpu_particles needs a frame with Hooks::produce".into()));
@@ -580,11 +578,15 @@ impl Renderer {
             passes,
             targets: t,
             frame: uniforms,
-            particles: (particles, count),
-            diffuse: self.particles.diffuse_count(),
-            diffuse_indirect: self.particles.diffuse_on_gpu(),
-            spray: self.particles.has_spray(),
+            particles: FrameParticles {
+                buffer: particles,
+                count,
+                diffuse: self.particles.diffuse_count(),
+                diffuse_indirect: self.particles.diffuse_on_gpu(),
+                spray: self.particles.has_spray(),
+            },
             surface: self.surfaces.get(s.surface),
+            effects: &self.effects,
             background: &self.background,
             background_cached: cached,
             settings: s,
@@ -669,6 +671,12 @@ impl Renderer {
     /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).
     pub fn nearest_depth(&self, view: &View, s: &Settings) -> f32 {
         self.particles.nearest_depth(view, s.radius)
+    }
+
+    /// (name, bytes) of every image and buffer the frame holds now: its targets', then its effects'.
+    pub fn memory(&self) -> Vec<(&str, u64)> {
+        let targets = self.targets.iter().flat_map(|t| t.memory());
+        targets.chain(self.effects.memory()).collect()
     }
 
     /// The image that holds the smoothed depth of the last frame.

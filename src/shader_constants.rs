@@ -25,6 +25,8 @@ pub const NOISE_LOD_SAMPLES: u32 = 6;
 pub const NOISE_TILE: u32 = 16;
 /// Most tiles one sprite is binned to (a sprite's level keeps it under 39 texels across: at most 4 × 4 tiles).
 pub const NOISE_MAX_TILES: u32 = 16;
+/// Layers the `composite` pass lays over the shaded water (the effects' images: `crate::effect::Layer`).
+pub const COMPOSITE_LAYERS: u32 = 4;
 /// Vec4s per fluid particle in the renderer's particle buffer ([`ParticleLayout`]): its position and, after all
 /// positions, its motion (id bits, |Δv|/Δt), read by the `noise` pass.
 pub const PARTICLE_VEC4S: u32 = 2;
@@ -110,6 +112,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
     ("LOCAL_1D", LOCAL_1D),
     ("NOISE_LEVELS", NOISE_LEVELS),
+    ("COMPOSITE_LAYERS", COMPOSITE_LAYERS),
     ("NOISE_LOD_SAMPLES", NOISE_LOD_SAMPLES),
     ("NOISE_TILE", NOISE_TILE),
     ("NOISE_MAX_TILES", NOISE_MAX_TILES),

@@ -28,16 +28,11 @@ pub struct TargetsDesc {
     pub back: bool,
     /// The D32 depth buffer of the depth-tested rasterised splats.
     pub zbuffer: bool,
-    /// The `noise` pass's images (`[noise] enabled`).
-    pub noise: bool,
-    /// The `diffuse` pass's images (`[diffuse] enabled` and diffuse or spray particles to draw).
-    pub diffuse: bool,
 }
 
 impl TargetsDesc {
-    /// The images a `width`×`height` frame with settings `s` needs; `diffuse`: the `diffuse` pass has something
-    /// to draw (diffuse particles, or fluid particles marked as spray).
-    pub fn new(width: u32, height: u32, s: &Settings, keep_raw: bool, diffuse: bool) -> TargetsDesc {
+    /// The images a `width`×`height` frame with settings `s` needs (the effects own theirs: `crate::effect`).
+    pub fn new(width: u32, height: u32, s: &Settings, keep_raw: bool) -> TargetsDesc {
         TargetsDesc {
             width,
             height,
@@ -46,8 +41,6 @@ impl TargetsDesc {
             keep_raw,
             back: s.surface == Surface::Iso,
             zbuffer: s.splat.mode.depth_tested(),
-            noise: s.noise.enabled,
-            diffuse: s.diffuse.enabled && diffuse,
         }
     }
 
@@ -107,11 +100,6 @@ pub struct Targets {
     pub thickness: Image,
     /// Packed view-space normals (octahedral, R32_UINT).
     pub normals: Image,
-    /// The `noise` pass's own images (its accumulator atlas, N, its work counts): only while it is on.
-    pub noise: Option<crate::passes::noise::NoiseTargets>,
-    /// The `diffuse` pass's coverage of foam and spray and of bubbles (R32_UINT fixed point): only while it has
-    /// something to draw.
-    pub diffuse: Option<crate::passes::diffuse::DiffuseTargets>,
     /// SSR hit uv per pixel (R32_UINT).
     pub ssr: Image,
     /// The `composite` pass's output (RGBA8).
@@ -157,14 +145,6 @@ impl Targets {
                 thickness_accum: img("thickness_accum", d.thickness, vk::Format::R32_UINT, storage, None)?,
                 thickness: img("thickness", d.thickness, r32, storage | U::SAMPLED, None)?,
                 normals: img("normals", full, vk::Format::R32_UINT, storage, None)?,
-                noise: d
-                    .noise
-                    .then(|| crate::passes::noise::NoiseTargets::new(gpu, full.width, full.height))
-                    .transpose()?,
-                diffuse: d
-                    .diffuse
-                    .then(|| crate::passes::diffuse::DiffuseTargets::new(gpu, full.width, full.height))
-                    .transpose()?,
                 ssr: img("ssr", full, vk::Format::R32_UINT, storage, None)?,
                 final_color: img("final", full, vk::Format::R8G8B8A8_UNORM, storage, None)?,
             })
@@ -173,9 +153,9 @@ impl Targets {
         made.map_err(|e| match e {
             crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } | crate::error::Error::Limit(_) => {
                 let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
-                // 40 bytes per output pixel (scene colour and depth, normals, noise, diffuse, SSR, final; 52 with the noise atlas) and about 28 per fluid
+                // 28 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 28 per fluid
                 // pixel (depth, smoothing, back depth, thickness, iso queue).
-                let mb = (40 * px(full) + 28 * px(fluid)) as f64 / 1e6;
+                let mb = (28 * px(full) + 28 * px(fluid)) as f64 / 1e6;
                 crate::error::Error::Limit(format!(
                     "a {}×{} frame needs about {mb:.0} MB of images, more than this device could allocate ({e}); \
                      choose a smaller --width/--height or --fluid-scale",
@@ -218,9 +198,7 @@ impl Targets {
         let optional = [&self.smooth_b, &self.depth_full, &self.zbuffer, &self.depth_back, &self.depth_back_tiles];
         let images = always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes()));
         let queue = self.iso_queue.iter().map(|q| (q.entries.name.as_str(), q.entries.size));
-        let noise = self.noise.iter().flat_map(|n| n.memory());
-        let diffuse = self.diffuse.iter().flat_map(|d| d.memory());
-        images.chain(queue).chain(noise).chain(diffuse).collect()
+        images.chain(queue).collect()
     }
 }
 
@@ -232,30 +210,19 @@ mod tests {
     #[test]
     fn optional_images_follow_the_settings() {
         let s = Settings { surface: Surface::Spheres, ..Settings::default() };
-        let d = TargetsDesc::new(640, 360, &s, false, false);
+        let d = TargetsDesc::new(640, 360, &s, false);
         assert!(!d.back && !d.zbuffer && !d.keep_raw && !d.upsampled());
-        assert_eq!(d, TargetsDesc::new(640, 360, &s.clone(), false, false));
+        assert_eq!(d, TargetsDesc::new(640, 360, &s.clone(), false));
         let iso = Settings { surface: Surface::Iso, ..s.clone() };
-        assert!(TargetsDesc::new(640, 360, &iso, false, false).back);
+        assert!(TargetsDesc::new(640, 360, &iso, false).back);
         let half = Settings { fluid_scale: 0.5, ..s.clone() };
-        let d = TargetsDesc::new(640, 360, &half, true, false);
+        let d = TargetsDesc::new(640, 360, &half, true);
         assert!(d.upsampled() && d.keep_raw);
         assert_eq!(d.fluid, vk::Extent2D { width: 320, height: 180 });
         let quad = s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadFragDepth);
-        assert!(TargetsDesc::new(640, 360, &quad, false, false).zbuffer);
+        assert!(TargetsDesc::new(640, 360, &quad, false).zbuffer);
         assert!(
-            !TargetsDesc::new(640, 360, &s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadMin), false, false)
-                .zbuffer
+            !TargetsDesc::new(640, 360, &s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadMin), false).zbuffer
         );
-        // The effects' images exist only while the effect is on and (diffuse) has something to draw.
-        let plain = s.with(|s| {
-            s.noise.enabled = false;
-            s.diffuse.enabled = true;
-        });
-        let d = TargetsDesc::new(640, 360, &plain, false, false);
-        assert!(!d.noise && !d.diffuse);
-        assert!(TargetsDesc::new(640, 360, &plain, false, true).diffuse);
-        assert!(!TargetsDesc::new(640, 360, &plain.with(|s| s.diffuse.enabled = false), false, true).diffuse);
-        assert!(TargetsDesc::new(640, 360, &plain.with(|s| s.noise.enabled = true), false, false).noise);
     }
 }

@@ -45,7 +45,7 @@ fn render_builtin_scene_writes_png_and_timings() {
     // Not recorded here: upsample (full resolution), anisotropy/iso/mesh (spheres), diffuse (no spray, no
     // diffuse particles).
     let absent = ["upsample", "anisotropy", "iso", "mesh", "diffuse"];
-    for pass in meniscus::passes::PASS_NAMES.iter().filter(|p| !absent.contains(*p)) {
+    for pass in meniscus::renderer::pass_names().iter().filter(|p| !absent.contains(*p)) {
         assert!(stdout.contains(&format!("| {pass} |")), "timings lack {pass}: {stdout}");
     }
     let img = image::open(&out).unwrap();
@@ -172,7 +172,7 @@ fn tiny_bench_writes_valid_json() {
     assert_eq!(e["width"], 64);
     assert_eq!(e["frames"], 3);
     let passes: Vec<&str> = e["passes"].as_array().unwrap().iter().map(|p| p[0].as_str().unwrap()).collect();
-    let want: Vec<&str> = meniscus::passes::PASS_NAMES
+    let want: Vec<&str> = meniscus::renderer::pass_names()
         .iter()
         .copied()
         .filter(|p| !["upsample", "anisotropy", "iso", "mesh", "diffuse"].contains(p))

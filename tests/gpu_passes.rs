@@ -7,6 +7,8 @@
 mod common;
 
 use common::*;
+use meniscus::effect::diffuse::DiffuseEffect;
+use meniscus::effect::noise::NoiseEffect;
 use meniscus::gpu::FrameCtx;
 use meniscus::renderer::{read_f32, read_image, read_u32, upload_image, Renderer};
 use meniscus::settings::Filter;
@@ -1519,13 +1521,9 @@ fn composite_matches_cpu_reference() {
             thickness: &t.thickness,
             ssr: &t.ssr,
             sky: &r.background.sky,
-            noise: None,
-            diffuse: None,
         };
-        // Without the noise and diffuse passes: no foam (no images, the tint's weight is 0).
-        let noise = meniscus::passes::noise::Params { enabled: false, ..Default::default() };
-        let diffuse = meniscus::diffuse::params::Params::default();
-        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &noise, &diffuse, &t.final_color);
+        // No layers: the shading alone.
+        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &[], &t.final_color)?;
         Ok(())
     })
     .unwrap();
@@ -1967,11 +1965,10 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
     let mut runs = vec![];
     for tiled in [true, false] {
         let mut rr = Renderer::new(&gpu).unwrap();
-        rr.passes.noise = meniscus::passes::noise::Noise::with_variant(&gpu, tiled).unwrap();
+        rr.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
         rr.set_particles_moving(&pos, None, None, &motion).unwrap();
         rr.render(&v, &s).unwrap();
-        let t = rr.targets.as_ref().unwrap();
-        let own = t.noise.as_ref().expect("the noise pass's images");
+        let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         let work = own.work().unwrap();
         let noise = read_f32(&gpu, &own.noise).unwrap();
         let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
@@ -2041,7 +2038,7 @@ fn noise_matches_cpu_reference() {
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
-    let own = t.noise.as_ref().expect("the noise pass's images");
+    let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
     // Level 0 of the accumulator atlas: every sprite here is small enough to be evaluated at full resolution.
     let work = own.work().unwrap();
     assert_eq!(work.level, 0, "{work:?}");
@@ -2054,11 +2051,11 @@ fn noise_matches_cpu_reference() {
     let normals = words(&t.normals);
     // The other splat (tiles on a CPU driver, one thread per sprite on a GPU) gives the same atlas.
     let mut other = Renderer::new(&gpu).unwrap();
-    let tiled = !rr.passes.noise.is_tiled();
-    other.passes.noise = meniscus::passes::noise::Noise::with_variant(&gpu, tiled).unwrap();
+    let tiled = !rr.effects.get::<NoiseEffect>().unwrap().is_tiled();
+    other.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
     other.set_particles_moving(&pos, None, None, &motion).unwrap();
     other.render(&v, &s).unwrap();
-    let atlas2 = words(&other.targets.as_ref().unwrap().noise.as_ref().unwrap().accum);
+    let atlas2 = words(&other.effects.get::<NoiseEffect>().unwrap().images().unwrap().accum);
     assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
     let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
@@ -2141,8 +2138,10 @@ fn noise_of_still_water_does_not_flicker() {
         assert!(motion.iter().all(|m| m.accel == 0.0));
         rr.set_scene_particles_moving(&p, &s, &motion).unwrap();
         rr.render(&v, &s).unwrap();
-        let t = rr.targets.as_ref().unwrap();
-        frames.push((read_f32(&gpu, &t.noise.as_ref().unwrap().noise).unwrap(), rr.read_final().unwrap()));
+        frames.push((
+            read_f32(&gpu, &rr.effects.get::<NoiseEffect>().unwrap().images().unwrap().noise).unwrap(),
+            rr.read_final().unwrap(),
+        ));
     }
     assert!(frames[0].0.iter().any(|x| *x != 0.0), "no noise at all");
     for k in 1..3 {
@@ -2169,8 +2168,7 @@ fn a_frame_keeps_nothing_of_the_frame_before() {
     let frame = |rr: &mut Renderer| {
         rr.set_scene_particles(&b, &s).unwrap();
         rr.render(&v, &s).unwrap();
-        let t = rr.targets.as_ref().unwrap();
-        let noise = read_f32(&gpu, &t.noise.as_ref().unwrap().noise).unwrap();
+        let noise = read_f32(&gpu, &rr.effects.get::<NoiseEffect>().unwrap().images().unwrap().noise).unwrap();
         let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
         (rr.read_final().unwrap(), noise, depth)
     };
@@ -2229,7 +2227,7 @@ fn diffuse_matches_cpu_reference() {
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
-    let own = t.diffuse.as_ref().expect("the diffuse pass's images");
+    let own = rr.effects.get::<DiffuseEffect>().and_then(|d| d.images()).expect("the diffuse pass's images");
     let (white, bubbles) = (words(&own.white), words(&own.bubbles));
     let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
     let scene_depth = read_f32(&gpu, &t.scene_depth).unwrap();

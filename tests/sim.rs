@@ -499,8 +499,8 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
         r.set_scene_particles(&p, &s).unwrap();
         r.set_diffuse(live.particles(), &s).unwrap();
         r.render(&v, &s).unwrap();
-        let t = r.targets.as_ref().unwrap();
-        let white: Vec<f32> = read_u32(&gpu, &t.diffuse.as_ref().expect("diffuse images").white)
+        let own = r.effects.get::<meniscus::effect::diffuse::DiffuseEffect>().and_then(|d| d.images());
+        let white: Vec<f32> = read_u32(&gpu, &own.expect("diffuse images").white)
             .unwrap()
             .into_iter()
             .map(|u| u as f32 / units)
@@ -600,7 +600,15 @@ fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
     let v = common::view([0.0, 1.5, 4.0], [-0.8, 0.3, 0.0], 96, 64, 45.0);
     let s = common::settings(scene.radius());
     let words = |r: &Renderer| {
-        read_u32(&gpu, &r.targets.as_ref().unwrap().diffuse.as_ref().expect("diffuse images").white).unwrap()
+        read_u32(
+            &gpu,
+            &r.effects
+                .get::<meniscus::effect::diffuse::DiffuseEffect>()
+                .and_then(|d| d.images())
+                .expect("diffuse images")
+                .white,
+        )
+        .unwrap()
     };
     let mut host = Renderer::new(&gpu).unwrap();
     host.set_particles(&p.positions, None).unwrap();

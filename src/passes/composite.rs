@@ -1,9 +1,10 @@
 //! `composite` pass: shades the fluid over the background (Beer–Lambert, refraction, transparency, Fresnel,
-//! reflection, Blinn–Phong) into the 8-bit output. Shader: shaders_glsl/composite.comp.
+//! reflection, Blinn–Phong) into the 8-bit output, then lays the layers it is given over it ([`Layer`]: the effects'
+//! images, `crate::effect`; it knows no effect by name). Shader: shaders_glsl/composite.comp.
 use std::sync::Arc;
 
 use crate::declare_program;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
 
@@ -56,12 +57,11 @@ impl Default for Params {
     }
 }
 
-/// The pass: its compute program(s), built once per device, and the 1×1 placeholders bound in place of an
-/// effect's images when the effect did not run (the shader does not read them then).
+/// The pass: its compute program, built once per device, and the 1×1 placeholder bound in the layer slots past
+/// the last layer (the shader does not read them).
 pub struct Composite {
     prog: ComputeProgram<Push>,
-    none_f32: Image,
-    none_u32: Image,
+    none: Image,
 }
 
 /// The images the composite reads.
@@ -80,65 +80,109 @@ pub struct CompositeInputs<'a> {
     pub ssr: &'a Image,
     /// The sky cube map (placeholder when procedural).
     pub sky: &'a Image,
-    /// The `noise` pass's N (radii), the foam tint's magnitude, when the pass ran this frame.
-    pub noise: Option<&'a Image>,
-    /// The `diffuse` pass's coverage of foam and spray and of bubbles, when it ran this frame.
-    pub diffuse: Option<&'a crate::passes::diffuse::DiffuseTargets>,
 }
 
-/// Push constants of composite.comp: the foam tint (`[noise]`).
+/// The most layers the composite lays (one binding each in composite.comp).
+pub const LAYERS: usize = crate::shader_constants::COMPOSITE_LAYERS as usize;
+const _: () = assert!(LAYERS == 4, "composite.comp and Composite::record bind four layer images");
+
+/// How a layer's image changes the shaded colour (shaders_glsl/composite.comp's blends).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Blend {
+    /// The image holds f32 bits v; the water (not the background) mixes toward the layer's colour, lit by the
+    /// ambient light and `sun` × the sun's Lambert term, by weight · smoothstep(from, full, |v|).
+    Tint {
+        /// |v| where the tint starts …
+        from: f32,
+        /// … and where it is full.
+        full: f32,
+        /// The sun's share of the lighting (× n·l).
+        sun: f32,
+    },
+    /// The image holds fixed-point coverage C = v / units under the surface: the water mixes toward the colour,
+    /// lit by the ambient light + `sun` × the sun, by weight · (1 − exp(−C)).
+    Under {
+        /// Image units per unit of coverage.
+        units: f32,
+        /// The sun's share of the lighting.
+        sun: f32,
+    },
+    /// As [`Blend::Under`], over everything: water and background.
+    Over {
+        /// Image units per unit of coverage.
+        units: f32,
+        /// The sun's share of the lighting.
+        sun: f32,
+    },
+}
+
+/// One layer of the composite: an effect's image (R32_UINT, the output's size) and how it blends.
+#[derive(Clone, Copy)]
+pub struct Layer<'a> {
+    /// The image.
+    pub image: &'a Image,
+    /// Its colour (linear rgb).
+    pub color: [f32; 3],
+    /// Its weight (0: invisible).
+    pub weight: f32,
+    /// How it blends.
+    pub blend: Blend,
+}
+
+impl Layer<'_> {
+    /// The layer's two push-constant vectors: (rgb, weight) and (blend, its parameters, the sun's share).
+    pub fn packed(&self) -> [[f32; 4]; 2] {
+        let [r, g, b] = self.color;
+        let mode = match self.blend {
+            Blend::Tint { from, full, sun } => [1.0, from, full, sun],
+            Blend::Under { units, sun } => [2.0, units, 0.0, sun],
+            Blend::Over { units, sun } => [3.0, units, 0.0, sun],
+        };
+        [[r, g, b, self.weight], mode]
+    }
+}
+
+
+/// Push constants of composite.comp: the layers ([`Layer::packed`]; zero past the last: no layer).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Push {
-    /// Foam colour (rgb) and the full tint's weight (w; 0: none).
-    pub foam: [f32; 4],
-    /// |N| where the tint starts (x) and is full (y); z: the diffuse images' units per unit of coverage, w: how
-    /// much of the bubbles' coverage shows.
-    pub range: [f32; 4],
-    /// Colour of foam and spray (rgb); w: 1 when the diffuse images hold this frame's particles.
-    pub diffuse: [f32; 4],
+    /// Per layer: colour (rgb) and weight.
+    pub color: [[f32; 4]; LAYERS],
+    /// Per layer: blend, its parameters, the sun's share.
+    pub blend: [[f32; 4]; LAYERS],
 }
 
-// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky, noise, diffuse white,
-// diffuse bubbles.
+// Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky, then one per layer.
 declare_program!(pub PROGRAM: Push = compute(
     shaders::COMPOSITE,
-    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead, ImgRead, ImgRead]
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead, ImgRead, ImgRead, ImgRead]
 ));
 
 impl Composite {
-    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
+    /// Build the pass's pipeline (its slot list was checked against the shader at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
         use ash::vk;
         let one = vk::Extent2D { width: 1, height: 1 };
         let usage = vk::ImageUsageFlags::STORAGE;
         Ok(Composite {
             prog: ComputeProgram::new(gpu, &PROGRAM)?,
-            none_f32: Image::new(gpu, "composite_none_f32", one, vk::Format::R32_SFLOAT, usage, None)?,
-            none_u32: Image::new(gpu, "composite_none_u32", one, vk::Format::R32_UINT, usage, None)?,
+            none: Image::new(gpu, "composite_none", one, vk::Format::R32_UINT, usage, None)?,
         })
     }
 
-    /// Shade the fluid over the background into `out`, tinted toward foam by the noise (`noise`: its settings),
-    /// with the `diffuse` pass's bubbles under the surface and its foam and spray over everything.
-    pub fn record(
-        &self,
-        ctx: &mut FrameCtx,
-        frame: &Buffer,
-        i: &CompositeInputs,
-        noise: &crate::passes::noise::Params,
-        diffuse: &crate::diffuse::params::Params,
-        out: &Image,
-    ) {
+    /// Shade the fluid over the background into `out`, then lay the effects' `layers` in order (at most
+    /// [`LAYERS`]: `Effects::layers` checks it; more are an error here too).
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, layers: &[Layer], out: &Image) -> Result<()> {
+        if layers.len() > LAYERS {
+            return Err(Error::Invalid(format!("{} composite layers; the composite lays at most {LAYERS}", layers.len())));
+        }
         ctx.pass(NAME, |ctx| {
-            let c = noise.foam_color;
-            let d = diffuse.color;
-            let tint = if noise.enabled && i.noise.is_some() { noise.foam } else { 0.0 };
-            let push = Push {
-                foam: [c[0], c[1], c[2], tint],
-                range: [noise.foam_from, noise.foam_full, crate::passes::diffuse::UNITS, diffuse.bubbles],
-                diffuse: [d[0], d[1], d[2], if i.diffuse.is_some() { 1.0 } else { 0.0 }],
-            };
+            let mut push = Push { color: [[0.0; 4]; LAYERS], blend: [[0.0; 4]; LAYERS] };
+            for (k, l) in layers.iter().enumerate() {
+                [push.color[k], push.blend[k]] = l.packed();
+            }
+            let image = |k: usize| layers.get(k).map_or(&self.none, |l| l.image);
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
             let res = [
                 frame.into(),
@@ -150,11 +194,13 @@ impl Composite {
                 out.into(),
                 i.ssr.into(),
                 i.sky.into(),
-                i.noise.unwrap_or(&self.none_f32).into(),
-                i.diffuse.map_or(&self.none_u32, |d| &d.white).into(),
-                i.diffuse.map_or(&self.none_u32, |d| &d.bubbles).into(),
+                image(0).into(),
+                image(1).into(),
+                image(2).into(),
+                image(3).into(),
             ];
             self.prog.dispatch(ctx, &res, &push, g);
         });
+        Ok(())
     }
 }

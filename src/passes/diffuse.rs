@@ -11,7 +11,7 @@ use ash::vk;
 
 use crate::compute::clear::Clear;
 use crate::declare_program;
-use crate::diffuse::{Kind, Particle, params::Params};
+use crate::diffuse::{params::Params, Kind, Particle};
 use crate::error::Result;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::shaders;
@@ -142,7 +142,14 @@ impl Diffuse {
                 opacity: s.opacity,
                 indirect: indirect as u32,
             };
-            let res = [frame.into(), buf.into(), i.depth.into(), i.scene_depth.into(), (&i.own.white).into(), (&i.own.bubbles).into()];
+            let res = [
+                frame.into(),
+                buf.into(),
+                i.depth.into(),
+                i.scene_depth.into(),
+                (&i.own.white).into(),
+                (&i.own.bubbles).into(),
+            ];
             if indirect {
                 let layout = crate::shader_constants::ParticleLayout { count, header: true, diffuse };
                 self.prog.dispatch_indirect(ctx, &res, &push, buf, 16 * layout.diffuse_header());

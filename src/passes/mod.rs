@@ -45,15 +45,15 @@ frame_passes! {
     upsample: Upsample,
     /// View-space normals.
     normals: Normals,
-    /// The patent's noise: small waves on the normals, the foam tint's magnitude (`[noise]`).
-    noise: Noise,
-    /// Spray, foam and bubbles as billboards (`[diffuse]`).
-    diffuse: Diffuse,
     /// Screen-space reflections.
     ssr: Ssr,
     /// Shading over the background.
     composite: Composite,
 }
+
+// The effects' passes (`crate::effect` owns and records them, after `normals`).
+pub mod diffuse;
+pub mod noise;
 
 // The demo's passes (not part of the frame function).
 pub mod overlay;

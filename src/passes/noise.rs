@@ -111,12 +111,18 @@ impl Params {
         let most = crate::shader_constants::NOISE_LOD_SAMPLES as f32;
         if !(2.0..=most).contains(&self.lod_samples) {
             let v = self.lod_samples;
-            return Err(("lod_samples", format!("[noise] lod_samples = {v} is out of range (2 ≤ lod_samples ≤ {most})")));
+            return Err((
+                "lod_samples",
+                format!("[noise] lod_samples = {v} is out of range (2 ≤ lod_samples ≤ {most})"),
+            ));
         }
         non_neg("foam_from", self.foam_from, 64.0)?;
         pos("foam_full", self.foam_full, 64.0)?;
         if self.foam_full <= self.foam_from {
-            return Err(("foam_full", format!("[noise] foam_full = {} must exceed foam_from = {}", self.foam_full, self.foam_from)));
+            return Err((
+                "foam_full",
+                format!("[noise] foam_full = {} must exceed foam_from = {}", self.foam_full, self.foam_from),
+            ));
         }
         non_neg("foam", self.foam, 1.0)?;
         if self.foam_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
@@ -250,7 +256,7 @@ pub struct NoiseTargets {
     /// Fixed-point accumulator atlas (R32_UINT): level 0 (the output's size) with the coarser levels stacked
     /// to its right ([`atlas_extent`]).
     pub accum: Image,
-    /// N in radii (R32F), read by `composite`.
+    /// N in radii (R32_UINT holding f32 bits: the composite reads it as a layer).
     pub noise: Image,
     /// The splat's work, u32 ×8 ([`NoiseWork`]; host-readable).
     pub work: Buffer,
@@ -294,7 +300,7 @@ impl NoiseTargets {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
         Ok(NoiseTargets {
             accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
-            noise: Image::new(gpu, "noise", full, vk::Format::R32_SFLOAT, storage, None)?,
+            noise: Image::new(gpu, "noise", full, vk::Format::R32_UINT, storage, None)?,
             work: Buffer::new(gpu, "noise_work", 32, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
             bins: None,
             width,
@@ -334,14 +340,7 @@ impl NoiseTargets {
     pub fn work(&self) -> Result<NoiseWork> {
         let b = self.work.read()?;
         let w = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().expect("4 bytes")) as u64;
-        Ok(NoiseWork {
-            level: w(0) as u32,
-            texels: w(1),
-            sprites: w(2),
-            evaluated: w(3),
-            skipped: w(4),
-            binned: w(5),
-        })
+        Ok(NoiseWork { level: w(0) as u32, texels: w(1), sprites: w(2), evaluated: w(3), skipped: w(4), binned: w(5) })
     }
 
     /// (name, bytes) of each resource, for the memory table.

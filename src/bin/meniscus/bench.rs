@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use meniscus::effect::noise::NoiseEffect;
 use meniscus::scene::procedural;
 use meniscus::settings::{Filter, SplatMode};
 
@@ -340,7 +341,7 @@ impl Series {
 
     fn finish(self, r: &Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
         let t = r.targets.as_ref().expect("rendered");
-        let memory: Vec<Mem> = t.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
+        let memory: Vec<Mem> = r.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
         let iso_ran = self.per_pass.iter().any(|(n, _)| n == "iso");
         Ok(Entry {
             scene: w.label.clone(),
@@ -372,7 +373,7 @@ impl Series {
             pass_queues: self.pass_queues,
             rss_after_frames_bytes: rss_bytes(),
             gpu_memory: r.gpu.memory_report(),
-            noise_work: t.noise.as_ref().map(|n| n.work()).transpose()?,
+            noise_work: r.effects.get::<NoiseEffect>().map(|n| n.work()).transpose()?.flatten(),
             iso_work: match iso_ran {
                 true => t.iso_queue.as_ref().map(|q| q.work(&r.gpu)).transpose()?,
                 false => None,
@@ -383,12 +384,7 @@ impl Series {
                 .map(|(k, n)| (n.to_string(), Stat::of(&self.host.iter().map(|h| h[k]).collect::<Vec<_>>())))
                 .collect(),
             invocations: self.invocations,
-            effect_images: t
-                .memory()
-                .into_iter()
-                .map(|(n, _)| n.to_string())
-                .filter(|n| n.starts_with("noise") || n.starts_with("diffuse"))
-                .collect(),
+            effect_images: r.effects.memory().into_iter().map(|(n, _)| n.to_string()).collect(),
         })
     }
 }

@@ -1,0 +1,165 @@
+//! Effects: what a frame adds on and around the surface it drew — [`noise`] (the NVIDIA patent's small waves
+//! and whitecaps) and [`diffuse`] (spray, foam and bubbles, Ihmsen et al. 2012). An effect is a technique like
+//! a surface (`crate::surface`): it owns its pipelines and its images (allocated only while it draws: its
+//! setting on and something to draw), prepares them on the host, records its passes after the normals, and
+//! gives the `composite` pass its layers (`crate::passes::composite::Layer`) — the composite knows no effect by name. THE LIST is
+//! [`Effects::new`]: a new effect is one module and one line there (or one [`Effects::push`] from outside the
+//! library: `Renderer::add_effect`).
+//!
+//! In: the frame's depth, normals, scene depth, particles and settings ([`EffectFrame`]). Out: each effect's
+//! own images, read by the composite as layers in list order (at most
+//! [`crate::shader_constants::COMPOSITE_LAYERS`] in all).
+
+pub mod diffuse;
+pub mod noise;
+
+use std::any::Any;
+use std::sync::Arc;
+
+use crate::error::{Error, Result};
+use crate::gpu::executor::Executor;
+use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
+use crate::particles::ParticleSet;
+use crate::passes::composite::Layer;
+use crate::settings::Settings;
+
+/// What an effect prepares with, on the host, before a frame is recorded.
+pub struct EffectPrepare<'a> {
+    /// The device.
+    pub gpu: &'a Arc<Gpu>,
+    /// The frames in flight (waited for before an image they use is replaced).
+    pub executor: &'a Executor,
+    /// The particles of the next frame.
+    pub particles: &'a ParticleSet,
+    /// The frame's settings.
+    pub settings: &'a Settings,
+    /// Output width.
+    pub width: u32,
+    /// Output height.
+    pub height: u32,
+}
+
+/// The particle buffer as the frame's passes see it: the fluid particles, their motions after them, then the
+/// diffuse particles (`crate::shader_constants::ParticleLayout`).
+#[derive(Clone, Copy)]
+pub struct FrameParticles<'a> {
+    /// The buffer.
+    pub buffer: &'a Buffer,
+    /// Fluid particles.
+    pub count: u32,
+    /// Diffuse particles after them (at most, when written on the GPU) …
+    pub diffuse: u32,
+    /// … written on the GPU after a header: a pass that draws them dispatches indirectly.
+    pub diffuse_indirect: bool,
+    /// Some fluid particles are marked as spray.
+    pub spray: bool,
+}
+
+/// What an effect records with: the frame's uniforms, particles and images.
+pub struct EffectFrame<'a> {
+    /// The frame uniform block.
+    pub frame: &'a Buffer,
+    /// The particles.
+    pub particles: FrameParticles<'a>,
+    /// Fluid depth at full resolution.
+    pub depth: &'a Image,
+    /// Packed view-space normals (an effect may perturb them: `noise` runs first).
+    pub normals: &'a Image,
+    /// Background depth.
+    pub scene_depth: &'a Image,
+    /// The frame's settings.
+    pub settings: &'a Settings,
+}
+
+/// One effect.
+pub trait Effect: Any {
+    /// Its one name: pass, timestamp key, JSON key, settings section.
+    fn name(&self) -> &'static str;
+    /// Bring its images up to date for the next frame's size, settings and particles: allocated while it draws
+    /// (waiting for the frames in flight before replacing any), freed when it is off.
+    fn prepare(&mut self, p: &EffectPrepare) -> Result<()>;
+    /// Record its passes (in the frame's fluid part, after the normals); nothing when it does not draw.
+    fn record(&self, ctx: &mut FrameCtx, f: &EffectFrame);
+    /// Its layers in the composite, in order; none when it does not draw this frame.
+    fn layers(&self, s: &Settings) -> Vec<Layer<'_>>;
+    /// (name, bytes) of the images and buffers it holds now, for the memory table.
+    fn memory(&self) -> Vec<(&str, u64)>;
+}
+
+/// The effects a renderer runs, in frame (and layer) order.
+pub struct Effects {
+    all: Vec<Box<dyn Effect>>,
+}
+
+impl Effects {
+    /// THE LIST: every built-in effect, in order (a new one is its module and one line here).
+    pub fn new(gpu: &Arc<Gpu>) -> Result<Effects> {
+        let all: Vec<Box<dyn Effect>> =
+            vec![Box::new(noise::NoiseEffect::new(gpu)?), Box::new(diffuse::DiffuseEffect::new(gpu)?)];
+        Ok(Effects { all })
+    }
+
+    /// Add an effect after the others (its passes run last, its layers lie on top).
+    pub fn push(&mut self, e: Box<dyn Effect>) {
+        self.all.push(e);
+    }
+
+    /// The effects' names, in order.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.all.iter().map(|e| e.name()).collect()
+    }
+
+    /// The names of the built-in effects, in order (without building them: the timing table's columns).
+    pub const BUILT_IN: &'static [&'static str] = &[crate::passes::noise::NAME, crate::passes::diffuse::NAME];
+
+    /// Prepare every effect.
+    pub fn prepare(&mut self, p: &EffectPrepare) -> Result<()> {
+        self.all.iter_mut().try_for_each(|e| e.prepare(p))
+    }
+
+    /// Record every effect's passes, in order.
+    pub fn record(&self, ctx: &mut FrameCtx, f: &EffectFrame) {
+        for e in &self.all {
+            e.record(ctx, f);
+        }
+    }
+
+    /// Every effect's layers, in order; an error when they exceed the composite's
+    /// [`crate::shader_constants::COMPOSITE_LAYERS`].
+    pub fn layers(&self, s: &Settings) -> Result<Vec<Layer<'_>>> {
+        let layers: Vec<Layer> = self.all.iter().flat_map(|e| e.layers(s)).collect();
+        let max = crate::shader_constants::COMPOSITE_LAYERS as usize;
+        if layers.len() > max {
+            return Err(Error::Invalid(format!(
+                "the effects {} give {} composite layers; the composite lays at most {max}",
+                self.names().join(", "),
+                layers.len()
+            )));
+        }
+        Ok(layers)
+    }
+
+    /// (name, bytes) of what every effect holds now.
+    pub fn memory(&self) -> Vec<(&str, u64)> {
+        self.all.iter().flat_map(|e| e.memory()).collect()
+    }
+
+    /// The effect of type `T`, if the list has one (tests and tools read its images).
+    pub fn get<T: Effect>(&self) -> Option<&T> {
+        self.all.iter().find_map(|e| (e.as_ref() as &dyn Any).downcast_ref::<T>())
+    }
+
+    /// The effect of type `T`, if the list has one.
+    pub fn get_mut<T: Effect>(&mut self) -> Option<&mut T> {
+        self.all.iter_mut().find_map(|e| (e.as_mut() as &mut dyn Any).downcast_mut::<T>())
+    }
+}
+
+/// Wait for the frames in flight, then replace `slot` with what `make` builds (None: free it). An effect's
+/// images change only through here, so no frame in flight loses an image it uses.
+pub fn replace<T>(slot: &mut Option<T>, executor: &Executor, make: impl FnOnce() -> Result<Option<T>>) -> Result<()> {
+    executor.wait_idle()?;
+    *slot = None;
+    *slot = make()?;
+    Ok(())
+}

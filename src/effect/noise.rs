@@ -1,0 +1,97 @@
+//! The `noise` effect (NVIDIA patent US 8,947,430; method.md §8): small waves on the normals and, as the
+//! composite's `tint` layer, whitecaps where the noise is strong. It owns the `noise` pass
+//! (`crate::passes::noise`: splat, resolve, apply) and the pass's images, which exist only while
+//! `[noise] enabled`. In: fluid depth, normals, particles (+ motions). Out: normals (perturbed), N (its layer).
+
+use std::sync::Arc;
+
+use super::{Effect, EffectFrame, EffectPrepare};
+use crate::error::Result;
+use crate::gpu::{FrameCtx, Gpu};
+use crate::passes::composite::{Blend, Layer};
+use crate::passes::noise::{Noise, NoiseImages, NoiseTargets, NAME};
+use crate::settings::Settings;
+use crate::work::NoiseWork;
+
+/// The effect: the pass and, while it is on, its images.
+pub struct NoiseEffect {
+    pass: Noise,
+    images: Option<NoiseTargets>,
+}
+
+impl NoiseEffect {
+    /// The effect with the splat the device suits (tiled on GPUs, one thread per sprite on CPU drivers).
+    pub fn new(gpu: &Arc<Gpu>) -> Result<NoiseEffect> {
+        Ok(NoiseEffect { pass: Noise::new(gpu)?, images: None })
+    }
+
+    /// Choose the splat: tiled or one thread per sprite (the same sums; the tests compare them). Drops the
+    /// images (the next frame makes them again; call between frames, with none in flight).
+    pub fn set_tiled(&mut self, gpu: &Arc<Gpu>, tiled: bool) -> Result<()> {
+        self.pass = Noise::with_variant(gpu, tiled)?;
+        self.images = None;
+        Ok(())
+    }
+
+    /// Whether the splat is the tiled one.
+    pub fn is_tiled(&self) -> bool {
+        self.pass.is_tiled()
+    }
+
+    /// Its images, while it is on.
+    pub fn images(&self) -> Option<&NoiseTargets> {
+        self.images.as_ref()
+    }
+
+    /// The last frame's work (read once that frame has finished), while it is on.
+    pub fn work(&self) -> Result<Option<NoiseWork>> {
+        self.images.as_ref().map(|n| n.work()).transpose()
+    }
+}
+
+impl Effect for NoiseEffect {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn prepare(&mut self, p: &EffectPrepare) -> Result<()> {
+        let on = p.settings.noise.enabled;
+        let fits = |n: &NoiseTargets| n.noise.extent.width == p.width && n.noise.extent.height == p.height;
+        if on != self.images.is_some() || !self.images.as_ref().is_none_or(fits) {
+            let gpu = p.gpu;
+            let (w, h) = (p.width, p.height);
+            super::replace(&mut self.images, p.executor, || on.then(|| NoiseTargets::new(gpu, w, h)).transpose())?;
+        }
+        // The tiled splat's bins follow the particle count.
+        let count = p.particles.count();
+        if let Some(n) = self.images.as_mut().filter(|n| self.pass.is_tiled() && n.needs(count)) {
+            p.executor.wait_idle()?;
+            n.reserve(p.gpu, count)?;
+        }
+        Ok(())
+    }
+
+    fn record(&self, ctx: &mut FrameCtx, f: &EffectFrame) {
+        if let Some(own) = &self.images {
+            let s = f.settings;
+            let images = NoiseImages { depth: f.depth, normals: f.normals, own };
+            let particles = (f.particles.buffer, f.particles.count);
+            self.pass.record(ctx, f.frame, particles, &images, &s.noise, s.normals.edge * s.radius);
+        }
+    }
+
+    fn layers(&self, s: &Settings) -> Vec<Layer<'_>> {
+        let p = &s.noise;
+        let Some(own) = &self.images else { return vec![] };
+        vec![Layer {
+            image: &own.noise,
+            color: p.foam_color,
+            weight: p.foam,
+            blend: Blend::Tint { from: p.foam_from, full: p.foam_full, sun: 0.6 },
+        }]
+    }
+
+    fn memory(&self) -> Vec<(&str, u64)> {
+        self.images.as_ref().map(|n| n.memory()).unwrap_or_default()
+    }
+}
