@@ -24,6 +24,7 @@ pub mod particles;
 pub mod passes;
 pub mod renderer;
 pub mod scene;
+pub mod section;
 pub mod settings;
 pub mod sim;
 pub mod surface;

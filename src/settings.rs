@@ -8,6 +8,7 @@ use crate::named::named_enum;
 pub use crate::named::{from_name, Named};
 pub use crate::passes::smooth::Filter;
 pub use crate::passes::splat::SplatMode;
+use crate::section::{Keys, Section};
 
 /// The dotted key of the first non-finite float in a TOML table (inf, nan), if any.
 fn non_finite(t: &toml::Table) -> Option<String> {
@@ -149,6 +150,16 @@ impl Default for SprayParams {
     }
 }
 
+impl Section for SprayParams {
+    fn name(&self) -> &'static str {
+        "spray"
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        Keys("spray").within("density", self.density, 0.0, 1.0)
+    }
+}
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {
@@ -287,18 +298,16 @@ impl Settings {
             offset: 0,
             reason: e.to_string(),
         })?;
-        // Sections whose ranges are checked here name the key's place in the file.
-        if let Err((key, reason)) = s.noise.check() {
+        // Every section's keys in range, an error naming the key's place in the file (the frame-wide `radius`
+        // may still be unset here: the data sets it).
+        if let Err((section, key, reason)) = s.check_sections() {
+            let (header, name) = match key.rsplit_once('.') {
+                Some((sub, name)) => (format!("{section}.{sub}"), name),
+                None => (section.to_string(), key),
+            };
             return Err(Error::Parse {
                 path: path.to_path_buf(),
-                offset: key_offset_in(&text, Some("noise"), key),
-                reason,
-            });
-        }
-        if let Err((key, reason)) = s.diffuse.check() {
-            return Err(Error::Parse {
-                path: path.to_path_buf(),
-                offset: key_offset_in(&text, Some("diffuse"), key),
+                offset: key_offset_in(&text, Some(&header), name),
                 reason,
             });
         }
@@ -352,71 +361,48 @@ impl Settings {
         }
     }
 
-    /// Check values a user could get wrong.
+    /// THE LIST of settings sections, in file order: each states its keys, defaults and ranges
+    /// (`crate::section::Section`). A new section is its type and one line here.
+    pub fn sections(&self) -> [&dyn Section; 14] {
+        [
+            &self.background,
+            &self.splat,
+            &self.spray,
+            &self.iso,
+            &self.anisotropy,
+            &self.mesh,
+            &self.thickness,
+            &self.smooth,
+            &self.normals,
+            &self.noise,
+            &self.diffuse,
+            &self.ssr,
+            &self.composite,
+            &self.sim,
+        ]
+    }
+
+    /// The first key of any section out of range, as (section, key, reason), and the rules between sections.
+    pub fn check_sections(&self) -> std::result::Result<(), (&'static str, &'static str, String)> {
+        for sec in self.sections() {
+            sec.check().map_err(|(key, reason)| (sec.name(), key, reason))?;
+        }
+        let (a, support) = (&self.anisotropy, self.iso.support);
+        Keys("anisotropy")
+            .rule("max_shift", a.max_shift <= support, || {
+                format!("max_shift = {} must be at most [iso] support = {support}", a.max_shift)
+            })
+            .map_err(|(key, reason)| ("anisotropy", key, reason))
+    }
+
+    /// Check values a user could get wrong: the frame-wide keys, then every section.
     pub fn validate(&self) -> Result<()> {
-        let bad = |what: &str| Err(Error::Invalid(format!("setting {what} is out of range")));
-        if !(self.radius.is_finite() && self.radius > 0.0) {
-            return bad("radius (must be > 0)");
-        }
-        if !(self.fluid_scale > 0.0 && self.fluid_scale <= 1.0) {
-            return bad("fluid_scale (0 < s ≤ 1)");
-        }
-        self.sim.validate()?;
-        self.noise.check().map_err(|(_, reason)| Error::Invalid(reason))?;
-        self.diffuse.check().map_err(|(_, reason)| Error::Invalid(reason))?;
-        if !(self.mesh.cube > 0.05 && self.mesh.cube <= 8.0) || self.mesh.smoothing_iters > 1000 {
-            return bad("[mesh] cube (0.05 < c ≤ 8) or smoothing_iters (≤ 1000)");
-        }
-        if !(self.splat.radius_scale >= 0.25 && self.splat.radius_scale <= 4.0) {
-            return bad("[splat] radius_scale (0.25 … 4)");
-        }
-        if !(self.thickness.scale > 0.0 && self.thickness.scale <= 1.0) {
-            return bad("[thickness] scale (0 < s ≤ 1)");
-        }
-        if self.smooth.max_px > 64 {
-            return bad("[smooth] max_px (≤ 64)");
-        }
-        if self.thickness.blur_px > 16 {
-            return bad("[thickness] blur_px (≤ 16)");
-        }
-        if self.smooth.curvature.iters_per_dispatch == 0 || self.smooth.curvature.iters_per_dispatch > 4 {
-            return bad("[smooth.curvature] iters_per_dispatch (1 … 4)");
-        }
-        if self.smooth.curvature.it_max > 1000 || self.smooth.narrow.iterations > 16 || self.smooth.narrow.px_2d > 8 {
-            return bad("[smooth.curvature] it_max (≤ 1000), [smooth.narrow] iterations (≤ 16) or px_2d (≤ 8)");
-        }
-        if !(self.smooth.curvature.dt >= 0.0 && self.smooth.curvature.dt.is_finite()) {
-            return bad("[smooth.curvature] dt (≥ 0)");
-        }
-        let iso_ok = (1.0..=16.0).contains(&self.iso.support)
-            && self.iso.threshold > 0.0
-            && self.iso.threshold < 1.0
-            && (0.01..=4.0).contains(&self.iso.step)
-            && (0.5..=self.iso.support).contains(&self.iso.bound)
-            && (1..=65536).contains(&self.iso.max_steps)
-            && self.iso.refine <= 32
-            && self.iso.first_steps <= 65536
-            && (self.iso.fine_px == 0.0 || (1.0..=64.0).contains(&self.iso.fine_px))
-            && (0.0..=8.0).contains(&self.iso.smoothing)
-            && (0.25..=4.0).contains(&self.iso.voxel)
-            && self.iso.bulk.iter().all(|c| (0.0..=1000.0).contains(c));
-        if !iso_ok {
-            return bad("[iso] (support 1 … 16, 0 < threshold < 1, step 0.01 … 4, 0.5 ≤ bound ≤ support, 1 … 65536 steps, ≤ 32 refinements, first_steps ≤ 65536, fine_px 0 or 1 … 64, smoothing 0 … 8, voxel 0.25 … 4, bulk 0 … 1000)");
-        }
-        if self.smooth.bilateral.iterations > 64 {
-            return bad("[smooth.bilateral] iterations (≤ 64)");
-        }
-        let a = &self.anisotropy;
-        let aniso_ok = (1.0..=16.0).contains(&a.ratio)
-            && a.min_neighbours <= 1000
-            && (0.0..=1.0).contains(&a.centre_blend)
-            && (0.0..=self.iso.support).contains(&a.max_shift)
-            && (1.0..=3.0).contains(&a.stretch)
-            && (1.0..=2.0).contains(&a.radius);
-        if !aniso_ok {
-            return bad("[anisotropy] (ratio 1 … 16, min_neighbours ≤ 1000, centre_blend 0 … 1, 0 ≤ max_shift ≤ [iso] support, stretch 1 … 3, radius 1 … 2)");
-        }
-        Ok(())
+        let k = Keys("");
+        let top = k
+            .above("radius", self.radius, 0.0, f32::MAX)
+            .and_then(|_| k.above("fluid_scale", self.fluid_scale, 0.0, 1.0));
+        top.map_err(|(_, reason)| Error::Invalid(reason))?;
+        self.check_sections().map_err(|(_, _, reason)| Error::Invalid(reason))
     }
 }
 
@@ -459,6 +445,72 @@ mod tests {
         assert_eq!((s.smooth.filter, s.splat.mode), (Filter::CurvatureFlow, SplatMode::QuadMin));
     }
 
+    /// Every key of every section is checked: set alone far outside any range (±1e30 for a real number or a
+    /// component, u32::MAX for a count, 1e30 for an optional value), the sections' check names that section and
+    /// key; the list of sections covers every table of the settings. In a file, the error is the key's byte
+    /// offset (a subsection's key under its own header).
+    #[test]
+    fn every_key_of_every_section_is_checked() {
+        use serde_json::{json, Value};
+        let base = Settings::default().with(|s| s.radius = 0.01);
+        base.validate().unwrap();
+        let all = serde_json::to_value(&base).unwrap();
+        let tables: Vec<&str> =
+            all.as_object().unwrap().iter().filter(|(_, v)| v.is_object()).map(|(k, _)| k.as_str()).collect();
+        let mut names: Vec<&str> = base.sections().iter().map(|s| s.name()).collect();
+        names.sort();
+        assert_eq!(names, tables, "one section per table of the settings");
+        // (section, dotted key inside it, the leaf's path, its bad values).
+        fn leaves(at: &[String], v: &Value, out: &mut Vec<(Vec<String>, Vec<Value>)>) {
+            match v {
+                Value::Object(o) => o.iter().for_each(|(k, x)| leaves(&[at, std::slice::from_ref(k)].concat(), x, out)),
+                Value::Number(n) if n.is_u64() => out.push((at.to_vec(), vec![json!(u32::MAX)])),
+                Value::Number(_) | Value::Null => out.push((at.to_vec(), vec![json!(1e30), json!(-1e30)])),
+                Value::Array(a) if a.iter().all(|c| c.is_f64()) => {
+                    let with = |x: f64| Value::Array([vec![json!(x)], a[1..].to_vec()].concat());
+                    out.push((at.to_vec(), vec![with(1e30), with(-1e30)]))
+                }
+                _ => {}
+            }
+        }
+        let mut checked = 0;
+        for section in &tables {
+            let mut found = vec![];
+            leaves(&[], &all[section], &mut found);
+            for (path, bads) in found {
+                let key = path.join(".");
+                for bad in bads {
+                    let mut j = all.clone();
+                    let slot = path.iter().fold(&mut j[section], |v, k| &mut v[k]);
+                    *slot = bad.clone();
+                    let s: Settings =
+                        serde_json::from_value(j).unwrap_or_else(|e| panic!("{section}.{key} = {bad}: {e}"));
+                    let (sec, k, reason) = s.check_sections().expect_err(&format!("{section}.{key} = {bad} passes"));
+                    assert_eq!((sec, k), (*section, key.as_str()), "{section}.{key} = {bad}: {reason}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 150, "{checked} values checked");
+        let dir = std::env::temp_dir().join(format!("meniscus-sections-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (text, key) in [
+            ("[ssr]\nrefine = 2\nstride = 0.0\n", "stride"),
+            ("[smooth]\nradius = 3.0\n[smooth.curvature]\nkappa = 2.0\ndt = -1.0\n", "dt"),
+        ] {
+            let f = dir.join("bad.toml");
+            std::fs::write(&f, text).unwrap();
+            match Settings::from_toml(&f) {
+                Err(Error::Parse { offset, reason, .. }) => {
+                    assert_eq!(&text[offset as usize..offset as usize + key.len()], key, "{reason}");
+                    assert!(reason.contains(key) && reason.contains("out of range"), "{reason}");
+                }
+                other => panic!("{text}: {other:?}"),
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     /// A settings file is read section by section over the preset; unknown keys or sections, wrong types and
     /// bad names are errors with the file and the byte offset of the offending key or value.
     #[test]
@@ -494,7 +546,7 @@ mod tests {
             "diffuse.toml",
             "[noise]\nsize = 2.0\n[diffuse]\nsize = 1.0\nlifetime = [3.0, 1.0]\n",
             40,
-            "lifetime = [3, 1]",
+            "lifetime = [3.0, 1.0] is out of range",
         );
         check("diffusekey.toml", "[diffuse]\nglitter = 1\n", 10, "glitter");
     }

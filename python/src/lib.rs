@@ -698,7 +698,7 @@ impl Foam {
             return Err(PyValueError::new_err("particle_radius and fps must be positive numbers"));
         }
         let params = settings("default", settings_file)?.diffuse;
-        params.check().map_err(|(_, reason)| PyValueError::new_err(reason))?;
+        meniscus::section::Section::check(&params).map_err(|(_, reason)| PyValueError::new_err(reason))?;
         Ok(Foam { live: meniscus::diffuse::generator::Live::new(&params, fps), radius })
     }
 

@@ -92,81 +92,48 @@ impl Default for Params {
 }
 
 impl Params {
-    /// The first value out of range, as (key, reason).
-    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
-        let range = |k: &'static str, v: [f32; 2]| {
-            if v[0].is_finite() && v[1].is_finite() && 0.0 <= v[0] && v[0] < v[1] {
-                Ok(())
-            } else {
-                Err((k, format!("[diffuse] {k} = [{}, {}] must be 0 ≤ min < max", v[0], v[1])))
-            }
-        };
-        let non_neg = |k: &'static str, v: f32, max: f32| {
-            if (0.0..=max).contains(&v) {
-                Ok(())
-            } else {
-                Err((k, format!("[diffuse] {k} = {v} is out of range (0 ≤ {k} ≤ {max})")))
-            }
-        };
-        let pos = |k: &'static str, v: f32, max: f32| {
-            if v > 0.0 && v <= max {
-                Ok(())
-            } else {
-                Err((k, format!("[diffuse] {k} = {v} is out of range (0 < {k} ≤ {max})")))
-            }
-        };
-        pos("size", self.size, 16.0)?;
-        if !(0.0..1.0).contains(&self.size_spread) {
-            return Err((
-                "size_spread",
-                format!("[diffuse] size_spread = {} is out of range (0 ≤ size_spread < 1)", self.size_spread),
-            ));
-        }
-        non_neg("shutter", self.shutter, 1.0)?;
-        non_neg("opacity", self.opacity, 16.0)?;
-        non_neg("fade", self.fade, 60.0)?;
-        non_neg("fade_in", self.fade_in, 60.0)?;
-        non_neg("foam_depth", self.foam_depth, 64.0)?;
-        pos("bubble_depth", self.bubble_depth, 1e4)?;
-        if self.color.iter().any(|c| !(0.0..=1.0).contains(c)) {
-            return Err(("color", "[diffuse] color components are 0 … 1".into()));
-        }
-        non_neg("bubbles", self.bubbles, 1.0)?;
-        non_neg("foam_scale", self.foam_scale, 1e6)?;
-        range("trapped_air", self.trapped_air)?;
-        range("wave_crest", self.wave_crest)?;
-        range("kinetic", self.kinetic)?;
-        range("lifetime", self.lifetime)?;
-        non_neg("buoyancy", self.buoyancy, 100.0)?;
-        non_neg("drag", self.drag, 1.0)?;
-        non_neg("air_drag", self.air_drag, 100.0)?;
-        if self.bubble_above < self.spray_below {
-            return Err((
-                "bubble_above",
-                format!(
-                    "[diffuse] bubble_above = {} must be at least spray_below = {}",
-                    self.bubble_above, self.spray_below
-                ),
-            ));
-        }
-        if self.per_particle == 0 || self.per_particle > 64 {
-            return Err((
-                "per_particle",
-                format!("[diffuse] per_particle = {} is out of range (1 … 64)", self.per_particle),
-            ));
-        }
-        if self.max_particles == 0 || self.max_particles > 64_000_000 {
-            return Err((
-                "max_particles",
-                format!("[diffuse] max_particles = {} is out of range (1 … 64000000)", self.max_particles),
-            ));
-        }
-        Ok(())
-    }
-
     /// The hand-set limits.
     pub fn limits(&self) -> Limits {
         Limits { trapped_air: self.trapped_air, wave_crest: self.wave_crest, kinetic: self.kinetic }
+    }
+}
+
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        super::NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(super::NAME);
+        k.above("size", self.size, 0.0, 16.0)?;
+        k.within("size_spread", self.size_spread, 0.0, 1.0)?;
+        k.rule("size_spread", self.size_spread < 1.0, || {
+            format!("size_spread = {} must be below 1", self.size_spread)
+        })?;
+        k.within("shutter", self.shutter, 0.0, 1.0)?;
+        k.within("opacity", self.opacity, 0.0, 16.0)?;
+        k.within("fade", self.fade, 0.0, 60.0)?;
+        k.within("fade_in", self.fade_in, 0.0, 60.0)?;
+        k.within("foam_depth", self.foam_depth, 0.0, 64.0)?;
+        k.above("bubble_depth", self.bubble_depth, 0.0, 1e4)?;
+        k.each("color", &self.color, 0.0, 1.0)?;
+        k.within("bubbles", self.bubbles, 0.0, 1.0)?;
+        k.within("foam_scale", self.foam_scale, 0.0, 1e6)?;
+        k.pair("trapped_air", self.trapped_air, 0.0, 1e9)?;
+        k.pair("wave_crest", self.wave_crest, 0.0, 1e9)?;
+        k.pair("kinetic", self.kinetic, 0.0, 1e9)?;
+        k.pair("lifetime", self.lifetime, 0.0, 1e9)?;
+        k.within("buoyancy", self.buoyancy, 0.0, 100.0)?;
+        k.within("drag", self.drag, 0.0, 1.0)?;
+        k.within("air_drag", self.air_drag, 0.0, 100.0)?;
+        k.count("spray_below", self.spray_below, 0, 1000)?;
+        k.count("bubble_above", self.bubble_above, 0, 1000)?;
+        k.rule("bubble_above", self.bubble_above >= self.spray_below, || {
+            format!("bubble_above = {} must be at least spray_below = {}", self.bubble_above, self.spray_below)
+        })?;
+        k.count("min_neighbours", self.min_neighbours, 0, 1000)?;
+        k.count("per_particle", self.per_particle, 1, 64)?;
+        k.count("max_particles", self.max_particles, 1, 64_000_000)
     }
 }
 

@@ -50,6 +50,23 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    /// (`max_shift` is also at most `[iso] support`: `Settings::check`.)
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.within("ratio", self.ratio, 1.0, 16.0)?;
+        k.count("min_neighbours", self.min_neighbours, 0, 1000)?;
+        k.within("centre_blend", self.centre_blend, 0.0, 1.0)?;
+        k.within("max_shift", self.max_shift, 0.0, 16.0)?;
+        k.within("stretch", self.stretch, 1.0, 3.0)?;
+        k.within("radius", self.radius, 1.0, 2.0)
+    }
+}
+
 impl Params {
     /// In world units for particles of `radius` and a kernel support of `support` radii.
     pub fn world(&self, radius: f32, support: f32) -> crate::field::iso::AnisoParams {

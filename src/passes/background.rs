@@ -30,6 +30,18 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.each("sun_dir", &self.sun_dir, -1e3, 1e3)?;
+        k.within("sun_intensity", self.sun_intensity, 0.0, 100.0)
+    }
+}
+
 /// The pass: its compute program(s), built once per device.
 pub struct Background {
     prog: ComputeProgram<u32>,

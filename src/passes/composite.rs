@@ -57,6 +57,26 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.each("extinction", &self.extinction, 0.0, 1e3)?;
+        k.within("extinction_scale", self.extinction_scale, 0.0, 1e4)?;
+        k.each("fluid_color", &self.fluid_color, 0.0, 1.0)?;
+        k.within("ambient", self.ambient, 0.0, 4.0)?;
+        k.within("refraction_alpha", self.refraction_alpha, 0.0, 1e4)?;
+        k.within("refraction_beta", self.refraction_beta, 0.0, 1024.0)?;
+        k.within("transparency_gamma", self.transparency_gamma, 0.0, 1e4)?;
+        k.within("specular", self.specular, 0.0, 100.0)?;
+        k.within("shininess", self.shininess, 0.0, 1e5)?;
+        k.within("f0", self.f0, 0.0, 1.0)
+    }
+}
+
 /// The pass: its compute program, built once per device, and the 1×1 placeholder bound in the layer slots past
 /// the last layer (the shader does not read them).
 pub struct Composite {

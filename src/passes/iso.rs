@@ -99,6 +99,34 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.within("support", self.support, 1.0, 16.0)?;
+        k.above("threshold", self.threshold, 0.0, 1.0)?;
+        k.rule("threshold", self.threshold < 1.0, || format!("threshold = {} must be below 1", self.threshold))?;
+        k.within("step", self.step, 0.01, 4.0)?;
+        k.within("bound", self.bound, 0.5, 16.0)?;
+        k.rule("bound", self.bound <= self.support, || {
+            format!("bound = {} must be at most support = {}", self.bound, self.support)
+        })?;
+        k.count("max_steps", self.max_steps, 1, 65536)?;
+        k.count("refine", self.refine, 0, 32)?;
+        k.count("first_steps", self.first_steps, 0, 65536)?;
+        k.within("fine_px", self.fine_px, 0.0, 64.0)?;
+        k.rule("fine_px", self.fine_px == 0.0 || self.fine_px >= 1.0, || {
+            format!("fine_px = {} must be 0 (off) or 1 … 64", self.fine_px)
+        })?;
+        k.within("smoothing", self.smoothing, 0.0, 8.0)?;
+        k.each("bulk", &self.bulk, 0.0, 1000.0)?;
+        k.within("voxel", self.voxel, 0.25, 4.0)
+    }
+}
+
 /// Coarse-to-fine: the widest spread of the marched neighbours' depths, and the longest Newton step, that a
 /// fine pixel trusts (particle radii; see [`Params::fine_px`]).
 pub const FINE_SPREAD: f32 = 1.0;

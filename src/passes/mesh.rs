@@ -31,6 +31,18 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.above("cube", self.cube, 0.05, 8.0)?;
+        k.count("smoothing_iters", self.smoothing_iters, 0, 1000)
+    }
+}
+
 // Slots: frame, fluid depth (written), BVH nodes, triangles. Push: the node count.
 declare_program!(pub PROGRAM: u32 = compute(shaders::MESH, [Uniform, ImgOverwrite, BufRead, BufRead]));
 

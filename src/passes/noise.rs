@@ -84,51 +84,28 @@ impl Default for Params {
     }
 }
 
-impl Params {
-    /// The first value out of range, as (key, reason).
-    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
-        let pos = |k: &'static str, v: f32, max: f32| {
-            if v > 0.0 && v <= max {
-                Ok(())
-            } else {
-                Err((k, format!("[noise] {k} = {v} is out of range (0 < {k} ≤ {max})")))
-            }
-        };
-        let non_neg = |k: &'static str, v: f32, max: f32| {
-            if (0.0..=max).contains(&v) {
-                Ok(())
-            } else {
-                Err((k, format!("[noise] {k} = {v} is out of range (0 ≤ {k} ≤ {max})")))
-            }
-        };
-        pos("size", self.size, 16.0)?;
-        pos("frequency", self.frequency, 64.0)?;
-        pos("falloff", self.falloff, 64.0)?;
-        non_neg("calm", self.calm, 8.0)?;
-        non_neg("turbulent", self.turbulent, 8.0)?;
-        pos("threshold", self.threshold, 1e9)?;
-        non_neg("strength", self.strength, 64.0)?;
-        let most = crate::shader_constants::NOISE_LOD_SAMPLES as f32;
-        if !(2.0..=most).contains(&self.lod_samples) {
-            let v = self.lod_samples;
-            return Err((
-                "lod_samples",
-                format!("[noise] lod_samples = {v} is out of range (2 ≤ lod_samples ≤ {most})"),
-            ));
-        }
-        non_neg("foam_from", self.foam_from, 64.0)?;
-        pos("foam_full", self.foam_full, 64.0)?;
-        if self.foam_full <= self.foam_from {
-            return Err((
-                "foam_full",
-                format!("[noise] foam_full = {} must exceed foam_from = {}", self.foam_full, self.foam_from),
-            ));
-        }
-        non_neg("foam", self.foam, 1.0)?;
-        if self.foam_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
-            return Err(("foam_color", "[noise] foam_color components are 0 … 1".into()));
-        }
-        Ok(())
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.above("size", self.size, 0.0, 16.0)?;
+        k.above("frequency", self.frequency, 0.0, 64.0)?;
+        k.above("falloff", self.falloff, 0.0, 64.0)?;
+        k.within("calm", self.calm, 0.0, 8.0)?;
+        k.within("turbulent", self.turbulent, 0.0, 8.0)?;
+        k.above("threshold", self.threshold, 0.0, 1e9)?;
+        k.within("strength", self.strength, 0.0, 64.0)?;
+        k.within("lod_samples", self.lod_samples, 2.0, crate::shader_constants::NOISE_LOD_SAMPLES as f32)?;
+        k.within("foam_from", self.foam_from, 0.0, 64.0)?;
+        k.above("foam_full", self.foam_full, 0.0, 64.0)?;
+        k.rule("foam_full", self.foam_full > self.foam_from, || {
+            format!("foam_full = {} must exceed foam_from = {}", self.foam_full, self.foam_from)
+        })?;
+        k.within("foam", self.foam, 0.0, 1.0)?;
+        k.each("foam_color", &self.foam_color, 0.0, 1.0)
     }
 }
 
@@ -667,6 +644,7 @@ pub mod reference {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::section::Section;
 
     /// The noise is 0 on the integer lattice and bounded; the amplitude ramps from calm to turbulent around the
     /// threshold; the defaults pass their own check and bad values name their key.

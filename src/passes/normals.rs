@@ -24,6 +24,16 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        crate::section::Keys(NAME).within("edge", self.edge, 0.0, 1e4)
+    }
+}
+
 /// The pass: its compute program(s), built once per device.
 pub struct Normals {
     prog: ComputeProgram<f32>,

@@ -44,6 +44,35 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    /// With its subsections `[smooth.bilateral]`, `[smooth.narrow]`, `[smooth.curvature]` (dotted keys).
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.above("radius", self.radius, 0.0, 1e3)?;
+        k.count("max_px", self.max_px, 0, 64)?;
+        let b = &self.bilateral;
+        k.above("bilateral.sigma_range", b.sigma_range, 0.0, 1e4)?;
+        k.count("bilateral.iterations", b.iterations, 0, 64)?;
+        let n = &self.narrow;
+        k.above("narrow.radius", n.radius, 0.0, 1e3)?;
+        k.within("narrow.threshold", n.threshold, 0.0, 1e4)?;
+        k.within("narrow.mu", n.mu, 0.0, 1e4)?;
+        k.count("narrow.px_2d", n.px_2d, 0, 8)?;
+        k.count("narrow.iterations", n.iterations, 0, 16)?;
+        let c = &self.curvature;
+        k.within("curvature.dt", c.dt, 0.0, 1e3)?;
+        k.count("curvature.it_max", c.it_max, 0, 1000)?;
+        k.within("curvature.radius", c.radius, 0.0, 1e3)?;
+        k.within("curvature.kappa", c.kappa, 0.0, 1e3)?;
+        k.count("curvature.iters_per_dispatch", c.iters_per_dispatch, 1, 4)?;
+        k.within("curvature.edge", c.edge, 0.0, 1e4)
+    }
+}
+
 /// Settings of the `smooth` pass: the `[smooth.bilateral]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]

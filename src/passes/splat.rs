@@ -34,6 +34,16 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        crate::section::Keys(NAME).within("radius_scale", self.radius_scale, 0.25, 4.0)
+    }
+}
+
 pub use crate::shader_constants::SPLAT_TILE as TILE;
 
 /// The pass: its compute program(s), built once per device.

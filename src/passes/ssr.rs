@@ -34,6 +34,21 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.above("stride", self.stride, 0.0, 256.0)?;
+        k.count("max_steps", self.max_steps, 1, 4096)?;
+        k.count("refine", self.refine, 0, 32)?;
+        k.within("max_distance", self.max_distance, 0.0, 1e5)?;
+        k.within("thickness", self.thickness, 0.0, 1e5)
+    }
+}
+
 /// The pass: its compute program(s), built once per device.
 pub struct Ssr {
     prog: ComputeProgram<Push>,

@@ -27,6 +27,18 @@ impl Default for Params {
     }
 }
 
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys(NAME);
+        k.above("scale", self.scale, 0.0, 1.0)?;
+        k.count("blur_px", self.blur_px, 0, 16)
+    }
+}
+
 /// The pass: its compute program(s), built once per device.
 pub struct Thickness {
     accumulate: ComputeProgram<AccumulatePush>,

@@ -160,7 +160,7 @@ pub struct FluidBuffers<'a> {
 impl DiffuseStages {
     /// The stages for a simulation of `capacity` particles (ids below it): a pool of `per_particle` slots each.
     pub fn new(gpu: &Arc<Gpu>, params: &Params, capacity: u32) -> Result<DiffuseStages> {
-        params.check().map_err(|(_, reason)| crate::error::Error::Invalid(reason))?;
+        crate::section::Section::check(params).map_err(|(_, reason)| crate::error::Error::Invalid(reason))?;
         let slots = capacity.max(1) * params.per_particle;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST

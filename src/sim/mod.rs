@@ -161,53 +161,42 @@ impl Params {
         }
     }
 
-    /// Reject values the solver cannot run with.
+    /// Reject values the solver cannot run with (the section's check as an error).
     pub fn validate(&self) -> Result<()> {
-        let bad = |what: &str| Err(Error::Invalid(format!("[sim] {what}")));
-        if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 10_000.0) {
-            return bad("fps must be in (0, 10000] frames per simulated second");
-        }
-        if self.iterations == 0 || self.iterations > 100 {
-            return bad("iterations must be 1..=100");
-        }
-        if !(self.cfl > 0.0 && self.cfl.is_finite()) {
-            return bad("cfl must be positive");
-        }
-        if self.substeps > 1000 {
-            return bad("substeps must be at most 1000");
-        }
-        if !(self.rest_density.is_finite() && self.rest_density > 0.0) {
-            return bad("rest_density must be positive");
-        }
-        if self.viscosity.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
-            return bad("viscosity must be zero or positive (m²/s)");
-        }
-        if !(1..=15).contains(&self.scorr_n) {
-            return bad("scorr_n must be 1..=15");
-        }
-        if !(self.wall_friction.is_finite() && (0.0..=10.0).contains(&self.wall_friction)) {
-            return bad("wall_friction must be 0..=10");
-        }
-        if !(self.max_density_error.is_finite() && self.max_density_error > 0.0 && self.max_density_error <= 10.0) {
-            return bad("max_density_error must be in (0, 10] percent");
-        }
-        if !(self.max_divergence_error.is_finite()
-            && self.max_divergence_error > 0.0
-            && self.max_divergence_error <= 100.0)
-        {
-            return bad("max_divergence_error must be in (0, 100] percent");
-        }
-        if !(2..=200).contains(&self.max_solver_iterations) {
-            return bad("max_solver_iterations must be 2..=200");
+        crate::section::Section::check(self).map_err(|(_, reason)| Error::Invalid(reason))
+    }
+}
+
+impl crate::section::Section for Params {
+    fn name(&self) -> &'static str {
+        "sim"
+    }
+
+    fn check(&self) -> crate::section::Checked {
+        let k = crate::section::Keys("sim");
+        k.above("fps", self.fps, 0.0, 10_000.0)?;
+        k.count("substeps", self.substeps, 0, 1000)?;
+        k.above("cfl", self.cfl, 0.0, 10.0)?;
+        k.above("max_dt", self.max_dt, 0.0, 1.0)?;
+        k.count("iterations", self.iterations, 1, 100)?;
+        k.above("relaxation", self.relaxation, 0.0, 1e6)?;
+        k.within("scorr_k", self.scorr_k, 0.0, 1.0)?;
+        k.count("scorr_n", self.scorr_n, 1, 15)?;
+        k.within("scorr_dq", self.scorr_dq, 0.0, 1.0)?;
+        if let Some(v) = self.viscosity {
+            k.within("viscosity", v, 0.0, 1e3)?;
         }
         if let Some(c) = self.xsph {
-            if !(0.0..=XSPH_MAX).contains(&c) {
-                return bad(&format!(
-                    "xsph must be 0..={XSPH_MAX} (larger c overshoots the neighbours' mean velocity)"
-                ));
-            }
+            // Larger c overshoots the neighbours' mean velocity.
+            k.within("xsph", c, 0.0, XSPH_MAX)?;
         }
-        Ok(())
+        k.within("vorticity", self.vorticity, 0.0, 100.0)?;
+        k.within("wall_friction", self.wall_friction, 0.0, 10.0)?;
+        k.each("gravity", &self.gravity, -1e4, 1e4)?;
+        k.above("rest_density", self.rest_density, 0.0, 1e6)?;
+        k.above("max_density_error", self.max_density_error, 0.0, 10.0)?;
+        k.above("max_divergence_error", self.max_divergence_error, 0.0, 100.0)?;
+        k.count("max_solver_iterations", self.max_solver_iterations, 2, 200)
     }
 }
 
