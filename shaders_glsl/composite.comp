@@ -39,39 +39,30 @@ layout(push_constant) uniform Push {
     vec4 blend[COMPOSITE_LAYERS]; // x: blend; tint: y from, z full; under/over: y units; w: the sun's share s
 } pc;
 
-uint layer(int k, ivec2 p) {
-    switch (k) {
-    case 0: return imageLoad(layer0, p).x;
-    case 1: return imageLoad(layer1, p).x;
-    case 2: return imageLoad(layer2, p).x;
-    default: return imageLoad(layer3, p).x;
+/// One layer over the colour `c`: its texel `raw`, (colour, weight) `cw`, blend `b`; `water`: the pixel shows
+/// water; `lambert`: the sun's n·l there. The blend is the same for every pixel: its branches do not diverge.
+vec3 lay(vec3 c, uint raw, vec4 cw, vec4 b, bool water, float lambert) {
+    if (!water && b.x != BLEND_OVER) return c;
+    float t, light;
+    if (b.x == BLEND_TINT) {
+        t = smoothstep(b.y, b.z, abs(uintBitsToFloat(raw)));
+        light = lambert;
+    } else {
+        t = 1.0 - exp(-float(raw) / b.y);
+        light = 1.0;
     }
+    return mix(c, cw.rgb * (frame.fluid_color.w + b.w * frame.sun.w * light), cw.w * t);
 }
 
-/// Layer `k` over the colour `c` at pixel `p` (`n`, `L`: the water's normal and the sun, view space; `water`:
-/// the pixel shows water).
-vec3 lay(int k, vec3 c, ivec2 p, bool water, vec3 n, vec3 L) {
-    vec4 b = pc.blend[k];
-    vec3 col = pc.color[k].rgb;
-    float w = pc.color[k].w;
-    if (b.x == BLEND_TINT) {
-        if (!water) return c;
-        float t = w * smoothstep(b.y, b.z, abs(uintBitsToFloat(layer(k, p))));
-        return mix(c, col * (frame.fluid_color.w + max(dot(n, L), 0.0) * frame.sun.w * b.w), t);
-    }
-    if (b.x == BLEND_UNDER || b.x == BLEND_OVER) {
-        if (b.x == BLEND_UNDER && !water) return c;
-        float C = float(layer(k, p)) / b.y;
-        return mix(c, col * (frame.fluid_color.w + b.w * frame.sun.w), w * (1.0 - exp(-C)));
-    }
-    return c;
-}
+// The layers in order, each only when given (the rest of the push constants are zero).
+#define LAY(k, img) if (pc.blend[k].x != 0.0) c = lay(c, imageLoad(img, p).x, pc.color[k], pc.blend[k], water, lambert)
 
 /// Every layer over `c`, in order.
-vec3 layers(vec3 c, ivec2 p, bool water, vec3 n, vec3 L) {
-    for (int k = 0; k < int(COMPOSITE_LAYERS); k++) {
-        c = lay(k, c, p, water, n, L);
-    }
+vec3 layers(vec3 c, ivec2 p, bool water, float lambert) {
+    LAY(0, layer0);
+    LAY(1, layer1);
+    LAY(2, layer2);
+    LAY(3, layer3);
     return c;
 }
 
@@ -86,7 +77,7 @@ void main() {
     float sd = imageLoad(scene_depth, p).x;
     float d = imageLoad(fluid_depth, p).x;
     if (!is_fluid(d) || d >= sd) {
-        imageStore(out_color, p, encode(layers(bg, p, false, vec3(0.0), vec3(0.0))));
+        imageStore(out_color, p, encode(layers(bg, p, false, 0.0)));
         return;
     }
     vec3 n = unpack_normal(imageLoad(normals, p).x);
@@ -126,5 +117,5 @@ void main() {
     float spec = frame.shading.w * pow(max(dot(n, H), 0.0), frame.shading2.x) * frame.sun.w;
 
     vec3 c = mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
-    imageStore(out_color, p, encode(layers(c, p, true, n, L)));
+    imageStore(out_color, p, encode(layers(c, p, true, max(dot(n, L), 0.0))));
 }
