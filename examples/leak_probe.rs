@@ -175,7 +175,12 @@ fn wave_frame(gpu: &Arc<Gpu>, no_filter: bool) -> meniscus::Result<(Renderer, Vi
         env: Environment::around(&bounds, s.radius, &s),
     };
     let mut r = Renderer::new(gpu)?;
-    r.set_particles_with(&gen.particles.positions, None, None)?;
+    r.upload(meniscus::renderer::Upload::Points {
+        positions: &gen.particles.positions,
+        radii: None,
+        spray: None,
+        motion: None,
+    })?;
     Ok((r, view, s))
 }
 

@@ -17,6 +17,7 @@ pub mod field;
 pub mod frame;
 pub mod gpu;
 pub mod input;
+pub mod inspect;
 pub mod motion;
 pub mod named;
 pub mod output;

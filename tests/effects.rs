@@ -92,17 +92,17 @@ fn an_effect_registered_in_one_line_lays_its_layer() {
     let p: Vec<[f32; 3]> =
         (0..400).map(|k| [(k % 20) as f32 * 0.06 - 0.6, 0.0, (k / 20) as f32 * 0.06 - 0.6]).collect();
     let mut rr = Renderer::new(&gpu).unwrap();
-    rr.set_particles(&p, None).unwrap();
+    rr.upload(meniscus::renderer::Upload::points(&p)).unwrap();
     rr.render(&v, &s).unwrap();
-    let plain = rr.read_final().unwrap();
+    let plain = rr.state().read_final().unwrap();
     let (value, color, weight) = (1u32, [0.9f32, 0.3, 0.1], 0.5f32);
 
     rr.add_effect(Box::new(tint::Tint::new(&gpu, value, color, weight).unwrap()));
 
     let times = rr.render(&v, &s).unwrap();
-    let tinted = rr.read_final().unwrap();
+    let tinted = rr.state().read_final().unwrap();
     assert!(times.get("tint").is_some(), "the effect's pass is timed: {times:?}");
-    assert!(rr.memory().iter().any(|(n, _)| *n == "tint"), "the effect's image is in the memory table");
+    assert!(rr.state().memory().iter().any(|(n, _)| *n == "tint"), "the effect's image is in the memory table");
     let a = weight as f64 * (1.0 - (-(value as f64)).exp());
     let ambient = s.composite.ambient as f64;
     let mut worst = 0f64;
@@ -125,7 +125,7 @@ fn more_layers_than_the_composite_lays_is_an_error() {
     let v = view([0.0, 1.0, 2.0], [0.0, 0.0, 0.0], 32, 24, 40.0);
     let s = settings(0.1);
     let mut rr = Renderer::new(&gpu).unwrap();
-    rr.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
+    rr.upload(meniscus::renderer::Upload::points(&[[0.0, 0.0, 0.0]])).unwrap();
     let max = meniscus::shader_constants::COMPOSITE_LAYERS;
     for _ in 0..max {
         rr.add_effect(Box::new(tint::Tint::new(&gpu, 1, [1.0; 3], 0.1).unwrap()));

@@ -24,9 +24,9 @@ fn golden_wave_frame() {
         env: Environment::around(&b, g.radius, &s),
     };
     let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles(&g.particles.positions, None).unwrap();
+    r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
     r.render(&v, &s).unwrap();
-    let img = r.read_final().unwrap();
+    let img = r.state().read_final().unwrap();
     assert_clean(&gpu);
 
     let golden = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/wave_160x96.png");
@@ -93,9 +93,9 @@ fn async_split_frame_is_bit_identical() {
             // New particles every frame (the split frame uploads them on the async queue, double-buffered).
             let moved: Vec<[f32; 3]> =
                 g.particles.positions.iter().map(|p| [p[0], p[1] + 0.01 * k as f32, p[2]]).collect();
-            r2.set_particles(&moved, None).unwrap();
-            pending.push_back(r2.submit(v, s, true).unwrap());
-            if pending.len() == r2.frames_in_flight() {
+            r2.upload(meniscus::renderer::Upload::points(&moved)).unwrap();
+            pending.push_back(r2.submit(meniscus::renderer::FrameRequest::new(v, s).readback()).unwrap());
+            if pending.len() == r2.slots().count() {
                 out.push(r2.read_submitted(pending.pop_front().unwrap()).unwrap());
             }
         }

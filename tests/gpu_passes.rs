@@ -9,9 +9,18 @@ mod common;
 use common::*;
 use meniscus::effect::diffuse::DiffuseEffect;
 use meniscus::effect::noise::NoiseEffect;
+use meniscus::gpu::transfer::{read_f32, read_image, read_u32, upload_image};
 use meniscus::gpu::FrameCtx;
-use meniscus::renderer::{read_f32, read_image, read_u32, upload_image, Renderer};
+use meniscus::renderer::Renderer;
 use meniscus::settings::Filter;
+
+/// The frame's images for `v` and `s`, and its uniform block written, for tests that record passes one by one.
+fn pass_targets(r: &mut Renderer, v: &meniscus::view::View, s: &meniscus::settings::Settings) {
+    let desc = meniscus::targets::TargetsDesc::new(v.width, v.height, s, r.keep_raw_depth);
+    r.targets = Some(meniscus::targets::Targets::new(&r.gpu, desc).unwrap());
+    let u = meniscus::frame::FrameUniforms::new(v, s, r.state().particles().count());
+    r.uniforms.write(0, bytemuck::bytes_of(&u)).unwrap();
+}
 
 /// One sphere of radius 0.5 at the origin, camera at z = 3: splat depth equals the exact ray–sphere entry.
 #[test]
@@ -186,8 +195,7 @@ fn smooth_once(
 ) -> Vec<f32> {
     let mut r = Renderer::new(gpu).unwrap();
     r.keep_raw_depth = true;
-    r.ensure_targets(v.width, v.height, s).unwrap();
-    r.write_uniforms(v, s).unwrap();
+    pass_targets(&mut r, v, s);
     let t = r.targets.as_ref().unwrap();
     upload_image(gpu, &t.depth, bytemuck::cast_slice(src)).unwrap();
     let out = gpu
@@ -249,8 +257,7 @@ fn normals_of_plane_and_sphere() {
     let f = v.camera.focal_px(h as u32) as f64;
     let s = settings(0.05);
     let mut r = Renderer::new(&gpu).unwrap();
-    r.ensure_targets(w as u32, h as u32, &s).unwrap();
-    r.write_uniforms(&v, &s).unwrap();
+    pass_targets(&mut r, &v, &s);
     let t = r.targets.as_ref().unwrap();
     // Plane through (0,0,−3) with view-space normal n: n·P = n·(0,0,−3).
     let n = {
@@ -403,8 +410,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
     s.ssr.max_distance = 800.0;
     s.ssr.thickness = 5.0;
     let mut r = Renderer::new(&gpu).unwrap();
-    r.ensure_targets(w as u32, h as u32, &s).unwrap();
-    r.write_uniforms(&v, &s).unwrap();
+    pass_targets(&mut r, &v, &s);
     let view_m = v.camera.view();
     let inv = view_m.inverse();
     let f = v.camera.focal_px(h as u32) as f64;
@@ -513,8 +519,7 @@ fn upsample_never_lands_between_surfaces() {
     let mut s = settings(0.01);
     s.fluid_scale = 0.5;
     let mut r = Renderer::new(&gpu).unwrap();
-    r.ensure_targets(w as u32, h as u32, &s).unwrap();
-    r.write_uniforms(&v, &s).unwrap();
+    pass_targets(&mut r, &v, &s);
     let t = r.targets.as_ref().unwrap();
     let (lw, lh) = (t.depth.extent.width as usize, t.depth.extent.height as usize);
     assert_eq!((lw, lh), (32, 24));
@@ -769,7 +774,7 @@ fn splat_depth(
         return None;
     }
     r.keep_raw_depth = true;
-    r.set_particles(positions, None).unwrap();
+    r.upload(meniscus::renderer::Upload::points(positions)).unwrap();
     r.render(v, &s).unwrap();
     Some(read_f32(gpu, &r.targets.as_ref().unwrap().depth).unwrap())
 }
@@ -816,16 +821,16 @@ fn skybox_faces_from_files() {
     let (size, faces) = meniscus::scene::sky::load_faces(&dir).unwrap();
     assert_eq!(size, 4);
     let mut r = Renderer::new(&gpu).unwrap();
-    r.set_skybox(size, &faces).unwrap();
+    r.set_background(meniscus::renderer::Backdrop::Sky { size, faces: &faces }).unwrap();
     let mut s = settings(0.05);
     s.background.sun_intensity = 0.0;
     s.smooth.filter = Filter::None;
-    r.set_particles(&[[100.0, 100.0, 100.0]], None).unwrap();
+    r.upload(meniscus::renderer::Upload::points(&[[100.0, 100.0, 100.0]])).unwrap();
     for (target, want) in [([1.0f32, 0.0, 0.0], [255u8, 0, 0]), ([0.0, 1.0, 0.001], [0, 0, 255])] {
         let mut v = view([0.0, 0.0, 0.0], target, 16, 16, 30.0);
         v.env.sky_cube = true;
         r.render(&v, &s).unwrap();
-        let img = r.read_final().unwrap();
+        let img = r.state().read_final().unwrap();
         let p = img.get_pixel(8, 8);
         for k in 0..3 {
             assert!((p[k] as i32 - want[k] as i32).abs() < 8, "looking at {target:?}: got {p:?}, want {want:?}");
@@ -888,18 +893,18 @@ fn weights_follow(kernel: meniscus::settings::Kernel, once: &[&str]) {
     let ran = |t: &meniscus::gpu::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
-    rd.set_particles(&a, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&a)).unwrap();
     let first = rd.render(&v, &s).unwrap();
     assert!(once.iter().all(|p| ran(&first, p)), "the first frame computes {once:?}: {:?}", first.0);
     let again = rd.render(&v, &s).unwrap();
     assert!(once.iter().all(|p| !ran(&again, p)) && ran(&again, "iso"), "a static frame reuses them: {:?}", again.0);
-    rd.set_particles(&b, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&b)).unwrap();
     let next = rd.render(&v, &s).unwrap();
     assert!(once.iter().all(|p| ran(&next, p)), "new particles: {once:?} again: {:?}", next.0);
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let mut fresh = Renderer::new(&gpu).unwrap();
     fresh.keep_raw_depth = true;
-    fresh.set_particles(&b, None).unwrap();
+    fresh.upload(meniscus::renderer::Upload::points(&b)).unwrap();
     fresh.render(&v, &s).unwrap();
     let want = read_f32(&gpu, &fresh.targets.as_ref().unwrap().depth).unwrap();
     let covered = want.iter().filter(|d| d.is_finite()).count();
@@ -960,7 +965,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     s.iso.fine_px = 0.0;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     s.iso.first_steps = 0;
     rd.render(&v, &s).unwrap();
     let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
@@ -976,12 +981,14 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     let aniso = p.aniso.map(|a| grid.anisotropy(&a));
     if let Some(want) = &aniso {
         // The GPU grid sorts within a cell in the atomics' order: match the points by position.
-        let b = rd.iso_buffers().unwrap();
+        let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
         let n = b.shape.dims[3] as usize;
         let points: Vec<[f32; 4]> =
-            bytemuck::cast_slice(&meniscus::renderer::read_buffer(&gpu, &b.points, n as u64 * 16).unwrap()).to_vec();
+            bytemuck::cast_slice(&meniscus::gpu::transfer::read_buffer(&gpu, &b.points, n as u64 * 16).unwrap())
+                .to_vec();
         let got: Vec<Aniso> =
-            bytemuck::cast_slice(&meniscus::renderer::read_buffer(&gpu, &b.aniso, n as u64 * 48).unwrap()).to_vec();
+            bytemuck::cast_slice(&meniscus::gpu::transfer::read_buffer(&gpu, &b.aniso, n as u64 * 48).unwrap())
+                .to_vec();
         let index: std::collections::HashMap<[u32; 3], usize> =
             grid.points.iter().enumerate().map(|(i, q)| ([q[0], q[1], q[2]].map(f32::to_bits), i)).collect();
         assert_eq!(n, grid.points.len());
@@ -1077,7 +1084,7 @@ fn read_lattice(
     vol: &meniscus::passes::iso::IsoVolume,
 ) -> (Vec<bool>, Vec<[u32; 2]>, Vec<[f32; 2]>) {
     let shape = vol.shape;
-    let read = |buf, bytes: usize| meniscus::renderer::read_buffer(gpu, buf, bytes as u64).unwrap();
+    let read = |buf, bytes: usize| meniscus::gpu::transfer::read_buffer(gpu, buf, bytes as u64).unwrap();
     let table: Vec<u32> = bytemuck::pod_collect_to_vec(&read(&vol.table, 4 * shape.table_len()));
     let header: Vec<u32> = bytemuck::pod_collect_to_vec(&read(&vol.header, 16));
     let bricks = header[3] as usize;
@@ -1125,14 +1132,14 @@ fn smoothed_iso_field_matches_cpu() {
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let first = rd.render(&v, &s).unwrap();
     let again = rd.render(&v, &s).unwrap();
     let ran = |t: &meniscus::gpu::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     assert!(ran(&first, "iso_volume"), "{:?}", first.0);
     assert!(!ran(&again, "iso_volume"), "a static frame reuses it: {:?}", again.0);
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
-    let b = rd.iso_buffers().unwrap();
+    let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
     let vol = b.volume.as_ref().expect("the lattice");
     let shape = vol.shape;
     assert_eq!(shape.spacing, s.iso.voxel * r, "the voxel size asked for");
@@ -1144,7 +1151,7 @@ fn smoothed_iso_field_matches_cpu() {
     // casts skip by it there).
     assert_eq!(b.shape.dims[..3], grid.dims, "the GPU grid has the CPU grid's shape");
     let words: Vec<u32> = bytemuck::pod_collect_to_vec(
-        &meniscus::renderer::read_buffer(&gpu, &b.cells_empty, 8 * grid.cells.len() as u64).unwrap(),
+        &meniscus::gpu::transfer::read_buffer(&gpu, &b.cells_empty, 8 * grid.cells.len() as u64).unwrap(),
     );
     let bits = 32 - meniscus::shader_constants::ISO_EMPTY_BITS;
     for (k, (cell, &e)) in grid.cells.iter().zip(grid.empty()).enumerate() {
@@ -1210,10 +1217,10 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     s.surface = meniscus::settings::Surface::Iso;
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let v = view([50.0, 50.0, 50.0], [12.0, 12.0, 12.0], 160, 120, 50.0);
     rd.render(&v, &s).unwrap();
-    let b = rd.iso_buffers().unwrap();
+    let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
     let vol = b.volume.as_ref().expect("the lattice");
     let shape = vol.shape;
     assert_eq!(shape.spacing, s.iso.voxel * r, "the voxel size asked for, not a coarser one");
@@ -1253,9 +1260,19 @@ fn the_64_bit_deposit_equals_the_32_bit_one() {
         })
         .unwrap();
         let mut rd = Renderer::new(&gpu).unwrap();
-        rd.set_particles(&pts, None).unwrap();
+        rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
         rd.render(&v, &s).unwrap();
-        let out = read_lattice(&gpu, rd.iso_buffers().unwrap().volume.as_ref().expect("the lattice"));
+        let out = read_lattice(
+            &gpu,
+            rd.state()
+                .surfaces()
+                .get(meniscus::settings::Surface::Iso)
+                .grid()
+                .unwrap()
+                .volume
+                .as_ref()
+                .expect("the lattice"),
+        );
         assert_clean(&gpu);
         (gpu.info.int64_atomics, gpu.info.name.clone(), out)
     };
@@ -1301,7 +1318,7 @@ fn smoothed_iso_surface_has_no_seams_at_voxel_faces() {
     // error that follows where each ray starts: the bound spheres' pattern).
     s.iso.refine = 8;
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let (w, h) = (160usize, 120usize);
     let v = view([0.0, 2.0, 0.6], [0.0, 0.0, 0.0], w as u32, h as u32, 30.0);
     rd.render(&v, &s).unwrap();
@@ -1353,7 +1370,7 @@ fn iso_coarse_to_fine_matches_the_march() {
     s.surface = meniscus::settings::Surface::Iso;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let mut depth = |fine_px: f32, refine: u32| {
         s.iso.fine_px = fine_px;
         s.iso.refine = refine;
@@ -1405,8 +1422,8 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
     let mut s = settings(0.05);
     s.smooth.filter = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles(&[[10.0, 10.0, 10.0]], None).unwrap();
-    r.set_background_mesh(&mesh).unwrap();
+    r.upload(meniscus::renderer::Upload::points(&[[10.0, 10.0, 10.0]])).unwrap();
+    r.set_background(meniscus::renderer::Backdrop::Mesh(&mesh)).unwrap();
     r.render(&v, &s).unwrap();
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().scene_depth).unwrap();
     let inv = v.camera.view().inverse();
@@ -1483,9 +1500,8 @@ fn composite_matches_cpu_reference() {
     s.composite.refraction_alpha = 40.0;
     s.composite.refraction_beta = 6.0;
     let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles(&[[0.0, 0.0, 0.0]], None).unwrap();
-    r.ensure_targets(w as u32, h as u32, &s).unwrap();
-    r.write_uniforms(&v, &s).unwrap();
+    r.upload(meniscus::renderer::Upload::points(&[[0.0, 0.0, 0.0]])).unwrap();
+    pass_targets(&mut r, &v, &s);
     let t = r.targets.as_ref().unwrap();
     // Background: red = x/64, green 0.5, blue 0.25; nothing in front of the fluid.
     let bg = |x: usize| [x as f32 / 64.0, 0.5, 0.25];
@@ -1649,7 +1665,7 @@ fn mesh_depth_matches_iso_ray_cast() {
         s.surface = surface;
         s.mesh.cube = 0.25;
         let mut rd = Renderer::new(&gpu).unwrap();
-        rd.set_particles(&pts, None).unwrap();
+        rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
         let times = rd.render(&v, &s).unwrap();
         if surface == meniscus::settings::Surface::Mesh {
             assert!(times.get("mesh").is_some() && times.get("splat").is_none(), "{times:?}");
@@ -1695,7 +1711,7 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
     let pts = jittered_slab(4321, [10, 3, 8], [-0.45, -0.3, -0.4], r, [1.0; 3]);
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let mut depth_of = |iters: u32| {
         let mut s =
             meniscus::settings::Settings { radius: r, ..meniscus::settings::Settings::preset("smooth").unwrap() };
@@ -1836,7 +1852,7 @@ fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
     s.thickness.blur_px = 0;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
-    rd.set_particles(&pts, None).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     rd.render(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let thick = read_f32(&gpu, &rd.targets.as_ref().unwrap().thickness).unwrap();
@@ -1966,12 +1982,18 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
     for tiled in [true, false] {
         let mut rr = Renderer::new(&gpu).unwrap();
         rr.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
-        rr.set_particles_moving(&pos, None, None, &motion).unwrap();
+        rr.upload(meniscus::renderer::Upload::Points {
+            positions: &pos,
+            radii: None,
+            spray: None,
+            motion: Some(&motion),
+        })
+        .unwrap();
         rr.render(&v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         let work = own.work().unwrap();
         let noise = read_f32(&gpu, &own.noise).unwrap();
-        let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
+        let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
         runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap()));
     }
     assert!(runs[0].3 == runs[1].3, "the two splats' accumulators differ");
@@ -2034,7 +2056,8 @@ fn noise_matches_cpu_reference() {
     let motion: Vec<Motion> =
         (0..pos.len()).map(|k| Motion { id: 1000 + 7 * k as u32, accel: (k % 3) as f32 * tau }).collect();
     let mut rr = Renderer::new(&gpu).unwrap();
-    rr.set_particles_moving(&pos, None, None, &motion).unwrap();
+    rr.upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) })
+        .unwrap();
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
@@ -2047,13 +2070,15 @@ fn noise_matches_cpu_reference() {
     let atlas = words(&own.accum);
     let acc: Vec<i32> = (0..w * h).map(|k| atlas[(k / w) * aw + k % w] as i32).collect();
     let noise = read_f32(&gpu, &own.noise).unwrap();
-    let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
+    let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
     let normals = words(&t.normals);
     // The other splat (tiles on a CPU driver, one thread per sprite on a GPU) gives the same atlas.
     let mut other = Renderer::new(&gpu).unwrap();
     let tiled = !rr.effects.get::<NoiseEffect>().unwrap().is_tiled();
     other.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
-    other.set_particles_moving(&pos, None, None, &motion).unwrap();
+    other
+        .upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) })
+        .unwrap();
     other.render(&v, &s).unwrap();
     let atlas2 = words(&other.effects.get::<NoiseEffect>().unwrap().images().unwrap().accum);
     assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
@@ -2075,7 +2100,9 @@ fn noise_matches_cpu_reference() {
     }
     // The same frame without the pass: the unperturbed normals, then noise_apply.comp's slopes on the CPU.
     let mut plain = Renderer::new(&gpu).unwrap();
-    plain.set_particles_moving(&pos, None, None, &motion).unwrap();
+    plain
+        .upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) })
+        .unwrap();
     plain.render(&v, &s.with(|s| s.noise.enabled = false)).unwrap();
     let n0 = words(&plain.targets.as_ref().unwrap().normals);
     let edge = s.normals.edge * r;
@@ -2136,11 +2163,11 @@ fn noise_of_still_water_does_not_flicker() {
     for _ in 0..3 {
         let motion = tracker.next(&p);
         assert!(motion.iter().all(|m| m.accel == 0.0));
-        rr.set_scene_particles_moving(&p, &s, &motion).unwrap();
+        rr.upload(meniscus::renderer::Upload::Scene { particles: &p, settings: &s, motion: Some(&motion) }).unwrap();
         rr.render(&v, &s).unwrap();
         frames.push((
             read_f32(&gpu, &rr.effects.get::<NoiseEffect>().unwrap().images().unwrap().noise).unwrap(),
-            rr.read_final().unwrap(),
+            rr.state().read_final().unwrap(),
         ));
     }
     assert!(frames[0].0.iter().any(|x| *x != 0.0), "no noise at all");
@@ -2166,14 +2193,14 @@ fn a_frame_keeps_nothing_of_the_frame_before() {
     let b_pos: Vec<[f32; 3]> = noise_slab(6, r).iter().map(|p| [p[0] + 0.35, p[1] - 0.1, p[2] + 0.2]).collect();
     let b = meniscus::scene::Particles { positions: b_pos, ..Default::default() };
     let frame = |rr: &mut Renderer| {
-        rr.set_scene_particles(&b, &s).unwrap();
+        rr.upload(meniscus::renderer::Upload::scene(&b, &s)).unwrap();
         rr.render(&v, &s).unwrap();
         let noise = read_f32(&gpu, &rr.effects.get::<NoiseEffect>().unwrap().images().unwrap().noise).unwrap();
-        let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
-        (rr.read_final().unwrap(), noise, depth)
+        let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
+        (rr.state().read_final().unwrap(), noise, depth)
     };
     let mut used = Renderer::new(&gpu).unwrap();
-    used.set_scene_particles(&a, &s).unwrap();
+    used.upload(meniscus::renderer::Upload::scene(&a, &s)).unwrap();
     used.render(&v, &s).unwrap();
     let (img, noise, depth) = frame(&mut used);
     let (img0, noise0, depth0) = frame(&mut Renderer::new(&gpu).unwrap());
@@ -2222,14 +2249,15 @@ fn diffuse_matches_cpu_reference() {
         }
     }
     let mut rr = Renderer::new(&gpu).unwrap();
-    rr.set_particles_with(&pos, None, Some(&spray)).unwrap();
-    rr.set_diffuse(&diffuse, &s).unwrap();
+    rr.upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: Some(&spray), motion: None })
+        .unwrap();
+    rr.upload(meniscus::renderer::Upload::Diffuse { particles: &diffuse, settings: &s }).unwrap();
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
     let own = rr.effects.get::<DiffuseEffect>().and_then(|d| d.images()).expect("the diffuse pass's images");
     let (white, bubbles) = (words(&own.white), words(&own.bubbles));
-    let depth = read_f32(&gpu, rr.smoothed_depth().unwrap()).unwrap();
+    let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
     let scene_depth = read_f32(&gpu, &t.scene_depth).unwrap();
     let m = v.camera.view();
     let d = &s.diffuse;

@@ -4,8 +4,8 @@ mod common;
 
 use glam::Vec3;
 use meniscus::compute::grid::{Grid, GridBuffers, GridShape};
+use meniscus::gpu::transfer::{read_buffer, upload_buffer};
 use meniscus::gpu::FrameCtx;
-use meniscus::renderer::{read_buffer, upload_buffer};
 use meniscus::sim::{reference, Params, SimScene, Simulation};
 
 /// A deterministic pseudo-random generator (no dependency for tests).
@@ -426,7 +426,7 @@ fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
 #[test]
 fn gpu_fed_particles_render_like_uploaded_ones() {
     use meniscus::gpu::{Buffer, FrameCtx};
-    use meniscus::renderer::{Hooks, Renderer};
+    use meniscus::renderer::{FrameRequest, Hooks, Renderer};
     use meniscus::settings::Surface;
     let gpu = common::gpu();
     let scene = SimScene::new("dambreak", 3000).unwrap();
@@ -440,19 +440,22 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
         let mut s = common::settings(scene.radius());
         s.surface = surface;
         let mut r = Renderer::new(&gpu).unwrap();
-        r.set_particles(&p.positions, None).unwrap();
+        r.upload(meniscus::renderer::Upload::points(&p.positions)).unwrap();
         r.render(&v, &s).unwrap();
-        let host = r.read_final().unwrap();
+        let host = r.state().read_final().unwrap();
         let mut r = Renderer::new(&gpu).unwrap();
-        r.set_gpu_particles(sim.count(), scene.container).unwrap();
+        r.upload(meniscus::renderer::Upload::Gpu { count: sim.count(), bounds: scene.container, diffuse_slots: 0 })
+            .unwrap();
         let src = sim.particle_buffer();
         let copy = |ctx: &mut FrameCtx, out: &Buffer| {
             let size = sim.count() as u64 * meniscus::particles::BYTES_PER_PARTICLE;
             ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
         };
-        r.render_spans_with(&v, &s, Hooks { produce: Some(&copy), ..Default::default() }).unwrap();
-        let fed = r.read_final().unwrap();
-        let depth = meniscus::renderer::read_f32(&gpu, r.smoothed_depth().unwrap()).unwrap();
+        let sub =
+            r.submit(FrameRequest::new(&v, &s).hooks(Hooks { produce: Some(&copy), ..Default::default() })).unwrap();
+        r.spans(sub).unwrap();
+        let fed = r.state().read_final().unwrap();
+        let depth = meniscus::gpu::transfer::read_f32(&gpu, r.state().smoothed_depth().unwrap()).unwrap();
         let covered = depth.iter().filter(|d| **d < 1e30).count();
         assert!(covered > 300, "{surface:?}: the water covers only {covered} pixels");
         let differ = host.pixels().zip(fed.pixels()).filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 2)).count();
@@ -472,7 +475,8 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
 /// coverage. Particles fade in over their first 0.12 s and out over their last 0.5 s.
 #[test]
 fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
-    use meniscus::renderer::{read_u32, Renderer};
+    use meniscus::gpu::transfer::read_u32;
+    use meniscus::renderer::Renderer;
     let gpu = common::gpu();
     let scene = SimScene::new("waterfall", 8000).unwrap();
     let (lo, hi) = scene.container;
@@ -496,8 +500,8 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
         if f < warm {
             continue;
         }
-        r.set_scene_particles(&p, &s).unwrap();
-        r.set_diffuse(live.particles(), &s).unwrap();
+        r.upload(meniscus::renderer::Upload::scene(&p, &s)).unwrap();
+        r.upload(meniscus::renderer::Upload::Diffuse { particles: live.particles(), settings: &s }).unwrap();
         r.render(&v, &s).unwrap();
         let own = r.effects.get::<meniscus::effect::diffuse::DiffuseEffect>().and_then(|d| d.images());
         let white: Vec<f32> = read_u32(&gpu, &own.expect("diffuse images").white)
@@ -586,8 +590,9 @@ fn diffuse_stages_match_the_cpu_model() {
 /// read back and uploaded from the host.
 #[test]
 fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
+    use meniscus::gpu::transfer::read_u32;
     use meniscus::gpu::{Buffer, FrameCtx};
-    use meniscus::renderer::{read_u32, Hooks, Renderer};
+    use meniscus::renderer::{FrameRequest, Hooks, Renderer};
     let gpu = common::gpu();
     let scene = SimScene::new("dambreak", 3000).unwrap();
     let mut sim = Simulation::new(&gpu, scene.clone(), Params::default()).unwrap();
@@ -611,17 +616,24 @@ fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
         .unwrap()
     };
     let mut host = Renderer::new(&gpu).unwrap();
-    host.set_particles(&p.positions, None).unwrap();
-    host.set_diffuse(&d, &s).unwrap();
+    host.upload(meniscus::renderer::Upload::points(&p.positions)).unwrap();
+    host.upload(meniscus::renderer::Upload::Diffuse { particles: &d, settings: &s }).unwrap();
     host.render(&v, &s).unwrap();
     let mut fed = Renderer::new(&gpu).unwrap();
-    fed.set_gpu_particles_with_diffuse(sim.count(), scene.container, sim.diffuse_slots()).unwrap();
+    fed.upload(meniscus::renderer::Upload::Gpu {
+        count: sim.count(),
+        bounds: scene.container,
+        diffuse_slots: sim.diffuse_slots(),
+    })
+    .unwrap();
     let src = sim.particle_buffer();
     let bytes = (2 * sim.count() as u64 + 1 + 2 * sim.diffuse_slots() as u64) * 16;
     let copy = |ctx: &mut FrameCtx, out: &Buffer| {
         ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes });
     };
-    fed.render_spans_with(&v, &s, Hooks { produce: Some(&copy), ..Default::default() }).unwrap();
+    let sub =
+        fed.submit(FrameRequest::new(&v, &s).hooks(Hooks { produce: Some(&copy), ..Default::default() })).unwrap();
+    fed.spans(sub).unwrap();
     let (a, b) = (words(&host), words(&fed));
     let covered = a.iter().filter(|x| **x > 0).count();
     eprintln!("{} diffuse particles cover {covered} pixels", d.len());

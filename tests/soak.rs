@@ -23,7 +23,13 @@ fn rss_stays_flat_over_hundreds_of_frames() {
     let gen = procedural::generate("drop", 4000).unwrap();
     let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).unwrap();
     let mut r = Renderer::new(&gpu).unwrap();
-    r.set_particles_with(&gen.particles.positions, None, None).unwrap();
+    r.upload(meniscus::renderer::Upload::Points {
+        positions: &gen.particles.positions,
+        radii: None,
+        spray: None,
+        motion: None,
+    })
+    .unwrap();
     r.background.always_render = true;
     for surface in [Surface::Spheres, Surface::Iso] {
         let s = Settings { radius: gen.radius, surface, ..Settings::default() };

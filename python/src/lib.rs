@@ -14,7 +14,7 @@ use pyo3::types::PyDict;
 
 use meniscus::frame::View;
 use meniscus::gpu::{Gpu, GpuOptions, PassTimes};
-use meniscus::renderer::{Hooks, Renderer as Core};
+use meniscus::renderer::{FrameRequest, Hooks, Renderer as Core, Upload};
 use meniscus::scene::{Bounds, Camera, Particles};
 use meniscus::settings::Settings;
 
@@ -75,6 +75,19 @@ fn camera(c: Option<([f32; 3], [f32; 3], f32)>) -> PyResult<Option<Camera>> {
 }
 
 /// The renderer: one per output size; `render` frames particles the way `meniscus render` frames a file.
+/// Render one frame and wait for it: the final image (copied into host memory by the frame itself, into its
+/// slot's kept read-back buffer) and the GPU time of each pass.
+fn render_image(
+    core: &mut Core,
+    view: &View,
+    s: &meniscus::settings::Settings,
+    hooks: Hooks,
+) -> meniscus::Result<(image::RgbaImage, meniscus::gpu::PassTimes)> {
+    let sub = core.submit(FrameRequest::new(view, s).hooks(hooks).readback())?;
+    let img = core.read_submitted(sub)?;
+    Ok((img, core.finish(sub)?))
+}
+
 #[pyclass(unsendable, module = "meniscus._meniscus")]
 struct Renderer {
     core: Core,
@@ -152,14 +165,14 @@ impl Renderer {
                 let (core, p, view, s, diffuse) = work.into_inner();
                 let t1 = std::time::Instant::now();
                 if !held {
-                    core.set_scene_particles(p, s)?;
+                    core.upload(Upload::scene(p, s))?;
                 }
-                if !diffuse.is_empty() || core.diffuse_count() > 0 {
-                    core.set_diffuse(diffuse, s)?;
+                if !diffuse.is_empty() || core.state().particles().diffuse_count() > 0 {
+                    core.upload(Upload::Diffuse { particles: diffuse, settings: s })?;
                 }
                 let upload = ms(t1);
                 let t2 = std::time::Instant::now();
-                let (img, times) = core.render_image(view, s, Hooks::default())?;
+                let (img, times) = render_image(core, view, s, Hooks::default())?;
                 Ok::<_, meniscus::Error>((img, times, upload, ms(t2)))
             })
             .map_err(py_err)?;
@@ -169,7 +182,7 @@ impl Renderer {
         self.times = times;
         let t3 = std::time::Instant::now();
         let out = image_array(py, img);
-        let h = self.core.host_times();
+        let h = self.core.state().host_times();
         let before = h.total();
         self.host = vec![
             ("arrays".into(), arrays),
@@ -217,17 +230,17 @@ impl Renderer {
                 match initial {
                     // Not stepped yet: the scene's initial particles, from the host.
                     Some(p) => {
-                        core.set_particles(&p.positions, None)?;
-                        core.render_image(view, s, Hooks::default())
+                        core.upload(Upload::points(&p.positions))?;
+                        render_image(core, view, s, Hooks::default())
                     }
                     None => {
-                        core.set_gpu_particles(n, (lo, hi))?;
+                        core.upload(Upload::Gpu { count: n, bounds: (lo, hi), diffuse_slots: 0 })?;
                         let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
                             let size = n as u64 * meniscus::particles::BYTES_PER_PARTICLE;
                             let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
                             ctx.copy_buffer(src, out, region);
                         };
-                        core.render_image(view, s, Hooks { produce: Some(&copy), ..Default::default() })
+                        render_image(core, view, s, Hooks { produce: Some(&copy), ..Default::default() })
                     }
                 }
             })
@@ -239,17 +252,17 @@ impl Renderer {
     /// The last frame's depth (linear eye depth, +inf = no fluid), view-space normals and thickness.
     fn buffers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let t = self.core.targets.as_ref().ok_or_else(|| PyRuntimeError::new_err("nothing rendered yet"))?;
-        let gpu = &self.core.gpu;
+        let state = self.core.state();
         let d = PyDict::new(py);
         let img2 = |img: &meniscus::gpu::Image| -> PyResult<Bound<'py, PyArray2<f32>>> {
-            let data = meniscus::renderer::read_f32(gpu, img).map_err(py_err)?;
+            let data = state.read_f32(img).map_err(py_err)?;
             let (w, h) = (img.extent.width as usize, img.extent.height as usize);
             PyArray1::from_vec(py, data).reshape([h, w])
         };
-        let smoothed = self.core.smoothed_depth().unwrap_or(&t.depth);
+        let smoothed = self.core.state().smoothed_depth().unwrap_or(&t.depth);
         d.set_item("depth", img2(smoothed)?)?;
         d.set_item("thickness", img2(&t.thickness)?)?;
-        let raw = meniscus::renderer::read_image(gpu, &t.normals).map_err(py_err)?;
+        let raw = state.read_image(&t.normals).map_err(py_err)?;
         let words: Vec<u32> = raw.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
         let mut n = Vec::with_capacity(words.len() * 3);
         for w in words {

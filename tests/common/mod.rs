@@ -28,7 +28,7 @@ pub fn rendered(
 ) -> meniscus::renderer::Renderer {
     let mut r = meniscus::renderer::Renderer::new(gpu).unwrap();
     r.keep_raw_depth = raw;
-    r.set_particles(particles, None).unwrap();
+    r.upload(meniscus::renderer::Upload::points(particles)).unwrap();
     r.render(v, s).unwrap();
     r
 }

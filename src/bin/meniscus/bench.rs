@@ -23,7 +23,7 @@ use crate::job::{Job, Select};
 use meniscus::frame::{Environment, View};
 use meniscus::gpu::timer::percentile;
 use meniscus::gpu::{DeviceInfo, Gpu};
-use meniscus::renderer::Renderer;
+use meniscus::renderer::{FrameRequest, Renderer, Upload};
 use meniscus::scene::{self, Camera, Particles};
 use meniscus::settings::Settings;
 
@@ -123,7 +123,7 @@ pub struct Entry {
     pub effect_images: Vec<String>,
     /// The host's stages per frame, ms ([`HOST_STAGES`]): a sequence frame's upload (`set_scene_particles`:
     /// the spray classification and the copy into the particle set), then the renderer's own
-    /// (`Renderer::host_times`), and the wait for the GPU with the timestamps' read-back.
+    /// (`RendererState::host_times`), and the wait for the GPU with the timestamps' read-back.
     pub host_ms: Vec<(String, Stat)>,
     /// Compute shader invocations per pass in the last measured frame (a pipeline-statistics query, where the
     /// device has them: `info --device`), in frame order; a pass timed inside another is counted in its parent.
@@ -248,7 +248,7 @@ impl Series {
         });
         let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
         // The one upload path of every subcommand: spray flags and per-particle radii (pscale) included.
-        r.set_scene_particles(&w.particles, &s)?;
+        r.upload(Upload::scene(&w.particles, &s))?;
         Ok(Series {
             view,
             s,
@@ -273,17 +273,18 @@ impl Series {
         if !w.sequence.is_empty() {
             // The upload is recorded into the frame (its copy is on the GPU clock, not in a pass).
             let k = self.rendered % w.sequence.len();
-            r.set_scene_particles(&w.sequence[k], &self.s)?;
+            r.upload(Upload::scene(&w.sequence[k], &self.s))?;
             if let Some(d) = w.diffuse.get(k) {
-                r.set_diffuse(d, &self.s)?;
+                r.upload(Upload::Diffuse { particles: d, settings: &self.s })?;
             }
         }
         self.rendered += 1;
         let upload_ms = t_upload.elapsed().as_secs_f64() * 1e3;
         let t0 = Instant::now();
-        let spans = r.render_spans(&self.view, &self.s)?;
+        let sub = r.submit(FrameRequest::new(&self.view, &self.s))?;
+        let spans = r.spans(sub)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let h = r.host_times();
+        let h = r.state().host_times();
         let before = h.total();
         let host = [upload_ms, h.prepare, h.slot_wait, h.stage, h.record, h.submit, (cpu_ms - before).max(0.0)];
         // Same-named scopes summed, in recording order.
@@ -340,8 +341,9 @@ impl Series {
     }
 
     fn finish(self, r: &Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
-        let t = r.targets.as_ref().expect("rendered");
-        let memory: Vec<Mem> = r.memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
+        let t = r.state().targets().expect("rendered");
+        let memory: Vec<Mem> =
+            r.state().memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
         let iso_ran = self.per_pass.iter().any(|(n, _)| n == "iso");
         Ok(Entry {
             scene: w.label.clone(),

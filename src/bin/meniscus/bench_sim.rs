@@ -14,7 +14,7 @@ use meniscus::frame::{Environment, View};
 use meniscus::gpu::schedule::QueueId;
 use meniscus::gpu::timer::median;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu};
-use meniscus::renderer::{Hooks, Renderer};
+use meniscus::renderer::{FrameRequest, Hooks, Renderer, Upload};
 use meniscus::scene::{Bounds, Camera};
 use meniscus::settings::Settings;
 use meniscus::sim::{Simulation, STAGE_NAMES};
@@ -163,7 +163,7 @@ pub fn run(
         }
         let mut spans_all = vec![];
         for k in 0..warmup + frames {
-            r.set_gpu_particles_with_diffuse(sim.count(), scene.container, sim.diffuse_slots())?;
+            r.upload(Upload::Gpu { count: sim.count(), bounds: scene.container, diffuse_slots: sim.diffuse_slots() })?;
             let cell = std::cell::RefCell::new(&mut sim);
             let err = std::cell::RefCell::new(None);
             let step = |ctx: &mut FrameCtx, out: &Buffer| {
@@ -171,7 +171,9 @@ pub fn run(
                     *err.borrow_mut() = Some(e);
                 }
             };
-            let spans = r.render_spans_with(&view, &s, Hooks { produce: Some(&step), ..Default::default() })?;
+            let hooks = Hooks { produce: Some(&step), ..Default::default() };
+            let sub = r.submit(FrameRequest::new(&view, &s).hooks(hooks))?;
+            let spans = r.spans(sub)?;
             if let Some(e) = err.into_inner() {
                 return Err(e.into());
             }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Args;
 
+use meniscus::renderer::Upload;
 use meniscus::scene;
 
 use crate::args::{LoadArgs, SceneArgs};
@@ -159,7 +160,7 @@ fn device(filter: Option<String>) -> Result<()> {
         env: meniscus::view::Environment::around(&bounds, s.radius, &s),
     };
     let mut r = meniscus::renderer::Renderer::new(&gpu)?;
-    r.set_scene_particles(&g.particles, &s)?;
+    r.upload(Upload::scene(&g.particles, &s))?;
     r.render(&view, &s)?;
     println!(
         "\nGPU memory of a default frame (wave scene, {} particles, {w}×{h}, default settings):\n",

@@ -10,7 +10,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 
 use meniscus::frame::View;
-use meniscus::renderer::Renderer;
+use meniscus::renderer::{Backdrop, Renderer, Upload};
 use meniscus::scene::geometry::Geometry;
 use meniscus::scene::sequence::{self, Frame, FrameRange};
 use meniscus::scene::{self, procedural, Bounds, Camera, LoadOptions, Particles};
@@ -276,7 +276,7 @@ impl Job {
 
     /// Upload one frame's particles (spray flags, per-particle radii) with this job's settings.
     pub fn upload(&self, r: &mut Renderer, p: &Particles) -> Result<()> {
-        Ok(r.set_scene_particles(p, &self.settings)?)
+        Ok(r.upload(Upload::scene(p, &self.settings))?)
     }
 
     /// The sequence's frame rate (its scene.json's), else [`meniscus::motion::DEFAULT_FPS`]: the time between
@@ -299,13 +299,13 @@ impl Job {
         tracker: &mut meniscus::motion::MotionTracker,
     ) -> Result<()> {
         let motion = tracker.next(p);
-        Ok(r.set_scene_particles_moving(p, &self.settings, &motion)?)
+        Ok(r.upload(Upload::Scene { particles: p, settings: &self.settings, motion: Some(&motion) })?)
     }
 
     /// Add the background mesh, if any, to a renderer.
     pub fn apply_background(&self, r: &mut Renderer) -> Result<()> {
         if let Some(m) = &self.mesh {
-            r.set_background_mesh(m)?;
+            r.set_background(Backdrop::Mesh(m))?;
         }
         Ok(())
     }

@@ -428,7 +428,7 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
         r.render(&view, s)?;
         let mut ms: Vec<f64> = (0..3).map(|_| r.render(&view, s).map(|t| t.total())).collect::<Result<_, _>>()?;
         let gpu_ms = meniscus::gpu::timer::median(&mut ms);
-        let label = match (s.surface, r.fluid_mesh_stats()) {
+        let label = match (s.surface, r.state().surfaces().get(meniscus::settings::Surface::Mesh).mesh_stats()) {
             (Surface::Mesh, Some((secs, _, tris))) => {
                 let cpu = if s.mesh.smoothing_iters > 0 {
                     "CPU extraction + smoothing + BVH"
@@ -440,7 +440,7 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
             _ => format!("{gpu_ms:.1} ms GPU"),
         };
         eprintln!("{name}: {label}");
-        let img = r.read_final()?;
+        let img = r.state().read_final()?;
         image::imageops::overlay(&mut out, &img, (k as u32 * w) as i64, 0);
         let text = crate::demo::overlay::rasterize(&[name.to_string(), label], false, 1);
         let text = image::imageops::crop_imm(&text, 0, 0, text.width().min(w), text.height().min(h)).to_image();

@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meniscus::frame::View;
-use meniscus::renderer::{read_f32, Renderer};
+use meniscus::renderer::{Backdrop, FrameRequest, Renderer, Upload};
 use meniscus::scene::sequence::{self, FrameRange, Prefetch};
 
 use meniscus::output::Kind;
@@ -110,7 +110,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let mut r = Renderer::new(&gpu)?;
     job.apply_background(&mut r)?;
     if let Some((size, faces)) = &sky {
-        r.set_skybox(*size, faces)?;
+        r.set_background(Backdrop::Sky { size: *size, faces })?;
         view.env.sky_cube = true;
     }
     r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
@@ -130,7 +130,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         }
         times = meniscus::gpu::timer::median_times(&runs);
     }
-    let img = r.read_final()?;
+    let img = r.state().read_final()?;
     meniscus::output::write_png(&out, &img)?;
     eprintln!(
         "{}: {} particles, radius {}, {}×{} on {} → {}",
@@ -219,7 +219,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     let s = &job.settings;
     let mut view = job.view(a.width, a.height);
     if let Some((size, faces)) = &sky {
-        r.set_skybox(*size, faces)?;
+        r.set_background(Backdrop::Sky { size: *size, faces })?;
         view.env.sky_cube = true;
     }
     eprintln!("{}", job.summary(Some((a.width, a.height))));
@@ -325,12 +325,12 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                     }
                 };
                 diffuse_total += ps.len();
-                r.set_diffuse(&ps, s)?;
+                r.upload(Upload::Diffuse { particles: &ps, settings: s })?;
             }
-            let sub = r.submit(&view, s, true)?;
+            let sub = r.submit(FrameRequest::new(&view, s).readback())?;
             let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
             pending.push_back((sub, names.path(frame.number), name));
-            if pending.len() >= r.frames_in_flight() && !take(&mut r, pending.pop_front().expect("non-empty"))? {
+            if pending.len() >= r.slots().count() && !take(&mut r, pending.pop_front().expect("non-empty"))? {
                 return Ok(());
             }
         }
@@ -425,16 +425,16 @@ fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Res
             "depth" | "smoothed" | "thickness" => {
                 let img = match d.as_str() {
                     "depth" => &t.depth,
-                    "smoothed" => r.smoothed_depth().expect("rendered"),
+                    "smoothed" => r.state().smoothed_depth().expect("rendered"),
                     _ => &t.thickness,
                 };
-                let data = read_f32(&r.gpu, img)?;
+                let data = r.state().read_f32(img)?;
                 let p = path(d, "npy");
                 meniscus::output::write_npy(&p, &[img.extent.height as usize, img.extent.width as usize], &data)?;
                 eprintln!("wrote {}", p.display());
             }
             "normals" => {
-                let raw = meniscus::renderer::read_image(&r.gpu, &t.normals)?;
+                let raw = r.state().read_image(&t.normals)?;
                 let words: Vec<u32> = bytemuck::pod_collect_to_vec(&raw);
                 let mut data = Vec::with_capacity(words.len() * 3);
                 for w in words {
@@ -459,9 +459,8 @@ fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Res
             }
             "ssr" => {
                 // The reflected scene colour where SSR hit, black elsewhere.
-                let hits: Vec<u32> = bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.ssr)?);
-                let scene: Vec<u16> =
-                    bytemuck::pod_collect_to_vec(&meniscus::renderer::read_image(&r.gpu, &t.scene_color)?);
+                let hits: Vec<u32> = bytemuck::pod_collect_to_vec(&r.state().read_image(&t.ssr)?);
+                let scene: Vec<u16> = bytemuck::pod_collect_to_vec(&r.state().read_image(&t.scene_color)?);
                 let (w, h) = (view.width, view.height);
                 let png = image::RgbaImage::from_fn(w, h, |x, y| {
                     match meniscus::renderer::decode_ssr(hits[(y * w + x) as usize]) {

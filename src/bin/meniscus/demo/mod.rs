@@ -34,7 +34,8 @@ use meniscus::error::{Error, Result, VkContext};
 use meniscus::frame::{Environment, View};
 use meniscus::gpu::executor::Binary;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes};
-use meniscus::renderer::{Hooks, Renderer};
+use meniscus::inspect::Inspector;
+use meniscus::renderer::{Backdrop, FrameImages, FrameRequest, Hooks, Renderer, Upload};
 use meniscus::scene::{Camera, LoadOptions, Particles};
 use meniscus::settings::{Filter, Settings, Surface};
 use meniscus::view::ViewMode;
@@ -193,6 +194,8 @@ struct State {
     surface: vk::SurfaceKHR,
     swap: Option<present::Swapchain>,
     renderer: Renderer,
+    /// The views inside the frame (raw depth, normals, particles, …) and the overlay, recorded after its passes.
+    inspector: Inspector,
     overlay: Option<Image>,
     /// Per frame slot (frames in flight): the overlay's staging buffer, the particle values, and the
     /// semaphore the swapchain's acquire signals.
@@ -462,10 +465,11 @@ impl App {
             _ => gpu.queues.kind != meniscus::gpu::AsyncQueue::SameQueue,
         };
         if let Some(m) = &self.mesh {
-            renderer.set_background_mesh(m)?;
+            renderer.set_background(Backdrop::Mesh(m))?;
         }
         eprintln!("demo on {} ({}); keys:\n{HELP}", gpu.info.name, gpu.info.driver);
-        let n = renderer.frames_in_flight();
+        let n = renderer.slots().count();
+        let inspector = Inspector::new(&gpu)?;
         let acquired = (0..n).map(|_| present::semaphore(&gpu)).collect::<Result<Vec<_>>>()?;
         let mut st = State {
             window,
@@ -473,6 +477,7 @@ impl App {
             surface_loader,
             surface,
             swap: None,
+            inspector,
             renderer,
             overlay: None,
             overlay_staging: (0..n).map(|_| None).collect(),
@@ -710,14 +715,14 @@ impl App {
                 // Spray, foam and bubbles: stages of the simulation on the GPU, switched with [diffuse] enabled.
                 let diffuse = self.settings.diffuse.enabled;
                 if diffuse != self.sim_diffuse {
-                    st.renderer.wait_idle()?;
+                    st.renderer.slots().wait_all()?;
                     sim.set_diffuse(diffuse.then_some(&self.settings.diffuse))?;
                     self.sim_diffuse = diffuse;
                     self.diffuse_counts = [0; 3];
                 }
                 // Their counts for the overlay: read back twice a second (a wait for the device).
                 if diffuse && sim.frames % 12 == 11 {
-                    st.renderer.wait_idle()?;
+                    st.renderer.slots().wait_all()?;
                     let mut c = [0; 3];
                     for p in sim.read_diffuse()? {
                         c[p.kind as usize] += 1;
@@ -725,21 +730,26 @@ impl App {
                     self.diffuse_counts = c;
                 }
                 if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles {
-                    st.renderer.set_gpu_particles_with_diffuse(
-                        sim.count(),
-                        sim.scene.container,
-                        sim.diffuse_slots(),
-                    )?;
+                    st.renderer.upload(Upload::Gpu {
+                        count: sim.count(),
+                        bounds: sim.scene.container,
+                        diffuse_slots: sim.diffuse_slots(),
+                    })?;
                     produce = true;
                     self.sim_particles = None;
                 } else {
                     sim.step_frame()?;
                     let p = sim.read()?;
-                    st.renderer.set_scene_particles_moving(&p, &self.settings, &sim.read_motion()?)?;
+                    st.renderer.upload(Upload::Scene {
+                        particles: &p,
+                        settings: &self.settings,
+                        motion: Some(&sim.read_motion()?),
+                    })?;
                     if diffuse {
-                        st.renderer.set_diffuse(&sim.read_diffuse()?, &self.settings)?;
-                    } else if st.renderer.diffuse_count() > 0 {
-                        st.renderer.set_diffuse(&[], &self.settings)?;
+                        st.renderer
+                            .upload(Upload::Diffuse { particles: &sim.read_diffuse()?, settings: &self.settings })?;
+                    } else if st.renderer.state().particles().diffuse_count() > 0 {
+                        st.renderer.upload(Upload::Diffuse { particles: &[], settings: &self.settings })?;
                     }
                     self.sim_particles = Some(p);
                 }
@@ -763,30 +773,30 @@ impl App {
             }
             let p = self.src.get(self.frame, &self.load)?;
             let motion = self.motion.next(p);
-            st.renderer.set_scene_particles_moving(p, &self.settings, &motion)?;
+            st.renderer.upload(Upload::Scene { particles: p, settings: &self.settings, motion: Some(&motion) })?;
             if let (true, Some(walk), playback::Source::Sequence { frames, .. }) =
                 (self.settings.diffuse.enabled, self.walk.as_mut(), &self.src)
             {
                 let number = frames[self.frame].number;
                 let p = self.src.get(self.frame, &self.load)?;
                 let ps = walk.advance(number, Some(p)).map_err(|e| Error::Invalid(format!("{e:#}")))?;
-                st.renderer.set_diffuse(ps, &self.settings)?;
+                st.renderer.upload(Upload::Diffuse { particles: ps, settings: &self.settings })?;
                 self.diffuse_counts = walk.counts();
-            } else if !self.settings.diffuse.enabled && st.renderer.diffuse_count() > 0 {
-                st.renderer.set_diffuse(&[], &self.settings)?;
+            } else if !self.settings.diffuse.enabled && st.renderer.state().particles().diffuse_count() > 0 {
+                st.renderer.upload(Upload::Diffuse { particles: &[], settings: &self.settings })?;
                 self.diffuse_counts = [0; 3];
             }
             self.uploaded = Some(self.frame);
         }
         // Frames in flight: the slot this frame takes is free once the frame N back is done (the only host wait).
-        let k = st.renderer.next_slot();
-        st.renderer.wait_slot(k)?;
+        let k = st.renderer.slots().next();
+        st.renderer.slots().wait(k)?;
         let legend = if self.mode == ViewMode::Particles {
             let p = match &self.sim_particles {
                 Some(p) => p.clone(),
                 None if st.sim.is_some() => {
                     let p = st.sim.as_ref().expect("checked").read()?;
-                    st.renderer.set_scene_particles(&p, &self.settings)?;
+                    st.renderer.upload(Upload::scene(&p, &self.settings))?;
                     self.sim_particles = Some(p.clone());
                     p
                 }
@@ -815,7 +825,7 @@ impl App {
         let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
         let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
         if need_new {
-            st.renderer.wait_idle()?; // frames in flight still read the old overlay image
+            st.renderer.slots().wait_all()?; // frames in flight still read the old overlay image
             st.overlay = Some(Image::new(
                 &st.gpu,
                 "overlay",
@@ -847,9 +857,15 @@ impl App {
         let overlay_img = st.overlay.as_ref().expect("set");
         let staging = st.overlay_staging[k].as_ref().expect("set");
         let upload_overlay = |ctx: &mut FrameCtx| {
-            meniscus::renderer::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
+            meniscus::gpu::transfer::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
         };
-        let blit = |ctx: &mut FrameCtx, final_img: &Image| present::record_blit(ctx, swap, index, final_img);
+        let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
+        let (inspector, overlay, mode, settings) = (&st.inspector, st.overlay.as_ref(), self.mode, &self.settings);
+        // The chosen view and the overlay over the final image, then its blit into the swapchain image.
+        let after = |ctx: &mut FrameCtx, f: &FrameImages| {
+            inspector.record(ctx, f, mode, values, overlay, settings);
+            present::record_blit(ctx, swap, index, f.final_color)
+        };
         // The simulation's frame, recorded into this frame's command buffer; it writes the particle buffer the
         // passes read.
         let sim_cell = std::cell::RefCell::new(st.sim.as_mut());
@@ -863,16 +879,17 @@ impl App {
         };
         let hooks = Hooks {
             before: Some(&upload_overlay),
-            after: Some(&blit),
+            after: Some(&after),
             produce: if produce { Some(&step) } else { None },
         };
         let binary = Binary {
             wait: Some((st.acquired[k], vk::PipelineStageFlags2::ALL_COMMANDS)),
             signal: Some(present::rendered(swap, index)),
         };
-        let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
-        let (_, late) =
-            st.renderer.submit_view(&view, &self.settings, self.mode, values, st.overlay.as_ref(), hooks, binary)?;
+        // The raw depth view and the particle view read the splatted depth after smoothing.
+        st.renderer.keep_raw_depth = true;
+        st.renderer.submit(FrameRequest { view: &view, settings: &self.settings, hooks, readback: false, binary })?;
+        let late = st.renderer.state().late_times().cloned();
         if let Some(e) = sim_err.into_inner() {
             return Err(e);
         }
@@ -891,7 +908,7 @@ impl App {
         }
         if let Some((movie, _)) = self.recorder.as_mut() {
             // The movie keeps the window's first size: a resized window's frames are scaled to it.
-            let img = st.renderer.read_final()?;
+            let img = st.renderer.state().read_final()?;
             let (w, h) = movie.size();
             let img = if img.dimensions() == (w, h) {
                 img
@@ -940,7 +957,7 @@ impl App {
                 self.speed,
                 if self.looping { "on" } else { "off" },
                 self.fps_window.2,
-                st.renderer.particle_count()
+                st.renderer.state().particles().count()
             ),
             format!(
                 "view {}  surface {}  filter {}  fluid scale {}  ssr {}  noise {}  vsync {}  async {}",
@@ -1014,7 +1031,7 @@ impl App {
     }
 
     fn save_screenshot_of(&self, st: &State, p: &std::path::Path) -> Result<()> {
-        let img = st.renderer.read_final()?;
+        let img = st.renderer.state().read_final()?;
         meniscus::output::write_png(p, &img)
     }
 }

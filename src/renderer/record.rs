@@ -1,0 +1,235 @@
+//! The frame driver: what one submitted frame does on the host — the checks, the preparation of the surface,
+//! the effects and the particles, the slot's host-written memory (uniforms, particle staging, read-back), the
+//! recording (`record_frame` with the caller's hooks) and the submission on one queue or, split, on two.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::request::{FrameImages, FrameRequest, HostTimes};
+use super::Renderer;
+use crate::effect::{EffectPrepare, FrameParticles};
+use crate::error::{Error, Result};
+use crate::frame::{record_frame, FrameInputs, FrameUniforms, Recording};
+use crate::gpu::executor::Submitted;
+use crate::gpu::transfer::record_image_copy;
+use crate::gpu::{Access, Buffer, FrameCtx, Use};
+use crate::passes::smooth::Output as Smoothed;
+use crate::passes::FrameInfo;
+use crate::surface::Prepare;
+
+impl Renderer {
+    /// The frame driver: checks, the effects' and surface's preparation, the slot's uniforms, the staged particle
+    /// copy, `record_frame`, the caller's after hook, the final image's read-back; submits (one queue, or the
+    /// split frame's segments).
+    pub(super) fn record_and_submit(&mut self, req: FrameRequest) -> Result<Submitted> {
+        let FrameRequest { view, settings: s, hooks, readback, binary } = req;
+        let t0 = std::time::Instant::now();
+        let mut host = HostTimes::default();
+        let mut lap = {
+            let mut last = t0;
+            move || {
+                let now = std::time::Instant::now();
+                let ms = (now - last).as_secs_f64() * 1e3;
+                last = now;
+                ms
+            }
+        };
+        s.validate()?;
+        if !self.passes.splat.supports(s.splat.mode) {
+            return Err(Error::Invalid(format!(
+                "splat mode {} is not supported on {}",
+                s.splat.mode.name(),
+                self.gpu.info.name
+            )));
+        }
+        self.ensure_targets(view.width, view.height, s)?;
+        let cached = self.background.cached(view, s);
+        // The surface brings its resources up to date (grids, lattice, mesh) for these particles and settings.
+        let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s };
+        self.surfaces.get_mut(s.surface).prepare(&prep)?;
+        let (width, height) = (view.width, view.height);
+        let (gpu, executor, particles) = (&self.gpu, &self.executor, &self.particles);
+        self.effects.prepare(&EffectPrepare { gpu, executor, particles, settings: s, width, height })?;
+        // Too many layers for the composite is the caller's error, found before a frame slot is begun.
+        self.effects.layers(s)?;
+        let split = self.async_compute;
+        if self.particles.is_external() && hooks.produce.is_none() {
+            return Err(Error::Invalid("particles uploaded as Upload::Gpu need a frame with Hooks::produce".into()));
+        }
+        self.particles.prepare(&self.gpu, &self.executor, split)?;
+        let d_near = self.particles.nearest_depth(view, s.radius);
+        host.prepare = lap();
+        // The slot: its previous frame is complete from here on, so its host memory may be rewritten.
+        let (k, late) = self.executor.begin()?;
+        if late.is_some() {
+            self.late_times = late;
+        }
+        host.slot_wait = lap();
+        let gpu = self.gpu.clone();
+        let mem = &mut self.slots[k];
+        let count = self.particles.count();
+        let u = FrameUniforms::new(view, s, count);
+        if mem.uniforms.is_none() {
+            mem.uniforms = Some(Buffer::new(
+                &gpu,
+                "frame",
+                std::mem::size_of::<FrameUniforms>() as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
+        let (staged, external) = self.particles.take_pending();
+        if let Some((data, _)) = &staged {
+            let bytes: &[u8] = bytemuck::cast_slice(data);
+            if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
+                mem.staging = Some(Buffer::new(
+                    &gpu,
+                    "particles staging",
+                    (bytes.len() as u64).max(16),
+                    vk::BufferUsageFlags::TRANSFER_SRC,
+                    MemoryLocation::CpuToGpu,
+                )?);
+            }
+            mem.staging.as_mut().expect("set").write(0, bytes)?;
+        }
+        let need = self.targets.as_ref().expect("ensured").final_color.bytes();
+        if readback && mem.readback.as_ref().is_none_or(|b| b.size < need) {
+            mem.readback = Some(Buffer::new(
+                &gpu,
+                "readback",
+                need,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?);
+        }
+        host.stage = lap();
+        let t = self.targets.as_ref().expect("ensured");
+        let info = FrameInfo {
+            focal_px: view.camera.focal_px(view.height),
+            focal_px_fluid: view.camera.focal_px(t.depth.extent.height),
+            d_near,
+            target_distance: (view.camera.eye - view.camera.target).length().max(view.camera.near),
+        };
+        let particles = self.particles.buffer();
+        let passes = &self.passes;
+        let uniforms = mem.uniforms.as_ref().expect("set");
+        if split {
+            self.executor.begin_split(k)?;
+        }
+        let slot = self.executor.slot(k);
+        slot.split = split;
+        // The particles of this frame: a copy at the start of its own (first) command buffer, made visible to
+        // compute reads there, before any other queue's part waits for it.
+        let upload = |ctx: &mut FrameCtx| {
+            if let (Some((data, at)), Some(staging)) = (&staged, mem.staging.as_ref()) {
+                ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
+                let region =
+                    vk::BufferCopy { src_offset: 0, dst_offset: (*at * 16) as u64, size: (data.len() * 16) as u64 };
+                if region.size > 0 {
+                    unsafe { gpu.device.cmd_copy_buffer(ctx.cmd, staging.raw, particles.raw, &[region]) };
+                }
+                ctx.barrier(&[Use::buf_read(particles)]);
+            }
+            if let (true, Some(p)) = (external, hooks.produce) {
+                p(ctx, particles);
+            }
+        };
+        // The caller's work after the passes (the demo's views, a window's blit), then the read-back, in the
+        // frame's last command buffer.
+        let finish_frame = |ctx: &mut FrameCtx, sm: Smoothed| {
+            if let Some(h) = hooks.after {
+                let images = FrameImages {
+                    frame: uniforms,
+                    particles: (particles, count),
+                    depth: &t.depth,
+                    smoothed: t.smoothed(sm),
+                    thickness: &t.thickness,
+                    normals: &t.normals,
+                    ssr: &t.ssr,
+                    scene_color: &t.scene_color,
+                    final_color: &t.final_color,
+                    info,
+                };
+                h(ctx, &images);
+            }
+            if readback {
+                record_image_copy(ctx, &t.final_color, mem.readback.as_ref().expect("set"));
+            }
+        };
+        let inputs = FrameInputs {
+            passes,
+            targets: t,
+            frame: uniforms,
+            particles: FrameParticles {
+                buffer: particles,
+                count,
+                diffuse: self.particles.diffuse_count(),
+                diffuse_indirect: self.particles.diffuse_on_gpu(),
+                spray: self.particles.has_spray(),
+            },
+            surface: self.surfaces.get(s.surface),
+            effects: &self.effects,
+            background: &self.background,
+            background_cached: cached,
+            settings: s,
+            info: &info,
+        };
+        if !split {
+            let mut ctx = FrameCtx::new(&gpu, slot.cmd, Some(&mut slot.timer));
+            upload(&mut ctx);
+            if let Some(h) = hooks.before {
+                h(&mut ctx);
+            }
+            let sm = record_frame(&mut Recording::One(&mut ctx), &inputs)?.smoothed;
+            finish_frame(&mut ctx, sm);
+            let touches = std::mem::take(&mut ctx.touches);
+            drop(ctx);
+            self.smoothed = sm;
+            host.record = lap();
+            let sub = self.executor.submit_one(k, &binary, touches);
+            host.submit = lap();
+            self.host = host;
+            return sub;
+        }
+        // A split frame: the particle upload (async) ‖ the previous frame's passes; background + thickness
+        // (async) ‖ the fluid passes (main); shading (main) after both. The waits between the queues — within
+        // this frame and against the frame before — come from what each segment touched.
+        use crate::gpu::executor::Segment;
+        use crate::gpu::schedule::QueueId;
+        let (main_cmds, compute_cmds) = (slot.main_cmds, slot.compute_cmds);
+        let [ta, tf, tsh] = &mut slot.segment_timers;
+        // The first main command buffer only resets the main timer (it began with the slot).
+        let mut first = FrameCtx::new(&gpu, main_cmds[0], Some(&mut slot.timer));
+        // The async part's timer starts in the upload's command buffer (it runs first on that queue), so a
+        // simulation step recorded there (`Hooks::produce`) is timed with the async passes.
+        let mut up = FrameCtx::new(&gpu, compute_cmds[0], Some(ta));
+        upload(&mut up);
+        if let Some(h) = hooks.before {
+            h(&mut up);
+        }
+        let up_touches = std::mem::take(&mut up.touches);
+        let ta = up.timer.take().expect("given");
+        drop(up);
+        let mut a = FrameCtx::continuing(&gpu, compute_cmds[1], Some(ta));
+        let mut f = FrameCtx::new(&gpu, main_cmds[1], Some(tf));
+        let mut sh = FrameCtx::new(&gpu, main_cmds[2], Some(tsh));
+        let sm = record_frame(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, &inputs)?
+            .smoothed;
+        finish_frame(&mut sh, sm);
+        let segments = vec![
+            Segment { queue: QueueId::Main, cmd: main_cmds[0], touches: std::mem::take(&mut first.touches) },
+            Segment { queue: QueueId::Compute, cmd: compute_cmds[0], touches: up_touches },
+            Segment { queue: QueueId::Compute, cmd: compute_cmds[1], touches: std::mem::take(&mut a.touches) },
+            Segment { queue: QueueId::Main, cmd: main_cmds[1], touches: std::mem::take(&mut f.touches) },
+            Segment { queue: QueueId::Main, cmd: main_cmds[2], touches: std::mem::take(&mut sh.touches) },
+        ];
+        drop((first, a, f, sh));
+        self.smoothed = sm;
+        host.record = lap();
+        let sub = self.executor.submit_segments(k, segments, &binary);
+        host.submit = lap();
+        self.host = host;
+        sub
+    }
+}
