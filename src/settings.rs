@@ -130,7 +130,7 @@ pub struct Settings {
     /// `[composite]`: shading.
     pub composite: crate::passes::composite::Params,
     /// `[sim]`: the live simulation's solver (`meniscus sim`, `demo --sim`, `bench --sim`).
-    pub sim: crate::sim::Params,
+    pub sim: crate::sim::params::Params,
 }
 
 /// Spray classification: the `[spray]` section of a settings file.
@@ -329,7 +329,7 @@ impl Settings {
             // The view's (the GPU reads it from the frame); CPU references set it.
             near: 0.0,
             volume: (self.iso.smoothing > 0.0 && self.kernel == Kernel::Isotropic).then_some(
-                crate::field::iso::VolumeParams {
+                crate::field::volume::VolumeParams {
                     sigma: self.iso.smoothing * self.radius,
                     bulk: self.iso.bulk,
                     spacing: self.iso.voxel * self.radius,

@@ -1089,10 +1089,10 @@ fn read_lattice(
     let header: Vec<u32> = bytemuck::pod_collect_to_vec(&read(&vol.header, 16));
     let bricks = header[3] as usize;
     assert!(bricks <= vol.capacity as usize, "{bricks} bricks over the pool's {}", vol.capacity);
-    let bv = meniscus::field::iso::STORED_BRICK_VOXELS as usize;
+    let bv = meniscus::field::volume::STORED_BRICK_VOXELS as usize;
     let acc: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&read(&vol.acc, 8 * bv * bricks.max(1)));
     let (mut dacc, mut dfield) = (vec![[0u32; 2]; shape.voxels()], vec![[0f32; 2]; shape.voxels()]);
-    let field = meniscus::field::iso::VolumeShape::field(&acc);
+    let field = meniscus::field::volume::VolumeShape::field(&acc);
     let nb = shape.bricks;
     for (b, &e) in table.iter().enumerate() {
         if e == 0 {
@@ -1118,7 +1118,8 @@ fn read_lattice(
 /// the same particles does not build it again.
 #[test]
 fn smoothed_iso_field_matches_cpu() {
-    use meniscus::field::iso::{bulk_weight, march, ray_end, smoothed_field, IsoGrid};
+    use meniscus::field::iso::{march, ray_end, IsoGrid};
+    use meniscus::field::volume::{bulk_weight, smoothed_field};
     let gpu = gpu();
     let (w, h) = (128usize, 96usize);
     let r = 0.05f32;
@@ -1169,7 +1170,7 @@ fn smoothed_iso_field_matches_cpu() {
     let used = marked.iter().filter(|&&m| m).count();
     assert!(used < marked.len(), "{used} of {} bricks: the lattice is sparse", marked.len());
     let acc = shape.deposit(&weighted, &c, &vp);
-    let field = meniscus::field::iso::VolumeShape::field(&acc);
+    let field = meniscus::field::volume::VolumeShape::field(&acc);
     // Per-term rounding to fixed point may differ by a unit where the weights' last bit does.
     let worst = acc.iter().zip(&acc_gpu).map(|(a, g)| a[0].abs_diff(g[0]).max(a[1].abs_diff(g[1]))).max().unwrap();
     assert!(worst <= 64, "fixed-point sums differ by up to {worst} units");
@@ -1736,7 +1737,8 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
 /// meshes are closed and consistently oriented, and the run is free of validation messages.
 #[test]
 fn gpu_marching_cubes_match_the_cpu_blocks() {
-    use meniscus::field::extract::{extract_blocks_keyed, open_or_flipped_edges, ExtractParams, TriMesh};
+    use meniscus::field::extract::blocks::extract_blocks_keyed;
+    use meniscus::field::extract::{open_or_flipped_edges, ExtractParams, TriMesh};
     // The GPU and the CPU blocks each number their vertices in their own order: both compared in edge-key order.
     let key_order = |m: &TriMesh, keys: &[i64], what: &str| {
         m.in_key_order(keys).unwrap_or_else(|| panic!("{what}: an edge has two vertices"))

@@ -14,7 +14,8 @@ fn scan(dir: &Path, top: Option<&str>, graph: &mut BTreeMap<String, BTreeSet<Str
                 continue;
             }
             scan(&p, Some(top.unwrap_or(&name)), graph);
-        } else if name.ends_with(".rs") {
+        } else if name.ends_with(".rs") && name != "tests.rs" {
+            // (A module's tests in their own file, `mod tests;` under `#[cfg(test)]`, are not library code.)
             let module = top.map(str::to_string).unwrap_or_else(|| name.trim_end_matches(".rs").to_string());
             if module == "lib" {
                 continue;
@@ -98,4 +99,37 @@ fn apps_do_not_reach_into_the_passes() {
     scan(&root.join("src/bin"), &mut hits);
     scan(&root.join("python/src"), &mut hits);
     assert!(hits.is_empty(), "apps reach into meniscus::passes:\n{}", hits.join("\n"));
+}
+
+/// No library file is over 700 lines (tests in their own `tests.rs` included): a file holds one concern.
+#[test]
+fn no_library_file_is_over_700_lines() {
+    fn walk(dir: &Path, long: &mut Vec<String>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                if p.file_name().unwrap() != "bin" {
+                    walk(&p, long);
+                }
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                let n = std::fs::read_to_string(&p).unwrap().lines().count();
+                if n > 700 {
+                    long.push(format!("{} ({n} lines)", p.display()));
+                }
+            }
+        }
+    }
+    let mut long = vec![];
+    walk(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut long);
+    assert!(long.is_empty(), "library files over 700 lines: {long:?}");
+}
+
+/// The renderer's door stays small: at most 12 public methods on `Renderer` (src/renderer/mod.rs), its
+/// requests and states in their own types.
+#[test]
+fn the_renderer_has_at_most_twelve_public_methods() {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/renderer/mod.rs")).unwrap();
+    let block = text.split("impl Renderer {").nth(1).expect("impl Renderer").split("\n}\n").next().unwrap();
+    let methods: Vec<&str> = block.lines().filter(|l| l.starts_with("    pub fn ")).collect();
+    assert!(methods.len() <= 12, "Renderer has {} public methods: {methods:#?}", methods.len());
 }

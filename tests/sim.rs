@@ -6,7 +6,8 @@ use glam::Vec3;
 use meniscus::compute::grid::{Grid, GridBuffers, GridShape};
 use meniscus::gpu::transfer::{read_buffer, upload_buffer};
 use meniscus::gpu::FrameCtx;
-use meniscus::sim::{reference, Params, SimScene, Simulation};
+use meniscus::sim::params::Params;
+use meniscus::sim::{reference, SimScene, Simulation};
 
 /// A deterministic pseudo-random generator (no dependency for tests).
 struct Lcg(u64);
@@ -142,7 +143,7 @@ fn one_step_matches_the_cpu_reference() {
 fn static_friction_holds_slow_water_on_the_container_only() {
     let scene = SimScene::new("pool", 1000).unwrap();
     let sim_u = |mu: f32| {
-        let mut u: meniscus::sim::SimUniforms = bytemuck::Zeroable::zeroed();
+        let mut u: meniscus::sim::constants::SimUniforms = bytemuck::Zeroable::zeroed();
         u.lo_dt = [scene.container.0.x + 0.01, scene.container.0.y + 0.01, scene.container.0.z + 0.01, 0.005];
         u.hi_h = [scene.container.1.x - 0.01, scene.container.1.y - 0.01, scene.container.1.z - 0.01, 0.04];
         u.wall = [mu, 0.0, 0.0, 0.0];
@@ -678,7 +679,7 @@ fn splishsplash_scene_files_lay_out_the_first_frame() {
         assert_eq!((f.fps, f.frames), (Some(25.0), Some(51)), "{dir}");
         assert_eq!(f.gravity, Some([0.0, -9.81, 0.0]));
         // simulationMethod 4: DFSPH, with the file's bounds; nothing warned about the method.
-        assert_eq!(f.solver, Some(meniscus::sim::Solver::Dfsph), "{dir}");
+        assert_eq!(f.solver, Some(meniscus::sim::params::Solver::Dfsph), "{dir}");
         assert_eq!(f.max_error_v, Some(0.1), "{dir}");
         assert_eq!(f.max_error, Some(if dir.starts_with("double") { 0.01 } else { 0.05 }), "{dir}");
         assert!(!f.warnings.iter().any(|w| w.contains("simulationMethod")), "{dir}: {:?}", f.warnings);
@@ -758,7 +759,7 @@ fn dfsph_holds_a_resting_pool_at_its_error_bounds() {
     let scene = SimScene::new("pool", 8000).unwrap();
     let n = scene.positions.len();
     let (lo, hi) = scene.container;
-    let params = Params { solver: meniscus::sim::Solver::Dfsph, ..Params::default() };
+    let params = Params { solver: meniscus::sim::params::Solver::Dfsph, ..Params::default() };
     let (eta, eta_v) = (params.max_density_error * 0.01, params.max_divergence_error * 0.01);
     let mut sim = Simulation::new(&gpu, scene, params).unwrap();
     let mut rms = vec![];
@@ -802,7 +803,7 @@ fn dfsph_double_dam_break_keeps_splishsplash_energy() {
     let gpu = common::gpu();
     let (scene, file) = meniscus::sim::scene_file::resolve(dir.join("scene.json").to_str().unwrap(), None).unwrap();
     let file = file.expect("a scene file");
-    let mut params = Params { solver: meniscus::sim::Solver::Dfsph, ..Params::default() };
+    let mut params = Params { solver: meniscus::sim::params::Solver::Dfsph, ..Params::default() };
     file.apply(&mut params);
     let fps = params.fps;
     let mut sim = Simulation::new(&gpu, scene, params).unwrap();
@@ -839,7 +840,7 @@ fn dfsph_dam_break_front_follows_the_experiments() {
     use meniscus::sim::validate;
     let gpu = common::gpu();
     let scene = validate::column_for(1200);
-    let params = Params { fps: 200.0, solver: meniscus::sim::Solver::Dfsph, ..Params::default() };
+    let params = Params { fps: 200.0, solver: meniscus::sim::params::Solver::Dfsph, ..Params::default() };
     let mut sim = Simulation::new(&gpu, scene, params).unwrap();
     let series = validate::front(&mut sim, 3.2).unwrap();
     assert!(series.windows(2).all(|w| w[1].1 >= w[0].1 - 0.02), "the front went back: {series:?}");
@@ -897,7 +898,7 @@ fn scene_file_emitters_emit_as_splishsplash_does() {
     let gpu = common::gpu();
     std::fs::write(&p, scene(0, 0.0)).unwrap();
     let (sc, file) = meniscus::sim::scene_file::resolve(p.to_str().unwrap(), None).unwrap();
-    let mut params = Params { solver: meniscus::sim::Solver::Dfsph, ..Params::default() };
+    let mut params = Params { solver: meniscus::sim::params::Solver::Dfsph, ..Params::default() };
     file.unwrap().apply(&mut params);
     let mut sim = Simulation::new(&gpu, sc, params).unwrap();
     for _ in 0..25 {

@@ -326,8 +326,8 @@ impl Simulation {
         // The pressure solver (`[sim] solver` of the settings file otherwise).
         params.solver = match solver {
             None => params.solver,
-            Some("pbf") => meniscus::sim::Solver::Pbf,
-            Some("dfsph") => meniscus::sim::Solver::Dfsph,
+            Some("pbf") => meniscus::sim::params::Solver::Pbf,
+            Some("dfsph") => meniscus::sim::params::Solver::Dfsph,
             Some(other) => return Err(PyValueError::new_err(format!("solver {other:?}: \"pbf\" or \"dfsph\""))),
         };
         params.validate().map_err(py_err)?;

@@ -134,7 +134,7 @@ impl Mc {
     }
 
     /// Extract the iso-surface of `grid`'s field (weights `inv_n`, see [`IsoGrid::inv_density`]) on the GPU:
-    /// the same lattice, threshold and field as [`crate::field::extract::extract_blocks`] (`p.block` is ignored: the
+    /// the same lattice, threshold and field as [`crate::field::extract::blocks::extract_blocks`] (`p.block` is ignored: the
     /// GPU's blocks are MC_BLOCK³ cubes; `p.dense` too). The mesh comes back indexed from the GPU.
     pub fn extract(
         &self,

@@ -9,6 +9,7 @@ pub mod access;
 pub mod context;
 pub mod executor;
 pub mod pipeline;
+pub mod queues;
 pub mod recording;
 pub mod resource;
 pub mod schedule;
@@ -24,6 +25,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use crate::error::{Error, Result, VkContext};
+use queues::{choose_async_queue, AsyncQueue, QueueRef, Queues};
 
 pub use access::{Access, AccessState};
 pub use context::{FrameCtx, Use};
@@ -72,66 +74,6 @@ impl ValidationLog {
 /// What `pick_device` found: the physical and logical device, the main family, the async queue choice and the
 /// device description.
 type PickedDevice = (vk::PhysicalDevice, ash::Device, u32, (u32, u32, AsyncQueue), DeviceInfo);
-
-/// How the async compute queue relates to the main one.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum AsyncQueue {
-    /// A queue of a compute-only family (true async compute).
-    ComputeFamily,
-    /// A second queue of the main (graphics + compute) family.
-    SecondQueue,
-    /// The main queue itself (lavapipe: one family, one queue): async work is ordered after the frame's.
-    SameQueue,
-}
-
-/// One queue the device was created with.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct QueueRef {
-    /// Queue family index.
-    pub family: u32,
-    /// Queue index within the family.
-    pub index: u32,
-    /// The queue.
-    #[serde(skip)]
-    pub queue: vk::Queue,
-}
-
-/// The queues chosen at device creation: the frame's graphics + compute queue and the async compute queue
-/// (a compute-only family when the device has one, else a second queue of the main family, else the main
-/// queue itself).
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct Queues {
-    /// Graphics + compute + transfer: the frame.
-    pub main: QueueRef,
-    /// Async compute.
-    pub compute: QueueRef,
-    /// Which of the three choices `compute` is.
-    pub kind: AsyncQueue,
-}
-
-impl Queues {
-    /// One line for `meniscus info --device` and reports.
-    pub fn describe(&self) -> String {
-        let q = |r: &QueueRef| format!("family {} queue {}", r.family, r.index);
-        format!("main: {}; async compute: {} ({:?})", q(&self.main), q(&self.compute), self.kind)
-    }
-}
-
-/// The async compute queue for main family `main`: (family, index, kind) — a compute-only family with
-/// timestamps, else a second queue of the main family, else the main queue.
-pub fn choose_async_queue(families: &[vk::QueueFamilyProperties], main: u32) -> (u32, u32, AsyncQueue) {
-    let compute_family = families.iter().position(|f| {
-        f.queue_flags.contains(vk::QueueFlags::COMPUTE)
-            && !f.queue_flags.contains(vk::QueueFlags::GRAPHICS)
-            && f.timestamp_valid_bits > 0
-    });
-    match compute_family {
-        Some(cf) => (cf as u32, 0, AsyncQueue::ComputeFamily),
-        None if families[main as usize].queue_count >= 2 => (main, 1, AsyncQueue::SecondQueue),
-        None => (main, 0, AsyncQueue::SameQueue),
-    }
-}
 
 /// What the user and the benchmark want to know about the device.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -694,33 +636,5 @@ impl Drop for Gpu {
             }
             self.instance.destroy_instance(None);
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn family(flags: vk::QueueFlags, count: u32, ts: u32) -> vk::QueueFamilyProperties {
-        vk::QueueFamilyProperties {
-            queue_flags: flags,
-            queue_count: count,
-            timestamp_valid_bits: ts,
-            ..Default::default()
-        }
-    }
-
-    /// A compute-only family wins (and needs timestamps); else a second queue of the main family; else the
-    /// main queue itself (lavapipe).
-    #[test]
-    fn async_queue_choice() {
-        use vk::QueueFlags as F;
-        let gfx = F::GRAPHICS | F::COMPUTE | F::TRANSFER;
-        let nvidia = [family(gfx, 16, 64), family(F::TRANSFER, 2, 64), family(F::COMPUTE | F::TRANSFER, 8, 64)];
-        assert_eq!(choose_async_queue(&nvidia, 0), (2, 0, AsyncQueue::ComputeFamily));
-        let no_ts = [family(gfx, 4, 64), family(F::COMPUTE, 2, 0)];
-        assert_eq!(choose_async_queue(&no_ts, 0), (0, 1, AsyncQueue::SecondQueue));
-        let lavapipe = [family(gfx, 1, 64)];
-        assert_eq!(choose_async_queue(&lavapipe, 0), (0, 0, AsyncQueue::SameQueue));
     }
 }

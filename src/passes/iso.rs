@@ -168,13 +168,13 @@ pub struct IsoBuffers {
     /// The smoothed field's lattice (`[iso] smoothing` > 0; allocated by the renderer for the grid's box).
     pub volume: Option<IsoVolume>,
     /// The parameters `volume` holds the field for, for the current particles (`None`: stale).
-    pub volume_for: std::cell::Cell<Option<crate::field::iso::VolumeParams>>,
+    pub volume_for: std::cell::Cell<Option<crate::field::volume::VolumeParams>>,
 }
 
 /// The smoothed iso field on its sparse lattice (`iso_volume`), read by the volume cast.
 pub struct IsoVolume {
     /// The lattice.
-    pub shape: crate::field::iso::VolumeShape,
+    pub shape: crate::field::volume::VolumeShape,
     /// Bricks the pool holds.
     pub capacity: u32,
     /// Per brick of the box: 0, or its pool index + 1 (R32UI texels).
@@ -190,8 +190,8 @@ pub struct IsoVolume {
 
 impl IsoVolume {
     /// Buffers for the lattice `shape` with a pool of `capacity` bricks.
-    pub fn new(gpu: &Arc<Gpu>, shape: crate::field::iso::VolumeShape, capacity: u32) -> Result<IsoVolume> {
-        let voxels = capacity.max(1) as u64 * crate::field::iso::STORED_BRICK_VOXELS as u64;
+    pub fn new(gpu: &Arc<Gpu>, shape: crate::field::volume::VolumeShape, capacity: u32) -> Result<IsoVolume> {
+        let voxels = capacity.max(1) as u64 * crate::field::volume::STORED_BRICK_VOXELS as u64;
         let limit = gpu.info.max_storage_buffer_range.min(gpu.info.max_texel_buffer_elements * 8);
         if 8 * voxels > limit {
             return Err(crate::error::Error::Limit(format!(
@@ -201,7 +201,7 @@ impl IsoVolume {
                 (8 * voxels) >> 20,
                 limit >> 20,
                 shape.spacing,
-                b = crate::field::iso::BRICK
+                b = crate::field::volume::BRICK
             )));
         }
         // TRANSFER_DST: zeroed before each build; TRANSFER_SRC: the tests read the field back.
@@ -219,13 +219,13 @@ impl IsoVolume {
     }
 
     /// Whether these buffers hold the lattice `shape` with `bricks` allocated.
-    pub fn fits(&self, shape: &crate::field::iso::VolumeShape, bricks: u32) -> bool {
+    pub fn fits(&self, shape: &crate::field::volume::VolumeShape, bricks: u32) -> bool {
         self.table.size >= 4 * shape.table_len() as u64 && self.capacity >= bricks
     }
 
     /// `push` with this lattice in `aniso` (origin, spacing), `aniso2.yzw` (bricks per axis) and `volume` (the
     /// bulk ramp), as iso_field.glsl reads it.
-    pub fn push(&self, push: IsoPush, p: &crate::field::iso::VolumeParams) -> IsoPush {
+    pub fn push(&self, push: IsoPush, p: &crate::field::volume::VolumeParams) -> IsoPush {
         let (o, b) = (self.shape.origin, self.shape.bricks);
         IsoPush {
             aniso: [o.x, o.y, o.z, self.shape.spacing],
@@ -236,7 +236,7 @@ impl IsoVolume {
     }
 
     /// The push constants of iso_volume.comp for `points` points.
-    pub fn vol_push(&self, p: &crate::field::iso::VolumeParams, points: u32) -> VolPush {
+    pub fn vol_push(&self, p: &crate::field::volume::VolumeParams, points: u32) -> VolPush {
         let (o, b) = (self.shape.origin, self.shape.bricks);
         VolPush {
             origin: [o.x, o.y, o.z, self.shape.spacing],
@@ -538,7 +538,7 @@ impl Iso {
     /// When `b`'s smoothed field is stale for `p` (new particles or parameters): `iso_volume` (the bricks
     /// marked and allocated, the sums deposited), with its own timestamp. Like the weights, the field depends
     /// on the particles alone: a static set builds it once.
-    pub fn record_volume(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::field::iso::VolumeParams) {
+    pub fn record_volume(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, p: &crate::field::volume::VolumeParams) {
         let Some(v) = &b.volume else { return };
         if b.volume_for.get() == Some(*p) {
             return;
@@ -561,7 +561,7 @@ impl Iso {
             let dep = [frame.into(), (&b.weighted).into(), (&b.counts).into(), (&v.table).into(), (&v.acc).into()];
             ctx.part("iso_volume/deposit", |ctx| self.volume[2].dispatch(ctx, &dep, &push, per_point));
             let apron = [frame.into(), (&v.table).into(), (&v.coords).into(), (&v.header).into(), (&v.acc).into()];
-            let stored = v.capacity as u64 * crate::field::iso::STORED_BRICK_VOXELS as u64;
+            let stored = v.capacity as u64 * crate::field::volume::STORED_BRICK_VOXELS as u64;
             let groups = [stored.div_ceil(super::LOCAL_1D as u64) as u32, 1, 1];
             ctx.part("iso_volume/apron", |ctx| self.volume[3].dispatch(ctx, &apron, &push, groups));
         });

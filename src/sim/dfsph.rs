@@ -279,7 +279,7 @@ impl Dfsph {
     }
 
     /// Everything between the neighbour lists and sim_velocity: ρ̂ and α, the two solves, the new positions.
-    pub fn solve(&self, ctx: &mut FrameCtx, b: &StepBuffers, p: &super::Params, n: u32) {
+    pub fn solve(&self, ctx: &mut FrameCtx, b: &StepBuffers, p: &super::params::Params, n: u32) {
         let groups = n.div_ceil(LOCAL_1D).max(1);
         let l = &self.listed[b.neighbours.packed as usize];
         ctx.pass("sim_dfsph_alpha", |ctx| {

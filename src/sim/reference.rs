@@ -5,8 +5,8 @@
 
 use glam::Vec3;
 
+use super::constants::SimUniforms;
 use super::sdf::{push_out, Sdf};
-use super::SimUniforms;
 
 fn v3(a: [f32; 4]) -> Vec3 {
     Vec3::new(a[0], a[1], a[2])

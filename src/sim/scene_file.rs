@@ -47,7 +47,7 @@ pub struct SceneFile {
     pub max_dt: Option<f32>,
     /// The pressure solver `simulationMethod` names (PBF for 2, DFSPH for 4 and, the nearest, for the methods
     /// not built here); None without the key.
-    pub solver: Option<super::Solver>,
+    pub solver: Option<super::params::Solver>,
     /// `DFSPH.maxError` (percent).
     pub max_error: Option<f32>,
     /// `DFSPH.maxErrorV` (percent).
@@ -175,8 +175,8 @@ impl SceneFile {
         let method = checked(path, "Configuration.simulationMethod", config.get("simulationMethod"), num)?;
         let solver = match method.map(|m| m as i64) {
             None => None,
-            Some(2) => Some(super::Solver::Pbf),
-            Some(4) => Some(super::Solver::Dfsph),
+            Some(2) => Some(super::params::Solver::Pbf),
+            Some(4) => Some(super::params::Solver::Dfsph),
             Some(m) => {
                 let name = ["WCSPH", "PCISPH", "PBF", "IISPH", "DFSPH", "Projective Fluids", "ICSPH"]
                     .get(m as usize)
@@ -186,7 +186,7 @@ impl SceneFile {
                     "Configuration.simulationMethod".into(),
                     &format!("{m} ({name}) is not built here: DFSPH runs, the nearest (an iterated pressure solve)"),
                 );
-                Some(super::Solver::Dfsph)
+                Some(super::params::Solver::Dfsph)
             }
         };
         // DFSPH's bounds (percent, as here); the corrections per solve are Meniscus' own limit.
@@ -518,7 +518,7 @@ impl SceneFile {
     }
 
     /// `params` with what the file sets.
-    pub fn apply(&self, params: &mut super::Params) {
+    pub fn apply(&self, params: &mut super::params::Params) {
         if let Some(f) = self.fps {
             params.fps = f;
         }

@@ -136,7 +136,7 @@ fn groups(n: u32) -> [u32; 3] {
 
 impl Stages {
     /// Build the pipelines, with what stays fixed for a simulation's life built into them as specialization
-    /// constants (sim_common.glsl): 0, the s_corr exponent ([`super::Params::scorr_n`], sim_solve); 1, whether
+    /// constants (sim_common.glsl): 0, the s_corr exponent ([`super::params::Params::scorr_n`], sim_solve); 1, whether
     /// the scene has a mesh collider (sim_predict, sim_solve); 2, whether vorticity confinement is on
     /// (sim_viscosity).
     pub fn new(gpu: &Arc<Gpu>, scorr_n: u32, mesh_collider: bool, confine: bool) -> Result<Stages> {

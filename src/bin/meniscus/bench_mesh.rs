@@ -73,7 +73,7 @@ struct Report {
 }
 
 /// One CPU run: wall, grid, the extraction's times, write, vertices, triangles.
-type CpuRun = (f64, f64, meniscus::field::extract::ExtractTimes, f64, usize, usize);
+type CpuRun = (f64, f64, meniscus::field::extract::blocks::ExtractTimes, f64, usize, usize);
 /// One GPU run: wall, grid, GPU ms, host set-up, upload and copy (no weld), write, vertices, triangles.
 type GpuRun = (f64, f64, f64, f64, f64, usize, usize);
 

@@ -69,7 +69,7 @@ pub struct SimArgs {
 
 impl SimArgs {
     /// `--fps`, `--substeps` and `--iterations` over `p`, then `p` validated.
-    fn solver_flags(&self, p: &mut meniscus::sim::Params) -> Result<()> {
+    fn solver_flags(&self, p: &mut meniscus::sim::params::Params) -> Result<()> {
         if let Some(f) = self.fps {
             p.fps = f;
         }
@@ -80,15 +80,15 @@ impl SimArgs {
             p.iterations = i;
         }
         match self.solver.as_deref() {
-            Some("dfsph") => p.solver = meniscus::sim::Solver::Dfsph,
-            Some(_) => p.solver = meniscus::sim::Solver::Pbf,
+            Some("dfsph") => p.solver = meniscus::sim::params::Solver::Dfsph,
+            Some(_) => p.solver = meniscus::sim::params::Solver::Pbf,
             None => {}
         }
         Ok(p.validate()?)
     }
 
     /// The scene, the solver settings and the frame count the flags ask for.
-    pub fn resolve(&self) -> Result<(SimScene, meniscus::sim::Params, u32)> {
+    pub fn resolve(&self) -> Result<(SimScene, meniscus::sim::params::Params, u32)> {
         let drawing = self.settings.drawing_flags();
         if !drawing.is_empty() {
             bail!(

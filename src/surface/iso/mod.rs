@@ -192,7 +192,7 @@ impl Grid {
         let (o, d) = (b.shape.origin, b.shape.dims);
         let lo = glam::Vec3::new(o[0], o[1], o[2]);
         let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
-        let shape = field::VolumeShape::around(lo, hi, &params).map_err(crate::error::Error::Limit)?;
+        let shape = crate::field::volume::VolumeShape::around(lo, hi, &params).map_err(crate::error::Error::Limit)?;
         let unchanged = b.volume.as_ref().is_some_and(|v| v.shape == shape);
         if unchanged && b.volume_for.get().is_some() {
             return Ok(());

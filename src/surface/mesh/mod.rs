@@ -104,7 +104,7 @@ pub struct ReconstructReport {
 #[derive(Clone, Debug)]
 pub enum Extraction {
     /// On the CPU (times of the block path, when it ran).
-    Cpu(Option<extract::ExtractTimes>),
+    Cpu(Option<extract::blocks::ExtractTimes>),
     /// On the GPU (the `mc` pass).
     Gpu(crate::compute::mc::McStats),
 }

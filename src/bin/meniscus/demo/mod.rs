@@ -182,7 +182,7 @@ pub struct DemoOptions {
     pub exercise_resize: bool,
     pub fps: f32,
     /// A live simulation to play instead of the job's particles.
-    pub sim: Option<(meniscus::sim::SimScene, meniscus::sim::Params)>,
+    pub sim: Option<(meniscus::sim::SimScene, meniscus::sim::params::Params)>,
     /// `--async`: auto, on, off.
     pub async_mode: String,
 }
@@ -462,7 +462,7 @@ impl App {
         renderer.async_compute = match self.o.async_mode.as_str() {
             "on" => true,
             "off" => false,
-            _ => gpu.queues.kind != meniscus::gpu::AsyncQueue::SameQueue,
+            _ => gpu.queues.kind != meniscus::gpu::queues::AsyncQueue::SameQueue,
         };
         if let Some(m) = &self.mesh {
             renderer.set_background(Backdrop::Mesh(m))?;
