@@ -65,6 +65,15 @@ fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
     }
 }
 
+/// Settings keys spelled differently before, as (section, old, new): a file may still use the old spelling
+/// (read as the new one, with a note: [`Settings::with_toml_noting`]).
+pub const RENAMED_KEYS: &[(&str, &str, &str)] = &[
+    ("noise", "foam", "whitecaps"),
+    ("noise", "foam_from", "whitecaps_from"),
+    ("noise", "foam_full", "whitecaps_full"),
+    ("noise", "foam_color", "whitecaps_color"),
+];
+
 named_enum! {
     /// What the fluid's depth is (`--surface`).
     pub enum Surface {
@@ -272,15 +281,35 @@ impl Settings {
     /// These settings with the fields a TOML file sets replaced, section by section (unknown keys and
     /// sections, wrong types and bad enum names are errors that name the file and the byte offset).
     pub fn with_toml(&self, path: &std::path::Path) -> Result<Settings> {
+        self.with_toml_noting(path, &mut vec![])
+    }
+
+    /// [`Settings::with_toml`], with a note in `notes` for every key the file spells the deprecated way
+    /// ([`RENAMED_KEYS`]: read as its new name).
+    pub fn with_toml_noting(&self, path: &std::path::Path, notes: &mut Vec<String>) -> Result<Settings> {
         let text = crate::input::read_text(path)?;
         let parse_err = |e: toml::de::Error| Error::Parse {
             path: path.to_path_buf(),
             offset: e.span().map(|s| s.start as u64).unwrap_or(0),
             reason: e.message().to_string(),
         };
+        let mut table: toml::Table = toml::from_str(&text).map_err(parse_err)?;
+        // A deprecated spelling is read as the new one (serde knows both: `alias`); both at once is an error.
+        for (section, old, new) in RENAMED_KEYS {
+            let Some(sec) = table.get_mut(*section).and_then(|t| t.as_table_mut()) else { continue };
+            let Some(v) = sec.remove(*old) else { continue };
+            if sec.contains_key(*new) {
+                return Err(Error::Parse {
+                    path: path.to_path_buf(),
+                    offset: key_offset_in(&text, Some(section), old),
+                    reason: format!("[{section}] sets both {old} (deprecated) and {new}: keep {new}"),
+                });
+            }
+            sec.insert(new.to_string(), v);
+            notes.push(format!("{}: [{section}] {old} is deprecated: it is spelled {new} now", path.display()));
+        }
         // The file alone over the defaults: every key and value checked, with its position.
         toml::from_str::<Settings>(&text).map_err(parse_err)?;
-        let table: toml::Table = toml::from_str(&text).map_err(parse_err)?;
         if let Some(key) = non_finite(&table) {
             // The offset of the key's last name where it is assigned (TOML keeps no spans in a Table).
             let name = key.rsplit('.').next().unwrap_or(&key);
@@ -540,7 +569,23 @@ mod tests {
         // [noise] values out of range name their key where the [noise] section assigns it (not another
         // section's key of the same name).
         check("noise.toml", "[thickness]\nscale = 0.5\n[noise]\nsize = -1.0\n", 32, "[noise] size = -1");
-        check("foam.toml", "[noise]\nfoam_from = 0.5\nfoam_full = 0.2\n", 24, "foam_full = 0.2 must exceed");
+        check(
+            "foam.toml",
+            "[noise]\nwhitecaps_from = 0.5\nwhitecaps_full = 0.2\n",
+            29,
+            "whitecaps_full = 0.2 must exceed",
+        );
+        // The old spelling is read as the new one, with a note; both at once is an error.
+        let old = dir.join("old.toml");
+        std::fs::write(&old, "[noise]\nfoam = 0.4\nfoam_color = [1.0, 0.5, 0.5]\n").unwrap();
+        let mut notes = vec![];
+        let s = Settings::default().with_toml_noting(&old, &mut notes).unwrap();
+        assert_eq!((s.noise.whitecaps, s.noise.whitecaps_color), (0.4, [1.0, 0.5, 0.5]));
+        assert!(
+            notes.len() == 2 && notes[0].contains("[noise] foam is deprecated: it is spelled whitecaps now"),
+            "{notes:?}"
+        );
+        check("both.toml", "[noise]\nfoam = 0.4\nwhitecaps = 0.5\n", 8, "sets both foam (deprecated) and whitecaps");
         check("noisekey.toml", "[noise]\nsparkle = 1.0\n", 8, "sparkle");
         check(
             "diffuse.toml",

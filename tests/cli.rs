@@ -526,7 +526,7 @@ fn sim_exports_a_cache_that_loads_and_renders() {
         let o = meniscus()
             .args(["sim", "dambreak", "--particles", "3000", "--frames", "4", "--validation", "--export"])
             .arg(&pattern)
-            .arg("--foam")
+            .arg("--diffuse")
             .arg(&foam)
             .output()
             .unwrap();
@@ -659,7 +659,7 @@ fn bench_sim_reports_stages_and_overlap() {
             "64x48",
             "--async",
             "both",
-            "--foam",
+            "--diffuse",
         ],
     );
     let stages: Vec<&str> =
@@ -668,7 +668,7 @@ fn bench_sim_reports_stages_and_overlap() {
     let expected: Vec<&str> = meniscus::sim::STAGE_NAMES.iter().copied().filter(|n| *n != "sim_vorticity").collect();
     assert_eq!(stages, expected);
     assert!(v["steps_per_second"].as_f64().unwrap() > 0.0);
-    // With --foam the spray, foam and bubble stages, once per frame, apart from the step's.
+    // With --diffuse the spray, foam and bubble stages, once per frame, apart from the step's.
     let diffuse: Vec<&str> =
         v["diffuse_stages_ms_per_frame"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
     assert_eq!(diffuse, meniscus::sim::diffuse::STAGE_NAMES);
@@ -730,4 +730,43 @@ fn bench_mesh_reports_phases_per_thread_count() {
     }
     let o = meniscus().args(["bench", "--threads", "2"]).output().unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("apply to --mesh FILE"));
+}
+
+/// The old spellings still work, each with a warning naming the new one: `meniscus foam` is `meniscus
+/// diffuse`, `--foam` is `--diffuse`, and a settings file's `[noise] foam*` keys are `whitecaps*`.
+#[test]
+fn deprecated_spellings_still_work_with_a_warning() {
+    let d = tmpdir("deprecated");
+    let stderr = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    // The subcommand and the flag: parsed as the new ones (the missing input is the error after the warning).
+    let missing = d.join("none_{}.bgeo").to_string_lossy().into_owned();
+    let export = d.join("out_{}.bgeo").to_string_lossy().into_owned();
+    let o = meniscus().args(["foam", &missing, "--export", &export]).output().unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("`meniscus foam` is deprecated: it is `meniscus diffuse` now"), "{e}");
+    let o = meniscus().args(["render", &missing, "--foam", "--out"]).arg(d.join("f_{}.png")).output().unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("`--foam` is deprecated: it is `--diffuse` now"), "{e}");
+    // The settings key: the frame renders with the tint the old key sets, as with the new key.
+    let old = d.join("old.toml");
+    std::fs::write(&old, "[noise]\nfoam = 0.3\n").unwrap();
+    let new = d.join("new.toml");
+    std::fs::write(&new, "[noise]\nwhitecaps = 0.3\n").unwrap();
+    let mut pngs = vec![];
+    for (k, f) in [&old, &new].into_iter().enumerate() {
+        let png = d.join(format!("{k}.png"));
+        let o = meniscus()
+            .args(["render", "drop", "--particles", "2000", "--width", "48", "--height", "32", "--settings"])
+            .arg(f)
+            .arg("--out")
+            .arg(&png)
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert!(o.status.success(), "{e}");
+        assert_eq!(e.contains("[noise] foam is deprecated: it is spelled whitecaps now"), k == 0, "{e}");
+        pngs.push(image::open(&png).unwrap().to_rgba8());
+    }
+    assert!(pngs[0] == pngs[1], "the old key renders differently from the new one");
+    std::fs::remove_dir_all(&d).ok();
 }

@@ -376,16 +376,16 @@ fn a_sequence_write_does_not_replace_another_runs_cache() {
         assert_eq!(std::fs::read(partio.join(format!("ParticleData_Fluid_{n}.bgeo"))).unwrap(), before[n - 1]);
     }
     assert!(!partio.join("scene.json").exists(), "a scene.json was dropped into the cache's folder");
-    // --foam onto an unrelated file.
+    // --diffuse onto an unrelated file.
     std::fs::write(d.join("notes_2.bgeo"), scene::bgeo::write(&block(2, &[]).to_raw(), true)).unwrap();
     let foam = d.join("notes_{}.bgeo").to_string_lossy().into_owned();
-    let o = sim(&["--foam", &foam]);
-    fails_with(&o, &["--foam", "1 of the 3 files to write exist already", "notes_2.bgeo"]);
+    let o = sim(&["--diffuse", &foam]);
+    fails_with(&o, &["--diffuse", "1 of the 3 files to write exist already", "notes_2.bgeo"]);
     // `foam --export` likewise.
     let exported = d.join("f/foam_{}.bgeo").to_string_lossy().into_owned();
     std::fs::create_dir_all(d.join("f")).unwrap();
     std::fs::write(d.join("f/foam_0002.bgeo"), scene::bgeo::write(&block(2, &[]).to_raw(), true)).unwrap();
-    let o = meniscus().args(["foam", &pattern, "--radius", "0.01", "--export", &exported]).output().unwrap();
+    let o = meniscus().args(["diffuse", &pattern, "--radius", "0.01", "--export", &exported]).output().unwrap();
     fails_with(&o, &["--export", "exist already", "--overwrite"]);
     // With --overwrite the user asked for it.
     let o = sim(&["--export", &pattern, "--overwrite"]);
@@ -476,7 +476,7 @@ fn an_export_beside_its_input_does_not_spoil_the_folder() {
     // The export's first frames hold no particles (nothing has spawned yet): valid frames for every reader.
     let pattern = p.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
     let foam = p.join("foam_{}.bgeo").to_string_lossy().into_owned();
-    let o = meniscus().args(["foam", &pattern, "--radius", "0.01", "--export", &foam]).output().unwrap();
+    let o = meniscus().args(["diffuse", &pattern, "--radius", "0.01", "--export", &foam]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let o = meniscus().arg("info").arg(p.join("foam_0001.bgeo")).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));

@@ -171,7 +171,7 @@ fn shards_ranges_and_resumed_runs_give_the_same_frames() {
 }
 
 /// Diffuse particles (#37): `meniscus foam --export` writes every frame (the types split as FoamGenerator
-/// splits them add up to the whole), and rendering a range with `--foam` — generated in time order, or read
+/// splits them add up to the whole), and rendering a range with `--diffuse` — generated in time order, or read
 /// back from the export, with 1 or 2 frames in flight, whole or in shards — gives byte-identical frames, which
 /// differ from the frames without them. An export over the input is refused and writes nothing.
 #[test]
@@ -180,7 +180,7 @@ fn foam_export_and_generated_foam_render_the_same_frames() {
     let seq = dir.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
     let d = tmpdir("foam");
     let export = d.join("foam").join("f_{}.bgeo").to_string_lossy().into_owned();
-    let o = meniscus().args(["foam", &seq, "--frames", "1..12", "--export", &export]).output().unwrap();
+    let o = meniscus().args(["diffuse", &seq, "--frames", "1..12", "--export", &export]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let table = String::from_utf8_lossy(&o.stdout).into_owned();
     let last: Vec<usize> =
@@ -190,7 +190,7 @@ fn foam_export_and_generated_foam_render_the_same_frames() {
     assert_eq!(f12.len(), last[0] + last[1] + last[2], "the file holds what the table says");
     let split = d.join("split").join("f_{}.bgeo").to_string_lossy().into_owned();
     let o =
-        meniscus().args(["foam", &seq, "--frames", "12..12", "--split-types", "--export", &split]).output().unwrap();
+        meniscus().args(["diffuse", &seq, "--frames", "12..12", "--split-types", "--export", &split]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let parts: usize = ["foam", "spray", "bubbles"]
         .iter()
@@ -198,10 +198,10 @@ fn foam_export_and_generated_foam_render_the_same_frames() {
         .sum();
     assert_eq!(parts, f12.len(), "the split files add up to the whole frame");
     let (gen, read, sharded, plain) = (d.join("gen"), d.join("read"), d.join("sharded"), d.join("plain"));
-    render_seq(&seq, &gen, &["--frames", "10..12", "--foam"]);
-    render_seq(&seq, &read, &["--frames", "10..12", "--foam", &export, "--frames-in-flight", "1"]);
+    render_seq(&seq, &gen, &["--frames", "10..12", "--diffuse"]);
+    render_seq(&seq, &read, &["--frames", "10..12", "--diffuse", &export, "--frames-in-flight", "1"]);
     for k in 1..=2 {
-        render_seq(&seq, &sharded, &["--frames", "10..12", "--foam", "--shard", &format!("{k}/2")]);
+        render_seq(&seq, &sharded, &["--frames", "10..12", "--diffuse", "--shard", &format!("{k}/2")]);
     }
     render_seq(&seq, &plain, &["--frames", "10..12"]);
     let want = frames_in(&gen);
@@ -213,7 +213,7 @@ fn foam_export_and_generated_foam_render_the_same_frames() {
     // become frames of it); nothing is written.
     let listing = || std::fs::read_dir(&dir).unwrap().count();
     let before = listing();
-    let o = meniscus().args(["foam", &seq, "--export", &seq]).output().unwrap();
+    let o = meniscus().args(["diffuse", &seq, "--export", &seq]).output().unwrap();
     assert!(!o.status.success() && stderr(&o).contains("input sequence"), "{}", stderr(&o));
     assert_eq!(listing(), before, "the export wrote into the input's folder");
     let _ = std::fs::remove_dir_all(&d);

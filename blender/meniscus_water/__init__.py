@@ -6,7 +6,7 @@ builds the iso-surface mesh of the current frame with the `meniscus` package (`r
 cubes on the GPU through Vulkan, or on the CPU), on every frame change, keeping the last few frames in a cache.
 Each mesh carries the SPH-interpolated particle velocity as the point attribute `velocity` (Cycles' motion
 blur reads it), a water material (glass-like Principled BSDF: transmission 1, IOR 1.33), and optionally the
-diffuse particles of `meniscus foam --export` files as a point cloud. "Bake" writes a frame range as one USD
+diffuse particles of `meniscus diffuse --export` files as a point cloud. "Bake" writes a frame range as one USD
 stage (time-sampled mesh with velocities) or as a sequence of OpenVDB level sets.
 
 Blender frame N shows the particle file numbered N. The particle radius and frame rate come from the files as
@@ -78,7 +78,7 @@ class MeniscusWaterSettings(bpy.types.PropertyGroup):
     material: bpy.props.BoolProperty(name="Water material", default=True)
     diffuse: bpy.props.StringProperty(
         name="Diffuse", subtype="FILE_PATH",
-        description="Optional: diffuse particles of `meniscus foam --export`, a pattern with {} (shown as points)")
+        description="Optional: diffuse particles of `meniscus diffuse --export`, a pattern with {} (shown as points)")
     bake_format: bpy.props.EnumProperty(
         name="Bake to", items=[("USD", "USD stage", "One .usda with every frame as a time sample"),
                                ("VDB", "OpenVDB", "One level set .vdb per frame")], default="USD")

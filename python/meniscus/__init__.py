@@ -15,13 +15,14 @@ failures RuntimeError. The GIL is released while the GPU or the extraction works
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _meniscus
 
-__all__ = ["Renderer", "Simulation", "Foam", "reconstruct_surface", "load", "device_info", "sim_scenes",
+__all__ = ["Renderer", "Simulation", "Diffuse", "Foam", "reconstruct_surface", "load", "device_info", "sim_scenes",
            "UsdStage", "write_vdb", "sequence", "mesh_edges", "__version__"]
 __version__ = _meniscus.__version__
 
@@ -84,13 +85,13 @@ class Renderer:
     def render(self, positions: Union[ArrayLike, "Simulation"], *, particle_radius: Optional[float] = None,
                camera: Optional[Camera] = None, velocities: Optional[ArrayLike] = None,
                attributes: Optional[Dict[str, ArrayLike]] = None, alpha: bool = False,
-               foam: Optional["Foam"] = None) -> np.ndarray:
+               diffuse: Optional["Diffuse"] = None, foam: Optional["Diffuse"] = None) -> np.ndarray:
         """Render particles (N×3) — or a `Simulation`, from its GPU buffer without a copy through the host —
         and return the image as H×W×3 uint8 (H×W×4 with `alpha`). The camera is fitted to the particles'
         1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks and "id"
         (N integers, as `load` returns a file's) to seed each particle's surface noise as the CLI does (else the
-        index). Each call is one still frame: the noise keeps its calm amplitude. `foam`: a `Foam` whose spray,
-        foam and bubbles are drawn with the particles. The same particles as the last call's (equal arrays, radius
+        index). Each call is one still frame: the noise keeps its calm amplitude. `diffuse`: a `Diffuse` whose
+        spray, foam and bubbles are drawn with the particles (`foam=`: its deprecated spelling). The same particles as the last call's (equal arrays, radius
         and spray settings) are not uploaded again: rendering one frame from many cameras pays its upload once."""
         if isinstance(positions, Simulation):
             img = self._r.render_sim(positions._s, _camera(camera))
@@ -111,10 +112,16 @@ class Renderer:
                 ids = np.ascontiguousarray(np.asarray(attributes["id"]), dtype=np.int64).reshape(-1)
                 if ids.shape[0] != pts.shape[0]:
                     raise ValueError(f"attributes['id']: {ids.shape[0]} values for {pts.shape[0]} particles")
-            if foam is not None and not isinstance(foam, Foam):
-                raise ValueError("foam: expected a meniscus.Foam")
+            if foam is not None:
+                if diffuse is not None:
+                    raise ValueError("diffuse and foam (its deprecated spelling) given both: keep diffuse")
+                warnings.warn("render(foam=…) is deprecated: it is render(diffuse=…) now", DeprecationWarning,
+                              stacklevel=2)
+                diffuse = foam
+            if diffuse is not None and not isinstance(diffuse, Diffuse):
+                raise ValueError("diffuse: expected a meniscus.Diffuse")
             img = self._r.render(pts, _radius(particle_radius), _camera(camera), vel, dens, ids,
-                                 None if foam is None else foam._f)
+                                 None if diffuse is None else diffuse._f)
         return img if alpha else img[:, :, :3]
 
     def render_buffers(self, positions: Union[ArrayLike, "Simulation"], **kwargs: Any) -> Dict[str, np.ndarray]:
@@ -195,17 +202,17 @@ class Simulation:
         return self._s.frames
 
 
-class Foam:
+class Diffuse:
     """Spray, foam and air bubbles (diffuse particles: Ihmsen et al. 2012) of a simulation you step yourself:
-    give `step` every frame's fluid in time order, and `Renderer.render(…, foam=f)` draws them. Fluid particles
+    give `step` every frame's fluid in time order, and `Renderer.render(…, diffuse=d)` draws them. Fluid particles
     spawn them where air is trapped and at wave crests, in proportion to their kinetic energy; they are spray
     (ballistic), foam (carried by the water) or bubbles (rising) by their fluid neighbours, and age and fade.
     The limits calibrate themselves as the run goes (Bender et al. 2019), so a resting pool stays clear at any
     scale; the `[diffuse]` section of an optional TOML `settings` file sets them otherwise. Deterministic: the
-    same frames give the same particles (as `meniscus sim --foam` does on the GPU)."""
+    same frames give the same particles (as `meniscus sim --diffuse` does on the GPU)."""
 
     def __init__(self, *, particle_radius: float, fps: float = 25.0, settings: Optional[str] = None) -> None:
-        self._f = _meniscus.Foam(_radius(particle_radius), float(fps), settings)
+        self._f = _meniscus.Diffuse(_radius(particle_radius), float(fps), settings)
 
     def step(self, positions: ArrayLike, velocities: ArrayLike, ids: Optional[ArrayLike] = None) -> Tuple[int, int]:
         """The next frame's fluid: positions and velocities (N×3, m and m/s) and optionally ids (N integers,
@@ -230,6 +237,14 @@ class Foam:
     def counts(self) -> Tuple[int, int, int]:
         """Living particles of each kind: (foam, spray, bubbles)."""
         return tuple(self._f.counts())
+
+
+class Foam(Diffuse):
+    """Deprecated spelling of `Diffuse` (foam is one kind of diffuse particle)."""
+
+    def __init__(self, *, particle_radius: float, fps: float = 25.0, settings: Optional[str] = None) -> None:
+        warnings.warn("meniscus.Foam is deprecated: it is meniscus.Diffuse now", DeprecationWarning, stacklevel=2)
+        super().__init__(particle_radius=particle_radius, fps=fps, settings=settings)
 
 
 def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,

@@ -1,5 +1,5 @@
 //! `meniscus._meniscus`: the native half of the Python package — thin wrappers of the library (no logic of the
-//! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), spray, foam and bubbles (`Foam`:
+//! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), spray, foam and bubbles (`Diffuse`:
 //! `meniscus::diffuse::generator::Live`), surface reconstruction (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
 //! and are read in place; the GIL is released while the GPU or the CPU extraction works; library errors become
 //! `ValueError` (bad input), `OSError` (files) or `RuntimeError` (the device).
@@ -57,12 +57,21 @@ fn device(filter: Option<String>) -> PyResult<Arc<Gpu>> {
     })
 }
 
+/// The preset, then the settings file over it; a key the file spells the deprecated way is a
+/// DeprecationWarning.
 fn settings(preset: &str, file: Option<&str>) -> PyResult<Settings> {
     let s = Settings::preset(preset).map_err(py_err)?;
-    match file {
-        Some(f) => s.with_toml(std::path::Path::new(f)).map_err(py_err),
-        None => Ok(s),
-    }
+    let Some(f) = file else { return Ok(s) };
+    let mut notes = vec![];
+    let s = s.with_toml_noting(std::path::Path::new(f), &mut notes).map_err(py_err)?;
+    Python::with_gil(|py| {
+        let kind = py.get_type::<pyo3::exceptions::PyDeprecationWarning>();
+        notes.iter().try_for_each(|n| {
+            let msg = std::ffi::CString::new(n.as_str()).unwrap_or_default();
+            PyErr::warn(py, &kind, &msg, 1)
+        })
+    })?;
+    Ok(s)
 }
 
 fn points(a: &PyReadonlyArray2<f32>) -> PyResult<Vec<[f32; 3]>> {
@@ -123,8 +132,8 @@ impl Renderer {
 
     /// Render particles; returns the image as H×W×4 RGBA bytes.
     /// `ids` seed each particle's noise (the `noise` pass), as a file's ids do in the CLI.
-    /// `foam`: spray, foam and bubbles to draw with them (the `diffuse` pass).
-    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None, ids=None, foam=None))]
+    /// `diffuse`: spray, foam and bubbles to draw with them (the `diffuse` effect).
+    #[pyo3(signature = (positions, radius, camera=None, velocities=None, densities=None, ids=None, diffuse=None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &mut self,
@@ -135,7 +144,7 @@ impl Renderer {
         velocities: Option<PyReadonlyArray2<f32>>,
         densities: Option<PyReadonlyArray1<f32>>,
         ids: Option<PyReadonlyArray1<i64>>,
-        foam: Option<PyRef<'_, Foam>>,
+        diffuse: Option<PyRef<'_, Diffuse>>,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         let t0 = std::time::Instant::now();
         let mut s = self.settings.clone();
@@ -155,11 +164,11 @@ impl Renderer {
             .ok_or_else(|| PyValueError::new_err("no finite positions"))?;
         let view = View::around(&bounds, crate::camera(camera)?, self.size.0, self.size.1, &s);
         view.camera.check().map_err(py_err)?;
-        let diffuse: &[meniscus::diffuse::Particle] = foam.as_ref().map_or(&[], |f| f.live.particles());
+        let drawn: &[meniscus::diffuse::Particle] = diffuse.as_ref().map_or(&[], |f| f.live.particles());
         let arrays = ms(t0);
         let key = (s.radius.to_bits(), s.spray.clone());
         let held = self.held.as_ref().is_some_and(|(q, r, sp)| *r == key.0 && *sp == key.1 && *q == p);
-        let work = OnThisThread((&mut self.core, &p, &view, &s, diffuse));
+        let work = OnThisThread((&mut self.core, &p, &view, &s, drawn));
         let (img, times, upload, frame) = py
             .allow_threads(move || {
                 let (core, p, view, s, diffuse) = work.into_inner();
@@ -697,13 +706,13 @@ fn sim_scenes() -> Vec<(&'static str, usize, &'static str)> {
 /// Spray, foam and bubbles of a simulation stepped by the caller (`meniscus::diffuse::generator::Live`: Ihmsen et al. 2012,
 /// its limits calibrated as the run goes).
 #[pyclass(unsendable, module = "meniscus._meniscus")]
-struct Foam {
+struct Diffuse {
     live: meniscus::diffuse::generator::Live,
     radius: f32,
 }
 
 #[pymethods]
-impl Foam {
+impl Diffuse {
     #[new]
     #[pyo3(signature = (radius, fps, settings_file=None))]
     fn new(radius: f32, fps: f32, settings_file: Option<&str>) -> PyResult<Self> {
@@ -712,7 +721,7 @@ impl Foam {
         }
         let params = settings("default", settings_file)?.diffuse;
         meniscus::section::Section::check(&params).map_err(|(_, reason)| PyValueError::new_err(reason))?;
-        Ok(Foam { live: meniscus::diffuse::generator::Live::new(&params, fps), radius })
+        Ok(Diffuse { live: meniscus::diffuse::generator::Live::new(&params, fps), radius })
     }
 
     /// The next frame of fluid (positions and velocities N×3, ids N or None: the index); releases the GIL.
@@ -766,7 +775,7 @@ impl Foam {
 #[pymodule]
 fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Renderer>()?;
-    m.add_class::<Foam>()?;
+    m.add_class::<Diffuse>()?;
     m.add_class::<Simulation>()?;
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;

@@ -140,15 +140,15 @@ def test_bad_parameters_and_files_raise():
         meniscus.Simulation("nope")
 
 
-def test_foam_equals_the_simulations_gpu_stages_and_draws(cli, tmp_path):
-    """`Foam` (the CPU model) stepped with a simulation's exported frames gives the particles `meniscus sim
-    --foam` generated on the GPU for the same frames (by source and spawn id); a resting frame spawns none; the
+def test_diffuse_equals_the_simulations_gpu_stages_and_draws(cli, tmp_path):
+    """`Diffuse` (the CPU model) stepped with a simulation's exported frames gives the particles `meniscus sim
+    --diffuse` generated on the GPU for the same frames (by source and spawn id); a resting frame spawns none; the
     render with them differs from the one without."""
     run(cli, "sim", "dambreak", "--particles", "3000", "--frames", "7", "--export", tmp_path / "f_{}.bgeo",
-        "--foam", tmp_path / "d_{}.bgeo")
+        "--diffuse", tmp_path / "d_{}.bgeo")
     first = meniscus.load(tmp_path / "f_1.bgeo")
     radius = float(meniscus.Simulation("dambreak", particles=3000).particle_radius)
-    foam = meniscus.Foam(particle_radius=radius, fps=25.0)
+    foam = meniscus.Diffuse(particle_radius=radius, fps=25.0)
     # File n ≥ 2 is the state after frame n − 1 (the GPU stages run after each frame's steps).
     for n in range(2, 8):
         f = meniscus.load(tmp_path / f"f_{n}.bgeo")
@@ -160,15 +160,22 @@ def test_foam_equals_the_simulations_gpu_stages_and_draws(cli, tmp_path):
     # The file's ids are written as int32 (their bits): the same uint32 after the cast.
     assert key(mine["source"], mine["id"]) == key(theirs["source"], theirs["id"].astype(np.int64) & 0xFFFFFFFF)
     assert sum(foam.counts) == mine["positions"].shape[0]
-    still = meniscus.Foam(particle_radius=radius)
+    still = meniscus.Diffuse(particle_radius=radius)
     assert still.step(first["positions"], np.zeros_like(first["positions"])) == (0, 0)
     r = meniscus.Renderer(128, 72, preset="fast")
     f = meniscus.load(tmp_path / "f_7.bgeo")
-    with_foam = r.render(f["positions"], particle_radius=radius, foam=foam)
+    with_foam = r.render(f["positions"], particle_radius=radius, diffuse=foam)
     without = r.render(f["positions"], particle_radius=radius)
     assert (with_foam != without).any(axis=2).sum() > 20
     with pytest.raises(ValueError):
-        meniscus.Foam(particle_radius=-1.0)
+        meniscus.Diffuse(particle_radius=-1.0)
+    # The deprecated spellings still work, with a DeprecationWarning.
+    with pytest.warns(DeprecationWarning, match="meniscus.Diffuse"):
+        old = meniscus.Foam(particle_radius=radius)
+    assert isinstance(old, meniscus.Diffuse)
+    with pytest.warns(DeprecationWarning, match="diffuse="):
+        again = r.render(f["positions"], particle_radius=radius, foam=foam)
+    assert (again == with_foam).all()
     with pytest.raises(ValueError):
         foam.step(f["positions"], f["velocity"][:5].astype(np.float32))
 

@@ -107,7 +107,7 @@ def test_addon_diffuse_points_and_vdb_bake(addon, cli, shared, tmp_path):
     scene = addon
     seq = shared("splishsplash/dambreak_6859/partio")
     foam = tmp_path / "foam" / "f_{}.bgeo"
-    subprocess.run([cli, "foam", str(seq / "ParticleData_Fluid_{}.bgeo"), "--frames", "12..13", "--export", str(foam)],
+    subprocess.run([cli, "diffuse", str(seq / "ParticleData_Fluid_{}.bgeo"), "--frames", "12..13", "--export", str(foam)],
                    check=True, capture_output=True)
     s = scene.meniscus_water
     s.source = str(seq / "ParticleData_Fluid_{}.bgeo")

@@ -97,7 +97,7 @@ def test_usd_with_diffuse_particles(cli, sequence, tmp_path, ext):
     from pxr import Usd, UsdGeom
     usd = tmp_path / f"foam.{ext}"
     run(cli, "mesh", sequence / "partio" / "ParticleData_Fluid_{}.bgeo", "--frames", "24..26", "--cube-size", "1.0",
-        "--foam", "--out", usd)
+        "--diffuse", "--out", usd)
     stage = Usd.Stage.Open(str(usd))
     pts = UsdGeom.Points(stage.GetPrimAtPath("/water/diffuse"))
     assert pts.GetPointsAttr().GetTimeSamples() == [24.0, 25.0, 26.0]
@@ -155,14 +155,14 @@ def test_vdb_level_set_and_fog(cli, frame, tmp_path):
 def test_export_flags_are_checked(cli, frame, tmp_path):
     r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.vdb", "--field", "metaball", ok=False)
     assert r.returncode != 0 and "metaball" in r.stderr
-    r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.ply", "--foam", ok=False)
+    r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.ply", "--diffuse", ok=False)
     assert r.returncode != 0 and "USD" in r.stderr
     for flag, value, out in (("--meters-per-unit", "0.01", "a.ply"), ("--vdb-half-width", "4", "a.usd"),
                              ("--vdb-fog", None, "a.ply")):
         r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / out, flag, *([value] if value else []),
                 ok=False)
         assert r.returncode != 0 and flag in r.stderr and not (tmp_path / out).exists(), r.stderr
-    r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.usda", "--foam", ok=False)
+    r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", tmp_path / "a.usda", "--diffuse", ok=False)
     assert r.returncode != 0 and "sequence" in r.stderr
     # Never over an input, never a stray scratch file left.
     r = run(cli, "mesh", frame, "--radius", RADIUS, "--out", frame.with_suffix(".usda"))

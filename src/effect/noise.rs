@@ -85,9 +85,9 @@ impl Effect for NoiseEffect {
         let Some(own) = &self.images else { return vec![] };
         vec![Layer {
             image: &own.noise,
-            color: p.foam_color,
-            weight: p.foam,
-            blend: Blend::Tint { from: p.foam_from, full: p.foam_full, sun: 0.6 },
+            color: p.whitecaps_color,
+            weight: p.whitecaps,
+            blend: Blend::Tint { from: p.whitecaps_from, full: p.whitecaps_full, sun: 0.6 },
         }]
     }
 

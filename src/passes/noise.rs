@@ -1,7 +1,7 @@
 //! `noise` pass: the patent's surface detail (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8). Every
 //! particle splats a Gaussian sprite of per-particle 3D noise, weighted by its depth below the fluid surface and
 //! scaled by how fast its velocity changes, into a noise image N; N's partial derivatives are added to the
-//! normals (small waves) and its magnitude tints the surface toward grey-white foam in `composite`. Runs on every
+//! normals (small waves) and its magnitude tints the surface toward grey-white whitecaps in `composite`. Runs on every
 //! surface (after `normals`, before `ssr`, so reflections see the waves); `[noise] enabled = false` leaves it
 //! out. Shaders: shaders_glsl/noise.comp (the splat), shaders_glsl/noise_apply.comp (the normals), with
 //! shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
@@ -26,7 +26,7 @@ pub const UNITS: f32 = 65536.0;
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Waves and foam on the surface (false: the pass is not recorded and nothing is tinted).
+    /// Waves and whitecaps on the surface (false: the pass is not recorded and nothing is tinted).
     pub enabled: bool,
     /// Sprite radius around each particle (radii).
     pub size: f32,
@@ -54,14 +54,18 @@ pub struct Params {
     /// evaluates 3.5× fewer texels than at 6, and a close view of its frame 20 differs by 0.04 / 255 on average
     /// (0.08 % of pixels by more than 8 / 255); views whose sprites are smaller do not change.
     pub lod_samples: f32,
-    /// |N| (radii) where the foam tint starts …
-    pub foam_from: f32,
-    /// … and where it is full.
-    pub foam_full: f32,
-    /// The full tint's weight (0: no foam).
-    pub foam: f32,
-    /// The foam's colour (lit by the sun and the ambient light).
-    pub foam_color: [f32; 3],
+    /// |N| (radii) where the whitecaps' tint starts (`foam_from`: its deprecated spelling) …
+    #[serde(alias = "foam_from")]
+    pub whitecaps_from: f32,
+    /// … and where it is full (`foam_full`).
+    #[serde(alias = "foam_full")]
+    pub whitecaps_full: f32,
+    /// The full tint's weight (0: no whitecaps; `foam`).
+    #[serde(alias = "foam")]
+    pub whitecaps: f32,
+    /// The whitecaps' colour, lit by the sun and the ambient light (`foam_color`).
+    #[serde(alias = "foam_color")]
+    pub whitecaps_color: [f32; 3],
 }
 
 impl Default for Params {
@@ -76,10 +80,10 @@ impl Default for Params {
             threshold: 10.0,
             strength: 1.0,
             lod_samples: 4.0,
-            foam_from: 0.12,
-            foam_full: 0.5,
-            foam: 0.85,
-            foam_color: [0.92, 0.94, 0.96],
+            whitecaps_from: 0.12,
+            whitecaps_full: 0.5,
+            whitecaps: 0.85,
+            whitecaps_color: [0.92, 0.94, 0.96],
         }
     }
 }
@@ -99,13 +103,13 @@ impl crate::section::Section for Params {
         k.above("threshold", self.threshold, 0.0, 1e9)?;
         k.within("strength", self.strength, 0.0, 64.0)?;
         k.within("lod_samples", self.lod_samples, 2.0, crate::shader_constants::NOISE_LOD_SAMPLES as f32)?;
-        k.within("foam_from", self.foam_from, 0.0, 64.0)?;
-        k.above("foam_full", self.foam_full, 0.0, 64.0)?;
-        k.rule("foam_full", self.foam_full > self.foam_from, || {
-            format!("foam_full = {} must exceed foam_from = {}", self.foam_full, self.foam_from)
+        k.within("whitecaps_from", self.whitecaps_from, 0.0, 64.0)?;
+        k.above("whitecaps_full", self.whitecaps_full, 0.0, 64.0)?;
+        k.rule("whitecaps_full", self.whitecaps_full > self.whitecaps_from, || {
+            format!("whitecaps_full = {} must exceed whitecaps_from = {}", self.whitecaps_full, self.whitecaps_from)
         })?;
-        k.within("foam", self.foam, 0.0, 1.0)?;
-        k.each("foam_color", &self.foam_color, 0.0, 1.0)
+        k.within("whitecaps", self.whitecaps, 0.0, 1.0)?;
+        k.each("whitecaps_color", &self.whitecaps_color, 0.0, 1.0)
     }
 }
 
@@ -663,7 +667,7 @@ mod tests {
         assert!(reference::amplitude(p.threshold, &p) > p.calm && reference::amplitude(p.threshold, &p) < p.turbulent);
         assert!(p.check().is_ok());
         assert_eq!(Params { size: 0.0, ..p.clone() }.check().unwrap_err().0, "size");
-        assert_eq!(Params { foam_full: 0.1, ..p.clone() }.check().unwrap_err().0, "foam_full");
+        assert_eq!(Params { whitecaps_full: 0.1, ..p.clone() }.check().unwrap_err().0, "whitecaps_full");
         assert_eq!(Params { lod_samples: 1.5, ..p.clone() }.check().unwrap_err().0, "lod_samples");
         assert_eq!(Params { lod_samples: 8.0, ..p.clone() }.check().unwrap_err().0, "lod_samples");
         assert!(Params { lod_samples: 3.0, ..p.clone() }.check().is_ok());

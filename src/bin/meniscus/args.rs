@@ -157,7 +157,7 @@ impl SettingsArgs {
     pub fn resolve(&self) -> Result<Settings> {
         let mut s = Settings::preset(&self.preset)?;
         if let Some(f) = &self.settings {
-            s = s.with_toml(f)?;
+            s = settings_file(&s, f)?;
         }
         // The surface before the filter: --surface spheres alone on an unfiltered preset gets narrow-range
         // (Settings::set_surface); an explicit --filter wins.
@@ -215,6 +215,16 @@ pub fn finish(gpu: &Gpu) -> Result<()> {
         bail!("{} Vulkan validation errors, {} warnings", v.errors(), v.warnings());
     }
     Ok(())
+}
+
+/// `s` with the settings file `f` over it; a key the file spells the deprecated way is a warning on stderr.
+pub fn settings_file(s: &Settings, f: &Path) -> Result<Settings> {
+    let mut notes = vec![];
+    let s = s.with_toml_noting(f, &mut notes)?;
+    for n in notes {
+        eprintln!("warning: {n}");
+    }
+    Ok(s)
 }
 
 /// `WIDTHxHEIGHT`, each 1 … 16384.

@@ -44,7 +44,7 @@ pub struct Workload {
     /// smoothed field) are measured in every frame, as `render` of a sequence pays them. Empty: one set of
     /// particles for every frame.
     pub sequence: Vec<Particles>,
-    /// The spray, foam and bubbles of each sequence frame (`--foam`), drawn by the `diffuse` pass.
+    /// The spray, foam and bubbles of each sequence frame (`--diffuse`), drawn by the `diffuse` pass.
     pub diffuse: Vec<Vec<meniscus::diffuse::Particle>>,
 }
 
@@ -546,8 +546,8 @@ pub struct BenchArgs {
     /// Sequence workloads: generate their spray, foam and bubbles (in time order from the sequence's first
     /// frame, before timing) and draw them, so the `diffuse` pass is measured. With --sim: the simulation's
     /// diffuse stages run (on the GPU, timed per frame) and the frames draw their particles.
-    #[arg(long)]
-    foam: bool,
+    #[arg(long, alias = "foam")]
+    diffuse: bool,
     /// Comma-separated WIDTHxHEIGHT list.
     #[arg(long, value_delimiter = ',')]
     resolutions: Vec<String>,
@@ -677,10 +677,10 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                     .unwrap_or(job.label.clone());
                 // A sequence: its first warm-up + measured frames, each rendered frame a new one.
                 let (mut sequence, mut diffuse) = (vec![], vec![]);
-                if a.foam && job.frames.is_none() {
-                    bail!("--foam applies to sequence workloads ({other} is one file)");
+                if a.diffuse && job.frames.is_none() {
+                    bail!("--diffuse applies to sequence workloads ({other} is one file)");
                 }
-                let mut walk = if a.foam { Some(crate::foam::Walk::new(&job)?) } else { None };
+                let mut walk = if a.diffuse { Some(crate::diffuse::Walk::new(&job)?) } else { None };
                 if let Some(frames) = &job.frames {
                     let n = (a.warmup + a.frames.max(1)) as usize;
                     for f in frames.iter().take(n) {
@@ -807,7 +807,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let quarter = moritz || a.quarter_framing;
     let mut base = Settings::preset(if table43 { "moritz" } else { &a.preset })?;
     if let Some(f) = &a.settings {
-        base = base.with_toml(f)?;
+        base = crate::args::settings_file(&base, f)?;
     }
     let scenes: Vec<String> = if !a.scenes.is_empty() {
         a.scenes.clone()
@@ -832,7 +832,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if let Some(sim) = &a.sim {
         let modes = async_modes(&a.async_mode);
         let (size, json) = (resolutions[0], a.json.as_deref());
-        return crate::bench_sim::run(&gpu, sim, &base, size, a.warmup, a.frames, &modes, json, a.foam);
+        return crate::bench_sim::run(&gpu, sim, &base, size, a.warmup, a.frames, &modes, json, a.diffuse);
     }
     let mut r = Renderer::new(&gpu)?;
     r.background.always_render = !a.cache_background;
@@ -845,7 +845,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         };
         let mut s = Settings::preset(name)?;
         if let Some(f) = &file {
-            s = s.with_toml(f)?;
+            s = crate::args::settings_file(&s, f)?;
         }
         also.push((p.clone(), s));
     }

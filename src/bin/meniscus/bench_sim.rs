@@ -50,7 +50,7 @@ struct SimReport {
     frames: u32,
     /// Stage → median GPU ms per step.
     stages_ms_per_step: Vec<(String, f64)>,
-    /// The spray, foam and bubble stages (`--foam`) → median GPU ms per frame (they run once per frame).
+    /// The spray, foam and bubble stages (`--diffuse`) → median GPU ms per frame (they run once per frame).
     diffuse_stages_ms_per_frame: Vec<(String, f64)>,
     ms_per_step: f64,
     steps_per_second: f64,
@@ -70,7 +70,7 @@ pub fn run(
     frames: u32,
     modes: &[bool],
     json: Option<&Path>,
-    foam: bool,
+    with_diffuse: bool,
 ) -> Result<()> {
     // NAME, NAME:COUNT or a SPlisHSPlasH scene file (whose settings apply to the solver).
     let (name, count) = match spec.split_once(':').filter(|_| !meniscus::sim::scene_file::is_scene_file(spec)) {
@@ -89,7 +89,7 @@ pub fn run(
     let frames = frames.max(1);
     // The solver alone.
     let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
-    if foam {
+    if with_diffuse {
         sim.set_diffuse(Some(&base.diffuse))?;
     }
     let c = sim.constants;
@@ -158,7 +158,7 @@ pub fn run(
     for &on in modes {
         r.async_compute = on;
         let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
-        if foam {
+        if with_diffuse {
             sim.set_diffuse(Some(&base.diffuse))?;
         }
         let mut spans_all = vec![];

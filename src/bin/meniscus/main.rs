@@ -8,7 +8,7 @@ mod bench_mesh;
 mod bench_sim;
 mod chart;
 pub(crate) mod demo;
-mod foam;
+mod diffuse;
 mod info;
 mod job;
 mod mesh;
@@ -41,13 +41,29 @@ enum Cmd {
     Bench(bench::BenchArgs),
     /// Extract the SPH iso-surface as a triangle mesh (marching cubes, CPU or --gpu): PLY, OBJ or VTK.
     Mesh(mesh::MeshArgs),
-    /// Generate the spray, foam and air bubbles of a sequence (Ihmsen 2012) and write them per frame (.bgeo/.vtk).
-    Foam(foam::FoamArgs),
+    /// Generate the diffuse particles (spray, foam and air bubbles, Ihmsen 2012) of a sequence and write them per frame (.bgeo/.vtk).
+    #[command(alias = "foam")]
+    Diffuse(diffuse::DiffuseArgs),
     /// Simulate a built-in scene or a SPlisHSPlasH scene file on the GPU (Position Based Fluids or DFSPH) and write a particle cache (.bgeo/.vtk).
     Sim(sim::SimArgs),
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
     #[command(after_help = demo::HELP)]
     Demo(demo::DemoArgs),
+}
+
+/// Spellings of the command line that still work but are deprecated: the `foam` subcommand and `--foam` flag
+/// are `diffuse` and `--diffuse` (the diffuse particles, of which foam is one kind).
+fn deprecated_spellings(args: impl Iterator<Item = String>) -> Vec<String> {
+    let mut notes = vec![];
+    for (k, a) in args.enumerate() {
+        if k == 0 && a == "foam" {
+            notes.push("`meniscus foam` is deprecated: it is `meniscus diffuse` now".to_string());
+        }
+        if a == "--foam" || a.starts_with("--foam=") {
+            notes.push("`--foam` is deprecated: it is `--diffuse` now".to_string());
+        }
+    }
+    notes
 }
 
 /// A closed stdout or stderr (`meniscus info FILE | head -1`) is a normal end, not a crash: Rust's print
@@ -84,6 +100,9 @@ fn main() {
         std::process::exit(130);
     });
     let cli = Cli::parse();
+    for note in deprecated_spellings(std::env::args().skip(1)) {
+        eprintln!("warning: {note}");
+    }
     let r = match cli.cmd {
         Cmd::Render(a) => render::run(&a),
         Cmd::Encode(a) => movie::encode(&a),
@@ -92,7 +111,7 @@ fn main() {
         Cmd::Demo(a) => demo::main(&a),
         Cmd::Mesh(a) => mesh::run(&a),
         Cmd::Sim(a) => sim::run(&a),
-        Cmd::Foam(a) => foam::run(&a),
+        Cmd::Diffuse(a) => diffuse::run(&a),
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");

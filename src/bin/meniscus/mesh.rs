@@ -103,8 +103,8 @@ pub struct MeshArgs {
     meters_per_unit: Option<f64>,
     /// USD, sequences: add the diffuse particles (spray, foam, bubbles; `[diffuse]` of --settings) as a
     /// UsdGeomPoints with widths, velocities and a `kind` primvar (0 foam, 1 spray, 2 bubbles).
-    #[arg(long)]
-    foam: bool,
+    #[arg(long, alias = "foam")]
+    diffuse: bool,
     /// VDB: also write the field as a fog volume (grid `density`, clamped to [0, 1]).
     #[arg(long)]
     vdb_fog: bool,
@@ -142,8 +142,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if !(threshold > 0.0 && threshold < top) {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
     }
-    if out_kind != Kind::Usd && (a.fps.is_some() || a.foam) {
-        bail!("--fps and --foam apply to a USD stage (--out NAME.usd)");
+    if out_kind != Kind::Usd && (a.fps.is_some() || a.diffuse) {
+        bail!("--fps and --diffuse apply to a USD stage (--out NAME.usd)");
     }
     if out_kind != Kind::Usd && a.meters_per_unit.is_some() {
         bail!("--meters-per-unit applies to a USD stage (--out NAME.usd)");
@@ -295,14 +295,14 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         Kind::Usd => {
             let fps = a.fps.unwrap_or(job.frame_rate() as f64);
             let comment = format!("meniscus mesh {} (cube {} r, support {} r)", job.label, a.cube_size, support);
-            Some(UsdWriter::create(&out, fps, meters_per_unit, a.foam, &comment)?)
+            Some(UsdWriter::create(&out, fps, meters_per_unit, a.diffuse, &comment)?)
         }
         _ => None,
     };
-    if a.foam && job.frames.is_none() {
-        bail!("--foam generates diffuse particles from a sequence (a pattern with {{}}, a folder or a glob)");
+    if a.diffuse && job.frames.is_none() {
+        bail!("--diffuse generates diffuse particles from a sequence (a pattern with {{}}, a folder or a glob)");
     }
-    let mut walk = if a.foam { Some(crate::foam::Walk::new(&job)?) } else { None };
+    let mut walk = if a.diffuse { Some(crate::diffuse::Walk::new(&job)?) } else { None };
     let mut no_velocities = false;
     let per_frame_files = usd.is_none();
     let mut one = |p: &Particles, number: u64, out: &PathBuf| -> Result<String> {

@@ -44,10 +44,10 @@ pub struct RenderArgs {
     #[arg(long)]
     shard: Option<String>,
     /// Sequence: draw spray, foam and air bubbles (`[diffuse]` in a settings file): generated from the
-    /// sequence in time order from its first frame (`--foam`), or read from an exported set (`--foam
-    /// 'foam/f_{}.bgeo'`, as `meniscus foam --export` writes it).
-    #[arg(long, value_name = "PATTERN", num_args = 0..=1, default_missing_value = "")]
-    foam: Option<String>,
+    /// sequence in time order from its first frame (`--diffuse`), or read from an exported set (`--diffuse
+    /// 'foam/f_{}.bgeo'`, as `meniscus diffuse --export` writes it).
+    #[arg(long, alias = "foam", value_name = "PATTERN", num_args = 0..=1, default_missing_value = "")]
+    diffuse: Option<String>,
     #[command(flatten)]
     load: LoadArgs,
     #[arg(long, default_value_t = 960)]
@@ -92,8 +92,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if job.frames.is_some() {
         return render_sequence(a, &job);
     }
-    if a.resume || a.skip_bad_frames || a.foam.is_some() {
-        bail!("--resume, --skip-bad-frames and --foam apply to sequences");
+    if a.resume || a.skip_bad_frames || a.diffuse.is_some() {
+        bail!("--resume, --skip-bad-frames and --diffuse apply to sequences");
     }
     if Kind::by_extension(&a.out, &MOVIE_KINDS).is_ok() {
         bail!("--out {}: a movie is made from a sequence (a pattern with {{}}, a folder or a glob)", a.out.display());
@@ -276,11 +276,11 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             Ok(tx.send((path, img)).is_ok())
         };
     let (mut tracker, mut fed) = (job.motion(), None);
-    let mut foam = match a.foam.as_deref() {
+    let mut foam = match a.diffuse.as_deref() {
         None => None,
-        Some("") => Some(Foam::Walk(Box::new(crate::foam::Walk::new(job)?))),
+        Some("") => Some(Foam::Walk(Box::new(crate::diffuse::Walk::new(job)?))),
         Some(pattern) => {
-            let files = sequence::resolve_all(pattern).with_context(|| format!("--foam {pattern}"))?;
+            let files = sequence::resolve_all(pattern).with_context(|| format!("--diffuse {pattern}"))?;
             Some(Foam::Files(files.into_iter().map(|f| (f.number, f.path)).collect()))
         }
     };
@@ -319,7 +319,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                     Foam::Walk(w) => w.advance(frame.number, Some(&particles))?.to_vec(),
                     Foam::Files(files) => {
                         let path = files.get(&frame.number).with_context(|| {
-                            format!("--foam: no file of diffuse particles for frame {}", frame.number)
+                            format!("--diffuse: no file of diffuse particles for frame {}", frame.number)
                         })?;
                         meniscus::diffuse::io::load(path)?
                     }
@@ -386,10 +386,10 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     }
 }
 
-/// Where a sequence's diffuse particles come from (`--foam`).
+/// Where a sequence's diffuse particles come from (`--diffuse`).
 enum Foam {
     /// Generated in time order.
-    Walk(Box<crate::foam::Walk>),
+    Walk(Box<crate::diffuse::Walk>),
     /// Read per frame number from an exported set.
     Files(std::collections::BTreeMap<u64, PathBuf>),
 }

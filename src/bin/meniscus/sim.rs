@@ -54,9 +54,9 @@ pub struct SimArgs {
     /// the simulation on the GPU, timed with the others; `[diffuse]` in a settings file) and write them here: {}
     /// is the frame number; .bgeo or .vtk with position, velocity, lifetime, age, source, type (0 foam, 1 spray,
     /// 2 bubbles) and id.
-    #[arg(long, value_name = "PATTERN")]
-    pub foam: Option<String>,
-    /// Replace files of --export and --foam that exist already (without it, a run whose outputs exist is
+    #[arg(long, alias = "foam", value_name = "PATTERN")]
+    pub diffuse: Option<String>,
+    /// Replace files of --export and --diffuse that exist already (without it, a run whose outputs exist is
     /// refused: a sequence write is a new cache, and the files there belong to another run).
     #[arg(long)]
     pub overwrite: bool,
@@ -119,9 +119,9 @@ impl SimArgs {
 /// `meniscus sim validate`: the dam break against Martin & Moyce (1952) and Koshizuka & Oka (1996)
 /// (`meniscus::sim::validate`): the surge front Z/L per measured point up to T = 3, with the error.
 fn validate(a: &SimArgs) -> Result<()> {
-    if a.export.is_some() || a.foam.is_some() || a.collider.is_some() || a.frames.is_some() {
+    if a.export.is_some() || a.diffuse.is_some() || a.collider.is_some() || a.frames.is_some() {
         bail!(
-            "sim validate writes no files, takes no collider and runs to T = 3.2: drop --export, --foam, --collider \
+            "sim validate writes no files, takes no collider and runs to T = 3.2: drop --export, --diffuse, --collider \
              and --frames"
         );
     }
@@ -185,20 +185,20 @@ pub fn run(a: &SimArgs) -> Result<()> {
         }
         crate::args::refuse_existing("--export", &paths, a.overwrite)?;
     }
-    if let Some(f) = &a.foam {
+    if let Some(f) = &a.diffuse {
         if !f.contains("{}") {
-            bail!("--foam {f:?}: the pattern needs {{}} where the frame number goes, e.g. 'foam/f_{{}}.bgeo'");
+            bail!("--diffuse {f:?}: the pattern needs {{}} where the frame number goes, e.g. 'foam/f_{{}}.bgeo'");
         }
-        let kind = crate::args::out_kind("--foam", std::path::Path::new(f), &meniscus::output::PARTICLE_KINDS)?;
+        let kind = crate::args::out_kind("--diffuse", std::path::Path::new(f), &meniscus::output::PARTICLE_KINDS)?;
         let paths: Vec<std::path::PathBuf> =
             (1..=frames.max(1)).map(|n| std::path::PathBuf::from(f.replace("{}", &n.to_string()))).collect();
         for path in &paths {
-            crate::args::check_out("--foam", path, kind)?;
+            crate::args::check_out("--diffuse", path, kind)?;
             if a.export.as_ref().is_some_and(|e| meniscus::scene::sequence::would_join(e, path)) {
-                bail!("--foam {f}: {} would become a frame of the --export sequence", path.display());
+                bail!("--diffuse {f}: {} would become a frame of the --export sequence", path.display());
             }
         }
-        crate::args::refuse_existing("--foam", &paths, a.overwrite)?;
+        crate::args::refuse_existing("--diffuse", &paths, a.overwrite)?;
     }
     if frames == 0 {
         bail!("--frames must be at least 1");
@@ -219,7 +219,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
         sim.params.fps,
         gpu.info.name
     );
-    if a.foam.is_some() {
+    if a.diffuse.is_some() {
         sim.set_diffuse(Some(&diffuse))?;
     }
     let mut last_counts = [0usize; 3];
@@ -228,7 +228,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
             let path = std::path::PathBuf::from(e.replace("{}", &n.to_string()));
             meniscus::scene::write_particles(&path, &sim.read()?)?;
         }
-        if let Some(f) = &a.foam {
+        if let Some(f) = &a.diffuse {
             let ps = sim.read_diffuse()?;
             last_counts = [0; 3];
             for p in &ps {
@@ -236,7 +236,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
             }
             let path = std::path::PathBuf::from(f.replace("{}", &n.to_string()));
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).with_context(|| format!("--foam: cannot create {}", dir.display()))?;
+                std::fs::create_dir_all(dir).with_context(|| format!("--diffuse: cannot create {}", dir.display()))?;
             }
             meniscus::scene::write_particles(&path, &meniscus::diffuse::io::to_particles(&ps))?;
         }
@@ -321,7 +321,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     if let Some(e) = &a.export {
         eprintln!("wrote {} files: {e}", frames);
     }
-    if let Some(f) = &a.foam {
+    if let Some(f) = &a.diffuse {
         let [foam, spray, bubbles] = last_counts;
         eprintln!(
             "wrote {} files of diffuse particles: {f} (the last frame: foam {foam}, spray {spray}, bubbles {bubbles}; \

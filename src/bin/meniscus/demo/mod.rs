@@ -218,7 +218,7 @@ struct App {
     /// The particles' motion over the frames played in order (the noise's amplitude); restarted by a jump.
     motion: meniscus::motion::MotionTracker,
     /// A sequence's diffuse particles, generated in time order (`[diffuse] enabled`, K).
-    walk: Option<crate::foam::Walk>,
+    walk: Option<crate::diffuse::Walk>,
     /// The live simulation's diffuse stages are on (they follow `[diffuse] enabled`, K).
     sim_diffuse: bool,
     /// Diffuse particles of each kind on the GPU (foam, spray, bubbles), for the overlay.
@@ -269,7 +269,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
     // A sequence's spray, foam and bubbles: calibrated over the sequence now (a few seconds for a long one),
     // generated as it plays.
     let walk = if job.frames.is_some() && job.settings.diffuse.enabled {
-        Some(crate::foam::Walk::new(&job).map_err(|e| Error::Invalid(format!("{e:#}")))?)
+        Some(crate::diffuse::Walk::new(&job).map_err(|e| Error::Invalid(format!("{e:#}")))?)
     } else {
         None
     };

@@ -1,7 +1,7 @@
-//! `meniscus foam`: the diffuse particles of a sequence — spray, foam and air bubbles ([`meniscus::diffuse`],
+//! `meniscus diffuse`: the diffuse particles of a sequence — spray, foam and air bubbles ([`meniscus::diffuse`],
 //! Ihmsen et al. 2012 with Bender et al. 2019's automatic limits) — generated in time order and written per frame
 //! with their type, velocity, lifetime and id (SPlisHSPlasH's FoamGenerator's files and type numbers, so Blender
-//! and Houdini read them). [`Walk`] is the generation `render --foam` shares.
+//! and Houdini read them). [`Walk`] is the generation `render --diffuse` shares.
 
 use std::path::{Path, PathBuf};
 
@@ -22,11 +22,11 @@ use meniscus::settings::Settings;
 use crate::args::{check_out, LoadArgs, Numbered, SceneArgs};
 use crate::job::{Job, Select};
 
-/// `meniscus foam`.
+/// `meniscus diffuse`.
 #[derive(Args, Clone, Debug)]
-#[command(after_help = "Example: meniscus foam 'ParticleData_Fluid_{}.bgeo' --export 'foam/f_{}.bgeo' && \
-meniscus render 'ParticleData_Fluid_{}.bgeo' --foam 'foam/f_{}.bgeo' --out frames/")]
-pub struct FoamArgs {
+#[command(after_help = "Example: meniscus diffuse 'ParticleData_Fluid_{}.bgeo' --export 'foam/f_{}.bgeo' && \
+meniscus render 'ParticleData_Fluid_{}.bgeo' --diffuse 'foam/f_{}.bgeo' --out frames/")]
+pub struct DiffuseArgs {
     /// A sequence: a pattern with {} for the frame number, a folder, a glob or a .pvd. Its frames are walked
     /// in time order from the first (velocities from the files' `velocity`, else from the particles' motion).
     pub input: String,
@@ -181,14 +181,14 @@ fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(format!("{s}_{suffix}"))
 }
 
-/// `meniscus foam`.
-pub fn run(a: &FoamArgs) -> Result<()> {
+/// `meniscus diffuse`.
+pub fn run(a: &DiffuseArgs) -> Result<()> {
     if !meniscus::scene::sequence::is_sequence(&a.input) {
-        bail!("{}: `foam` walks a sequence (a pattern with {{}}, a folder or a glob)", a.input);
+        bail!("{}: `diffuse` walks a sequence (a pattern with {{}}, a folder or a glob)", a.input);
     }
     let mut settings = Settings::default();
     if let Some(f) = &a.settings {
-        settings = settings.with_toml(f)?;
+        settings = crate::args::settings_file(&settings, f)?;
     }
     let scene = SceneArgs {
         input: a.input.clone(),
