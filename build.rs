@@ -47,6 +47,17 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("iso_vol.comp", &[("", ""), ("REST", "ISO_REST")]),
     // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
     ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),
+    // The composite for 0 … 4 layers: a frame without effects runs the composite that knows of none.
+    (
+        "composite.comp",
+        &[
+            ("L0", "COMPOSITE_L0"),
+            ("L1", "COMPOSITE_L1"),
+            ("L2", "COMPOSITE_L2"),
+            ("L3", "COMPOSITE_L3"),
+            ("L4", "COMPOSITE_L4"),
+        ],
+    ),
     // The iso grid cells' empty distance, one axis per dispatch.
     ("iso_empty.comp", &[("X", "ISO_EMPTY_X"), ("Y", "ISO_EMPTY_Y"), ("Z", "ISO_EMPTY_Z")]),
 ];

@@ -5,7 +5,9 @@
 use std::path::Path;
 use std::time::Instant;
 
-use meniscus::scene::{ParticleFormat, Particles, FORMATS};
+use meniscus::scene::format::ParticleFormat;
+use meniscus::scene::format::FORMATS;
+use meniscus::scene::Particles;
 
 fn main() {
     let n = std::env::var("MENISCUS_BENCH_PARTICLES").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000usize);

@@ -1,7 +1,8 @@
 //! Writes small valid files of every registered format (the fuzzer's seed corpus):
 //! `cargo run --example fuzz_seeds -- DIR`. The one fuzz target (`tools/fuzz/fuzz_targets/parse.rs`) picks the
 //! parser from the first byte of its input, so every seed is the format's index byte followed by the file.
-use meniscus::scene::{Particles, FORMATS};
+use meniscus::scene::format::FORMATS;
+use meniscus::scene::Particles;
 
 fn main() {
     let dir = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "tools/fuzz/corpus".into()));

@@ -14,12 +14,14 @@
 use std::sync::Arc;
 
 use ash::vk;
-use meniscus::frame::{Environment, View};
 use meniscus::gpu::timer::Timer;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image};
 use meniscus::renderer::Renderer;
-use meniscus::scene::{self, procedural, Camera};
+use meniscus::scene::camera::Camera;
+use meniscus::scene::{self, procedural};
 use meniscus::settings::Settings;
+use meniscus::view::Environment;
+use meniscus::view::View;
 
 fn rss_mb() -> f64 {
     let s = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();

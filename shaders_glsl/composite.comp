@@ -12,7 +12,7 @@
 //! `under` (bubbles, Ihmsen et al. 2012): coverage C = v / units mixes the water toward the colour lit by
 //! ambient + s·sun by w·(1 − exp(−C)). `over` (foam and spray): the same over everything, water or background.
 //! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), the
-//! layers' images (placeholders bound past the last layer; never read). Out: rgba8, gamma 2.2.
+//! layers' images (one variant per layer count: COMPOSITE_L0 … L4). Out: rgba8, gamma 2.2.
 #define SKY_BINDING 8
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
@@ -23,14 +23,37 @@ layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D normals;
 layout(set = 0, binding = 5) uniform sampler2D thickness;
 layout(set = 0, binding = 6, rgba8) uniform writeonly image2D out_color;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ssr;
-layout(set = 0, binding = 9, r32ui) uniform readonly uimage2D layer0;
-layout(set = 0, binding = 10, r32ui) uniform readonly uimage2D layer1;
-layout(set = 0, binding = 11, r32ui) uniform readonly uimage2D layer2;
-layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D layer3;
-#if COMPOSITE_LAYERS != 4
-#error "one binding per layer: composite.comp declares four"
+// One variant per layer count (build.rs: COMPOSITE_L0 … COMPOSITE_L4): the layers' bindings, push constants and
+// blends exist only where there are layers, so a frame without effects runs the composite that knows of none.
+#if defined(COMPOSITE_L4)
+#define LAYERS_BOUND 4
+#elif defined(COMPOSITE_L3)
+#define LAYERS_BOUND 3
+#elif defined(COMPOSITE_L2)
+#define LAYERS_BOUND 2
+#elif defined(COMPOSITE_L1)
+#define LAYERS_BOUND 1
+#else
+#define LAYERS_BOUND 0
 #endif
-// Blends (crate::effect::Blend): 0 = no layer.
+#if COMPOSITE_LAYERS != 4
+#error "one variant and one binding per layer: composite.comp declares four"
+#endif
+#if LAYERS_BOUND > 0
+layout(set = 0, binding = 9, r32ui) uniform readonly uimage2D layer0;
+#endif
+#if LAYERS_BOUND > 1
+layout(set = 0, binding = 10, r32ui) uniform readonly uimage2D layer1;
+#endif
+#if LAYERS_BOUND > 2
+layout(set = 0, binding = 11, r32ui) uniform readonly uimage2D layer2;
+#endif
+#if LAYERS_BOUND > 3
+layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D layer3;
+#endif
+
+#if LAYERS_BOUND > 0
+// Blends (crate::passes::composite::Blend).
 #define BLEND_TINT 1.0
 #define BLEND_UNDER 2.0
 #define BLEND_OVER 3.0
@@ -54,15 +77,23 @@ vec3 lay(vec3 c, uint raw, vec4 cw, vec4 b, bool water, float lambert) {
     return mix(c, cw.rgb * (frame.fluid_color.w + b.w * frame.sun.w * light), cw.w * t);
 }
 
-// The layers in order, each only when given (the rest of the push constants are zero).
-#define LAY(k, img) if (pc.blend[k].x != 0.0) c = lay(c, imageLoad(img, p).x, pc.color[k], pc.blend[k], water, lambert)
+#define LAY(k, img) c = lay(c, imageLoad(img, p).x, pc.color[k], pc.blend[k], water, lambert)
+#endif
 
 /// Every layer over `c`, in order.
 vec3 layers(vec3 c, ivec2 p, bool water, float lambert) {
+#if LAYERS_BOUND > 0
     LAY(0, layer0);
+#endif
+#if LAYERS_BOUND > 1
     LAY(1, layer1);
+#endif
+#if LAYERS_BOUND > 2
     LAY(2, layer2);
+#endif
+#if LAYERS_BOUND > 3
     LAY(3, layer3);
+#endif
     return c;
 }
 

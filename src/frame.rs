@@ -99,8 +99,8 @@ impl FrameUniforms {
     }
 }
 
-pub use crate::gpu::recording::{Part, Recording};
-pub use crate::passes::{FrameInfo, Passes};
+use crate::gpu::recording::{Part, Recording};
+use crate::passes::{FrameInfo, Passes};
 
 /// Every pass name in frame order — the frame's passes with the built-in effects after `normals` (timestamp
 /// keys, JSON keys, `--timings` rows).
@@ -113,7 +113,7 @@ pub fn pass_names() -> &'static [&'static str] {
     });
     &NAMES
 }
-pub use crate::view::{Environment, View};
+use crate::view::View;
 
 /// What `record_frame` produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

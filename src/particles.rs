@@ -17,9 +17,9 @@ use crate::gpu::executor::Executor;
 use crate::gpu::{Buffer, Gpu};
 use crate::view::View;
 
-pub use crate::motion::Motion;
+use crate::motion::Motion;
 use crate::shader_constants::ParticleLayout;
-pub use crate::shader_constants::BYTES_PER_PARTICLE;
+use crate::shader_constants::BYTES_PER_PARTICLE;
 
 /// An upload: vec4s and the vec4 offset in the particle buffer they go to.
 pub type Staged = (Vec<[f32; 4]>, usize);

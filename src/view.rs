@@ -3,7 +3,8 @@
 
 use glam::Vec3;
 
-use crate::scene::{Bounds, Camera};
+use crate::scene::camera::Camera;
+use crate::scene::Bounds;
 use crate::settings::Settings;
 
 /// The static scene around the fluid: a ground plane and a few boxes.

@@ -665,7 +665,8 @@ fn bench_sim_reports_stages_and_overlap() {
     let stages: Vec<&str> =
         v["stages_ms_per_step"].as_array().unwrap().iter().map(|s| s[0].as_str().unwrap()).collect();
     // Every stage in order, under its one name; sim_vorticity only runs with confinement on (off by default).
-    let expected: Vec<&str> = meniscus::sim::STAGE_NAMES.iter().copied().filter(|n| *n != "sim_vorticity").collect();
+    let expected: Vec<&str> =
+        meniscus::sim::stages::STAGE_NAMES.iter().copied().filter(|n| *n != "sim_vorticity").collect();
     assert_eq!(stages, expected);
     assert!(v["steps_per_second"].as_f64().unwrap() > 0.0);
     // With --diffuse the spray, foam and bubble stages, once per frame, apart from the step's.

@@ -5,9 +5,11 @@
 mod common;
 
 use common::*;
-use meniscus::frame::{Environment, View};
 use meniscus::renderer::Renderer;
-use meniscus::scene::{self, procedural, Camera};
+use meniscus::scene::camera::Camera;
+use meniscus::scene::{self, procedural};
+use meniscus::view::Environment;
+use meniscus::view::View;
 
 #[test]
 fn golden_wave_frame() {

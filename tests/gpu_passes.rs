@@ -188,7 +188,7 @@ fn bumpy_depth(w: usize, h: usize) -> Vec<f32> {
 /// Run only the `smooth` pass on `src` (a depth image of the view's size) and read the result back.
 fn smooth_once(
     gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
-    v: &meniscus::frame::View,
+    v: &meniscus::view::View,
     s: &meniscus::settings::Settings,
     src: &[f32],
     its: u32,
@@ -749,11 +749,11 @@ fn splat_scene(
     h: u32,
     pct: f64,
     closer: f32,
-) -> (meniscus::scene::procedural::Generated, meniscus::frame::View) {
+) -> (meniscus::scene::procedural::Generated, meniscus::view::View) {
     let g = meniscus::scene::procedural::generate(name, count).unwrap();
     let b = meniscus::scene::percentile_bounds(&g.particles.positions, pct).unwrap();
     let mut v = view([0.0, 0.0, 1.0], [0.0; 3], w, h, 45.0);
-    v.camera = meniscus::scene::Camera::fit(&b, w as f32 / h as f32);
+    v.camera = meniscus::scene::camera::Camera::fit(&b, w as f32 / h as f32);
     v.camera.eye = v.camera.target + (v.camera.eye - v.camera.target) * closer;
     (g, v)
 }
@@ -763,7 +763,7 @@ fn splat_depth(
     gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
     positions: &[[f32; 3]],
     radius: f32,
-    v: &meniscus::frame::View,
+    v: &meniscus::view::View,
     mode: meniscus::settings::SplatMode,
 ) -> Option<Vec<f32>> {
     let mut s = settings(radius);
@@ -1021,7 +1021,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
 fn check_cast(
     got: &[f32],
     pts: &[[f32; 3]],
-    v: &meniscus::frame::View,
+    v: &meniscus::view::View,
     s: &meniscus::settings::Settings,
     (w, h): (usize, usize),
     box_end: impl Fn(glam::Vec3, glam::Vec3) -> f32,
@@ -1917,8 +1917,8 @@ fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
 /// The particles as the noise reference takes them: view-space centre, id, change of velocity.
 fn noise_reference_particles(
     pos: &[[f32; 3]],
-    motion: &[meniscus::particles::Motion],
-    v: &meniscus::frame::View,
+    motion: &[meniscus::motion::Motion],
+    v: &meniscus::view::View,
 ) -> Vec<meniscus::passes::noise::reference::Particle> {
     let m = v.camera.view();
     pos.iter()
@@ -1962,7 +1962,7 @@ fn noise_level_of_detail_stays_within_tolerance_of_the_reference() {
 }
 
 fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usize) {
-    use meniscus::particles::Motion;
+    use meniscus::motion::Motion;
     use meniscus::passes::noise::{reference, UNITS};
     let gpu = gpu();
     let (w, h) = (160usize, 120usize);
@@ -2042,7 +2042,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
 /// N is the accumulator in radii, and the normals are the unperturbed ones minus N's slopes.
 #[test]
 fn noise_matches_cpu_reference() {
-    use meniscus::particles::Motion;
+    use meniscus::motion::Motion;
     use meniscus::passes::noise::{reference, UNITS};
     let gpu = gpu();
     let (w, h) = (96usize, 64usize);

@@ -183,7 +183,7 @@ fn every_format_round_trips() {
     let p = sample(29);
     let raw = p.to_raw();
     let mut n = 0;
-    for f in scene::FORMATS {
+    for f in scene::format::FORMATS {
         for (label, bytes) in f.samples(&raw) {
             let name = format!("rt_{}_{label}.{}", f.key(), f.extensions()[0]);
             let path = tmp(&name, &bytes);
@@ -285,7 +285,7 @@ fn malformed_corpus_gives_errors_not_panics() {
         }
         // Every parser on every file: no panic whatever the format.
         let bytes = std::fs::read(&path).unwrap();
-        for f in scene::FORMATS {
+        for f in scene::format::FORMATS {
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f.parse(&path, &bytes)));
             assert!(r.is_ok(), "{}: the {} parser panicked", path.display(), f.key());
         }

@@ -9,7 +9,8 @@ use std::path::Path;
 
 use proptest::prelude::*;
 
-use meniscus::scene::{self, FORMATS};
+use meniscus::scene;
+use meniscus::scene::format::FORMATS;
 
 fn cases() -> u32 {
     std::env::var("MENISCUS_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(20000)
@@ -144,9 +145,9 @@ proptest! {
     /// The CLI's parsed surfaces: --camera, --frames, --shard and a settings file over the defaults.
     #[test]
     fn cli_surfaces_never_panic(text in ".{0,40}", nums in prop::collection::vec(prop_oneof![any::<f32>(), Just(f32::NAN), Just(f32::INFINITY), Just(1e30f32), Just(0.0f32)], 7)) {
-        let _ = scene::Camera::parse(&text);
+        let _ = scene::camera::Camera::parse(&text);
         let cam = format!("{},{},{}:{},{},{}:{}", nums[0], nums[1], nums[2], nums[3], nums[4], nums[5], nums[6]);
-        if let Ok(c) = scene::Camera::parse(&cam) {
+        if let Ok(c) = scene::camera::Camera::parse(&cam) {
             prop_assert!(c.check().is_ok() && c.view().is_finite(), "{cam} parsed but cannot render");
         }
         let _ = scene::sequence::FrameRange::parse(&text);

@@ -7,7 +7,8 @@ use meniscus::compute::grid::{Grid, GridBuffers, GridShape};
 use meniscus::gpu::transfer::{read_buffer, upload_buffer};
 use meniscus::gpu::FrameCtx;
 use meniscus::sim::params::Params;
-use meniscus::sim::{reference, SimScene, Simulation};
+use meniscus::sim::scene::SimScene;
+use meniscus::sim::{reference, Simulation};
 
 /// A deterministic pseudo-random generator (no dependency for tests).
 struct Lcg(u64);
@@ -72,8 +73,8 @@ fn blob(n: usize, seed: u64) -> SimScene {
     s.velocities = (0..n).map(|_| [rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5]).collect();
     s.capacity = n;
     s.colliders = vec![
-        meniscus::sim::Collider::Sphere { centre: Vec3::new(0.1, 0.15, 0.0), radius: 0.06 },
-        meniscus::sim::Collider::Box { centre: Vec3::new(-0.15, 0.05, -0.1), half: Vec3::new(0.05, 0.05, 0.08) },
+        meniscus::sim::scene::Collider::Sphere { centre: Vec3::new(0.1, 0.15, 0.0), radius: 0.06 },
+        meniscus::sim::scene::Collider::Box { centre: Vec3::new(-0.15, 0.05, -0.1), half: Vec3::new(0.05, 0.05, 0.08) },
     ];
     s
 }
@@ -98,7 +99,7 @@ fn one_step_matches_the_cpu_reference() {
         u.counts[0] = scene.positions.len() as u32;
         let times = sim.step_frame().unwrap();
         let names: Vec<&str> = times.0.iter().map(|(n, _)| n.as_str()).collect();
-        assert_eq!(names, meniscus::sim::STAGE_NAMES, "every stage timed, in order, under its one name");
+        assert_eq!(names, meniscus::sim::stages::STAGE_NAMES, "every stage timed, in order, under its one name");
         let got = sim.read().unwrap();
         let x0: Vec<Vec3> = scene.positions.iter().map(|p| Vec3::from(*p)).collect();
         let v0: Vec<Vec3> = scene.velocities.iter().map(|p| Vec3::from(*p)).collect();
@@ -449,7 +450,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
             .unwrap();
         let src = sim.particle_buffer();
         let copy = |ctx: &mut FrameCtx, out: &Buffer| {
-            let size = sim.count() as u64 * meniscus::particles::BYTES_PER_PARTICLE;
+            let size = sim.count() as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
             ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
         };
         let sub =
@@ -658,7 +659,7 @@ fn splishsplash_scene_files_lay_out_the_first_frame() {
         ("doubledambreak_sphere_25k", ([-1.55, -0.05, -1.55], [1.55, 3.05, 1.55])),
     ] {
         let Some(root) = common::shared_data(&format!("splishsplash/{dir}")) else { return };
-        let f = meniscus::sim::SceneFile::load(&root.join("scene.json")).unwrap();
+        let f = meniscus::sim::scene_file::SceneFile::load(&root.join("scene.json")).unwrap();
         let first = meniscus::scene::load(&root.join("partio/ParticleData_Fluid_1.bgeo")).unwrap();
         let (n, want) = (f.scene.positions.len() as f64, first.positions.len() as f64);
         assert!((n - want).abs() <= 0.01 * want, "{dir}: {n} particles, SPlisHSPlasH {want}");
@@ -725,7 +726,7 @@ fn scene_file_errors_name_the_key() {
     for (i, (text, want)) in cases.iter().enumerate() {
         let p = dir.join(format!("case{i}.json"));
         std::fs::write(&p, text).unwrap();
-        let e = meniscus::sim::SceneFile::load(&p).unwrap_err().to_string();
+        let e = meniscus::sim::scene_file::SceneFile::load(&p).unwrap_err().to_string();
         assert!(e.contains(want), "case {i}: {e}");
     }
     std::fs::remove_dir_all(&dir).ok();
@@ -870,7 +871,7 @@ fn scene_file_emitters_emit_as_splishsplash_does() {
     };
     let p = dir.join("scene.json");
     std::fs::write(&p, scene(0, std::f32::consts::FRAC_PI_2)).unwrap();
-    let f = meniscus::sim::SceneFile::load(&p).unwrap();
+    let f = meniscus::sim::scene_file::SceneFile::load(&p).unwrap();
     assert!(f.warnings.iter().all(|w| !w.contains("Emitters")), "{:?}", f.warnings);
     let s = &f.scene;
     assert_eq!((s.positions.len(), s.capacity), (0, 3000));
@@ -892,7 +893,7 @@ fn scene_file_emitters_emit_as_splishsplash_does() {
     assert!(s.emit(0.6, 1.0, usize::MAX).is_empty());
     // A circular emitter keeps the disc inscribed in the rectangle.
     std::fs::write(&p, scene(1, 0.0)).unwrap();
-    let c = meniscus::sim::SceneFile::load(&p).unwrap().scene.emit(0.1, 0.2, usize::MAX).len();
+    let c = meniscus::sim::scene_file::SceneFile::load(&p).unwrap().scene.emit(0.1, 0.2, usize::MAX).len();
     assert!(c > 0 && c < 4 * 24, "{c}");
     // The simulation takes them in (DFSPH, as the file does not say): 500 ± a layer after 1 s.
     let gpu = common::gpu();

@@ -5,10 +5,12 @@
 
 mod common;
 
-use meniscus::frame::{Environment, View};
 use meniscus::renderer::Renderer;
-use meniscus::scene::{self, procedural, Camera};
+use meniscus::scene::camera::Camera;
+use meniscus::scene::{self, procedural};
 use meniscus::settings::{Settings, Surface};
+use meniscus::view::Environment;
+use meniscus::view::View;
 
 fn rss_mb() -> f64 {
     common::rss_bytes() as f64 / 1e6

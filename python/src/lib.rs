@@ -12,10 +12,11 @@ use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use meniscus::frame::View;
+use meniscus::view::View;
 use meniscus::gpu::{Gpu, GpuOptions, PassTimes};
 use meniscus::renderer::{FrameRequest, Hooks, Renderer as Core, Upload};
-use meniscus::scene::{Bounds, Camera, Particles};
+use meniscus::scene::{Bounds, Particles};
+use meniscus::scene::camera::Camera;
 use meniscus::settings::Settings;
 
 /// A library error as the Python exception a user expects.
@@ -245,7 +246,7 @@ impl Renderer {
                     None => {
                         core.upload(Upload::Gpu { count: n, bounds: (lo, hi), diffuse_slots: 0 })?;
                         let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
-                            let size = n as u64 * meniscus::particles::BYTES_PER_PARTICLE;
+                            let size = n as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
                             let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
                             ctx.copy_buffer(src, out, region);
                         };
@@ -700,7 +701,7 @@ fn load<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, PyDict>> {
 /// Built-in simulation scenes: (name, default particle count, description).
 #[pyfunction]
 fn sim_scenes() -> Vec<(&'static str, usize, &'static str)> {
-    meniscus::sim::SCENES.to_vec()
+    meniscus::sim::scene::SCENES.to_vec()
 }
 
 /// Spray, foam and bubbles of a simulation stepped by the caller (`meniscus::diffuse::generator::Live`: Ihmsen et al. 2012,

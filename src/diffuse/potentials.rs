@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::params::Limits;
 use super::GRAVITY;
-use crate::scene::UniformGrid;
+use crate::scene::grid::UniformGrid;
 
 /// The cubic spline kernel of SPlisHSPlasH (support h): W(r) and dW/dr.
 #[derive(Clone, Copy, Debug)]

@@ -27,7 +27,7 @@ pub fn kernel(q: f32) -> f32 {
     }
 }
 
-/// The iso surface's grid: THE neighbour grid (`scene::UniformGrid`, cells at least the kernel support wide,
+/// The iso surface's grid: THE neighbour grid (`scene::grid::UniformGrid`, cells at least the kernel support wide,
 /// so every particle within `support` of a point lies in the 3×3×3 cells around the point's cell) and the
 /// support. The GPU walks its sorted points and cell table.
 #[derive(Clone, Debug, Default)]

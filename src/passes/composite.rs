@@ -77,11 +77,10 @@ impl crate::section::Section for Params {
     }
 }
 
-/// The pass: its compute program, built once per device, and the 1×1 placeholder bound in the layer slots past
-/// the last layer (the shader does not read them).
+/// The pass: one program per layer count (composite.comp's variants), built once per device.
 pub struct Composite {
-    prog: ComputeProgram<Push>,
-    none: Image,
+    plain: ComputeProgram<()>,
+    layered: [ComputeProgram<Push>; LAYERS],
 }
 
 /// The images the composite reads.
@@ -104,7 +103,7 @@ pub struct CompositeInputs<'a> {
 
 /// The most layers the composite lays (one binding each in composite.comp).
 pub const LAYERS: usize = crate::shader_constants::COMPOSITE_LAYERS as usize;
-const _: () = assert!(LAYERS == 4, "composite.comp and Composite::record bind four layer images");
+const _: () = assert!(LAYERS == 4, "composite.comp has a variant and a binding per layer, four");
 
 /// How a layer's image changes the shaded colour (shaders_glsl/composite.comp's blends).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -174,37 +173,50 @@ pub struct Push {
 }
 
 // Slots: frame, scene colour, scene depth, fluid depth, normals, thickness, out, ssr, sky, then one per layer.
-declare_program!(pub PROGRAM: Push = compute(
-    shaders::COMPOSITE,
+declare_program!(pub PLAIN: () = compute(
+    shaders::COMPOSITE_L0,
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled]
+));
+declare_program!(pub LAYERS_1: Push = compute(
+    shaders::COMPOSITE_L1,
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead]
+));
+declare_program!(pub LAYERS_2: Push = compute(
+    shaders::COMPOSITE_L2,
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead, ImgRead]
+));
+declare_program!(pub LAYERS_3: Push = compute(
+    shaders::COMPOSITE_L3,
+    [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead, ImgRead, ImgRead]
+));
+declare_program!(pub LAYERS_4: Push = compute(
+    shaders::COMPOSITE_L4,
     [Uniform, Sampled, ImgRead, ImgRead, ImgRead, Sampled, ImgOverwrite, ImgRead, Sampled, ImgRead, ImgRead, ImgRead, ImgRead]
 ));
 
 impl Composite {
-    /// Build the pass's pipeline (its slot list was checked against the shader at compile time).
+    /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        use ash::vk;
-        let one = vk::Extent2D { width: 1, height: 1 };
-        let usage = vk::ImageUsageFlags::STORAGE;
         Ok(Composite {
-            prog: ComputeProgram::new(gpu, &PROGRAM)?,
-            none: Image::new(gpu, "composite_none", one, vk::Format::R32_UINT, usage, None)?,
+            plain: ComputeProgram::new(gpu, &PLAIN)?,
+            layered: [
+                ComputeProgram::new(gpu, &LAYERS_1)?,
+                ComputeProgram::new(gpu, &LAYERS_2)?,
+                ComputeProgram::new(gpu, &LAYERS_3)?,
+                ComputeProgram::new(gpu, &LAYERS_4)?,
+            ],
         })
     }
 
     /// Shade the fluid over the background into `out`, then lay the effects' `layers` in order (at most
-    /// [`LAYERS`]: `Effects::layers` checks it; more are an error here too).
+    /// [`LAYERS`]: `Effects::layers` checks it; more are an error here too). No layers: the program without any.
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, i: &CompositeInputs, layers: &[Layer], out: &Image) -> Result<()> {
         if layers.len() > LAYERS {
             return Err(Error::Invalid(format!("{} composite layers; the composite lays at most {LAYERS}", layers.len())));
         }
         ctx.pass(NAME, |ctx| {
-            let mut push = Push { color: [[0.0; 4]; LAYERS], blend: [[0.0; 4]; LAYERS] };
-            for (k, l) in layers.iter().enumerate() {
-                [push.color[k], push.blend[k]] = l.packed();
-            }
-            let image = |k: usize| layers.get(k).map_or(&self.none, |l| l.image);
             let g = groups_2d(out.extent.width, out.extent.height, super::LOCAL_2D);
-            let res = [
+            let mut res = vec![
                 frame.into(),
                 i.scene_color.into(),
                 i.scene_depth.into(),
@@ -214,12 +226,17 @@ impl Composite {
                 out.into(),
                 i.ssr.into(),
                 i.sky.into(),
-                image(0).into(),
-                image(1).into(),
-                image(2).into(),
-                image(3).into(),
             ];
-            self.prog.dispatch(ctx, &res, &push, g);
+            if layers.is_empty() {
+                self.plain.dispatch(ctx, &res, &(), g);
+                return;
+            }
+            let mut push = Push { color: [[0.0; 4]; LAYERS], blend: [[0.0; 4]; LAYERS] };
+            for (k, l) in layers.iter().enumerate() {
+                [push.color[k], push.blend[k]] = l.packed();
+                res.push(l.image.into());
+            }
+            self.layered[layers.len() - 1].dispatch(ctx, &res, &push, g);
         });
         Ok(())
     }

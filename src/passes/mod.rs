@@ -2,21 +2,21 @@
 //! has one `record`; the name is the same everywhere: module, shader stem, debug label, timestamp key, JSON key.
 
 /// Declares the frame's passes from ONE list, in frame order: each entry is the module (its name is the pass
-/// name) and the pass type. It generates the `pub mod`, the re-export, the [`Passes`] struct (one field per
+/// name) and the pass type. It generates the `pub mod`, the [`Passes`] struct (one field per
 /// pass, named like the module), its constructor, and [`PASS_NAMES`]. Adding a pass is one line here.
 macro_rules! frame_passes {
     ($($(#[$doc:meta])* $module:ident: $ty:ident,)*) => {
-        $(pub mod $module; pub use $module::$ty;)*
+        $(pub mod $module;)*
 
         /// The frame's passes, created once per device (field = module = pass name).
         pub struct Passes {
-            $($(#[$doc])* pub $module: $ty,)*
+            $($(#[$doc])* pub $module: $module::$ty,)*
         }
 
         impl Passes {
             /// Build every pass's pipelines.
             pub fn new(gpu: &std::sync::Arc<crate::gpu::Gpu>) -> crate::error::Result<Passes> {
-                Ok(Passes { $($module: $ty::new(gpu)?,)* })
+                Ok(Passes { $($module: $module::$ty::new(gpu)?,)* })
             }
         }
 

@@ -26,9 +26,8 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 
 pub(crate) use self::csv::split_vector as csv_split;
-pub use camera::Camera;
-pub use format::{ParticleFormat, FORMATS};
-pub use grid::UniformGrid;
+use format::ParticleFormat;
+use grid::UniformGrid;
 
 /// Particle data as loaded: positions always, the mapped attributes when the file has them, and every other
 /// per-particle array by name.

@@ -46,9 +46,7 @@ use crate::shader_constants::ParticleLayout;
 use crate::shader_constants::MAX_COLLIDERS;
 use constants::{Constants, SimUniforms};
 use params::{Params, Solver};
-pub use scene::{Collider, SimScene, SCENES};
-pub use scene_file::SceneFile;
-pub use stages::STAGE_NAMES;
+use scene::{Collider, SimScene};
 
 /// Frames a simulation keeps host memory for (uniforms, emission staging): more than the renderer's frames in
 /// flight, so a frame never rewrites memory a running frame reads.

@@ -71,7 +71,7 @@ pub fn resolve(spec: &str, particles: Option<usize>) -> Result<(SimScene, Option
         let f = SceneFile::load(Path::new(spec))?;
         Ok((f.scene.clone(), Some(f)))
     } else {
-        let default = super::SCENES.iter().find(|s| s.0 == spec).map_or(10_000, |s| s.1);
+        let default = super::scene::SCENES.iter().find(|s| s.0 == spec).map_or(10_000, |s| s.1);
         Ok((SimScene::new(spec, particles.unwrap_or(default))?, None))
     }
 }

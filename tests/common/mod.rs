@@ -3,10 +3,11 @@
 
 use std::sync::Arc;
 
-use meniscus::frame::{Environment, View};
 use meniscus::gpu::{Gpu, GpuOptions};
-use meniscus::scene::Camera;
+use meniscus::scene::camera::Camera;
 use meniscus::settings::Settings;
+use meniscus::view::Environment;
+use meniscus::view::View;
 
 /// An axis-aligned box lo..hi as OBJ text: 8 vertices and 6 quads (12 triangles once loaded).
 pub fn box_obj(lo: [f32; 3], hi: [f32; 3]) -> String {

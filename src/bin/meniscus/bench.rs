@@ -20,12 +20,14 @@ use meniscus::settings::{Filter, SplatMode};
 
 use crate::args::{finish, GpuArgs, LoadArgs, SceneArgs};
 use crate::job::{Job, Select};
-use meniscus::frame::{Environment, View};
 use meniscus::gpu::timer::percentile;
 use meniscus::gpu::{DeviceInfo, Gpu};
 use meniscus::renderer::{FrameRequest, Renderer, Upload};
-use meniscus::scene::{self, Camera, Particles};
+use meniscus::scene::camera::Camera;
+use meniscus::scene::{self, Particles};
 use meniscus::settings::Settings;
+use meniscus::view::Environment;
+use meniscus::view::View;
 
 /// JSON schema version of [`Report`].
 pub const SCHEMA: u32 = 1;

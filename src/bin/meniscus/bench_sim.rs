@@ -10,14 +10,17 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use serde::Serialize;
 
-use meniscus::frame::{Environment, View};
 use meniscus::gpu::schedule::QueueId;
 use meniscus::gpu::timer::median;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu};
 use meniscus::renderer::{FrameRequest, Hooks, Renderer, Upload};
-use meniscus::scene::{Bounds, Camera};
+use meniscus::scene::camera::Camera;
+use meniscus::scene::Bounds;
 use meniscus::settings::Settings;
-use meniscus::sim::{Simulation, STAGE_NAMES};
+use meniscus::sim::stages::STAGE_NAMES;
+use meniscus::sim::Simulation;
+use meniscus::view::Environment;
+use meniscus::view::View;
 
 /// One render + simulation configuration.
 #[derive(Serialize)]

@@ -152,7 +152,7 @@ fn device(filter: Option<String>) -> Result<()> {
     let s = meniscus::settings::Settings { radius: g.radius, ..Default::default() };
     let bounds = scene::percentile_bounds(&g.particles.positions, 0.01).context("the wave scene has no particles")?;
     let (w, h) = (960, 540);
-    let camera = scene::Camera::fit(&bounds, w as f32 / h as f32);
+    let camera = scene::camera::Camera::fit(&bounds, w as f32 / h as f32);
     let view = meniscus::view::View {
         camera,
         width: w,

@@ -9,12 +9,13 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use meniscus::frame::View;
 use meniscus::renderer::{Backdrop, Renderer, Upload};
+use meniscus::scene::camera::Camera;
 use meniscus::scene::geometry::Geometry;
 use meniscus::scene::sequence::{self, Frame, FrameRange};
-use meniscus::scene::{self, procedural, Bounds, Camera, LoadOptions, Particles};
+use meniscus::scene::{self, procedural, Bounds, LoadOptions, Particles};
 use meniscus::settings::Settings;
+use meniscus::view::View;
 
 use crate::args::{LoadArgs, SceneArgs};
 
@@ -227,7 +228,7 @@ impl Job {
     /// the bounds and its walls in the background; `mesh`: the `--background-obj` its caller read (and made the
     /// water's collider).
     pub fn simulated(
-        scene: &meniscus::sim::SimScene,
+        scene: &meniscus::sim::scene::SimScene,
         scene_args: &SceneArgs,
         mesh: Option<Geometry>,
         settings: Settings,

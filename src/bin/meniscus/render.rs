@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::frame::View;
 use meniscus::renderer::{Backdrop, FrameRequest, Renderer, Upload};
 use meniscus::scene::sequence::{self, FrameRange, Prefetch};
+use meniscus::view::View;
 
 use meniscus::output::Kind;
 

@@ -6,7 +6,8 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::sim::{SimScene, Simulation};
+use meniscus::sim::scene::SimScene;
+use meniscus::sim::Simulation;
 
 use crate::args::{finish, GpuArgs, SettingsArgs};
 

@@ -70,7 +70,7 @@ impl Grid {
             };
             let n = particles.count();
             let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
-            let (cell, d) = crate::scene::UniformGrid::shape_for(lo, hi, reach, n as usize);
+            let (cell, d) = crate::scene::grid::UniformGrid::shape_for(lo, hi, reach, n as usize);
             let shape = crate::compute::grid::GridShape {
                 origin_cell: [lo.x, lo.y, lo.z, cell],
                 dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use meniscus::scene::Camera;
+use meniscus::scene::camera::Camera;
 
 /// Orbit by a mouse drag of (dx, dy) pixels: yaw and pitch around the target, distance kept, pitch limited.
 pub fn orbit(c: &mut Camera, dx: f32, dy: f32) {

@@ -31,13 +31,15 @@ use winit::keyboard::{KeyCode, ModifiersState, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 use meniscus::error::{Error, Result, VkContext};
-use meniscus::frame::{Environment, View};
 use meniscus::gpu::executor::Binary;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes};
 use meniscus::inspect::Inspector;
 use meniscus::renderer::{Backdrop, FrameImages, FrameRequest, Hooks, Renderer, Upload};
-use meniscus::scene::{Camera, LoadOptions, Particles};
+use meniscus::scene::camera::Camera;
+use meniscus::scene::{LoadOptions, Particles};
 use meniscus::settings::{Filter, Settings, Surface};
+use meniscus::view::Environment;
+use meniscus::view::View;
 use meniscus::view::ViewMode;
 
 use crate::args::{GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
@@ -182,7 +184,7 @@ pub struct DemoOptions {
     pub exercise_resize: bool,
     pub fps: f32,
     /// A live simulation to play instead of the job's particles.
-    pub sim: Option<(meniscus::sim::SimScene, meniscus::sim::params::Params)>,
+    pub sim: Option<(meniscus::sim::scene::SimScene, meniscus::sim::params::Params)>,
     /// `--async`: auto, on, off.
     pub async_mode: String,
 }
