@@ -3,7 +3,7 @@
 mod common;
 
 use glam::Vec3;
-use meniscus::compute::grid::{Grid, GridBuffers, GridShape};
+use meniscus::compute::grid::{GridBuffers, GridShape, NeighbourGrid};
 use meniscus::gpu::transfer::{read_buffer, upload_buffer};
 use meniscus::gpu::FrameCtx;
 use meniscus::sim::params::Params;
@@ -27,7 +27,7 @@ fn gpu_grid_matches_a_cpu_counting_sort() {
     let pts: Vec<[f32; 4]> =
         (0..5000).map(|_| [rng.next() * 2.2 - 0.1, rng.next() * 1.1 - 0.05, rng.next() * 0.5, 0.0]).collect();
     let points = upload_buffer(&gpu, "points", bytemuck::cast_slice(&pts), None).unwrap();
-    let grid = Grid::new(&gpu).unwrap();
+    let grid = NeighbourGrid::new(&gpu).unwrap();
     // 3,480 cells (109 runs of GRID_RUN = 32, one scan block) and 133,926 (4,186 runs: five scan blocks); the last
     // run is partial in both.
     for cell in [0.07, 0.0199] {

@@ -154,7 +154,7 @@ impl GridBuffers {
 }
 
 /// The pass: its five programs.
-pub struct Grid {
+pub struct NeighbourGrid {
     count: ComputeProgram<CountPush>,
     run_sum: ComputeProgram<RunPush>,
     scan: ComputeProgram<ScanPush>,
@@ -162,10 +162,10 @@ pub struct Grid {
     scatter: ComputeProgram<ScatterPush>,
 }
 
-impl Grid {
+impl NeighbourGrid {
     /// Build the pipelines.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Grid {
+        Ok(NeighbourGrid {
             count: ComputeProgram::new(gpu, &COUNT)?,
             run_sum: ComputeProgram::new(gpu, &RUN_SUM)?,
             scan: ComputeProgram::new(gpu, &SCAN)?,
@@ -201,7 +201,7 @@ impl Grid {
         self.scatter.dispatch(ctx, &res, &ScatterPush { n }, [n.div_ceil(LOCAL_1D), 1, 1]);
     }
 
-    /// [`Grid::record`] in its own pass scope named [`NAME`].
+    /// [`NeighbourGrid::record`] in its own pass scope named [`NAME`].
     pub fn record_pass(&self, ctx: &mut FrameCtx, points: &Buffer, n: u32, g: &GridBuffers) {
         ctx.pass(NAME, |ctx| self.record(ctx, points, n, g));
     }

@@ -40,7 +40,7 @@ impl GridClass {
 
 /// One grid to write: its name, class, the volume, and the value of a region no leaf covers (a level set's
 /// inside or outside), given the region's centre in world units.
-pub struct Grid<'a> {
+pub struct VdbGrid<'a> {
     /// The grid's name (e.g. `surface`, `density`).
     pub name: &'a str,
     /// Level set or fog volume.
@@ -125,7 +125,7 @@ fn group<T>(items: Vec<(IVec3, T)>, child: i32, dim: i32) -> Vec<Node<T>> {
 }
 
 /// The masks and values block of an internal node of log2 edge `dim` whose children are 2^child wide.
-fn put_internal<T>(w: &mut impl Write, g: &Grid, node: &Node<T>, child: i32, dim: i32) -> std::io::Result<()> {
+fn put_internal<T>(w: &mut impl Write, g: &VdbGrid, node: &Node<T>, child: i32, dim: i32) -> std::io::Result<()> {
     let slots = 1usize << (3 * dim);
     let mut child_mask = vec![0u64; slots / 64];
     for (n, _) in &node.children {
@@ -160,16 +160,16 @@ pub fn write_surface(
     let tile = |x: Vec3| if rec.inside(x) { -bg } else { bg };
     let zero = |_: Vec3| 0.0;
     let fog = fog.then(|| rec.fog());
-    let mut grids = vec![Grid { name: "surface", class: GridClass::LevelSet, volume: &ls, tile: &tile }];
+    let mut grids = vec![VdbGrid { name: "surface", class: GridClass::LevelSet, volume: &ls, tile: &tile }];
     if let Some(f) = &fog {
-        grids.push(Grid { name: "density", class: GridClass::FogVolume, volume: f, tile: &zero });
+        grids.push(VdbGrid { name: "density", class: GridClass::FogVolume, volume: f, tile: &zero });
     }
     write(path, &grids)?;
     Ok(ls.active_voxels())
 }
 
 /// Write `grids` to `path` (atomically; the output checks of `crate::output`).
-pub fn write(path: &Path, grids: &[Grid]) -> Result<()> {
+pub fn write(path: &Path, grids: &[VdbGrid]) -> Result<()> {
     let partial = crate::output::Partial::begin(path, Kind::Vdb)?;
     let res = (|| -> std::io::Result<()> {
         let f = std::fs::File::create(partial.tmp())?;
@@ -203,7 +203,7 @@ fn uuid() -> String {
     format!("{a:08x}-{:04x}-4{:03x}-{:04x}-{:04x}{d:08x}", b >> 16, b & 0xfff, (c >> 16) & 0x3fff | 0x8000, c & 0xffff)
 }
 
-fn put_grid<W: Write + Seek>(w: &mut W, g: &Grid) -> std::io::Result<()> {
+fn put_grid<W: Write + Seek>(w: &mut W, g: &VdbGrid) -> std::io::Result<()> {
     put_str(w, g.name)?;
     put_str(w, "Tree_float_5_4_3")?;
     put_str(w, "")?; // not an instance

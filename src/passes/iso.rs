@@ -363,7 +363,7 @@ pub struct Iso {
     rest: ComputeProgram<IsoPush>,
     rest_aniso: ComputeProgram<IsoPush>,
     fine: ComputeProgram<IsoPush>,
-    grid: crate::compute::grid::Grid,
+    grid: crate::compute::grid::NeighbourGrid,
     gather: ComputeProgram<GatherPush>,
     volume: [ComputeProgram<VolPush>; 4],
     cast_vol: ComputeProgram<IsoPush>,
@@ -477,7 +477,7 @@ impl Iso {
             rest: ComputeProgram::new(gpu, &REST)?,
             rest_aniso: ComputeProgram::new(gpu, &REST_ANISO)?,
             fine: ComputeProgram::new(gpu, &FINE)?,
-            grid: crate::compute::grid::Grid::new(gpu)?,
+            grid: crate::compute::grid::NeighbourGrid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
             volume: [
                 ComputeProgram::new(gpu, &VOLUME_MARK)?,

@@ -39,7 +39,7 @@ use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 
-use crate::compute::grid::{Grid, GridBuffers, GridShape};
+use crate::compute::grid::{GridBuffers, GridShape, NeighbourGrid};
 use crate::error::{Error, Result};
 use crate::gpu::{Buffer, FrameCtx, Gpu, PassTimes, Timer};
 use crate::shader_constants::ParticleLayout;
@@ -56,7 +56,7 @@ const RING: usize = 3;
 pub struct Simulation {
     gpu: Arc<Gpu>,
     stages: stages::Stages,
-    grid_pass: Grid,
+    grid_pass: NeighbourGrid,
     /// The scene (initial state, container, colliders, emitter).
     pub scene: SimScene,
     /// Solver settings.
@@ -141,7 +141,7 @@ impl Simulation {
         let mut sim = Simulation {
             gpu: gpu.clone(),
             stages: stages::Stages::new(gpu, params.scorr_n, scene.mesh_collider.is_some(), params.vorticity > 0.0)?,
-            grid_pass: Grid::new(gpu)?,
+            grid_pass: NeighbourGrid::new(gpu)?,
             params,
             constants,
             uniforms,

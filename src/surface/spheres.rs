@@ -9,14 +9,14 @@ use crate::gpu::FrameCtx;
 use crate::passes::splat::BackBound;
 use crate::settings::SplatMode;
 
-use super::iso::Grid;
+use super::iso::IsoResources;
 use super::{Kernels, Prepare, SurfaceFrame, Technique};
 
 /// The spheres technique; its grid exists only for ellipsoids.
 #[derive(Default)]
 pub struct Spheres {
     /// The particles' grid and kernels (ellipsoids only).
-    pub grid: Grid,
+    pub grid: IsoResources,
 }
 
 impl Technique for Spheres {

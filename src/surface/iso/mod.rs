@@ -19,7 +19,7 @@ use super::{Kernels, Prepare, SurfaceFrame, Technique};
 /// The particles' neighbour grid with their weights and kernels on the device (shared by the iso surface
 /// and the spheres' ellipsoids), and the particle generation it was built for.
 #[derive(Default)]
-pub struct Grid {
+pub struct IsoResources {
     buffers: Option<IsoBuffers>,
     built_for: Option<u64>,
     /// The fluid's box and strays for (particle generation, reach bits): a still frame does not walk its
@@ -30,7 +30,7 @@ pub struct Grid {
 /// `scene::fluid_bounds` of a particle set: the box and the strays left out (None: no finite particle).
 type FluidBox = Option<(crate::scene::Bounds, usize)>;
 
-impl Grid {
+impl IsoResources {
     /// The buffers, once built.
     pub fn buffers(&self) -> Option<&IsoBuffers> {
         self.buffers.as_ref()
@@ -246,7 +246,7 @@ impl Grid {
 #[derive(Default)]
 pub struct Iso {
     /// The particles' grid, weights, kernels and smoothed field.
-    pub grid: Grid,
+    pub grid: IsoResources,
 }
 
 impl Technique for Iso {
