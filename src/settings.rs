@@ -373,7 +373,7 @@ impl Settings {
     /// least this wide.
     pub fn iso_reach(&self) -> f32 {
         let h = self.iso.support * self.radius;
-        self.iso_params().aniso.map_or(h, |a| a.stretch.max(1.0) * h + a.max_shift)
+        self.iso_params().reach(h)
     }
 
     /// The compute splat and thickness draw the anisotropic kernels' ellipsoids (`kernel = "anisotropic"` on

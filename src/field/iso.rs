@@ -348,6 +348,14 @@ pub struct IsoParams {
     pub volume: Option<VolumeParams>,
 }
 
+impl IsoParams {
+    /// The farthest a kernel of support `h` (world) reaches from its particle: `h`, or for anisotropic kernels
+    /// `stretch` supports from a centre that moved up to `max_shift`. The iso grid's cells are at least this wide.
+    pub fn reach(&self, h: f32) -> f32 {
+        self.aniso.map_or(h, |a| a.stretch.max(1.0) * h + a.max_shift)
+    }
+}
+
 /// Depth at which the ray `origin + d·dir` leaves the grid's box grown by the support (as `iso.comp`).
 pub fn ray_end(grid: &IsoGrid, origin: Vec3, dir: Vec3) -> f32 {
     let lo = grid.origin - Vec3::splat(grid.support);

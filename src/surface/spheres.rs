@@ -23,7 +23,7 @@ impl Technique for Spheres {
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
         let s = p.settings;
         if s.ellipsoid_splats() {
-            self.grid.ensure(p, s.iso.support * s.radius, s.iso_reach())?;
+            self.grid.prepare(p, false)?;
         }
         Ok(())
     }

@@ -25,12 +25,45 @@ pub struct IsoResources {
     /// The fluid's box and strays for (particle generation, reach bits): a still frame does not walk its
     /// particles again (2.4–6 ms a frame on the H100 machine's host for 59k–159k particles, 33 ms for 814k).
     bounds: Option<(u64, u32, FluidBox)>,
+    /// The ray cast's and the smoothed field's parameters in world units (`Settings::iso_params`), derived once
+    /// per change of the settings they come from, not per frame.
+    derived: Option<(IsoKey, crate::field::iso::IsoParams)>,
 }
+
+/// What `Settings::iso_params` derives from: `[iso]`, `[anisotropy]`, the kernel and the radius.
+type IsoKey = (crate::passes::iso::Params, crate::passes::anisotropy::Params, crate::settings::Kernel, u32);
 
 /// `scene::fluid_bounds` of a particle set: the box and the strays left out (None: no finite particle).
 type FluidBox = Option<(crate::scene::Bounds, usize)>;
 
 impl IsoResources {
+    /// Derive the parameters from `s` when what they come from changed (a prepare step).
+    fn derive(&mut self, s: &Settings) -> &crate::field::iso::IsoParams {
+        let key: IsoKey = (s.iso.clone(), s.anisotropy.clone(), s.kernel, s.radius.to_bits());
+        if self.derived.as_ref().is_none_or(|(k, _)| *k != key) {
+            self.derived = Some((key, s.iso_params()));
+        }
+        &self.derived.as_ref().expect("derived").1
+    }
+
+    /// The parameters derived at the last prepare (`Settings::iso_params`).
+    pub fn params(&self) -> Option<&crate::field::iso::IsoParams> {
+        self.derived.as_ref().map(|(_, p)| p)
+    }
+
+    /// Prepare for a frame: the parameters, the grid (`support`; cells at least the parameters' reach wide),
+    /// and the smoothed field when `[iso] smoothing` asks for it.
+    pub fn prepare(&mut self, p: &Prepare, volume: bool) -> Result<()> {
+        let s = p.settings;
+        let h = s.iso.support * s.radius;
+        let reach = self.derive(s).reach(h);
+        self.ensure(p, h, reach)?;
+        if volume {
+            self.ensure_volume(p)?;
+        }
+        Ok(())
+    }
+
     /// The buffers, once built.
     pub fn buffers(&self) -> Option<&IsoBuffers> {
         self.buffers.as_ref()
@@ -43,7 +76,7 @@ impl IsoResources {
     /// kernel `support`) wide: the farthest a kernel reaches from its particle. The grid spans the fluid, not
     /// a stray particle far from it (the GPU grid clamps such a particle into its edge cell, where its kernel
     /// reaches nothing: it is left out of the surface, and said so).
-    pub fn ensure(&mut self, p: &Prepare, support: f32, reach: f32) -> Result<()> {
+    fn ensure(&mut self, p: &Prepare, support: f32, reach: f32) -> Result<()> {
         let (particles, gpu) = (p.particles, p.gpu);
         let stale = self.built_for != Some(particles.generation());
         // The anisotropic kernels' buffer only where they are used (48 bytes a point).
@@ -180,9 +213,10 @@ impl IsoResources {
     /// follows the water, not the box; particles written on the GPU, whose positions the host does not have,
     /// get every brick of their box), (re)allocated when the box or the count outgrows it (its field is then
     /// stale); dropped when smoothing is off.
-    pub fn ensure_volume(&mut self, p: &Prepare, s: &Settings) -> Result<()> {
+    fn ensure_volume(&mut self, p: &Prepare) -> Result<()> {
+        let volume = self.params().and_then(|q| q.volume);
         let Some(b) = &mut self.buffers else { return Ok(()) };
-        let Some(params) = s.iso_params().volume else {
+        let Some(params) = volume else {
             if b.volume.is_some() {
                 p.executor.wait_idle()?;
                 b.volume = None;
@@ -226,8 +260,7 @@ impl IsoResources {
     /// `weights`: also each particle's 1/n_j and the smoothed field (the iso surface's, not the ellipsoids').
     pub(crate) fn record(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, weights: bool) -> Option<&IsoBuffers> {
         let b = self.buffers.as_ref()?;
-        let (p, s) = (f.passes, f.settings);
-        let params = s.iso_params();
+        let (p, params) = (f.passes, self.params()?);
         p.iso.record_grid(ctx, f.particles.0, f.particles.1, b);
         if weights {
             p.iso.record_density(ctx, f.frame, b);
@@ -251,9 +284,7 @@ pub struct Iso {
 
 impl Technique for Iso {
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
-        let s = p.settings;
-        self.grid.ensure(p, s.iso.support * s.radius, s.iso_reach())?;
-        self.grid.ensure_volume(p, s)
+        self.grid.prepare(p, true)
     }
 
     fn record_kernels<'a>(&'a self, rec: &mut Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
@@ -267,10 +298,10 @@ impl Technique for Iso {
 
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
         let back = super::spheres::record_splat(ctx, f)?;
-        let (t, s) = (f.targets, f.settings);
-        if let (Some(grid), Some(queue)) = (self.grid.buffers(), &t.iso_queue) {
+        let t = f.targets;
+        if let (Some(grid), Some(queue), Some(params)) = (self.grid.buffers(), &t.iso_queue, self.grid.params()) {
             // The rasterised splats do not write a far bound: the march then runs to the grid's box.
-            f.passes.iso.record(ctx, f.frame, grid, &s.iso_params(), &t.depth, back, queue, f.info);
+            f.passes.iso.record(ctx, f.frame, grid, params, &t.depth, back, queue, f.info);
         }
         Ok(())
     }
