@@ -80,6 +80,11 @@ pub trait Technique {
     fn grid(&self) -> Option<&crate::passes::iso::IsoBuffers> {
         None
     }
+    /// The particles far from the fluid it left out, with the particle generation they were counted for (a
+    /// caller warns once per generation: `scene::stray_warning`).
+    fn strays(&self) -> Option<(u64, usize)> {
+        None
+    }
     /// Seconds its last host build took and the vertex and triangle counts of a mesh, if it builds one.
     fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
         None

@@ -343,3 +343,15 @@ fn hash(p: &Particles) -> u64 {
     p.radii.iter().flatten().for_each(|&x| eat(x));
     h
 }
+
+/// Warn once per set of particles about the strays the surface left out (particles far from the fluid): the
+/// library counts them (`Technique::strays`), the application says so. `last`: the particle generation warned
+/// about last.
+pub fn warn_strays(r: &Renderer, s: &Settings, last: &mut Option<u64>) {
+    if let Some((generation, n)) = r.state().surfaces().get(s.surface).strays() {
+        if n > 0 && *last != Some(generation) {
+            eprintln!("{}", scene::stray_warning(n, "the iso surface"));
+        }
+        *last = Some(generation);
+    }
+}

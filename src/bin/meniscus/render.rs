@@ -119,6 +119,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     // Timed frames re-render the static background too, so the table shows every pass.
     r.background.always_render = a.timings;
     let mut times = r.render(&view, s)?;
+    crate::job::warn_strays(&r, s, &mut None);
     let first = times.clone();
     if a.timings {
         let mut runs = vec![];
@@ -263,6 +264,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
         Ok(n)
     });
     let mut pending = std::collections::VecDeque::new();
+    let mut strays_warned = None;
     let mut skipped = vec![];
     let mut rendered = 0usize;
     let mut take =
@@ -328,6 +330,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                 r.upload(Upload::Diffuse { particles: &ps, settings: s })?;
             }
             let sub = r.submit(FrameRequest::new(&view, s).readback())?;
+            crate::job::warn_strays(&r, s, &mut strays_warned);
             let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
             pending.push_back((sub, names.path(frame.number), name));
             if pending.len() >= r.slots().count() && !take(&mut r, pending.pop_front().expect("non-empty"))? {

@@ -46,6 +46,12 @@ impl IsoResources {
         &self.derived.as_ref().expect("derived").1
     }
 
+    /// The particles far from the fluid that the grid's box left out, for the particle generation it was built
+    /// for (`Technique::strays`: the caller warns; the library does not print).
+    pub fn strays(&self) -> Option<(u64, usize)> {
+        self.bounds.and_then(|(g, _, b)| b.map(|(_, n)| (g, n)))
+    }
+
     /// The parameters derived at the last prepare (`Settings::iso_params`).
     pub fn params(&self) -> Option<&crate::field::iso::IsoParams> {
         self.derived.as_ref().map(|(_, p)| p)
@@ -93,12 +99,7 @@ impl IsoResources {
                 }
             };
             let (lo, hi) = match bounds {
-                Some((b, strays)) => {
-                    if strays > 0 && !particles.is_external() && stale {
-                        eprintln!("{}", crate::scene::stray_warning(strays, "the iso surface"));
-                    }
-                    (b.lo, b.hi)
-                }
+                Some((b, _)) => (b.lo, b.hi),
                 None => (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
             };
             let n = particles.count();
@@ -294,6 +295,10 @@ impl Technique for Iso {
 
     fn grid(&self) -> Option<&IsoBuffers> {
         self.grid.buffers()
+    }
+
+    fn strays(&self) -> Option<(u64, usize)> {
+        self.grid.strays()
     }
 
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
