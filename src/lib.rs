@@ -34,6 +34,7 @@ pub mod shader_constants {
     include!("shader_constants.rs");
 }
 pub mod targets;
+pub mod timing;
 pub mod view;
 pub mod work;
 

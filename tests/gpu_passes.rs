@@ -890,7 +890,7 @@ fn weights_follow(kernel: meniscus::settings::Kernel, once: &[&str]) {
     s.smooth.filter = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.kernel = kernel;
-    let ran = |t: &meniscus::gpu::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
+    let ran = |t: &meniscus::timing::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&a)).unwrap();
@@ -1136,7 +1136,7 @@ fn smoothed_iso_field_matches_cpu() {
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let first = rd.render(&v, &s).unwrap();
     let again = rd.render(&v, &s).unwrap();
-    let ran = |t: &meniscus::gpu::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
+    let ran = |t: &meniscus::timing::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     assert!(ran(&first, "iso_volume"), "{:?}", first.0);
     assert!(!ran(&again, "iso_volume"), "a static frame reuses it: {:?}", again.0);
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();

@@ -133,3 +133,66 @@ fn the_renderer_has_at_most_twelve_public_methods() {
     let methods: Vec<&str> = block.lines().filter(|l| l.starts_with("    pub fn ")).collect();
     assert!(methods.len() <= 12, "Renderer has {} public methods: {methods:#?}", methods.len());
 }
+
+/// The applications reach the device layer (`meniscus::gpu`) only through its door: the device (`Gpu`,
+/// `GpuOptions`, `DeviceInfo`, `MemoryReport`, `queues::AsyncQueue`), what a hook records with (`FrameCtx`,
+/// `Buffer`, `Image`, `Access`, `Use`, `transfer::record_upload`: the demo's swapchain blit and overlay, a
+/// simulation's copy into the particle buffer) and a frame's handles (`executor::Submitted`,
+/// `executor::Binary`, `schedule::QueueId`: the bench's per-queue times). Anything else an app names there is a
+/// leak; timings and their statistics are `meniscus::timing`.
+#[test]
+fn apps_reach_the_gpu_only_through_its_door() {
+    const DOOR: &[&str] = &[
+        "Gpu",
+        "GpuOptions",
+        "DeviceInfo",
+        "MemoryReport",
+        "queues::AsyncQueue",
+        "FrameCtx",
+        "Buffer",
+        "Image",
+        "Access",
+        "Use",
+        "transfer::record_upload",
+        "executor::Submitted",
+        "executor::Binary",
+        "schedule::QueueId",
+    ];
+    fn scan(dir: &Path, hits: &mut Vec<String>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                scan(&p, hits);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                for (i, line) in text.lines().enumerate() {
+                    let code = line.split("//").next().unwrap();
+                    for rest in code.split("meniscus::gpu::").skip(1) {
+                        // `a::B`, or `{A, b::C}`: every item named, as a path below `gpu`.
+                        let names: Vec<String> = match rest.strip_prefix('{') {
+                            Some(list) => {
+                                list.split('}').next().unwrap().split(',').map(|n| n.trim().to_string()).collect()
+                            }
+                            None => vec![rest
+                                .chars()
+                                .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':')
+                                .collect()],
+                        };
+                        for n in names.into_iter().filter(|n| !n.is_empty()) {
+                            // A variant or an associated item of a door item is that item.
+                            let item = DOOR.iter().find(|d| n == **d || n.starts_with(&format!("{d}::")));
+                            if item.is_none() {
+                                hits.push(format!("{}:{}: gpu::{n}", p.display(), i + 1));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut hits = vec![];
+    scan(&root.join("src/bin"), &mut hits);
+    scan(&root.join("python/src"), &mut hits);
+    assert!(hits.is_empty(), "apps reach past the gpu door:\n{}", hits.join("\n"));
+}

@@ -12,12 +12,13 @@ use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use meniscus::view::View;
-use meniscus::gpu::{Gpu, GpuOptions, PassTimes};
+use meniscus::gpu::{Gpu, GpuOptions};
 use meniscus::renderer::{FrameRequest, Hooks, Renderer as Core, Upload};
-use meniscus::scene::{Bounds, Particles};
 use meniscus::scene::camera::Camera;
+use meniscus::scene::{Bounds, Particles};
 use meniscus::settings::Settings;
+use meniscus::timing::PassTimes;
+use meniscus::view::View;
 
 /// A library error as the Python exception a user expects.
 fn py_err(e: meniscus::Error) -> PyErr {
@@ -92,7 +93,7 @@ fn render_image(
     view: &View,
     s: &meniscus::settings::Settings,
     hooks: Hooks,
-) -> meniscus::Result<(image::RgbaImage, meniscus::gpu::PassTimes)> {
+) -> meniscus::Result<(image::RgbaImage, meniscus::timing::PassTimes)> {
     let sub = core.submit(FrameRequest::new(view, s).hooks(hooks).readback())?;
     let img = core.read_submitted(sub)?;
     Ok((img, core.finish(sub)?))

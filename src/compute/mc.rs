@@ -28,9 +28,10 @@ use crate::error::{Error, Result};
 use crate::field::extract::{case_table, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
 use crate::field::iso::IsoGrid;
 use crate::gpu::transfer::{host_vec, read_back};
-use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, PassTimes, Timer};
+use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Timer};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
 use crate::shaders;
+use crate::timing::PassTimes;
 
 /// The pass's one name (module, shader stems `mc_*`, debug label, timestamp keys `mc_*`).
 pub const NAME: &str = "mc";

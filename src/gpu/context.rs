@@ -199,11 +199,6 @@ pub fn parts_timed() -> bool {
     *ON.get_or_init(|| std::env::var("MENISCUS_PARTS").is_ok_and(|v| v == "1"))
 }
 
-/// Whether a timed scope is a part of a pass ("pass/part", [`FrameCtx::part`]) rather than a pass.
-pub fn is_part(name: &str) -> bool {
-    name.contains('/')
-}
-
 fn image_barrier(img: &Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {
     // A barrier with no earlier stage (first use) still carries the layout transition.
     let src_stage = if d.src_stage.is_empty() { vk::PipelineStageFlags2::NONE } else { d.src_stage };

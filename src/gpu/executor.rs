@@ -12,8 +12,9 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{Gpu, PassTimes, Timer};
+use super::{Gpu, Timer};
 use crate::error::{Result, VkContext};
+use crate::timing::PassTimes;
 
 /// Command buffers of one slot on the main queue (a one-queue frame uses the first; a split frame uses
 /// three: upload, fluid, shade) and on the async compute queue (one).

@@ -31,7 +31,7 @@ pub use access::{Access, AccessState};
 pub use context::{FrameCtx, Use};
 pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, Res, Shader, Slot};
 pub use resource::{Buffer, Image};
-pub use timer::{PassTimes, Timer};
+pub use timer::Timer;
 
 /// Options for [`Gpu::new`].
 #[derive(Clone, Debug, Default)]

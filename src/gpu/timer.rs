@@ -10,24 +10,10 @@ use ash::vk;
 
 use super::Gpu;
 use crate::error::{Result, VkContext};
+use crate::timing::PassTimes;
 
 /// Most scopes a frame can open.
 pub const MAX_SCOPES: u32 = 512;
-
-/// Milliseconds per pass name, in recording order; a name used twice in a frame is summed.
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct PassTimes(pub Vec<(String, f64)>);
-
-impl PassTimes {
-    /// Time of `name`, if it ran.
-    pub fn get(&self, name: &str) -> Option<f64> {
-        self.0.iter().find(|(n, _)| n == name).map(|(_, t)| *t)
-    }
-    /// Sum over all passes (the parts of a pass, [`super::context::is_part`], are inside it).
-    pub fn total(&self) -> f64 {
-        self.0.iter().filter(|(n, _)| !super::context::is_part(n)).map(|(_, t)| t).sum()
-    }
-}
 
 /// One scope of a frame: its name, begin and end (ns, device clock), compute invocations where counted.
 pub type ScopeSpan = (String, f64, f64, Option<u64>);
@@ -191,40 +177,5 @@ impl Drop for Timer {
         if let Some(stats) = self.stats {
             unsafe { self.gpu.device.destroy_query_pool(stats, None) };
         }
-    }
-}
-
-/// Per-pass medians over several frames (passes in the order of the first frame).
-pub fn median_times(runs: &[PassTimes]) -> PassTimes {
-    let Some(first) = runs.first() else { return PassTimes::default() };
-    PassTimes(
-        first
-            .0
-            .iter()
-            .map(|(name, _)| {
-                let mut v: Vec<f64> = runs.iter().filter_map(|r| r.get(name)).collect();
-                (name.clone(), crate::gpu::timer::median(&mut v))
-            })
-            .collect(),
-    )
-}
-
-/// Median of `v` (sorts it); 0 when empty.
-pub fn median(v: &mut [f64]) -> f64 {
-    percentile(v, 0.5)
-}
-
-/// Percentile `p` in [0, 1] of `v` with linear interpolation (sorts it); 0 when empty.
-pub fn percentile(v: &mut [f64], p: f64) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let x = p.clamp(0.0, 1.0) * (v.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x.fract());
-    if i + 1 < v.len() {
-        v[i] * (1.0 - f) + v[i + 1] * f
-    } else {
-        v[i]
     }
 }

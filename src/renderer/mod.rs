@@ -23,13 +23,14 @@ use crate::effect::{Effect, Effects};
 use crate::error::{Error, Result};
 use crate::frame::FrameUniforms;
 use crate::gpu::executor::{Executor, Span, Submitted};
-use crate::gpu::{Buffer, Gpu, PassTimes};
+use crate::gpu::{Buffer, Gpu};
 use crate::particles::ParticleSet;
 use crate::passes::smooth::Output as Smoothed;
 use crate::passes::Passes;
 use crate::settings::Settings;
 use crate::surface::Surfaces;
 use crate::targets::{Targets, TargetsDesc};
+use crate::timing::PassTimes;
 use crate::view::View;
 
 /// Every pass name in frame order (timestamp keys, JSON keys, `--timings` rows).

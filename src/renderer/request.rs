@@ -5,13 +5,14 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::executor::{Binary, Executor};
-use crate::gpu::{Buffer, FrameCtx, Image, PassTimes};
+use crate::gpu::{Buffer, FrameCtx, Image};
 use crate::motion::Motion;
 use crate::particles::ParticleSet;
 use crate::passes::FrameInfo;
 use crate::settings::Settings;
 use crate::surface::Surfaces;
 use crate::targets::Targets;
+use crate::timing::PassTimes;
 use crate::view::View;
 
 /// The particles of the next frames.

@@ -41,9 +41,10 @@ use gpu_allocator::MemoryLocation;
 
 use crate::compute::grid::{GridBuffers, GridShape, NeighbourGrid};
 use crate::error::{Error, Result};
-use crate::gpu::{Buffer, FrameCtx, Gpu, PassTimes, Timer};
+use crate::gpu::{Buffer, FrameCtx, Gpu, Timer};
 use crate::shader_constants::ParticleLayout;
 use crate::shader_constants::MAX_COLLIDERS;
+use crate::timing::PassTimes;
 use constants::{Constants, SimUniforms};
 use params::{Params, Solver};
 use scene::{Collider, SimScene};

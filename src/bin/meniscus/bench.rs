@@ -20,12 +20,12 @@ use meniscus::settings::{Filter, SplatMode};
 
 use crate::args::{finish, GpuArgs, LoadArgs, SceneArgs};
 use crate::job::{Job, Select};
-use meniscus::gpu::timer::percentile;
 use meniscus::gpu::{DeviceInfo, Gpu};
 use meniscus::renderer::{FrameRequest, Renderer, Upload};
 use meniscus::scene::camera::Camera;
 use meniscus::scene::{self, Particles};
 use meniscus::settings::Settings;
+use meniscus::timing::percentile;
 use meniscus::view::Environment;
 use meniscus::view::View;
 
@@ -301,7 +301,7 @@ impl Series {
                 self.pass_queues.push((sp.name.clone(), format!("{:?}", sp.queue).to_lowercase()));
             }
         }
-        let times = meniscus::gpu::PassTimes(times);
+        let times = meniscus::timing::PassTimes(times);
         if last_warmup {
             self.rss_after_warmup = rss_bytes();
         }
@@ -329,7 +329,8 @@ impl Series {
         self.host.push(host);
         // Per queue: the time its passes were busy; the union: first begin to last end over both queues
         // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
-        use meniscus::gpu::{context::is_part, schedule::QueueId};
+        use meniscus::gpu::schedule::QueueId;
+        use meniscus::timing::is_part;
         let busy = |q: QueueId| {
             let own = spans.iter().filter(|x| x.queue == q && !is_part(&x.name));
             own.map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum::<f64>()

@@ -11,7 +11,6 @@ use anyhow::{Context, Result};
 use serde::Serialize;
 
 use meniscus::gpu::schedule::QueueId;
-use meniscus::gpu::timer::median;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu};
 use meniscus::renderer::{FrameRequest, Hooks, Renderer, Upload};
 use meniscus::scene::camera::Camera;
@@ -19,6 +18,7 @@ use meniscus::scene::Bounds;
 use meniscus::settings::Settings;
 use meniscus::sim::stages::STAGE_NAMES;
 use meniscus::sim::Simulation;
+use meniscus::timing::median;
 use meniscus::view::Environment;
 use meniscus::view::View;
 

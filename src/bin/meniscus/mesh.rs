@@ -427,7 +427,7 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
     for (k, (name, s)) in panels.iter().enumerate() {
         r.render(&view, s)?;
         let mut ms: Vec<f64> = (0..3).map(|_| r.render(&view, s).map(|t| t.total())).collect::<Result<_, _>>()?;
-        let gpu_ms = meniscus::gpu::timer::median(&mut ms);
+        let gpu_ms = meniscus::timing::median(&mut ms);
         let label = match (s.surface, r.state().surfaces().get(meniscus::settings::Surface::Mesh).mesh_stats()) {
             (Surface::Mesh, Some((secs, _, tris))) => {
                 let cpu = if s.mesh.smoothing_iters > 0 {

@@ -129,7 +129,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 runs.push(t);
             }
         }
-        times = meniscus::gpu::timer::median_times(&runs);
+        times = meniscus::timing::median_times(&runs);
     }
     let img = r.state().read_final()?;
     meniscus::output::write_png(&out, &img)?;

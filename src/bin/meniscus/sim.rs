@@ -290,7 +290,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     for (name, s) in solves.iter().flat_map(|st| st.labelled()) {
         eprintln!("DFSPH {name} solve: {}", s.summary());
     }
-    let med = meniscus::gpu::timer::median_times(&runs);
+    let med = meniscus::timing::median_times(&runs);
     if !runs.is_empty() {
         // The solver's stages run every step; the diffuse stages once per frame.
         let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);

@@ -32,12 +32,13 @@ use winit::window::{Window, WindowId};
 
 use meniscus::error::{Error, Result, VkContext};
 use meniscus::gpu::executor::Binary;
-use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image, PassTimes};
+use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image};
 use meniscus::inspect::Inspector;
 use meniscus::renderer::{Backdrop, FrameImages, FrameRequest, Hooks, Renderer, Upload};
 use meniscus::scene::camera::Camera;
 use meniscus::scene::{LoadOptions, Particles};
 use meniscus::settings::{Filter, Settings, Surface};
+use meniscus::timing::PassTimes;
 use meniscus::view::Environment;
 use meniscus::view::View;
 use meniscus::view::ViewMode;
