@@ -85,8 +85,17 @@ fn main() {
     println!("cargo:rerun-if-changed=.git/HEAD");
     println!("cargo:rerun-if-changed=.git/index");
     let compiler = shaderc::Compiler::new().expect("shaderc: cannot create a compiler");
-    // Reflection failures are reported with the shader's name below, not as a panic message.
+    // Reflection failures are reported with the shader's name below, not as a panic message (the default hook
+    // is back after the loop, so any later failure says what it is).
+    let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
+    // No SPIR-V of an earlier build survives: a shader renamed or a variant dropped must not leave a stale file
+    // that a later step (or a later build) would still find.
+    for e in std::fs::read_dir(&out).into_iter().flatten().flatten() {
+        if e.path().extension().is_some_and(|x| x == "spv") {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
     let mut entries: Vec<_> =
         std::fs::read_dir(src).expect("shaders_glsl/ is missing").filter_map(|e| e.ok().map(|e| e.path())).collect();
     entries.sort();
@@ -156,6 +165,7 @@ fn main() {
             }
         }
     }
+    std::panic::set_hook(default_hook);
     if !failures.is_empty() {
         for f in &failures {
             for line in f.lines() {
@@ -166,7 +176,8 @@ fn main() {
     }
     // The frame uniform block's member offsets as the compiler laid them out (std140), for the test that checks
     // the Rust mirror `FrameUniforms` field by field.
-    let composite = std::fs::read(out.join("composite.comp.spv")).expect("composite.comp.spv");
+    // (composite.comp is compiled once per layer count: the layers' variants share the block; L0 is read.)
+    let composite = std::fs::read(out.join("compositel0.comp.spv")).expect("compositel0.comp.spv");
     let members = frame_block_offsets(&composite).expect("the Frame block of composite.comp");
     let _ =
         writeln!(generated, "/// (member, byte offset) of the `Frame` uniform block (common.glsl), from the SPIR-V.");
