@@ -3,7 +3,38 @@
 //! `crate::NAME` paths of every source file outside tests and comments.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Every `.rs` file under `dir`, its folders walked (but not `skip`, a folder name).
+fn rust_files(dir: &Path, skip: Option<&str>) -> Vec<PathBuf> {
+    let mut out = vec![];
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            if skip.is_none_or(|s| p.file_name().unwrap() != s) {
+                out.extend(rust_files(&p, skip));
+            }
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// The applications' code lines (the CLI, demo and bench in `src/bin`, the Python package), comments cut:
+/// ("path:line", code).
+fn app_lines() -> Vec<(String, String)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let files = [rust_files(&root.join("src/bin"), None), rust_files(&root.join("python/src"), None)].concat();
+    let mut lines = vec![];
+    for p in files {
+        let text = std::fs::read_to_string(&p).unwrap();
+        for (i, line) in text.lines().enumerate() {
+            lines.push((format!("{}:{}", p.display(), i + 1), line.split("//").next().unwrap().to_string()));
+        }
+    }
+    lines
+}
 
 fn scan(dir: &Path, top: Option<&str>, graph: &mut BTreeMap<String, BTreeSet<String>>) {
     for e in std::fs::read_dir(dir).unwrap().flatten() {
@@ -78,49 +109,25 @@ fn the_top_level_modules_form_no_cycle() {
 /// `renderer` functions, the GPU marching cubes and neighbour grid live in `compute`).
 #[test]
 fn apps_do_not_reach_into_the_passes() {
-    fn scan(dir: &Path, hits: &mut Vec<String>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                scan(&p, hits);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                let text = std::fs::read_to_string(&p).unwrap();
-                for (i, line) in text.lines().enumerate() {
-                    let code = line.split("//").next().unwrap();
-                    if code.contains("meniscus::passes") {
-                        hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
-                    }
-                }
-            }
-        }
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut hits = vec![];
-    scan(&root.join("src/bin"), &mut hits);
-    scan(&root.join("python/src"), &mut hits);
+    let hits: Vec<String> = app_lines()
+        .into_iter()
+        .filter(|(_, code)| code.contains("meniscus::passes"))
+        .map(|(at, code)| format!("{at}: {}", code.trim()))
+        .collect();
     assert!(hits.is_empty(), "apps reach into meniscus::passes:\n{}", hits.join("\n"));
 }
 
 /// No library file is over 700 lines (tests in their own `tests.rs` included): a file holds one concern.
 #[test]
 fn no_library_file_is_over_700_lines() {
-    fn walk(dir: &Path, long: &mut Vec<String>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                if p.file_name().unwrap() != "bin" {
-                    walk(&p, long);
-                }
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                let n = std::fs::read_to_string(&p).unwrap().lines().count();
-                if n > 700 {
-                    long.push(format!("{} ({n} lines)", p.display()));
-                }
-            }
-        }
-    }
-    let mut long = vec![];
-    walk(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut long);
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let long: Vec<String> = rust_files(&src, Some("bin"))
+        .into_iter()
+        .filter_map(|p| {
+            let n = std::fs::read_to_string(&p).unwrap().lines().count();
+            (n > 700).then(|| format!("{} ({n} lines)", p.display()))
+        })
+        .collect();
     assert!(long.is_empty(), "library files over 700 lines: {long:?}");
 }
 
@@ -158,41 +165,21 @@ fn apps_reach_the_gpu_only_through_its_door() {
         "executor::Binary",
         "schedule::QueueId",
     ];
-    fn scan(dir: &Path, hits: &mut Vec<String>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                scan(&p, hits);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                let text = std::fs::read_to_string(&p).unwrap();
-                for (i, line) in text.lines().enumerate() {
-                    let code = line.split("//").next().unwrap();
-                    for rest in code.split("meniscus::gpu::").skip(1) {
-                        // `a::B`, or `{A, b::C}`: every item named, as a path below `gpu`.
-                        let names: Vec<String> = match rest.strip_prefix('{') {
-                            Some(list) => {
-                                list.split('}').next().unwrap().split(',').map(|n| n.trim().to_string()).collect()
-                            }
-                            None => vec![rest
-                                .chars()
-                                .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':')
-                                .collect()],
-                        };
-                        for n in names.into_iter().filter(|n| !n.is_empty()) {
-                            // A variant or an associated item of a door item is that item.
-                            let item = DOOR.iter().find(|d| n == **d || n.starts_with(&format!("{d}::")));
-                            if item.is_none() {
-                                hits.push(format!("{}:{}: gpu::{n}", p.display(), i + 1));
-                            }
-                        }
-                    }
+    let mut hits = vec![];
+    for (at, code) in app_lines() {
+        for rest in code.split("meniscus::gpu::").skip(1) {
+            // `a::B`, or `{A, b::C}`: every item named, as a path below `gpu`.
+            let names: Vec<String> = match rest.strip_prefix('{') {
+                Some(list) => list.split('}').next().unwrap().split(',').map(|n| n.trim().to_string()).collect(),
+                None => vec![rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':').collect()],
+            };
+            for n in names.into_iter().filter(|n| !n.is_empty()) {
+                // A variant or an associated item of a door item is that item.
+                if !DOOR.iter().any(|d| n == *d || n.starts_with(&format!("{d}::"))) {
+                    hits.push(format!("{at}: gpu::{n}"));
                 }
             }
         }
     }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut hits = vec![];
-    scan(&root.join("src/bin"), &mut hits);
-    scan(&root.join("python/src"), &mut hits);
     assert!(hits.is_empty(), "apps reach past the gpu door:\n{}", hits.join("\n"));
 }
