@@ -40,34 +40,26 @@ impl Inspector {
         overlay: Option<&Image>,
         s: &Settings,
     ) {
-        let images = crate::passes::view::ViewImages {
-            depth: f.depth,
-            smoothed: f.smoothed,
-            thickness: f.thickness,
-            normals: f.normals,
-            ssr: f.ssr,
-            scene_color: f.scene_color,
-            final_color: f.final_color,
-        };
+        let images = &f.images;
         let range = (f.info.d_near, f.info.d_near + f.info.target_distance * 1.5);
         let t_max = 60.0 * s.radius;
         match mode {
             ViewMode::Final => {}
             ViewMode::Particles => {
-                self.view.record(ctx, f.frame, &images, 6, range, t_max);
+                self.view.record(ctx, f.frame, images, 6, range, t_max);
                 if let Some(v) = values {
                     let (buf, count) = f.particles;
-                    let out = (f.depth, f.final_color);
+                    let out = (images.depth, images.final_color);
                     self.particles.record(ctx, f.frame, buf, v, count, out, s.splat.radius_scale);
                 }
             }
             m => {
                 let k = ViewMode::ALL.iter().position(|x| *x == m).unwrap_or(0) as i32;
-                self.view.record(ctx, f.frame, &images, k, range, t_max);
+                self.view.record(ctx, f.frame, images, k, range, t_max);
             }
         }
         if let Some(o) = overlay {
-            self.overlay.record(ctx, f.frame, o, f.final_color);
+            self.overlay.record(ctx, f.frame, o, images.final_color);
         }
     }
 }

@@ -15,6 +15,7 @@ use crate::gpu::recording::Recording;
 use crate::gpu::transfer::record_image_copy;
 use crate::gpu::{Access, Buffer, FrameCtx, Use};
 use crate::passes::smooth::Output as Smoothed;
+use crate::passes::view::ViewImages;
 use crate::passes::FrameInfo;
 use crate::surface::Prepare;
 
@@ -143,13 +144,15 @@ impl Renderer {
                 let images = FrameImages {
                     frame: uniforms,
                     particles: (particles, count),
-                    depth: &t.depth,
-                    smoothed: t.smoothed(sm),
-                    thickness: &t.thickness,
-                    normals: &t.normals,
-                    ssr: &t.ssr,
-                    scene_color: &t.scene_color,
-                    final_color: &t.final_color,
+                    images: ViewImages {
+                        depth: &t.depth,
+                        smoothed: t.smoothed(sm),
+                        thickness: &t.thickness,
+                        normals: &t.normals,
+                        ssr: &t.ssr,
+                        scene_color: &t.scene_color,
+                        final_color: &t.final_color,
+                    },
                     info,
                 };
                 h(ctx, &images);

@@ -122,20 +122,10 @@ pub struct FrameImages<'a> {
     pub frame: &'a Buffer,
     /// The particle buffer and its fluid particle count.
     pub particles: (&'a Buffer, u32),
-    /// The raw splatted depth (intact only with `Renderer::keep_raw_depth`).
-    pub depth: &'a Image,
-    /// The smoothed depth.
-    pub smoothed: &'a Image,
-    /// The thickness.
-    pub thickness: &'a Image,
-    /// The packed normals.
-    pub normals: &'a Image,
-    /// The SSR hits.
-    pub ssr: &'a Image,
-    /// The background's colour.
-    pub scene_color: &'a Image,
-    /// The shaded output (RGBA8).
-    pub final_color: &'a Image,
+    /// Its images: the raw splatted depth (intact only with `Renderer::keep_raw_depth`), the smoothed depth,
+    /// thickness, normals, SSR hits, the background's colour and the shaded output (RGBA8) — what the `view`
+    /// pass maps to colour.
+    pub images: crate::passes::view::ViewImages<'a>,
     /// Facts about the frame's camera.
     pub info: FrameInfo,
 }

@@ -867,7 +867,7 @@ impl App {
         // The chosen view and the overlay over the final image, then its blit into the swapchain image.
         let after = |ctx: &mut FrameCtx, f: &FrameImages| {
             inspector.record(ctx, f, mode, values, overlay, settings);
-            present::record_blit(ctx, swap, index, f.final_color)
+            present::record_blit(ctx, swap, index, f.images.final_color)
         };
         // The simulation's frame, recorded into this frame's command buffer; it writes the particle buffer the
         // passes read.
