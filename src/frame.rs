@@ -108,7 +108,7 @@ pub fn pass_names() -> &'static [&'static str] {
     static NAMES: std::sync::LazyLock<Vec<&'static str>> = std::sync::LazyLock::new(|| {
         let mut names = crate::passes::PASS_NAMES.to_vec();
         let at = names.iter().position(|n| *n == crate::passes::normals::NAME).map_or(names.len(), |k| k + 1);
-        names.splice(at..at, Effects::BUILT_IN.iter().copied());
+        names.splice(at..at, crate::effect::BUILT_IN.iter().copied());
         names
     });
     &NAMES

@@ -3,15 +3,33 @@
 //! a surface (`crate::surface`): it owns its pipelines and its images (allocated only while it draws: its
 //! setting on and something to draw), prepares them on the host, records its passes after the normals, and
 //! gives the `composite` pass its layers (`crate::passes::composite::Layer`) — the composite knows no effect by name. THE LIST is
-//! [`Effects::new`]: a new effect is one module and one line there (or one [`Effects::push`] from outside the
+//! `built_in_effects!`: a new effect is one module and one line there (or one [`Effects::push`] from outside the
 //! library: `Renderer::add_effect`).
 //!
 //! In: the frame's depth, normals, scene depth, particles and settings ([`EffectFrame`]). Out: each effect's
 //! own images, read by the composite as layers in list order (at most
 //! [`crate::shader_constants::COMPOSITE_LAYERS`] in all).
 
-pub mod diffuse;
-pub mod noise;
+/// Declares the built-in effects from ONE list, in frame (and layer) order: each entry is the effect's module
+/// (named like its pass in `crate::passes`, whose `NAME` it takes) and its type with a `new(gpu)`. It generates
+/// the `pub mod`s, [`BUILT_IN`] and the constructor [`Effects::new`] uses. A new effect is one line here.
+macro_rules! built_in_effects {
+    ($($module:ident: $ty:ident,)*) => {
+        $(pub mod $module;)*
+
+        /// The names of the built-in effects, in order (without building them: the timing table's columns).
+        pub const BUILT_IN: &[&str] = &[$(crate::passes::$module::NAME,)*];
+
+        fn built_in(gpu: &Arc<Gpu>) -> Result<Vec<Box<dyn Effect>>> {
+            Ok(vec![$(Box::new($module::$ty::new(gpu)?),)*])
+        }
+    };
+}
+
+built_in_effects! {
+    noise: NoiseEffect,
+    diffuse: DiffuseEffect,
+}
 
 use std::any::Any;
 use std::sync::Arc;
@@ -92,11 +110,9 @@ pub struct Effects {
 }
 
 impl Effects {
-    /// THE LIST: every built-in effect, in order (a new one is its module and one line here).
+    /// Every built-in effect, in order (the list: `built_in_effects!`).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Effects> {
-        let all: Vec<Box<dyn Effect>> =
-            vec![Box::new(noise::NoiseEffect::new(gpu)?), Box::new(diffuse::DiffuseEffect::new(gpu)?)];
-        Ok(Effects { all })
+        Ok(Effects { all: built_in(gpu)? })
     }
 
     /// Add an effect after the others (its passes run last, its layers lie on top).
@@ -108,9 +124,6 @@ impl Effects {
     pub fn names(&self) -> Vec<&'static str> {
         self.all.iter().map(|e| e.name()).collect()
     }
-
-    /// The names of the built-in effects, in order (without building them: the timing table's columns).
-    pub const BUILT_IN: &'static [&'static str] = &[crate::passes::noise::NAME, crate::passes::diffuse::NAME];
 
     /// Prepare every effect.
     pub fn prepare(&mut self, p: &EffectPrepare) -> Result<()> {
