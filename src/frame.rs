@@ -136,6 +136,8 @@ pub struct FrameInputs<'a> {
     pub surface: &'a dyn Technique,
     /// The effects, their images prepared.
     pub effects: &'a Effects,
+    /// Their layers in the composite, in order (`Effects::layers`).
+    pub layers: &'a [crate::passes::composite::Layer<'a>],
     /// The scene behind the fluid.
     pub background: &'a Background,
     /// The background images still show this view: the `background` pass is skipped.
@@ -206,6 +208,6 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         ssr: &t.ssr,
         sky,
     };
-    p.composite.record(ctx, frame, &inputs, &f.effects.layers(s)?, &t.final_color)?;
+    p.composite.record(ctx, frame, &inputs, f.layers, &t.final_color)?;
     Ok(Frame { smoothed })
 }

@@ -52,8 +52,8 @@ impl Renderer {
         let (width, height) = (view.width, view.height);
         let (gpu, executor, particles) = (&self.gpu, &self.executor, &self.particles);
         self.effects.prepare(&EffectPrepare { gpu, executor, particles, settings: s, width, height })?;
-        // Too many layers for the composite is the caller's error, found before a frame slot is begun.
-        self.effects.layers(s)?;
+        // The composite's layers, once a frame; too many is the caller's error, found before a slot is begun.
+        let layers = self.effects.layers(s)?;
         let split = self.async_compute;
         if self.particles.is_external() && hooks.produce.is_none() {
             return Err(Error::Invalid("particles uploaded as Upload::Gpu need a frame with Hooks::produce".into()));
@@ -174,6 +174,7 @@ impl Renderer {
             },
             surface: self.surfaces.get(s.surface),
             effects: &self.effects,
+            layers: &layers,
             background: &self.background,
             background_cached: cached,
             settings: s,
