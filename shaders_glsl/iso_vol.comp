@@ -8,7 +8,12 @@
 //! distance as iso.comp does; elsewhere it takes its smallest steps. CPU reference: VolumeShape::sample and
 //! smoothed_field in src/field/iso.rs.
 //! In: the weighted points (binding 1), cells (2), back (4), the lattice's table (7) and sums (8, RG32UI).
-//! In/out: depth (3). Out: the queue (5, 6).
+//! In/out: depth (3). Out: the queue (5, 6). Variants: REST (the queued rays, a lane each), REST_WIDE (ISO_WIDE
+//! lanes each, `[iso] rest_lanes` = 8).
+#ifdef ISO_REST_WIDE
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+#endif
 #include "common.glsl"
 #define ISO_CELL_EMPTY
 #define ISO_VOLUME

@@ -1,12 +1,14 @@
 #version 460
 //! noise_gather — the tiled noise splat's sums (GPUs; NVIDIA patent US 8,947,430, eq. 15–17; method.md §8): one
-//! work group per tile of the accumulator atlas (NOISE_TILE² texels of one level); its threads load the tile's
-//! sprites in batches into shared memory and each thread adds every sprite's term at its own texel
-//! (noise_splat.glsl's `noise_term`, the same fixed-point terms noise.comp adds with atomics), reading its depth
-//! once, and adds its sum to its texel once (to the small sprites' terms noise_bin added): one uncontended atomic
-//! per texel instead of one per sprite and texel, the work spread by texels.
-//! In: sprite records (noise_bin), tiles (counts, starts), lists, the fluid depth. Out: the accumulator atlas
-//! (r32ui); work[3] (texels evaluated).
+//! work group per chunk (NOISE_CHUNK sprites of one tile's list, numbered by noise_scan) of a tile of the
+//! accumulator atlas (NOISE_TILE² texels of one level); its threads load the chunk's sprites into shared memory
+//! and each thread adds every sprite's term at its own texel (noise_splat.glsl's `noise_term`, the same
+//! fixed-point terms noise.comp adds with atomics), reading its depth once, and adds its sum to its texel once
+//! (to the small sprites' terms noise_bin added and the tile's other chunks'): one atomic per texel and chunk
+//! instead of one per sprite and texel, the work spread by texels, and no work group longer than a chunk where
+//! sprites pile up on a tile (a water surface seen at a grazing angle).
+//! In: sprite records (noise_bin), tiles (counts, starts, first chunks), lists, the fluid depth. Out: the
+//! accumulator atlas (r32ui); work[3] (texels evaluated), work[7] (the longest tile list).
 #include "common.glsl"
 #include "noise.glsl"
 layout(local_size_x = NOISE_TILE, local_size_y = NOISE_TILE) in;
@@ -32,15 +34,29 @@ layout(push_constant) uniform Push {
 #define NOISE_TERM_ONLY
 #include "noise_splat.glsl"
 
-#define BATCH (NOISE_TILE * NOISE_TILE)
+#define BATCH NOISE_CHUNK
 shared vec4 s_a[BATCH];
 shared vec4 s_b[BATCH];
 shared float s_reach[BATCH];
 shared uint s_evaluated;
+shared uint s_tile;
 
 void main() {
-    uint tile = gl_WorkGroupID.x;
     uint li = gl_LocalInvocationIndex;
+    // The chunk's tile: the last tile whose first chunk is at most this one (tiles with empty lists share
+    // their first chunk with the next tile).
+    uint chunk = gl_WorkGroupID.x;
+    if (li == 0u) {
+        uint lo = 0u, hi = pc.tiles - 1u;
+        while (lo < hi) {
+            uint mid = (lo + hi + 1u) >> 1;
+            if (tiles[3u * pc.tiles + mid] <= chunk) lo = mid; else hi = mid - 1u;
+        }
+        s_tile = lo;
+        s_evaluated = 0u;
+    }
+    barrier();
+    uint tile = s_tile;
     ivec2 size = imageSize(depth);
     // The tile's level and place.
     int L = 0, base = 0;
@@ -55,33 +71,33 @@ void main() {
     bool inside = all(lessThan(q, noise_level_size(size, L)));
     float d = inside ? imageLoad(depth, noise_pick(q, L, size)).x : 1.0 / 0.0;
     bool fluid = inside && is_fluid(d);
-    if (li == 0u) s_evaluated = 0u;
-    uint n = tiles[tile], start = tiles[pc.tiles + tile];
+    uint count = tiles[tile];
+    uint first = (chunk - tiles[3u * pc.tiles + tile]) * BATCH;
+    uint m = min(BATCH, count - min(first, count));
+    if (li < m) {
+        uint j = lists[tiles[pc.tiles + tile] + first + li];
+        s_a[li] = sprites[2u * j];
+        s_b[li] = sprites[2u * j + 1u];
+        s_reach[li] = noise_reach(s_b[li].w);
+    }
+    barrier();
     int sum = 0;
     uint evaluated = 0u;
-    for (uint b0 = 0u; b0 < n; b0 += BATCH) {
-        barrier();
-        if (b0 + li < n) {
-            uint j = lists[start + b0 + li];
-            s_a[li] = sprites[2u * j];
-            s_b[li] = sprites[2u * j + 1u];
-            s_reach[li] = noise_reach(s_b[li].w);
-        }
-        barrier();
-        uint m = min(BATCH, n - b0);
-        if (fluid) {
-            for (uint u = 0u; u < m; ++u) {
-                vec4 a = s_a[u], b = s_b[u];
-                int units;
-                if (noise_term(q, L, a.xy, a.z, a.w, b.xyz, b.w, s_reach[u], d, units)) {
-                    ++evaluated;
-                    sum += units;
-                }
+    if (fluid) {
+        for (uint u = 0u; u < m; ++u) {
+            vec4 a = s_a[u], b = s_b[u];
+            int units;
+            if (noise_term(q, L, a.xy, a.z, a.w, b.xyz, b.w, s_reach[u], d, units)) {
+                ++evaluated;
+                sum += units;
             }
         }
     }
     if (inside && sum != 0) imageAtomicAdd(accum, noise_level_base(size, L) + q, uint(sum));
     if (evaluated > 0u) atomicAdd(s_evaluated, evaluated);
     barrier();
-    if (li == 0u && s_evaluated > 0u) atomicAdd(work[3], s_evaluated);
+    if (li == 0u) {
+        if (s_evaluated > 0u) atomicAdd(work[3], s_evaluated);
+        if (first == 0u) atomicMax(work[7], count);
+    }
 }

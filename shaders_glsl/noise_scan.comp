@@ -2,9 +2,12 @@
 //! noise_scan — the tiled noise splat's list starts: an exclusive prefix sum of the n tile counts, by one work
 //! group (each thread sums a run of consecutive tiles, the runs' sums are scanned in shared memory, then each
 //! thread writes its run's starts); each tile's fill cursor starts at its start. Blelloch-style two-level scan.
+//! The same scan numbers the tiles' chunks (NOISE_CHUNK sprites of a list each: noise_gather's work groups, so
+//! no work group walks more than one chunk however many sprites pile up on one tile).
 //! It also writes the indirect dispatches that follow: noise_fill, one thread per binned sprite, and
-//! noise_gather, one work group per tile — none when no sprite was binned (every sprite was small).
-//! In/out: tiles ([0, n) counts → [n, 2n) starts, [2n, 3n) cursors). In: work[6] (sprites binned). Out: args.
+//! noise_gather, one work group per chunk — none when no sprite was binned (every sprite was small).
+//! In/out: tiles ([0, n) counts → [n, 2n) starts, [2n, 3n) cursors, [3n, 4n) first chunks). In: work[6]
+//! (sprites binned). Out: args.
 layout(local_size_x = 1024) in;
 layout(std430, set = 0, binding = 0) buffer Tiles { uint tiles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Work { uint work[8]; };
@@ -23,36 +26,40 @@ layout(push_constant) uniform Push {
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
 } pc;
 
-shared uint s_sum[1024];
+shared uvec2 s_sum[1024];
 
 void main() {
     uint t = gl_LocalInvocationID.x;
     uint n = pc.tiles;
+    uint binned = work[6];
     if (t == 0u) {
-        uint b = work[6];
-        args[0] = (b + uint(LOCAL_1D) - 1u) / uint(LOCAL_1D);
+        args[0] = (binned + uint(LOCAL_1D) - 1u) / uint(LOCAL_1D);
         args[1] = 1u;
         args[2] = 1u;
-        args[3] = b > 0u ? n : 0u;
         args[4] = 1u;
         args[5] = 1u;
     }
     uint run = (n + 1023u) / 1024u;
     uint a = min(t * run, n), b = min(a + run, n);
-    uint sum = 0u;
-    for (uint k = a; k < b; ++k) sum += tiles[k];
+    // (sprites, chunks) of the run.
+    uvec2 sum = uvec2(0u);
+    for (uint k = a; k < b; ++k) sum += uvec2(tiles[k], (tiles[k] + NOISE_CHUNK - 1u) / NOISE_CHUNK);
     s_sum[t] = sum;
     barrier();
     for (uint off = 1u; off < 1024u; off <<= 1) {
-        uint add = t >= off ? s_sum[t - off] : 0u;
+        uvec2 add = t >= off ? s_sum[t - off] : uvec2(0u);
         barrier();
         s_sum[t] += add;
         barrier();
     }
-    uint start = s_sum[t] - sum;
+    uvec2 start = s_sum[t] - sum;
+    // The gather's work groups: every chunk of every tile.
+    if (t == 1023u) args[3] = binned > 0u ? s_sum[t].y : 0u;
     for (uint k = a; k < b; ++k) {
-        tiles[n + k] = start;
-        tiles[2u * n + k] = start;
-        start += tiles[k];
+        uint c = tiles[k];
+        tiles[n + k] = start.x;
+        tiles[2u * n + k] = start.x;
+        tiles[3u * n + k] = start.y;
+        start += uvec2(c, (c + NOISE_CHUNK - 1u) / NOISE_CHUNK);
     }
 }

@@ -352,6 +352,7 @@ impl Settings {
             max_steps: self.iso.max_steps,
             refine: self.iso.refine,
             first_steps: self.iso.first_steps,
+            rest_lanes: self.iso.rest_lanes,
             radius: self.radius,
             fine_px: self.iso.fine_px,
             aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support)),

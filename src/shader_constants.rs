@@ -23,6 +23,9 @@ pub const NOISE_LEVELS: u32 = 6;
 pub const NOISE_LOD_SAMPLES: u32 = 6;
 /// Texels per edge of a tile of the `noise` pass's tiled splat (a 16×16 work group sums one tile).
 pub const NOISE_TILE: u32 = 16;
+/// Sprites of a tile's list that one work group of noise_gather.comp sums (one batch in shared memory): a tile
+/// with more is split into chunks, each its own work group (noise_scan.comp numbers them).
+pub const NOISE_CHUNK: u32 = NOISE_TILE * NOISE_TILE;
 /// Most tiles one sprite is binned to (a sprite's level keeps it under 39 texels across: at most 4 × 4 tiles).
 pub const NOISE_MAX_TILES: u32 = 16;
 /// Layers the `composite` pass lays over the shaded water (the effects' images: `crate::effect::Layer`).
@@ -89,6 +92,10 @@ pub const GRID_RUN: u32 = 32;
 pub const ISO_BACK_STEPS: u32 = 4;
 /// Samples after which the `iso` march's smallest step doubles (rays that long graze the surface's shell).
 pub const ISO_SHORT_STEPS: u32 = 8;
+/// Lanes that march one queued ray together in the `iso` cast's wide second dispatch (`[iso] rest_lanes` = 8;
+/// iso_cast.glsl): consecutive lanes of a subgroup, so a subgroup of 8, 16, 32 or 64 holds whole rays.
+pub const ISO_WIDE: u32 = 8;
+const _: () = assert!(ISO_WIDE == 8 && LOCAL_1D % ISO_WIDE == 0);
 /// Cells the iso casts' empty distance looks along each axis (iso_empty.comp): a position in a cell at least
 /// this + 1 cells (Chebyshev) from every cell holding a point is at least this many cells from every point.
 pub const ISO_EMPTY_REACH: u32 = 3;
@@ -115,6 +122,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("COMPOSITE_LAYERS", COMPOSITE_LAYERS),
     ("NOISE_LOD_SAMPLES", NOISE_LOD_SAMPLES),
     ("NOISE_TILE", NOISE_TILE),
+    ("NOISE_CHUNK", NOISE_CHUNK),
     ("NOISE_MAX_TILES", NOISE_MAX_TILES),
     ("CURVATURE_LOCAL", CURVATURE_LOCAL),
     ("MAX_BOXES", MAX_BOXES),
@@ -123,6 +131,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("SPLAT_TILE", SPLAT_TILE),
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
+    ("ISO_WIDE", ISO_WIDE),
     ("ISO_EMPTY_REACH", ISO_EMPTY_REACH),
     ("ISO_EMPTY_BITS", ISO_EMPTY_BITS),
     ("ISO_VOLUME_FIX_BITS", ISO_VOLUME_FIX_BITS),

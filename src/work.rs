@@ -30,4 +30,7 @@ pub struct NoiseWork {
     pub skipped: u64,
     /// Tile-list entries of the tiled splat (sprites × the tiles each touches).
     pub binned: u64,
+    /// The longest tile list of the tiled splat (sprites binned to one tile; noise_gather sums it in chunks of
+    /// NOISE_CHUNK, one work group each).
+    pub longest: u64,
 }

@@ -970,10 +970,40 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     rd.render(&v, &s).unwrap();
     let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     s.iso.first_steps = first_steps;
+    s.iso.rest_lanes = 1;
     rd.render(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
+    // The queued rays marched by 8 lanes each (isotropic kernels, where the device shuffles): the same rays
+    // bracketed on the finer lattice, so only queued pixels may differ, each within the interpolation's error
+    // or by a crossing thinner than one lane's step; the CPU comparison below holds for both.
+    let wide = gpu.info.subgroup_shuffle && kernel == meniscus::settings::Kernel::Isotropic;
+    let mut casts = vec![(got, "one lane per queued ray")];
+    if wide {
+        s.iso.rest_lanes = 8;
+        rd.render(&v, &s).unwrap();
+        let queue = rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap();
+        let queued = queue.work(&gpu).unwrap().queued as usize;
+        let wide_got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+        let (mut differ, mut far) = (0, 0);
+        for (a, b) in wide_got.iter().zip(&one_dispatch) {
+            if a.to_bits() != b.to_bits() {
+                differ += 1;
+                if !(a.is_finite() && b.is_finite() && (a - b).abs() < 0.05 * r) {
+                    far += 1;
+                }
+            }
+        }
+        eprintln!(
+            "rest_lanes 8: {queued} rays queued, {differ} pixels differ from one lane's march, {far} by ≥ 0.05 r"
+        );
+        assert!(queued > 0, "no ray was queued: the wide dispatch did not run");
+        assert!(differ <= queued, "{differ} pixels differ but {queued} rays were queued");
+        assert!(far * 100 <= queued, "{far} of {queued} queued pixels differ by 0.05 r or in coverage");
+        casts.push((wide_got, "8 lanes per queued ray"));
+    }
+    s.iso.rest_lanes = 8;
 
     let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let inv = grid.inv_density();
@@ -1009,8 +1039,10 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
         assert!(flat > n / 2 && round >= 1, "{flat} flat and {round} round kernels of {n}");
     }
     let cast = |eye, dir, start, end| cast_with(&grid, &inv, aniso.as_deref(), &p, eye, dir, start, end);
-    let label = format!("{kernel:?}, bound {bound} r");
-    check_cast(&got, &pts, &v, &s, (w, h), |eye, dir| ray_end(&grid, eye, dir), cast, &label, (0.01, 0.99));
+    for (got, lanes) in &casts {
+        let label = format!("{kernel:?}, bound {bound} r, {lanes}");
+        check_cast(got, &pts, &v, &s, (w, h), |eye, dir| ray_end(&grid, eye, dir), cast, &label, (0.01, 0.99));
+    }
     assert_clean(&gpu);
 }
 
@@ -1945,6 +1977,44 @@ fn noise_slab(n: usize, r: f32) -> Vec<[f32; 3]> {
     p
 }
 
+/// The tiled noise splat where sprites pile up on a tile (a surface seen at a grazing angle): each tile's list
+/// is summed in chunks of NOISE_CHUNK sprites, a work group each, and the accumulator equals the per-sprite
+/// splat's bit for bit (integer sums). The slab's top layer ten times, 0.02 r apart, seen from close
+/// up: the longest list is past one chunk.
+#[test]
+fn tiled_noise_sums_long_tile_lists_in_chunks() {
+    use meniscus::effect::noise::NoiseEffect;
+    use meniscus::motion::Motion;
+    let gpu = gpu();
+    let r = 0.1f32;
+    let v = view([0.2, 0.9, 1.1], [0.0, -0.2, 0.0], 160, 120, 60.0);
+    let mut s = settings(r);
+    s.smooth.filter = Filter::None;
+    s.noise.enabled = true;
+    let top: Vec<[f32; 3]> = noise_slab(14, r).into_iter().filter(|p| p[1] == 0.0).collect();
+    let pos: Vec<[f32; 3]> =
+        (0..10).flat_map(|k| top.iter().map(move |p| [p[0], p[1], p[2] + 0.02 * r * k as f32])).collect();
+    let motion: Vec<Motion> = (0..pos.len()).map(|k| Motion { id: 7 * k as u32, accel: 0.0 }).collect();
+    let mut runs = vec![];
+    for tiled in [true, false] {
+        let mut rr = Renderer::new(&gpu).unwrap();
+        rr.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
+        let up =
+            meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) };
+        rr.upload(up).unwrap();
+        rr.render(&v, &s).unwrap();
+        let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
+        runs.push((own.work().unwrap(), read_u32(&gpu, &own.accum).unwrap()));
+    }
+    let (tiled, alone) = (&runs[0], &runs[1]);
+    eprintln!("{:?}", tiled.0);
+    let chunk = meniscus::shader_constants::NOISE_CHUNK as u64;
+    assert!(tiled.0.longest > chunk, "the longest list ({}) fits one chunk: the test misses its case", tiled.0.longest);
+    assert_eq!(tiled.0.evaluated, alone.0.evaluated);
+    assert!(tiled.1 == alone.1, "the chunked sums differ from the per-sprite splat's");
+    assert_clean(&gpu);
+}
+
 /// The `noise` pass's level of detail against the exact CPU reference: the slab seen from close up, so sprites
 /// are tens to hundreds of pixels across and are evaluated on coarse levels of the accumulator, then resolved
 /// bilinearly. The stated tolerance (docs/surface-detail.md), per `[noise] lod_samples`: over the covered
@@ -2002,6 +2072,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
     let (a, b) = (runs[0].0, runs[1].0);
     assert_eq!((a.level, a.texels, a.sprites, a.evaluated), (b.level, b.texels, b.sprites, b.evaluated));
     assert!(a.binned > 0 && a.skipped == 0, "the close-up's large sprites go to the tiles: {a:?}");
+    eprintln!("tiled splat: {} list entries, the longest list {} sprites", a.binned, a.longest);
     let (work, noise, depth, _) = runs.pop().unwrap();
     let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);

@@ -335,6 +335,9 @@ pub struct IsoParams {
     /// Samples of the GPU cast's first dispatch before a ray is queued for the second (scheduling only: the
     /// surface is the same; 0 = one dispatch). The CPU reference ignores it.
     pub first_steps: u32,
+    /// Lanes that march one queued ray together in the GPU cast's second dispatch (1 or 8; scheduling only,
+    /// see `[iso] rest_lanes`). The CPU reference ignores it.
+    pub rest_lanes: u32,
     /// The anisotropic kernels' parameters (`None`: the isotropic kernel).
     pub aniso: Option<AnisoParams>,
     /// The particle radius (coarse-to-fine's units).
@@ -470,6 +473,7 @@ mod tests {
             max_steps: 256,
             refine: 16,
             first_steps: 0,
+            rest_lanes: 1,
             aniso: None,
             radius: 0.0,
             fine_px: 0.0,

@@ -97,6 +97,9 @@ pub struct DeviceInfo {
     pub calibrated_timestamps: bool,
     /// Subgroup size.
     pub subgroup_size: u32,
+    /// Compute shaders may shuffle within a subgroup (`GL_KHR_shader_subgroup_shuffle`) and the subgroup size is
+    /// 8 … 64 and divides 64: the iso cast's queued rays are marched by 8 lanes each (`[iso] rest_lanes`).
+    pub subgroup_shuffle: bool,
     /// Largest storage buffer range in bytes.
     pub max_storage_buffer_range: u64,
     /// maxTexelBufferElements: the most texels a texel view (`Buffer::with_texel_view`) may cover.
@@ -468,6 +471,10 @@ impl Gpu {
             queues: None,
             calibrated_timestamps: false,
             subgroup_size: subgroup.subgroup_size,
+            subgroup_shuffle: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::SHUFFLE)
+                && (8..=64).contains(&subgroup.subgroup_size)
+                && 64 % subgroup.subgroup_size == 0,
             max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
             max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
             int64_atomics: false,

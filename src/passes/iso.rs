@@ -51,10 +51,20 @@ pub struct Params {
     /// interpolation (0: the interpolation alone, as accurate on the shared frame and 28 % cheaper than 4).
     pub refine: u32,
     /// Iso-surface: samples per ray in the cast's first dispatch; the rays still marching after them are queued
-    /// and finished by a second, indirect dispatch, so lavapipe's 8-wide SIMD vectors hold long rays together
-    /// instead of waiting on one long ray among short ones (0: one dispatch runs every ray to the end). The same
-    /// surface either way; only the cost changes (see iso_cast.glsl).
+    /// and finished by a second, indirect dispatch (`rest_lanes` lanes each), so a SIMD vector or warp of the
+    /// first dispatch does not wait on one long ray among short ones (0: one dispatch runs every ray to the
+    /// end). The same surface with `rest_lanes` = 1; only the cost changes (see iso_cast.glsl). 4 by default:
+    /// on an H100 the `iso` pass 0.47 → 0.43 ms on the 59k sequence at 1080p and 0.36 → 0.30 at 540p against 8
+    /// (benches/results/nvidia-h100-iso-rest-lanes-*), on lavapipe within its noise.
     pub first_steps: u32,
+    /// Iso-surface: lanes that march one queued ray together in the cast's second dispatch (1 or 8). With 8,
+    /// each step samples 8 consecutive smallest steps at once and the ray moves to the farthest point they
+    /// show free of the surface, so the longest rays — a few hundred grazing rays behind spray, which bound the
+    /// dispatch on a GPU whatever the resolution — take an eighth of the dependent steps. Where the device
+    /// cannot shuffle within a subgroup (`meniscus info --device`) the pass uses 1. The crossing is bracketed
+    /// on a finer lattice than one lane's march, so a queued ray's depth may differ from it within the
+    /// final interpolation's error (tests/gpu_passes.rs, `iso_surface_matches_cpu_ray_cast`).
+    pub rest_lanes: u32,
     /// Iso-surface, coarse-to-fine: where a particle's radius on screen is at least this many pixels (the
     /// frame's nearest particle decides whether it runs at all), only the pixels with even x and y march, then
     /// take one Newton step of the field; every other pixel keeps its marched neighbours' mean depth where
@@ -90,7 +100,8 @@ impl Default for Params {
             bound: 1.5,
             max_steps: 512,
             refine: 0,
-            first_steps: 8,
+            first_steps: 4,
+            rest_lanes: 8,
             fine_px: 4.0,
             smoothing: 1.1,
             bulk: [4.0, 9.0],
@@ -117,6 +128,9 @@ impl crate::section::Section for Params {
         k.count("max_steps", self.max_steps, 1, 65536)?;
         k.count("refine", self.refine, 0, 32)?;
         k.count("first_steps", self.first_steps, 0, 65536)?;
+        k.rule("rest_lanes", matches!(self.rest_lanes, 1 | 8), || {
+            format!("rest_lanes = {} must be 1 or 8", self.rest_lanes)
+        })?;
         k.within("fine_px", self.fine_px, 0.0, 64.0)?;
         k.rule("fine_px", self.fine_px == 0.0 || self.fine_px >= 1.0, || {
             format!("fine_px = {} must be 0 (off) or 1 … 64", self.fine_px)
@@ -368,6 +382,9 @@ pub struct Iso {
     volume: [ComputeProgram<VolPush>; 4],
     cast_vol: ComputeProgram<IsoPush>,
     rest_vol: ComputeProgram<IsoPush>,
+    /// The queued rays marched by ISO_WIDE lanes each (exact and smoothed field), where the device shuffles
+    /// within subgroups (`DeviceInfo::subgroup_shuffle`).
+    rest_wide: Option<[ComputeProgram<IsoPush>; 2]>,
 }
 
 /// Push constants of iso_gather.comp.
@@ -408,6 +425,8 @@ declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Unifor
 declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
 // The second dispatches: the queued rays finished (the queue and its header read).
 declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+// The same, ISO_WIDE lanes per ray (`[iso] rest_lanes` = 8; iso_cast.glsl).
+declare_program!(pub REST_WIDE: IsoPush = compute(shaders::ISO_REST_WIDE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
 // Coarse-to-fine (isotropic only), twice: phase 0 (fine.y = 0) polishes the marched pixels with a Newton step;
 // phase 1 gives the pixels the first dispatches left their marched neighbours' depth (with a Newton step where
@@ -426,13 +445,19 @@ declare_program!(pub VOLUME_APRON: VolPush = compute(shaders::ISO_VOLUME_APRON, 
 // The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
 declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead]));
 declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
+declare_program!(pub REST_VOL_WIDE: IsoPush = compute(shaders::ISO_VOL_REST_WIDE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
+
+/// Bytes of the queue's header (IsoQueue::header); the wide dispatch's arguments at WIDE_ARGS.
+const HEADER_BYTES: u64 = 48;
+const WIDE_ARGS: u64 = 32;
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
     /// One entry (pixel, march state: 16 bytes) per pixel.
     pub entries: Buffer,
     /// Two rounds of {groups x, 1, 1, count}: the `rest` dispatches' indirect arguments and entry counts
-    /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks).
+    /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks), then round 0's
+    /// indirect arguments with ISO_WIDE lanes per ray {groups x, 1, 1} and a word of padding.
     pub header: Buffer,
 }
 
@@ -446,7 +471,7 @@ impl IsoQueue {
             header: Buffer::new(
                 gpu,
                 "iso_queue_header",
-                32,
+                HEADER_BYTES,
                 U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
                 MemoryLocation::GpuOnly,
             )?,
@@ -487,6 +512,11 @@ impl Iso {
             ],
             cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,
             rest_vol: ComputeProgram::new(gpu, &REST_VOL)?,
+            rest_wide: if gpu.info.subgroup_shuffle {
+                Some([ComputeProgram::new(gpu, &REST_WIDE)?, ComputeProgram::new(gpu, &REST_VOL_WIDE)?])
+            } else {
+                None
+            },
         })
     }
 
@@ -622,10 +652,20 @@ impl Iso {
                 }
                 (None, None) => (&self.cast, &self.rest),
             };
+            // Round 0's queued rays by ISO_WIDE lanes each where asked for and the device can (isotropic only).
+            let wide = match (&self.rest_wide, params.aniso, volume) {
+                (Some(w), None, v) if params.rest_lanes == crate::shader_constants::ISO_WIDE => {
+                    Some(if v.is_some() { &w[1] } else { &w[0] })
+                }
+                _ => None,
+            };
             let fine = push.fine[0] > 0.0;
             ctx.part("iso/cast", |ctx| (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g));
             if push.steps[3] < push.steps[0] {
-                ctx.part("iso/rest", |ctx| rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0));
+                ctx.part("iso/rest", |ctx| match wide {
+                    Some(w) => w.dispatch_indirect(ctx, &all, &push, &queue.header, WIDE_ARGS),
+                    None => rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0),
+                });
             }
             if fine {
                 let phase = |k: f32| IsoPush { fine: [push.fine[0], k, push.fine[2], push.fine[3]], ..push };

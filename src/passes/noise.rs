@@ -183,7 +183,7 @@ declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRea
 // Bin: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms, the binned
 // sprites' indices.
 declare_program!(pub BIN: SplatPush = compute(shaders::NOISE_BIN, [Uniform, BufRead, ImgRead, BufWrite, BufWrite, BufWrite, ImgWrite, BufWrite]));
-// Scan: tiles (counts → starts and cursors), work → the fill's and the gather's indirect dispatches.
+// Scan: tiles (counts → starts, cursors and first chunks), work → the fill's and the gather's indirect dispatches.
 declare_program!(pub SCAN: SplatPush = compute(shaders::NOISE_SCAN, [BufWrite, BufRead, BufWrite]));
 // Fill: sprite records, binned indices, work, fluid depth (its size) → tiles (cursors), lists.
 declare_program!(pub FILL: SplatPush = compute(shaders::NOISE_FILL, [BufRead, BufRead, BufRead, ImgRead, BufWrite, BufWrite]));
@@ -251,7 +251,7 @@ pub struct NoiseTargets {
 pub struct Bins {
     /// Per particle: centre, R, z; offset, amplitude (2 vec4; written for the binned sprites).
     pub sprites: Buffer,
-    /// Per tile: count, start, cursor (3 u32 × [`tile_count`]).
+    /// Per tile: count, start, cursor, first chunk of noise_gather (4 u32 × [`tile_count`]).
     pub tiles: Buffer,
     /// The tiles' lists of particle indices: at most NOISE_MAX_TILES per particle.
     pub lists: Buffer,
@@ -308,7 +308,7 @@ impl NoiseTargets {
         self.bins = None;
         self.bins = Some(Bins {
             sprites: Buffer::new(gpu, "noise_sprites", 32 * n as u64, usage, gpu_only)?,
-            tiles: Buffer::new(gpu, "noise_tiles", 12 * tiles, usage, gpu_only)?,
+            tiles: Buffer::new(gpu, "noise_tiles", 16 * tiles, usage, gpu_only)?,
             lists: Buffer::new(gpu, "noise_lists", 4 * max * n as u64, usage, gpu_only)?,
             binned: Buffer::new(gpu, "noise_binned", 4 * n as u64, usage, gpu_only)?,
             args: Buffer::new(gpu, "noise_args", 32, usage | vk::BufferUsageFlags::INDIRECT_BUFFER, gpu_only)?,
@@ -321,7 +321,15 @@ impl NoiseTargets {
     pub fn work(&self) -> Result<NoiseWork> {
         let b = self.work.read()?;
         let w = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().expect("4 bytes")) as u64;
-        Ok(NoiseWork { level: w(0) as u32, texels: w(1), sprites: w(2), evaluated: w(3), skipped: w(4), binned: w(5) })
+        Ok(NoiseWork {
+            level: w(0) as u32,
+            texels: w(1),
+            sprites: w(2),
+            evaluated: w(3),
+            skipped: w(4),
+            binned: w(5),
+            longest: w(7),
+        })
     }
 
     /// (name, bytes) of each resource, for the memory table.

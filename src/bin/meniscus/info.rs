@@ -123,7 +123,11 @@ fn device(filter: Option<String>) -> Result<()> {
     println!("device:      {} ({})", i.name, i.device_type);
     println!("driver:      {}", i.driver);
     println!("vulkan:      {}", i.api_version);
-    println!("subgroup:    {}", i.subgroup_size);
+    println!(
+        "subgroup:    {}{}",
+        i.subgroup_size,
+        if i.subgroup_shuffle { " (shuffles in compute: the iso cast's queued rays take 8 lanes each)" } else { "" }
+    );
     println!("timestamps:  {} valid bits, {} ns per tick", i.timestamp_valid_bits, i.timestamp_period);
     let families = unsafe { gpu.instance.get_physical_device_queue_family_properties(gpu.physical) };
     for (k, f) in families.iter().enumerate() {
