@@ -95,7 +95,7 @@ pub const ISO_SHORT_STEPS: u32 = 8;
 /// Lanes that march one queued ray together in the `iso` cast's wide second dispatch (`[iso] rest_lanes` = 8;
 /// iso_cast.glsl): consecutive lanes of a subgroup, so a subgroup of 8, 16, 32 or 64 holds whole rays.
 pub const ISO_WIDE: u32 = 8;
-const _: () = assert!(ISO_WIDE == 8 && LOCAL_1D % ISO_WIDE == 0);
+const _: () = assert!(ISO_WIDE == 8 && LOCAL_1D.is_multiple_of(ISO_WIDE));
 /// Cells the iso casts' empty distance looks along each axis (iso_empty.comp): a position in a cell at least
 /// this + 1 cells (Chebyshev) from every cell holding a point is at least this many cells from every point.
 pub const ISO_EMPTY_REACH: u32 = 3;

@@ -474,7 +474,7 @@ impl Gpu {
             subgroup_shuffle: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
                 && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::SHUFFLE)
                 && (8..=64).contains(&subgroup.subgroup_size)
-                && 64 % subgroup.subgroup_size == 0,
+                && 64u32.is_multiple_of(subgroup.subgroup_size),
             max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
             max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
             int64_atomics: false,
