@@ -4,9 +4,13 @@
 //! A particle's sprite covers a disc of `size` radii around its centre on screen; at sprite coordinates
 //! (u, v) ∈ [−1, 1]² the kernel is
 //!   I = A · exp(−2(u² + v²)) · n(u, v, id) · exp(−((z − d) / (falloff · r))²)
-//! with n a two-octave 3D gradient noise (Perlin 2002) whose first two coordinates are the sprite's and whose
-//! third is the particle's (a per-particle offset hashed from its id, so the pattern differs per particle and
-//! stays with the particle from frame to frame), z the particle's eye depth, d the surface's depth at the
+//! with n a two-octave gradient noise (Perlin 2002's quintic fade and gradient dot products) over the sprite's
+//! plane, whose lattice is the particle's: offset by a hash of its id and hashed with a seed from it, so the
+//! pattern differs per particle and stays with the particle from frame to frame — the patent's per-particle third
+//! noise coordinate as a seed, which needs 4 lattice corners of one hash each per octave where a 3D lattice
+//! needs 8 corners of three nested hashes (the `noise` pass's evaluations, its cost on every device, 2–3× cheaper;
+//! scaled by NOISE_2D_RMS so its RMS, 0.270, is the 3D slice's it replaces), z the particle's eye depth, d the
+//! surface's depth at the
 //! pixel (deep particles add nothing) and A the particle's amplitude: `calm`, raised towards `turbulent` while its
 //! velocity changes faster than `threshold` (eq. 17, as a smooth ramp from ½ to 1½ of the threshold so a
 //! particle near it does not flicker between two levels).
@@ -77,32 +81,33 @@ uint noise_hash(uint x) {
     return x;
 }
 
-/// Perlin's improved gradient (12 cube-edge directions, 16 cases) dotted with the offset f.
-float noise_grad(uint h, vec3 f) {
-    uint k = h & 15u;
-    float u = k < 8u ? f.x : f.y;
-    float v = k < 4u ? f.y : ((k == 12u || k == 14u) ? f.x : f.z);
-    return ((k & 1u) == 0u ? u : -u) + ((k & 2u) == 0u ? v : -v);
+/// The 2D noise's scale: its RMS (0.3045 over the lattice) brought to the 3D gradient noise's slice (0.2698), so
+/// the amplitudes `calm` and `turbulent` keep their meaning.
+#define NOISE_2D_RMS 0.886
+
+/// A lattice corner's gradient, one of the four diagonals (±1, ±1) chosen by the hash, dotted with the offset f.
+float noise_grad(uint h, vec2 f) {
+    return ((h & 1u) == 0u ? f.x : -f.x) + ((h & 2u) == 0u ? f.y : -f.y);
 }
 
-float noise_corner(ivec3 c, vec3 f) {
-    return noise_grad(noise_hash(uint(c.x) ^ noise_hash(uint(c.y) ^ noise_hash(uint(c.z)))), f);
+/// 2D gradient noise in [−1, 1] (before NOISE_2D_RMS), 0 on the integer lattice; `seed` picks the lattice's
+/// gradients. Corner (x, y) hashes x·0x8da6b343 + y·0xd8163841 + seed (wrapping) once.
+float noise_perlin(vec2 p, uint seed) {
+    vec2 i = floor(p);
+    vec2 f = p - i;
+    ivec2 c = ivec2(i);
+    vec2 w = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
+    uint x0 = uint(c.x) * 0x8da6b343u, x1 = x0 + 0x8da6b343u;
+    uint y0 = uint(c.y) * 0xd8163841u + seed, y1 = y0 + 0xd8163841u;
+    float a = noise_grad(noise_hash(x0 + y0), f);
+    float b = noise_grad(noise_hash(x1 + y0), f - vec2(1.0, 0.0));
+    float e = noise_grad(noise_hash(x0 + y1), f - vec2(0.0, 1.0));
+    float g = noise_grad(noise_hash(x1 + y1), f - vec2(1.0, 1.0));
+    return mix(mix(a, b, w.x), mix(e, g, w.x), w.y);
 }
 
-/// 3D gradient noise in about [−1, 1], 0 on the integer lattice.
-float noise_perlin(vec3 p) {
-    vec3 i = floor(p);
-    vec3 f = p - i;
-    ivec3 c = ivec3(i);
-    vec3 w = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
-    float x00 = mix(noise_corner(c, f), noise_corner(c + ivec3(1, 0, 0), f - vec3(1, 0, 0)), w.x);
-    float x10 = mix(noise_corner(c + ivec3(0, 1, 0), f - vec3(0, 1, 0)), noise_corner(c + ivec3(1, 1, 0), f - vec3(1, 1, 0)), w.x);
-    float x01 = mix(noise_corner(c + ivec3(0, 0, 1), f - vec3(0, 0, 1)), noise_corner(c + ivec3(1, 0, 1), f - vec3(1, 0, 1)), w.x);
-    float x11 = mix(noise_corner(c + ivec3(0, 1, 1), f - vec3(0, 1, 1)), noise_corner(c + ivec3(1, 1, 1), f - vec3(1, 1, 1)), w.x);
-    return mix(mix(x00, x10, w.y), mix(x01, x11, w.y), w.z);
-}
-
-/// The particle's place in the noise volume: three coordinates in [0, 256) hashed from its id.
+/// The particle's place in the noise: a lattice offset (xy, in [0, 256)) and its seed (z: the seed ÷ 1024),
+/// hashed from its id.
 vec3 noise_offset(uint id) {
     uint s = noise_hash(id);
     return vec3(noise_hash(s) & 1023u, noise_hash(s ^ 1u) & 1023u, noise_hash(s ^ 2u) & 1023u) * 0.25;
@@ -110,8 +115,9 @@ vec3 noise_offset(uint id) {
 
 /// Two octaves of the noise at sprite coordinates (u, v) of the particle whose offset is `o`.
 float noise_sprite(vec2 uv, float freq, vec3 o) {
-    vec3 q = vec3(uv * freq, 0.0) + o;
-    return noise_perlin(q) + 0.5 * noise_perlin(2.0 * q + vec3(17.0));
+    vec2 q = uv * freq + o.xy;
+    uint seed = uint(o.z * 4.0) * 0x9e3779b9u;
+    return NOISE_2D_RMS * (noise_perlin(q, seed) + 0.5 * noise_perlin(2.0 * q + vec2(17.0), seed ^ 0x5bd1e995u));
 }
 
 /// The amplitude of a particle whose velocity changes at `accel` (world units / s²).

@@ -26,7 +26,6 @@ struct Sprite {
 /// reference's rule).
 bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     Particle pt = load_particle(particles[i], 1.0);
-    vec4 motion = particles[particle_motion(pc.count, i)];
     s.z = -pt.c.z;
     // Spray is drawn apart from the surface: it adds no waves to it.
     if (pt.spray || s.z <= frame.proj.w) return false;
@@ -37,13 +36,17 @@ bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     s.R = F * pc.size * r / s.z;
     s.L = noise_level(s.R, pc.freq, pc.lod);
     noise_rect(s.centre, s.R, s.L, size, s.lo, s.hi);
+    if (any(greaterThan(s.lo, s.hi)) || over_budget(s.lo, s.hi)) return false;
+    ivec2 mid = clamp(ivec2(round(s.centre)), ivec2(0), size - 1);
+    float dc = imageLoad(depth, mid).x;
+    if (is_fluid(dc) && s.z - dc > (NOISE_DEEP * pc.falloff + pc.size) * r) return false;
+    // Only a sprite that draws reads its motion and hashes its id (most particles of a large set are culled
+    // above: off screen or deep).
+    vec4 motion = particles[particle_motion(pc.count, i)];
     s.amp = noise_amplitude(motion.y, pc.calm, pc.turbulent, pc.threshold);
     s.reach = noise_reach(s.amp);
     s.o = noise_offset(floatBitsToUint(motion.x));
-    ivec2 mid = clamp(ivec2(round(s.centre)), ivec2(0), size - 1);
-    float dc = imageLoad(depth, mid).x;
-    bool deep = is_fluid(dc) && s.z - dc > (NOISE_DEEP * pc.falloff + pc.size) * r;
-    return !deep && all(lessThanEqual(s.lo, s.hi)) && !over_budget(s.lo, s.hi);
+    return true;
 }
 
 #endif

@@ -2019,8 +2019,8 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
 /// are tens to hundreds of pixels across and are evaluated on coarse levels of the accumulator, then resolved
 /// bilinearly. The stated tolerance (docs/surface-detail.md), per `[noise] lod_samples`: over the covered
 /// pixels, the mean difference is under 2 % of the peak |N| and 97 % of the pixels are within 10 % of the peak
-/// at 6 samples per cycle (measured: 1.63 % and 97.3 %), under 3 % and 93 % at the default 4 (2.81 % and
-/// 94.4 %); the differences are the bilinear reconstruction of the finer octave at that many samples per cycle,
+/// at 6 samples per cycle (measured: 1.62 % and 97.6 %), under 3 % and 93 % at the default 4 (2.80 % and
+/// 94.9 %); the differences are the bilinear reconstruction of the finer octave at that many samples per cycle,
 /// and the depth a coarse texel reads for its 2^L × 2^L pixels. And the work it removes: fewer texels visited
 /// than the reference's sprite pixels (1.6× at 6, 4.1× at 4 here; hundreds of times for a sprite hundreds of
 /// pixels across).
