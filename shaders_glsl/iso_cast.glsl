@@ -8,8 +8,8 @@
 //! but 1 % take 30–100 (grazing rays along the shell between the surface and the bound spheres, in the
 //! spray), so one dispatch paid 3.1× the samples it used; compacted, the long rays share vectors.
 //! Queue header (binding 6): two rounds of {groups x, 1, 1, count} — a VkDispatchIndirectCommand followed by the
-//! count — then round 0's wide dispatch {groups x, 1, 1} (ISO_WIDE lanes per ray); the host zero-fills it
-//! before the first dispatch. Entries (binding 5): (pixel x | y << 16, d,
+//! count — then round 0's wide dispatches {groups x, 1, 1, unused} with 8 and with 32 lanes per ray; the host
+//! zero-fills it before the first dispatch. Entries (binding 5): (pixel x | y << 16, d,
 //! previous d, φ there); round 0 (the first dispatch's rays, continued from sample pc.steps.w) from entry 0,
 //! round 1 (the fine dispatch's fallbacks, marched from the start) after round 0's.
 //! Coarse-to-fine (pc.fine.x > 0: the host turns it on for a frame whose nearest particle is at least
@@ -25,6 +25,13 @@
 //! refine at full resolution". Each step is its own dispatch because lavapipe paid for code beside the march
 //! even where it never ran: a loop over the block's pixels, or the Newton step, in iso.comp cost its march
 //! 35 % on the dam-break frame.
+#if defined(ISO_REST_WIDE8)
+#define ISO_WIDE 8u
+#define ISO_REST_WIDE
+#elif defined(ISO_REST_WIDE32)
+#define ISO_WIDE 32u
+#define ISO_REST_WIDE
+#endif
 #if defined(ISO_REST_WIDE) && !defined(ISO_REST)
 #define ISO_REST
 #endif
@@ -41,17 +48,18 @@ layout(set = 0, binding = ISO_CAST_BINDING, r32f) uniform image2D depth;
 layout(set = 0, binding = ISO_CAST_BINDING + 1, r32f) uniform readonly image2D back;
 #ifdef ISO_REST
 layout(std430, set = 0, binding = ISO_CAST_BINDING + 2) readonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) readonly buffer IsoArgs { uint iso_args[12]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) readonly buffer IsoArgs { uint iso_args[16]; };
 #else
 layout(std430, set = 0, binding = ISO_CAST_BINDING + 2) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) buffer IsoArgs { uint iso_args[12]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) buffer IsoArgs { uint iso_args[16]; };
 
-/// Append pixel p's march state to the queue's round (0 or 1). Round 0 counts the work groups of both of its
-/// second dispatches: one lane per ray (x at [0]) and ISO_WIDE lanes per ray (x at [8]).
+/// Append pixel p's march state to the queue's round (0 or 1). Round 0 counts the work groups of each of its
+/// second dispatches: one lane per ray (x at [0]), 8 lanes per ray (x at [8]) and 32 (x at [12]).
 void enqueue(uint round, ivec2 p, float d, float prev, float phi_prev) {
     uint at = atomicAdd(iso_args[4u * round + 3u], 1u);
     if (at % LOCAL_1D == 0u) atomicAdd(iso_args[4u * round], 1u);
-    if (round == 0u && at % (LOCAL_1D / ISO_WIDE) == 0u) atomicAdd(iso_args[8], 1u);
+    if (round == 0u && at % (LOCAL_1D / 8u) == 0u) atomicAdd(iso_args[8], 1u);
+    if (round == 0u && at % (LOCAL_1D / 32u) == 0u) atomicAdd(iso_args[12], 1u);
     uint base = round == 1u ? iso_args[3] : 0u;
     iso_queue[base + at] = uvec4(uint(p.x) | (uint(p.y) << 16), floatBitsToUint(d), floatBitsToUint(prev),
                                  floatBitsToUint(phi_prev));
@@ -229,7 +237,7 @@ void main() {
 void main() {
     // The first dispatch with coarse-to-fine on (iso_blocks.comp): the block's marched pixel, and those of its
     // other pixels whose particles are too small on screen for the fine dispatch.
-    if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; }
+    if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; iso_args[13] = 1u; iso_args[14] = 1u; }
     ivec2 size = imageSize(depth);
     float F = focal_for(float(size.y));
     for (uint k = 0u; k < 4u; ++k) {
@@ -248,7 +256,7 @@ void main() {
     // One pixel per invocation (coarse-to-fine off: the shader is the lean march alone, see iso_blocks.comp).
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
-    if (p == ivec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; }
+    if (p == ivec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; iso_args[13] = 1u; iso_args[14] = 1u; }
     ivec2 size = imageSize(depth);
     if (any(greaterThanEqual(p, size))) return;
     float d = imageLoad(depth, p).x;
@@ -262,25 +270,24 @@ void main() {
     enqueue(0u, p, d, prev, phi_prev);
 }
 #elif defined(ISO_REST_WIDE)
-// ISO_WIDE consecutive lanes of a subgroup march one ray of round 0 together (`[iso] rest_lanes` = 8; the host
-// uses it where the device shuffles within subgroups of 8 … 64 that divide the work group). Each step, lane l
+// ISO_WIDE (8 or 32) consecutive lanes of a subgroup march one ray of round 0 together (`[iso] rest_lanes`; the
+// host uses a width where the device shuffles within subgroups at least that wide that divide the work group). Each step, lane l
 // samples the ray at d + l·s (s the smallest step there) and the lanes vote with shuffles: the first lane past
 // the threshold brackets the crossing with the lane before it (or the last step's sample); else the ray moves to
 // the farthest point the samples show free of the surface — the lattice's end, or a lane's own skip
 // (its nearest point's distance less the bound), whichever reaches farther. Each step is one field sample's
-// latency for ISO_WIDE samples: a ray that takes 500 dependent samples alone takes about 60 here (on the H100,
+// latency for ISO_WIDE samples: a ray that takes 500 dependent samples alone takes about 60 steps of 8 lanes or 16
+// of 32 (on the H100,
 // the queued rays' dispatch is bound by its longest ray, not by the number of rays). The bracket is refined as
 // march() does, by every lane alike.
 uint lane_of(uint l) { return (gl_SubgroupInvocationID & ~(ISO_WIDE - 1u)) | l; }
 uint wide_min(uint x) {
-    x = min(x, subgroupShuffleXor(x, 1u));
-    x = min(x, subgroupShuffleXor(x, 2u));
-    return min(x, subgroupShuffleXor(x, 4u));
+    for (uint m = 1u; m < ISO_WIDE; m <<= 1) x = min(x, subgroupShuffleXor(x, m));
+    return x;
 }
 float wide_max(float x) {
-    x = max(x, subgroupShuffleXor(x, 1u));
-    x = max(x, subgroupShuffleXor(x, 2u));
-    return max(x, subgroupShuffleXor(x, 4u));
+    for (uint m = 1u; m < ISO_WIDE; m <<= 1) x = max(x, subgroupShuffleXor(x, m));
+    return x;
 }
 
 float march_wide(Ray r, uint lane, uint k0, float d, float prev, float phi_prev) {

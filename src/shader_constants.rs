@@ -92,10 +92,9 @@ pub const GRID_RUN: u32 = 32;
 pub const ISO_BACK_STEPS: u32 = 4;
 /// Samples after which the `iso` march's smallest step doubles (rays that long graze the surface's shell).
 pub const ISO_SHORT_STEPS: u32 = 8;
-/// Lanes that march one queued ray together in the `iso` cast's wide second dispatch (`[iso] rest_lanes` = 8;
-/// iso_cast.glsl): consecutive lanes of a subgroup, so a subgroup of 8, 16, 32 or 64 holds whole rays.
-pub const ISO_WIDE: u32 = 8;
-const _: () = assert!(ISO_WIDE == 8 && LOCAL_1D.is_multiple_of(ISO_WIDE));
+// The `iso` cast's wide second dispatch marches a queued ray with 8 or 32 consecutive lanes of a subgroup
+// (`[iso] rest_lanes`, iso_cast.glsl): its work groups of LOCAL_1D threads hold whole rays of either width.
+const _: () = assert!(LOCAL_1D.is_multiple_of(32));
 /// Cells the iso casts' empty distance looks along each axis (iso_empty.comp): a position in a cell at least
 /// this + 1 cells (Chebyshev) from every cell holding a point is at least this many cells from every point.
 pub const ISO_EMPTY_REACH: u32 = 3;
@@ -131,7 +130,6 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("SPLAT_TILE", SPLAT_TILE),
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
-    ("ISO_WIDE", ISO_WIDE),
     ("ISO_EMPTY_REACH", ISO_EMPTY_REACH),
     ("ISO_EMPTY_BITS", ISO_EMPTY_BITS),
     ("ISO_VOLUME_FIX_BITS", ISO_VOLUME_FIX_BITS),

@@ -975,13 +975,15 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
-    // The queued rays marched by 8 lanes each (isotropic kernels, where the device shuffles): the same rays
-    // bracketed on the finer lattice, so only queued pixels may differ, each within the interpolation's error
-    // or by a crossing thinner than one lane's step; the CPU comparison below holds for both.
-    let wide = gpu.info.subgroup_shuffle && kernel == meniscus::settings::Kernel::Isotropic;
-    let mut casts = vec![(got, "one lane per queued ray")];
-    if wide {
-        s.iso.rest_lanes = 8;
+    // The queued rays marched by 8 and by 32 lanes each (isotropic kernels, where the device's subgroups allow):
+    // the same rays bracketed on a finer lattice, so only queued pixels may differ, each within the
+    // interpolation's error or by a crossing thinner than one lane's step; the CPU comparison below holds for all.
+    let mut casts = vec![(got, "one lane per queued ray".to_string())];
+    for lanes in [8, 32] {
+        if kernel != meniscus::settings::Kernel::Isotropic || meniscus::passes::iso::rest_lanes(&gpu, lanes) != lanes {
+            continue;
+        }
+        s.iso.rest_lanes = lanes;
         rd.render(&v, &s).unwrap();
         let queue = rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap();
         let queued = queue.work(&gpu).unwrap().queued as usize;
@@ -996,14 +998,13 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
             }
         }
         eprintln!(
-            "rest_lanes 8: {queued} rays queued, {differ} pixels differ from one lane's march, {far} by ≥ 0.05 r"
+            "rest_lanes {lanes}: {queued} rays queued, {differ} pixels differ from one lane's march, {far} by ≥ 0.05 r"
         );
         assert!(queued > 0, "no ray was queued: the wide dispatch did not run");
         assert!(differ <= queued, "{differ} pixels differ but {queued} rays were queued");
         assert!(far * 100 <= queued, "{far} of {queued} queued pixels differ by 0.05 r or in coverage");
-        casts.push((wide_got, "8 lanes per queued ray"));
+        casts.push((wide_got, format!("{lanes} lanes per queued ray")));
     }
-    s.iso.rest_lanes = 8;
 
     let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let inv = grid.inv_density();

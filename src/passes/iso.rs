@@ -57,13 +57,15 @@ pub struct Params {
     /// on an H100 the `iso` pass 0.47 → 0.43 ms on the 59k sequence at 1080p and 0.36 → 0.30 at 540p against 8
     /// (benches/results/nvidia-h100-iso-rest-lanes-*), on lavapipe within its noise.
     pub first_steps: u32,
-    /// Iso-surface: lanes that march one queued ray together in the cast's second dispatch (1 or 8). With 8,
-    /// each step samples 8 consecutive smallest steps at once and the ray moves to the farthest point they
-    /// show free of the surface, so the longest rays — a few hundred grazing rays behind spray, which bound the
-    /// dispatch on a GPU whatever the resolution — take an eighth of the dependent steps. Where the device
-    /// cannot shuffle within a subgroup (`meniscus info --device`) the pass uses 1. The crossing is bracketed
-    /// on a finer lattice than one lane's march, so a queued ray's depth may differ from it within the
-    /// final interpolation's error (tests/gpu_passes.rs, `iso_surface_matches_cpu_ray_cast`).
+    /// Iso-surface: lanes that march one queued ray together in the cast's second dispatch (1, 8 or 32). With
+    /// more than one, each step samples that many consecutive smallest steps at once and the ray moves to the
+    /// farthest point they show free of the surface, so the longest rays — a few hundred grazing rays behind
+    /// spray, which bound the dispatch on a GPU whatever the resolution — take that many times fewer dependent
+    /// steps. The device's subgroups bound it (`meniscus info --device`): 32 needs subgroups of 32 or 64
+    /// (NVIDIA, AMD), 8 of 8 or more (lavapipe: 8); the pass takes the widest the device allows up to this, 1
+    /// where it cannot shuffle. The crossing is bracketed on a finer lattice than one lane's march, so a
+    /// queued ray's depth may differ from it within the final interpolation's error (tests/gpu_passes.rs,
+    /// `iso_surface_matches_cpu_ray_cast`).
     pub rest_lanes: u32,
     /// Iso-surface, coarse-to-fine: where a particle's radius on screen is at least this many pixels (the
     /// frame's nearest particle decides whether it runs at all), only the pixels with even x and y march, then
@@ -101,7 +103,7 @@ impl Default for Params {
             max_steps: 512,
             refine: 0,
             first_steps: 4,
-            rest_lanes: 8,
+            rest_lanes: 32,
             fine_px: 4.0,
             smoothing: 1.1,
             bulk: [4.0, 9.0],
@@ -128,8 +130,8 @@ impl crate::section::Section for Params {
         k.count("max_steps", self.max_steps, 1, 65536)?;
         k.count("refine", self.refine, 0, 32)?;
         k.count("first_steps", self.first_steps, 0, 65536)?;
-        k.rule("rest_lanes", matches!(self.rest_lanes, 1 | 8), || {
-            format!("rest_lanes = {} must be 1 or 8", self.rest_lanes)
+        k.rule("rest_lanes", matches!(self.rest_lanes, 1 | 8 | 32), || {
+            format!("rest_lanes = {} must be 1, 8 or 32", self.rest_lanes)
         })?;
         k.within("fine_px", self.fine_px, 0.0, 64.0)?;
         k.rule("fine_px", self.fine_px == 0.0 || self.fine_px >= 1.0, || {
@@ -382,9 +384,10 @@ pub struct Iso {
     volume: [ComputeProgram<VolPush>; 4],
     cast_vol: ComputeProgram<IsoPush>,
     rest_vol: ComputeProgram<IsoPush>,
-    /// The queued rays marched by ISO_WIDE lanes each (exact and smoothed field), where the device shuffles
-    /// within subgroups (`DeviceInfo::subgroup_shuffle`).
-    rest_wide: Option<[ComputeProgram<IsoPush>; 2]>,
+    /// The queued rays marched by 8 and by 32 lanes each (exact and smoothed field), where the device shuffles
+    /// within subgroups that wide (`DeviceInfo::subgroup_shuffle`, `subgroup_size`).
+    rest_wide8: Option<[ComputeProgram<IsoPush>; 2]>,
+    rest_wide32: Option<[ComputeProgram<IsoPush>; 2]>,
 }
 
 /// Push constants of iso_gather.comp.
@@ -425,8 +428,9 @@ declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Unifor
 declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
 // The second dispatches: the queued rays finished (the queue and its header read).
 declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
-// The same, ISO_WIDE lanes per ray (`[iso] rest_lanes` = 8; iso_cast.glsl).
-declare_program!(pub REST_WIDE: IsoPush = compute(shaders::ISO_REST_WIDE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+// The same, 8 or 32 lanes per ray (`[iso] rest_lanes`; iso_cast.glsl).
+declare_program!(pub REST_WIDE8: IsoPush = compute(shaders::ISO_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+declare_program!(pub REST_WIDE32: IsoPush = compute(shaders::ISO_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
 // Coarse-to-fine (isotropic only), twice: phase 0 (fine.y = 0) polishes the marched pixels with a Newton step;
 // phase 1 gives the pixels the first dispatches left their marched neighbours' depth (with a Newton step where
@@ -445,11 +449,24 @@ declare_program!(pub VOLUME_APRON: VolPush = compute(shaders::ISO_VOLUME_APRON, 
 // The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
 declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead]));
 declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
-declare_program!(pub REST_VOL_WIDE: IsoPush = compute(shaders::ISO_VOL_REST_WIDE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
+declare_program!(pub REST_VOL_WIDE8: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
+declare_program!(pub REST_VOL_WIDE32: IsoPush = compute(shaders::ISO_VOL_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 
-/// Bytes of the queue's header (IsoQueue::header); the wide dispatch's arguments at WIDE_ARGS.
-const HEADER_BYTES: u64 = 48;
-const WIDE_ARGS: u64 = 32;
+/// Bytes of the queue's header (IsoQueue::header); the wide dispatches' arguments (8 and 32 lanes per ray) at
+/// these offsets.
+const HEADER_BYTES: u64 = 64;
+const WIDE8_ARGS: u64 = 32;
+const WIDE32_ARGS: u64 = 48;
+
+/// The lanes per queued ray the pass uses for `[iso] rest_lanes` = `asked` on this device: the widest it allows
+/// up to that (32 needs subgroups of 32 or 64, 8 any that shuffle).
+pub fn rest_lanes(gpu: &Gpu, asked: u32) -> u32 {
+    match asked {
+        32 if gpu.info.subgroup_shuffle && gpu.info.subgroup_size >= 32 => 32,
+        8 | 32 if gpu.info.subgroup_shuffle => 8,
+        _ => 1,
+    }
+}
 
 /// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
 pub struct IsoQueue {
@@ -457,7 +474,7 @@ pub struct IsoQueue {
     pub entries: Buffer,
     /// Two rounds of {groups x, 1, 1, count}: the `rest` dispatches' indirect arguments and entry counts
     /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks), then round 0's
-    /// indirect arguments with ISO_WIDE lanes per ray {groups x, 1, 1} and a word of padding.
+    /// indirect arguments with 8 and with 32 lanes per ray, {groups x, 1, 1} and a word of padding each.
     pub header: Buffer,
 }
 
@@ -512,8 +529,13 @@ impl Iso {
             ],
             cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,
             rest_vol: ComputeProgram::new(gpu, &REST_VOL)?,
-            rest_wide: if gpu.info.subgroup_shuffle {
-                Some([ComputeProgram::new(gpu, &REST_WIDE)?, ComputeProgram::new(gpu, &REST_VOL_WIDE)?])
+            rest_wide8: if rest_lanes(gpu, 8) == 8 {
+                Some([ComputeProgram::new(gpu, &REST_WIDE8)?, ComputeProgram::new(gpu, &REST_VOL_WIDE8)?])
+            } else {
+                None
+            },
+            rest_wide32: if rest_lanes(gpu, 32) == 32 {
+                Some([ComputeProgram::new(gpu, &REST_WIDE32)?, ComputeProgram::new(gpu, &REST_VOL_WIDE32)?])
             } else {
                 None
             },
@@ -652,18 +674,19 @@ impl Iso {
                 }
                 (None, None) => (&self.cast, &self.rest),
             };
-            // Round 0's queued rays by ISO_WIDE lanes each where asked for and the device can (isotropic only).
-            let wide = match (&self.rest_wide, params.aniso, volume) {
-                (Some(w), None, v) if params.rest_lanes == crate::shader_constants::ISO_WIDE => {
-                    Some(if v.is_some() { &w[1] } else { &w[0] })
-                }
+            // Round 0's queued rays by 8 or 32 lanes each where asked for and the device can (isotropic only).
+            let lanes = if params.aniso.is_none() { rest_lanes(&ctx.gpu, params.rest_lanes) } else { 1 };
+            let wide = match (lanes, &self.rest_wide8, &self.rest_wide32) {
+                (32, _, Some(w)) => Some((w, WIDE32_ARGS)),
+                (8, Some(w), _) => Some((w, WIDE8_ARGS)),
                 _ => None,
-            };
+            }
+            .map(|(w, at)| (if volume.is_some() { &w[1] } else { &w[0] }, at));
             let fine = push.fine[0] > 0.0;
             ctx.part("iso/cast", |ctx| (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g));
             if push.steps[3] < push.steps[0] {
                 ctx.part("iso/rest", |ctx| match wide {
-                    Some(w) => w.dispatch_indirect(ctx, &all, &push, &queue.header, WIDE_ARGS),
+                    Some((w, at)) => w.dispatch_indirect(ctx, &all, &push, &queue.header, at),
                     None => rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0),
                 });
             }

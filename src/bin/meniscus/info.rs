@@ -126,7 +126,10 @@ fn device(filter: Option<String>) -> Result<()> {
     println!(
         "subgroup:    {}{}",
         i.subgroup_size,
-        if i.subgroup_shuffle { " (shuffles in compute: the iso cast's queued rays take 8 lanes each)" } else { "" }
+        match meniscus::passes::iso::rest_lanes(&gpu, 32) {
+            1 => String::new(),
+            n => format!(" (shuffles in compute: the iso cast's queued rays take up to {n} lanes each)"),
+        }
     );
     println!("timestamps:  {} valid bits, {} ns per tick", i.timestamp_valid_bits, i.timestamp_period);
     let families = unsafe { gpu.instance.get_physical_device_queue_family_properties(gpu.physical) };
