@@ -46,10 +46,19 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ),
     (
         "iso_vol.comp",
-        &[("", ""), ("REST", "ISO_REST"), ("REST_WIDE8", "ISO_REST_WIDE8"), ("REST_WIDE32", "ISO_REST_WIDE32")],
+        &[
+            ("", ""),
+            ("REST", "ISO_REST"),
+            ("REST_WIDE8", "ISO_REST_WIDE8"),
+            ("REST_WIDE8_MANY", "ISO_REST_WIDE8_MANY"),
+            ("REST_WIDE32", "ISO_REST_WIDE32"),
+        ],
     ),
     // The cast's queued rays, one lane each, or 8 or 32 lanes each (devices that shuffle within a subgroup).
-    ("iso_rest.comp", &[("", ""), ("WIDE8", "ISO_REST_WIDE8"), ("WIDE32", "ISO_REST_WIDE32")]),
+    (
+        "iso_rest.comp",
+        &[("", ""), ("WIDE8", "ISO_REST_WIDE8"), ("WIDE8_MANY", "ISO_REST_WIDE8_MANY"), ("WIDE32", "ISO_REST_WIDE32")],
+    ),
     // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
     ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),
     // The composite for 0 … 4 layers: a frame without effects runs the composite that knows of none.

@@ -25,12 +25,20 @@
 //! refine at full resolution". Each step is its own dispatch because lavapipe paid for code beside the march
 //! even where it never ran: a loop over the block's pixels, or the Newton step, in iso.comp cost its march
 //! 35 % on the dam-break frame.
+// The wide second dispatches: 8 lanes per ray for every queued ray (WIDE8), or by the queue's length (`[iso]
+// rest_lanes` = 32): 32 lanes per ray when at most ISO_WIDE_SPLIT rays are queued (WIDE32), else 8 (WIDE8_MANY);
+// both are dispatched and one of them finds nothing to do.
 #if defined(ISO_REST_WIDE8)
 #define ISO_WIDE 8u
 #define ISO_REST_WIDE
+#elif defined(ISO_REST_WIDE8_MANY)
+#define ISO_WIDE 8u
+#define ISO_REST_WIDE
+#define ISO_REST_SPLIT 1
 #elif defined(ISO_REST_WIDE32)
 #define ISO_WIDE 32u
 #define ISO_REST_WIDE
+#define ISO_REST_SPLIT 0
 #endif
 #if defined(ISO_REST_WIDE) && !defined(ISO_REST)
 #define ISO_REST
@@ -332,7 +340,13 @@ void main() {
     uint lane = gl_SubgroupInvocationID % ISO_WIDE;
     uint i = (gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID) * (gl_SubgroupSize / ISO_WIDE)
              + gl_SubgroupInvocationID / ISO_WIDE;
-    if (i >= iso_args[3]) return;
+    uint count = iso_args[3];
+#ifdef ISO_REST_SPLIT
+    // Few rays: 32 lanes each (the longest ray's dependent steps bound the dispatch); many: 8 lanes each (32
+    // would leave most lanes waiting past short rays' crossings, and the rays no longer fit the device at once).
+    if ((count > ISO_WIDE_SPLIT) != (ISO_REST_SPLIT == 1)) return;
+#endif
+    if (i >= count) return;
     uvec4 q = iso_queue[i];
     ivec2 p = ivec2(q.x & 0xffffu, q.x >> 16);
     Ray r = ray_through(p, imageSize(depth));

@@ -61,11 +61,12 @@ pub struct Params {
     /// more than one, each step samples that many consecutive smallest steps at once and the ray moves to the
     /// farthest point they show free of the surface, so the longest rays — a few hundred grazing rays behind
     /// spray, which bound the dispatch on a GPU whatever the resolution — take that many times fewer dependent
-    /// steps. The device's subgroups bound it (`meniscus info --device`): 32 needs subgroups of 32 or 64
-    /// (NVIDIA, AMD), 8 of 8 or more (lavapipe: 8); the pass takes the widest the device allows up to this, 1
-    /// where it cannot shuffle. The crossing is bracketed on a finer lattice than one lane's march, so a
-    /// queued ray's depth may differ from it within the final interpolation's error (tests/gpu_passes.rs,
-    /// `iso_surface_matches_cpu_ray_cast`).
+    /// steps. 32 takes 32 lanes per ray while at most ISO_WIDE_SPLIT (16,384) rays are queued and 8 for more
+    /// (decided on the GPU from the queue's count). The device's subgroups bound it (`meniscus info --device`):
+    /// 32 needs subgroups of 32 or 64 (NVIDIA, AMD), 8 of 8 or more (lavapipe: 8); the pass takes the widest
+    /// the device allows up to this, 1 where it cannot shuffle. The crossing is bracketed on a finer lattice
+    /// than one lane's march, so a queued ray's depth may differ from it within the final interpolation's
+    /// error (tests/gpu_passes.rs, `iso_surface_matches_cpu_ray_cast`).
     pub rest_lanes: u32,
     /// Iso-surface, coarse-to-fine: where a particle's radius on screen is at least this many pixels (the
     /// frame's nearest particle decides whether it runs at all), only the pixels with even x and y march, then
@@ -387,7 +388,8 @@ pub struct Iso {
     /// The queued rays marched by 8 and by 32 lanes each (exact and smoothed field), where the device shuffles
     /// within subgroups that wide (`DeviceInfo::subgroup_shuffle`, `subgroup_size`).
     rest_wide8: Option<[ComputeProgram<IsoPush>; 2]>,
-    rest_wide32: Option<[ComputeProgram<IsoPush>; 2]>,
+    /// With 32 lanes: [32 lanes for few rays, 8 for many] per field (exact, smoothed).
+    rest_wide32: Option<[[ComputeProgram<IsoPush>; 2]; 2]>,
 }
 
 /// Push constants of iso_gather.comp.
@@ -431,6 +433,7 @@ declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelR
 // The same, 8 or 32 lanes per ray (`[iso] rest_lanes`; iso_cast.glsl).
 declare_program!(pub REST_WIDE8: IsoPush = compute(shaders::ISO_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 declare_program!(pub REST_WIDE32: IsoPush = compute(shaders::ISO_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+declare_program!(pub REST_WIDE8_MANY: IsoPush = compute(shaders::ISO_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
 declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
 // Coarse-to-fine (isotropic only), twice: phase 0 (fine.y = 0) polishes the marched pixels with a Newton step;
 // phase 1 gives the pixels the first dispatches left their marched neighbours' depth (with a Newton step where
@@ -451,6 +454,7 @@ declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, Tex
 declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 declare_program!(pub REST_VOL_WIDE8: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 declare_program!(pub REST_VOL_WIDE32: IsoPush = compute(shaders::ISO_VOL_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
+declare_program!(pub REST_VOL_WIDE8_MANY: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 
 /// Bytes of the queue's header (IsoQueue::header); the wide dispatches' arguments (8 and 32 lanes per ray) at
 /// these offsets.
@@ -535,7 +539,10 @@ impl Iso {
                 None
             },
             rest_wide32: if rest_lanes(gpu, 32) == 32 {
-                Some([ComputeProgram::new(gpu, &REST_WIDE32)?, ComputeProgram::new(gpu, &REST_VOL_WIDE32)?])
+                Some([
+                    [ComputeProgram::new(gpu, &REST_WIDE32)?, ComputeProgram::new(gpu, &REST_WIDE8_MANY)?],
+                    [ComputeProgram::new(gpu, &REST_VOL_WIDE32)?, ComputeProgram::new(gpu, &REST_VOL_WIDE8_MANY)?],
+                ])
             } else {
                 None
             },
@@ -676,18 +683,24 @@ impl Iso {
             };
             // Round 0's queued rays by 8 or 32 lanes each where asked for and the device can (isotropic only).
             let lanes = if params.aniso.is_none() { rest_lanes(&ctx.gpu, params.rest_lanes) } else { 1 };
-            let wide = match (lanes, &self.rest_wide8, &self.rest_wide32) {
-                (32, _, Some(w)) => Some((w, WIDE32_ARGS)),
-                (8, Some(w), _) => Some((w, WIDE8_ARGS)),
-                _ => None,
-            }
-            .map(|(w, at)| (if volume.is_some() { &w[1] } else { &w[0] }, at));
+            let field = usize::from(volume.is_some());
+            // (program, its arguments' offset) per dispatch: 32 lanes for few rays and 8 for many both run, one
+            // of them finding nothing to do.
+            let wide: Vec<(&ComputeProgram<IsoPush>, u64)> = match (lanes, &self.rest_wide8, &self.rest_wide32) {
+                (32, _, Some(w)) => vec![(&w[field][0], WIDE32_ARGS), (&w[field][1], WIDE8_ARGS)],
+                (8, Some(w), _) => vec![(&w[field], WIDE8_ARGS)],
+                _ => vec![],
+            };
             let fine = push.fine[0] > 0.0;
             ctx.part("iso/cast", |ctx| (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g));
             if push.steps[3] < push.steps[0] {
-                ctx.part("iso/rest", |ctx| match wide {
-                    Some((w, at)) => w.dispatch_indirect(ctx, &all, &push, &queue.header, at),
-                    None => rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0),
+                ctx.part("iso/rest", |ctx| {
+                    if wide.is_empty() {
+                        rest.dispatch_indirect(ctx, &all, &push, &queue.header, 0);
+                    }
+                    for (w, at) in &wide {
+                        w.dispatch_indirect(ctx, &all, &push, &queue.header, *at);
+                    }
                 });
             }
             if fine {
