@@ -96,10 +96,10 @@ pub const ISO_SHORT_STEPS: u32 = 8;
 // (`[iso] rest_lanes`, iso_cast.glsl): its work groups of LOCAL_1D threads hold whole rays of either width.
 const _: () = assert!(LOCAL_1D.is_multiple_of(32));
 /// With `[iso] rest_lanes` = 32, the most queued rays marched by 32 lanes each; more are marched by 8 each. On an
-/// H100 32 lanes won up to 8.7 k rays (the 59k still frame at 1080p: `iso/rest` 0.108 against 0.141 ms) and 8 won
-/// from 20 k (the worst case at 540p 0.049 against 0.095, the 59k sequence at 1080p 0.175 against 0.222):
-/// benches/results/nvidia-h100-iso-lanes32-10b74e8/.
-pub const ISO_WIDE_SPLIT: u32 = 16384;
+/// H100 (`first_steps` 4) 32 lanes won up to 18.9 k rays (the 59k still frame at 1080p: `iso/rest` 0.108 against
+/// 0.141 ms) and 8 won from 41.7 k (the worst case at 540p: 0.049 against 0.095; the 59k sequence at 1080p, 56 k
+/// rays: 0.175 against 0.222): benches/results/nvidia-h100-iso-lanes32-10b74e8/.
+pub const ISO_WIDE_SPLIT: u32 = 32768;
 /// Cells the iso casts' empty distance looks along each axis (iso_empty.comp): a position in a cell at least
 /// this + 1 cells (Chebyshev) from every cell holding a point is at least this many cells from every point.
 pub const ISO_EMPTY_REACH: u32 = 3;

@@ -61,7 +61,7 @@ pub struct Params {
     /// more than one, each step samples that many consecutive smallest steps at once and the ray moves to the
     /// farthest point they show free of the surface, so the longest rays — a few hundred grazing rays behind
     /// spray, which bound the dispatch on a GPU whatever the resolution — take that many times fewer dependent
-    /// steps. 32 takes 32 lanes per ray while at most ISO_WIDE_SPLIT (16,384) rays are queued and 8 for more
+    /// steps. 32 takes 32 lanes per ray while at most ISO_WIDE_SPLIT (32,768) rays are queued and 8 for more
     /// (decided on the GPU from the queue's count). The device's subgroups bound it (`meniscus info --device`):
     /// 32 needs subgroups of 32 or 64 (NVIDIA, AMD), 8 of 8 or more (lavapipe: 8); the pass takes the widest
     /// the device allows up to this, 1 where it cannot shuffle. The crossing is bracketed on a finer lattice
