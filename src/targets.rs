@@ -87,7 +87,7 @@ pub struct Targets {
     /// The same per 8×8 tile (written instead when the splat culls).
     pub depth_back_tiles: Option<Image>,
     /// The `iso` cast's queue of unfinished rays (`surface = "iso"`).
-    pub iso_queue: Option<crate::passes::iso::IsoQueue>,
+    pub iso_queue: Option<crate::passes::iso::queue::IsoQueue>,
     /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
     pub depth_tiles: Image,
     /// D32 depth buffer of the depth-tested rasterised splat variants.
@@ -132,7 +132,7 @@ impl Targets {
                 depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
                 iso_queue: d
                     .back
-                    .then(|| crate::passes::iso::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
+                    .then(|| crate::passes::iso::queue::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
                     .transpose()?,
                 depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
                 zbuffer: d

@@ -980,7 +980,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     // interpolation's error or by a crossing thinner than one lane's step; the CPU comparison below holds for all.
     let mut casts = vec![(got, "one lane per queued ray".to_string())];
     for lanes in [8, 32] {
-        if kernel != meniscus::settings::Kernel::Isotropic || meniscus::passes::iso::rest_lanes(&gpu, lanes) != lanes {
+        if kernel != meniscus::settings::Kernel::Isotropic || gpu.info.shuffle_lanes(lanes) != lanes {
             continue;
         }
         s.iso.rest_lanes = lanes;

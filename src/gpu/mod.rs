@@ -111,6 +111,19 @@ pub struct DeviceInfo {
     pub pipeline_statistics: bool,
 }
 
+impl DeviceInfo {
+    /// The lanes per group of consecutive subgroup lanes that may shuffle among themselves for `asked` (1, 8 or
+    /// 32): the widest this device allows up to it — 32 needs subgroups of 32 or 64, 8 any that shuffle, else 1
+    /// (the `iso` cast's queued rays, `[iso] rest_lanes`).
+    pub fn shuffle_lanes(&self, asked: u32) -> u32 {
+        match asked {
+            32 if self.subgroup_shuffle && self.subgroup_size >= 32 => 32,
+            8 | 32 if self.subgroup_shuffle => 8,
+            _ => 1,
+        }
+    }
+}
+
 /// The device and everything that lives as long as it.
 pub struct Gpu {
     /// The Vulkan loader.

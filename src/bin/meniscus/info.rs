@@ -126,7 +126,7 @@ fn device(filter: Option<String>) -> Result<()> {
     println!(
         "subgroup:    {}{}",
         i.subgroup_size,
-        match meniscus::passes::iso::rest_lanes(&gpu, 32) {
+        match i.shuffle_lanes(32) {
             1 => String::new(),
             n => format!(" (shuffles in compute: the iso cast's queued rays take up to {n} lanes each)"),
         }

@@ -20,6 +20,8 @@ use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::field::iso::IsoGrid;
 use crate::shaders;
 
+pub mod queue;
+
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `iso`.
 pub const NAME: &str = "iso";
 /// The weights' pass (shaders_glsl/iso_density.comp), recorded only when the particles changed.
@@ -456,57 +458,6 @@ declare_program!(pub REST_VOL_WIDE8: IsoPush = compute(shaders::ISO_VOL_REST_WID
 declare_program!(pub REST_VOL_WIDE32: IsoPush = compute(shaders::ISO_VOL_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 declare_program!(pub REST_VOL_WIDE8_MANY: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
 
-/// Bytes of the queue's header (IsoQueue::header); the wide dispatches' arguments (8 and 32 lanes per ray) at
-/// these offsets.
-const HEADER_BYTES: u64 = 64;
-const WIDE8_ARGS: u64 = 32;
-const WIDE32_ARGS: u64 = 48;
-
-/// The lanes per queued ray the pass uses for `[iso] rest_lanes` = `asked` on this device: the widest it allows
-/// up to that (32 needs subgroups of 32 or 64, 8 any that shuffle).
-pub fn rest_lanes(gpu: &Gpu, asked: u32) -> u32 {
-    match asked {
-        32 if gpu.info.subgroup_shuffle && gpu.info.subgroup_size >= 32 => 32,
-        8 | 32 if gpu.info.subgroup_shuffle => 8,
-        _ => 1,
-    }
-}
-
-/// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
-pub struct IsoQueue {
-    /// One entry (pixel, march state: 16 bytes) per pixel.
-    pub entries: Buffer,
-    /// Two rounds of {groups x, 1, 1, count}: the `rest` dispatches' indirect arguments and entry counts
-    /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks), then round 0's
-    /// indirect arguments with 8 and with 32 lanes per ray, {groups x, 1, 1} and a word of padding each.
-    pub header: Buffer,
-}
-
-impl IsoQueue {
-    /// A queue for `pixels` pixels.
-    pub fn new(gpu: &Arc<Gpu>, pixels: u64) -> Result<IsoQueue> {
-        use ash::vk::BufferUsageFlags as U;
-        use gpu_allocator::MemoryLocation;
-        Ok(IsoQueue {
-            entries: Buffer::new(gpu, "iso_queue", 16 * pixels.max(1), U::STORAGE_BUFFER, MemoryLocation::GpuOnly)?,
-            header: Buffer::new(
-                gpu,
-                "iso_queue_header",
-                HEADER_BYTES,
-                U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
-                MemoryLocation::GpuOnly,
-            )?,
-        })
-    }
-
-    /// The last frame's queued rays (waits for the device: for `bench` and tests, after a frame).
-    pub fn work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::IsoWork> {
-        let host = crate::gpu::transfer::read_back(gpu, &[(&self.header, 0, 32)])?;
-        let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 8)?;
-        Ok(crate::work::IsoWork { queued: w[3] as u64, fallbacks: w[7] as u64 })
-    }
-}
-
 impl Iso {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
@@ -533,12 +484,12 @@ impl Iso {
             ],
             cast_vol: ComputeProgram::new(gpu, &CAST_VOL)?,
             rest_vol: ComputeProgram::new(gpu, &REST_VOL)?,
-            rest_wide8: if rest_lanes(gpu, 8) == 8 {
+            rest_wide8: if gpu.info.shuffle_lanes(8) == 8 {
                 Some([ComputeProgram::new(gpu, &REST_WIDE8)?, ComputeProgram::new(gpu, &REST_VOL_WIDE8)?])
             } else {
                 None
             },
-            rest_wide32: if rest_lanes(gpu, 32) == 32 {
+            rest_wide32: if gpu.info.shuffle_lanes(32) == 32 {
                 Some([
                     [ComputeProgram::new(gpu, &REST_WIDE32)?, ComputeProgram::new(gpu, &REST_WIDE8_MANY)?],
                     [ComputeProgram::new(gpu, &REST_VOL_WIDE32)?, ComputeProgram::new(gpu, &REST_VOL_WIDE8_MANY)?],
@@ -639,7 +590,7 @@ impl Iso {
         params: &crate::field::iso::IsoParams,
         depth: &Image,
         back: Option<crate::passes::splat::BackBound>,
-        queue: &IsoQueue,
+        queue: &queue::IsoQueue,
         info: &crate::passes::FrameInfo,
     ) {
         use crate::passes::splat::BackBound;
@@ -682,13 +633,13 @@ impl Iso {
                 (None, None) => (&self.cast, &self.rest),
             };
             // Round 0's queued rays by 8 or 32 lanes each where asked for and the device can (isotropic only).
-            let lanes = if params.aniso.is_none() { rest_lanes(&ctx.gpu, params.rest_lanes) } else { 1 };
+            let lanes = if params.aniso.is_none() { ctx.gpu.info.shuffle_lanes(params.rest_lanes) } else { 1 };
             let field = usize::from(volume.is_some());
             // (program, its arguments' offset) per dispatch: 32 lanes for few rays and 8 for many both run, one
             // of them finding nothing to do.
             let wide: Vec<(&ComputeProgram<IsoPush>, u64)> = match (lanes, &self.rest_wide8, &self.rest_wide32) {
-                (32, _, Some(w)) => vec![(&w[field][0], WIDE32_ARGS), (&w[field][1], WIDE8_ARGS)],
-                (8, Some(w), _) => vec![(&w[field], WIDE8_ARGS)],
+                (32, _, Some(w)) => vec![(&w[field][0], queue::WIDE32_ARGS), (&w[field][1], queue::WIDE8_ARGS)],
+                (8, Some(w), _) => vec![(&w[field], queue::WIDE8_ARGS)],
                 _ => vec![],
             };
             let fine = push.fine[0] > 0.0;

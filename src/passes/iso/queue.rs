@@ -1,0 +1,47 @@
+//! The `iso` cast's queue of unfinished rays (iso_cast.glsl): the first dispatch appends the rays still marching
+//! after `[iso] first_steps` samples, the second dispatches finish them, indirectly, from its header.
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::gpu::{Buffer, Gpu};
+
+/// Bytes of the queue's header (IsoQueue::header); the wide dispatches' arguments (8 and 32 lanes per ray) at
+/// these offsets.
+const HEADER_BYTES: u64 = 64;
+pub(super) const WIDE8_ARGS: u64 = 32;
+pub(super) const WIDE32_ARGS: u64 = 48;
+
+/// The cast's queue of unfinished rays, sized for one fluid resolution (in the frame's targets).
+pub struct IsoQueue {
+    /// One entry (pixel, march state: 16 bytes) per pixel.
+    pub entries: Buffer,
+    /// Two rounds of {groups x, 1, 1, count}: the `rest` dispatches' indirect arguments and entry counts
+    /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks), then round 0's
+    /// indirect arguments with 8 and with 32 lanes per ray, {groups x, 1, 1} and a word of padding each.
+    pub header: Buffer,
+}
+
+impl IsoQueue {
+    /// A queue for `pixels` pixels.
+    pub fn new(gpu: &Arc<Gpu>, pixels: u64) -> Result<IsoQueue> {
+        use ash::vk::BufferUsageFlags as U;
+        use gpu_allocator::MemoryLocation;
+        Ok(IsoQueue {
+            entries: Buffer::new(gpu, "iso_queue", 16 * pixels.max(1), U::STORAGE_BUFFER, MemoryLocation::GpuOnly)?,
+            header: Buffer::new(
+                gpu,
+                "iso_queue_header",
+                HEADER_BYTES,
+                U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )?,
+        })
+    }
+
+    /// The last frame's queued rays (waits for the device: for `bench` and tests, after a frame).
+    pub fn work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::IsoWork> {
+        let host = crate::gpu::transfer::read_back(gpu, &[(&self.header, 0, 32)])?;
+        let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 8)?;
+        Ok(crate::work::IsoWork { queued: w[3] as u64, fallbacks: w[7] as u64 })
+    }
+}
