@@ -279,15 +279,14 @@ void main() {
 }
 #elif defined(ISO_REST_WIDE)
 // ISO_WIDE (8 or 32) consecutive lanes of a subgroup march one ray of round 0 together (`[iso] rest_lanes`; the
-// host uses a width where the device shuffles within subgroups at least that wide that divide the work group). Each step, lane l
-// samples the ray at d + l·s (s the smallest step there) and the lanes vote with shuffles: the first lane past
-// the threshold brackets the crossing with the lane before it (or the last step's sample); else the ray moves to
-// the farthest point the samples show free of the surface — the lattice's end, or a lane's own skip
-// (its nearest point's distance less the bound), whichever reaches farther. Each step is one field sample's
-// latency for ISO_WIDE samples: a ray that takes 500 dependent samples alone takes about 60 steps of 8 lanes or 16
-// of 32 (on the H100,
-// the queued rays' dispatch is bound by its longest ray, not by the number of rays). The bracket is refined as
-// march() does, by every lane alike.
+// host uses a width only where the device shuffles within subgroups at least that wide that divide the work
+// group: DeviceInfo::shuffle_lanes). Each step, lane l samples the ray at d + l·s (s the smallest step there)
+// and the lanes vote with shuffles: the first lane past the threshold brackets the crossing with the lane before
+// it (or the last step's sample); else the ray moves to the farthest point the samples show free of the surface
+// — the lattice's end, or a lane's own skip (its nearest point's distance less the bound), whichever reaches
+// farther. Each step is one field sample's latency for ISO_WIDE samples: a ray that takes 500 dependent samples
+// alone takes about 60 steps of 8 lanes or 16 of 32 (on the H100 the queued rays' dispatch is bound by its
+// longest ray, not by the number of rays). The bracket is refined as march() does, by every lane alike.
 uint lane_of(uint l) { return (gl_SubgroupInvocationID & ~(ISO_WIDE - 1u)) | l; }
 uint wide_min(uint x) {
     for (uint m = 1u; m < ISO_WIDE; m <<= 1) x = min(x, subgroupShuffleXor(x, m));
@@ -309,7 +308,8 @@ float march_wide(Ray r, uint lane, uint k0, float d, float prev, float phi_prev)
         bool inside = dl <= r.end;
         if (inside) phi = iso_sum(r.eye + r.dir * dl, true, dmin);
         uint first = wide_min(inside && phi >= threshold ? lane : ISO_WIDE);
-        // Every lane reads its neighbours' values in the same control flow (first is the same in all 8 lanes).
+        // Every lane reads its neighbours' values in the same control flow (first is the same in all the ray's
+        // lanes).
         float phi_before = subgroupShuffle(phi, lane_of(first == 0u ? 0u : min(first, ISO_WIDE) - 1u));
         float phi_first = subgroupShuffle(phi, lane_of(min(first, ISO_WIDE - 1u)));
         float phi_last = subgroupShuffle(phi, lane_of(ISO_WIDE - 1u));
