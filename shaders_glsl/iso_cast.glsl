@@ -121,6 +121,19 @@ float newton(Ray r, float z, out bool ok) {
 }
 #endif
 
+/// The crossing inside the bracket [a, b] (φ(a) = fa below the threshold, φ(b) = fb at or above it): pc.steps.y
+/// bisections, then one linear interpolation. Shared by the one-lane and the wide march.
+float bracket_depth(Ray r, float a, float b, float fa, float fb) {
+    float threshold = pc.params.y;
+    for (uint j = 0u; j < pc.steps.y; ++j) {
+        float m = 0.5 * (a + b);
+        float unused;
+        float fm = iso_sum(r.eye + r.dir * m, true, unused);
+        if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
+    }
+    return a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
+}
+
 // March samples k0 … k1 − 1 from depth d (prev, phi_prev: the sample before; k0 = 0: d is the start). The
 // smallest step doubles after ISO_SHORT_STEPS samples: a ray that long grazes the shell between the surface and
 // the bound spheres (iso −5 % on the dam-break frame, normals unchanged: tools/quality.sh). True
@@ -150,13 +163,7 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
                 }
                 if (fa >= threshold) { result = a; return true; }
             }
-            for (uint j = 0u; j < pc.steps.y; ++j) {
-                float m = 0.5 * (a + b);
-                float unused;
-                float fm = iso_sum(r.eye + r.dir * m, true, unused);
-                if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
-            }
-            result = a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
+            result = bracket_depth(r, a, b, fa, fb);
             return true;
         }
         prev = d;
@@ -288,7 +295,7 @@ void main() {
 // — the lattice's end, or a lane's own skip (its nearest point's distance less the bound), whichever reaches
 // farther. Each step is one field sample's latency for ISO_WIDE samples: a ray that takes 500 dependent samples
 // alone takes about 60 steps of 8 lanes or 16 of 32 (on the H100 the queued rays' dispatch is bound by its
-// longest ray, not by the number of rays). The bracket is refined as march() does, by every lane alike.
+// longest ray, not by the number of rays). The bracket is refined by bracket_depth, by every lane alike.
 uint lane_of(uint l) { return (gl_SubgroupInvocationID & ~(ISO_WIDE - 1u)) | l; }
 uint wide_min(uint x) {
     for (uint m = 1u; m < ISO_WIDE; m <<= 1) x = min(x, subgroupShuffleXor(x, m));
@@ -318,13 +325,7 @@ float march_wide(Ray r, uint lane, uint k0, float d, float prev, float phi_prev)
         if (first < ISO_WIDE) {
             float a = first == 0u ? prev : d + float(first - 1u) * s, b = d + float(first) * s;
             float fa = first == 0u ? phi_prev : phi_before, fb = phi_first;
-            for (uint j = 0u; j < pc.steps.y; ++j) {
-                float m = 0.5 * (a + b);
-                float unused;
-                float fm = iso_sum(r.eye + r.dir * m, true, unused);
-                if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
-            }
-            return a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
+            return bracket_depth(r, a, b, fa, fb);
         }
         // No crossing among the samples; a lane past the far bound ends the ray.
         float last = d + float(ISO_WIDE - 1u) * s;
