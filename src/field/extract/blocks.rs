@@ -59,21 +59,31 @@ pub fn extract_blocks_timed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
 /// numbers its vertices block by block, so comparisons with other paths (the per-corner reference, the GPU)
 /// put both in key order.
 pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) -> (TriMesh, Vec<i64>, ExtractTimes) {
-    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
     let t0 = std::time::Instant::now();
     let p = &resolve_block(grid, p);
     let lat = Lattice::of(grid, p.cube.max(1e-6));
     let b = p.block.max(1) as i32;
-    let (blocks, nb) = occupied_blocks(grid, &lat, b);
+    let (blocks, reaches, nb) = occupied_blocks_counted(grid, &lat, b);
     // Per-thread scratch (corner values, inside flags, edge → vertex slots), reused from block to block.
     let n = b + 3;
     let cells = (n as usize).pow(3);
     let (scatter_ns, march_ns) = (AtomicU64::new(0), AtomicU64::new(0));
-    let outs: Vec<BlockMesh> = blocks
-        .par_iter()
-        .map_init(
-            || (vec![0f32; cells], vec![0u8; cells], vec![u32::MAX; 3 * cells], vec![0u8; (n * n) as usize]),
-            |(v, inside, slot, rows), &bk| {
+    // The blocks heaviest first (the particles reaching each), each worker taking the next one left: a list
+    // schedule whose last blocks are the lightest, so the workers finish together even when a frame has few
+    // blocks (the 6,859-particle frame has 3–32 of 64³).
+    let mut order: Vec<usize> = (0..blocks.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(reaches[i]));
+    let next = AtomicUsize::new(0);
+    let workers = rayon::current_num_threads().clamp(1, blocks.len().max(1));
+    let made: Vec<(usize, BlockMesh)> = (0..workers)
+        .into_par_iter()
+        .flat_map_iter(|_| {
+            let (mut v, mut inside, mut slot, mut rows) =
+                (vec![0f32; cells], vec![0u8; cells], vec![u32::MAX; 3 * cells], vec![0u8; (n * n) as usize]);
+            let mut mine = vec![];
+            while let Some(&i) = order.get(next.fetch_add(1, Relaxed)) {
+                let bk = blocks[i];
                 let bi = glam::IVec3::new(
                     (bk / nb.z as i64 / nb.y as i64) as i32,
                     (bk / nb.z as i64 % nb.y as i64) as i32,
@@ -82,15 +92,22 @@ pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
                 // Corners of the block with the margin: global c0 − 1 … c0 + b + 1.
                 let blk = BlockShape { c0: bi * b - 1, n, b, nb };
                 let t = std::time::Instant::now();
-                scatter_block(grid, inv_n, p, &lat, &blk, v);
+                scatter_block(grid, inv_n, p, &lat, &blk, &mut v);
                 let t_scatter = t.elapsed();
-                let out = march_block(&lat, &blk, v, p.threshold, inside, slot, rows);
+                let out = march_block(&lat, &blk, &v, p.threshold, &mut inside, &mut slot, &mut rows);
                 scatter_ns.fetch_add(t_scatter.as_nanos() as u64, Relaxed);
                 march_ns.fetch_add((t.elapsed() - t_scatter).as_nanos() as u64, Relaxed);
-                out
-            },
-        )
+                mine.push((i, out));
+            }
+            mine
+        })
         .collect();
+    // Back in block order (the weld numbers the vertices block by block).
+    let mut outs: Vec<Option<BlockMesh>> = (0..blocks.len()).map(|_| None).collect();
+    for (i, out) in made {
+        outs[i] = Some(out);
+    }
+    let outs: Vec<BlockMesh> = outs.into_iter().map(|o| o.expect("every block made")).collect();
     let t_blocks = t0.elapsed();
     let (mesh, keys) = weld_blocks(outs, &blocks);
     let times = ExtractTimes {
@@ -174,6 +191,8 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
     let inv_h = 1.0 / h;
     // The support in lattice units.
     let rs = support * inv_h;
+    // A particle's squared distances along x to the block's corner columns: the same for every row it reaches.
+    let mut dx2 = vec![0f32; n as usize];
     // Cells in index order (z, y, x nested) = the global sorted order of their points.
     for z in cl.z..=ch.z {
         for y in cl.y..=ch.y {
@@ -195,6 +214,10 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
                     let ux = (floor_i(gx.x + rs) - c0.x).min(n - 1);
                     let uy = (floor_i(gx.y + rs) - c0.y).min(n - 1);
                     let uz = (floor_i(gx.z + rs) - c0.z).min(n - 1);
+                    for i in lx..=ux {
+                        let dx = lat.lo.x + (c0.x + i) as f32 * h - x.x;
+                        dx2[i as usize] = dx * dx;
+                    }
                     for k in lz..=uz {
                         let dz = lat.lo.z + (c0.z + k) as f32 * h - x.z;
                         for jj in ly..=uy {
@@ -211,8 +234,8 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
                             if i1 < i0 {
                                 continue;
                             }
-                            let seg = &mut v[row + i0 as usize..=row + i1 as usize];
-                            scatter_row(seg, c0.x + i0, lat.lo.x, h, x.x, d2, inv_support, w_j, p.metaball);
+                            let line = &mut v[row..row + n as usize];
+                            scatter_row(line, &dx2, (i0, i1), d2, inv_support, w_j, p.metaball);
                         }
                     }
                 }
@@ -390,25 +413,27 @@ fn weld_blocks(outs: Vec<BlockMesh>, blocks: &[i64]) -> (TriMesh, Vec<i64>) {
     (TriMesh { vertices, normals, triangles }, keys)
 }
 
-/// Add one particle's kernel to a row of corner values: corner `o` of `seg` is global lattice index `i0 + o`
-/// along x (position `lo_x + index·h`), `d2` the squared distance across the row, `w` the particle's weight.
-/// Branch-free (the kernel as selects) so that it vectorises. (Tried twice: an AVX2 build chosen at run time, of
-/// this function and of the whole block scatter — no faster: the rows are only ~13 corners long.)
-#[allow(clippy::too_many_arguments)]
-fn scatter_row(
-    seg: &mut [f32],
-    i0: i32,
-    lo_x: f32,
-    h: f32,
-    px: f32,
-    d2: f32,
-    inv_support: f32,
-    w: f32,
-    metaball: bool,
-) {
-    for (o, val) in seg.iter_mut().enumerate() {
-        let dx = lo_x + (i0 + o as i32) as f32 * h - px;
-        let q = (dx * dx + d2).sqrt() * inv_support;
+/// Add one particle's kernel to the corners `chord.0 ..= chord.1` of a row of corner values `line`: `dx2` holds
+/// the squared distances along x to the particle (per corner of the row, valid on the chord), `d2` the squared
+/// distance across the row, `w` the particle's weight.
+///
+/// A window of a multiple of four corners holding the chord, the corners outside the chord masked by index (a
+/// masked corner gets + 0.0, which leaves its value's bits as they are: every value is ≥ +0), so that the vector
+/// loop has no scalar tail; the distances along x are the particle's, computed once for all its rows. (Windows
+/// aligned to the row's quads, so that consecutive particles load and store the same quads, were no faster.) The same
+/// operations in the same order per corner as before: the same bits. Branch-free (the kernel as selects) so
+/// that it vectorises. (Tried before: an AVX2 build chosen at run time, of this function and of the whole block
+/// scatter — no faster.)
+#[inline(always)]
+fn scatter_row(line: &mut [f32], dx2: &[f32], chord: (i32, i32), d2: f32, inv_support: f32, w: f32, metaball: bool) {
+    let (i0, i1) = chord;
+    // A window of a multiple of four corners inside the row holding the chord (or the whole row, where blocks are
+    // smaller than the support).
+    let len = (((i1 - i0 + 4) & !3) as usize).min(line.len());
+    let s = (i0 as usize).min(line.len() - len);
+    for (o, (val, &dd)) in line[s..s + len].iter_mut().zip(&dx2[s..s + len]).enumerate() {
+        let i = (s + o) as i32;
+        let q = (dd + d2).sqrt() * inv_support;
         let k = if metaball {
             let s = 0.5 * q * q - 0.5;
             if q < 1.0 {
@@ -429,6 +454,6 @@ fn scatter_row(
                 0.0
             }
         };
-        *val += k * w;
+        *val += if i >= i0 && i <= i1 { k * w } else { 0.0 };
     }
 }

@@ -234,7 +234,9 @@ pub const AUTO_BLOCK: u32 = u32::MAX;
 /// costs least), else the largest of 64, 32, 16 that leaves at least 40 occupied blocks per thread, so that no
 /// thread waits long for the last blocks. Measured on the 16-core host of an H100 (59k dam break f20,
 /// `bench --mesh --block 64,32,16`; benches/results/nvidia-h100-host-bench-mesh-93097bc/): at 0.5 r and 16
-/// threads 64 → 0.30 s, 32 → 0.23, 16 → 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie.
+/// threads 64 → 0.30 s, 32 → 0.23, 16 → 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie. On 2
+/// threads, blocks of 32 balance the 6,859-particle frame at 1 r better (7 blocks of 64³: efficiency 79–85 %
+/// → 95–97 %) but take longer (0.018 → 0.022 s: the margins and the per-block set-up), so 64 stays.
 pub fn auto_block(grid: &IsoGrid, cube: f32, threads: usize) -> u32 {
     if threads <= 2 || grid.points.is_empty() {
         return 64;
@@ -508,6 +510,27 @@ impl Lattice {
 /// The blocks of `b`³ cubes that some particle's support reaches (cube lower corners in [c − reach, c + reach]),
 /// as sorted keys `(x · nb.y + y) · nb.z + z`, and `nb`, the blocks per axis. Shared by the CPU and GPU paths.
 pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
+    let (mut blocks, nb) = block_reaches(grid, lat, b);
+    blocks.dedup();
+    (blocks, nb)
+}
+
+/// [`occupied_blocks`], and for each block the particles whose support reaches it (what scattering it costs).
+pub(crate) fn occupied_blocks_counted(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, Vec<u32>, glam::IVec3) {
+    let (reaches, nb) = block_reaches(grid, lat, b);
+    let (mut blocks, mut counts) = (Vec::new(), Vec::new());
+    for (i, &k) in reaches.iter().enumerate() {
+        if i == 0 || reaches[i - 1] != k {
+            blocks.push(k);
+            counts.push(0);
+        }
+        *counts.last_mut().unwrap() += 1;
+    }
+    (blocks, counts, nb)
+}
+
+/// Every (particle, block its support reaches) as the block's key, sorted: [`occupied_blocks`] before the dedup.
+fn block_reaches(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
     let (h, dims) = (lat.h, lat.dims);
     let reach = (grid.support / h).ceil() as i32;
     let nb = (dims - 1 + b - 1) / b; // blocks per axis over the dims − 1 cubes
@@ -526,7 +549,6 @@ pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64
         })
         .collect();
     blocks.par_sort_unstable();
-    blocks.dedup();
     (blocks, nb)
 }
 
