@@ -14,7 +14,7 @@
 use std::sync::Arc;
 
 use ash::vk;
-use meniscus::gpu::timer::Timer;
+use meniscus::gpu::Timer;
 use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image};
 use meniscus::renderer::Renderer;
 use meniscus::scene::camera::Camera;
@@ -167,7 +167,7 @@ fn wave_frame(gpu: &Arc<Gpu>, no_filter: bool) -> meniscus::Result<(Renderer, Vi
     let gen = procedural::generate("wave", 20_000)?;
     let mut s = Settings { radius: gen.radius, ..Settings::default() };
     if no_filter {
-        s.smooth.filter = meniscus::settings::Filter::None;
+        s.smooth.filter = meniscus::named::Filter::None;
     }
     let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
     let view = View {

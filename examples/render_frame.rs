@@ -10,7 +10,7 @@ use meniscus::view::View;
 
 fn main() -> meniscus::Result<()> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "frame.png".into());
-    let gpu = meniscus::gpu::Gpu::new(&Default::default())?;
+    let gpu = meniscus::device::Gpu::new(&Default::default())?;
     let scene = procedural::generate("wave", 50_000)?;
     let s = Settings { radius: scene.radius, ..Settings::preset("default")? };
     let bounds = percentile_bounds(&scene.particles.positions, 0.01)

@@ -1,7 +1,8 @@
 //! Meniscus — a Vulkan-native, compute-heavy screen-space fluid renderer for SPH particle data
 //! (van der Laan, Green & Sainz 2009; Green 2010; Moritz 2016).
 //!
-//! Layout: [`gpu`] (device, resources, access tracking, timestamps), [`passes`] (one struct per pass),
+//! Layout: [`device`] (the device as applications see it; the device layer itself, `gpu` — resources, access
+//! tracking, programs, timestamps — is the library's own and hidden here), [`passes`] (one struct per pass),
 //! [`frame`] (the frame's table of contents), [`renderer`] (frame driver and readback), [`scene`]
 //! (particles, loaders, camera, procedural scenes), [`settings`], [`output`] (PNG/NPY writers).
 
@@ -9,12 +10,16 @@
 
 pub mod background;
 pub mod compute;
+pub mod device;
 pub mod diffuse;
 pub mod effect;
-pub mod error;
+mod error;
 pub mod export;
 pub mod field;
 pub mod frame;
+/// The device layer: the library's own (its integration tests drive single passes through it); applications
+/// use [`device`].
+#[doc(hidden)]
 pub mod gpu;
 pub mod input;
 pub mod inspect;
@@ -43,4 +48,6 @@ pub mod shaders {
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 }
 
-pub use error::{Error, Result};
+/// The library's error, its `Result`, and the context a Vulkan call's error is given (`.vk("what")`); one path
+/// each (the module `error` is private).
+pub use error::{Error, Result, VkContext};

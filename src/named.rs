@@ -1,6 +1,9 @@
 //! Enums whose variants have one name each — used everywhere a user names one: TOML (serde), the command line
 //! (`FromStr` + [`Named::NAMES`], so the library needs no CLI crate), JSON and tables. The settings' enums and
-//! the passes' own (a filter, a splat mode) are declared with [`named_enum!`].
+//! the passes' own are declared with [`named_enum!`]; the passes' own that a user chooses among — the
+//! screen-space filter ([`Filter`], `[smooth] filter`, `--filter`) and the sphere splat's mode ([`SplatMode`],
+//! `[splat] mode`, `--splat`) — are declared here, below both the passes that run them and the settings that
+//! hold them, so that each has one path.
 
 use crate::error::{Error, Result};
 
@@ -61,3 +64,47 @@ macro_rules! named_enum {
     };
 }
 pub(crate) use named_enum;
+
+named_enum! {
+    /// Depth smoothing filter (`--filter`).
+    pub enum Filter {
+        /// No smoothing: the raw spheres.
+        None = "none",
+        /// Separable Gaussian (a baseline: merges silhouettes).
+        Gaussian = "gaussian",
+        /// Separable bilateral.
+        Bilateral = "bilateral",
+        /// Exact 2D bilateral.
+        Bilateral2d = "bilateral2d",
+        /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
+        CurvatureFlow = "curvature-flow",
+        /// Narrow-range filter (Truong & Yuksel 2018); the default on spheres (`--preset fast`): smoothest
+        /// surface at bilateral cost.
+        NarrowRange = "narrow-range",
+    }
+}
+
+named_enum! {
+    /// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
+    pub enum SplatMode {
+        /// One thread per particle, atomicMin on the depth bits (default).
+        Compute = "compute",
+        /// Instanced quads, exact depth through gl_FragDepth (no early depth test).
+        QuadFragDepth = "quad-frag-depth",
+        /// Quads with conservative depth (depth_less + GREATER test keeps early depth test valid).
+        QuadConservative = "quad-conservative",
+        /// Quads, no depth buffer, MIN blending of linear depth into R32F.
+        QuadMin = "quad-min",
+        /// Point sprites with gl_FragDepth (sizes above the device's point size limit are clipped).
+        PointFragDepth = "point-frag-depth",
+        /// Point sprites with MIN blending.
+        PointMin = "point-min",
+    }
+}
+
+impl SplatMode {
+    /// Needs a D32 depth buffer.
+    pub fn depth_tested(self) -> bool {
+        matches!(self, SplatMode::QuadFragDepth | SplatMode::QuadConservative | SplatMode::PointFragDepth)
+    }
+}

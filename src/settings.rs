@@ -4,10 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::named::named_enum;
-pub use crate::named::{from_name, Named};
-pub use crate::passes::smooth::Filter;
-pub use crate::passes::splat::SplatMode;
+use crate::named::{named_enum, Filter, SplatMode};
 use crate::section::{Keys, Section};
 
 /// The dotted key of the first non-finite float in a TOML table (inf, nan), if any.
@@ -439,6 +436,7 @@ impl Settings {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::named::Named;
 
     /// Every preset the list names (the demo's `O` key cycles it, `smooth` last) exists and validates; an unknown
     /// name lists them all.

@@ -117,8 +117,8 @@ impl Targets {
         let r32 = vk::Format::R32_SFLOAT;
         let bits = Some(vk::Format::R32_UINT);
         let tiles = vk::Extent2D {
-            width: fluid.width.div_ceil(crate::passes::splat::TILE),
-            height: fluid.height.div_ceil(crate::passes::splat::TILE),
+            width: fluid.width.div_ceil(crate::shader_constants::SPLAT_TILE),
+            height: fluid.height.div_ceil(crate::shader_constants::SPLAT_TILE),
         };
         let made = (|| -> Result<Targets> {
             Ok(Targets {
@@ -219,10 +219,10 @@ mod tests {
         let d = TargetsDesc::new(640, 360, &half, true);
         assert!(d.upsampled() && d.keep_raw);
         assert_eq!(d.fluid, vk::Extent2D { width: 320, height: 180 });
-        let quad = s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadFragDepth);
+        let quad = s.with(|s| s.splat.mode = crate::named::SplatMode::QuadFragDepth);
         assert!(TargetsDesc::new(640, 360, &quad, false).zbuffer);
         assert!(
-            !TargetsDesc::new(640, 360, &s.with(|s| s.splat.mode = crate::settings::SplatMode::QuadMin), false).zbuffer
+            !TargetsDesc::new(640, 360, &s.with(|s| s.splat.mode = crate::named::SplatMode::QuadMin), false).zbuffer
         );
     }
 }

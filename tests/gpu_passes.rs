@@ -11,8 +11,8 @@ use meniscus::effect::diffuse::DiffuseEffect;
 use meniscus::effect::noise::NoiseEffect;
 use meniscus::gpu::transfer::{read_f32, read_image, read_u32, upload_image};
 use meniscus::gpu::FrameCtx;
+use meniscus::named::Filter;
 use meniscus::renderer::Renderer;
-use meniscus::settings::Filter;
 
 /// The frame's images for `v` and `s`, and its uniform block written, for tests that record passes one by one.
 fn pass_targets(r: &mut Renderer, v: &meniscus::view::View, s: &meniscus::settings::Settings) {
@@ -764,7 +764,7 @@ fn splat_depth(
     positions: &[[f32; 3]],
     radius: f32,
     v: &meniscus::view::View,
-    mode: meniscus::settings::SplatMode,
+    mode: meniscus::named::SplatMode,
 ) -> Option<Vec<f32>> {
     let mut s = settings(radius);
     s.smooth.filter = Filter::None;
@@ -788,7 +788,7 @@ fn assert_same_depth(got: &[f32], want: &[f32], what: &str) {
 /// Every rasterised splat variant produces exactly the compute splat's depth (same exact ray–sphere math).
 #[test]
 fn raster_splat_variants_equal_compute_splat() {
-    use meniscus::settings::SplatMode;
+    use meniscus::named::SplatMode;
     let gpu = gpu();
     let (g, v) = splat_scene("drop", 3000, 96, 64, 0.01, 1.0);
     let mut depths = vec![];
@@ -1070,7 +1070,7 @@ fn check_cast(
     let centres: Vec<[f64; 3]> =
         pts.iter().map(|q| view_m.transform_point3(Vec3::from(*q)).as_dvec3().to_array()).collect();
     // The march stops at the far bound: per pixel, or per 8×8 tile when the splat culls (splat_cull.comp).
-    let tile = meniscus::passes::splat::TILE as usize;
+    let tile = meniscus::shader_constants::SPLAT_TILE as usize;
     let c32: Vec<[f32; 3]> = centres.iter().map(|c| c.map(|x| x as f32)).collect();
     let per_tile =
         meniscus::passes::splat::cull_pays(f as f32 * bound * r / (v.camera.eye - glam::Vec3::ZERO).length());
@@ -1489,7 +1489,7 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
 /// of large spheres splats bit-identically to the rasterised MIN-blend variant, which has no culling.
 #[test]
 fn occlusion_culled_splat_equals_unculled_raster() {
-    use meniscus::settings::SplatMode;
+    use meniscus::named::SplatMode;
     let gpu = gpu();
     // Close up: the block fills the view and its spheres span several tiles.
     let (g, v) = splat_scene("block", 4000, 320, 240, 0.0, 0.45);

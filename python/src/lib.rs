@@ -12,7 +12,7 @@ use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use meniscus::gpu::{Gpu, GpuOptions};
+use meniscus::device::{Gpu, GpuOptions};
 use meniscus::renderer::{FrameRequest, Hooks, Renderer as Core, Upload};
 use meniscus::scene::camera::Camera;
 use meniscus::scene::{Bounds, Particles};
@@ -246,7 +246,7 @@ impl Renderer {
                     }
                     None => {
                         core.upload(Upload::Gpu { count: n, bounds: (lo, hi), diffuse_slots: 0 })?;
-                        let copy = |ctx: &mut meniscus::gpu::FrameCtx, out: &meniscus::gpu::Buffer| {
+                        let copy = |ctx: &mut meniscus::device::FrameCtx, out: &meniscus::device::Buffer| {
                             let size = n as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
                             let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
                             ctx.copy_buffer(src, out, region);
@@ -265,7 +265,7 @@ impl Renderer {
         let t = self.core.targets.as_ref().ok_or_else(|| PyRuntimeError::new_err("nothing rendered yet"))?;
         let state = self.core.state();
         let d = PyDict::new(py);
-        let img2 = |img: &meniscus::gpu::Image| -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let img2 = |img: &meniscus::device::Image| -> PyResult<Bound<'py, PyArray2<f32>>> {
             let data = state.read_f32(img).map_err(py_err)?;
             let (w, h) = (img.extent.width as usize, img.extent.height as usize);
             PyArray1::from_vec(py, data).reshape([h, w])

@@ -5,15 +5,15 @@
 //! `MENISCUS_VALIDATION=1`; tests always ask. Resources hold an `Arc<Gpu>`, so the device outlives every
 //! allocation and the allocator is dropped before the device (see `Drop for Gpu`).
 
-pub mod access;
-pub mod context;
+mod access;
+mod context;
 pub mod executor;
-pub mod pipeline;
+mod pipeline;
 pub mod queues;
 pub mod recording;
-pub mod resource;
+mod resource;
 pub mod schedule;
-pub mod timer;
+mod timer;
 pub mod transfer;
 
 use std::ffi::{c_void, CStr, CString};
@@ -29,7 +29,7 @@ use queues::{choose_async_queue, AsyncQueue, QueueRef, Queues};
 
 pub use access::{Access, AccessState};
 pub use context::{FrameCtx, Use};
-pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, Res, Shader, Slot};
+pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, RasterTargets, Res, Shader, Slot};
 pub use resource::{Buffer, Image};
 pub use timer::Timer;
 

@@ -219,14 +219,14 @@ const fn has_binding(sh: &Shader, i: usize) -> bool {
 macro_rules! declare_program {
     ($vis:vis $name:ident : $push:ty = compute($shader:expr, [$($slot:ident),* $(,)?])) => {
         #[doc = concat!("The program of `", stringify!($shader), "`: slots [", stringify!($($slot),*), "], push `", stringify!($push), "` (checked against the SPIR-V at compile time).")]
-        $vis const $name: $crate::gpu::pipeline::ProgramDecl<$push> =
-            $crate::gpu::pipeline::ProgramDecl::compute(&$shader, &[$($crate::gpu::pipeline::Slot::$slot),*]);
+        $vis const $name: $crate::gpu::ProgramDecl<$push> =
+            $crate::gpu::ProgramDecl::compute(&$shader, &[$($crate::gpu::Slot::$slot),*]);
         const _: () = if let Some(e) = $name.mismatch() { panic!("{}", e) };
     };
     ($vis:vis $name:ident : $push:ty = graphics($vert:expr, $frag:expr, [$($slot:ident),* $(,)?])) => {
         #[doc = concat!("The program of `", stringify!($vert), "` + `", stringify!($frag), "`: slots [", stringify!($($slot),*), "], push `", stringify!($push), "` (checked against the SPIR-V at compile time).")]
-        $vis const $name: $crate::gpu::pipeline::ProgramDecl<$push> =
-            $crate::gpu::pipeline::ProgramDecl::graphics(&$vert, &$frag, &[$($crate::gpu::pipeline::Slot::$slot),*]);
+        $vis const $name: $crate::gpu::ProgramDecl<$push> =
+            $crate::gpu::ProgramDecl::graphics(&$vert, &$frag, &[$($crate::gpu::Slot::$slot),*]);
         const _: () = if let Some(e) = $name.mismatch() { panic!("{}", e) };
     };
 }

@@ -7,7 +7,7 @@ use crate::declare_program;
 use crate::error::Result;
 use crate::passes::FrameInfo;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::named::named_enum;
+use crate::named::Filter;
 use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `smooth`.
@@ -348,21 +348,3 @@ pub fn iterations_needed(p: &Params, radius: f32, focal_px: f32, d_near: f32) ->
     (its.ceil().max(0.0) as u32).min(p.curvature.it_max)
 }
 
-named_enum! {
-    /// Depth smoothing filter (`--filter`).
-    pub enum Filter {
-        /// No smoothing: the raw spheres.
-        None = "none",
-        /// Separable Gaussian (a baseline: merges silhouettes).
-        Gaussian = "gaussian",
-        /// Separable bilateral.
-        Bilateral = "bilateral",
-        /// Exact 2D bilateral.
-        Bilateral2d = "bilateral2d",
-        /// Curvature flow (van der Laan 2009) with depth-adaptive iterations (Bagar 2010).
-        CurvatureFlow = "curvature-flow",
-        /// Narrow-range filter (Truong & Yuksel 2018); the default on spheres (`--preset fast`): smoothest
-        /// surface at bilateral cost.
-        NarrowRange = "narrow-range",
-    }
-}

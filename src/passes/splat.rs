@@ -10,9 +10,9 @@ use crate::compute::clear::Clear;
 use crate::declare_program;
 use crate::error::{Error, Result};
 use crate::passes::FrameInfo;
-use crate::gpu::pipeline::{GraphicsProgram, ProgramDecl, RasterTargets};
+use crate::named::SplatMode;
+use crate::gpu::{GraphicsProgram, ProgramDecl, RasterTargets};
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::named::named_enum;
 use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `splat`.
@@ -44,7 +44,7 @@ impl crate::section::Section for Params {
     }
 }
 
-pub use crate::shader_constants::SPLAT_TILE as TILE;
+use crate::shader_constants::SPLAT_TILE as TILE;
 
 /// The pass: its compute program(s), built once per device.
 pub struct Splat {
@@ -291,27 +291,4 @@ pub fn cull_pays(radius_px: f32) -> bool {
     radius_px >= TILE as f32 * 0.5
 }
 
-named_enum! {
-    /// How the `splat` pass draws (`--splat`): the compute splat, or a rasterised variant kept for measurement.
-    pub enum SplatMode {
-        /// One thread per particle, atomicMin on the depth bits (default).
-        Compute = "compute",
-        /// Instanced quads, exact depth through gl_FragDepth (no early depth test).
-        QuadFragDepth = "quad-frag-depth",
-        /// Quads with conservative depth (depth_less + GREATER test keeps early depth test valid).
-        QuadConservative = "quad-conservative",
-        /// Quads, no depth buffer, MIN blending of linear depth into R32F.
-        QuadMin = "quad-min",
-        /// Point sprites with gl_FragDepth (sizes above the device's point size limit are clipped).
-        PointFragDepth = "point-frag-depth",
-        /// Point sprites with MIN blending.
-        PointMin = "point-min",
-    }
-}
 
-impl SplatMode {
-    /// Needs a D32 depth buffer.
-    pub fn depth_tested(self) -> bool {
-        matches!(self, SplatMode::QuadFragDepth | SplatMode::QuadConservative | SplatMode::PointFragDepth)
-    }
-}

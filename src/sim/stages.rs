@@ -8,7 +8,7 @@ use std::sync::Arc;
 use crate::compute::grid::GridBuffers;
 use crate::declare_program;
 use crate::error::Result;
-use crate::gpu::pipeline::ProgramDecl;
+use crate::gpu::ProgramDecl;
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Res};
 
 /// Every particle's neighbour list (sim_neighbours.comp's outputs, read by the later stages at bindings 1, 2).

@@ -6,8 +6,8 @@
 use crate::error::Result;
 use crate::gpu::recording::{Part, Recording};
 use crate::gpu::FrameCtx;
+use crate::named::SplatMode;
 use crate::passes::splat::BackBound;
-use crate::settings::SplatMode;
 
 use super::iso::IsoResources;
 use super::{Kernels, Prepare, SurfaceFrame, Technique};

@@ -9,10 +9,11 @@ use anyhow::{bail, Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 
-use meniscus::gpu::{Gpu, GpuOptions};
+use meniscus::device::{Gpu, GpuOptions};
+use meniscus::named::{from_name, Filter, Named, SplatMode};
 use meniscus::output::Kind;
 use meniscus::scene;
-use meniscus::settings::{from_name, Filter, Kernel, Named, Settings, SplatMode, Surface};
+use meniscus::settings::{Kernel, Settings, Surface};
 
 /// A clap value parser for a library enum: its names are the possible values (listed in `--help`).
 pub fn named<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {

@@ -15,12 +15,12 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meniscus::effect::noise::NoiseEffect;
+use meniscus::named::{Filter, SplatMode};
 use meniscus::scene::procedural;
-use meniscus::settings::{Filter, SplatMode};
 
 use crate::args::{finish, GpuArgs, LoadArgs, SceneArgs};
 use crate::job::{Job, Select};
-use meniscus::gpu::{DeviceInfo, Gpu};
+use meniscus::device::{DeviceInfo, Gpu};
 use meniscus::renderer::{FrameRequest, Renderer, Upload};
 use meniscus::scene::camera::Camera;
 use meniscus::scene::{self, Particles};
@@ -112,7 +112,7 @@ pub struct Entry {
     /// Every live GPU allocation by name after the measured frames, and the totals (the allocator's report:
     /// grids, the smoothed field's lattice, simulation buffers, images). With `--also-presets` it covers every
     /// renderer of the run (they share the device).
-    pub gpu_memory: meniscus::gpu::MemoryReport,
+    pub gpu_memory: meniscus::device::MemoryReport,
     /// The `noise` pass's work in the last measured frame (its own counters; absent when the pass is off): the
     /// coarsest level of detail, sprite texels visited, sprites drawn, texels evaluated — a GPU's cost follows
     /// these, whatever the CPU driver's milliseconds say.
@@ -329,7 +329,7 @@ impl Series {
         self.host.push(host);
         // Per queue: the time its passes were busy; the union: first begin to last end over both queues
         // (the two queues' timestamps on one device clock; no calibrated timestamps are needed for that).
-        use meniscus::gpu::schedule::QueueId;
+        use meniscus::device::QueueId;
         use meniscus::timing::is_part;
         let busy = |q: QueueId| {
             let own = spans.iter().filter(|x| x.queue == q && !is_part(&x.name));

@@ -10,8 +10,8 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use serde::Serialize;
 
-use meniscus::gpu::schedule::QueueId;
-use meniscus::gpu::{Buffer, FrameCtx, Gpu};
+use meniscus::device::QueueId;
+use meniscus::device::{Buffer, FrameCtx, Gpu};
 use meniscus::renderer::{FrameRequest, Hooks, Renderer, Upload};
 use meniscus::scene::camera::Camera;
 use meniscus::scene::Bounds;
@@ -36,7 +36,7 @@ struct Combined {
 #[derive(Serialize)]
 struct SimReport {
     schema: u32,
-    device: meniscus::gpu::DeviceInfo,
+    device: meniscus::device::DeviceInfo,
     git_commit: String,
     scene: String,
     particles: u32,

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use meniscus::error::{Error, Result};
+use meniscus::{Error, Result};
 
 /// One panel: its title, axis labels and points (x, [(line, y)]).
 pub struct Series<'a> {

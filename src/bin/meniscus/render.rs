@@ -268,7 +268,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     let mut skipped = vec![];
     let mut rendered = 0usize;
     let mut take =
-        |r: &mut Renderer, (sub, path, name): (meniscus::gpu::executor::Submitted, PathBuf, String)| -> Result<bool> {
+        |r: &mut Renderer, (sub, path, name): (meniscus::device::Submitted, PathBuf, String)| -> Result<bool> {
             let img = r.read_submitted(sub)?;
             gpu_ms += r.finish(sub)?.total();
             rendered += 1;

@@ -457,3 +457,48 @@ fn scatter_row(line: &mut [f32], dx2: &[f32], chord: (i32, i32), d2: f32, inv_su
         *val += if i >= i0 && i <= i1 { k * w } else { 0.0 };
     }
 }
+
+/// The blocks of `b`³ cubes that some particle's support reaches (cube lower corners in [c − reach, c + reach]),
+/// as sorted keys `(x · nb.y + y) · nb.z + z`, and `nb`, the blocks per axis. Shared by the CPU and GPU paths.
+pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
+    let (mut blocks, nb) = block_reaches(grid, lat, b);
+    blocks.dedup();
+    (blocks, nb)
+}
+
+/// [`occupied_blocks`], and for each block the particles whose support reaches it (what scattering it costs).
+pub(crate) fn occupied_blocks_counted(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, Vec<u32>, glam::IVec3) {
+    let (reaches, nb) = block_reaches(grid, lat, b);
+    let (mut blocks, mut counts) = (Vec::new(), Vec::new());
+    for (i, &k) in reaches.iter().enumerate() {
+        if i == 0 || reaches[i - 1] != k {
+            blocks.push(k);
+            counts.push(0);
+        }
+        *counts.last_mut().unwrap() += 1;
+    }
+    (blocks, counts, nb)
+}
+
+/// Every (particle, block its support reaches) as the block's key, sorted: [`occupied_blocks`] before the dedup.
+fn block_reaches(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
+    let (h, dims) = (lat.h, lat.dims);
+    let reach = (grid.support / h).ceil() as i32;
+    let nb = (dims - 1 + b - 1) / b; // blocks per axis over the dims − 1 cubes
+    let mut blocks: Vec<i64> = grid
+        .points
+        .par_iter()
+        .flat_map_iter(|q| {
+            let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
+            let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
+            let b1 = ((c + reach).min(dims - 2)) / b;
+            (b0.x..=b1.x).flat_map(move |x| {
+                (b0.y..=b1.y).flat_map(move |y| {
+                    (b0.z..=b1.z).map(move |z| (x as i64 * nb.y as i64 + y as i64) * nb.z as i64 + z as i64)
+                })
+            })
+        })
+        .collect();
+    blocks.par_sort_unstable();
+    (blocks, nb)
+}

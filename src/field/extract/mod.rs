@@ -32,6 +32,7 @@ use rayon::prelude::*;
 use crate::field::iso::IsoGrid;
 
 pub mod blocks;
+pub(crate) use blocks::occupied_blocks;
 use blocks::{extract_blocks_timed, ExtractTimes};
 
 /// The 12 cube edges as (corner a, corner b, axis); corner c = (c & 1, c >> 1 & 1, c >> 2 & 1).
@@ -505,51 +506,6 @@ impl Lattice {
     pub(crate) fn key(&self, c: glam::IVec3) -> i64 {
         (c.x as i64 * self.dims.y as i64 + c.y as i64) * self.dims.z as i64 + c.z as i64
     }
-}
-
-/// The blocks of `b`³ cubes that some particle's support reaches (cube lower corners in [c − reach, c + reach]),
-/// as sorted keys `(x · nb.y + y) · nb.z + z`, and `nb`, the blocks per axis. Shared by the CPU and GPU paths.
-pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
-    let (mut blocks, nb) = block_reaches(grid, lat, b);
-    blocks.dedup();
-    (blocks, nb)
-}
-
-/// [`occupied_blocks`], and for each block the particles whose support reaches it (what scattering it costs).
-pub(crate) fn occupied_blocks_counted(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, Vec<u32>, glam::IVec3) {
-    let (reaches, nb) = block_reaches(grid, lat, b);
-    let (mut blocks, mut counts) = (Vec::new(), Vec::new());
-    for (i, &k) in reaches.iter().enumerate() {
-        if i == 0 || reaches[i - 1] != k {
-            blocks.push(k);
-            counts.push(0);
-        }
-        *counts.last_mut().unwrap() += 1;
-    }
-    (blocks, counts, nb)
-}
-
-/// Every (particle, block its support reaches) as the block's key, sorted: [`occupied_blocks`] before the dedup.
-fn block_reaches(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
-    let (h, dims) = (lat.h, lat.dims);
-    let reach = (grid.support / h).ceil() as i32;
-    let nb = (dims - 1 + b - 1) / b; // blocks per axis over the dims − 1 cubes
-    let mut blocks: Vec<i64> = grid
-        .points
-        .par_iter()
-        .flat_map_iter(|q| {
-            let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
-            let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
-            let b1 = ((c + reach).min(dims - 2)) / b;
-            (b0.x..=b1.x).flat_map(move |x| {
-                (b0.y..=b1.y).flat_map(move |y| {
-                    (b0.z..=b1.z).map(move |z| (x as i64 * nb.y as i64 + y as i64) * nb.z as i64 + z as i64)
-                })
-            })
-        })
-        .collect();
-    blocks.par_sort_unstable();
-    (blocks, nb)
 }
 
 /// Weld on keys: sorts `(key, item)` pairs and walks them; returns every item's vertex (the rank of its key among

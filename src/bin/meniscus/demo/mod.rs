@@ -30,18 +30,19 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, ModifiersState, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use meniscus::error::{Error, Result, VkContext};
-use meniscus::gpu::executor::Binary;
-use meniscus::gpu::{Buffer, FrameCtx, Gpu, GpuOptions, Image};
+use meniscus::device::Binary;
+use meniscus::device::{Buffer, FrameCtx, Gpu, GpuOptions, Image};
 use meniscus::inspect::Inspector;
+use meniscus::named::Filter;
 use meniscus::renderer::{Backdrop, FrameImages, FrameRequest, Hooks, Renderer, Upload};
 use meniscus::scene::camera::Camera;
 use meniscus::scene::{LoadOptions, Particles};
-use meniscus::settings::{Filter, Settings, Surface};
+use meniscus::settings::{Settings, Surface};
 use meniscus::timing::PassTimes;
 use meniscus::view::Environment;
 use meniscus::view::View;
 use meniscus::view::ViewMode;
+use meniscus::{Error, Result, VkContext};
 
 use crate::args::{GpuArgs, LoadArgs, SceneArgs, SettingsArgs};
 use crate::job::{Job, Select};
@@ -465,7 +466,7 @@ impl App {
         renderer.async_compute = match self.o.async_mode.as_str() {
             "on" => true,
             "off" => false,
-            _ => gpu.queues.kind != meniscus::gpu::queues::AsyncQueue::SameQueue,
+            _ => gpu.queues.kind != meniscus::device::AsyncQueue::SameQueue,
         };
         if let Some(m) = &self.mesh {
             renderer.set_background(Backdrop::Mesh(m))?;
@@ -860,7 +861,7 @@ impl App {
         let overlay_img = st.overlay.as_ref().expect("set");
         let staging = st.overlay_staging[k].as_ref().expect("set");
         let upload_overlay = |ctx: &mut FrameCtx| {
-            meniscus::gpu::transfer::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
+            meniscus::device::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
         };
         let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
         let (inspector, overlay, mode, settings) = (&st.inspector, st.overlay.as_ref(), self.mode, &self.settings);

@@ -3,8 +3,8 @@
 
 use std::collections::HashMap;
 
-use meniscus::error::Result;
 use meniscus::scene::{self, LoadOptions, Particles};
+use meniscus::Result;
 
 /// Where frames come from.
 pub enum Source {

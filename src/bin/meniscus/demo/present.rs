@@ -6,8 +6,8 @@
 
 use ash::vk;
 
-use meniscus::error::{Error, Result, VkContext};
-use meniscus::gpu::{Access, FrameCtx, Gpu, Image, Use};
+use meniscus::device::{Access, FrameCtx, Gpu, Image, Use};
+use meniscus::{Error, Result, VkContext};
 
 /// The window's swapchain and its images.
 pub struct Swapchain {
