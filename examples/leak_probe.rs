@@ -180,7 +180,7 @@ fn wave_frame(gpu: &Arc<Gpu>, no_filter: bool) -> meniscus::Result<(Renderer, Vi
     r.upload(meniscus::renderer::Upload::Points {
         positions: &gen.particles.positions,
         radii: None,
-        spray: None,
+        isolated: None,
         motion: None,
     })?;
     Ok((r, view, s))

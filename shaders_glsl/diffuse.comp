@@ -1,6 +1,6 @@
 #version 460
 //! diffuse — draws the diffuse particles (src/diffuse.rs: spray, foam and bubbles after Ihmsen et al. 2012) and
-//! the NVIDIA patent's low-density spray (US 8,947,430: fluid particles kept out of the surface). One thread per
+//! the isolated fluid particles (low density: kept out of the surface, NVIDIA patent US 8,947,430). One thread per
 //! particle splats a billboard: a capsule from x − v·s/2 to x + v·s/2 on screen (s: the shutter time, motion
 //! blur), its radius the particle's (varied per particle), its coverage opacity · fade · exp(−3 q²) spread over
 //! the streak (a fast particle is longer, not brighter). Foam and spray show where nothing nearer hides them:
@@ -25,11 +25,11 @@ layout(set = 0, binding = 5, r32ui) uniform uimage2D bubbles;
 layout(push_constant) uniform Push {
     uint count;         // fluid particles
     uint diffuse;       // diffuse particles after them
-    uint spray;         // 1: the fluid particles marked as spray are drawn too
+    uint isolated;      // 1: the fluid particles marked isolated are drawn too
     float shutter;      // seconds of motion blur
     float foam_depth;   // world units below the surface where foam still shows
     float bubble_depth; // world units of water that attenuate a bubble by 1/e
-    float spray_size;   // a patent spray particle's billboard radius, in its own radii
+    float isolated_size; // an isolated fluid particle's billboard radius, in its own radii
     float opacity;      // coverage at a billboard's centre
     uint indirect;      // 1: the diffuse particles follow a header written on the GPU (x: groups, w: their count)
 } pc;
@@ -63,12 +63,12 @@ void main() {
         if (fade <= 0.0) return;
     } else {
         uint j = i - n_d;
-        if (pc.spray == 0u || j >= pc.count) return;
+        if (pc.isolated == 0u || j >= pc.count) return;
         vec4 pr = particles[j];
         if (pr.w >= 0.0) return;
         x = pr.xyz;
         float own = abs(pr.w);
-        rad = (own > 1e-30 ? own : frame.fluid.x) * pc.spray_size;
+        rad = (own > 1e-30 ? own : frame.fluid.x) * pc.isolated_size;
         v = vec3(0.0);
         kind = 1u;
         fade = 1.0;

@@ -21,14 +21,14 @@ struct Sprite {
 };
 
 #ifndef NOISE_TERM_ONLY
-/// Particle i's sprite on a `size` output; false when it draws nothing (spray, behind the camera, off screen,
+/// Particle i's sprite on a `size` output; false when it draws nothing (isolated, behind the camera, off screen,
 /// too large, or deep: more than DEEP falloffs plus the sprite's radius below the surface at its centre — the
 /// reference's rule).
 bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     Particle pt = load_particle(particles[i], 1.0);
     s.z = -pt.c.z;
-    // Spray is drawn apart from the surface: it adds no waves to it.
-    if (pt.spray || s.z <= frame.proj.w) return false;
+    // An isolated particle is drawn apart from the surface: it adds no waves to it.
+    if (pt.isolated || s.z <= frame.proj.w) return false;
     float F = focal_for(float(size.y));
     float r = frame.fluid.x;
     // Sprite centre and radius in pixels (pixel_dir's convention: pixel p's centre is at p + 0.5).

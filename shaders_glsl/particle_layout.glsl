@@ -1,6 +1,6 @@
 //! particle_layout.glsl — where everything lives in the renderer's particle buffer (vec4 indices): the shaders'
 //! side of `ParticleLayout` (src/particles.rs), the one definition of it. `count` fluid positions (xyz, w: radius
-//! and spray mark), then `count` motions (x: id bits, y: how fast the velocity changes; read by `noise`), then —
+//! and isolated mark), then `count` motions (x: id bits, y: how fast the velocity changes; read by `noise`), then —
 //! when a GPU producer writes the diffuse particles — one header vec4 (the `diffuse` pass's indirect dispatch:
 //! groups, 1, 1, particles drawn), then the diffuse particles, two vec4 each (read by `diffuse`).
 

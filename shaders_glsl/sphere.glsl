@@ -72,11 +72,11 @@ void load_ellipsoid(vec4 a0, vec4 a1, vec4 a2, float r, float stretch, out vec3 
 }
 
 /// One particle as every per-particle shader reads it: the `w` encoding Renderer::set_particles_with writes
-/// (w > 0: its own radius; w = 0: the frame's; w < 0: spray, |w| its radius, or about 0 for the frame's).
+/// (w > 0: its own radius; w = 0: the frame's; w < 0: isolated, |w| its radius, or about 0 for the frame's).
 struct Particle {
     vec3 c;      // view-space centre
     float r;     // radius × radius_scale
-    bool spray;  // left out of the surface (NVIDIA patent US 8,947,430), still adds thickness
+    bool isolated;  // low density: left out of the surface (NVIDIA patent US 8,947,430), still adds thickness
 };
 
 Particle load_particle(vec4 pr, float radius_scale) {
@@ -84,7 +84,7 @@ Particle load_particle(vec4 pr, float radius_scale) {
     float own = abs(pr.w);
     p.r = (own > 1e-30 ? own : frame.fluid.x) * radius_scale;
     p.c = (frame.view * vec4(pr.xyz, 1.0)).xyz;
-    p.spray = pr.w < 0.0;
+    p.isolated = pr.w < 0.0;
     return p;
 }
 

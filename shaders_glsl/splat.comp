@@ -5,7 +5,7 @@
 //! No gl_FragDepth, so no early-Z to lose, and no fragment-shader arithmetic (slow on some GPUs).
 //! Pixels are walked tile by tile (8×8); with pc.cull a tile is skipped when `splat_cull`'s occlusion bound
 //! proves the sphere hidden there (a software Hi-Z test; the output is unchanged).
-//! In:  particles (vec4: world xyz, w: radius, 0 = frame radius, < 0 = spray: not part of the surface).
+//! In:  particles (vec4: world xyz, w: radius, 0 = frame radius, < 0 = isolated: not part of the surface).
 //! Out: depth (R32 image viewed as r32ui), cleared to +inf; the near plane clamps (Moritz eq. 3.5).
 //!      back (same layout, cleared to 0), only when pc.back = 1: the FARTHEST exit depth of the spheres, where
 //!      the `iso` march can stop. It needs every sphere, so with culling (large spheres) the far bound is per
@@ -56,7 +56,7 @@ void main() {
     // The depth splat may use a larger sphere than the particle (radius_scale): SPH surfaces lie about half a
     // radius outside the particle centres' spheres, and the larger spheres close gaps between particles.
     Particle pt = load_particle(particles[i], pc.radius_scale);
-    if (pt.spray) return;
+    if (pt.isolated) return;
     vec3 c = pt.c;
     float r = pt.r;
     if (pc.ellipsoid != 0u) {

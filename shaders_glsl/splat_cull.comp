@@ -28,7 +28,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
     Particle pt = load_particle(particles[i], pc.radius_scale);
-    if (pt.spray) return;
+    if (pt.isolated) return;
     vec3 c = pt.c;
     float r = pt.r;
     float near = frame.proj.w;

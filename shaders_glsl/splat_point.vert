@@ -12,7 +12,7 @@ void main() {
     gl_PointSize = 1.0;
     v_sphere = vec4(0.0);
     Particle pt = load_particle(pr, pc.radius_scale);
-    if (pt.spray) return;
+    if (pt.isolated) return;
     vec3 c = pt.c;
     float r = pt.r;
     float near = frame.proj.w;

@@ -13,7 +13,7 @@ void main() {
     gl_Position = vec4(2.0, 2.0, 0.5, 1.0); // culled unless set below
     v_sphere = vec4(0.0);
     Particle pt = load_particle(pr, pc.radius_scale);
-    if (pt.spray) return;
+    if (pt.isolated) return;
     vec3 c = pt.c;
     float r = pt.r;
     float near = frame.proj.w;

@@ -19,7 +19,7 @@ layout(push_constant) uniform Push { uint count; uint ellipsoid; float stretch; 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    // Spray still adds thickness.
+    // Isolated particles still add thickness.
     Particle pt = load_particle(particles[i], 1.0);
     vec3 c = pt.c;
     float r = pt.r;

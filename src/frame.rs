@@ -165,7 +165,7 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     let particles = (f.particles.buffer, f.particles.count);
     let surface = SurfaceFrame { passes: p, targets: t, frame, particles, settings: s, info: f.info };
     let kernels = f.surface.record_kernels(rec, &surface);
-    // Spray still adds thickness: with spray the grid (built on the CPU then) leaves it out, so the thickness
+    // Isolated particles still add thickness: with them the grid (built on the CPU then) leaves it out, so the thickness
     // keeps the spheres of every particle.
     let th = kernels.filter(|k| k.all_particles);
     let (th_particles, th_count) = th.map_or(particles, |k| (k.points, k.count));

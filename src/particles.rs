@@ -1,10 +1,10 @@
 //! The particle set on the device, in one place: its two GPU buffers (a split frame uploads into the one the
 //! frame before does not read), the count, the upload staged for the next frame's command buffer (or a GPU
 //! producer such as the simulation), the host copy of the positions (the nearest depth, the CPU-built grids),
-//! the spray marks, and a generation that every change bumps — what the surface techniques key their caches to.
+//! the isolated marks, and a generation that every change bumps — what the surface techniques key their caches to.
 //!
 //! Layout on the device ([`ParticleLayout`], the shaders' particle_layout.glsl): `count` vec4 positions (xyz, w:
-//! radius and spray mark) then `count` vec4 motions ([`Motion`]: the particle's id bits and how fast its velocity
+//! radius and isolated mark) then `count` vec4 motions ([`Motion`]: the particle's id bits and how fast its velocity
 //! changes), read by the `noise` pass, then (a GPU producer's) a header vec4, then the diffuse particles (spray,
 //! foam, bubbles: two vec4 each, `crate::passes::diffuse::encode`), read by the `diffuse` pass. Every other pass
 //! reads only the first `count` entries.
@@ -42,7 +42,7 @@ pub struct ParticleSet {
     /// The next frame's particles are written on the GPU by `Hooks::produce`.
     external: bool,
     positions: Vec<[f32; 3]>,
-    spray: Option<Vec<bool>>,
+    isolated: Option<Vec<bool>>,
     generation: u64,
     /// The last [`ParticleSet::nearest_depth`].
     nearest: std::sync::Mutex<Option<NearestDepth>>,
@@ -57,14 +57,14 @@ struct NearestDepth {
 
 impl ParticleSet {
     /// Set the particles: 16 bytes each (world xyz + w), w = the particle's radius from `radii`, else 0 (the
-    /// frame's radius); negated for particles marked in `spray` (kept out of the surface); then their `motion`
+    /// frame's radius); negated for particles marked in `isolated` (kept out of the surface); then their `motion`
     /// (default: id = index, no change of velocity). `limit`: the device's storage buffer range.
     pub fn set(
         &mut self,
         limit: u64,
         positions: &[[f32; 3]],
         radii: Option<&[f32]>,
-        spray: Option<&[bool]>,
+        isolated: Option<&[bool]>,
         motion: Option<&[Motion]>,
     ) -> Result<()> {
         let n = positions.len();
@@ -84,9 +84,9 @@ impl ParticleSet {
             .enumerate()
             .map(|(i, p)| {
                 let r = radii.map(|r| r[i]).unwrap_or(0.0);
-                let spray = spray.is_some_and(|s| s[i]);
-                // Spray without its own radius: −1 means "frame radius" for the thickness pass.
-                let w = if spray {
+                let isolated = isolated.is_some_and(|s| s[i]);
+                // An isolated particle without its own radius: −1 means "frame radius" for the thickness pass.
+                let w = if isolated {
                     if r > 0.0 {
                         -r
                     } else {
@@ -109,7 +109,7 @@ impl ParticleSet {
         self.restage();
         self.positions = positions.to_vec();
         // Kept only where a particle is marked (every frame asks whether any is).
-        self.spray = spray.filter(|s| s.iter().any(|&x| x)).map(|s| s.to_vec());
+        self.isolated = isolated.filter(|s| s.iter().any(|&x| x)).map(|s| s.to_vec());
         self.generation += 1;
         Ok(())
     }
@@ -150,7 +150,7 @@ impl ParticleSet {
             self.diffuse.clear();
         }
         self.restage();
-        self.spray = None;
+        self.isolated = None;
         self.generation += 1;
         Ok(())
     }
@@ -213,15 +213,15 @@ impl ParticleSet {
         &self.positions
     }
 
-    /// Whether any particle is marked as spray.
-    pub fn has_spray(&self) -> bool {
-        self.spray.is_some()
+    /// Whether any particle is marked isolated.
+    pub fn has_isolated(&self) -> bool {
+        self.isolated.is_some()
     }
 
-    /// The positions of the particles that make the surface (spray left out).
+    /// The positions of the particles that make the surface (isolated ones left out).
     pub fn surface_positions(&self) -> Vec<[f32; 3]> {
-        match &self.spray {
-            Some(spray) => self.positions.iter().zip(spray).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
+        match &self.isolated {
+            Some(isolated) => self.positions.iter().zip(isolated).filter(|(_, s)| !**s).map(|(p, _)| *p).collect(),
             None => self.positions.clone(),
         }
     }

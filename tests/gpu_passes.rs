@@ -2001,7 +2001,7 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
         let mut rr = Renderer::new(&gpu).unwrap();
         rr.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
         let up =
-            meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) };
+            meniscus::renderer::Upload::Points { positions: &pos, radii: None, isolated: None, motion: Some(&motion) };
         rr.upload(up).unwrap();
         rr.render(&v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
@@ -2058,7 +2058,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
         rr.upload(meniscus::renderer::Upload::Points {
             positions: &pos,
             radii: None,
-            spray: None,
+            isolated: None,
             motion: Some(&motion),
         })
         .unwrap();
@@ -2130,8 +2130,13 @@ fn noise_matches_cpu_reference() {
     let motion: Vec<Motion> =
         (0..pos.len()).map(|k| Motion { id: 1000 + 7 * k as u32, accel: (k % 3) as f32 * tau }).collect();
     let mut rr = Renderer::new(&gpu).unwrap();
-    rr.upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) })
-        .unwrap();
+    rr.upload(meniscus::renderer::Upload::Points {
+        positions: &pos,
+        radii: None,
+        isolated: None,
+        motion: Some(&motion),
+    })
+    .unwrap();
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
@@ -2151,7 +2156,12 @@ fn noise_matches_cpu_reference() {
     let tiled = !rr.effects.get::<NoiseEffect>().unwrap().is_tiled();
     other.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
     other
-        .upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) })
+        .upload(meniscus::renderer::Upload::Points {
+            positions: &pos,
+            radii: None,
+            isolated: None,
+            motion: Some(&motion),
+        })
         .unwrap();
     other.render(&v, &s).unwrap();
     let atlas2 = words(&other.effects.get::<NoiseEffect>().unwrap().images().unwrap().accum);
@@ -2175,7 +2185,12 @@ fn noise_matches_cpu_reference() {
     // The same frame without the pass: the unperturbed normals, then noise_apply.comp's slopes on the CPU.
     let mut plain = Renderer::new(&gpu).unwrap();
     plain
-        .upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: None, motion: Some(&motion) })
+        .upload(meniscus::renderer::Upload::Points {
+            positions: &pos,
+            radii: None,
+            isolated: None,
+            motion: Some(&motion),
+        })
         .unwrap();
     plain.render(&v, &s.with(|s| s.noise.enabled = false)).unwrap();
     let n0 = words(&plain.targets.as_ref().unwrap().normals);
@@ -2287,7 +2302,7 @@ fn a_frame_keeps_nothing_of_the_frame_before() {
 
 /// The `diffuse` pass against its CPU reference (`passes::diffuse::reference`): foam riding a slab's surface,
 /// spray above it (some moving: streaks), bubbles under it (attenuated by the water above them), and one fluid
-/// particle marked as spray (the patent's low-density spray, drawn the same way). The accumulators equal the
+/// particle marked isolated (the patent's low-density particle, drawn the same way). The accumulators equal the
 /// reference's fixed-point sums up to the float rounding of single terms.
 #[test]
 fn diffuse_matches_cpu_reference() {
@@ -2303,8 +2318,8 @@ fn diffuse_matches_cpu_reference() {
     let mut pos = noise_slab(10, r);
     let marked = pos.len();
     pos.push([0.3, 0.6, 0.2]);
-    let mut spray = vec![false; pos.len()];
-    spray[marked] = true;
+    let mut marks = vec![false; pos.len()];
+    marks[marked] = true;
     let mut diffuse = vec![];
     for i in 0..6 {
         for k in 0..6 {
@@ -2323,8 +2338,13 @@ fn diffuse_matches_cpu_reference() {
         }
     }
     let mut rr = Renderer::new(&gpu).unwrap();
-    rr.upload(meniscus::renderer::Upload::Points { positions: &pos, radii: None, spray: Some(&spray), motion: None })
-        .unwrap();
+    rr.upload(meniscus::renderer::Upload::Points {
+        positions: &pos,
+        radii: None,
+        isolated: Some(&marks),
+        motion: None,
+    })
+    .unwrap();
     rr.upload(meniscus::renderer::Upload::Diffuse { particles: &diffuse, settings: &s }).unwrap();
     rr.render(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
@@ -2355,11 +2375,11 @@ fn diffuse_matches_cpu_reference() {
     let push = Push {
         count: pos.len() as u32,
         diffuse: diffuse.len() as u32,
-        spray: 1,
+        isolated: 1,
         shutter: d.shutter,
         foam_depth: d.foam_depth * r,
         bubble_depth: d.bubble_depth * r,
-        spray_size: d.size,
+        isolated_size: d.size,
         opacity: d.opacity,
         indirect: 0,
     };

@@ -28,7 +28,7 @@ fn rss_stays_flat_over_hundreds_of_frames() {
     r.upload(meniscus::renderer::Upload::Points {
         positions: &gen.particles.positions,
         radii: None,
-        spray: None,
+        isolated: None,
         motion: None,
     })
     .unwrap();

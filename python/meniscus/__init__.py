@@ -88,7 +88,7 @@ class Renderer:
                diffuse: Optional["Diffuse"] = None, foam: Optional["Diffuse"] = None) -> np.ndarray:
         """Render particles (N×3) — or a `Simulation`, from its GPU buffer without a copy through the host —
         and return the image as H×W×3 uint8 (H×W×4 with `alpha`). The camera is fitted to the particles'
-        1st–99th percentile box unless given; `attributes` may hold "density" (N) for the spray marks and "id"
+        1st–99th percentile box unless given; `attributes` may hold "density" (N) for the isolated-particle marks (`[isolated]`) and "id"
         (N integers, as `load` returns a file's) to seed each particle's surface noise as the CLI does (else the
         index). Each call is one still frame: the noise keeps its calm amplitude. `diffuse`: a `Diffuse` whose
         spray, foam and bubbles are drawn with the particles (`foam=`: its deprecated spelling). The same particles as the last call's (equal arrays, radius

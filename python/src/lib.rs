@@ -107,9 +107,9 @@ struct Renderer {
     times: PassTimes,
     /// The last `render`'s host stages, ms.
     host: Vec<(String, f64)>,
-    /// The particles (and the radius and spray settings they were set with) the renderer holds from the last
+    /// The particles (and the radius and isolated-particle settings they were set with) the renderer holds from the last
     /// `render` of an array: the same again are not set again (a turntable of one frame uploads it once).
-    held: Option<(Particles, u32, meniscus::settings::SprayParams)>,
+    held: Option<(Particles, u32, meniscus::settings::IsolatedParams)>,
 }
 
 #[pymethods]
@@ -168,7 +168,7 @@ impl Renderer {
         view.camera.check().map_err(py_err)?;
         let drawn: &[meniscus::diffuse::Particle] = diffuse.as_ref().map_or(&[], |f| f.live.particles());
         let arrays = ms(t0);
-        let key = (s.radius.to_bits(), s.spray.clone());
+        let key = (s.radius.to_bits(), s.isolated.clone());
         let held = self.held.as_ref().is_some_and(|(q, r, sp)| *r == key.0 && *sp == key.1 && *q == p);
         let work = OnThisThread((&mut self.core, &p, &view, &s, drawn));
         let (img, times, upload, frame) = py

@@ -1,5 +1,5 @@
-//! The `diffuse` effect (Ihmsen et al. 2012; the NVIDIA patent's low-density spray): the diffuse particles
-//! (`crate::diffuse`: spray, foam, bubbles) and the fluid particles marked as spray, drawn as billboards by the
+//! The `diffuse` effect (Ihmsen et al. 2012; the NVIDIA patent's isolated particles): the diffuse particles
+//! (`crate::diffuse`: spray, foam, bubbles) and the fluid particles marked isolated (low density), drawn as billboards by the
 //! `diffuse` pass (`crate::passes::diffuse`) into two coverage images, which the composite lays as two
 //! layers: bubbles under the surface, foam and spray over everything. The images exist while `[diffuse]
 //! enabled` and, once something was to draw, stay while the output size stands (a sequence whose frames come
@@ -41,7 +41,7 @@ impl Effect for DiffuseEffect {
 
     fn prepare(&mut self, p: &EffectPrepare) -> Result<()> {
         let on = p.settings.diffuse.enabled;
-        self.draws = on && (p.particles.diffuse_count() > 0 || p.particles.has_spray());
+        self.draws = on && (p.particles.diffuse_count() > 0 || p.particles.has_isolated());
         let fits = |d: &DiffuseTargets| d.white.extent.width == p.width && d.white.extent.height == p.height;
         let keep = match &self.images {
             Some(d) => on && fits(d),
@@ -59,7 +59,7 @@ impl Effect for DiffuseEffect {
         let (s, q) = (f.settings, f.particles);
         let images = DiffuseImages { depth: f.depth, scene_depth: f.scene_depth, own };
         let drawn = (q.diffuse, q.diffuse_indirect);
-        self.pass.record(ctx, f.frame, (q.buffer, q.count), drawn, q.spray, &images, &s.diffuse, s.radius);
+        self.pass.record(ctx, f.frame, (q.buffer, q.count), drawn, q.isolated, &images, &s.diffuse, s.radius);
     }
 
     fn layers(&self, s: &Settings) -> Vec<Layer<'_>> {

@@ -69,8 +69,8 @@ pub struct FrameParticles<'a> {
     pub diffuse: u32,
     /// … written on the GPU after a header: a pass that draws them dispatches indirectly.
     pub diffuse_indirect: bool,
-    /// Some fluid particles are marked as spray.
-    pub spray: bool,
+    /// Some fluid particles are marked isolated (`[isolated]`).
+    pub isolated: bool,
 }
 
 /// What an effect records with: the frame's uniforms, particles and images.

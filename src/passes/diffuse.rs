@@ -1,5 +1,5 @@
 //! `diffuse` pass: draws the diffuse particles ([`crate::diffuse`]: spray, foam and bubbles after Ihmsen et al.
-//! 2012) and the NVIDIA patent's low-density spray (fluid particles kept out of the surface) as small billboards,
+//! 2012) and the isolated fluid particles (low density: kept out of the surface, NVIDIA patent US 8,947,430) as small billboards,
 //! stretched along their velocity over the shutter time, sizes varied per particle, fading at the end of their
 //! life. Foam and spray show where nothing nearer hides them; bubbles show through the water above them,
 //! attenuated by its depth. The coverage goes into two fixed-point images that `composite` lays over the
@@ -30,16 +30,16 @@ pub struct Push {
     pub count: u32,
     /// Diffuse particles after them (two vec4 each).
     pub diffuse: u32,
-    /// 1: draw the fluid particles marked as spray too.
-    pub spray: u32,
+    /// 1: draw the fluid particles marked isolated too.
+    pub isolated: u32,
     /// Seconds of motion blur.
     pub shutter: f32,
     /// World units below the surface where foam still shows.
     pub foam_depth: f32,
     /// World units of water that attenuate a bubble by 1/e.
     pub bubble_depth: f32,
-    /// A patent spray particle's billboard radius, in its own radii.
-    pub spray_size: f32,
+    /// An isolated fluid particle's billboard radius, in its own radii.
+    pub isolated_size: f32,
     /// Coverage at a billboard's centre.
     pub opacity: f32,
     /// 1: the diffuse particles follow a header written on the GPU (their count; the dispatch is indirect).
@@ -112,8 +112,8 @@ impl Diffuse {
         Ok(Diffuse { prog: ComputeProgram::new(gpu, &PROGRAM)?, clear: Clear::new(gpu)? })
     }
 
-    /// Draw the `diffuse` particles that follow the `count` fluid particles in `particles` (and, with `spray`,
-    /// the fluid particles marked as spray) into the coverage images. `indirect`: a GPU producer wrote them after a
+    /// Draw the `diffuse` particles that follow the `count` fluid particles in `particles` (and, with `isolated`,
+    /// the fluid particles marked isolated) into the coverage images. `indirect`: a GPU producer wrote them after a
     /// header vec4 (the dispatch's groups, 1, 1, their count; at most `diffuse`), which the dispatch reads.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
@@ -122,7 +122,7 @@ impl Diffuse {
         frame: &Buffer,
         particles: (&Buffer, u32),
         (diffuse, indirect): (u32, bool),
-        spray: bool,
+        isolated: bool,
         i: &DiffuseImages,
         s: &Params,
         radius: f32,
@@ -134,11 +134,11 @@ impl Diffuse {
             let push = Push {
                 count,
                 diffuse,
-                spray: spray as u32,
+                isolated: isolated as u32,
                 shutter: s.shutter,
                 foam_depth: s.foam_depth * radius,
                 bubble_depth: s.bubble_depth * radius,
-                spray_size: s.size,
+                isolated_size: s.size,
                 opacity: s.opacity,
                 indirect: indirect as u32,
             };
@@ -154,7 +154,7 @@ impl Diffuse {
                 let layout = crate::shader_constants::ParticleLayout { count, header: true, diffuse };
                 self.prog.dispatch_indirect(ctx, &res, &push, buf, 16 * layout.diffuse_header());
             } else {
-                let threads = diffuse + if spray { count } else { 0 };
+                let threads = diffuse + if isolated { count } else { 0 };
                 self.prog.dispatch(ctx, &res, &push, [threads.div_ceil(super::LOCAL_1D).max(1), 1, 1]);
             }
         });

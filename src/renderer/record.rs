@@ -170,7 +170,7 @@ impl Renderer {
                 count,
                 diffuse: self.particles.diffuse_count(),
                 diffuse_indirect: self.particles.diffuse_on_gpu(),
-                spray: self.particles.has_spray(),
+                isolated: self.particles.has_isolated(),
             },
             surface: self.surfaces.get(s.surface),
             effects: &self.effects,

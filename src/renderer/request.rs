@@ -17,25 +17,25 @@ use crate::view::View;
 
 /// The particles of the next frames.
 pub enum Upload<'a> {
-    /// Positions (world), with per-particle radii (None: the frame's radius), spray marks (kept out of the
+    /// Positions (world), with per-particle radii (None: the frame's radius), isolated marks (kept out of the
     /// surface) and motions (ids and changes of velocity: the noise's amplitude; None: still).
     Points {
         /// World positions.
         positions: &'a [[f32; 3]],
         /// Per-particle radii.
         radii: Option<&'a [f32]>,
-        /// Particles marked as spray.
-        spray: Option<&'a [bool]>,
+        /// Particles marked isolated (low density).
+        isolated: Option<&'a [bool]>,
         /// Each particle's motion.
         motion: Option<&'a [Motion]>,
     },
-    /// A frame of particles the way every application uploads it: spray flags from the settings
-    /// (`[spray]`), the radii the file carries, and the motion (None: a single frame's velocity does not
+    /// A frame of particles the way every application uploads it: isolated flags from the settings
+    /// (`[isolated]`), the radii the file carries, and the motion (None: a single frame's velocity does not
     /// change — the particles' ids alone).
     Scene {
         /// The frame.
         particles: &'a crate::scene::Particles,
-        /// The settings the spray classification reads.
+        /// The settings the isolated-particle classification reads.
         settings: &'a Settings,
         /// Each particle's motion over a sequence ([`crate::motion::MotionTracker`]).
         motion: Option<&'a [Motion]>,
@@ -66,7 +66,7 @@ pub enum Upload<'a> {
 impl<'a> Upload<'a> {
     /// Positions alone.
     pub fn points(positions: &'a [[f32; 3]]) -> Upload<'a> {
-        Upload::Points { positions, radii: None, spray: None, motion: None }
+        Upload::Points { positions, radii: None, isolated: None, motion: None }
     }
 
     /// A frame of a file, still ([`Upload::Scene`]).
@@ -77,9 +77,10 @@ impl<'a> Upload<'a> {
     /// Bring the particle set up to date (`limit`: the device's storage buffer range).
     pub(super) fn apply(self, set: &mut ParticleSet, limit: u64) -> Result<()> {
         match self {
-            Upload::Points { positions, radii, spray, motion } => set.set(limit, positions, radii, spray, motion),
+            Upload::Points { positions, radii, isolated, motion } => set.set(limit, positions, radii, isolated, motion),
             Upload::Scene { particles: p, settings: s, motion } => {
-                let spray = crate::scene::spray_mask_with(p, s.radius, s.spray.density, s.spray.by_neighbours);
+                let isolated =
+                    crate::scene::isolated_mask_with(p, s.radius, s.isolated.density, s.isolated.by_neighbours);
                 let still;
                 let motion = match motion {
                     Some(m) => m,
@@ -88,7 +89,7 @@ impl<'a> Upload<'a> {
                         &still
                     }
                 };
-                set.set(limit, &p.positions, p.radii.as_deref(), Some(&spray), Some(motion))
+                set.set(limit, &p.positions, p.radii.as_deref(), Some(&isolated), Some(motion))
             }
             Upload::Gpu { count, bounds, diffuse_slots } => {
                 set.set_gpu_with_diffuse(limit, count, bounds, diffuse_slots)

@@ -1,6 +1,6 @@
 //! THE neighbour grid: particles counting-sorted into a dense uniform grid of cubic cells (`cells[c]` =
 //! first sorted point, count), queried through the 27 cells around a point. One structure serves the CPU
-//! statistics (spacing, the number-density radius estimate, spray neighbour counts) and the iso surface (the
+//! statistics (spacing, the number-density radius estimate, isolated-particle neighbour counts) and the iso surface (the
 //! GPU walks the same sorted points and cell table, see `crate::field::iso::IsoGrid`). Positions that are not finite
 //! are left out (and find no neighbours).
 

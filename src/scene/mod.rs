@@ -444,16 +444,16 @@ pub fn estimate_radius(pos: &[[f32; 3]]) -> Option<f32> {
     Some(if r.is_finite() { r.clamp(0.5 * s, 0.7 * s) } else { 0.5 * s })
 }
 
-/// Spray classification (NVIDIA patent US 8,947,430: particles of low density are spray, left out of the
-/// surface): a particle is spray when its density is below `threshold` × the median density. The density is the
+/// Isolated particles (NVIDIA patent US 8,947,430: particles of low density are left out of the surface and
+/// drawn apart): a particle is isolated when its density is below `threshold` × the median density. The density is the
 /// file's `density` attribute when present, else the number of neighbours within 4 radii.
-pub fn spray_mask(p: &Particles, radius: f32, threshold: f32) -> Vec<bool> {
-    spray_mask_with(p, radius, threshold, false)
+pub fn isolated_mask(p: &Particles, radius: f32, threshold: f32) -> Vec<bool> {
+    isolated_mask_with(p, radius, threshold, false)
 }
 
-/// [`spray_mask`], optionally ignoring the file's densities and counting neighbours within 4 radii instead
+/// [`isolated_mask`], optionally ignoring the file's densities and counting neighbours within 4 radii instead
 /// (the kernel support of a surface reconstruction such as splashsurf's).
-pub fn spray_mask_with(p: &Particles, radius: f32, threshold: f32, neighbours: bool) -> Vec<bool> {
+pub fn isolated_mask_with(p: &Particles, radius: f32, threshold: f32, neighbours: bool) -> Vec<bool> {
     if threshold <= 0.0 || p.is_empty() {
         return vec![false; p.len()];
     }
@@ -467,7 +467,7 @@ pub fn spray_mask_with(p: &Particles, radius: f32, threshold: f32, neighbours: b
     }
     let m = sorted.len() / 2;
     let rest = *sorted.select_nth_unstable_by(m, f32::total_cmp).1;
-    // Written negated on purpose: a NaN density counts as spray.
+    // Written negated on purpose: a NaN density counts as isolated.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     dens.iter().map(|&d| !(d >= threshold * rest)).collect()
 }

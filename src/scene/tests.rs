@@ -29,7 +29,7 @@ fn isolated_particles_are_spray() {
     }
     pos.push([1.0, 1.0, 1.0]);
     let p = Particles { positions: pos, ..Default::default() };
-    let m = spray_mask(&p, 0.01, 0.5);
+    let m = isolated_mask(&p, 0.01, 0.5);
     assert!(m[512] && !m[100] && m.iter().filter(|x| **x).count() < 20);
     // With densities from the file.
     let p2 = Particles {
@@ -37,8 +37,8 @@ fn isolated_particles_are_spray() {
         positions: vec![[0.0; 3]; 4],
         ..Default::default()
     };
-    assert_eq!(spray_mask(&p2, 0.01, 0.6), vec![false, false, true, false]);
-    assert_eq!(spray_mask(&p2, 0.01, 0.0), vec![false; 4]);
+    assert_eq!(isolated_mask(&p2, 0.01, 0.6), vec![false, false, true, false]);
+    assert_eq!(isolated_mask(&p2, 0.01, 0.0), vec![false; 4]);
 }
 
 #[test]

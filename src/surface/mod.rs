@@ -59,7 +59,7 @@ pub struct Kernels<'a> {
     pub aniso: &'a Buffer,
     /// How far a kernel reaches, in supports.
     pub stretch: f32,
-    /// Every particle is a kernel (the grid was built on the GPU, no spray left out): `thickness` may draw them.
+    /// Every particle is a kernel (the grid was built on the GPU, no isolated particle left out): `thickness` may draw them.
     pub all_particles: bool,
 }
 

@@ -124,7 +124,7 @@ pub struct Entry {
     /// effects are off.
     pub effect_images: Vec<String>,
     /// The host's stages per frame, ms ([`HOST_STAGES`]): a sequence frame's upload (`set_scene_particles`:
-    /// the spray classification and the copy into the particle set), then the renderer's own
+    /// the isolated-particle classification and the copy into the particle set), then the renderer's own
     /// (`RendererState::host_times`), and the wait for the GPU with the timestamps' read-back.
     pub host_ms: Vec<(String, Stat)>,
     /// Compute shader invocations per pass in the last measured frame (a pipeline-statistics query, where the
@@ -249,7 +249,7 @@ impl Series {
             c
         });
         let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
-        // The one upload path of every subcommand: spray flags and per-particle radii (pscale) included.
+        // The one upload path of every subcommand: isolated flags and per-particle radii (pscale) included.
         r.upload(Upload::scene(&w.particles, &s))?;
         Ok(Series {
             view,

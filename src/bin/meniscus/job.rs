@@ -1,6 +1,6 @@
 //! The one set-up every subcommand shares: load (a built-in scene, a file or the first frame of a sequence) →
 //! radius (flag, scene, or estimated from the particles' number density) → settings validated → bounds →
-//! camera (flag, or fitted for the output's aspect) → background extras → upload (spray flags and per-particle
+//! camera (flag, or fitted for the output's aspect) → background extras → upload (isolated flags and per-particle
 //! radii, through [`Renderer::set_scene_particles`]) → the end-of-run validation check ([`crate::args::finish`]).
 //! `render`, `bench`, `demo` and `info` all start from a [`Job`], so the same file and flags give the same
 //! particles, radii and camera everywhere; each prints the same `job:` line, which a CLI test compares.
@@ -275,7 +275,7 @@ impl Job {
         view
     }
 
-    /// Upload one frame's particles (spray flags, per-particle radii) with this job's settings.
+    /// Upload one frame's particles (isolated flags, per-particle radii) with this job's settings.
     pub fn upload(&self, r: &mut Renderer, p: &Particles) -> Result<()> {
         Ok(r.upload(Upload::scene(p, &self.settings))?)
     }

@@ -1,7 +1,7 @@
 //! `iso` pass (runs after `splat` when `surface = "iso"`): replaces the splatted sphere depth by the depth of
 //! the SPH colour-field iso-surface, ray-cast per pixel (shaders_glsl/iso.comp, field in iso_field.glsl,
 //! CPU reference and grid build in src/field/iso.rs). The grid (points sorted by cell + cell table) is built on the GPU
-//! (`grid` pass, or uploaded with spray) and the `iso_density` pass (1/n_j per point, its own timestamp; and
+//! (`grid` pass, or uploaded with isolated particles) and the `iso_density` pass (1/n_j per point, its own timestamp; and
 //! each cell's empty distance, iso_empty.comp, which the casts skip empty space by) runs when the particles
 //! change; every frame, the march from the bound spheres' depth (two dispatches: the first samples of every ray,
 //! then the queued long rays).

@@ -76,9 +76,9 @@ impl IsoResources {
     }
 
     /// The grid of the current particles for kernel `support` (world units), unless it is there already.
-    /// Without spray the grid is built on the GPU from the particle buffer (the `grid` pass in the frame: no
+    /// Without isolated particles the grid is built on the GPU from the particle buffer (the `grid` pass in the frame: no
     /// CPU work per frame, and GPU-resident particles work too; the buffers are kept while the shape holds);
-    /// with spray the CPU builds it without the spray and uploads it. The cells are at least `reach` (≥ the
+    /// with them the CPU builds it without them and uploads it. The cells are at least `reach` (≥ the
     /// kernel `support`) wide: the farthest a kernel reaches from its particle. The grid spans the fluid, not
     /// a stray particle far from it (the GPU grid clamps such a particle into its edge cell, where its kernel
     /// reaches nothing: it is left out of the surface, and said so).
@@ -88,7 +88,7 @@ impl IsoResources {
         // The anisotropic kernels' buffer only where they are used (48 bytes a point).
         let aniso = p.settings.kernel == crate::settings::Kernel::Anisotropic;
         let aniso_bytes = |points: u64| if aniso { points * 48 } else { 16 };
-        if !particles.has_spray() {
+        if !particles.has_isolated() {
             let key = (particles.generation(), reach.to_bits());
             let bounds = match self.bounds {
                 Some((g, r, b)) if (g, r) == key => b,

@@ -25,7 +25,7 @@ pub struct FluidMesh {
 }
 
 impl Technique for FluidMesh {
-    /// Extract the iso-surface mesh of the current particles (spray and strays left out) with the `[iso]` field
+    /// Extract the iso-surface mesh of the current particles (isolated particles and strays left out) with the `[iso]` field
     /// and the `[mesh]` cube size, and upload its BVH, unless it is there already.
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
         let s = p.settings;
