@@ -123,7 +123,7 @@ fn main() -> meniscus::Result<()> {
                 let inputs = meniscus::passes::composite::CompositeInputs {
                     scene_color: if sampled_only { &tex } else { &t.scene_color },
                     scene_depth: &t.scene_depth,
-                    depth: &t.smooth_a,
+                    depth: &t.filter_a,
                     normals: &t.normals,
                     thickness: if sampled_only { &tex } else { &t.thickness },
                     ssr: &t.ssr,
@@ -167,7 +167,7 @@ fn wave_frame(gpu: &Arc<Gpu>, no_filter: bool) -> meniscus::Result<(Renderer, Vi
     let gen = procedural::generate("wave", 20_000)?;
     let mut s = Settings { radius: gen.radius, ..Settings::default() };
     if no_filter {
-        s.smooth.filter = meniscus::named::Filter::None;
+        s.filter.method = meniscus::named::Filter::None;
     }
     let bounds = scene::percentile_bounds(&gen.particles.positions, 0.01).expect("particles");
     let view = View {

@@ -1,5 +1,5 @@
 //! curvature.glsl — one explicit curvature-flow step at one pixel (van der Laan et al. 2009; Moritz eq. 3.10),
-//! shared by smooth_curvature.comp (tiled, several iterations per dispatch) and smooth_curvature1.comp (one
+//! shared by filter_curvature.comp (tiled, several iterations per dispatch) and filter_curvature1.comp (one
 //! iteration per dispatch, no shared memory). n0…n8: the 3×3 neighbourhood (row-major, centre z), with
 //! background / far neighbours already replaced by z. Positive depth: d ← d − Δt·H.
 float curvature_step(float z, float n0, float n1, float n2, float n3, float n5, float n6, float n7, float n8,

@@ -119,7 +119,7 @@ use crate::view::View;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Frame {
     /// Which image holds the smoothed depth (at fluid resolution).
-    pub smoothed: crate::passes::smooth::Output,
+    pub smoothed: crate::passes::filter::Output,
 }
 
 /// Everything one frame is recorded from.
@@ -184,7 +184,7 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
     );
     let ctx = rec.part(Fluid);
     f.surface.record_depth(ctx, &surface, kernels)?;
-    let smoothed = p.smooth.record(ctx, frame, &t.depth, t.ping_pong(), &s.smooth, s.radius, f.info);
+    let smoothed = p.filter.record(ctx, frame, &t.depth, t.ping_pong(), &s.filter, s.radius, f.info);
     let fluid_depth = t.smoothed(smoothed);
     let depth = match &t.depth_full {
         Some(full) => {

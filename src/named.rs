@@ -1,7 +1,7 @@
 //! Enums whose variants have one name each — used everywhere a user names one: TOML (serde), the command line
 //! (`FromStr` + [`Named::NAMES`], so the library needs no CLI crate), JSON and tables. The settings' enums and
 //! the passes' own are declared with [`named_enum!`]; the passes' own that a user chooses among — the
-//! screen-space filter ([`Filter`], `[smooth] filter`, `--filter`) and the sphere splat's mode ([`SplatMode`],
+//! screen-space filter ([`Filter`], `[filter] filter`, `--filter`) and the sphere splat's mode ([`SplatMode`],
 //! `[splat] mode`, `--splat`) — are declared here, below both the passes that run them and the settings that
 //! hold them, so that each has one path.
 

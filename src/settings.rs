@@ -64,11 +64,12 @@ fn merge(base: &mut serde_json::Value, over: serde_json::Value) {
 
 /// Settings sections spelled differently before, as (old, new): a file may still use the old spelling (read as
 /// the new one, with a note: [`Settings::with_toml_noting`]).
-pub const RENAMED_SECTIONS: &[(&str, &str)] = &[("spray", "isolated")];
+pub const RENAMED_SECTIONS: &[(&str, &str)] = &[("spray", "isolated"), ("smooth", "filter")];
 
 /// Settings keys spelled differently before, as (section, old, new): a file may still use the old spelling
 /// (read as the new one, with a note: [`Settings::with_toml_noting`]).
 pub const RENAMED_KEYS: &[(&str, &str, &str)] = &[
+    ("filter", "filter", "method"),
     ("noise", "foam", "whitecaps"),
     ("noise", "foam_from", "whitecaps_from"),
     ("noise", "foam_full", "whitecaps_full"),
@@ -100,7 +101,7 @@ named_enum! {
 }
 
 /// All render settings: a few frame-wide values, then one section per pass (each pass takes only its own),
-/// in code and in TOML (`[smooth] filter = "bilateral"`, `[smooth.narrow] radius = 8.0`, `[ssr] stride = 4`).
+/// in code and in TOML (`[filter] filter = "bilateral"`, `[filter.narrow] radius = 8.0`, `[ssr] stride = 4`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Settings {
@@ -110,7 +111,7 @@ pub struct Settings {
     pub surface: Surface,
     /// The iso field's kernel: isotropic, or anisotropic (`[anisotropy]`).
     pub kernel: Kernel,
-    /// Fluid resolution (splat, smooth) relative to the output: 1, 0.5 (half) or 0.25 (quarter); upsampled
+    /// Fluid resolution (splat, filter) relative to the output: 1, 0.5 (half) or 0.25 (quarter); upsampled
     /// to full resolution by the `upsample` pass.
     pub fluid_scale: f32,
     /// `[background]`: the scene behind the fluid and the sun.
@@ -128,8 +129,9 @@ pub struct Settings {
     pub mesh: crate::passes::mesh::Params,
     /// `[thickness]`: resolution and blur.
     pub thickness: crate::passes::thickness::Params,
-    /// `[smooth]`: the depth filter.
-    pub smooth: crate::passes::smooth::Params,
+    /// `[filter]`: the depth filter.
+    #[serde(alias = "smooth")]
+    pub filter: crate::passes::filter::Params,
     /// `[normals]`: discontinuities.
     pub normals: crate::passes::normals::Params,
     /// `[noise]`: the patent's waves and foam on the surface.
@@ -190,7 +192,7 @@ impl Default for Settings {
             thickness: Default::default(),
             // No screen-space filter on the default iso surface (a filter only blurs it); `--surface spheres`
             // without `--filter` gets narrow-range (src/bin/meniscus/args.rs).
-            smooth: crate::passes::smooth::Params { filter: Filter::None, ..Default::default() },
+            filter: crate::passes::filter::Params { method: Filter::None, ..Default::default() },
             normals: Default::default(),
             noise: Default::default(),
             diffuse: Default::default(),
@@ -219,7 +221,7 @@ impl Settings {
             // shared frame, tools/quality.sh).
             "quality" => {
                 s.surface = Surface::Iso;
-                s.smooth.filter = Filter::None;
+                s.filter.method = Filter::None;
                 s.iso.smoothing = 0.0;
                 s.iso.bound = 1.75;
             }
@@ -227,9 +229,9 @@ impl Settings {
             // filter and blur pixels.
             "fast" => {
                 s.surface = Surface::Spheres;
-                s.smooth.filter = Filter::NarrowRange;
-                s.smooth.bilateral.iterations = 1;
-                s.smooth.max_px = 12;
+                s.filter.method = Filter::NarrowRange;
+                s.filter.bilateral.iterations = 1;
+                s.filter.max_px = 12;
                 s.thickness.blur_px = 2;
             }
             // The marching-cubes mesh with splashsurf's finishing (25 Laplacian iterations, feature weights):
@@ -237,16 +239,16 @@ impl Settings {
             // iso cast). Offline: the CPU extracts and smooths again whenever the particles change.
             "smooth" => {
                 s.surface = Surface::Mesh;
-                s.smooth.filter = Filter::None;
+                s.filter.method = Filter::None;
                 s.mesh.smoothing_iters = 25;
             }
             // Moritz 2016 (thesis values): curvature flow, Δt = 0.005, ≤ 60 iterations, κ = 3.
             "moritz" => {
                 s.surface = Surface::Spheres;
-                s.smooth.filter = Filter::CurvatureFlow;
-                s.smooth.curvature.dt = 0.005;
-                s.smooth.curvature.it_max = 60;
-                s.smooth.curvature.kappa = 3.0;
+                s.filter.method = Filter::CurvatureFlow;
+                s.filter.curvature.dt = 0.005;
+                s.filter.curvature.it_max = 60;
+                s.filter.curvature.kappa = 3.0;
                 s.ssr.stride = 8.0;
                 s.ssr.max_steps = 100;
                 s.ssr.refine = 4;
@@ -262,13 +264,13 @@ impl Settings {
     /// default iso surface's) also turns on their default filter, narrow-range (`--filter none` after this
     /// shows them raw). Used by the CLI's `--surface` and the demo's `I` key.
     pub fn set_surface(&mut self, surface: Surface) {
-        if surface == Surface::Spheres && self.surface != Surface::Spheres && self.smooth.filter == Filter::None {
-            self.smooth.filter = Filter::NarrowRange;
+        if surface == Surface::Spheres && self.surface != Surface::Spheres && self.filter.method == Filter::None {
+            self.filter.method = Filter::NarrowRange;
         }
         self.surface = surface;
     }
 
-    /// A copy with `f` applied (variants of one base: `base.with(|s| s.smooth.filter = Filter::None)`).
+    /// A copy with `f` applied (variants of one base: `base.with(|s| s.filter.method = Filter::None)`).
     pub fn with(&self, f: impl FnOnce(&mut Settings)) -> Settings {
         let mut s = self.clone();
         f(&mut s);
@@ -420,7 +422,7 @@ impl Settings {
             &self.anisotropy,
             &self.mesh,
             &self.thickness,
-            &self.smooth,
+            &self.filter,
             &self.normals,
             &self.noise,
             &self.diffuse,

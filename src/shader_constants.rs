@@ -7,7 +7,7 @@
 pub const LOCAL_2D: u32 = 8;
 /// 64-thread work groups for per-particle passes.
 pub const LOCAL_1D: u32 = 64;
-/// Work-group edge of the tiled curvature-flow shader (smooth_curvature.comp).
+/// Work-group edge of the tiled curvature-flow shader (filter_curvature.comp).
 pub const CURVATURE_LOCAL: u32 = 8;
 /// Boxes of the background scene in the frame's uniform block.
 pub const MAX_BOXES: u32 = 8;

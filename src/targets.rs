@@ -79,9 +79,9 @@ pub struct Targets {
     /// Raw splatted depth: R32_SFLOAT with an R32_UINT view for atomics.
     pub depth: Image,
     /// First smoothing ping-pong image.
-    pub smooth_a: Image,
+    pub filter_a: Image,
     /// The second ping-pong image when the raw depth is kept (else the raw depth itself is the second one).
-    pub smooth_b: Option<Image>,
+    pub filter_b: Option<Image>,
     /// The `iso` march's far bound per pixel (`surface = "iso"`), R32F + R32_UINT view.
     pub depth_back: Option<Image>,
     /// The same per 8×8 tile (written instead when the splat culls).
@@ -139,8 +139,8 @@ impl Targets {
                     .zbuffer
                     .then(|| img("zbuffer", fluid, vk::Format::D32_SFLOAT, U::DEPTH_STENCIL_ATTACHMENT, None))
                     .transpose()?,
-                smooth_a: img("smooth_a", fluid, r32, storage, None)?,
-                smooth_b: d.keep_raw.then(|| img("smooth_b", fluid, r32, storage, None)).transpose()?,
+                filter_a: img("filter_a", fluid, r32, storage, None)?,
+                filter_b: d.keep_raw.then(|| img("filter_b", fluid, r32, storage, None)).transpose()?,
                 depth_full: d.upsampled().then(|| img("depth_full", full, r32, storage, None)).transpose()?,
                 thickness_accum: img("thickness_accum", d.thickness, vk::Format::R32_UINT, storage, None)?,
                 thickness: img("thickness", d.thickness, r32, storage | U::SAMPLED, None)?,
@@ -166,14 +166,14 @@ impl Targets {
         })
     }
 
-    /// The smoothing ping-pong pair: `smooth_a`, then `smooth_b` or (without it) the raw depth.
+    /// The smoothing ping-pong pair: `filter_a`, then `filter_b` or (without it) the raw depth.
     pub fn ping_pong(&self) -> (&Image, &Image) {
-        (&self.smooth_a, self.smooth_b.as_ref().unwrap_or(&self.depth))
+        (&self.filter_a, self.filter_b.as_ref().unwrap_or(&self.depth))
     }
 
-    /// The image that holds the smoothed depth ([`crate::passes::smooth::Output`]).
-    pub fn smoothed(&self, which: crate::passes::smooth::Output) -> &Image {
-        use crate::passes::smooth::Output;
+    /// The image that holds the smoothed depth ([`crate::passes::filter::Output`]).
+    pub fn smoothed(&self, which: crate::passes::filter::Output) -> &Image {
+        use crate::passes::filter::Output;
         match which {
             Output::Input => &self.depth,
             Output::First => self.ping_pong().0,
@@ -187,7 +187,7 @@ impl Targets {
             &self.scene_color,
             &self.scene_depth,
             &self.depth,
-            &self.smooth_a,
+            &self.filter_a,
             &self.depth_tiles,
             &self.thickness_accum,
             &self.thickness,
@@ -195,7 +195,7 @@ impl Targets {
             &self.ssr,
             &self.final_color,
         ];
-        let optional = [&self.smooth_b, &self.depth_full, &self.zbuffer, &self.depth_back, &self.depth_back_tiles];
+        let optional = [&self.filter_b, &self.depth_full, &self.zbuffer, &self.depth_back, &self.depth_back_tiles];
         let images = always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes()));
         let queue = self.iso_queue.iter().map(|q| (q.entries.name.as_str(), q.entries.size));
         images.chain(queue).collect()

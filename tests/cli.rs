@@ -233,7 +233,7 @@ fn bench_also_presets_interleaves_every_preset() {
     for e in entries {
         assert_eq!(e["frames"], 2);
         assert_eq!(has(e, "iso"), e["variant"] != "fast", "{}", e["variant"]);
-        assert_eq!(has(e, "smooth"), e["variant"] == "fast", "{}", e["variant"]);
+        assert_eq!(has(e, "filter"), e["variant"] == "fast", "{}", e["variant"]);
         // The iso pass's queued rays are reported where it ran (a count, not a time).
         assert_eq!(e["iso_work"]["queued"].is_u64(), has(e, "iso"), "{}", e["iso_work"]);
         for once in ["iso_density", "iso_volume"] {

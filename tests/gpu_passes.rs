@@ -29,7 +29,7 @@ fn splat_depth_matches_analytic_sphere() {
     let (w, h) = (96usize, 64usize);
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(0.5);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, true);
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
     let f = v.camera.focal_px(h as u32) as f64;
@@ -58,7 +58,7 @@ fn splat_clamps_to_near_plane() {
     let gpu = gpu();
     let v = view([0.0, 0.0, 0.3], [0.0, 0.0, 0.0], 32, 32, 60.0);
     let mut s = settings(0.5);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, true);
     let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
     let centre = depth[16 * 32 + 16];
@@ -115,7 +115,7 @@ fn thickness_is_zero_behind_scene_geometry() {
     assert_clean(&gpu);
 }
 
-/// CPU reference of smooth_bilateral.comp (one dispatch), same math.
+/// CPU reference of filter_bilateral.comp (one dispatch), same math.
 fn bilateral_cpu(src: &[f32], w: usize, h: usize, f: f32, dir: (i32, i32), rho: f32, sr: f32, max_px: i32) -> Vec<f32> {
     let mut out = src.to_vec();
     for y in 0..h as i32 {
@@ -185,7 +185,7 @@ fn bumpy_depth(w: usize, h: usize) -> Vec<f32> {
     d
 }
 
-/// Run only the `smooth` pass on `src` (a depth image of the view's size) and read the result back.
+/// Run only the `filter` pass on `src` (a depth image of the view's size) and read the result back.
 fn smooth_once(
     gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
     v: &meniscus::view::View,
@@ -201,12 +201,12 @@ fn smooth_once(
     let out = gpu
         .one_shot(|cmd| {
             let mut ctx = FrameCtx::new(gpu, cmd, None);
-            Ok(r.passes.smooth.record_iterations(
+            Ok(r.passes.filter.record_iterations(
                 &mut ctx,
                 &r.uniforms,
                 &t.depth,
                 t.ping_pong(),
-                &s.smooth,
+                &s.filter,
                 s.radius,
                 its,
             ))
@@ -223,13 +223,13 @@ fn bilateral_separable_and_2d_match_cpu_reference() {
     let f = v.camera.focal_px(h as u32);
     for filter in [Filter::Bilateral, Filter::Bilateral2d, Filter::Gaussian] {
         let mut s = settings(0.05);
-        s.smooth.filter = filter;
-        s.smooth.bilateral.iterations = 1;
+        s.filter.method = filter;
+        s.filter.bilateral.iterations = 1;
         let src = bumpy_depth(w, h);
         let got = smooth_once(&gpu, &v, &s, &src, 0);
-        let sr = if filter == Filter::Gaussian { 0.0 } else { s.smooth.bilateral.sigma_range * s.radius };
-        let rho = s.smooth.radius * s.radius;
-        let max_px = s.smooth.max_px as i32;
+        let sr = if filter == Filter::Gaussian { 0.0 } else { s.filter.bilateral.sigma_range * s.radius };
+        let rho = s.filter.radius * s.radius;
+        let max_px = s.filter.max_px as i32;
         let want = match filter {
             Filter::Bilateral2d => bilateral_cpu(&src, w, h, f, (0, 0), rho, sr, max_px),
             _ => {
@@ -374,9 +374,9 @@ fn every_filter_smooths_bumps_keeps_background_and_flat_planes() {
     {
         for bumpy in [true, false] {
             let mut s = settings(r);
-            s.smooth.filter = filter;
+            s.filter.method = filter;
             let src = make(bumpy);
-            let its = meniscus::passes::smooth::iterations_needed(&s.smooth, s.radius, f as f32, 2.5);
+            let its = meniscus::passes::filter::iterations_needed(&s.filter, s.radius, f as f32, 2.5);
             let got = smooth_once(&gpu, &v, &s, &src, its);
             for i in 0..w * h {
                 assert_eq!(src[i].is_infinite(), got[i].is_infinite(), "{filter:?}: coverage changed at {i}");
@@ -567,7 +567,7 @@ fn upsample_never_lands_between_surfaces() {
     assert_clean(&gpu);
 }
 
-/// CPU reference of smooth_narrow.comp (one dispatch).
+/// CPU reference of filter_narrow.comp (one dispatch).
 #[allow(clippy::too_many_arguments)]
 fn narrow_cpu(
     src: &[f32],
@@ -652,7 +652,7 @@ fn narrow_cpu(
 
 /// CPU reference of one curvature-flow iteration (curvature.glsl, untiled).
 fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscus::settings::Settings) -> Vec<f32> {
-    let edge = s.smooth.curvature.edge * s.radius;
+    let edge = s.filter.curvature.edge * s.radius;
     let at = |x: i32, y: i32, z: f32| {
         if x < 0 || y < 0 || x >= w as i32 || y >= h as i32 {
             return z;
@@ -669,7 +669,7 @@ fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscu
         for x in 0..w as i32 {
             let z = src[y as usize * w + x as usize];
             let its =
-                (s.smooth.curvature.it_max as i32).min((f * s.smooth.curvature.radius * s.radius / z.max(1e-6)) as i32);
+                (s.filter.curvature.it_max as i32).min((f * s.filter.curvature.radius * s.radius / z.max(1e-6)) as i32);
             if !(z < 1e30) || iter >= its {
                 continue;
             }
@@ -679,14 +679,14 @@ fn curvature_cpu(src: &[f32], w: usize, h: usize, f: f32, iter: i32, s: &meniscu
             let zyy = n(0, 1) - 2.0 * z + n(0, -1);
             let zxy = 0.25 * (n(1, 1) - n(-1, 1) - n(1, -1) + n(-1, -1));
             let c = 1.0 / f;
-            let zk = z + s.smooth.curvature.kappa;
+            let zk = z + s.filter.curvature.kappa;
             let c2 = c * c;
             let dd = c2 * zx * zx + c2 * zy * zy + c2 * c2 * zk * zk;
             let dx = 2.0 * c2 * zx * zxx + 2.0 * c2 * zy * zxy + 2.0 * c2 * c2 * zk * zx;
             let dy = 2.0 * c2 * zx * zxy + 2.0 * c2 * zy * zyy + 2.0 * c2 * c2 * zk * zy;
             let hh = (c * (0.5 * zx * dx - zxx * dd) + c * (0.5 * zy * dy - zyy * dd)) / (2.0 * dd.powf(1.5));
             let stable = 0.2 * 2.0 * zk / f;
-            let dt = if s.smooth.curvature.dt > 0.0 { s.smooth.curvature.dt.min(stable) } else { stable };
+            let dt = if s.filter.curvature.dt > 0.0 { s.filter.curvature.dt.min(stable) } else { stable };
             out[y as usize * w + x as usize] = z - dt * hh;
         }
     }
@@ -713,29 +713,29 @@ fn narrow_range_and_curvature_flow_match_cpu_references() {
     };
     // Narrow range: two separable passes then one 2D pass.
     let mut s = settings(0.05);
-    s.smooth.filter = Filter::NarrowRange;
+    s.filter.method = Filter::NarrowRange;
     let (rho, thr, mu) =
-        (s.smooth.narrow.radius * s.radius, s.smooth.narrow.threshold * s.radius, s.smooth.narrow.mu * s.radius);
-    let mp = s.smooth.max_px as i32;
+        (s.filter.narrow.radius * s.radius, s.filter.narrow.threshold * s.radius, s.filter.narrow.mu * s.radius);
+    let mp = s.filter.max_px as i32;
     for skip in [false, true] {
-        s.smooth.narrow.skip_background = skip;
+        s.filter.narrow.skip_background = skip;
         let a = narrow_cpu(&src, w, h, f, (1, 0), rho, thr, mu, mp, 0, skip);
         let b = narrow_cpu(&a, w, h, f, (0, 1), rho, thr, mu, mp, 0, skip);
-        let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.smooth.narrow.px_2d as i32, skip);
+        let want = narrow_cpu(&b, w, h, f, (0, 0), rho, thr, mu, mp, s.filter.narrow.px_2d as i32, skip);
         close(&run(&s, 0), &want, &format!("narrow-range, skip background {skip}"), 1e-4);
     }
     // Curvature flow: 8 iterations, CPU vs GPU untiled vs GPU tiled (4 per dispatch).
     let mut s = settings(0.05);
-    s.smooth.filter = Filter::CurvatureFlow;
-    s.smooth.curvature.it_max = 8;
-    s.smooth.curvature.radius = 40.0;
+    s.filter.method = Filter::CurvatureFlow;
+    s.filter.curvature.it_max = 8;
+    s.filter.curvature.radius = 40.0;
     let mut want = src.clone();
     for it in 0..8 {
         want = curvature_cpu(&want, w, h, f, it, &s);
     }
-    s.smooth.curvature.iters_per_dispatch = 1;
+    s.filter.curvature.iters_per_dispatch = 1;
     close(&run(&s, 8), &want, "curvature flow, 1 it/dispatch", 2e-4);
-    s.smooth.curvature.iters_per_dispatch = 4;
+    s.filter.curvature.iters_per_dispatch = 4;
     close(&run(&s, 8), &want, "curvature flow, 4 it/dispatch", 2e-4);
     assert_clean(&gpu);
 }
@@ -767,7 +767,7 @@ fn splat_depth(
     mode: meniscus::named::SplatMode,
 ) -> Option<Vec<f32>> {
     let mut s = settings(radius);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.splat.mode = mode;
     let mut r = Renderer::new(gpu).unwrap();
     if !r.passes.splat.supports(mode) {
@@ -824,7 +824,7 @@ fn skybox_faces_from_files() {
     r.set_background(meniscus::renderer::Backdrop::Sky { size, faces: &faces }).unwrap();
     let mut s = settings(0.05);
     s.background.sun_intensity = 0.0;
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     r.upload(meniscus::renderer::Upload::points(&[[100.0, 100.0, 100.0]])).unwrap();
     for (target, want) in [([1.0f32, 0.0, 0.0], [255u8, 0, 0]), ([0.0, 1.0, 0.001], [0, 0, 255])] {
         let mut v = view([0.0, 0.0, 0.0], target, 16, 16, 30.0);
@@ -887,7 +887,7 @@ fn weights_follow(kernel: meniscus::settings::Kernel, once: &[&str]) {
     assert!(b.len() < a.len() * 3 / 4);
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], 96, 72, 45.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.kernel = kernel;
     let ran = |t: &meniscus::timing::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
@@ -949,7 +949,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     pts.push([0.4 + 2.2 * r, 0.35, 0.1]);
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.kernel = kernel;
     // The slab's points have about 12–30 neighbours within 4 r: most get flat kernels, the lone one a sphere.
@@ -1161,7 +1161,7 @@ fn smoothed_iso_field_matches_cpu() {
     pts.push(lone);
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
@@ -1247,7 +1247,7 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     let mut pts = jittered_slab(7, [10, 4, 10], [-0.5, 0.0, -0.5], r, [1.0, 1.0, 1.0]);
     pts.extend(jittered_slab(8, [10, 4, 10], [23.5, 24.0, 23.5], r, [1.0, 1.0, 1.0]));
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
@@ -1282,7 +1282,7 @@ fn the_64_bit_deposit_equals_the_32_bit_one() {
     let r = 0.05f32;
     let pts = jittered_slab(99, [12, 6, 9], [-0.6, -0.2, -0.45], r, [1.0, 1.2, 1.0]);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], 96, 64, 45.0);
@@ -1344,7 +1344,7 @@ fn smoothed_iso_surface_has_no_seams_at_voxel_faces() {
         }
     }
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     s.iso.bulk = [0.0, 0.0];
@@ -1400,7 +1400,7 @@ fn iso_coarse_to_fine_matches_the_march() {
     // F = 144 / (2 tan 22.5°) ≈ 174 px: at 1.0–1.8 from the eye a particle is 5–9 px in radius.
     let v = view([0.2, 0.8, 1.1], [0.0, 0.0, 0.0], 192, 144, 45.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.keep_raw_depth = true;
@@ -1454,7 +1454,7 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
     let mesh = meniscus::scene::geometry::Geometry::parse_obj(obj).unwrap();
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut s = settings(0.05);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     let mut r = Renderer::new(&gpu).unwrap();
     r.upload(meniscus::renderer::Upload::points(&[[10.0, 10.0, 10.0]])).unwrap();
     r.set_background(meniscus::renderer::Backdrop::Mesh(&mesh)).unwrap();
@@ -1695,7 +1695,7 @@ fn mesh_depth_matches_iso_ray_cast() {
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let depth_of = |surface: meniscus::settings::Surface| {
         let mut s = settings(r);
-        s.smooth.filter = Filter::None;
+        s.filter.method = Filter::None;
         s.surface = surface;
         s.mesh.cube = 0.25;
         let mut rd = Renderer::new(&gpu).unwrap();
@@ -1880,7 +1880,7 @@ fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
     pts.push([0.0, 0.6, 0.0]);
     let v = view([0.2, 1.4, 1.8], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.kernel = meniscus::settings::Kernel::Anisotropic;
     s.anisotropy.min_neighbours = 8;
     s.thickness.scale = 1.0;
@@ -1990,7 +1990,7 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
     let r = 0.1f32;
     let v = view([0.2, 0.9, 1.1], [0.0, -0.2, 0.0], 160, 120, 60.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.noise.enabled = true;
     let top: Vec<[f32; 3]> = noise_slab(14, r).into_iter().filter(|p| p[1] == 0.0).collect();
     let pos: Vec<[f32; 3]> =
@@ -2040,7 +2040,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
     let r = 0.1f32;
     let v = view([0.2, 0.9, 1.1], [0.0, -0.2, 0.0], w as u32, h as u32, 60.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.noise.enabled = true;
     s.noise.calm = 0.3;
     s.noise.turbulent = 0.9;
@@ -2121,7 +2121,7 @@ fn noise_matches_cpu_reference() {
     let r = 0.1f32;
     let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.noise.enabled = true;
     s.noise.calm = 0.2;
     s.noise.turbulent = 0.9;
@@ -2313,7 +2313,7 @@ fn diffuse_matches_cpu_reference() {
     let r = 0.1f32;
     let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], w as u32, h as u32, 40.0);
     let mut s = settings(r);
-    s.smooth.filter = Filter::None;
+    s.filter.method = Filter::None;
     s.diffuse.shutter = 0.05;
     let mut pos = noise_slab(10, r);
     let marked = pos.len();

@@ -155,7 +155,7 @@ proptest! {
     }
 
     #[test]
-    fn settings_files_never_panic(key in prop::sample::select(vec!["radius", "surface", "[iso]\nsmoothing", "[iso]\nbulk", "[smooth.narrow]\nradius", "[ssr]\nstride", "[mesh]\nsmoothing_iters", "[anisotropy]\nratio", "fluid_scale"]),
+    fn settings_files_never_panic(key in prop::sample::select(vec!["radius", "surface", "[iso]\nsmoothing", "[iso]\nbulk", "[filter.narrow]\nradius", "[ssr]\nstride", "[mesh]\nsmoothing_iters", "[anisotropy]\nratio", "fluid_scale"]),
                                   value in prop_oneof![Just("inf".to_string()), Just("-inf".to_string()), Just("nan".to_string()), Just("1e300".to_string()), Just("-1".to_string()), Just("0".to_string()), Just("[1, 2]".to_string()), Just("\"x\"".to_string()), any::<i64>().prop_map(|x| x.to_string()), any::<f64>().prop_map(|x| format!("{x:?}"))]) {
         let dir = std::env::temp_dir().join(format!("meniscus-props-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -3,7 +3,7 @@
 # camera) against BOTH splashsurf references in ../shared/data/quality/ with ../shared/tools/quality: the raw
 # reconstruction (dambreak59k_f20_ref_depth.npy) and the smoothed one practitioners render
 # (dambreak59k_f20_smooth_ref_depth.npy). Prints one markdown table per reference (issue #15: the tables are
-# produced by this script, never typed in). Each configuration is rendered once; its `smooth`/`iso`/
+# produced by this script, never typed in). Each configuration is rendered once; its `filter`/`iso`/
 # `anisotropy` GPU ms are this machine's (benchmarks: `meniscus bench`).
 # Usage: tools/quality.sh [extra render args…]; CONFIGS="name|render args;…" replaces the list; SCENE picks the
 # reference (dambreak59k_f20, the default; ddbs25k_f12 or ddbs25k_f16: the double dam break around a sphere,
@@ -67,7 +67,7 @@ for c in "${configs[@]}"; do
         cat "$out/err" >&2
         exit 1
     fi
-    ms=$(awk -F'|' '$2 ~ /^ (splat|smooth|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
+    ms=$(awk -F'|' '$2 ~ /^ (splat|filter|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
     for ref in ref smooth_ref; do
         rows[$ref]+=$("$q" compare --ref-depth "${refs}_${ref}_depth.npy" \
             --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius "$radius" | tail -n 1 |

@@ -68,9 +68,9 @@ class MeniscusWaterSettings(bpy.types.PropertyGroup):
         description="Particle radius (0: from a scene.json beside the files, else estimated, as the CLI does)")
     cube_size: bpy.props.FloatProperty(
         name="Cube size", default=0.5, min=0.1, max=8.0, description="Marching-cubes edge in particle radii")
-    smoothing_length: bpy.props.FloatProperty(
-        name="Smoothing length", default=2.0, min=0.5, max=8.0,
-        description="Kernel smoothing length in particle radii (support = 2 × this)")
+    support: bpy.props.FloatProperty(
+        name="Kernel support", default=4.0, min=1.0, max=16.0,
+        description="Kernel support in particle radii (as [iso] support; splashsurf's 2 × smoothing length)")
     threshold: bpy.props.FloatProperty(name="Iso value", default=0.6, min=0.01, max=0.99)
     use_gpu: bpy.props.BoolProperty(
         name="GPU", default=True, description="Extract on the GPU (Vulkan); off: on the CPU (all cores)")
@@ -90,7 +90,7 @@ def _settings(scene):
 
 
 def _key(s):
-    return (s.source, s.radius, s.cube_size, s.smoothing_length, s.threshold, s.use_gpu)
+    return (s.source, s.radius, s.cube_size, s.support, s.threshold, s.use_gpu)
 
 
 def load_sequence(s):
@@ -127,7 +127,7 @@ def surface(s, number):
     else:
         if vel is None or getattr(vel, "shape", None) != pos.shape:
             vel = np.zeros_like(pos)
-        mesh = m.reconstruct_surface(pos, particle_radius=STATE.radius, smoothing_length=s.smoothing_length,
+        mesh = m.reconstruct_surface(pos, particle_radius=STATE.radius, support=s.support,
                                      cube_size=s.cube_size, iso_surface_threshold=s.threshold, gpu=s.use_gpu,
                                      velocities=vel)
         mesh = (*mesh, m.mesh_edges(mesh[1]))
@@ -321,7 +321,7 @@ class MENISCUS_OT_bake(bpy.types.Operator):
                 for n in numbers:
                     pos = m.load(STATE.frames[n])["positions"]
                     m.write_vdb(f"{stem}_{n:04d}{ext or '.vdb'}", pos, particle_radius=STATE.radius,
-                                smoothing_length=s.smoothing_length, cube_size=s.cube_size,
+                                support=s.support, cube_size=s.cube_size,
                                 iso_surface_threshold=s.threshold)
         except Exception as e:
             self.report({"ERROR"}, str(e))
@@ -342,7 +342,7 @@ class MENISCUS_PT_panel(bpy.types.Panel):
         col.prop(s, "source")
         col.prop(s, "radius")
         col.prop(s, "cube_size")
-        col.prop(s, "smoothing_length")
+        col.prop(s, "support")
         col.prop(s, "threshold")
         col.prop(s, "use_gpu")
         col.prop(s, "cache_frames")

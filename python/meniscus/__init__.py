@@ -247,13 +247,25 @@ class Foam(Diffuse):
         super().__init__(particle_radius=particle_radius, fps=fps, settings=settings)
 
 
-def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,
+def _support(support: float, smoothing_length: Optional[float]) -> float:
+    """The kernel support in particle radii: `support` (`[iso] support`), or from the deprecated
+    `smoothing_length` (pysplashsurf's h, half the support)."""
+    if smoothing_length is None:
+        return float(support)
+    warnings.warn("smoothing_length is deprecated: pass support = 2 × smoothing_length (the kernel support in "
+                  "particle radii, as [iso] support)", DeprecationWarning, stacklevel=3)
+    if support != 4.0:
+        raise ValueError("pass support or smoothing_length (deprecated), not both")
+    return 2.0 * float(smoothing_length)
+
+
+def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, support: float = 4.0,
                         cube_size: float = 0.5, iso_surface_threshold: float = 0.6, mesh_smoothing_iters: int = 0,
-                        gpu: bool = True, device: Optional[str] = None, velocities: Optional[ArrayLike] = None
-                        ) -> Tuple[np.ndarray, ...]:
-    """The SPH iso-surface of the particles as a triangle mesh (pysplashsurf's parameter names: the kernel's
-    support is 2 × `smoothing_length` × `particle_radius`, the marching-cubes edge `cube_size` ×
-    `particle_radius`). Returns (vertices N×3 float32, triangles M×3 uint32, normals N×3 float32): the mesh
+                        gpu: bool = True, device: Optional[str] = None, velocities: Optional[ArrayLike] = None,
+                        smoothing_length: Optional[float] = None) -> Tuple[np.ndarray, ...]:
+    """The SPH iso-surface of the particles as a triangle mesh (the kernel's support `support` ×
+    `particle_radius`, as `[iso] support`: pysplashsurf's 2 × smoothing_length; `smoothing_length=` still works,
+    deprecated; the marching-cubes edge `cube_size` × `particle_radius`). Returns (vertices N×3 float32, triangles M×3 uint32, normals N×3 float32): the mesh
     `meniscus mesh` writes (`--gpu` when `gpu`); with `velocities` (one row per particle) a fourth array, the
     velocity at each vertex (SPH-interpolated, as `meniscus mesh --out X.usda` writes it: motion blur). Without a
     real GPU pass `gpu=False`: on lavapipe the GPU path runs emulated on the CPU, about 40× slower than the CPU
@@ -262,11 +274,12 @@ def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, smoothi
     vel = None if velocities is None else _points(velocities, "velocities")
     if vel is not None and len(vel) != len(pts):
         raise ValueError(f"velocities: {len(vel)} rows for {len(pts)} particles")
-    if not (smoothing_length > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
-        raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
+    support = _support(support, smoothing_length)
+    if not (support > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
+        raise ValueError("support must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
     if int(mesh_smoothing_iters) < 0 or int(mesh_smoothing_iters) > 1000:
         raise ValueError("mesh_smoothing_iters must be in [0, 1000]")
-    v, t, n, mv = _meniscus.reconstruct(pts, _radius(particle_radius), 2.0 * float(smoothing_length),
+    v, t, n, mv = _meniscus.reconstruct(pts, _radius(particle_radius), support,
                                         float(cube_size), float(iso_surface_threshold), int(mesh_smoothing_iters),
                                         bool(gpu), device, vel)
     return (v, t, n) if vel is None else (v, t, n, mv)
@@ -324,16 +337,17 @@ class UsdStage:
         self._s.finish()
 
 
-def write_vdb(path: str, particles: ArrayLike, *, particle_radius: float, smoothing_length: float = 2.0,
+def write_vdb(path: str, particles: ArrayLike, *, particle_radius: float, support: float = 4.0,
               cube_size: float = 0.5, iso_surface_threshold: float = 0.6, half_width: float = 3.0,
-              fog: bool = False) -> int:
+              fog: bool = False, smoothing_length: Optional[float] = None) -> int:
     """Write the particles' SPH iso-surface as an OpenVDB narrow-band level set (grid `surface`, voxel =
     `cube_size` × `particle_radius`, half-width `half_width` voxels), with `fog` also the field as a fog volume
     (grid `density`) — `meniscus mesh FILE --out X.vdb [--vdb-fog]`. Returns the level set's active voxels."""
     pts = _points(particles, "particles")
-    if not (smoothing_length > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
-        raise ValueError("smoothing_length must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
-    return _meniscus.write_vdb(str(path), pts, _radius(particle_radius), 2.0 * float(smoothing_length),
+    support = _support(support, smoothing_length)
+    if not (support > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
+        raise ValueError("support must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
+    return _meniscus.write_vdb(str(path), pts, _radius(particle_radius), support,
                                float(cube_size), float(iso_surface_threshold), float(half_width), bool(fog))
 
 

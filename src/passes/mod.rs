@@ -39,8 +39,8 @@ frame_passes! {
     iso: Iso,
     /// The extracted iso-surface mesh, ray-cast through its BVH (`surface = "mesh"`).
     mesh: Mesh,
-    /// Depth smoothing.
-    smooth: Smooth,
+    /// The screen-space depth filter (the spheres' surface; `[filter]`).
+    filter: DepthFilter,
     /// Reduced-resolution depth back to full size.
     upsample: Upsample,
     /// View-space normals.

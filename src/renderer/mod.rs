@@ -25,7 +25,7 @@ use crate::frame::FrameUniforms;
 use crate::gpu::executor::{Executor, Span, Submitted};
 use crate::gpu::{Buffer, Gpu};
 use crate::particles::ParticleSet;
-use crate::passes::smooth::Output as Smoothed;
+use crate::passes::filter::Output as Smoothed;
 use crate::passes::Passes;
 use crate::settings::Settings;
 use crate::surface::Surfaces;

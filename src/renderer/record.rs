@@ -14,7 +14,7 @@ use crate::gpu::executor::Submitted;
 use crate::gpu::recording::Recording;
 use crate::gpu::transfer::record_image_copy;
 use crate::gpu::{Access, Buffer, FrameCtx, Use};
-use crate::passes::smooth::Output as Smoothed;
+use crate::passes::filter::Output as Smoothed;
 use crate::passes::view::ViewImages;
 use crate::passes::FrameInfo;
 use crate::surface::Prepare;

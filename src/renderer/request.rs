@@ -213,7 +213,7 @@ impl FrameSlots<'_> {
 pub struct RendererState<'a> {
     pub(super) gpu: &'a std::sync::Arc<crate::gpu::Gpu>,
     pub(super) targets: Option<&'a Targets>,
-    pub(super) smoothed: crate::passes::smooth::Output,
+    pub(super) smoothed: crate::passes::filter::Output,
     pub(super) particles: &'a ParticleSet,
     pub(super) surfaces: &'a Surfaces,
     pub(super) effects: &'a crate::effect::Effects,

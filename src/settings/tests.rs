@@ -33,8 +33,8 @@ fn enum_names_round_trip() {
     check::<Surface>();
     check::<Kernel>();
     check::<SplatMode>();
-    let s: Settings = toml::from_str("[smooth]\nfilter = \"curvature-flow\"\n[splat]\nmode = \"quad-min\"").unwrap();
-    assert_eq!((s.smooth.filter, s.splat.mode), (Filter::CurvatureFlow, SplatMode::QuadMin));
+    let s: Settings = toml::from_str("[filter]\nfilter = \"curvature-flow\"\n[splat]\nmode = \"quad-min\"").unwrap();
+    assert_eq!((s.filter.method, s.splat.mode), (Filter::CurvatureFlow, SplatMode::QuadMin));
 }
 
 /// Every key of every section is checked: set alone far outside any range (±1e30 for a real number or a
@@ -87,7 +87,7 @@ fn every_key_of_every_section_is_checked() {
     std::fs::create_dir_all(&dir).unwrap();
     for (text, key) in [
         ("[ssr]\nrefine = 2\nstride = 0.0\n", "stride"),
-        ("[smooth]\nradius = 3.0\n[smooth.curvature]\nkappa = 2.0\ndt = -1.0\n", "dt"),
+        ("[filter]\nradius = 3.0\n[filter.curvature]\nkappa = 2.0\ndt = -1.0\n", "dt"),
     ] {
         let f = dir.join("bad.toml");
         std::fs::write(&f, text).unwrap();
@@ -109,11 +109,11 @@ fn toml_overrides_the_preset_and_rejects_unknown_keys() {
     let dir = std::env::temp_dir().join(format!("meniscus-settings-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let good = dir.join("good.toml");
-    std::fs::write(&good, "[smooth]\nfilter = \"bilateral\"\n[smooth.narrow]\nradius = 8.0\n").unwrap();
+    std::fs::write(&good, "[filter]\nfilter = \"bilateral\"\n[filter.narrow]\nradius = 8.0\n").unwrap();
     let s = Settings::preset("moritz").unwrap().with_toml(&good).unwrap();
-    assert_eq!(s.smooth.narrow.radius, 8.0);
-    assert_eq!(s.smooth.filter, Filter::Bilateral);
-    assert_eq!(s.smooth.curvature.dt, 0.005); // from the preset, same section as the file's `filter`
+    assert_eq!(s.filter.narrow.radius, 8.0);
+    assert_eq!(s.filter.method, Filter::Bilateral);
+    assert_eq!(s.filter.curvature.dt, 0.005); // from the preset, same section as the file's `filter`
     assert_eq!(s.ssr.stride, 8.0); // from the preset
     let check = |name: &str, text: &str, want_offset: usize, want: &str| {
         let f = dir.join(name);
@@ -121,13 +121,13 @@ fn toml_overrides_the_preset_and_rejects_unknown_keys() {
         let e = Settings::default().with_toml(&f).unwrap_err().to_string();
         assert!(e.contains(name) && e.contains(&format!("byte {want_offset}:")) && e.contains(want), "{e}");
     };
-    check("key.toml", "[smooth.narrow]\nradiu = 8.0\n", 16, "radiu");
+    check("key.toml", "[filter.narrow]\nradiu = 8.0\n", 16, "radiu");
     check("section.toml", "[smoth]\nradius = 8.0\n", 1, "smoth");
     check("type.toml", "[ssr]\nstride = \"far\"\n", 15, "");
-    check("name.toml", "[smooth]\nfilter = \"gaussien\"\n", 18, "gaussien");
+    check("name.toml", "[filter]\nfilter = \"gaussien\"\n", 18, "gaussien");
     check("syntax.toml", "[ssr]\nstride = = 8\n", 15, "");
     check("inf.toml", "[iso]\nsmoothing = inf\n", 6, "iso.smoothing: settings are finite numbers");
-    check("nan.toml", "[smooth.narrow]\nradius = nan\n", 16, "smooth.narrow.radius");
+    check("nan.toml", "[filter.narrow]\nradius = nan\n", 16, "filter.narrow.radius");
     // [noise] values out of range name their key where the [noise] section assigns it (not another
     // section's key of the same name).
     check("noise.toml", "[thickness]\nscale = 0.5\n[noise]\nsize = -1.0\n", 32, "[noise] size = -1");
@@ -153,6 +153,14 @@ fn toml_overrides_the_preset_and_rejects_unknown_keys() {
     assert_eq!(s.isolated, IsolatedParams { density: 0.3, by_neighbours: false });
     assert!(notes.len() == 1 && notes[0].contains("[spray] is deprecated: it is spelled [isolated] now"), "{notes:?}");
     check("sprayboth.toml", "[isolated]\ndensity = 0.3\n[spray]\ndensity = 0.2\n", 25, "sets both [spray]");
+    // The screen-space filter's section was `[smooth]`, its choice `filter`: both still read.
+    let old = dir.join("smooth.toml");
+    std::fs::write(&old, "[smooth]\nfilter = \"gaussian\"\n[smooth.narrow]\nradius = 8.0\n").unwrap();
+    let mut notes = vec![];
+    let s = Settings::default().with_toml_noting(&old, &mut notes).unwrap();
+    assert_eq!((s.filter.method, s.filter.narrow.radius), (Filter::Gaussian, 8.0));
+    assert!(notes.iter().any(|n| n.contains("[smooth] is deprecated: it is spelled [filter] now")), "{notes:?}");
+    assert!(notes.iter().any(|n| n.contains("[filter] filter is deprecated: it is spelled method now")), "{notes:?}");
     check("sprayrange.toml", "[iso]\nsmoothing = 1.0\n[spray]\ndensity = 2.0\n", 30, "isolated");
     check(
         "diffuse.toml",
@@ -167,10 +175,10 @@ fn toml_overrides_the_preset_and_rejects_unknown_keys() {
 fn presets_pick_their_surfaces() {
     // #15: the default is the smoothed iso surface; fast keeps spheres + narrow-range; quality the exact field.
     let d = Settings::preset("default").unwrap();
-    assert_eq!((d.surface, d.smooth.filter), (Surface::Iso, Filter::None));
+    assert_eq!((d.surface, d.filter.method), (Surface::Iso, Filter::None));
     assert!(Settings { radius: 0.01, ..d.clone() }.iso_params().volume.is_some());
     let f = Settings::preset("fast").unwrap();
-    assert_eq!((f.surface, f.smooth.filter), (Surface::Spheres, Filter::NarrowRange));
+    assert_eq!((f.surface, f.filter.method), (Surface::Spheres, Filter::NarrowRange));
     let q = Settings { radius: 0.01, ..Settings::preset("quality").unwrap() };
     assert_eq!(q.surface, Surface::Iso);
     assert!(q.iso_params().volume.is_none());
@@ -179,10 +187,10 @@ fn presets_pick_their_surfaces() {
     // Spheres from unfiltered settings get narrow-range; a filter already chosen stays.
     let mut s = d.clone();
     s.set_surface(Surface::Spheres);
-    assert_eq!(s.smooth.filter, Filter::NarrowRange);
-    let mut s = d.with(|s| s.smooth.filter = Filter::Bilateral);
+    assert_eq!(s.filter.method, Filter::NarrowRange);
+    let mut s = d.with(|s| s.filter.method = Filter::Bilateral);
     s.set_surface(Surface::Spheres);
-    assert_eq!(s.smooth.filter, Filter::Bilateral);
+    assert_eq!(s.filter.method, Filter::Bilateral);
 }
 
 #[test]

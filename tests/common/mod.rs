@@ -74,7 +74,7 @@ pub fn settings(radius: f32) -> Settings {
     Settings::default().with(|s| {
         s.radius = radius;
         s.surface = meniscus::settings::Surface::Spheres;
-        s.smooth.filter = meniscus::named::Filter::NarrowRange;
+        s.filter.method = meniscus::named::Filter::NarrowRange;
         s.iso.smoothing = 0.0;
         s.background.boxes = false;
         s.background.ground = false;

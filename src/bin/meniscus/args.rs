@@ -116,7 +116,7 @@ pub struct SettingsArgs {
     /// offline: re-extracted on the CPU whenever the particles change), moritz (the thesis' curvature flow).
     #[arg(long, default_value = "default")]
     pub preset: String,
-    /// TOML file of settings applied over the preset, one section per pass, e.g. `[smooth.narrow]` then
+    /// TOML file of settings applied over the preset, one section per pass, e.g. `[filter.narrow]` then
     /// `radius = 8.0` (README: Settings).
     #[arg(long)]
     pub settings: Option<PathBuf>,
@@ -166,7 +166,7 @@ impl SettingsArgs {
             s.set_surface(m);
         }
         if let Some(f) = self.filter {
-            s.smooth.filter = f;
+            s.filter.method = f;
         }
         if let Some(fs) = self.fluid_scale {
             s.fluid_scale = fs;

@@ -355,7 +355,7 @@ impl Series {
             width: self.view.width,
             height: self.view.height,
             variant: self.variant,
-            filter: self.s.smooth.filter.name().to_string(),
+            filter: self.s.filter.method.name().to_string(),
             camera: self.view.camera.to_arg(),
             frames: frames.max(1),
             warmup,
@@ -928,18 +928,18 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             if a.variants && k == 0 && j == 0 {
                 variants.clear();
                 for f in [Filter::Bilateral, Filter::NarrowRange, Filter::CurvatureFlow] {
-                    variants.push((format!("filter {}", f.name()), base.with(|s| s.smooth.filter = f)));
+                    variants.push((format!("filter {}", f.name()), base.with(|s| s.filter.method = f)));
                 }
                 for kk in [1, 4] {
                     variants.push((
                         format!("curvature-flow {kk} it/dispatch"),
                         base.with(|s| {
-                            s.smooth.filter = Filter::CurvatureFlow;
-                            s.smooth.curvature.iters_per_dispatch = kk;
+                            s.filter.method = Filter::CurvatureFlow;
+                            s.filter.curvature.iters_per_dispatch = kk;
                         }),
                     ));
                 }
-                variants.push(("no smoothing".into(), base.with(|s| s.smooth.filter = Filter::None)));
+                variants.push(("no smoothing".into(), base.with(|s| s.filter.method = Filter::None)));
                 for &m in SplatMode::ALL {
                     if r.passes.splat.supports(m) {
                         variants.push((format!("splat {}", m.name()), base.with(|s| s.splat.mode = m)));
@@ -962,10 +962,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             entries
                 .iter()
                 .find(|e| e.variant == v)
-                .map(|e| e.passes.iter().find(|p| p.0 == "smooth").map(|p| p.1.median).unwrap_or(0.0))
+                .map(|e| e.passes.iter().find(|p| p.0 == "filter").map(|p| p.1.median).unwrap_or(0.0))
         };
         if let (Some(k1), Some(k4)) = (find("curvature-flow 1 it/dispatch"), find("curvature-flow 4 it/dispatch")) {
-            println!("ratio smooth (curvature flow) 1 it/dispatch ÷ 4 it/dispatch: {:.2} (> 1: several per dispatch is faster)", k1 / k4.max(1e-9));
+            println!("ratio filter (curvature flow) 1 it/dispatch ÷ 4 it/dispatch: {:.2} (> 1: several per dispatch is faster)", k1 / k4.max(1e-9));
         }
         let splat = |v: &str| {
             entries

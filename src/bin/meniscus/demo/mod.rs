@@ -532,8 +532,8 @@ impl App {
                     Filter::Gaussian,
                     Filter::None,
                 ];
-                let k = ORDER.iter().position(|f| *f == self.settings.smooth.filter).unwrap_or(0);
-                self.settings.smooth.filter = ORDER[(k + 1) % ORDER.len()];
+                let k = ORDER.iter().position(|f| *f == self.settings.filter.method).unwrap_or(0);
+                self.settings.filter.method = ORDER[(k + 1) % ORDER.len()];
             }
             KeyCode::KeyG => {
                 let s = &mut self.settings.fluid_scale;
@@ -967,7 +967,7 @@ impl App {
                 "view {}  surface {}  filter {}  fluid scale {}  ssr {}  noise {}  vsync {}  async {}",
                 self.mode.name(),
                 s.surface.name(),
-                s.smooth.filter.name(),
+                s.filter.method.name(),
                 s.fluid_scale,
                 if s.ssr.enabled { "on" } else { "off" },
                 if s.noise.enabled { "on" } else { "off" },

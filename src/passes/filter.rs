@@ -1,6 +1,6 @@
-//! `smooth` pass: depth smoothing, one of several filters chosen per run (`Filter`). Kernel widths are in
+//! `filter` pass: depth smoothing, one of several filters chosen per run (`Filter`). Kernel widths are in
 //! world units (multiples of the particle radius), converted per pixel from depth.
-//! Shaders: shaders_glsl/smooth_*.comp.
+//! Shaders: shaders_glsl/filter_*.comp.
 use std::sync::Arc;
 
 use crate::declare_program;
@@ -10,31 +10,33 @@ use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
 use crate::named::Filter;
 use crate::shaders;
 
-/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `smooth`.
-pub const NAME: &str = "smooth";
+/// The pass's one name (module, shader stem, debug label, timestamp key, JSON key, settings section): `filter`.
+pub const NAME: &str = "filter";
 
-/// Settings of the `smooth` pass: the `[smooth]` section of a settings file.
+/// Settings of the `filter` pass: the `[filter]` section of a settings file (`[smooth]`: its deprecated
+/// spelling).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Depth smoothing filter.
-    pub filter: Filter,
+    /// Which filter (`--filter`; `filter`: the key's deprecated spelling).
+    #[serde(alias = "filter")]
+    pub method: Filter,
     /// World radius ρ of the smoothing kernel, in particle radii.
     pub radius: f32,
     /// Cap of the kernel radius in pixels.
     pub max_px: u32,
-    /// `[smooth.bilateral]`: Gaussian and bilateral filters.
+    /// `[filter.bilateral]`: Gaussian and bilateral filters.
     pub bilateral: BilateralParams,
-    /// `[smooth.narrow]`: the narrow-range filter.
+    /// `[filter.narrow]`: the narrow-range filter.
     pub narrow: NarrowParams,
-    /// `[smooth.curvature]`: curvature flow.
+    /// `[filter.curvature]`: curvature flow.
     pub curvature: CurvatureParams,
 }
 
 impl Default for Params {
     fn default() -> Self {
         Params {
-            filter: Filter::NarrowRange,
+            method: Filter::NarrowRange,
             radius: 4.0,
             max_px: 24,
             bilateral: BilateralParams::default(),
@@ -49,7 +51,7 @@ impl crate::section::Section for Params {
         NAME
     }
 
-    /// With its subsections `[smooth.bilateral]`, `[smooth.narrow]`, `[smooth.curvature]` (dotted keys).
+    /// With its subsections `[filter.bilateral]`, `[filter.narrow]`, `[filter.curvature]` (dotted keys).
     fn check(&self) -> crate::section::Checked {
         let k = crate::section::Keys(NAME);
         k.above("radius", self.radius, 0.0, 1e3)?;
@@ -73,7 +75,7 @@ impl crate::section::Section for Params {
     }
 }
 
-/// Settings of the `smooth` pass: the `[smooth.bilateral]` section of a settings file.
+/// Settings of the `filter` pass: the `[filter.bilateral]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BilateralParams {
@@ -89,7 +91,7 @@ impl Default for BilateralParams {
     }
 }
 
-/// Settings of the `smooth` pass: the `[smooth.narrow]` section of a settings file.
+/// Settings of the `filter` pass: the `[filter.narrow]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NarrowParams {
@@ -114,7 +116,7 @@ impl Default for NarrowParams {
     }
 }
 
-/// Settings of the `smooth` pass: the `[smooth.curvature]` section of a settings file.
+/// Settings of the `filter` pass: the `[filter.curvature]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CurvatureParams {
@@ -153,7 +155,7 @@ pub enum Output {
 }
 
 /// The pass: its compute program(s), built once per device.
-pub struct Smooth {
+pub struct DepthFilter {
     bilateral: ComputeProgram<BilateralPush>,
     narrow: ComputeProgram<NarrowPush>,
     curvature: ComputeProgram<CurvaturePush>,
@@ -162,7 +164,7 @@ pub struct Smooth {
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-/// Push constants of smooth_narrow.comp.
+/// Push constants of filter_narrow.comp.
 pub struct NarrowPush {
     dir: [i32; 2],
     world_radius: f32,
@@ -175,7 +177,7 @@ pub struct NarrowPush {
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-/// Push constants of smooth_curvature(1).comp.
+/// Push constants of filter_curvature(1).comp.
 pub struct CurvaturePush {
     iters: i32,
     first_iter: i32,
@@ -186,12 +188,12 @@ pub struct CurvaturePush {
     edge: f32,
 }
 
-/// Work-group edge of smooth_curvature.comp.
+/// Work-group edge of filter_curvature.comp.
 use crate::shader_constants::CURVATURE_LOCAL;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-/// Push constants of smooth_bilateral.comp.
+/// Push constants of filter_bilateral.comp.
 pub struct BilateralPush {
     dir: [i32; 2],
     world_radius: f32,
@@ -200,10 +202,10 @@ pub struct BilateralPush {
 }
 
 // Every smoothing program reads one depth image and writes the next ping-pong image in full.
-declare_program!(pub BILATERAL: BilateralPush = compute(shaders::SMOOTH_BILATERAL, [Uniform, ImgRead, ImgOverwrite]));
-declare_program!(pub NARROW: NarrowPush = compute(shaders::SMOOTH_NARROW, [Uniform, ImgRead, ImgOverwrite]));
-declare_program!(pub CURVATURE: CurvaturePush = compute(shaders::SMOOTH_CURVATURE, [Uniform, ImgRead, ImgOverwrite]));
-declare_program!(pub CURVATURE1: CurvaturePush = compute(shaders::SMOOTH_CURVATURE1, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub BILATERAL: BilateralPush = compute(shaders::FILTER_BILATERAL, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub NARROW: NarrowPush = compute(shaders::FILTER_NARROW, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub CURVATURE: CurvaturePush = compute(shaders::FILTER_CURVATURE, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub CURVATURE1: CurvaturePush = compute(shaders::FILTER_CURVATURE1, [Uniform, ImgRead, ImgOverwrite]));
 
 /// One dispatch of `prog`: read `src`, write `dst`.
 fn step<P: bytemuck::Pod>(
@@ -218,10 +220,10 @@ fn step<P: bytemuck::Pod>(
     prog.dispatch(ctx, &[frame.into(), src.into(), dst.into()], push, g);
 }
 
-impl Smooth {
+impl DepthFilter {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Smooth {
+        Ok(DepthFilter {
             bilateral: ComputeProgram::new(gpu, &BILATERAL)?,
             narrow: ComputeProgram::new(gpu, &NARROW)?,
             curvature: ComputeProgram::new(gpu, &CURVATURE)?,
@@ -233,7 +235,7 @@ impl Smooth {
     /// (`depth` itself when the filter is `None`). `depth` is only read. `cf_iterations_needed`: the largest
     /// adaptive iteration count any pixel can have this frame (F·ρ/d of the nearest particle), see
     /// [`iterations_needed`].
-    /// Smooth `depth` with `p.filter`, ping-ponging between `pong.0` and `pong.1` (the second may be `depth`
+    /// Smooth `depth` with `p.method`, ping-ponging between `pong.0` and `pong.1` (the second may be `depth`
     /// itself when the raw depth need not survive); returns which image holds the result. The pass decides its
     /// own dispatch count: curvature flow stops where no pixel iterates any more (`iterations_needed` from the
     /// frame's focal length and nearest fluid depth).
@@ -252,7 +254,7 @@ impl Smooth {
         self.record_iterations(ctx, frame, depth, pong, p, radius, its)
     }
 
-    /// [`Smooth::record`] with the curvature-flow iteration count given (tests drive it directly).
+    /// [`DepthFilter::record`] with the curvature-flow iteration count given (tests drive it directly).
     #[allow(clippy::too_many_arguments)]
     pub fn record_iterations<'a>(
         &self,
@@ -276,14 +278,14 @@ impl Smooth {
             *src = dst;
             pair
         };
-        if p.filter == Filter::None {
+        if p.method == Filter::None {
             return Output::Input;
         }
-        ctx.pass(NAME, |ctx| match p.filter {
+        ctx.pass(NAME, |ctx| match p.method {
             Filter::None => {}
             Filter::Gaussian | Filter::Bilateral | Filter::Bilateral2d => {
-                let sigma_range = if p.filter == Filter::Gaussian { 0.0 } else { p.bilateral.sigma_range * r };
-                let dirs: &[[i32; 2]] = if p.filter == Filter::Bilateral2d { &[[0, 0]] } else { &[[1, 0], [0, 1]] };
+                let sigma_range = if p.method == Filter::Gaussian { 0.0 } else { p.bilateral.sigma_range * r };
+                let dirs: &[[i32; 2]] = if p.method == Filter::Bilateral2d { &[[0, 0]] } else { &[[1, 0], [0, 1]] };
                 for _ in 0..p.bilateral.iterations.max(1) {
                     for dir in dirs {
                         let push = BilateralPush {

@@ -1,5 +1,5 @@
 #version 460
-//! smooth_curvature — curvature flow of the `smooth` pass (van der Laan, Green & Sainz 2009; Moritz §3.3.3):
+//! filter_curvature — curvature flow of the `filter` pass (van der Laan, Green & Sainz 2009; Moritz §3.3.3):
 //!   d ← d − Δt·H,  H = [C_y(½ z_x D_x − z_xx D) + C_x(½ z_y D_y − z_yy D)] / (2 D^{3/2}),
 //!   D = C_y² z_x² + C_x² z_y² + C_x² C_y² (z+κ)²,   C = 1/F (square pixels).
 //! (The papers iterate z ← z + Δt·H on negative view z; with positive depth d the sign flips.)

@@ -1,6 +1,6 @@
 #version 460
-//! smooth_curvature1 — curvature flow of the `smooth` pass, ONE iteration per dispatch, straight from the
-//! image (no shared memory). Same math as smooth_curvature.comp (see curvature.glsl); the variant measured
+//! filter_curvature1 — curvature flow of the `filter` pass, ONE iteration per dispatch, straight from the
+//! image (no shared memory). Same math as filter_curvature.comp (see curvature.glsl); the variant measured
 //! against it by `meniscus bench`, and the faster one on lavapipe.
 //! In: depth (r32f). Out: smoothed depth (r32f).
 #include "common.glsl"
