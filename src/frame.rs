@@ -117,7 +117,7 @@ use crate::view::View;
 
 /// What `record_frame` produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Frame {
+pub struct RecordedFrame {
     /// Which image holds the smoothed depth (at fluid resolution).
     pub smoothed: crate::passes::filter::Output,
 }
@@ -155,7 +155,7 @@ pub struct FrameInputs<'a> {
 /// The effects (`crate::effect`) record after the normals and give the composite its layers.
 /// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1), each
 /// effect (while it draws: `noise` with `[noise] enabled`, `diffuse` with `[diffuse] enabled` and something to draw).
-pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
+pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<RecordedFrame> {
     use Part::*;
     let (p, t, s, frame) = (f.passes, f.targets, f.settings, f.frame);
     let sky = &f.background.sky;
@@ -209,5 +209,5 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<Frame> {
         sky,
     };
     p.composite.record(ctx, frame, &inputs, f.layers, &t.final_color)?;
-    Ok(Frame { smoothed })
+    Ok(RecordedFrame { smoothed })
 }

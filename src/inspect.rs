@@ -13,8 +13,8 @@ use crate::view::ViewMode;
 
 /// The views' passes, built once per device.
 pub struct Inspector {
-    view: crate::passes::view::View,
-    particles: crate::passes::particles::Particles,
+    view: crate::passes::view::Viewer,
+    particles: crate::passes::particles::LitParticles,
     overlay: crate::passes::overlay::Overlay,
 }
 
@@ -22,8 +22,8 @@ impl Inspector {
     /// Build the passes' pipelines.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Inspector> {
         Ok(Inspector {
-            view: crate::passes::view::View::new(gpu)?,
-            particles: crate::passes::particles::Particles::new(gpu)?,
+            view: crate::passes::view::Viewer::new(gpu)?,
+            particles: crate::passes::particles::LitParticles::new(gpu)?,
             overlay: crate::passes::overlay::Overlay::new(gpu)?,
         })
     }

@@ -1,6 +1,6 @@
 //! Every file Meniscus writes goes through [`write_atomic`], the one writer that never destroys anything:
 //! - it refuses a path that is one of this process's inputs ([`crate::input::is_input`], canonical paths), an
-//!   extension that does not match what is written ([`Kind`]), and an existing file whose bytes are not of that
+//!   extension that does not match what is written ([`FileKind`]), and an existing file whose bytes are not of that
 //!   kind (a PNG is never written over particles or notes);
 //! - it writes `NAME.PID.HOST.partial` and renames it into place when complete, so an interrupted or failing run
 //!   leaves the old file or the new one, never a partial one; a signal handler in the binary removes the partial
@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 
 /// What a writer writes: the extensions its file may have and how its bytes begin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
+pub enum FileKind {
     /// A PNG image.
     Png,
     /// A NumPy array.
@@ -44,42 +44,42 @@ pub enum Kind {
     Vdb,
 }
 
-impl Kind {
+impl FileKind {
     /// The extensions (lower case) a file of this kind may have.
     pub fn extensions(self) -> &'static [&'static str] {
         match self {
-            Kind::Png => &["png"],
-            Kind::Npy => &["npy"],
-            Kind::Ply => &["ply"],
-            Kind::Obj => &["obj"],
-            Kind::Vtk => &["vtk"],
-            Kind::Bgeo => &["bgeo", "bgeo.gz"],
-            Kind::Json => &["json"],
-            Kind::Markdown => &["md"],
-            Kind::Mp4 => &["mp4"],
-            Kind::Webm => &["webm"],
-            Kind::Gif => &["gif"],
-            Kind::Usd => &["usd", "usda", "usdc"],
-            Kind::Vdb => &["vdb"],
+            FileKind::Png => &["png"],
+            FileKind::Npy => &["npy"],
+            FileKind::Ply => &["ply"],
+            FileKind::Obj => &["obj"],
+            FileKind::Vtk => &["vtk"],
+            FileKind::Bgeo => &["bgeo", "bgeo.gz"],
+            FileKind::Json => &["json"],
+            FileKind::Markdown => &["md"],
+            FileKind::Mp4 => &["mp4"],
+            FileKind::Webm => &["webm"],
+            FileKind::Gif => &["gif"],
+            FileKind::Usd => &["usd", "usda", "usdc"],
+            FileKind::Vdb => &["vdb"],
         }
     }
 
     /// A name for messages.
     pub fn name(self) -> &'static str {
         match self {
-            Kind::Png => "PNG image",
-            Kind::Npy => "NumPy array",
-            Kind::Ply => "PLY mesh",
-            Kind::Obj => "OBJ mesh",
-            Kind::Vtk => "VTK file",
-            Kind::Bgeo => "BGEO particle file",
-            Kind::Json => "JSON file",
-            Kind::Markdown => "markdown file",
-            Kind::Mp4 => "MP4 movie",
-            Kind::Webm => "WebM movie",
-            Kind::Gif => "GIF",
-            Kind::Usd => "USD stage",
-            Kind::Vdb => "VDB volume",
+            FileKind::Png => "PNG image",
+            FileKind::Npy => "NumPy array",
+            FileKind::Ply => "PLY mesh",
+            FileKind::Obj => "OBJ mesh",
+            FileKind::Vtk => "VTK file",
+            FileKind::Bgeo => "BGEO particle file",
+            FileKind::Json => "JSON file",
+            FileKind::Markdown => "markdown file",
+            FileKind::Mp4 => "MP4 movie",
+            FileKind::Webm => "WebM movie",
+            FileKind::Gif => "GIF",
+            FileKind::Usd => "USD stage",
+            FileKind::Vdb => "VDB volume",
         }
     }
 
@@ -90,10 +90,10 @@ impl Kind {
             || std::str::from_utf8(head).map(|_| ()).or_else(|e| e.error_len().map_or(Ok(()), |_| Err(()))).is_ok();
         let first_char = || head.iter().copied().find(|b| !b.is_ascii_whitespace());
         match self {
-            Kind::Png => head.starts_with(b"\x89PNG\r\n\x1a\n"),
-            Kind::Npy => head.starts_with(b"\x93NUMPY"),
-            Kind::Ply => head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n"),
-            Kind::Obj => {
+            FileKind::Png => head.starts_with(b"\x89PNG\r\n\x1a\n"),
+            FileKind::Npy => head.starts_with(b"\x93NUMPY"),
+            FileKind::Ply => head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n"),
+            FileKind::Obj => {
                 let lossy = String::from_utf8_lossy(head);
                 let mut lines: Vec<&str> = lossy.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
                 if !head.ends_with(b"\n") && lines.len() > 1 {
@@ -106,20 +106,20 @@ impl Kind {
                         key.starts_with('#') || KEYS.contains(&key)
                     })
             }
-            Kind::Vtk => head.starts_with(b"# vtk DataFile"),
-            Kind::Bgeo => head.starts_with(b"Bgeo") || head.starts_with(&[0x1f, 0x8b]),
-            Kind::Json => text() && matches!(first_char(), Some(b'{') | Some(b'[')),
-            Kind::Markdown => text() && !head.contains(&0),
-            Kind::Mp4 => head.len() >= 8 && &head[4..8] == b"ftyp",
-            Kind::Webm => head.starts_with(&[0x1a, 0x45, 0xdf, 0xa3]),
-            Kind::Gif => head.starts_with(b"GIF8"),
-            Kind::Usd => head.starts_with(b"#usda") || head.starts_with(b"PXR-USDC"),
-            Kind::Vdb => head.starts_with(&[0x20, 0x42, 0x44, 0x56]),
+            FileKind::Vtk => head.starts_with(b"# vtk DataFile"),
+            FileKind::Bgeo => head.starts_with(b"Bgeo") || head.starts_with(&[0x1f, 0x8b]),
+            FileKind::Json => text() && matches!(first_char(), Some(b'{') | Some(b'[')),
+            FileKind::Markdown => text() && !head.contains(&0),
+            FileKind::Mp4 => head.len() >= 8 && &head[4..8] == b"ftyp",
+            FileKind::Webm => head.starts_with(&[0x1a, 0x45, 0xdf, 0xa3]),
+            FileKind::Gif => head.starts_with(b"GIF8"),
+            FileKind::Usd => head.starts_with(b"#usda") || head.starts_with(b"PXR-USDC"),
+            FileKind::Vdb => head.starts_with(&[0x20, 0x42, 0x44, 0x56]),
         }
     }
 
     /// The kind among `choices` that `path`'s extension names, or an error listing the extensions accepted.
-    pub fn by_extension(path: &Path, choices: &[Kind]) -> Result<Kind> {
+    pub fn by_extension(path: &Path, choices: &[FileKind]) -> Result<FileKind> {
         let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
         choices.iter().copied().find(|k| k.extensions().iter().any(|e| name.ends_with(&format!(".{e}")))).ok_or_else(
             || {
@@ -142,9 +142,9 @@ fn one_of(items: &[String]) -> String {
 /// Check that writing a file of `kind` at `path` destroys nothing: the extension matches `kind`, the path is
 /// not an input of this process nor a name an input sequence would read as one of its frames, and an existing
 /// file there is empty or of the same kind.
-pub fn check_output(path: &Path, kind: Kind) -> Result<()> {
+pub fn check_output(path: &Path, kind: FileKind) -> Result<()> {
     let refuse = |reason: String| Err(Error::Output { path: path.to_path_buf(), reason });
-    if Kind::by_extension(path, &[kind]).is_err() {
+    if FileKind::by_extension(path, &[kind]).is_err() {
         let exts: Vec<String> = kind.extensions().iter().map(|e| format!(".{e}")).collect();
         return refuse(format!("a {} is written here: the name must end in {}", kind.name(), one_of(&exts)));
     }
@@ -274,7 +274,7 @@ pub struct Partial {
 impl Partial {
     /// Begin writing a file of `kind` at `path`: [`check_output`], the stale partial files of dead processes
     /// removed, the folder created, the partial name registered for signal clean-up.
-    pub fn begin(path: &Path, kind: Kind) -> Result<Partial> {
+    pub fn begin(path: &Path, kind: FileKind) -> Result<Partial> {
         check_output(path, kind)?;
         remove_stale_partials(path);
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -329,7 +329,7 @@ impl Drop for Partial {
 /// which is synced and renamed into place only when complete.
 pub fn write_atomic(
     path: &Path,
-    kind: Kind,
+    kind: FileKind,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<()> {
     let partial = Partial::begin(path, kind)?;
@@ -346,7 +346,7 @@ pub fn write_atomic(
 
 /// Write an RGBA image as PNG.
 pub fn write_png(path: &Path, img: &image::RgbaImage) -> Result<()> {
-    write_atomic(path, Kind::Png, |w| img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other))
+    write_atomic(path, FileKind::Png, |w| img.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other))
 }
 
 /// Whether the PNG at `path` is whole and `width`×`height`: the signature, an IHDR of that size first, every
@@ -417,7 +417,7 @@ pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
     let total = 10 + header.len() + 1;
     header.push_str(&" ".repeat((64 - total % 64) % 64));
     header.push('\n');
-    write_atomic(path, Kind::Npy, |w| {
+    write_atomic(path, FileKind::Npy, |w| {
         w.write_all(b"\x93NUMPY\x01\x00")?;
         w.write_all(&(header.len() as u16).to_le_bytes())?;
         w.write_all(header.as_bytes())?;
@@ -485,19 +485,19 @@ fn ply_body(m: MeshData) -> Vec<u8> {
 }
 
 /// The formats a fluid mesh is written in ([`write_mesh`]).
-pub const MESH_KINDS: [Kind; 3] = [Kind::Ply, Kind::Obj, Kind::Vtk];
+pub const MESH_KINDS: [FileKind; 3] = [FileKind::Ply, FileKind::Obj, FileKind::Vtk];
 /// The formats `meniscus mesh` writes: the mesh formats, a USD stage (time-sampled, the whole sequence in one
 /// file: `crate::export::usd`) and an OpenVDB level set (`crate::export::vdb`).
-pub const SURFACE_KINDS: [Kind; 5] = [Kind::Ply, Kind::Obj, Kind::Vtk, Kind::Usd, Kind::Vdb];
+pub const SURFACE_KINDS: [FileKind; 5] = [FileKind::Ply, FileKind::Obj, FileKind::Vtk, FileKind::Usd, FileKind::Vdb];
 /// The formats a particle cache is written in ([`write_particles`]).
-pub const PARTICLE_KINDS: [Kind; 2] = [Kind::Bgeo, Kind::Vtk];
+pub const PARTICLE_KINDS: [FileKind; 2] = [FileKind::Bgeo, FileKind::Vtk];
 
 /// Write a triangle mesh: binary little-endian PLY (`.ply`, positions + normals) or Wavefront OBJ (`.obj`,
 /// `v`/`vn`/`f`), chosen by the extension; atomically (no half-written file on failure).
 pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
     use std::io::Write;
-    match Kind::by_extension(path, &MESH_KINDS)? {
-        Kind::Ply => write_atomic(path, Kind::Ply, |w| {
+    match FileKind::by_extension(path, &MESH_KINDS)? {
+        FileKind::Ply => write_atomic(path, FileKind::Ply, |w| {
             write!(
                 w,
                 "ply\nformat binary_little_endian 1.0\ncomment meniscus mesh\nelement vertex {}\n\
@@ -512,7 +512,7 @@ pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
             w.write_all(&ply_body(m))?;
             Ok(())
         }),
-        Kind::Obj => write_atomic(path, Kind::Obj, |w| {
+        FileKind::Obj => write_atomic(path, FileKind::Obj, |w| {
             writeln!(w, "# meniscus mesh: {} vertices, {} triangles", m.vertices.len(), m.triangles.len())?;
             for v in m.vertices {
                 writeln!(w, "v {} {} {}", v[0], v[1], v[2])?;
@@ -528,7 +528,7 @@ pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
         }),
         // Legacy VTK POLYDATA, binary (big-endian, as the format requires), with point normals: what splashsurf
         // writes by default and ParaView opens.
-        _ => write_atomic(path, Kind::Vtk, |w| {
+        _ => write_atomic(path, FileKind::Vtk, |w| {
             write!(w, "# vtk DataFile Version 4.2\nmeniscus mesh\nBINARY\nDATASET POLYDATA\n")?;
             let be3 = |a: &[[f32; 3]]| -> Vec<u8> { a.iter().flatten().flat_map(|x| x.to_be_bytes()).collect() };
             writeln!(w, "POINTS {} float", m.vertices.len())?;

@@ -1952,11 +1952,11 @@ fn noise_reference_particles(
     pos: &[[f32; 3]],
     motion: &[meniscus::motion::Motion],
     v: &meniscus::view::View,
-) -> Vec<meniscus::passes::noise::reference::Particle> {
+) -> Vec<meniscus::passes::noise::reference::NoiseParticle> {
     let m = v.camera.view();
     pos.iter()
         .zip(motion)
-        .map(|(p, mo)| meniscus::passes::noise::reference::Particle {
+        .map(|(p, mo)| meniscus::passes::noise::reference::NoiseParticle {
             c: m.transform_point3(glam::Vec3::from(*p)).to_array(),
             id: mo.id,
             accel: mo.accel,

@@ -189,3 +189,30 @@ fn every_public_item_has_one_path() {
     }
     assert!(bad.is_empty(), "items with a second public path:\n{}", bad.join("\n"));
 }
+
+/// No public type name means two things: each `pub struct/enum/trait/type` name of the library is declared once,
+/// but `Params` (a settings section: each pass module's, `passes::ssr::Params` is `[ssr]`) and `Push` (a
+/// pass's push constants), which are named by their module by design.
+#[test]
+fn no_type_name_is_declared_twice() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut seen: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for p in rust_files(&src, Some("bin")) {
+        let text = std::fs::read_to_string(&p).unwrap();
+        for line in text.split("#[cfg(test)]").next().unwrap().lines() {
+            let t = line.trim_start();
+            for kind in ["pub struct ", "pub enum ", "pub trait ", "pub type "] {
+                if let Some(rest) = t.strip_prefix(kind) {
+                    let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                    seen.entry(name).or_default().push(p.display().to_string());
+                }
+            }
+        }
+    }
+    let twice: Vec<String> = seen
+        .into_iter()
+        .filter(|(n, at)| at.len() > 1 && n != "Params" && n != "Push")
+        .map(|(n, at)| format!("{n}: {at:?}"))
+        .collect();
+    assert!(twice.is_empty(), "type names declared twice:\n{}", twice.join("\n"));
+}

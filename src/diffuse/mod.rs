@@ -116,7 +116,7 @@ mod tests {
 
     #[test]
     fn kernel_is_normalised_and_its_derivative_matches() {
-        let k = Kernel::new(0.1);
+        let k = CubicSpline::new(0.1);
         // ∫ W dV = 1 (midpoint rule over shells).
         let steps = 20000;
         let dr = 0.1 / steps as f32;
@@ -159,7 +159,7 @@ mod tests {
         let pos = vec![[0.0, 0.0, 0.0], [0.05, 0.0, 0.0]];
         let closing = vec![[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]];
         let f = Fluid::new(&pos, Some(&closing), None, r);
-        let k = Kernel::new(0.1);
+        let k = CubicSpline::new(0.1);
         let rho = f.mass * (k.w(0.0) + k.w(0.05));
         let want = 2.0 * (1.0 - (-1.0)) * f.mass / rho * k.w(0.05);
         let got = f.potentials(0)[0];

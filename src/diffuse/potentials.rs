@@ -12,17 +12,17 @@ use crate::scene::grid::UniformGrid;
 
 /// The cubic spline kernel of SPlisHSPlasH (support h): W(r) and dW/dr.
 #[derive(Clone, Copy, Debug)]
-pub struct Kernel {
+pub struct CubicSpline {
     h: f32,
     k: f32,
     l: f32,
 }
 
-impl Kernel {
+impl CubicSpline {
     /// The kernel of support `h`.
-    pub fn new(h: f32) -> Kernel {
+    pub fn new(h: f32) -> CubicSpline {
         let h3 = h * h * h;
-        Kernel { h, k: 8.0 / (std::f32::consts::PI * h3), l: 48.0 / (std::f32::consts::PI * h3) }
+        CubicSpline { h, k: 8.0 / (std::f32::consts::PI * h3), l: 48.0 / (std::f32::consts::PI * h3) }
     }
 
     /// The coefficients 8 / (π h³) of W and 48 / (π h³) of its derivative (the GPU stages' push constants).
@@ -80,7 +80,7 @@ pub struct Fluid<'a> {
     pub radius: f32,
     /// Mass of a particle (FoamGenerator's 0.8 (2r)³ ρ0, ρ0 = 1000).
     pub mass: f32,
-    kernel: Kernel,
+    kernel: CubicSpline,
     grid: UniformGrid,
     /// Neighbours of each particle (itself excluded), in the grid's order.
     neighbours: Vec<Vec<u32>>,
@@ -102,7 +102,7 @@ impl<'a> Fluid<'a> {
         let n = positions.len();
         let velocities = velocities.map_or_else(|| vec![[0.0; 3]; n].into(), std::borrow::Cow::Borrowed);
         let h = 4.0 * radius;
-        let kernel = Kernel::new(h);
+        let kernel = CubicSpline::new(h);
         let mass = model_mass(radius);
         let grid = UniformGrid::new(positions, h);
         let neighbours: Vec<Vec<u32>> = (0..n)

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::output::{Kind, Partial};
+use crate::output::{FileKind, Partial};
 
 /// The diffuse particles of one frame for [`UsdWriter::add_points`].
 pub struct PointsFrame<'a> {
@@ -142,7 +142,7 @@ impl UsdWriter {
     /// Begin a stage at `path` (`.usd`/`.usdc` binary, `.usda` text; the output checks of `crate::output`),
     /// `fps` frames per second (time codes are frame numbers), with a diffuse-particle prim when `points`.
     pub fn create(path: &Path, fps: f64, meters_per_unit: f64, points: bool, comment: &str) -> Result<UsdWriter> {
-        crate::output::check_output(path, Kind::Usd)?;
+        crate::output::check_output(path, FileKind::Usd)?;
         if !(fps.is_finite() && fps > 0.0) {
             return Err(Error::Output {
                 path: path.into(),
@@ -363,7 +363,7 @@ impl TextSpools {
     }
 
     fn finish(self, path: &Path, info: &StageInfo) -> Result<()> {
-        let partial = Partial::begin(path, Kind::Usd)?;
+        let partial = Partial::begin(path, FileKind::Usd)?;
         let mut spools = self.spools;
         let res = (|| -> std::io::Result<()> {
             let mut w = BufWriter::with_capacity(1 << 20, File::create(partial.tmp())?);

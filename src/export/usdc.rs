@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::export::usd::{Attr, Sample, StageInfo, Uniform, ATTRS, MESH_UNIFORMS, PRIMS};
-use crate::output::{Kind, Partial};
+use crate::output::{FileKind, Partial};
 
 /// Crate file version written.
 const VERSION: [u8; 3] = [0, 8, 0];
@@ -143,7 +143,7 @@ pub(crate) struct CrateWriter {
 
 impl CrateWriter {
     pub(crate) fn create(path: &Path) -> Result<CrateWriter> {
-        let partial = Partial::begin(path, Kind::Usd)?;
+        let partial = Partial::begin(path, FileKind::Usd)?;
         let f = File::create(partial.tmp()).map_err(|e| Error::io(path, e))?;
         let mut out = BufWriter::with_capacity(1 << 22, f);
         out.write_all(&[0u8; BOOTSTRAP as usize]).map_err(|e| Error::io(path, e))?;

@@ -18,7 +18,7 @@ use glam::{IVec3, Vec3};
 
 use crate::error::Result;
 use crate::field::export::{Leaf, Volume, LEAF};
-use crate::output::Kind;
+use crate::output::FileKind;
 
 /// What a grid stands for (OpenVDB's `GridClass`, stored as the grid's `class` metadata).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,7 +170,7 @@ pub fn write_surface(
 
 /// Write `grids` to `path` (atomically; the output checks of `crate::output`).
 pub fn write(path: &Path, grids: &[VdbGrid]) -> Result<()> {
-    let partial = crate::output::Partial::begin(path, Kind::Vdb)?;
+    let partial = crate::output::Partial::begin(path, FileKind::Vdb)?;
     let res = (|| -> std::io::Result<()> {
         let f = std::fs::File::create(partial.tmp())?;
         let mut w = std::io::BufWriter::new(f);

@@ -21,7 +21,7 @@ use crate::timing::PassTimes;
 pub const MAIN_SEGMENTS: usize = 3;
 
 /// One frame slot.
-pub struct Slot {
+pub struct SlotCommands {
     pool: vk::CommandPool,
     compute_pool: vk::CommandPool,
     /// The slot's command buffer (reset when the slot starts a frame): the first main segment.
@@ -53,7 +53,7 @@ pub struct Executor {
     compute_timeline: vk::Semaphore,
     submitted: u64,
     compute_submitted: u64,
-    slots: Vec<Slot>,
+    slots: Vec<SlotCommands>,
     next: usize,
 }
 
@@ -151,7 +151,7 @@ impl Executor {
                 }
             };
             // From here the slot owns both pools (destroyed with the executor, even on an error below).
-            ex.slots.push(Slot {
+            ex.slots.push(SlotCommands {
                 pool: main_pool,
                 compute_pool,
                 cmd: vk::CommandBuffer::null(),
@@ -349,7 +349,7 @@ impl Executor {
     }
 
     /// The slot `k`.
-    pub fn slot(&mut self, k: usize) -> &mut Slot {
+    pub fn slot(&mut self, k: usize) -> &mut SlotCommands {
         &mut self.slots[k]
     }
 

@@ -43,7 +43,7 @@ impl crate::section::Section for Params {
 }
 
 /// The pass: its compute program(s), built once per device.
-pub struct Background {
+pub struct BackgroundCast {
     prog: ComputeProgram<u32>,
 }
 
@@ -53,10 +53,10 @@ declare_program!(pub PROGRAM: u32 = compute(
     [Uniform, ImgOverwrite, ImgOverwrite, Sampled, BufRead, BufRead]
 ));
 
-impl Background {
+impl BackgroundCast {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Background { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        Ok(BackgroundCast { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// Writes all of `color` and `depth`; `sky` is the cube map (a placeholder when procedural); `mesh`: the

@@ -28,7 +28,7 @@ macro_rules! frame_passes {
 
 frame_passes! {
     /// Ground, boxes, mesh and sky behind the fluid (async compute part).
-    background: Background,
+    background: BackgroundCast,
     /// Additive chord length, blurred (async compute part).
     thickness: Thickness,
     /// Nearest sphere depth of every particle.

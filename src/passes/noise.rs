@@ -116,7 +116,7 @@ impl crate::section::Section for Params {
 /// Push constants of noise.comp.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct SplatPush {
+pub struct SpritePush {
     /// Particles (their motions follow the positions in the buffer).
     pub count: u32,
     /// [`Params::size`].
@@ -178,17 +178,17 @@ pub struct ApplyPush {
 
 // Splat, one thread per sprite: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first),
 // work counts.
-declare_program!(pub SPLAT: SplatPush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
+declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
 // The tiled splat: binning (count, then fill), the lists' starts, the tiles' sums.
 // Bin: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms, the binned
 // sprites' indices.
-declare_program!(pub BIN: SplatPush = compute(shaders::NOISE_BIN, [Uniform, BufRead, ImgRead, BufWrite, BufWrite, BufWrite, ImgWrite, BufWrite]));
+declare_program!(pub BIN: SpritePush = compute(shaders::NOISE_BIN, [Uniform, BufRead, ImgRead, BufWrite, BufWrite, BufWrite, ImgWrite, BufWrite]));
 // Scan: tiles (counts → starts, cursors and first chunks), work → the fill's and the gather's indirect dispatches.
-declare_program!(pub SCAN: SplatPush = compute(shaders::NOISE_SCAN, [BufWrite, BufRead, BufWrite]));
+declare_program!(pub SCAN: SpritePush = compute(shaders::NOISE_SCAN, [BufWrite, BufRead, BufWrite]));
 // Fill: sprite records, binned indices, work, fluid depth (its size) → tiles (cursors), lists.
-declare_program!(pub FILL: SplatPush = compute(shaders::NOISE_FILL, [BufRead, BufRead, BufRead, ImgRead, BufWrite, BufWrite]));
+declare_program!(pub FILL: SpritePush = compute(shaders::NOISE_FILL, [BufRead, BufRead, BufRead, ImgRead, BufWrite, BufWrite]));
 // Gather: frame, sprite records, tiles, lists, fluid depth → accumulator atlas (cleared first), work.
-declare_program!(pub GATHER: SplatPush = compute(shaders::NOISE_GATHER, [Uniform, BufRead, BufRead, BufRead, ImgRead, ImgWrite, BufWrite]));
+declare_program!(pub GATHER: SpritePush = compute(shaders::NOISE_GATHER, [Uniform, BufRead, BufRead, BufRead, ImgRead, ImgWrite, BufWrite]));
 // Resolve: frame, accumulator atlas, fluid depth → noise (N in radii); the splat's coarsest level.
 declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
 // Apply: frame, noise, fluid depth, normals (in place).
@@ -197,17 +197,17 @@ declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, 
 /// How the sprites reach the accumulator.
 enum Splat {
     /// One thread per sprite, atomics (noise.comp).
-    Alone(ComputeProgram<SplatPush>),
+    Alone(ComputeProgram<SpritePush>),
     /// Binned to tiles, each tile summed by a work group (noise_bin, noise_scan, noise_gather).
     Tiled(Box<TiledSplat>),
 }
 
 /// The tiled splat's programs.
 struct TiledSplat {
-    bin: ComputeProgram<SplatPush>,
-    fill: ComputeProgram<SplatPush>,
-    scan: ComputeProgram<SplatPush>,
-    gather: ComputeProgram<SplatPush>,
+    bin: ComputeProgram<SpritePush>,
+    fill: ComputeProgram<SpritePush>,
+    scan: ComputeProgram<SpritePush>,
+    gather: ComputeProgram<SpritePush>,
 }
 
 /// The pass: its compute programs, built once per device.
@@ -402,7 +402,7 @@ impl Noise {
             });
             let (buf, count) = particles;
             let tiles = tile_count(own.noise.extent.width, own.noise.extent.height);
-            let push = SplatPush {
+            let push = SpritePush {
                 count,
                 size: p.size,
                 freq: p.frequency,
@@ -534,7 +534,7 @@ pub mod reference {
     }
 
     /// One particle as noise.comp sees it: view-space centre, id, |Δv|/Δt.
-    pub struct Particle {
+    pub struct NoiseParticle {
         /// View-space centre.
         pub c: [f32; 3],
         /// Its id.
@@ -547,7 +547,7 @@ pub mod reference {
     /// no fluid), focal `f` (pixels), radius `r`, near plane `near`: fixed-point sums, as i32.
     #[allow(clippy::too_many_arguments)]
     pub fn accumulate(
-        particles: &[Particle],
+        particles: &[NoiseParticle],
         depth: &[f32],
         width: usize,
         height: usize,
@@ -609,7 +609,7 @@ pub mod reference {
     /// visited per particle before its level of detail), to compare [`NoiseWork::texels`] with.
     #[allow(clippy::too_many_arguments)]
     pub fn work(
-        particles: &[Particle],
+        particles: &[NoiseParticle],
         depth: &[f32],
         width: usize,
         height: usize,

@@ -29,14 +29,14 @@ declare_program!(pub PROGRAM: ParticlePush = compute(
 ));
 
 /// The pass: its compute program(s), built once per device.
-pub struct Particles {
+pub struct LitParticles {
     prog: ComputeProgram<ParticlePush>,
 }
 
-impl Particles {
+impl LitParticles {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Particles { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        Ok(LitParticles { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// Draw the particles over the final image (after a mode-6 `view`).

@@ -32,14 +32,14 @@ declare_program!(pub PROGRAM: ViewPush = compute(
 ));
 
 /// The pass: its compute program(s), built once per device.
-pub struct View {
+pub struct Viewer {
     prog: ComputeProgram<ViewPush>,
 }
 
-impl View {
+impl Viewer {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(View { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        Ok(Viewer { prog: ComputeProgram::new(gpu, &PROGRAM)? })
     }
 
     /// Map `mode`'s buffer into `t.final_color` (mode 6 = scene colour only).

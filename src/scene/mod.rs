@@ -565,9 +565,9 @@ fn check_required(path: &Path, raw: &Raw, o: &LoadOptions) -> Result<()> {
 /// extension: `.bgeo` (gzip-compressed classic BGEO, as Partio and SPlisHSPlasH write it) or `.vtk` (legacy
 /// binary VTK, as SPlisHSPlasH writes it). Both are read back by `meniscus` and by splashsurf.
 pub fn write_particles(path: &Path, p: &Particles) -> Result<()> {
-    let kind = crate::output::Kind::by_extension(path, &crate::output::PARTICLE_KINDS)?;
+    let kind = crate::output::FileKind::by_extension(path, &crate::output::PARTICLE_KINDS)?;
     let bytes = match kind {
-        crate::output::Kind::Bgeo => bgeo::write(&p.to_raw(), true),
+        crate::output::FileKind::Bgeo => bgeo::write(&p.to_raw(), true),
         _ => vtk::write(&p.to_raw(), true),
     };
     crate::output::write_atomic(path, kind, |w| std::io::Write::write_all(w, &bytes))

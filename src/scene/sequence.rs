@@ -420,7 +420,7 @@ mod tests {
         }
         let spec = format!("{}/f_{{}}.bgeo", dir.display());
         assert_eq!(resolve_all(&spec).unwrap().len(), 2);
-        let kind = crate::output::Kind::Bgeo;
+        let kind = crate::output::FileKind::Bgeo;
         let e = crate::output::check_output(&dir.join("f_0003.bgeo"), kind).unwrap_err().to_string();
         assert!(e.contains("would become a frame of the input sequence"), "{e}");
         crate::output::check_output(&dir.join("foam_0003.bgeo"), kind).unwrap();

@@ -211,7 +211,7 @@ impl DiffuseStages {
     fn push(&self, f: &FluidBuffers, out_offset: u32) -> Push {
         let p = &self.params;
         let h = 4.0 * f.radius;
-        let (kk, kl) = crate::diffuse::potentials::Kernel::new(h).coefficients();
+        let (kk, kl) = crate::diffuse::potentials::CubicSpline::new(h).coefficients();
         let mass = crate::diffuse::potentials::model_mass(f.radius);
         Push {
             h,

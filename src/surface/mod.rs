@@ -102,7 +102,7 @@ impl Surfaces {
     pub fn new() -> Surfaces {
         let all: Vec<Box<dyn Technique>> = vec![
             Box::new(spheres::Spheres::default()), // Surface::Spheres
-            Box::new(iso::Iso::default()),         // Surface::Iso
+            Box::new(iso::IsoSurface::default()),  // Surface::Iso
             Box::new(mesh::FluidMesh::default()),  // Surface::Mesh
         ];
         assert_eq!(all.len(), Surface::ALL.len(), "one technique per settings::Surface");

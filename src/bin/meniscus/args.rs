@@ -11,7 +11,7 @@ use clap::Args;
 
 use meniscus::device::{Gpu, GpuOptions};
 use meniscus::named::{from_name, Filter, Named, SplatMode};
-use meniscus::output::Kind;
+use meniscus::output::FileKind;
 use meniscus::scene;
 use meniscus::settings::{Kernel, Settings, Surface};
 
@@ -247,7 +247,7 @@ pub fn check_size(w: u32, h: u32) -> Result<()> {
 
 /// Check an output flag's path before any work is done: what [`meniscus::output::check_output`] refuses (an
 /// input of the run, an extension that is not `kind`'s, an existing file of another kind), named by the flag.
-pub fn check_out(flag: &str, path: &Path, kind: Kind) -> Result<()> {
+pub fn check_out(flag: &str, path: &Path, kind: FileKind) -> Result<()> {
     meniscus::output::check_output(path, kind).with_context(|| flag.to_string())
 }
 
@@ -271,8 +271,8 @@ pub fn refuse_existing(flag: &str, paths: &[std::path::PathBuf], overwrite: bool
 }
 
 /// The kind among `choices` that an output flag's extension names, or an error naming the flag.
-pub fn out_kind(flag: &str, path: &Path, choices: &[Kind]) -> Result<Kind> {
-    Kind::by_extension(path, choices).with_context(|| flag.to_string())
+pub fn out_kind(flag: &str, path: &Path, choices: &[FileKind]) -> Result<FileKind> {
+    FileKind::by_extension(path, choices).with_context(|| flag.to_string())
 }
 
 /// The numbered outputs of a sequence: `{}` in `out` is the frame number (4 digits); a folder (an existing one,

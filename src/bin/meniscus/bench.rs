@@ -767,7 +767,7 @@ fn overlap_report(entries: &[Entry]) -> String {
 /// Run the benchmark.
 pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
-    use meniscus::output::Kind;
+    use meniscus::output::FileKind;
     if a.sweep.is_none() && a.mesh.is_none() && a.chart.is_some() {
         bail!("--chart applies to a sweep or --mesh: add --sweep particles (or pixels), or --mesh FILE");
     }
@@ -777,9 +777,11 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     for f in &a.scenes {
         meniscus::input::note(std::path::Path::new(f));
     }
-    for (flag, path, kind) in
-        [("--json", &a.json, Kind::Json), ("--markdown", &a.markdown, Kind::Markdown), ("--chart", &a.chart, Kind::Png)]
-    {
+    for (flag, path, kind) in [
+        ("--json", &a.json, FileKind::Json),
+        ("--markdown", &a.markdown, FileKind::Markdown),
+        ("--chart", &a.chart, FileKind::Png),
+    ] {
         if let Some(p) = path {
             crate::args::check_out(flag, p, kind)?;
         }
@@ -1035,13 +1037,13 @@ fn write_reports(
     };
     if let Some(p) = &a.json {
         let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, meniscus::output::Kind::Json, |w| {
+        meniscus::output::write_atomic(p, meniscus::output::FileKind::Json, |w| {
             std::io::Write::write_all(w, text.as_bytes())
         })?;
         eprintln!("wrote {}", p.display());
     }
     if let Some(p) = &a.markdown {
-        meniscus::output::write_atomic(p, meniscus::output::Kind::Markdown, |w| {
+        meniscus::output::write_atomic(p, meniscus::output::FileKind::Markdown, |w| {
             std::io::Write::write_all(w, table.as_bytes())
         })?;
     }

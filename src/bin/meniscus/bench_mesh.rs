@@ -100,16 +100,16 @@ pub fn run(
     markdown: Option<&Path>,
     chart: Option<&Path>,
 ) -> Result<()> {
-    use meniscus::output::Kind;
+    use meniscus::output::FileKind;
     meniscus::input::note(file);
     if let Some(p) = json {
-        crate::args::check_out("--json", p, Kind::Json)?;
+        crate::args::check_out("--json", p, FileKind::Json)?;
     }
     if let Some(p) = chart {
-        crate::args::check_out("--chart", p, Kind::Png)?;
+        crate::args::check_out("--chart", p, FileKind::Png)?;
     }
     if let Some(p) = markdown {
-        crate::args::check_out("--markdown", p, Kind::Markdown)?;
+        crate::args::check_out("--markdown", p, FileKind::Markdown)?;
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads: Vec<usize> = if o.threads.is_empty() {
@@ -286,7 +286,7 @@ pub fn run(
     let panels = chart.map(|_| scaling_panels(&rows));
     print!("{md}");
     if let Some(p) = markdown {
-        meniscus::output::write_atomic(p, Kind::Markdown, |w| std::io::Write::write_all(w, md.as_bytes()))?;
+        meniscus::output::write_atomic(p, FileKind::Markdown, |w| std::io::Write::write_all(w, md.as_bytes()))?;
     }
     if let Some(p) = json {
         let report = Report {
@@ -299,7 +299,7 @@ pub fn run(
             rows,
         };
         let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, Kind::Json, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        meniscus::output::write_atomic(p, FileKind::Json, |w| std::io::Write::write_all(w, text.as_bytes()))?;
         eprintln!("wrote {}", p.display());
     }
     // The measurements first, so a chart that cannot be drawn (no font) loses nothing.

@@ -299,7 +299,7 @@ pub fn run(
             combined,
         };
         let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, meniscus::output::Kind::Json, |w| {
+        meniscus::output::write_atomic(p, meniscus::output::FileKind::Json, |w| {
             std::io::Write::write_all(w, text.as_bytes())
         })?;
         eprintln!("wrote {}", p.display());

@@ -122,7 +122,7 @@ pub fn write(path: &Path, title: &str, panels: &[Series]) -> Result<()> {
         root.present().map_err(draw_err)?;
     }
     let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| Error::Invalid("chart buffer size".into()))?;
-    meniscus::output::write_atomic(path, meniscus::output::Kind::Png, |wr| {
+    meniscus::output::write_atomic(path, meniscus::output::FileKind::Png, |wr| {
         image::DynamicImage::ImageRgb8(img).write_to(wr, image::ImageFormat::Png).map_err(std::io::Error::other)
     })
 }

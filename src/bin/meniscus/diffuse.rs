@@ -15,7 +15,7 @@ use meniscus::diffuse::{
     Kind, Particle,
 };
 use meniscus::motion::MotionTracker;
-use meniscus::output::{Kind as OutKind, PARTICLE_KINDS};
+use meniscus::output::{FileKind, PARTICLE_KINDS};
 use meniscus::scene::Particles;
 use meniscus::settings::Settings;
 
@@ -205,7 +205,7 @@ pub fn run(a: &DiffuseArgs) -> Result<()> {
     let job = Job::open(&scene, &a.load, settings, select)?;
     let frames = job.frames.clone().expect("a sequence");
     let names = Numbered::new(&a.export, "bgeo");
-    let kind = OutKind::by_extension(&names.path(0), &PARTICLE_KINDS).context("--export")?;
+    let kind = FileKind::by_extension(&names.path(0), &PARTICLE_KINDS).context("--export")?;
     let outputs = |n: u64| -> Vec<(Option<Kind>, PathBuf)> {
         let p = names.path(n);
         if a.split_types {

@@ -15,7 +15,7 @@ use meniscus::surface::mesh::Extraction;
 
 use meniscus::export::usd::{PointsFrame, UsdWriter};
 use meniscus::export::vdb;
-use meniscus::output::Kind;
+use meniscus::output::FileKind;
 use meniscus::surface::mesh::Reconstructed;
 
 use crate::args::{check_out, out_kind, LoadArgs, SceneArgs};
@@ -117,11 +117,11 @@ pub struct MeshArgs {
 pub fn run(a: &MeshArgs) -> Result<()> {
     // Outputs first: a misplaced argument (`--compare FILE.bgeo`) must not cost the user a file.
     if let Some(p) = &a.compare {
-        check_out("--compare", p, Kind::Png)?;
+        check_out("--compare", p, FileKind::Png)?;
     }
     let out_kind = match &a.out {
         Some(p) => out_kind("--out", p, &meniscus::output::SURFACE_KINDS)?,
-        None => Kind::Ply,
+        None => FileKind::Ply,
     };
     if !(a.cube_size.is_finite() && a.cube_size > 0.05 && a.cube_size <= 8.0) {
         bail!("--cube-size must be in (0.05, 8] particle radii");
@@ -142,13 +142,13 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if !(threshold > 0.0 && threshold < top) {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
     }
-    if out_kind != Kind::Usd && (a.fps.is_some() || a.diffuse) {
+    if out_kind != FileKind::Usd && (a.fps.is_some() || a.diffuse) {
         bail!("--fps and --diffuse apply to a USD stage (--out NAME.usd)");
     }
-    if out_kind != Kind::Usd && a.meters_per_unit.is_some() {
+    if out_kind != FileKind::Usd && a.meters_per_unit.is_some() {
         bail!("--meters-per-unit applies to a USD stage (--out NAME.usd)");
     }
-    if out_kind != Kind::Vdb && (a.vdb_fog || a.vdb_half_width.is_some()) {
+    if out_kind != FileKind::Vdb && (a.vdb_fog || a.vdb_half_width.is_some()) {
         bail!("--vdb-fog and --vdb-half-width apply to --out NAME.vdb");
     }
     let meters_per_unit = a.meters_per_unit.unwrap_or(1.0);
@@ -161,7 +161,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     if !(meters_per_unit.is_finite() && meters_per_unit > 0.0) {
         bail!("--meters-per-unit must be positive");
     }
-    if out_kind == Kind::Vdb {
+    if out_kind == FileKind::Vdb {
         if metaball {
             bail!("--out .vdb writes the SPH field's level set; drop --field metaball");
         }
@@ -188,7 +188,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     eprintln!("{}", job.summary(a.compare.as_ref().map(|_| (a.width, a.height))));
     // Again now that the inputs are known (the job records every file it reads).
     if let Some(p) = &a.compare {
-        check_out("--compare", p, Kind::Png)?;
+        check_out("--compare", p, FileKind::Png)?;
     }
     if let Some(png) = &a.compare {
         if job.frames.is_some() {
@@ -292,7 +292,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         Ok(())
     };
     let mut usd = match out_kind {
-        Kind::Usd => {
+        FileKind::Usd => {
             let fps = a.fps.unwrap_or(job.frame_rate() as f64);
             let comment = format!("meniscus mesh {} (cube {} r, support {} r)", job.label, a.cube_size, support);
             Some(UsdWriter::create(&out, fps, meters_per_unit, a.diffuse, &comment)?)
@@ -339,7 +339,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
                 }
                 format!("{} (time {number}; vertex velocities {vel_s:.3} s)", out.display())
             }
-            None if out_kind == Kind::Vdb => {
+            None if out_kind == FileKind::Vdb => {
                 vdb(&rec, out)?;
                 out.display().to_string()
             }
@@ -377,7 +377,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let (t0, mut last) = (std::time::Instant::now(), String::new());
     for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
         let p: scene::Particles = loaded?;
-        let path = if out_kind == Kind::Usd { out.clone() } else { names.path(frame.number) };
+        let path = if out_kind == FileKind::Usd { out.clone() } else { names.path(frame.number) };
         last = one(&p, frame.number, &path).with_context(|| frame.path.display().to_string())?;
         bar.set_message(last.clone());
         bar.inc(1);

@@ -12,10 +12,10 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::output::{Kind, Partial};
+use meniscus::output::{FileKind, Partial};
 
 /// The movie formats `--out` may name.
-pub const MOVIE_KINDS: [Kind; 3] = [Kind::Mp4, Kind::Webm, Kind::Gif];
+pub const MOVIE_KINDS: [FileKind; 3] = [FileKind::Mp4, FileKind::Webm, FileKind::Gif];
 
 /// How a movie is encoded (shared by `render` and `encode`).
 #[derive(Args, Clone, Debug, Default)]
@@ -44,7 +44,7 @@ pub struct Movie {
 
 impl Movie {
     /// Start ffmpeg for a `width`×`height` movie of `kind` at `path`.
-    pub fn start(path: &Path, kind: Kind, width: u32, height: u32, fps: f32, a: &MovieArgs) -> Result<Movie> {
+    pub fn start(path: &Path, kind: FileKind, width: u32, height: u32, fps: f32, a: &MovieArgs) -> Result<Movie> {
         if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
             bail!("--fps {fps}: expected a frame rate in (0, 1000]");
         }
@@ -55,12 +55,12 @@ impl Movie {
         // H.264 and VP9 in yuv420p need even sizes: pad by one pixel where needed.
         let even = "pad=ceil(iw/2)*2:ceil(ih/2)*2";
         match kind {
-            Kind::Mp4 => {
+            FileKind::Mp4 => {
                 let crf = a.crf.unwrap_or(18).to_string();
                 cmd.args(["-vf", even, "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", &crf]);
                 cmd.args(["-movflags", "+faststart", "-f", "mp4"]);
             }
-            Kind::Webm => {
+            FileKind::Webm => {
                 let crf = a.crf.unwrap_or(32).to_string();
                 cmd.args(["-vf", even, "-c:v", "libvpx-vp9", "-pix_fmt", "yuv420p", "-b:v", "0", "-crf", &crf]);
                 cmd.args(["-row-mt", "1", "-f", "webm"]);

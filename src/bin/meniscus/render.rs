@@ -10,7 +10,7 @@ use meniscus::renderer::{Backdrop, FrameRequest, Renderer, Upload};
 use meniscus::scene::sequence::{self, FrameRange, Prefetch};
 use meniscus::view::View;
 
-use meniscus::output::Kind;
+use meniscus::output::FileKind;
 
 use crate::args::{check_out, check_size, finish, single_out, GpuArgs, LoadArgs, Numbered, SceneArgs, SettingsArgs};
 use crate::job::{Job, Select};
@@ -95,13 +95,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if a.resume || a.skip_bad_frames || a.diffuse.is_some() {
         bail!("--resume, --skip-bad-frames and --diffuse apply to sequences");
     }
-    if Kind::by_extension(&a.out, &MOVIE_KINDS).is_ok() {
+    if FileKind::by_extension(&a.out, &MOVIE_KINDS).is_ok() {
         bail!("--out {}: a movie is made from a sequence (a pattern with {{}}, a folder or a glob)", a.out.display());
     }
     let out = single_out(&a.out, "frame.png");
-    check_out("--out", &out, Kind::Png)?;
+    check_out("--out", &out, FileKind::Png)?;
     for (d, path) in dump_paths(a, &out) {
-        check_out(&format!("--dump {d}"), &path, Kind::by_extension(&path, &[Kind::Npy, Kind::Png])?)?;
+        check_out(&format!("--dump {d}"), &path, FileKind::by_extension(&path, &[FileKind::Npy, FileKind::Png])?)?;
     }
     let sky = a.skybox.as_deref().map(meniscus::scene::sky::load_faces).transpose()?;
     let s = &job.settings;
@@ -175,7 +175,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     if !a.dump.is_empty() {
         bail!("--dump applies to single frames");
     }
-    let movie = Kind::by_extension(&a.out, &MOVIE_KINDS).ok();
+    let movie = FileKind::by_extension(&a.out, &MOVIE_KINDS).ok();
     let names = Numbered::new(&a.out, "png");
     match movie {
         Some(kind) => {
@@ -190,7 +190,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
         }
         None => {
             for f in &all {
-                check_out("--out", &names.path(f.number), Kind::Png)?;
+                check_out("--out", &names.path(f.number), FileKind::Png)?;
             }
         }
     }

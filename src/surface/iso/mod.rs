@@ -278,12 +278,12 @@ impl IsoResources {
 
 /// The iso surface technique.
 #[derive(Default)]
-pub struct Iso {
+pub struct IsoSurface {
     /// The particles' grid, weights, kernels and smoothed field.
     pub grid: IsoResources,
 }
 
-impl Technique for Iso {
+impl Technique for IsoSurface {
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
         self.grid.prepare(p, true)
     }
