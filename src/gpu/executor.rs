@@ -12,7 +12,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{Gpu, Timer};
+use super::recording::Recording;
+use super::{FrameCtx, Gpu, Timer};
 use crate::error::{Result, VkContext};
 use crate::timing::PassTimes;
 
@@ -91,6 +92,70 @@ pub struct Segment {
     pub cmd: vk::CommandBuffer,
     /// What it touched (from its `FrameCtx`).
     pub touches: Vec<super::schedule::Touch>,
+}
+
+/// What a slot recorded: its one command buffer and what it touched, or a split frame's segments.
+pub enum Recorded {
+    /// One command buffer on the main queue.
+    One(Vec<super::schedule::Touch>),
+    /// The split frame's segments, in submission order.
+    Split(Vec<Segment>),
+}
+
+impl SlotCommands {
+    /// Record a frame into this slot's command buffers (one, or the split frame's five when `self.split`):
+    /// `upload` first (the particles' copy and a producer's work: the async queue's first segment when split),
+    /// then the frame's passes through `passes` (one [`Recording`], or the split one: the async part, the fluid,
+    /// the shading), then `finish` in the frame's last command buffer (the caller's after-work, the read-back).
+    /// The queue segments — which command buffer, on which queue, with what it touched — are assembled here;
+    /// [`Executor::submit_recorded`] submits them.
+    pub fn record<R>(
+        &mut self,
+        gpu: &Arc<Gpu>,
+        upload: impl FnOnce(&mut FrameCtx),
+        passes: impl FnOnce(&mut Recording) -> Result<R>,
+        finish: impl FnOnce(&mut FrameCtx, &R),
+    ) -> Result<(R, Recorded)> {
+        use super::schedule::QueueId;
+        if !self.split {
+            let mut ctx = FrameCtx::new(gpu, self.cmd, Some(&mut self.timer));
+            upload(&mut ctx);
+            let r = passes(&mut Recording::One(&mut ctx))?;
+            finish(&mut ctx, &r);
+            return Ok((r, Recorded::One(std::mem::take(&mut ctx.touches))));
+        }
+        // A split frame: the particle upload (async) ‖ the previous frame's passes; background + thickness
+        // (async) ‖ the fluid passes (main); shading (main) after both. The waits between the queues — within
+        // this frame and against the frame before — come from what each segment touched.
+        let (main_cmds, compute_cmds) = (self.main_cmds, self.compute_cmds);
+        let [ta, tf, tsh] = &mut self.segment_timers;
+        // The first main command buffer only resets the main timer (it began with the slot).
+        let mut first = FrameCtx::new(gpu, main_cmds[0], Some(&mut self.timer));
+        // The async part's timer starts in the upload's command buffer (it runs first on that queue), so a
+        // simulation step recorded there is timed with the async passes.
+        let mut up = FrameCtx::new(gpu, compute_cmds[0], Some(ta));
+        upload(&mut up);
+        let up_touches = std::mem::take(&mut up.touches);
+        let ta = up.timer.take().expect("given");
+        drop(up);
+        let mut a = FrameCtx::continuing(gpu, compute_cmds[1], Some(ta));
+        let mut f = FrameCtx::new(gpu, main_cmds[1], Some(tf));
+        let mut sh = FrameCtx::new(gpu, main_cmds[2], Some(tsh));
+        let r = passes(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh })?;
+        finish(&mut sh, &r);
+        let segment =
+            |queue, cmd, ctx: &mut FrameCtx| Segment { queue, cmd, touches: std::mem::take(&mut ctx.touches) };
+        Ok((
+            r,
+            Recorded::Split(vec![
+                segment(QueueId::Main, main_cmds[0], &mut first),
+                Segment { queue: QueueId::Compute, cmd: compute_cmds[0], touches: up_touches },
+                segment(QueueId::Compute, compute_cmds[1], &mut a),
+                segment(QueueId::Main, main_cmds[1], &mut f),
+                segment(QueueId::Main, main_cmds[2], &mut sh),
+            ]),
+        ))
+    }
 }
 
 /// A frame handed to the GPU.
@@ -346,6 +411,15 @@ impl Executor {
         let values = [value];
         let wi = vk::SemaphoreWaitInfo::default().semaphores(&sems).values(&values);
         unsafe { self.gpu.device.wait_semaphores(&wi, u64::MAX) }.vk("vkWaitSemaphores")
+    }
+
+    /// Submit what slot `k` recorded ([`SlotCommands::record`]): one command buffer, or the split frame's
+    /// segments with the waits between the queues derived from what each touched.
+    pub fn submit_recorded(&mut self, k: usize, recorded: Recorded, binary: &Binary) -> Result<Submitted> {
+        match recorded {
+            Recorded::One(touches) => self.submit_one(k, binary, touches),
+            Recorded::Split(segments) => self.submit_segments(k, segments, binary),
+        }
     }
 
     /// The slot `k`.

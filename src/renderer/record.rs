@@ -180,59 +180,17 @@ impl Renderer {
             settings: s,
             info: &info,
         };
-        if !split {
-            let mut ctx = FrameCtx::new(&gpu, slot.cmd, Some(&mut slot.timer));
-            upload(&mut ctx);
+        let upload = |ctx: &mut FrameCtx| {
+            upload(ctx);
             if let Some(h) = hooks.before {
-                h(&mut ctx);
+                h(ctx);
             }
-            let sm = record_frame(&mut Recording::One(&mut ctx), &inputs)?.smoothed;
-            finish_frame(&mut ctx, sm);
-            let touches = std::mem::take(&mut ctx.touches);
-            drop(ctx);
-            self.smoothed = sm;
-            host.record = lap();
-            let sub = self.executor.submit_one(k, &binary, touches);
-            host.submit = lap();
-            self.host = host;
-            return sub;
-        }
-        // A split frame: the particle upload (async) ‖ the previous frame's passes; background + thickness
-        // (async) ‖ the fluid passes (main); shading (main) after both. The waits between the queues — within
-        // this frame and against the frame before — come from what each segment touched.
-        use crate::gpu::executor::Segment;
-        use crate::gpu::schedule::QueueId;
-        let (main_cmds, compute_cmds) = (slot.main_cmds, slot.compute_cmds);
-        let [ta, tf, tsh] = &mut slot.segment_timers;
-        // The first main command buffer only resets the main timer (it began with the slot).
-        let mut first = FrameCtx::new(&gpu, main_cmds[0], Some(&mut slot.timer));
-        // The async part's timer starts in the upload's command buffer (it runs first on that queue), so a
-        // simulation step recorded there (`Hooks::produce`) is timed with the async passes.
-        let mut up = FrameCtx::new(&gpu, compute_cmds[0], Some(ta));
-        upload(&mut up);
-        if let Some(h) = hooks.before {
-            h(&mut up);
-        }
-        let up_touches = std::mem::take(&mut up.touches);
-        let ta = up.timer.take().expect("given");
-        drop(up);
-        let mut a = FrameCtx::continuing(&gpu, compute_cmds[1], Some(ta));
-        let mut f = FrameCtx::new(&gpu, main_cmds[1], Some(tf));
-        let mut sh = FrameCtx::new(&gpu, main_cmds[2], Some(tsh));
-        let sm = record_frame(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh }, &inputs)?
-            .smoothed;
-        finish_frame(&mut sh, sm);
-        let segments = vec![
-            Segment { queue: QueueId::Main, cmd: main_cmds[0], touches: std::mem::take(&mut first.touches) },
-            Segment { queue: QueueId::Compute, cmd: compute_cmds[0], touches: up_touches },
-            Segment { queue: QueueId::Compute, cmd: compute_cmds[1], touches: std::mem::take(&mut a.touches) },
-            Segment { queue: QueueId::Main, cmd: main_cmds[1], touches: std::mem::take(&mut f.touches) },
-            Segment { queue: QueueId::Main, cmd: main_cmds[2], touches: std::mem::take(&mut sh.touches) },
-        ];
-        drop((first, a, f, sh));
+        };
+        let passes = |rec: &mut Recording| Ok(record_frame(rec, &inputs)?.smoothed);
+        let (sm, recorded) = slot.record(&gpu, upload, passes, |ctx, sm| finish_frame(ctx, *sm))?;
         self.smoothed = sm;
         host.record = lap();
-        let sub = self.executor.submit_segments(k, segments, &binary);
+        let sub = self.executor.submit_recorded(k, recorded, &binary);
         host.submit = lap();
         self.host = host;
         sub
