@@ -365,28 +365,8 @@ impl Settings {
 
     /// The ray-cast parameters in world units (`near` is the view's: 0 here).
     pub fn iso_params(&self) -> crate::field::iso::IsoParams {
-        crate::field::iso::IsoParams {
-            threshold: self.iso.threshold,
-            step: self.iso.step * self.radius,
-            bound: self.iso.bound * self.radius,
-            max_steps: self.iso.max_steps,
-            refine: self.iso.refine,
-            first_steps: self.iso.first_steps,
-            rest_lanes: self.iso.rest_lanes,
-            radius: self.radius,
-            fine_px: self.iso.fine_px,
-            aniso: (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support)),
-            // The view's (the GPU reads it from the frame); CPU references set it.
-            near: 0.0,
-            volume: (self.iso.smoothing > 0.0 && self.kernel == Kernel::Isotropic).then_some(
-                crate::field::volume::VolumeParams {
-                    sigma: self.iso.smoothing * self.radius,
-                    bulk: self.iso.bulk,
-                    spacing: self.iso.voxel * self.radius,
-                    support: self.iso.support * self.radius,
-                },
-            ),
-        }
+        let aniso = (self.kernel == Kernel::Anisotropic).then(|| self.anisotropy.world(self.radius, self.iso.support));
+        self.iso.world(self.radius, aniso)
     }
 
     /// The farthest an iso kernel reaches from its particle (world units): the support, or for anisotropic

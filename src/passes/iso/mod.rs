@@ -115,6 +115,33 @@ impl Default for Params {
     }
 }
 
+impl Params {
+    /// In world units for particles of `radius` (the frame's), with the anisotropic kernels' parameters when
+    /// the kernels are ellipsoids (the smoothed field is isotropic only). The view's near plane is set per frame.
+    pub fn world(&self, radius: f32, aniso: Option<crate::field::iso::AnisoParams>) -> crate::field::iso::IsoParams {
+        crate::field::iso::IsoParams {
+            threshold: self.threshold,
+            step: self.step * radius,
+            bound: self.bound * radius,
+            max_steps: self.max_steps,
+            refine: self.refine,
+            first_steps: self.first_steps,
+            rest_lanes: self.rest_lanes,
+            radius,
+            fine_px: self.fine_px,
+            volume: (self.smoothing > 0.0 && aniso.is_none()).then_some(crate::field::volume::VolumeParams {
+                sigma: self.smoothing * radius,
+                bulk: self.bulk,
+                spacing: self.voxel * radius,
+                support: self.support * radius,
+            }),
+            aniso,
+            // The view's (the GPU reads it from the frame); CPU references set it.
+            near: 0.0,
+        }
+    }
+}
+
 impl crate::section::Section for Params {
     fn name(&self) -> &'static str {
         NAME
