@@ -76,7 +76,7 @@ pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     order.sort_by_key(|&i| std::cmp::Reverse(reaches[i]));
     let next = AtomicUsize::new(0);
     let workers = rayon::current_num_threads().clamp(1, blocks.len().max(1));
-    let made: Vec<(usize, BlockMesh)> = (0..workers)
+    let mut made: Vec<(usize, BlockMesh)> = (0..workers)
         .into_par_iter()
         .flat_map_iter(|_| {
             let (mut v, mut inside, mut slot, mut rows) =
@@ -103,11 +103,8 @@ pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
         })
         .collect();
     // Back in block order (the weld numbers the vertices block by block).
-    let mut outs: Vec<Option<BlockMesh>> = (0..blocks.len()).map(|_| None).collect();
-    for (i, out) in made {
-        outs[i] = Some(out);
-    }
-    let outs: Vec<BlockMesh> = outs.into_iter().map(|o| o.expect("every block made")).collect();
+    made.sort_unstable_by_key(|&(i, _)| i);
+    let outs: Vec<BlockMesh> = made.into_iter().map(|(_, out)| out).collect();
     let t_blocks = t0.elapsed();
     let (mesh, keys) = weld_blocks(outs, &blocks);
     let times = ExtractTimes {
@@ -420,9 +417,9 @@ fn weld_blocks(outs: Vec<BlockMesh>, blocks: &[i64]) -> (TriMesh, Vec<i64>) {
 /// A window of a multiple of four corners holding the chord, the corners outside the chord masked by index (a
 /// masked corner gets + 0.0, which leaves its value's bits as they are: every value is ≥ +0), so that the vector
 /// loop has no scalar tail; the distances along x are the particle's, computed once for all its rows. (Windows
-/// aligned to the row's quads, so that consecutive particles load and store the same quads, were no faster.) The same
-/// operations in the same order per corner as before: the same bits. Branch-free (the kernel as selects) so
-/// that it vectorises. (Tried before: an AVX2 build chosen at run time, of this function and of the whole block
+/// aligned to the row's quads, so that consecutive particles load and store the same quads, were no faster.)
+/// The same operations in the same order per corner as before: the same bits. Branch-free (the kernel as
+/// selects) so that it vectorises. (Tried before: an AVX2 build chosen at run time, of this function and of the whole block
 /// scatter — no faster.)
 #[inline(always)]
 fn scatter_row(line: &mut [f32], dx2: &[f32], chord: (i32, i32), d2: f32, inv_support: f32, w: f32, metaball: bool) {
