@@ -42,6 +42,28 @@ fn app_lines() -> Vec<(String, String)> {
     lines
 }
 
+/// The applications' code lines that name `path` ("path:line: code").
+fn app_lines_naming(path: &str) -> Vec<String> {
+    app_lines()
+        .into_iter()
+        .filter(|(_, code)| code.contains(path))
+        .map(|(at, code)| format!("{at}: {}", code.trim()))
+        .collect()
+}
+
+/// Every library source file (not `src/bin`) and its code before any `#[cfg(test)]`.
+fn library_code() -> Vec<(PathBuf, String)> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    rust_files(&src, Some("bin"))
+        .into_iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap().to_string();
+            (p, code)
+        })
+        .collect()
+}
+
 fn scan(dir: &Path, top: Option<&str>, graph: &mut BTreeMap<String, BTreeSet<String>>) {
     for e in std::fs::read_dir(dir).unwrap().flatten() {
         let p = e.path();
@@ -115,11 +137,7 @@ fn the_top_level_modules_form_no_cycle() {
 /// `renderer` functions, the GPU marching cubes and neighbour grid live in `compute`).
 #[test]
 fn apps_do_not_reach_into_the_passes() {
-    let hits: Vec<String> = app_lines()
-        .into_iter()
-        .filter(|(_, code)| code.contains("meniscus::passes"))
-        .map(|(at, code)| format!("{at}: {}", code.trim()))
-        .collect();
+    let hits = app_lines_naming("meniscus::passes");
     assert!(hits.is_empty(), "apps reach into meniscus::passes:\n{}", hits.join("\n"));
 }
 
@@ -152,11 +170,7 @@ fn the_renderer_has_at_most_twelve_public_methods() {
 /// library's own (hidden from its documentation; the integration tests drive passes through it).
 #[test]
 fn apps_do_not_reach_into_the_device_layer() {
-    let hits: Vec<String> = app_lines()
-        .into_iter()
-        .filter(|(_, code)| code.contains("meniscus::gpu"))
-        .map(|(at, code)| format!("{at}: {}", code.trim()))
-        .collect();
+    let hits = app_lines_naming("meniscus::gpu");
     assert!(hits.is_empty(), "apps reach into meniscus::gpu (use meniscus::device):\n{}", hits.join("\n"));
 }
 
@@ -170,9 +184,7 @@ fn every_public_item_has_one_path() {
     let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap();
     assert!(lib.contains("#[doc(hidden)]\npub mod gpu;"), "lib.rs no longer hides the device layer");
     let mut bad = vec![];
-    for p in rust_files(&src, Some("bin")) {
-        let text = std::fs::read_to_string(&p).unwrap();
-        let code = text.split("#[cfg(test)]").next().unwrap();
+    for (p, code) in library_code() {
         for (i, line) in code.lines().enumerate() {
             let Some(path) = line.trim_start().strip_prefix("pub use ") else { continue };
             let first = path.split("::").next().unwrap();
@@ -195,11 +207,9 @@ fn every_public_item_has_one_path() {
 /// pass's push constants), which are named by their module by design.
 #[test]
 fn no_type_name_is_declared_twice() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut seen: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for p in rust_files(&src, Some("bin")) {
-        let text = std::fs::read_to_string(&p).unwrap();
-        for line in text.split("#[cfg(test)]").next().unwrap().lines() {
+    for (p, code) in library_code() {
+        for line in code.lines() {
             let t = line.trim_start();
             for kind in ["pub struct ", "pub enum ", "pub trait ", "pub type "] {
                 if let Some(rest) = t.strip_prefix(kind) {
