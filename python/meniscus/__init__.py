@@ -247,23 +247,23 @@ class Foam(Diffuse):
         super().__init__(particle_radius=particle_radius, fps=fps, settings=settings)
 
 
-def _support(support: float, smoothing_length: Optional[float]) -> float:
-    """The kernel support in particle radii: `support` (`[iso] support`), or from the deprecated
-    `smoothing_length` (pysplashsurf's h, half the support)."""
+def _support(support: Optional[float], smoothing_length: Optional[float]) -> float:
+    """The kernel support in particle radii: `support` (`[iso] support`; 4 when not given), or from the
+    deprecated `smoothing_length` (pysplashsurf's h, half the support)."""
     if smoothing_length is None:
-        return float(support)
+        return 4.0 if support is None else float(support)
     warnings.warn("smoothing_length is deprecated: pass support = 2 × smoothing_length (the kernel support in "
                   "particle radii, as [iso] support)", DeprecationWarning, stacklevel=3)
-    if support != 4.0:
+    if support is not None:
         raise ValueError("pass support or smoothing_length (deprecated), not both")
     return 2.0 * float(smoothing_length)
 
 
-def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, support: float = 4.0,
+def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, support: Optional[float] = None,
                         cube_size: float = 0.5, iso_surface_threshold: float = 0.6, mesh_smoothing_iters: int = 0,
                         gpu: bool = True, device: Optional[str] = None, velocities: Optional[ArrayLike] = None,
                         smoothing_length: Optional[float] = None) -> Tuple[np.ndarray, ...]:
-    """The SPH iso-surface of the particles as a triangle mesh (the kernel's support `support` ×
+    """The SPH iso-surface of the particles as a triangle mesh (the kernel's support `support` (default 4) ×
     `particle_radius`, as `[iso] support`: pysplashsurf's 2 × smoothing_length; `smoothing_length=` still works,
     deprecated; the marching-cubes edge `cube_size` × `particle_radius`). Returns (vertices N×3 float32, triangles M×3 uint32, normals N×3 float32): the mesh
     `meniscus mesh` writes (`--gpu` when `gpu`); with `velocities` (one row per particle) a fourth array, the
@@ -337,7 +337,7 @@ class UsdStage:
         self._s.finish()
 
 
-def write_vdb(path: str, particles: ArrayLike, *, particle_radius: float, support: float = 4.0,
+def write_vdb(path: str, particles: ArrayLike, *, particle_radius: float, support: Optional[float] = None,
               cube_size: float = 0.5, iso_surface_threshold: float = 0.6, half_width: float = 3.0,
               fog: bool = False, smoothing_length: Optional[float] = None) -> int:
     """Write the particles' SPH iso-surface as an OpenVDB narrow-band level set (grid `surface`, voxel =

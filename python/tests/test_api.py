@@ -121,7 +121,7 @@ def test_bad_arrays_raise_value_error(bad, msg):
         meniscus.reconstruct_surface(bad, particle_radius=0.01)
 
 
-def test_support_is_the_kernel_and_smoothing_length_still_works_with_a_warning():
+def test_support_is_the_kernel_and_smoothing_length_still_works_with_a_warning(tmp_path):
     """`support` (particle radii, as `[iso] support`) names the kernel; pysplashsurf's `smoothing_length` (half
     of it) still works, with a DeprecationWarning, and gives the same mesh; both at once is an error."""
     pts = np.random.default_rng(3).random((300, 3), dtype=np.float32) * 0.2
@@ -132,6 +132,9 @@ def test_support_is_the_kernel_and_smoothing_length_still_works_with_a_warning()
     with pytest.raises(ValueError, match="not both"):
         with pytest.warns(DeprecationWarning):
             meniscus.reconstruct_surface(pts, particle_radius=0.01, support=3.0, smoothing_length=2.0)
+    with pytest.raises(ValueError, match="not both"):
+        with pytest.warns(DeprecationWarning):
+            meniscus.write_vdb(tmp_path / "x.vdb", pts, particle_radius=0.01, support=4.0, smoothing_length=2.0)
 
 
 def test_bad_parameters_and_files_raise():
