@@ -2397,3 +2397,34 @@ fn diffuse_matches_cpu_reference() {
         assert!(sw / UNITS as f64 > 1.0);
     }
 }
+
+/// The frame's timestamp scopes: a frame that opens up to `timing::MAX_SCOPES` scopes has every pass timed
+/// (same-named scopes summed); one that opens more reads as untimed — no passes, and the timer says how many were
+/// left out — rather than as the cheaper frame its first scopes would sum to (a DFSPH frame records every
+/// correction it may need, three scopes each).
+#[test]
+fn a_frame_with_more_scopes_than_the_timer_holds_reads_as_untimed() {
+    use meniscus::timing::MAX_SCOPES;
+    let gpu = gpu();
+    let mut timer = meniscus::gpu::Timer::new(&gpu).unwrap();
+    for (scopes, untimed) in [(7u32, 0u32), (MAX_SCOPES, 0), (MAX_SCOPES + 5, 5)] {
+        gpu.one_shot(|cmd| {
+            let mut ctx = FrameCtx::new(&gpu, cmd, Some(&mut timer));
+            for i in 0..scopes {
+                ctx.pass(["a", "b", "c"][i as usize % 3], |_| {});
+            }
+            Ok(())
+        })
+        .unwrap();
+        let times = timer.read().unwrap();
+        assert_eq!(timer.untimed(), untimed, "{scopes} scopes");
+        let names: Vec<&str> = times.0.iter().map(|(n, _)| n.as_str()).collect();
+        if untimed == 0 {
+            assert_eq!(names, ["a", "b", "c"], "{scopes} scopes");
+            assert!(times.0.iter().all(|(_, ms)| ms.is_finite() && *ms >= 0.0));
+        } else {
+            assert!(names.is_empty(), "{scopes} scopes: {names:?}");
+        }
+    }
+    assert_clean(&gpu);
+}

@@ -10,10 +10,7 @@ use ash::vk;
 
 use super::Gpu;
 use crate::error::{Result, VkContext};
-use crate::timing::PassTimes;
-
-/// Most scopes a frame can open.
-pub const MAX_SCOPES: u32 = 512;
+use crate::timing::{PassTimes, MAX_SCOPES};
 
 /// One scope of a frame: its name, begin and end (ns, device clock), compute invocations where counted.
 pub type ScopeSpan = (String, f64, f64, Option<u64>);
@@ -30,6 +27,8 @@ pub struct Timer {
     counting: Option<u32>,
     /// Per scope: whether its statistics query ran.
     counted: Vec<bool>,
+    /// Scopes opened this frame after the pool was full (not timed).
+    dropped: u32,
 }
 
 impl Timer {
@@ -52,7 +51,7 @@ impl Timer {
         } else {
             None
         };
-        Ok(Timer { gpu: gpu.clone(), pool, names: vec![], stats, counting: None, counted: vec![] })
+        Ok(Timer { gpu: gpu.clone(), pool, names: vec![], stats, counting: None, counted: vec![], dropped: 0 })
     }
 
     /// Reset the pool in `cmd`; call once at the start of a frame.
@@ -60,6 +59,7 @@ impl Timer {
         self.names.clear();
         self.counted.clear();
         self.counting = None;
+        self.dropped = 0;
         unsafe { self.gpu.device.cmd_reset_query_pool(cmd, self.pool, 0, 2 * MAX_SCOPES) };
         if let Some(stats) = self.stats {
             unsafe { self.gpu.device.cmd_reset_query_pool(cmd, stats, 0, MAX_SCOPES) };
@@ -70,6 +70,7 @@ impl Timer {
     pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> Option<u32> {
         let i = self.names.len() as u32;
         if i >= MAX_SCOPES {
+            self.dropped += 1;
             return None;
         }
         self.names.push(name.to_string());
@@ -146,6 +147,9 @@ impl Timer {
     /// Begin and end of every scope of the last frame in nanoseconds of the device clock, and its compute
     /// invocations where counted (waits for them).
     pub fn spans(&self) -> Result<Vec<ScopeSpan>> {
+        if self.dropped > 0 {
+            return Ok(vec![]);
+        }
         let period = self.gpu.info.timestamp_period as f64;
         Ok(self
             .names
@@ -156,8 +160,18 @@ impl Timer {
             .collect())
     }
 
-    /// Read the results of the last frame (waits for them). Same-named scopes are summed.
+    /// Scopes the last frame opened past [`MAX_SCOPES`] (0: every scope was timed).
+    pub fn untimed(&self) -> u32 {
+        self.dropped
+    }
+
+    /// Read the results of the last frame (waits for them). Same-named scopes are summed. A frame that opened
+    /// more than [`MAX_SCOPES`] scopes reads as untimed (no passes; [`Timer::untimed`] says how many were
+    /// left out): sums that leave out the passes recorded last would read as a cheaper frame.
     pub fn read(&self) -> Result<PassTimes> {
+        if self.dropped > 0 {
+            return Ok(PassTimes(vec![]));
+        }
         let period = self.gpu.info.timestamp_period as f64;
         let mut out: Vec<(String, f64)> = vec![];
         for (name, (_, ticks)) in self.names.iter().zip(self.ticks()?) {

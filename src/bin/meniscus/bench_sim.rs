@@ -237,6 +237,12 @@ pub fn run(
         c.substeps,
         c.dt * 1e3
     );
+    if stages.is_empty() {
+        println!(
+            "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time\n",
+            meniscus::timing::MAX_SCOPES
+        );
+    }
     println!("| stage | ms per step (median of {frames} frames) |\n|---|---|");
     for (n, ms) in &stages {
         println!("| {n} | {ms:.3} |");

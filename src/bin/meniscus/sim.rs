@@ -291,7 +291,13 @@ pub fn run(a: &SimArgs) -> Result<()> {
         eprintln!("DFSPH {name} solve: {}", s.summary());
     }
     let med = meniscus::timing::median_times(&runs);
-    if !runs.is_empty() {
+    if !runs.is_empty() && med.0.is_empty() {
+        eprintln!(
+            "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time (DFSPH \
+             records every correction it may need; fewer [sim] max_solver_iterations or substeps fit)",
+            meniscus::timing::MAX_SCOPES
+        );
+    } else if !runs.is_empty() {
         // The solver's stages run every step; the diffuse stages once per frame.
         let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);
         let (step, frame): (Vec<_>, Vec<_>) = med.0.iter().partition(|(k, _)| !diffuse(k));
