@@ -28,6 +28,8 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_solve.comp", NBR),
     ("sim_vorticity.comp", NBR),
     ("sim_viscosity.comp", NBR),
+    // The reorder, and the reorder that carries one more value per particle (DFSPH's divergence-free warm start).
+    ("sim_reorder.comp", &[("", ""), ("CARRY", "REORDER_CARRY")]),
     // DFSPH's list readers (src/sim/dfsph.rs).
     ("sim_dfsph_alpha.comp", NBR),
     ("sim_dfsph_rate.comp", NBR),

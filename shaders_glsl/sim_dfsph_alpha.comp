@@ -7,9 +7,10 @@
 //! state's (sim_reorder added Δt·g to it), copied to `vel`, which the solves update in place. The warm start of
 //! the constant-density solve: half the κ the particle's last solve summed (pred.w, carried by sim_dfsph_begin),
 //! applied as one correction before the solve (Bender & Koschier 2017 §4.4; SPlisHSPlasH's USE_WARMSTART);
-//! this step's sum starts at 0.
+//! this step's sum starts at 0. The divergence-free solve's likewise (USE_WARMSTART_V): its last sum arrives in
+//! kappa_v_warm (sim_reorder's carry), halved here in place.
 //! In: the neighbour lists, pred (x, grid order; w: the last κ sum), the sorted state. Out: dfsph (ρ̂, factor),
-//! vel, density (kg/m³, exported with the cache), kappa_warm, kappa_sum.
+//! vel, density (kg/m³, exported with the cache), kappa_warm, kappa_sum, kappa_v_sum. In/out: kappa_v_warm.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
@@ -20,6 +21,8 @@ layout(std430, binding = 6) writeonly buffer Vel { vec4 vel[]; };
 layout(std430, binding = 7) writeonly buffer Density { float density[]; };
 layout(std430, binding = 8) writeonly buffer KappaWarm { float kappa_warm[]; };
 layout(std430, binding = 9) writeonly buffer KappaSum { float kappa_sum[]; };
+layout(std430, binding = 10) buffer KappaVWarm { float kappa_v_warm[]; };
+layout(std430, binding = 11) writeonly buffer KappaVSum { float kappa_v_sum[]; };
 
 void visit(uint j, vec3 xi, inout float wsum, inout vec3 gsum, inout float g2) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
@@ -48,4 +51,6 @@ void main() {
     density[i] = rho * sim.solver.x;
     kappa_warm[i] = 0.5 * pi.w;
     kappa_sum[i] = 0.0;
+    kappa_v_warm[i] *= 0.5;
+    kappa_v_sum[i] = 0.0;
 }

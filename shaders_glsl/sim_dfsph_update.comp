@@ -3,8 +3,8 @@
 //! SPlisHSPlasH's pressureSolveIteration / divergenceSolveIteration): from every particle's κ (sim_dfsph_rate),
 //!   v_i ← v_i + Δt Σ_j V (κ_i + κ_j) ∇W_ij + Δt κ_i ∇F_i
 //! (κ ≤ 0 where compressed, so the push is away from the neighbours and out of the walls). Only particle i's own
-//! velocity is read and written, so the update is in place. In the constant-density solve (DFSPH_DENSITY) the κ
-//! applied is summed per particle (the next step's warm start).
+//! velocity is read and written, so the update is in place. The κ applied is summed per particle (the next
+//! step's warm start of the same solve).
 //! In: the neighbour lists, pred (x), kappa. In/out: vel, kappa_sum.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
@@ -13,8 +13,6 @@ layout(binding = 3) uniform samplerBuffer pred;
 layout(binding = 4) uniform samplerBuffer kappa;
 layout(std430, binding = 5) buffer Vel { vec4 vel[]; };
 layout(std430, binding = 6) buffer KappaSum { float kappa_sum[]; };
-
-layout(constant_id = 3) const bool DFSPH_DENSITY = false;
 
 void visit(uint j, vec3 xi, float ki, inout vec3 dv) {
     vec3 r = xi - texelFetch(pred, int(j)).xyz;
@@ -33,5 +31,5 @@ void main() {
     wall_density(xi, gw);
     float dt = sim.lo_dt.w;
     vel[i].xyz += dt * (sim.kern.w * dv + ki * gw);
-    if (DFSPH_DENSITY) kappa_sum[i] += ki;
+    kappa_sum[i] += ki;
 }

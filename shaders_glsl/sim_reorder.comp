@@ -9,6 +9,8 @@
 //! which that stage does not write back). Everything is read as texels (state as RGBA32UI, two per
 //! particle, so the id bits pass unchanged): on lavapipe a storage-buffer load of a vector is a loop over the
 //! lanes per component, a texel fetch one gather (docs/simulation.md, commits a4c867b and 434fdd1).
+//! With REORDER_CARRY (SIM_REORDER_CARRY) one more float per particle moves with it: carry_in (in the state's
+//! order) → carry_out (grid order) — DFSPH's divergence-free solve's last κ sum, its warm start.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(binding = 1) uniform usamplerBuffer order;
@@ -19,6 +21,10 @@ layout(std430, binding = 5) writeonly buffer PredOut { vec4 pred_out[]; };
 layout(binding = 6) uniform usamplerBuffer keys;     // (cell, slot) of particle i
 layout(binding = 7) uniform usamplerBuffer start;
 layout(binding = 8) uniform usamplerBuffer counts;
+#ifdef REORDER_CARRY
+layout(binding = 9) uniform samplerBuffer carry_in;
+layout(std430, binding = 10) writeonly buffer CarryOut { float carry_out[]; };
+#endif
 
 void main() {
     uint k = gl_GlobalInvocationID.x;
@@ -32,4 +38,7 @@ void main() {
     v.xyz += sim.lo_dt.w * sim.gravity_mass.xyz;
     state_out[place] = State(state_x(state_in, i), v);
     pred_out[place] = texelFetch(pred_in, int(i));
+#ifdef REORDER_CARRY
+    carry_out[place] = texelFetch(carry_in, int(i)).x;
+#endif
 }

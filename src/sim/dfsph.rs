@@ -57,8 +57,8 @@ pub struct CheckPush {
 }
 
 declare_program!(pub BEGIN: () = compute(shaders::SIM_DFSPH_BEGIN, [Uniform, TexelRead, BufWrite, TexelRead]));
-declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
-declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
 declare_program!(pub RATE: () = compute(shaders::SIM_DFSPH_RATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
 declare_program!(pub RATE_NBR16: () = compute(shaders::SIM_DFSPH_RATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
 declare_program!(pub UPDATE: () = compute(shaders::SIM_DFSPH_UPDATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite]));
@@ -158,8 +158,8 @@ struct Listed {
     alpha: ComputeProgram,
     /// By solve: [divergence-free, constant-density].
     rate: [ComputeProgram; 2],
-    /// By solve: [divergence-free, constant-density (sums the κ it applies)].
-    update: [ComputeProgram; 2],
+    /// Either solve's correction; it sums the κ it applies (the next step's warm start of that solve).
+    update: ComputeProgram,
 }
 
 /// The DFSPH programs and their buffers.
@@ -178,6 +178,12 @@ pub struct Dfsph {
     /// Per particle: the κ this step's constant-density solve applied, summed (R32F texels; the next step's warm
     /// start, in the order the state is written in).
     kappa_sum: Buffer,
+    /// Per particle: the divergence-free solve's warm start — the κ its last solve summed, moved into grid order
+    /// by sim_reorder, halved in place by sim_dfsph_alpha (R32F texels).
+    kappa_v_warm: Buffer,
+    /// Per particle: the κ this step's divergence-free solve applied, summed (R32F texels; what sim_reorder
+    /// carries into the next step's `kappa_v_warm`).
+    kappa_v_sum: Buffer,
     /// Per work group of sim_dfsph_rate: its particles' summed error.
     partials: Buffer,
     /// The next iteration's indirect dispatch (x: work groups, y, z: 1; w: corrections so far).
@@ -218,10 +224,7 @@ impl Dfsph {
                     ComputeProgram::specialized(gpu, rate, &[4, m, 0, 0])?,
                     ComputeProgram::specialized(gpu, rate, &[4, m, 0, 1])?,
                 ],
-                update: [
-                    ComputeProgram::specialized(gpu, update, &[4, m, 0, 0])?,
-                    ComputeProgram::specialized(gpu, update, &[4, m, 0, 1])?,
-                ],
+                update: ComputeProgram::specialized(gpu, update, &[4, m])?,
             })
         };
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
@@ -238,6 +241,8 @@ impl Dfsph {
             kappa: Buffer::texels(gpu, "sim_dfsph_kappa", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
             kappa_warm: Buffer::texels(gpu, "sim_dfsph_kappa_warm", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
             kappa_sum: Buffer::texels(gpu, "sim_dfsph_kappa_sum", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
+            kappa_v_warm: Buffer::texels(gpu, "sim_dfsph_kappa_v_warm", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
+            kappa_v_sum: Buffer::texels(gpu, "sim_dfsph_kappa_v_sum", 4 * cap, usage, vk::Format::R32_SFLOAT)?,
             partials: Buffer::new(gpu, "sim_dfsph_partials", 4 * groups.max(4), usage, MemoryLocation::GpuOnly)?,
             args: Buffer::new(
                 gpu,
@@ -260,7 +265,14 @@ impl Dfsph {
     pub fn clear_warm_start(&self, ctx: &mut FrameCtx, from: u32, count: u32) {
         if count > 0 {
             ctx.fill_range(&self.kappa_sum, 4 * from as u64, 4 * count as u64, 0);
+            ctx.fill_range(&self.kappa_v_sum, 4 * from as u64, 4 * count as u64, 0);
         }
+    }
+
+    /// What sim_reorder carries for DFSPH: (the divergence-free solve's κ sums in the state's order, where they
+    /// go in grid order: the warm start).
+    pub fn carried(&self) -> (&Buffer, &Buffer) {
+        (&self.kappa_v_sum, &self.kappa_v_warm)
     }
 
     /// The statistics since the last clear (waits for the device).
@@ -283,9 +295,20 @@ impl Dfsph {
         let groups = n.div_ceil(LOCAL_1D).max(1);
         let l = &self.listed[b.neighbours.packed as usize];
         ctx.pass("sim_dfsph_alpha", |ctx| {
-            let res = b
-                .neighbours
-                .bound(b.uniforms, &[b.x, b.sorted, &self.factor, b.vel, b.density, &self.kappa_warm, &self.kappa_sum]);
+            let res = b.neighbours.bound(
+                b.uniforms,
+                &[
+                    b.x,
+                    b.sorted,
+                    &self.factor,
+                    b.vel,
+                    b.density,
+                    &self.kappa_warm,
+                    &self.kappa_sum,
+                    &self.kappa_v_warm,
+                    &self.kappa_v_sum,
+                ],
+            );
             l.alpha.dispatch(ctx, &res, &(), [groups, 1, 1]);
         });
         // The divergence-free solve (at least one correction, SPlisHSPlasH's rule), then the constant-density
@@ -293,12 +316,12 @@ impl Dfsph {
         let solves = [(0usize, 1u32, p.max_divergence_error), (1, 2, p.max_density_error)];
         for (solve, min_iter, percent) in solves {
             let rate = b.neighbours.bound(b.uniforms, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
-            let update = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa, b.vel, &self.kappa_sum]);
-            if solve == 1 {
-                // The warm start: one correction with half the κ each particle's last solve summed.
-                let warm = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa_warm, b.vel, &self.kappa_sum]);
-                ctx.pass("sim_dfsph_update", |ctx| l.update[1].dispatch(ctx, &warm, &(), [groups, 1, 1]));
-            }
+            let (warm, sum) = [(&self.kappa_v_warm, &self.kappa_v_sum), (&self.kappa_warm, &self.kappa_sum)][solve];
+            let update = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa, b.vel, sum]);
+            // The warm start (Bender & Koschier 2017 §4.4): one correction with half the κ each particle's last
+            // solve of this kind summed.
+            let warm = b.neighbours.bound(b.uniforms, &[b.x, warm, b.vel, sum]);
+            ctx.pass("sim_dfsph_update", |ctx| l.update.dispatch(ctx, &warm, &(), [groups, 1, 1]));
             let check_res = [b.uniforms.into(), (&self.partials).into(), (&self.args).into(), (&self.stats).into()];
             let check = |init: u32| CheckPush {
                 groups,
@@ -311,7 +334,7 @@ impl Dfsph {
             ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch(ctx, &rate, &(), [groups, 1, 1]));
             ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(1), [1, 1, 1]));
             for _ in 0..p.max_solver_iterations {
-                ctx.pass("sim_dfsph_update", |ctx| l.update[solve].dispatch_indirect(ctx, &update, &(), &self.args, 0));
+                ctx.pass("sim_dfsph_update", |ctx| l.update.dispatch_indirect(ctx, &update, &(), &self.args, 0));
                 ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch_indirect(ctx, &rate, &(), &self.args, 0));
                 ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(0), [1, 1, 1]));
             }

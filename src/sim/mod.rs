@@ -404,7 +404,8 @@ impl Simulation {
             None => g.predict(ctx, u, a, &self.pred[0], &self.sdf, n),
         }
         ctx.pass(crate::compute::grid::NAME, |ctx| self.grid_pass.record(ctx, &self.pred[0], n, s));
-        g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], n);
+        let carry = self.dfsph.as_ref().map(|d| d.carried());
+        g.reorder(ctx, u, s, a, &self.pred[0], b, &self.pred[1], carry, n);
         let nb = &self.neighbours;
         g.neighbours(ctx, u, s, &self.pred[1], nb, n);
         // The positions the step ends at.

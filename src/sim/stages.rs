@@ -65,6 +65,11 @@ declare_program!(pub REORDER: () = compute(
     shaders::SIM_REORDER,
     [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, TexelRead, TexelRead, TexelRead]
 ));
+// The reorder that moves one more float per particle with it (then: carry in, carry out).
+declare_program!(pub REORDER_CARRY: () = compute(
+    shaders::SIM_REORDER_CARRY,
+    [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite]
+));
 // The stages that write or read the neighbour lists, each twice: for 32-bit lists, and for 16-bit ones (the
 // shader compiled with NBR16, `_NBR16`). sim_neighbours writes either format as a storage buffer;
 // the readers get the lists at bindings 1 (counts) and 2 (the lists: a storage buffer of 32-bit indices, or
@@ -125,6 +130,8 @@ impl Listed {
 pub struct Stages {
     predict: ComputeProgram,
     reorder: ComputeProgram,
+    /// The reorder with one more value carried ([`Stages::reorder`]'s `carry`).
+    reorder_carry: ComputeProgram,
     velocity: ComputeProgram,
     /// By list format: [32-bit, 16-bit].
     listed: [Listed; 2],
@@ -144,6 +151,7 @@ impl Stages {
         Ok(Stages {
             predict: ComputeProgram::specialized(gpu, &PREDICT, &spec)?,
             reorder: ComputeProgram::new(gpu, &REORDER)?,
+            reorder_carry: ComputeProgram::new(gpu, &REORDER_CARRY)?,
             velocity: ComputeProgram::new(gpu, &VELOCITY)?,
             listed: [
                 Listed::new(gpu, [&NEIGHBOURS, &DENSITY, &SOLVE, &VORTICITY, &VISCOSITY], &spec)?,
@@ -200,9 +208,10 @@ impl Stages {
         pred: &Buffer,
         state_out: &Buffer,
         pred_out: &Buffer,
+        carry: Option<(&Buffer, &Buffer)>,
         n: u32,
     ) {
-        let res = [
+        let mut res: Vec<Res> = vec![
             u.into(),
             (&g.order).into(),
             state.into(),
@@ -213,7 +222,14 @@ impl Stages {
             (&g.start).into(),
             (&g.counts).into(),
         ];
-        self.run(ctx, "sim_reorder", &self.reorder, &res, n);
+        let program = match carry {
+            Some((from, to)) => {
+                res.extend([Res::from(from), Res::from(to)]);
+                &self.reorder_carry
+            }
+            None => &self.reorder,
+        };
+        self.run(ctx, "sim_reorder", program, &res, n);
     }
 
     /// `sim_neighbours`: grid, pred → the neighbour lists.
