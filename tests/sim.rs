@@ -749,6 +749,10 @@ fn dam_break_front_follows_the_experiments() {
     let (shift, worst) = validate::best_shift(&series, 3.0);
     assert!(worst < 0.15, "largest error {worst} with shift {shift}");
     assert_eq!(validate::compare(&series, 3.0, shift).len(), 8 + 4 + 5);
+    // Each experiment's own gate shift fits its points at least as well as the one shift for all.
+    let own = validate::best_shifts(&series, 3.0);
+    assert_eq!(own.len(), 2);
+    assert!(own.iter().all(|o| o.2 <= worst + 1e-12 && (0.0..=0.6).contains(&o.1)), "{own:?} against {worst}");
     common::assert_clean(&gpu);
 }
 
