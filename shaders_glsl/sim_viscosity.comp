@@ -3,7 +3,10 @@
 //! f = ε_v·(N × ω_i), N = η/|η|, η = Σ_j V·(|ω_j| − |ω_i|)·∇W_spiky(x_i − x_j); then XSPH viscosity
 //! v_i ← v_i + c·Σ_j V·(v_j − v_i)·W_poly6(x_i − x_j); x ← x*. Writes the new state (grid order of this step)
 //! and the renderer's particles (xyz, w = 0: the frame radius), then after them the motions (id bits, |Δv|/Δt).
-//! In: the neighbour lists, pred, vel, omega, the sorted state (ids). Out: state, particles.
+//! The frame's largest speed is kept (max over its steps) for the adaptive step's CFL bound (`[sim]
+//! adaptive_step`; SPlisHSPlasH's cflMethod 1): each work group's largest |v|, then one atomic max of its bits
+//! (non-negative floats order as their bits).
+//! In: the neighbour lists, pred, vel, omega, the sorted state (ids). Out: state, particles. In/out: speed.
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
@@ -13,6 +16,7 @@ layout(binding = 5) uniform samplerBuffer omega;
 layout(binding = 6) uniform usamplerBuffer sorted;   // the sorted state (state_x: its id bits)
 layout(std430, binding = 7) writeonly buffer States { State state[]; };
 layout(std430, binding = 8) writeonly buffer Particles { vec4 particles[]; };
+layout(std430, binding = 9) buffer Speed { uint speed_max; };  // float bits, cleared to 0 at the frame's start
 
 // Whether vorticity confinement is on (ε > 0), a specialization constant (Stages::new): lavapipe runs both sides of
 // a branch, so with a uniform's test every particle walked its list twice, once with confinement's fetches and
@@ -27,9 +31,10 @@ void visit(uint j, vec3 xi, vec3 vi, float wi, inout vec3 xsph, inout vec3 eta) 
 }
 #define VISIT(j) visit(j, xi, vi, wi, xsph, eta)
 
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= sim.counts.x) return;
+shared float s_speed[LOCAL_1D];
+
+/// Particle i's end of step; returns its new speed.
+float end_step(uint i) {
     vec3 xi = texelFetch(pred, int(i)).xyz;
     vec3 vi = texelFetch(vel, int(i)).xyz;
     float vol = sim.kern.w;
@@ -55,4 +60,17 @@ void main() {
     particles[i] = vec4(xi, 0.0);
     // The renderer's motion entry (particle_layout.glsl): the id bits and the change of velocity.
     particles[particle_motion(sim.counts.x, i)] = vec4(xs.w, accel, 0.0, 0.0);
+    return length(v);
+}
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint l = gl_LocalInvocationID.x;
+    s_speed[l] = i < sim.counts.x ? end_step(i) : 0.0;
+    barrier();
+    for (uint s = LOCAL_1D / 2u; s > 0u; s >>= 1u) {
+        if (l < s) s_speed[l] = max(s_speed[l], s_speed[l + s]);
+        barrier();
+    }
+    if (l == 0u) atomicMax(speed_max, floatBitsToUint(s_speed[0]));
 }

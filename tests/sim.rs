@@ -916,3 +916,43 @@ fn scene_file_emitters_emit_as_splishsplash_does() {
     common::assert_clean(&gpu);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `[sim] adaptive_step`: every frame's step count is the CFL bound at the frame before's largest speed (plus
+/// what gravity adds in a frame), exactly as `constants::cfl_substeps` gives it; that speed is the GPU's maximum
+/// over the frame's steps, so at least the largest speed the frame ends with; the count grows as the dam breaks
+/// and the step stays at `max_dt` while the water is slow.
+#[test]
+fn the_adaptive_step_follows_the_largest_speed() {
+    use meniscus::sim::constants::cfl_substeps;
+    let gpu = common::gpu();
+    let scene = SimScene::new("dambreak", 4000).unwrap();
+    let spacing = scene.spacing;
+    // A CFL number small enough for this coarse scene's speeds to bound the step below max_dt.
+    let params = Params { adaptive_step: true, cfl: 0.25, ..Params::default() };
+    let fixed = meniscus::sim::constants::Constants::new(&scene, &params).substeps;
+    let mut sim = Simulation::new(&gpu, scene, params.clone()).unwrap();
+    let g = 9.81 / params.fps;
+    let (mut before, mut counts) = (None::<f32>, vec![]);
+    for f in 0..20 {
+        sim.step_frame().unwrap();
+        let n = sim.constants.substeps;
+        match before {
+            // The first frame has no speed to go by: the free-fall bound.
+            None => assert_eq!(n, fixed, "frame {f}"),
+            Some(v) => assert_eq!(n, cfl_substeps(&params, spacing, v + g), "frame {f} after {v} m/s"),
+        }
+        assert!((sim.constants.dt * n as f32 - 1.0 / params.fps).abs() < 1e-6);
+        let v = sim.last_speed().expect("the frame's largest speed");
+        let p = sim.read().unwrap();
+        let end = p.velocities.as_ref().unwrap().iter().map(|v| Vec3::from(*v).length()).fold(0.0, f32::max);
+        assert!(v >= end * (1.0 - 1e-6), "frame {f}: the frame's largest speed {v} < its last step's {end}");
+        before = Some(v);
+        counts.push(n);
+    }
+    eprintln!("adaptive steps per frame: {counts:?} (fixed: {fixed})");
+    // The water starts still: 5 ms steps (max_dt; fewer than the free-fall bound's) until it is fast, then more
+    // steps per frame.
+    assert_eq!(counts[1], cfl_substeps(&params, spacing, 0.0));
+    assert!(counts[1] < fixed && counts.iter().max().unwrap() > &counts[1], "{counts:?}");
+    common::assert_clean(&gpu);
+}

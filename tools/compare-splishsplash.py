@@ -1,6 +1,6 @@
 """Run a SPlisHSPlasH scene with Meniscus' solver and compare it with SPlisHSPlasH's own output, frame by frame:
     target/python-venv/bin/python tools/compare-splishsplash.py ../shared/data/splishsplash/doubledambreak_sphere_25k \
-        [--frames N] [--solver pbf|dfsph] [--bin target/release/meniscus]
+        [--frames N] [--solver pbf|dfsph] [--adaptive-step] [--bin target/release/meniscus]
 The folder holds scene.json and SPlisHSPlasH's partio/ParticleData_Fluid_<n>.bgeo. `meniscus sim FOLDER/scene.json`
 writes the same frames (file n at t = (n − 1)/fps); per frame the table gives, for both: the front (the largest
 |x| or |z| of any particle: how far the water has spread from the centre), the centre of mass height, the mean
@@ -22,6 +22,7 @@ ap.add_argument("folder")
 ap.add_argument("--frames", type=int, default=None)
 ap.add_argument("--bin", default=str(pathlib.Path(__file__).resolve().parents[1] / "target/release/meniscus"))
 ap.add_argument("--solver", choices=["pbf", "dfsph"], default="pbf")
+ap.add_argument("--adaptive-step", action="store_true", help="re-choose the step every frame (meniscus sim --adaptive-step)")
 a = ap.parse_args()
 folder = pathlib.Path(a.folder)
 scene = json.loads((folder / "scene.json").read_text())
@@ -46,6 +47,8 @@ with tempfile.TemporaryDirectory() as tmp:
     cmd = [a.bin, "sim", str(folder / "scene.json"), "--solver", a.solver, "--export", f"{tmp}/f_{{}}.bgeo"]
     if a.frames:
         cmd += ["--frames", str(a.frames)]
+    if a.adaptive_step:
+        cmd += ["--adaptive-step"]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         sys.exit(run.stderr)

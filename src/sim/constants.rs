@@ -64,6 +64,8 @@ pub struct Constants {
     /// 3h²/11 for poly6, so one step of c adds Δt ν ∇²v when c = 22 ν Δt / h². Clamped at `XSPH_MAX` (the
     /// explicit step's stability limit; a finer resolution than the viscosity resolves then gets less).
     pub xsph: f32,
+    /// Kinematic viscosity ν (m²/s) the XSPH c follows from (`Params::viscosity`, else the scene's).
+    pub nu: f32,
 }
 
 /// The largest XSPH c: Σ_j V W_poly6 ≈ 0.8 over a full neighbourhood, so c past ≈ 1.2 overshoots the mean.
@@ -111,7 +113,6 @@ impl Constants {
         let mass = p.rest_density / w;
         let volume = mass / p.rest_density;
         let s0: f32 = grads.iter().map(|g| (volume * *g).length_squared()).sum();
-        let frame = 1.0 / p.fps;
         let substeps = if p.substeps > 0 {
             p.substeps
         } else {
@@ -128,10 +129,9 @@ impl Constants {
                 .chain(scene.emitter.map(|e| e.velocity.length()))
                 .fold(0.0, f32::max);
             let speed = (2.0 * p.gravity[1].abs() * (top - scene.container.0.y)).sqrt() + v0;
-            let dt_max = (p.cfl * d / speed.max(1e-3)).min(p.max_dt.max(1e-5));
-            ((frame / dt_max).ceil() as u32).clamp(1, 1000)
+            cfl_substeps(p, d, speed)
         };
-        let dt = frame / substeps as f32;
+        let nu = p.viscosity.unwrap_or(scene.viscosity);
         Constants {
             h,
             mass,
@@ -139,9 +139,26 @@ impl Constants {
             eps: p.relaxation * s0,
             scorr_k: p.scorr_k / s0,
             inv_w_dq: 1.0 / poly6((p.scorr_dq * h).powi(2), h),
-            dt,
-            substeps,
-            xsph: p.xsph.unwrap_or((22.0 * p.viscosity.unwrap_or(scene.viscosity) * dt / (h * h)).min(XSPH_MAX)),
+            dt: 0.0,
+            substeps: 0,
+            xsph: 0.0,
+            nu,
         }
+        .with_substeps(substeps, p)
     }
+
+    /// The same constants with `substeps` steps per frame: Δt = frame time / substeps, and the XSPH c that
+    /// follows from Δt (`Params::xsph` as it is, else from ν).
+    pub fn with_substeps(&self, substeps: u32, p: &Params) -> Constants {
+        let dt = 1.0 / p.fps / substeps.max(1) as f32;
+        let xsph = p.xsph.unwrap_or((22.0 * self.nu * dt / (self.h * self.h)).min(XSPH_MAX));
+        Constants { dt, substeps: substeps.max(1), xsph, ..*self }
+    }
+}
+
+/// Steps per frame under the CFL bound at `speed` (m/s) for particles `spacing` apart: ⌈frame time / min(cfl ×
+/// spacing / speed, max_dt)⌉, in 1 ..= 1000.
+pub fn cfl_substeps(p: &Params, spacing: f32, speed: f32) -> u32 {
+    let dt_max = (p.cfl * spacing / speed.max(1e-3)).min(p.max_dt.max(1e-5));
+    ((1.0 / p.fps / dt_max).ceil() as u32).clamp(1, 1000)
 }

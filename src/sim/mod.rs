@@ -62,8 +62,14 @@ pub struct Simulation {
     pub scene: SimScene,
     /// Solver settings.
     pub params: Params,
-    /// Derived constants.
+    /// Derived constants (of the last recorded frame: with `[sim] adaptive_step` its step changes per frame).
     pub constants: Constants,
+    /// The constants with the step chosen at the start (the free-fall bound, or `substeps`).
+    initial: Constants,
+    /// Per ring slot: the frame's largest speed (f32 bits, host-visible; sim_viscosity's max over its steps).
+    speed: Vec<Buffer>,
+    /// The largest speed of the frame [`Simulation::step_frame`] last waited for.
+    speed_known: Option<f32>,
     uniforms: Vec<Buffer>,
     staging: Vec<Option<Buffer>>,
     ring: usize,
@@ -145,6 +151,19 @@ impl Simulation {
             grid_pass: NeighbourGrid::new(gpu)?,
             params,
             constants,
+            initial: constants,
+            speed: (0..RING)
+                .map(|_| {
+                    Buffer::new(
+                        gpu,
+                        "sim_speed",
+                        16,
+                        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                        MemoryLocation::GpuToCpu,
+                    )
+                })
+                .collect::<Result<Vec<_>>>()?,
+            speed_known: None,
             uniforms,
             staging: (0..RING).map(|_| None).collect(),
             ring: 0,
@@ -310,6 +329,17 @@ impl Simulation {
         self.emit();
         let k = self.ring;
         self.ring = (self.ring + 1) % RING;
+        if self.params.adaptive_step && self.params.substeps == 0 {
+            // The frame before's largest speed (known when the caller waited for it), else this slot's last
+            // frame's (RING frames back: done, as its uniform block is rewritten below); gravity may add g × a
+            // frame's time before this one ends.
+            let last = self.speed_known.take().or_else(|| (self.frames >= RING as u64).then(|| self.speed_of(k)));
+            if let Some(v) = last {
+                let g = Vec3::from(self.params.gravity).length() / self.params.fps;
+                let n = constants::cfl_substeps(&self.params, self.scene.spacing, v + g);
+                self.constants = self.initial.with_substeps(n, &self.params);
+            }
+        }
         if let Some((at, data)) = self.pending.take() {
             let bytes: &[u8] = bytemuck::cast_slice(&data);
             if self.staging[k].as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
@@ -339,9 +369,12 @@ impl Simulation {
         if let Some(d) = &self.dfsph {
             d.clear_stats(ctx);
         }
+        ctx.fill(&self.speed[k], 0);
         for _ in 0..self.constants.substeps {
             self.record_step(ctx, k, out);
         }
+        // The host reads the frame's largest speed once the frame is done (the next frame's adaptive step).
+        ctx.barrier(&[crate::gpu::Use::Buffer(&self.speed[k], crate::gpu::Access::HostRead)]);
         if let Some(d) = self.diffuse.as_mut() {
             let f = diffuse::FluidBuffers {
                 uniforms: &self.uniforms[k],
@@ -439,7 +472,18 @@ impl Simulation {
         if self.params.vorticity > 0.0 {
             g.vorticity(ctx, u, nb, x, &self.vel, &self.omega, n);
         }
-        g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, n);
+        g.viscosity(ctx, u, nb, x, &self.vel, &self.omega, b, a, out, &self.speed[k], n);
+    }
+
+    /// The largest speed (m/s) ring slot `k`'s last frame reached (its frame must be done).
+    fn speed_of(&self, k: usize) -> f32 {
+        self.speed[k].read().map_or(0.0, |b| f32::from_bits(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+    }
+
+    /// The largest speed (m/s) of the last frame [`Simulation::step_frame`] simulated (None before the first, or
+    /// after frames recorded into a caller's submission).
+    pub fn last_speed(&self) -> Option<f32> {
+        self.speed_known
     }
 
     /// The DFSPH solves' statistics over the last recorded frame (None for PBF; waits for the device).
@@ -460,6 +504,7 @@ impl Simulation {
         });
         let times = r.and_then(|_| timer.read());
         self.timer = Some(timer);
+        self.speed_known = Some(self.speed_of((self.ring + RING - 1) % RING));
         times
     }
 

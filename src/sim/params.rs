@@ -15,6 +15,10 @@ pub struct Params {
     pub substeps: u32,
     /// CFL number of the automatic step.
     pub cfl: f32,
+    /// The automatic step re-chosen every frame from the largest speed of the frame before (`cfl` × spacing /
+    /// speed, at most `max_dt`; SPlisHSPlasH's `cflMethod` 1) instead of once from the free-fall speed of the
+    /// scene's height. With `substeps` > 0 the step stays fixed.
+    pub adaptive_step: bool,
     /// Longest automatic step (s); SPlisHSPlasH's dam-break scene caps its step at 5 ms too.
     pub max_dt: f32,
     /// Solver iterations per step.
@@ -93,6 +97,7 @@ impl Default for Params {
             substeps: 0,
             cfl: 1.0,
             max_dt: 0.005,
+            adaptive_step: false,
             iterations: 4,
             relaxation: 0.01,
             scorr_k: 0.02,

@@ -3,7 +3,8 @@
 //!
 //! Read: `Configuration` — `particleRadius` (the spacing is its double), `gravitation`, `dataExportFPS` (frames
 //! per second), `stopAt` (the frame count: stopAt × fps + 1, file 1 the initial state), `cflFactor` and
-//! `cflMaxTimeStepSize` (the automatic step; with `cflMethod` 0 the fixed `timeStepSize`), `simulationMethod`
+//! `cflMaxTimeStepSize` (the automatic step, re-chosen every frame from the largest speed as `cflMethod` 1 and 2
+//! do: `[sim] adaptive_step`; with `cflMethod` 0 the fixed `timeStepSize`), `simulationMethod`
 //! (2 PBF, 4 DFSPH; the others run as DFSPH, warned) and `DFSPH.maxError` / `maxErrorV`; `Materials` —
 //! `density0`, and with `viscosityMethod` 1 ("Standard") its `viscosity` as the kinematic viscosity, with
 //! `vorticityMethod` 1 ("Vorticity confinement") its `vorticity`; `FluidBlocks` — `start`, `end`, `translation`,
@@ -54,6 +55,8 @@ pub struct SceneFile {
     pub max_error_v: Option<f32>,
     /// Steps per frame when the step is fixed (`cflMethod` 0).
     pub substeps: Option<u32>,
+    /// Whether the step follows the largest speed every frame (`cflMethod` 1 or 2, SPlisHSPlasH's default).
+    pub adaptive_step: bool,
     /// What the file says that the solver does not do: one line per key.
     pub warnings: Vec<String>,
 }
@@ -510,6 +513,7 @@ impl SceneFile {
             cfl,
             max_dt,
             substeps,
+            adaptive_step: cfl_method != 0.0,
             solver,
             max_error,
             max_error_v,
@@ -543,6 +547,7 @@ impl SceneFile {
         if let Some(s) = self.substeps {
             params.substeps = s;
         }
+        params.adaptive_step = self.adaptive_step;
         if let Some(s) = self.solver {
             params.solver = s;
         }

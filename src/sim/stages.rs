@@ -95,8 +95,11 @@ list_reader!(
     (VORTICITY, VORTICITY_NBR16) = compute(SIM_VORTICITY, SIM_VORTICITY_NBR16, [TexelRead, TexelRead, BufWrite])
 );
 list_reader!(
-    (VISCOSITY, VISCOSITY_NBR16) =
-        compute(SIM_VISCOSITY, SIM_VISCOSITY_NBR16, [TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite])
+    (VISCOSITY, VISCOSITY_NBR16) = compute(
+        SIM_VISCOSITY,
+        SIM_VISCOSITY_NBR16,
+        [TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]
+    )
 );
 
 /// The programs of the list stages for one list format.
@@ -296,7 +299,8 @@ impl Stages {
         self.run_listed(ctx, "sim_vorticity", |l| &l.vorticity, u, g, &[pred, vel, omega], n);
     }
 
-    /// `sim_viscosity`: confinement + XSPH → the new state and the render particles.
+    /// `sim_viscosity`: confinement + XSPH → the new state and the render particles; the largest speed into
+    /// `speed` (a max over the frame's steps).
     #[allow(clippy::too_many_arguments)]
     pub fn viscosity(
         &self,
@@ -309,8 +313,10 @@ impl Stages {
         sorted: &Buffer,
         state: &Buffer,
         out: &Buffer,
+        speed: &Buffer,
         n: u32,
     ) {
-        self.run_listed(ctx, "sim_viscosity", |l| &l.viscosity, u, g, &[pred, vel, omega, sorted, state, out], n);
+        let rest = [pred, vel, omega, sorted, state, out, speed];
+        self.run_listed(ctx, "sim_viscosity", |l| &l.viscosity, u, g, &rest, n);
     }
 }

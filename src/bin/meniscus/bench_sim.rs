@@ -41,7 +41,11 @@ struct SimReport {
     scene: String,
     particles: u32,
     radius: f32,
+    /// Steps per frame (the median over the measured frames; `substeps_range` has the fewest and the most).
     substeps: u32,
+    substeps_range: [u32; 2],
+    /// Whether the step was re-chosen every frame (`[sim] adaptive_step`).
+    adaptive_step: bool,
     /// The pressure solver (`pbf`, `dfsph`).
     solver: String,
     /// PBF's iterations per step.
@@ -56,6 +60,8 @@ struct SimReport {
     /// The spray, foam and bubble stages (`--diffuse`) → median GPU ms per frame (they run once per frame).
     diffuse_stages_ms_per_frame: Vec<(String, f64)>,
     ms_per_step: f64,
+    /// Median GPU ms per frame of the solver's stages (without the diffuse ones).
+    ms_per_frame: f64,
     steps_per_second: f64,
     width: u32,
     height: u32,
@@ -111,35 +117,48 @@ pub fn run(
     }
     let mut runs = vec![];
     let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
+    // Each frame's times with its step count (`[sim] adaptive_step` changes it per frame).
     for _ in 0..frames {
-        runs.push(sim.step_frame()?);
+        let t = sim.step_frame()?;
+        runs.push((t, sim.constants.substeps));
         if let Some(st) = sim.solver_stats()? {
             solves.get_or_insert_with(Default::default).merge(&st);
         }
         bar.inc(1);
     }
     let per_step = |name: &str| {
-        let mut v: Vec<f64> = runs.iter().filter_map(|t| t.get(name)).collect();
-        median(&mut v) / c.substeps as f64
+        let mut v: Vec<f64> = runs.iter().filter_map(|(t, n)| t.get(name).map(|ms| ms / *n as f64)).collect();
+        median(&mut v)
     };
+    let per_frame = |name: &str| {
+        let mut v: Vec<f64> = runs.iter().filter_map(|(t, _)| t.get(name)).collect();
+        median(&mut v)
+    };
+    let mut steps: Vec<f64> = runs.iter().map(|(_, n)| *n as f64).collect();
+    let (fewest, most) = steps.iter().fold((f64::MAX, 0f64), |(a, b), &n| (a.min(n), b.max(n)));
+    let median_steps = median(&mut steps);
     // The stages that ran (sim_vorticity only with confinement on), in order.
     let stages: Vec<(String, f64)> = STAGE_NAMES
         .iter()
         .chain(meniscus::sim::dfsph::STAGE_NAMES)
-        .filter(|n| runs.iter().any(|t| t.get(n).is_some()))
+        .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
         .map(|n| (n.to_string(), per_step(n)))
         .collect();
     let diffuse_names = meniscus::sim::diffuse::STAGE_NAMES;
     let diffuse: Vec<(String, f64)> = diffuse_names
         .iter()
-        .filter(|n| runs.iter().any(|t| t.get(n).is_some()))
-        .map(|n| (n.to_string(), per_step(n) * c.substeps as f64))
+        .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
+        .map(|n| (n.to_string(), per_frame(n)))
         .collect();
     let mut totals: Vec<f64> = runs
         .iter()
-        .map(|t| (t.total() - diffuse_names.iter().filter_map(|n| t.get(n)).sum::<f64>()) / c.substeps as f64)
+        .map(|(t, n)| (t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>()) / *n as f64)
         .collect();
     let ms_per_step = median(&mut totals);
+    // Per frame (a simulated 1/fps s): what an adaptive step's cost compares by.
+    let mut frame_totals: Vec<f64> =
+        runs.iter().map(|(t, _)| t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>()).collect();
+    let ms_per_frame = median(&mut frame_totals);
     // Rendering and simulating together.
     let mut combined = vec![];
     let mut r = Renderer::new(gpu)?;
@@ -230,13 +249,12 @@ pub fn run(
     }
     bar.finish_and_clear();
     // Report.
-    println!(
-        "## sim {name}: {} particles on {} ({} steps per frame, {solver}, Δt {:.2} ms)\n",
-        sim.count(),
-        gpu.info.name,
-        c.substeps,
-        c.dt * 1e3
-    );
+    let steps_line = if fewest < most {
+        format!("adaptive: {fewest}–{most} steps per frame, median {median_steps}")
+    } else {
+        format!("{} steps per frame, Δt {:.2} ms", median_steps, 1e3 / sim.params.fps as f64 / median_steps)
+    };
+    println!("## sim {name}: {} particles on {} ({steps_line}, {solver})\n", sim.count(), gpu.info.name);
     if stages.is_empty() {
         println!(
             "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time\n",
@@ -247,7 +265,12 @@ pub fn run(
     for (n, ms) in &stages {
         println!("| {n} | {ms:.3} |");
     }
-    println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |\n", 1e3 / ms_per_step);
+    println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |", 1e3 / ms_per_step);
+    println!(
+        "| **frame** ({} s simulated) | **{ms_per_frame:.3}** ({:.2} s per simulated second) |\n",
+        1.0 / sim.params.fps,
+        ms_per_frame * sim.params.fps as f64 * 1e-3
+    );
     if let Some(st) = &solves {
         for (label, s) in st.labelled() {
             println!("DFSPH {label} solve: {}", s.summary());
@@ -289,16 +312,19 @@ pub fn run(
             scene: name.to_string(),
             particles: sim.count(),
             radius: scene.radius(),
-            substeps: c.substeps,
+            substeps: median_steps as u32,
+            substeps_range: [fewest as u32, most as u32],
+            adaptive_step: sim.params.adaptive_step && sim.params.substeps == 0,
             solver: sim.params.solver.name().to_string(),
             iterations: sim.params.iterations,
             dfsph: solves,
-            dt_ms: c.dt * 1e3,
+            dt_ms: 1e3 / sim.params.fps / median_steps as f32,
             warmup_frames: warmup,
             frames,
             stages_ms_per_step: stages,
             diffuse_stages_ms_per_frame: diffuse,
             ms_per_step,
+            ms_per_frame,
             steps_per_second: 1e3 / ms_per_step,
             width,
             height,

@@ -36,6 +36,11 @@ pub struct SimArgs {
     /// Steps per frame (0: from the CFL bound, at most 5 ms).
     #[arg(long)]
     pub substeps: Option<u32>,
+    /// Re-choose the step every frame from the largest speed of the frame before (the CFL bound `[sim] cfl` ×
+    /// spacing / speed, at most `[sim] max_dt`; SPlisHSPlasH's cflMethod 1), instead of once from the free-fall
+    /// speed of the scene's height; also `[sim] adaptive_step`.
+    #[arg(long)]
+    pub adaptive_step: bool,
     /// Solver iterations per step (PBF).
     #[arg(long)]
     pub iterations: Option<u32>,
@@ -79,6 +84,9 @@ impl SimArgs {
         }
         if let Some(i) = self.iterations {
             p.iterations = i;
+        }
+        if self.adaptive_step {
+            p.adaptive_step = true;
         }
         match self.solver.as_deref() {
             Some("dfsph") => p.solver = meniscus::sim::params::Solver::Dfsph,
@@ -289,9 +297,20 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
     let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
+    // The solver's stages run every step (their times are kept per step: an adaptive step changes the count per
+    // frame); the diffuse stages once per frame.
+    let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);
+    let (mut fewest, mut most, mut fastest) = (u32::MAX, 0u32, 0f32);
     for n in 2..=frames {
         let t = sim.step_frame()?;
-        let mut msg = format!("{:.1} ms/step", t.total() / c.substeps as f64);
+        let steps = sim.constants.substeps;
+        (fewest, most) = (fewest.min(steps), most.max(steps));
+        fastest = fastest.max(sim.last_speed().unwrap_or(0.0));
+        let t = meniscus::timing::PassTimes(
+            t.0.into_iter().map(|(k, v)| if diffuse(&k) { (k, v) } else { (k, v / steps as f64) }).collect(),
+        );
+        let mut msg =
+            format!("{steps} steps, {:.1} ms/step", t.0.iter().filter(|(k, _)| !diffuse(k)).map(|e| e.1).sum::<f64>());
         if let Some(st) = sim.solver_stats()? {
             msg += &format!(
                 ", density error {:.3} %, {:.1} corrections/step",
@@ -310,6 +329,14 @@ pub fn run(a: &SimArgs) -> Result<()> {
     for (name, s) in solves.iter().flat_map(|st| st.labelled()) {
         eprintln!("DFSPH {name} solve: {}", s.summary());
     }
+    if sim.params.adaptive_step && sim.params.substeps == 0 {
+        eprintln!(
+            "adaptive step: {fewest}–{most} steps per frame (the largest speed {fastest:.2} m/s, CFL {} × spacing / \
+             speed, at most {} ms)",
+            sim.params.cfl,
+            sim.params.max_dt * 1e3
+        );
+    }
     let med = meniscus::timing::median_times(&runs);
     if !runs.is_empty() && med.0.is_empty() {
         eprintln!(
@@ -318,17 +345,15 @@ pub fn run(a: &SimArgs) -> Result<()> {
             meniscus::timing::MAX_SCOPES
         );
     } else if !runs.is_empty() {
-        // The solver's stages run every step; the diffuse stages once per frame.
-        let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);
         let (step, frame): (Vec<_>, Vec<_>) = med.0.iter().partition(|(k, _)| !diffuse(k));
-        let per_step = step.iter().map(|(_, v)| v).sum::<f64>() / c.substeps as f64;
+        let per_step = step.iter().map(|(_, v)| v).sum::<f64>();
         eprintln!(
             "{} frames, {} particles at the end; median GPU time per step {:.2} ms ({:.1} steps/s): {}",
             runs.len(),
             sim.count(),
             per_step,
             1e3 / per_step,
-            step.iter().map(|(k, v)| format!("{k} {:.2}", v / c.substeps as f64)).collect::<Vec<_>>().join(", ")
+            step.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ")
         );
         if !frame.is_empty() {
             eprintln!(
