@@ -480,6 +480,22 @@ impl Simulation {
         self.speed[k].read().map_or(0.0, |b| f32::from_bits(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
     }
 
+    /// The step in words, for the log lines: "8 steps of 5.00 ms per frame", or with `[sim] adaptive_step` the
+    /// rule and the first frame's.
+    pub fn step_summary(&self) -> String {
+        let c = &self.constants;
+        let fixed = format!("{} steps of {:.2} ms per frame", c.substeps, c.dt * 1e3);
+        if self.params.adaptive_step && self.params.substeps == 0 {
+            format!(
+                "the step re-chosen every frame from the largest speed (cfl {}, at most {} ms; the first frame {fixed})",
+                self.params.cfl,
+                self.params.max_dt * 1e3
+            )
+        } else {
+            fixed
+        }
+    }
+
     /// The largest speed (m/s) of the last frame [`Simulation::step_frame`] simulated (None before the first, or
     /// after frames recorded into a caller's submission).
     pub fn last_speed(&self) -> Option<f32> {

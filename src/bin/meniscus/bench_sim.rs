@@ -101,14 +101,8 @@ pub fn run(
     if with_diffuse {
         sim.set_diffuse(Some(&base.diffuse))?;
     }
-    let c = sim.constants;
     let solver = sim.params.solver_summary();
-    eprintln!(
-        "sim {name}: {} particles, {} steps of {:.2} ms per frame, {solver}",
-        sim.count(),
-        c.substeps,
-        c.dt * 1e3
-    );
+    eprintln!("sim {name}: {} particles, {}, {solver}", sim.count(), sim.step_summary());
     let bar = indicatif::ProgressBar::new((warmup + frames) as u64 * (1 + modes.len() as u64));
     bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {msg} [{elapsed}]")?);
     for _ in 0..warmup {

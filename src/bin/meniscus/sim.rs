@@ -235,16 +235,14 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let diffuse = a.settings.resolve()?.diffuse;
     let gpu = a.gpu.open()?;
     let mut sim = Simulation::new(&gpu, scene, params)?;
-    let c = sim.constants;
     let solver = sim.params.solver_summary();
     eprintln!(
-        "sim: {} with {} particles (radius {:.5} m, capacity {}), {} steps of {:.2} ms per frame at {} fps, {solver}, on {}",
+        "sim: {} with {} particles (radius {:.5} m, capacity {}), {} at {} fps, {solver}, on {}",
         sim.scene.name,
         sim.count(),
         sim.radius(),
         sim.capacity(),
-        c.substeps,
-        c.dt * 1e3,
+        sim.step_summary(),
         sim.params.fps,
         gpu.info.name
     );
