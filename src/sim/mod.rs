@@ -20,7 +20,8 @@
 //! container's faces (commit 14600b6: water at rest stops creeping along the floor; flows slide freely); the
 //! particle mass makes the initial lattice exactly ρ0 = 1000. Why these: the resting pool's fastest particles (docs/simulation.md, commit 2944c1b). The time
 //! step follows a CFL bound from the free-fall speed of the scene's height (dam break 59k: 8 substeps of 5 ms per
-//! 25 fps frame).
+//! 25 fps frame), or with `[sim] adaptive_step` from the largest speed of the frame before, re-chosen every frame
+//! (`sim_viscosity` keeps each frame's largest speed; [`constants::cfl_substeps`]).
 
 pub mod constants;
 pub mod dfsph;
