@@ -2,7 +2,8 @@
 59k dam-break frame through `meniscus.Renderer` and prints the wall time per call beside the GPU passes' times,
 then the live simulation's step + render and the positions read-back at 1M particles.
 
-Usage: python3 tools/gpu-python-timing.py FRAME.bgeo [--calls N]   (the GPU bundle's `python` step runs it)
+Usage: python3 tools/gpu-python-timing.py FRAME.bgeo [--calls N] [--no-sim] [--sizes 1920x1080,960x540]
+(the GPU bundle's `python` step runs it; on lavapipe `--no-sim --sizes 960x540` leaves out the 1M simulation)
 """
 import argparse
 import sys
@@ -28,6 +29,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("frame")
     ap.add_argument("--calls", type=int, default=20)
+    ap.add_argument("--no-sim", action="store_true", help="leave out the 1M-particle simulation")
+    ap.add_argument("--sizes", default="1920x1080,960x540", help="output sizes, WxH,…")
     a = ap.parse_args()
     print("device:", meniscus.device_info())
     d = meniscus.load(a.frame)
@@ -35,7 +38,7 @@ def main():
     attrs = {"id": d["id"]} if "id" in d else None
     cam = ((0.0, 2.5, 6.0), (0.0, 0.3, 0.0), 45.0)
     for preset in ("default", "fast"):
-        for w, h in ((1920, 1080), (960, 540)):
+        for w, h in (tuple(int(x) for x in s.split("x")) for s in a.sizes.split(",")):
             r = meniscus.Renderer(w, h, preset=preset)
             ms = per_call(lambda: r.render(pts, particle_radius=0.0125, camera=cam, attributes=attrs), a.calls)
             gpu = sum(r.timings().values())
@@ -55,6 +58,8 @@ def main():
                   f"{gpu:.2f} ms, host share {ms - gpu:.2f} ms")
             print("    GPU:", {k: round(v, 3) for k, v in r.timings().items()})
             print("    host:", {k: round(v, 3) for k, v in r.host_timings().items()})
+    if a.no_sim:
+        return 0
     sim = meniscus.Simulation("dambreak", particles=1_000_000)
     r = meniscus.Renderer(1920, 1080)
     ms = per_call(lambda: (sim.step(1), r.render(sim)), 10)
