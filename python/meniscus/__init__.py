@@ -150,12 +150,15 @@ class Simulation:
     with `particles` particles (default: the scene's own) — or of a SPlisHSPlasH scene file ("path/scene.json":
     its fluid blocks, container, colliders, gravity, fps and viscosity; unsupported keys are named on stderr) —
     on `device`, with the `[sim]` section of an optional TOML `settings` file. `solver`: "pbf" (Position Based
-    Fluids, the default) or "dfsph" (Divergence-free SPH, iterated to its error bounds). Deterministic: the same
-    scene and count give the same particles as `meniscus sim SCENE --particles N`."""
+    Fluids, the default) or "dfsph" (Divergence-free SPH, iterated to its error bounds). `adaptive_step`: re-choose
+    the step every frame from the largest speed of the frame before (`meniscus sim --adaptive-step`; default:
+    the settings file's `[sim] adaptive_step`, on for a scene file whose `cflMethod` is 1 or 2). Deterministic:
+    the same scene and count give the same particles as `meniscus sim SCENE --particles N`."""
 
     def __init__(self, scene: str, *, particles: Optional[int] = None, device: Optional[str] = None,
-                 settings: Optional[str] = None, solver: Optional[str] = None) -> None:
-        self._s = _meniscus.Simulation(scene, particles, device, settings, solver)
+                 settings: Optional[str] = None, solver: Optional[str] = None,
+                 adaptive_step: Optional[bool] = None) -> None:
+        self._s = _meniscus.Simulation(scene, particles, device, settings, solver, adaptive_step)
 
     @property
     def solver(self) -> str:
@@ -190,6 +193,16 @@ class Simulation:
     def count(self) -> int:
         """Particles simulated."""
         return self._s.count
+
+    @property
+    def substeps(self) -> int:
+        """Steps of the last frame (with the adaptive step, chosen per frame)."""
+        return self._s.substeps
+
+    @property
+    def last_speed(self) -> Optional[float]:
+        """The largest particle speed (m/s) of the last frame; None before the first."""
+        return self._s.last_speed
 
     @property
     def particle_radius(self) -> float:

@@ -317,13 +317,14 @@ struct Simulation {
 #[pymethods]
 impl Simulation {
     #[new]
-    #[pyo3(signature = (scene, particles=None, device=None, settings_file=None, solver=None))]
+    #[pyo3(signature = (scene, particles=None, device=None, settings_file=None, solver=None, adaptive_step=None))]
     fn new(
         scene: &str,
         particles: Option<usize>,
         device: Option<String>,
         settings_file: Option<&str>,
         solver: Option<&str>,
+        adaptive_step: Option<bool>,
     ) -> PyResult<Self> {
         // A built-in scene, or a SPlisHSPlasH scene file (its radius, blocks, container, gravity, fps, viscosity).
         let (sc, file) = meniscus::sim::scene_file::resolve(scene, particles).map_err(py_err)?;
@@ -341,6 +342,10 @@ impl Simulation {
             Some("dfsph") => meniscus::sim::params::Solver::Dfsph,
             Some(other) => return Err(PyValueError::new_err(format!("solver {other:?}: \"pbf\" or \"dfsph\""))),
         };
+        // The step re-chosen every frame (`[sim] adaptive_step`, a scene file's cflMethod otherwise).
+        if let Some(a) = adaptive_step {
+            params.adaptive_step = a;
+        }
         params.validate().map_err(py_err)?;
         let gpu = crate::device(device)?;
         let core = meniscus::sim::Simulation::new(&gpu, sc, params).map_err(py_err)?;
@@ -383,6 +388,18 @@ impl Simulation {
     #[getter]
     fn count(&self) -> u32 {
         self.core.count()
+    }
+
+    /// Steps of the last frame (with the adaptive step, chosen per frame).
+    #[getter]
+    fn substeps(&self) -> u32 {
+        self.core.constants.substeps
+    }
+
+    /// The largest particle speed (m/s) of the last frame; None before the first.
+    #[getter]
+    fn last_speed(&self) -> Option<f32> {
+        self.core.last_speed()
     }
 
     /// The pressure solver ("pbf" or "dfsph").

@@ -244,6 +244,22 @@ def test_simulation_with_dfsph_reports_its_solves(cli, tmp_path):
         meniscus.Simulation("dambreak", particles=2000, solver="sph")
 
 
+def test_simulation_with_the_adaptive_step_matches_the_cli(cli, tmp_path):
+    """adaptive_step=True re-chooses the step every frame as `meniscus sim --adaptive-step` does: the same
+    particles; the last frame's step count and largest speed are reported (the speed at least the fastest
+    particle's at the frame's end)."""
+    args = ["--particles", "2000", "--frames", "4", "--solver", "dfsph", "--adaptive-step"]
+    run(cli, "sim", "dambreak", *args, "--export", tmp_path / "f_{}.bgeo")
+    want = meniscus.load(tmp_path / "f_4.bgeo")
+    sim = meniscus.Simulation("dambreak", particles=2000, solver="dfsph", adaptive_step=True)
+    assert sim.last_speed is None
+    sim.step(3)
+    assert np.array_equal(sim.positions(), want["positions"])
+    assert sim.substeps >= 1
+    fastest = float(np.linalg.norm(sim.velocities(), axis=1).max())
+    assert sim.last_speed >= fastest * (1 - 1e-6)
+
+
 def test_render_of_the_same_particles_again_is_the_same_and_a_change_is_seen(frame):
     """The renderer keeps the last array's particles and does not upload equal ones again: the image is the same;
     a changed array (even a copy changed in place) is uploaded and drawn as a new renderer draws it."""
