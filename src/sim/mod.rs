@@ -50,6 +50,20 @@ use constants::{Constants, SimUniforms};
 use params::{Params, Solver};
 use scene::{Collider, SimScene};
 
+/// A frame's stage times ([`Simulation::step_frame`]) with the solver's stages per step — divided by `steps`, the
+/// frame's step count, which an adaptive step changes from frame to frame — and the diffuse stages
+/// ([`diffuse::STAGE_NAMES`]), which run once per frame, as they are.
+pub fn per_step(times: PassTimes, steps: u32) -> PassTimes {
+    let steps = steps.max(1) as f64;
+    PassTimes(
+        times
+            .0
+            .into_iter()
+            .map(|(k, v)| if diffuse::STAGE_NAMES.contains(&k.as_str()) { (k, v) } else { (k, v / steps) })
+            .collect(),
+    )
+}
+
 /// Frames a simulation keeps host memory for (uniforms, emission staging): more than the renderer's frames in
 /// flight, so a frame never rewrites memory a running frame reads.
 const RING: usize = 3;
@@ -330,7 +344,7 @@ impl Simulation {
         self.emit();
         let k = self.ring;
         self.ring = (self.ring + 1) % RING;
-        if self.params.adaptive_step && self.params.substeps == 0 {
+        if self.params.adapts_step() {
             // The frame before's largest speed (known when the caller waited for it), else this slot's last
             // frame's (RING frames back: done, as its uniform block is rewritten below); gravity may add g × a
             // frame's time before this one ends.
@@ -486,7 +500,7 @@ impl Simulation {
     pub fn step_summary(&self) -> String {
         let c = &self.constants;
         let fixed = format!("{} steps of {:.2} ms per frame", c.substeps, c.dt * 1e3);
-        if self.params.adaptive_step && self.params.substeps == 0 {
+        if self.params.adapts_step() {
             format!(
                 "the step re-chosen every frame from the largest speed (cfl {}, at most {} ms; the first frame {fixed})",
                 self.params.cfl,

@@ -129,6 +129,12 @@ impl Params {
         }
     }
 
+    /// Whether each frame's step is chosen from the frame before's largest speed: `adaptive_step`, unless
+    /// `substeps` fixes the step.
+    pub fn adapts_step(&self) -> bool {
+        self.adaptive_step && self.substeps == 0
+    }
+
     /// Reject values the solver cannot run with (the section's check as an error).
     pub fn validate(&self) -> Result<()> {
         crate::section::Section::check(self).map_err(|(_, reason)| Error::Invalid(reason))

@@ -142,13 +142,7 @@ pub fn compare(series: &[(f64, f64)], t_max: f64, shift: f64) -> Vec<Row> {
 
 /// The shift in [0, 0.6] (steps of 0.01) whose largest error up to `t_max` is smallest, with that error.
 pub fn best_shift(series: &[(f64, f64)], t_max: f64) -> (f64, f64) {
-    (0..=60)
-        .map(|k| {
-            let shift = k as f64 * 0.01;
-            (shift, compare(series, t_max, shift).iter().map(|r| r.4.abs()).fold(0.0, f64::max))
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap_or((0.0, f64::INFINITY))
+    fit_shift(series, t_max, |_| true)
 }
 
 /// The experiment a measured series belongs to (its source up to the column size: Martin & Moyce's two columns
@@ -165,18 +159,23 @@ pub fn best_shifts(series: &[(f64, f64)], t_max: f64) -> Vec<(&'static str, f64,
     names
         .into_iter()
         .map(|name| {
-            let (shift, worst) = (0..=60)
-                .map(|k| {
-                    let shift = k as f64 * 0.01;
-                    let rows = compare(series, t_max, shift);
-                    let own = rows.iter().filter(|r| experiment(r.0) == name);
-                    (shift, own.map(|r| r.4.abs()).fold(0.0, f64::max))
-                })
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .unwrap_or((0.0, f64::INFINITY));
+            let (shift, worst) = fit_shift(series, t_max, |source| experiment(source) == name);
             (name, shift, worst)
         })
         .collect()
+}
+
+/// The shift in [0, 0.6] (steps of 0.01) whose largest error over the points of the sources `keep` accepts is
+/// smallest, with that error.
+fn fit_shift(series: &[(f64, f64)], t_max: f64, keep: impl Fn(&str) -> bool) -> (f64, f64) {
+    (0..=60)
+        .map(|k| {
+            let shift = k as f64 * 0.01;
+            let rows = compare(series, t_max, shift);
+            (shift, rows.iter().filter(|r| keep(r.0)).map(|r| r.4.abs()).fold(0.0, f64::max))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0.0, f64::INFINITY))
 }
 
 #[cfg(test)]

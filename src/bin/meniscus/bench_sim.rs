@@ -19,6 +19,7 @@ use meniscus::settings::Settings;
 use meniscus::sim::stages::STAGE_NAMES;
 use meniscus::sim::Simulation;
 use meniscus::timing::median;
+use meniscus::timing::PassTimes;
 use meniscus::view::Environment;
 use meniscus::view::View;
 
@@ -111,20 +112,19 @@ pub fn run(
     }
     let mut runs = vec![];
     let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
-    // Each frame's times with its step count (`[sim] adaptive_step` changes it per frame).
+    // Each frame's times, the solver's per step (`sim::per_step`), with its step count (`[sim] adaptive_step`
+    // changes it per frame).
     for _ in 0..frames {
         let t = sim.step_frame()?;
-        runs.push((t, sim.constants.substeps));
+        let steps = sim.constants.substeps;
+        runs.push((meniscus::sim::per_step(t, steps), steps));
         if let Some(st) = sim.solver_stats()? {
             solves.get_or_insert_with(Default::default).merge(&st);
         }
         bar.inc(1);
     }
-    let per_step = |name: &str| {
-        let mut v: Vec<f64> = runs.iter().filter_map(|(t, n)| t.get(name).map(|ms| ms / *n as f64)).collect();
-        median(&mut v)
-    };
-    let per_frame = |name: &str| {
+    // A solver stage's median per step, a diffuse stage's per frame.
+    let median_of = |name: &str| {
         let mut v: Vec<f64> = runs.iter().filter_map(|(t, _)| t.get(name)).collect();
         median(&mut v)
     };
@@ -136,22 +136,19 @@ pub fn run(
         .iter()
         .chain(meniscus::sim::dfsph::STAGE_NAMES)
         .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
-        .map(|n| (n.to_string(), per_step(n)))
+        .map(|n| (n.to_string(), median_of(n)))
         .collect();
     let diffuse_names = meniscus::sim::diffuse::STAGE_NAMES;
     let diffuse: Vec<(String, f64)> = diffuse_names
         .iter()
         .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
-        .map(|n| (n.to_string(), per_frame(n)))
+        .map(|n| (n.to_string(), median_of(n)))
         .collect();
-    let mut totals: Vec<f64> = runs
-        .iter()
-        .map(|(t, n)| (t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>()) / *n as f64)
-        .collect();
+    let step_total = |t: &PassTimes| t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>();
+    let mut totals: Vec<f64> = runs.iter().map(|(t, _)| step_total(t)).collect();
     let ms_per_step = median(&mut totals);
     // Per frame (a simulated 1/fps s): what an adaptive step's cost compares by.
-    let mut frame_totals: Vec<f64> =
-        runs.iter().map(|(t, _)| t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>()).collect();
+    let mut frame_totals: Vec<f64> = runs.iter().map(|(t, n)| step_total(t) * *n as f64).collect();
     let ms_per_frame = median(&mut frame_totals);
     // Rendering and simulating together.
     let mut combined = vec![];
@@ -308,7 +305,7 @@ pub fn run(
             radius: scene.radius(),
             substeps: median_steps as u32,
             substeps_range: [fewest as u32, most as u32],
-            adaptive_step: sim.params.adaptive_step && sim.params.substeps == 0,
+            adaptive_step: sim.params.adapts_step(),
             solver: sim.params.solver.name().to_string(),
             iterations: sim.params.iterations,
             dfsph: solves,

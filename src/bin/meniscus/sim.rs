@@ -161,20 +161,24 @@ fn validate(a: &SimArgs) -> Result<()> {
     let rows = compare(&series, 3.0, 0.0);
     let (shift, shifted_worst) = best_shift(&series, 3.0);
     let shifted = compare(&series, 3.0, shift);
-    // Each experiment's own gate: its own shift.
+    // Each experiment's own gate: its own shift, and its points compared at it.
     let own = best_shifts(&series, 3.0);
-    let own_shift = |src: &str| own.iter().find(|o| o.0 == experiment(src)).map_or(0.0, |o| o.1);
+    let own_rows: Vec<(f64, meniscus::sim::validate::Row)> = own
+        .iter()
+        .flat_map(|&(name, d, _)| {
+            compare(&series, 3.0, d).into_iter().filter(move |r| experiment(r.0) == name).map(move |r| (d, r))
+        })
+        .collect();
     println!(
         "| measured | T | Z/L measured | Z/L simulated | error | simulated at T − {shift:.2} | error | at T − ΔT of \
          its experiment | error |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for ((src, t, z, s, e), (_, _, _, s2, e2)) in rows.iter().zip(&shifted) {
-        let d = own_shift(src);
-        let (s3, e3) = compare(&series, 3.0, d)
-            .into_iter()
-            .find(|r| r.0 == *src && r.1 == *t)
-            .map_or((f64::NAN, f64::NAN), |r| (r.3, r.4));
+        let (d, s3, e3) = own_rows
+            .iter()
+            .find(|(_, r)| r.0 == *src && r.1 == *t)
+            .map_or((f64::NAN, f64::NAN, f64::NAN), |(d, r)| (*d, r.3, r.4));
         println!(
             "| {src} | {t:.3} | {z:.3} | {s:.3} | {:+.1} % | {s2:.3} | {:+.1} % | {s3:.3} (ΔT {d:.2}) | {:+.1} % |",
             100.0 * e,
@@ -295,8 +299,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
     let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
-    // The solver's stages run every step (their times are kept per step: an adaptive step changes the count per
-    // frame); the diffuse stages once per frame.
+    // The solver's stages are kept per step (`sim::per_step`), the diffuse stages, which run once, per frame.
     let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);
     let (mut fewest, mut most, mut fastest) = (u32::MAX, 0u32, 0f32);
     for n in 2..=frames {
@@ -304,9 +307,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
         let steps = sim.constants.substeps;
         (fewest, most) = (fewest.min(steps), most.max(steps));
         fastest = fastest.max(sim.last_speed().unwrap_or(0.0));
-        let t = meniscus::timing::PassTimes(
-            t.0.into_iter().map(|(k, v)| if diffuse(&k) { (k, v) } else { (k, v / steps as f64) }).collect(),
-        );
+        let t = meniscus::sim::per_step(t, steps);
         let mut msg =
             format!("{steps} steps, {:.1} ms/step", t.0.iter().filter(|(k, _)| !diffuse(k)).map(|e| e.1).sum::<f64>());
         if let Some(st) = sim.solver_stats()? {
@@ -327,7 +328,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     for (name, s) in solves.iter().flat_map(|st| st.labelled()) {
         eprintln!("DFSPH {name} solve: {}", s.summary());
     }
-    if sim.params.adaptive_step && sim.params.substeps == 0 {
+    if sim.params.adapts_step() {
         eprintln!(
             "adaptive step: {fewest}–{most} steps per frame (the largest speed {fastest:.2} m/s, CFL {} × spacing / \
              speed, at most {} ms)",
