@@ -76,6 +76,26 @@ void enqueue(uint round, ivec2 p, float d, float prev, float phi_prev) {
 }
 #endif
 
+// The pass's work (bench's `iso_work`): [0] field samples, summed over the dispatches of a frame (every
+// invocation's own evaluations of φ, the wide dispatch's lanes each, bisections and Newton steps included;
+// IsoQueue::work reads it, the host zeroes it with the queue's header). After the field's bindings.
+#if defined(ISO_ANISO_BINDING)
+#define ISO_WORK_BINDING (ISO_ANISO_BINDING + 1)
+#elif defined(ISO_VOLUME)
+#define ISO_WORK_BINDING 9
+#else
+#define ISO_WORK_BINDING (ISO_CAST_BINDING + 4)
+#endif
+layout(std430, set = 0, binding = ISO_WORK_BINDING) buffer IsoWork { uint iso_work[4]; };
+/// This invocation's field samples so far (added to iso_work[0] once, when it returns).
+uint g_samples = 0u;
+
+/// φ at x (iso_field.glsl's iso_sum), counted.
+float cast_sum(vec3 x, bool skip, out float dmin) {
+    g_samples += 1u;
+    return iso_sum(x, skip, dmin);
+}
+
 struct Ray {
     vec3 eye;
     vec3 dir;    // through the pixel, unnormalised (depth d is at eye + dir * d)
@@ -113,6 +133,7 @@ bool fine_scale(float d, float focal) { return pc.fine.x > 0.0 && pc.fine.x * fo
 /// there and the step is at most pc.fine.w.
 float newton(Ray r, float z, out bool ok) {
     vec3 grad;
+    g_samples += 1u;
     float phi = iso_sum_grad(r.eye + r.dir * z, grad);
     float slope = dot(grad, r.dir);
     float step = (pc.params.y - phi) / slope;
@@ -128,7 +149,7 @@ float bracket_depth(Ray r, float a, float b, float fa, float fb) {
     for (uint j = 0u; j < pc.steps.y; ++j) {
         float m = 0.5 * (a + b);
         float unused;
-        float fm = iso_sum(r.eye + r.dir * m, true, unused);
+        float fm = cast_sum(r.eye + r.dir * m, true, unused);
         if (fm >= threshold) { b = m; fb = fm; } else { a = m; fa = fm; }
     }
     return a + (b - a) * clamp((threshold - fa) / max(fb - fa, 1e-12), 0.0, 1.0);
@@ -146,7 +167,7 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
     for (uint k = k0; k < k1; ++k) {
         if (d > r.end) return true;
         float dmin;
-        float phi = iso_sum(r.eye + r.dir * d, true, dmin);
+        float phi = cast_sum(r.eye + r.dir * d, true, dmin);
         if (phi >= threshold) {
             float a = prev, b = d, fa = phi_prev, fb = phi;
             if (k == 0u) {
@@ -159,7 +180,7 @@ bool march(Ray r, uint k0, uint k1, inout float d, inout float prev, inout float
                     fb = fa;
                     a = max(a - pc.params.z / r.len, near);
                     float unused;
-                    fa = iso_sum(r.eye + r.dir * a, true, unused);
+                    fa = cast_sum(r.eye + r.dir * a, true, unused);
                 }
                 if (fa >= threshold) { result = a; return true; }
             }
@@ -221,7 +242,7 @@ float fine_depth(ivec2 p, ivec2 size, float d) {
     return INF;
 }
 
-void main() {
+void cast_main() {
     ivec2 size = imageSize(depth);
     if (pc.fine.y == 0.0) {
         // Phase 0: the marched pixel gets the Newton step its fine neighbours will get; the march's linear
@@ -251,7 +272,7 @@ void main() {
     }
 }
 #elif defined(ISO_BLOCKS)
-void main() {
+void cast_main() {
     // The first dispatch with coarse-to-fine on (iso_blocks.comp): the block's marched pixel, and those of its
     // other pixels whose particles are too small on screen for the fine dispatch.
     if (gl_GlobalInvocationID.xy == uvec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; iso_args[13] = 1u; iso_args[14] = 1u; }
@@ -269,7 +290,7 @@ void main() {
     }
 }
 #elif !defined(ISO_REST)
-void main() {
+void cast_main() {
     // One pixel per invocation (coarse-to-fine off: the shader is the lean march alone, see iso_blocks.comp).
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
@@ -315,7 +336,7 @@ float march_wide(Ray r, uint lane, uint k0, float d, float prev, float phi_prev)
         float dl = d + float(lane) * s;
         float dmin = 0.0, phi = 0.0;
         bool inside = dl <= r.end;
-        if (inside) phi = iso_sum(r.eye + r.dir * dl, true, dmin);
+        if (inside) phi = cast_sum(r.eye + r.dir * dl, true, dmin);
         uint first = wide_min(inside && phi >= threshold ? lane : ISO_WIDE);
         // Every lane reads its neighbours' values in the same control flow (first is the same in all the ray's
         // lanes).
@@ -338,7 +359,7 @@ float march_wide(Ray r, uint lane, uint k0, float d, float prev, float phi_prev)
     return INF;
 }
 
-void main() {
+void cast_main() {
     // Rays of round 0, ISO_WIDE lanes each: the work group's subgroups hold LOCAL_1D / ISO_WIDE whole rays.
     uint lane = gl_SubgroupInvocationID % ISO_WIDE;
     uint i = (gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID) * (gl_SubgroupSize / ISO_WIDE)
@@ -357,7 +378,7 @@ void main() {
     if (lane == 0u) imageStore(depth, p, vec4(result));
 }
 #else
-void main() {
+void cast_main() {
     // Round pc.fine.y: 0 continues the first dispatch's rays, 1 marches the fine dispatch's fallbacks from the
     // start.
     bool fallbacks = pc.fine.y > 0.0;
@@ -371,3 +392,9 @@ void main() {
     imageStore(depth, p, vec4(result));
 }
 #endif
+
+void main() {
+    cast_main();
+    // One atomic per invocation that sampled (none for a pixel without fluid).
+    if (g_samples > 0u) atomicAdd(iso_work[0], g_samples);
+}

@@ -30,7 +30,7 @@
 //! CPU reference: VolumeShape::{marked, deposit} in src/field/iso.rs.
 //! MARK in: points (1). In/out: table (2). ALLOC in/out: table (1), header (2: {0, 1, 1, bricks}, zeroed by the
 //! host); out: coordinates (3, x | y << 11 | z << 22). Plain in: points (1), c (2), table (3); in/out: the sums
-//! (4, two uints per stored voxel, zeroed by the host), which the cast reads. APRON in: table (1), coordinates
+//! (4, two uints per stored voxel, zeroed by the host), which the cast reads, and the work counts (5). APRON in: table (1), coordinates
 //! (2), header (3); in/out: the sums (4).
 #include "common.glsl"
 layout(local_size_x = LOCAL_1D) in;
@@ -65,6 +65,9 @@ layout(std430, set = 0, binding = 4) buffer Acc { uint64_t acc[]; };
 #else
 layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
 #endif
+// The deposit's work (bench's `iso_volume_work`): [0] voxel deposits (point–voxel pairs; one 64-bit atomic
+// each, or two 32-bit ones), zeroed by the host.
+layout(std430, set = 0, binding = 5) buffer VolWork { uint vol_work[4]; };
 #define ISO_TABLE(i) texelFetch(table_t, int(i)).x
 #endif
 #include "iso_volume.glsl"
@@ -131,6 +134,7 @@ void main() {
     float inv_r2 = 1.0 / (rv * rv);
     float m = pc.params.x * texelFetch(points_t, int(j)).w * float(1u << ISO_VOLUME_FIX_BITS);
     float c = texelFetch(counts_t, int(j)).x;
+    uint deposits = 0u;
     for (int z = lo.z; z <= hi.z; ++z) {
         for (int y = lo.y; y <= hi.y; ++y) {
             for (int x = lo.x; x <= hi.x; ++x) {
@@ -140,6 +144,7 @@ void main() {
                 uint slot = iso_voxel_slot(ivec3(x, y, z), bd);
                 if (slot == ISO_NONE) continue;
                 float w = q * q * q * m;
+                ++deposits;
 #if defined(ISO_VOLUME_DEPOSIT64)
                 atomicAdd(acc[slot], uint64_t(uint(w + 0.5)) | (uint64_t(uint(w * c + 0.5)) << 32));
 #else
@@ -149,5 +154,6 @@ void main() {
             }
         }
     }
+    if (deposits > 0u) atomicAdd(vol_work[0], deposits);
 }
 #endif

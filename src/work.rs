@@ -1,6 +1,8 @@
 //! What a pass did, counted on the device: beside its time, the measure of a change's GPU cost that every
 //! device gives alike (lavapipe's milliseconds do not follow a GPU's; these counts do). The `noise` pass counts
-//! its own work ([`NoiseWork`]); `meniscus bench` reports it (JSON `noise_work`) beside every pass's compute
+//! its own work ([`NoiseWork`]), so do `splat` ([`SplatWork`]: sphere–pixel tests), `iso` ([`IsoWork`]: field
+//! samples, rays queued) and `iso_volume` ([`IsoVolumeWork`]: deposits and their atomics); `meniscus bench`
+//! reports them (JSON `noise_work`, `splat_work`, `iso_work`, `iso_volume_work`) beside every pass's compute
 //! invocations (the GPU timer's pipeline-statistics queries, `crate::gpu::timer`).
 
 /// The `iso` pass's work in one frame that its queue counts: the rays its first dispatch left unfinished
@@ -13,6 +15,30 @@ pub struct IsoWork {
     pub queued: u64,
     /// Rays the coarse-to-fine cast queued to march from their start.
     pub fallbacks: u64,
+    /// Field samples (evaluations of φ) over the pass's dispatches: the march's steps, the bisections and
+    /// Newton steps, each lane's of the wide dispatch — the pass's cost on any device follows this count.
+    pub samples: u64,
+}
+
+/// The compute `splat` pass's work in one frame (`Targets::splat_work`; the rasterised variants count none).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SplatWork {
+    /// Sphere–pixel tests (a ray–sphere or ray–ellipsoid intersection each): the pixels of every drawn sphere's
+    /// screen rectangle, less the tiles the occlusion bound skipped.
+    pub tests: u64,
+    /// Spheres drawn (on screen and not hidden in every tile they touch).
+    pub spheres: u64,
+    /// 8×8 tiles a sphere skipped because `splat_cull`'s occlusion bound hid it there.
+    pub tiles_skipped: u64,
+}
+
+/// The `iso_volume` pass's deposit in one frame (it runs only when the particles change).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct IsoVolumeWork {
+    /// Point–voxel deposits (voxels within a point's deposit radius, on the lattice).
+    pub deposits: u64,
+    /// Atomics they took: one 64-bit atomic per deposit where the device has them, else two 32-bit ones.
+    pub atomics: u64,
 }
 
 /// The `noise` pass's work in one frame, as its counters hold it (`passes::noise::NoiseTargets::work`).

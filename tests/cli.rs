@@ -236,11 +236,16 @@ fn bench_also_presets_interleaves_every_preset() {
         assert_eq!(has(e, "filter"), e["variant"] == "fast", "{}", e["variant"]);
         // The iso pass's queued rays are reported where it ran (a count, not a time).
         assert_eq!(e["iso_work"]["queued"].is_u64(), has(e, "iso"), "{}", e["iso_work"]);
+        // Each pass's own counts of its work where it ran: field samples, sphere–pixel tests.
+        assert_eq!(e["iso_work"]["samples"].as_u64().is_some_and(|n| n > 0), has(e, "iso"), "{}", e["iso_work"]);
+        assert!(e["splat_work"]["tests"].as_u64().is_some_and(|n| n > 0), "{}", e["splat_work"]);
         for once in ["iso_density", "iso_volume"] {
             assert!(!has(e, once), "{once} of a static frame runs once, in warm-up");
         }
+        assert!(e["iso_volume_work"].is_null(), "no measured frame rebuilt the field");
     }
     let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("Work per pass") && out.contains("sphere–pixel tests"), "{out}");
     assert!(out.contains("quality") && out.contains("÷ default"), "{out}");
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
 }

@@ -969,12 +969,22 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     s.iso.first_steps = 0;
     rd.render(&v, &s).unwrap();
     let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    let work = |rd: &Renderer| rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap().work(&gpu).unwrap();
+    let whole = work(&rd);
     s.iso.first_steps = first_steps;
     s.iso.rest_lanes = 1;
     rd.render(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
+    // The pass's count of its field samples: the same samples whether a ray is marched in one dispatch or
+    // continued by the second (one lane per ray), at least one per pixel that hit.
+    let split = work(&rd);
+    let hits = got.iter().filter(|d| d.is_finite()).count() as u64;
+    assert_eq!(whole.queued, 0, "one dispatch queues nothing");
+    assert!(split.queued > 0 && whole.samples >= hits && hits > 1000, "{whole:?} {split:?}, {hits} hits");
+    eprintln!("iso: one dispatch {whole:?}, split {split:?}, {hits} hits");
+    assert_eq!(split.samples, whole.samples, "first_steps {first_steps}: the samples of the split cast");
     // The queued rays marched by 8 and by 32 lanes each (isotropic kernels, where the device's subgroups allow):
     // the same rays bracketed on a finer lattice, so only queued pixels may differ, each within the
     // interpolation's error or by a crossing thinner than one lane's step; the CPU comparison below holds for all.
@@ -1203,6 +1213,13 @@ fn smoothed_iso_field_matches_cpu() {
     let used = marked.iter().filter(|&&m| m).count();
     assert!(used < marked.len(), "{used} of {} bricks: the lattice is sparse", marked.len());
     let acc = shape.deposit(&weighted, &c, &vp);
+    // The deposit's own count of its work: the reference's point–voxel pairs (a pair at the kernel's rim may
+    // round the other way on another device's arithmetic: within 0.01 %).
+    let work = vol.work(&gpu).unwrap();
+    let pairs = shape.deposits(&weighted, &vp);
+    eprintln!("iso_volume: {work:?}; the reference's {pairs} point–voxel pairs");
+    assert!(pairs > 10_000 && work.deposits.abs_diff(pairs) <= pairs / 10_000, "{work:?} against {pairs} pairs");
+    assert_eq!(work.atomics, if gpu.info.int64_atomics { work.deposits } else { 2 * work.deposits });
     let field = meniscus::field::volume::VolumeShape::field(&acc);
     // Per-term rounding to fixed point may differ by a unit where the weights' last bit does.
     let worst = acc.iter().zip(&acc_gpu).map(|(a, g)| a[0].abs_diff(g[0]).max(a[1].abs_diff(g[1]))).max().unwrap();
@@ -1296,22 +1313,20 @@ fn the_64_bit_deposit_equals_the_32_bit_one() {
         let mut rd = Renderer::new(&gpu).unwrap();
         rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
         rd.render(&v, &s).unwrap();
-        let out = read_lattice(
-            &gpu,
-            rd.state()
-                .surfaces()
-                .get(meniscus::settings::Surface::Iso)
-                .grid()
-                .unwrap()
-                .volume
-                .as_ref()
-                .expect("the lattice"),
-        );
+        let state = rd.state();
+        let vol = state.surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap().volume.as_ref();
+        let vol = vol.expect("the lattice");
+        let out = read_lattice(&gpu, vol);
+        let work = vol.work(&gpu).unwrap();
         assert_clean(&gpu);
-        (gpu.info.int64_atomics, gpu.info.name.clone(), out)
+        (gpu.info.int64_atomics, gpu.info.name.clone(), out, work)
     };
-    let (wide, name, (alloc64, acc64, _)) = lattice(false);
-    let (narrow, _, (alloc32, acc32, _)) = lattice(true);
+    let (wide, name, (alloc64, acc64, _), work64) = lattice(false);
+    let (narrow, _, (alloc32, acc32, _), work32) = lattice(true);
+    // The same deposits either way; one atomic each, or two.
+    assert_eq!(work64.deposits, work32.deposits);
+    assert_eq!(work32.atomics, 2 * work32.deposits);
+    assert_eq!(work64.atomics, if wide { work64.deposits } else { 2 * work64.deposits });
     if name.contains("llvmpipe") {
         assert!(wide, "lavapipe has shaderBufferInt64Atomics: the 64-bit path must run here");
     }
@@ -1487,6 +1502,57 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
 
 /// The splat's occlusion pre-pass (`splat_cull`, on when spheres span tiles) changes nothing: a dense block
 /// of large spheres splats bit-identically to the rasterised MIN-blend variant, which has no culling.
+/// The compute splat counts its work: without the occlusion cull, one sphere–pixel test per pixel of each
+/// drawn sphere's screen rectangle (the CPU's `sphere_bounds`; a rectangle's edge may round the other way on
+/// another device's arithmetic: within 0.5 %); with it, fewer tests and skipped tiles, and the same depth.
+#[test]
+fn the_splat_counts_its_sphere_pixel_tests() {
+    let gpu = gpu();
+    let counted = |scene: &str, n: usize, (w, h): (u32, u32), closer: f32| {
+        let (g, v) = splat_scene(scene, n, w, h, 0.0, closer);
+        let mut s = settings(g.radius);
+        s.filter.method = Filter::None;
+        let mut r = Renderer::new(&gpu).unwrap();
+        r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
+        r.render(&v, &s).unwrap();
+        let work = r.targets.as_ref().unwrap().splat_work(&gpu).unwrap();
+        (g, v, s, work)
+    };
+    // Far: no cull (spheres under half a tile).
+    let (g, v, s, work) = counted("drop", 3000, (96, 64), 1.0);
+    let view_m = v.camera.view();
+    let f = v.camera.focal_px(v.height);
+    let (mut tests, mut spheres) = (0u64, 0u64);
+    for p in &g.particles.positions {
+        let c = view_m.transform_point3(glam::Vec3::from(*p)).to_array();
+        let r = g.radius * s.splat_scale();
+        if let Some((lo, hi)) = sphere_bounds(c, r, 96, 64, f, v.camera.near) {
+            tests += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
+            spheres += 1;
+        }
+    }
+    eprintln!("splat: {work:?}; the CPU's rectangles: {tests} tests, {spheres} spheres");
+    assert!(spheres > 1000 && spheres <= 3000, "{spheres} spheres on screen");
+    assert!(work.spheres.abs_diff(spheres) <= spheres / 200, "{work:?}: {spheres} spheres");
+    assert!(work.tests.abs_diff(tests) <= tests / 200, "{work:?}: {tests} tests");
+    assert_eq!(work.tiles_skipped, 0, "no cull at this size");
+    // Close up: the occlusion cull skips the tiles where a sphere is hidden.
+    let (g, v, s, culled) = counted("block", 4000, (320, 240), 0.45);
+    assert!(culled.tiles_skipped > 1000, "{culled:?}");
+    let mut all = 0u64;
+    let view_m = v.camera.view();
+    let f = v.camera.focal_px(v.height);
+    for p in &g.particles.positions {
+        let c = view_m.transform_point3(glam::Vec3::from(*p)).to_array();
+        if let Some((lo, hi)) = sphere_bounds(c, g.radius * s.splat_scale(), 320, 240, f, v.camera.near) {
+            all += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
+        }
+    }
+    eprintln!("culled splat: {culled:?}; {all} tests without the cull");
+    assert!(culled.tests < all / 2, "the cull removes most tests: {culled:?} of {all}");
+    assert_clean(&gpu);
+}
+
 #[test]
 fn occlusion_culled_splat_equals_unculled_raster() {
     use meniscus::named::SplatMode;

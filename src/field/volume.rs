@@ -269,14 +269,32 @@ impl VolumeShape {
     pub fn deposit(&self, points: &[[f32; 4]], c: &[f32], p: &VolumeParams) -> Vec<[u32; 2]> {
         let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
         let k = p.deposit_scale();
+        let mut acc = vec![[0u32; 2]; self.voxels()];
+        self.each_deposit(points, p, |j, voxel, q| {
+            let w = q * q * q * (k * points[j][3] * fix);
+            let a = &mut acc[voxel];
+            a[0] = a[0].wrapping_add((w + 0.5) as u32);
+            a[1] = a[1].wrapping_add((w * c[j] + 0.5) as u32);
+        });
+        acc
+    }
+
+    /// How many point–voxel deposits [`VolumeShape::deposit`] makes (the `iso_volume` pass's own count of its
+    /// work, `crate::work::IsoVolumeWork::deposits`).
+    pub fn deposits(&self, points: &[[f32; 4]], p: &VolumeParams) -> u64 {
+        let mut n = 0u64;
+        self.each_deposit(points, p, |_, _, _| n += 1);
+        n
+    }
+
+    /// Every deposit of `points`: (point, voxel index, q = 1 − d²/R² > 0), as iso_volume.comp visits them.
+    fn each_deposit(&self, points: &[[f32; 4]], p: &VolumeParams, mut f: impl FnMut(usize, usize, f32)) {
         let rv = p.deposit_radius() / self.spacing;
         let d = self.dims().map(|n| n as i64);
-        let mut acc = vec![[0u32; 2]; self.voxels()];
-        for (pt, &cj) in points.iter().zip(c) {
+        for (j, pt) in points.iter().enumerate() {
             let u = self.lattice(Vec3::new(pt[0], pt[1], pt[2]));
             let lo = (u - Vec3::splat(rv)).ceil();
             let hi = (u + Vec3::splat(rv)).floor();
-            let m = k * pt[3] * fix;
             for z in lo.z as i64..=hi.z as i64 {
                 for y in lo.y as i64..=hi.y as i64 {
                     for x in lo.x as i64..=hi.x as i64 {
@@ -284,15 +302,11 @@ impl VolumeShape {
                         if q <= 0.0 || x < 0 || y < 0 || z < 0 || x >= d[0] || y >= d[1] || z >= d[2] {
                             continue;
                         }
-                        let w = q * q * q * m;
-                        let a = &mut acc[self.index(x as u32, y as u32, z as u32)];
-                        a[0] = a[0].wrapping_add((w + 0.5) as u32);
-                        a[1] = a[1].wrapping_add((w * cj + 0.5) as u32);
+                        f(j, self.index(x as u32, y as u32, z as u32), q);
                     }
                 }
             }
         }
-        acc
     }
 
     /// The deposit's sums as the cast reads them: (B, B c̄) per voxel.

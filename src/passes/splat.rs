@@ -116,7 +116,7 @@ pub struct RasterPush {
 
 // The compute splat: frame, particles, depth (R32_UINT view, atomicMin), the tile bounds, the anisotropic
 // kernels (read with `ellipsoid`), the per-pixel far bound (R32_UINT view, atomicMax, with `back`).
-declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgRead, BufRead, ImgAltWrite]));
+declare_program!(pub SPLAT: SplatPush = compute(shaders::SPLAT, [Uniform, BufRead, ImgAltWrite, ImgRead, BufRead, ImgAltWrite, BufWrite]));
 // The pre-pass: frame, particles → per-tile occlusion bound (atomicMin) and far bound (R32_UINT view, atomicMax).
 declare_program!(pub CULL: CullPush = compute(shaders::SPLAT_CULL, [Uniform, BufRead, ImgWrite, ImgAltWrite]));
 // The rasterised variants: frame and particles, read by the vertex and fragment shaders.
@@ -206,7 +206,8 @@ impl Splat {
         Ok(())
     }
 
-    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it. The pre-pass `splat_cull`
+    /// Clears `depth` to +inf ("no fluid") and splats `count` particles into it, counting its work in `work`
+    /// ([`crate::work::SplatWork`]). The pre-pass `splat_cull`
     /// bounds each 8×8 tile's depth (`tiles`) so hidden spheres skip the tile, when spheres span tiles
     /// ([`cull_pays`], from the sphere size in fluid pixels at the camera's target distance). With `back` (the
     /// per-pixel and the per-tile image, for the `iso` march) the far bound is written too, and returned: per
@@ -224,7 +225,7 @@ impl Splat {
         count: u32,
         depth: &Image,
         back: Option<(&'a Image, &'a Image)>,
-        tiles: &Image,
+        (tiles, work): (&Image, &Buffer),
         (radius, radius_scale): (f32, f32),
         ellipsoids: Option<(&Buffer, f32)>,
         info: &FrameInfo,
@@ -254,6 +255,7 @@ impl Splat {
                 if let Some(BackBound::Pixel(i) | BackBound::Tile(i)) = bound {
                     self.clear.record(ctx, i, 0.0f32.to_bits());
                 }
+                ctx.fill(work, 0);
             });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             if cull {
@@ -276,7 +278,8 @@ impl Splat {
                 stretch,
                 back: matches!(bound, Some(BackBound::Pixel(_))) as u32,
             };
-            let res = [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into(), pixel_back.into()];
+            let res =
+                [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into(), pixel_back.into(), work.into()];
             ctx.part("splat/spheres", |ctx| self.prog.dispatch(ctx, &res, &push, groups));
         });
         bound

@@ -56,7 +56,7 @@ impl Technique for Spheres {
                     k.count,
                     &t.depth,
                     None,
-                    &t.depth_tiles,
+                    (&t.depth_tiles, &t.splat_work),
                     spheres,
                     kernel,
                     f.info,
@@ -79,7 +79,8 @@ pub(crate) fn record_splat<'t>(ctx: &mut FrameCtx, f: &SurfaceFrame<'t>) -> Resu
         SplatMode::Compute => {
             let spheres = (s.radius, s.splat_scale());
             let back = t.depth_back.as_ref().zip(t.depth_back_tiles.as_ref());
-            Ok(p.splat.record(ctx, f.frame, particles, count, &t.depth, back, &t.depth_tiles, spheres, None, f.info))
+            let tiles = (&t.depth_tiles, &t.splat_work);
+            Ok(p.splat.record(ctx, f.frame, particles, count, &t.depth, back, tiles, spheres, None, f.info))
         }
         mode => {
             p.splat.record_raster(

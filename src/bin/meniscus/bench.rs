@@ -117,9 +117,15 @@ pub struct Entry {
     /// coarsest level of detail, sprite texels visited, sprites drawn, texels evaluated — a GPU's cost follows
     /// these, whatever the CPU driver's milliseconds say.
     pub noise_work: Option<meniscus::work::NoiseWork>,
-    /// The `iso` pass's queued rays in the last measured frame (absent when the frame had no `iso` pass): the
-    /// rays its first dispatch left for the second, whose cost does not shrink with the pixels.
+    /// The `iso` pass's work in the last measured frame (absent when the frame had no `iso` pass): its field
+    /// samples, and the rays its first dispatch left for the second, whose cost does not shrink with the pixels.
     pub iso_work: Option<meniscus::work::IsoWork>,
+    /// The compute `splat` pass's work in the last measured frame (absent for the rasterised variants): its
+    /// sphere–pixel tests, spheres drawn and tiles the occlusion bound skipped.
+    pub splat_work: Option<meniscus::work::SplatWork>,
+    /// The smoothed field's deposit at its last build in the measured frames (absent when no measured frame
+    /// rebuilt it: a still scene builds it once, in the warm-up).
+    pub iso_volume_work: Option<meniscus::work::IsoVolumeWork>,
     /// The effect images that exist (`noise_accum`, `noise`, `diffuse_white`, …), by name: none when the
     /// effects are off.
     pub effect_images: Vec<String>,
@@ -347,7 +353,17 @@ impl Series {
         let t = r.state().targets().expect("rendered");
         let memory: Vec<Mem> =
             r.state().memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
-        let iso_ran = self.per_pass.iter().any(|(n, _)| n == "iso");
+        let ran = |pass: &str| self.per_pass.iter().any(|(n, _)| n == pass);
+        let iso_ran = ran("iso");
+        let splat_work = match ran("splat") && self.s.splat.mode == SplatMode::Compute {
+            true => Some(t.splat_work(&r.gpu)?),
+            false => None,
+        };
+        let iso = r.state().surfaces().get(meniscus::settings::Surface::Iso).grid();
+        let iso_volume_work = match (ran("iso_volume"), iso.and_then(|b| b.volume.as_ref())) {
+            (true, Some(v)) => Some(v.work(&r.gpu)?),
+            _ => None,
+        };
         Ok(Entry {
             scene: w.label.clone(),
             particles: w.particles.len(),
@@ -383,6 +399,8 @@ impl Series {
                 true => t.iso_queue.as_ref().map(|q| q.work(&r.gpu)).transpose()?,
                 false => None,
             },
+            splat_work,
+            iso_volume_work,
             host_ms: HOST_STAGES
                 .iter()
                 .enumerate()
@@ -410,13 +428,11 @@ pub fn markdown(entries: &[Entry]) -> String {
     for n in &names {
         s.push_str(&format!(" {n} |"));
     }
-    s.push_str(
-        " GPU total (median / p95) | CPU frame | fluid images MB | noise texels (level) | iso rays queued |\n|---|---:|---|---|",
-    );
+    s.push_str(" GPU total (median / p95) | CPU frame | fluid images MB |\n|---|---:|---|---|");
     for _ in &names {
         s.push_str("---:|");
     }
-    s.push_str("---:|---:|---:|---:|---:|\n");
+    s.push_str("---:|---:|---:|\n");
     for e in entries {
         s.push_str(&format!("| {} | {} | {}×{} | {} |", e.scene, e.particles, e.width, e.height, e.variant));
         for n in &names {
@@ -425,10 +441,8 @@ pub fn markdown(entries: &[Entry]) -> String {
                 None => s.push_str(" – |"),
             }
         }
-        let noise = e.noise_work.map_or("–".to_string(), |w| format!("{} ({})", w.texels, w.level));
-        let iso = e.iso_work.map_or("–".to_string(), |w| (w.queued + w.fallbacks).to_string());
         s.push_str(&format!(
-            " {:.3} / {:.3} | {:.3} | {:.1} | {noise} | {iso} |\n",
+            " {:.3} / {:.3} | {:.3} | {:.1} |\n",
             e.gpu_total.median,
             e.gpu_total.p95,
             e.cpu_frame.median,
@@ -494,6 +508,8 @@ Compute invocations per pass (pipeline statistics, last measured frame; thousand
             ));
         }
     }
+    // The passes' own counts of their work, the last measured frame.
+    s.push_str(&work_table(entries));
     // GPU memory: every live allocation after each workload's last entry (the JSON has them per entry).
     for (i, e) in entries.iter().enumerate() {
         let last = entries.get(i + 1).is_none_or(|n| n.scene != e.scene || n.width != e.width || n.height != e.height);
@@ -512,6 +528,28 @@ Compute invocations per pass (pipeline statistics, last measured frame; thousand
                 top.join(", ")
             ));
         }
+    }
+    s
+}
+
+/// The passes' own counts of what they did in the last measured frame (markdown): what a GPU's cost follows,
+/// whatever a CPU driver's milliseconds say. "–": the pass did not run (or, for `iso_volume`, did not rebuild).
+fn work_table(entries: &[Entry]) -> String {
+    let mut s = String::from(
+        "\nWork per pass (each pass's own counters, last measured frame):\n\n| scene | resolution | variant | splat: \
+         sphere–pixel tests (spheres) | iso: field samples (rays queued) | iso_volume: deposits (atomics) | noise: \
+         texels evaluated (level) |\n|---|---|---|---:|---:|---:|---:|\n",
+    );
+    let dash = || "–".to_string();
+    for e in entries {
+        let splat = e.splat_work.map_or_else(dash, |w| format!("{} ({})", w.tests, w.spheres));
+        let iso = e.iso_work.map_or_else(dash, |w| format!("{} ({})", w.samples, w.queued + w.fallbacks));
+        let vol = e.iso_volume_work.map_or_else(dash, |w| format!("{} ({})", w.deposits, w.atomics));
+        let noise = e.noise_work.map_or_else(dash, |w| format!("{} ({})", w.evaluated, w.level));
+        s.push_str(&format!(
+            "| {} | {}×{} | {} | {splat} | {iso} | {vol} | {noise} |\n",
+            e.scene, e.width, e.height, e.variant
+        ));
     }
     s
 }

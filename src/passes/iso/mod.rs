@@ -232,6 +232,10 @@ pub struct IsoVolume {
     /// Two fixed-point sums per stored voxel of the pool (10³ per brick: its 8³ and an apron), (B, B c̄): the
     /// field the cast reads (RG32UI texels).
     pub acc: Buffer,
+    /// The deposit's work counts, 4 u32: [0] point–voxel deposits ([`IsoVolume::work`]).
+    pub work: Buffer,
+    /// Whether the deposit takes one 64-bit atomic per deposit (else two 32-bit ones).
+    pub deposit64: bool,
 }
 
 impl IsoVolume {
@@ -261,7 +265,17 @@ impl IsoVolume {
             header: Buffer::texels(gpu, "iso_volume_header", 16, usage, vk::Format::R32_UINT)?,
             coords: Buffer::texels(gpu, "iso_volume_coords", 4 * capacity.max(1) as u64, usage, vk::Format::R32_UINT)?,
             acc: Buffer::texels(gpu, "iso_volume_acc", 8 * voxels, usage, vk::Format::R32G32_UINT)?,
+            work: Buffer::new(gpu, "iso_volume_work", 16, usage, gpu_allocator::MemoryLocation::GpuOnly)?,
+            deposit64: gpu.info.int64_atomics,
         })
+    }
+
+    /// The last build's deposit (waits for the device: for `bench` and tests, after a frame that built it).
+    pub fn work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::IsoVolumeWork> {
+        let host = crate::gpu::transfer::read_back(gpu, &[(&self.work, 0, 16)])?;
+        let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 4)?;
+        let deposits = w[0] as u64;
+        Ok(crate::work::IsoVolumeWork { deposits, atomics: if self.deposit64 { deposits } else { 2 * deposits } })
     }
 
     /// Whether these buffers hold the lattice `shape` with `bricks` allocated.
@@ -451,39 +465,39 @@ pub struct EmptyPush {
 }
 // Ray cast: frame, the weighted points, the cell table, depth (read as the start, written as the surface), back
 // depth, the queue of unfinished rays and its header (written).
-declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite]));
 // The first dispatch with coarse-to-fine on: one invocation per 2×2 block (iso_cast.glsl).
-declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
 // the isotropic cast's cost on lavapipe, 553 → 988 ms on the dam-break frame at 960×540).
-declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead]));
+declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, BufWrite]));
 // The second dispatches: the queued rays finished (the queue and its header read).
-declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
+declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, BufWrite]));
 // The same, 8 or 32 lanes per ray (`[iso] rest_lanes`; iso_cast.glsl).
-declare_program!(pub REST_WIDE8: IsoPush = compute(shaders::ISO_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
-declare_program!(pub REST_WIDE32: IsoPush = compute(shaders::ISO_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
-declare_program!(pub REST_WIDE8_MANY: IsoPush = compute(shaders::ISO_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead]));
-declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead]));
+declare_program!(pub REST_WIDE8: IsoPush = compute(shaders::ISO_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub REST_WIDE32: IsoPush = compute(shaders::ISO_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub REST_WIDE8_MANY: IsoPush = compute(shaders::ISO_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, BufWrite]));
+declare_program!(pub REST_ANISO: IsoPush = compute(shaders::ISO_ANISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, BufWrite]));
 // Coarse-to-fine (isotropic only), twice: phase 0 (fine.y = 0) polishes the marched pixels with a Newton step;
 // phase 1 gives the pixels the first dispatches left their marched neighbours' depth (with a Newton step where
 // the surface curves) and queues those it cannot trust (round 1) for a second `rest`.
-declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite]));
+declare_program!(pub FINE: IsoPush = compute(shaders::ISO_FINE, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite]));
 
 // The smoothed field: the weighted points mark the bricks they need in the table; the marked bricks take pool
 // indices (the header counts them, their coordinates listed); the points deposit their sums (integer atomics).
 declare_program!(pub VOLUME_MARK: VolPush = compute(shaders::ISO_VOLUME_MARK, [Uniform, TexelRead, BufWrite]));
 declare_program!(pub VOLUME_ALLOC: VolPush = compute(shaders::ISO_VOLUME_ALLOC, [Uniform, BufWrite, BufWrite, BufWrite]));
-declare_program!(pub VOLUME: VolPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub VOLUME: VolPush = compute(shaders::ISO_VOLUME, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
 // The same deposit with one 64-bit atomic per voxel (devices with shaderBufferInt64Atomics: `DeviceInfo::int64_atomics`).
-declare_program!(pub VOLUME_DEPOSIT64: VolPush = compute(shaders::ISO_VOLUME_DEPOSIT64, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub VOLUME_DEPOSIT64: VolPush = compute(shaders::ISO_VOLUME_DEPOSIT64, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
 // Each allocated brick's apron copied from its neighbours.
 declare_program!(pub VOLUME_APRON: VolPush = compute(shaders::ISO_VOLUME_APRON, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
 // The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
-declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead]));
-declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
-declare_program!(pub REST_VOL_WIDE8: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
-declare_program!(pub REST_VOL_WIDE32: IsoPush = compute(shaders::ISO_VOL_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
-declare_program!(pub REST_VOL_WIDE8_MANY: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead]));
+declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub REST_VOL_WIDE8: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub REST_VOL_WIDE32: IsoPush = compute(shaders::ISO_VOL_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub REST_VOL_WIDE8_MANY: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8_MANY, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
 
 impl Iso {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
@@ -588,6 +602,7 @@ impl Iso {
                 ctx.fill(&v.table, 0);
                 ctx.fill(&v.header, 0);
                 ctx.fill(&v.acc, 0);
+                ctx.fill(&v.work, 0);
             });
             let push = v.vol_push(p, n);
             let mark = [frame.into(), (&b.weighted).into(), (&v.table).into()];
@@ -595,7 +610,8 @@ impl Iso {
             let table = [(v.shape.table_len() as u32).div_ceil(super::LOCAL_1D), 1, 1];
             let alloc = [frame.into(), (&v.table).into(), (&v.header).into(), (&v.coords).into()];
             ctx.part("iso_volume/alloc", |ctx| self.volume[1].dispatch(ctx, &alloc, &push, table));
-            let dep = [frame.into(), (&b.weighted).into(), (&b.counts).into(), (&v.table).into(), (&v.acc).into()];
+            let (weighted, counts, table, acc, work) = (&b.weighted, &b.counts, &v.table, &v.acc, &v.work);
+            let dep = [frame.into(), weighted.into(), counts.into(), table.into(), acc.into(), work.into()];
             ctx.part("iso_volume/deposit", |ctx| self.volume[2].dispatch(ctx, &dep, &push, per_point));
             let apron = [frame.into(), (&v.table).into(), (&v.coords).into(), (&v.header).into(), (&v.acc).into()];
             let stored = v.capacity as u64 * crate::field::volume::STORED_BRICK_VOXELS as u64;
@@ -640,6 +656,7 @@ impl Iso {
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
             ctx.fill(&queue.header, 0);
+            ctx.fill(&queue.work, 0);
             // Coarse-to-fine: one invocation per 2×2 block (iso_cast.glsl).
             let block = if push.fine[0] > 0.0 { 2 } else { 1 };
             let (w, h) = (depth.extent.width.div_ceil(block), depth.extent.height.div_ceil(block));
@@ -659,6 +676,8 @@ impl Iso {
                 }
                 (None, None) => (&self.cast, &self.rest),
             };
+            // The work counts after the field's bindings (iso_cast.glsl's ISO_WORK_BINDING).
+            all.push((&queue.work).into());
             // Round 0's queued rays by 8 or 32 lanes each where asked for and the device can (isotropic only).
             let lanes = if params.aniso.is_none() { ctx.gpu.info.shuffle_lanes(params.rest_lanes) } else { 1 };
             let field = usize::from(volume.is_some());
