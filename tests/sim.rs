@@ -684,7 +684,9 @@ fn splishsplash_scene_files_lay_out_the_first_frame() {
         assert_eq!(f.max_error_v, Some(0.1), "{dir}");
         assert_eq!(f.max_error, Some(if dir.starts_with("double") { 0.01 } else { 0.05 }), "{dir}");
         assert!(!f.warnings.iter().any(|w| w.contains("simulationMethod")), "{dir}: {:?}", f.warnings);
-        assert!(f.warnings.iter().any(|w| w.contains("DFSPH.maxIterations")), "{dir}: the iteration limits are named");
+        // The iteration limits (100 and 100, SPlisHSPlasH's defaults) are the solves' limit here, unwarned.
+        assert_eq!(f.max_iterations, Some(100), "{dir}");
+        assert!(!f.warnings.iter().any(|w| w.contains("Iterations")), "{dir}: {:?}", f.warnings);
         assert_eq!(f.scene.mesh_collider.is_some(), dir.starts_with("double"), "{dir}: the sphere is a collider");
         // One warning per key: no key is named twice.
         let keys: Vec<&str> = f.warnings.iter().filter_map(|w| w.split(": ").nth(1)).collect();
@@ -722,12 +724,37 @@ fn scene_file_errors_name_the_key() {
         // A method or bound of the wrong type.
         (r#"{"Configuration": {"particleRadius": 0.05, "simulationMethod": "DFSPH"}}"#, "simulationMethod"),
         (r#"{"Configuration": {"particleRadius": 0.05, "DFSPH": {"maxError": [1]}}}"#, "DFSPH.maxError"),
+        (r#"{"Configuration": {"particleRadius": 0.05, "DFSPH": {"maxIterations": 0}}}"#, "DFSPH.maxIterations"),
     ];
     for (i, (text, want)) in cases.iter().enumerate() {
         let p = dir.join(format!("case{i}.json"));
         std::fs::write(&p, text).unwrap();
         let e = meniscus::sim::scene_file::SceneFile::load(&p).unwrap_err().to_string();
         assert!(e.contains(want), "case {i}: {e}");
+    }
+    // DFSPH's iteration limits: one limit for both solves here, the larger of the file's two (said once, naming
+    // both keys), within [sim]'s 2 … 200; minimum counts other than SPlisHSPlasH's 2 and 1 are warned.
+    let scene = |dfsph: &str| {
+        format!(
+            r#"{{"Configuration": {{"particleRadius": 0.05, "DFSPH": {dfsph}}}, "RigidBodies": [{{"geometryFile": "UnitBox.obj", "isWall": true, "scale": [4,4,4]}}], "FluidBlocks": [{{"start": [0,0,0], "end": [1,1,1]}}]}}"#
+        )
+    };
+    let limits = [
+        (r#"{"maxIterations": 100, "maxIterationsV": 100, "minIterations": 2}"#, Some(100), 0),
+        (r#"{"maxIterations": 30, "maxIterationsV": 5}"#, Some(30), 1),
+        (r#"{"maxIterations": 1000}"#, Some(200), 1),
+        (r#"{"minIterations": 3, "maxErrorV": 0.1}"#, None, 1),
+    ];
+    for (i, (dfsph, want, warned)) in limits.iter().enumerate() {
+        let p = dir.join(format!("limits{i}.json"));
+        std::fs::write(&p, scene(dfsph)).unwrap();
+        let f = meniscus::sim::scene_file::SceneFile::load(&p).unwrap();
+        assert_eq!(f.max_iterations, *want, "{dfsph}");
+        let said: Vec<&String> = f.warnings.iter().filter(|w| w.contains("Iterations")).collect();
+        assert_eq!(said.len(), *warned, "{dfsph}: {said:?}");
+        let mut params = meniscus::sim::params::Params::default();
+        f.apply(&mut params);
+        assert_eq!(params.max_solver_iterations, want.unwrap_or(Params::default().max_solver_iterations), "{dfsph}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

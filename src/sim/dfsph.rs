@@ -7,8 +7,9 @@
 //! Δt·g to the velocities: gravity is applied before the solves) → `sim_neighbours` → `sim_dfsph_alpha` (ρ̂ and
 //! the factor α) → the divergence-free solve → the constant-density solve → `sim_dfsph_integrate` (x + Δt v,
 //! collisions) → `sim_velocity` → (`sim_vorticity`) → `sim_viscosity` (XSPH; the state and the renderer's
-//! particles), the last three shared with PBF. Each solve is `sim_dfsph_rate` (κ from the density change, the
-//! error per work group) and `sim_dfsph_check` (the average error against its bound), then up to
+//! particles), the last three shared with PBF. Each solve (`sim_dfsph_divergence`, `sim_dfsph_density`: one
+//! timestamp each, [`SOLVE_NAMES`]) is the warm start's `sim_dfsph_update`, `sim_dfsph_rate` (κ from the density
+//! change, the error per work group) and `sim_dfsph_check` (the average error against its bound), then up to
 //! `max_solver_iterations` × (`sim_dfsph_update`, `sim_dfsph_rate`, `sim_dfsph_check`) dispatched indirectly:
 //! the check writes the next iteration's work groups, 0 once converged, so no iteration waits for the host and
 //! a converged solve's remaining dispatches do nothing. The walls of the container enter as PBF's do (their
@@ -29,14 +30,15 @@ use crate::shader_constants::LOCAL_1D;
 use crate::shaders;
 
 /// The DFSPH stages in a step's order (timestamp keys and bench rows), beside [`super::STAGE_NAMES`]'s shared ones.
-pub const STAGE_NAMES: &[&str] = &[
-    "sim_dfsph_begin",
-    "sim_dfsph_alpha",
-    "sim_dfsph_rate",
-    "sim_dfsph_check",
-    "sim_dfsph_update",
-    "sim_dfsph_integrate",
-];
+pub const STAGE_NAMES: &[&str] =
+    &["sim_dfsph_begin", "sim_dfsph_alpha", SOLVE_NAMES[0], SOLVE_NAMES[1], "sim_dfsph_integrate"];
+
+/// The two solves' passes, each timed whole (its warm start, its first evaluation and every correction it
+/// recorded): the divergence-free solve, then the constant-density solve. With `MENISCUS_PARTS=1` their
+/// dispatches are timed too, as the parts `…/update`, `…/rate` and `…/check` (summed per name): a timestamp per
+/// dispatch drains lavapipe's pipeline, about 0.1 ms each, and a solve records 3 × `max_solver_iterations`
+/// dispatches, most of which find nothing to do once it converged.
+pub const SOLVE_NAMES: [&str; 2] = ["sim_dfsph_divergence", "sim_dfsph_density"];
 
 /// Push constants of sim_dfsph_check.comp.
 #[repr(C)]
@@ -321,7 +323,6 @@ impl Dfsph {
             // The warm start (Bender & Koschier 2017 §4.4): one correction with half the κ each particle's last
             // solve of this kind summed.
             let warm = b.neighbours.bound(b.uniforms, &[b.x, warm, b.vel, sum]);
-            ctx.pass("sim_dfsph_update", |ctx| l.update.dispatch(ctx, &warm, &(), [groups, 1, 1]));
             let check_res = [b.uniforms.into(), (&self.partials).into(), (&self.args).into(), (&self.stats).into()];
             let check = |init: u32| CheckPush {
                 groups,
@@ -331,13 +332,18 @@ impl Dfsph {
                 eta: percent * 0.01,
                 solve: solve as u32,
             };
-            ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch(ctx, &rate, &(), [groups, 1, 1]));
-            ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(1), [1, 1, 1]));
-            for _ in 0..p.max_solver_iterations {
-                ctx.pass("sim_dfsph_update", |ctx| l.update.dispatch_indirect(ctx, &update, &(), &self.args, 0));
-                ctx.pass("sim_dfsph_rate", |ctx| l.rate[solve].dispatch_indirect(ctx, &rate, &(), &self.args, 0));
-                ctx.pass("sim_dfsph_check", |ctx| self.check.dispatch(ctx, &check_res, &check(0), [1, 1, 1]));
-            }
+            let name = SOLVE_NAMES[solve];
+            let (u, r, c) = (format!("{name}/update"), format!("{name}/rate"), format!("{name}/check"));
+            ctx.pass(name, |ctx| {
+                ctx.part(&u, |ctx| l.update.dispatch(ctx, &warm, &(), [groups, 1, 1]));
+                ctx.part(&r, |ctx| l.rate[solve].dispatch(ctx, &rate, &(), [groups, 1, 1]));
+                ctx.part(&c, |ctx| self.check.dispatch(ctx, &check_res, &check(1), [1, 1, 1]));
+                for _ in 0..p.max_solver_iterations {
+                    ctx.part(&u, |ctx| l.update.dispatch_indirect(ctx, &update, &(), &self.args, 0));
+                    ctx.part(&r, |ctx| l.rate[solve].dispatch_indirect(ctx, &rate, &(), &self.args, 0));
+                    ctx.part(&c, |ctx| self.check.dispatch(ctx, &check_res, &check(0), [1, 1, 1]));
+                }
+            });
         }
         ctx.pass("sim_dfsph_integrate", |ctx| {
             let res = [b.uniforms.into(), b.x.into(), b.vel.into(), b.x_new.into(), b.sdf.into()];

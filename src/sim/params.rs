@@ -61,11 +61,12 @@ pub struct Params {
     /// DFSPH: the divergence-free solve's bound on the average density change over a step, percent of ρ0
     /// (SPlisHSPlasH's `maxErrorV`).
     pub max_divergence_error: f32,
-    /// DFSPH: most corrections per solve (each is recorded; the solves stop on the GPU once converged). The 59k
-    /// dam break's collapse at 5 ms steps needs up to 40 to reach the 0.05 % bound (at 20 a quarter of its steps
-    /// stop at the limit, at up to 0.155 %; at 40 one in 48, 0.077 %, for 15 % more time per step), but a resting
-    /// pool started from a lattice denser than ρ0 sloshes more at 40 (docs/simulation.md); SPlisHSPlasH's default
-    /// is 100.
+    /// DFSPH: most corrections per solve (each is recorded; the solves stop on the GPU once converged, and a
+    /// correction left over costs an empty indirect dispatch). The 59k dam break's collapse at 5 ms steps needs
+    /// up to 52 to keep the 0.05 % bound in its floor impact (at 20 a quarter of its steps stop at the limit, at
+    /// up to 0.155 %); 20 here because a resting pool started from a lattice denser than ρ0 along its walls is
+    /// pushed apart in its first frame when the solve converges fully, and sloshes (docs/simulation.md). A
+    /// SPlisHSPlasH scene file brings its own (`DFSPH.maxIterations`: 100, SPlisHSPlasH's default).
     pub max_solver_iterations: u32,
 }
 

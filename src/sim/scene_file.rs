@@ -53,6 +53,9 @@ pub struct SceneFile {
     pub max_error: Option<f32>,
     /// `DFSPH.maxErrorV` (percent).
     pub max_error_v: Option<f32>,
+    /// `DFSPH.maxIterations` and `maxIterationsV`: the larger, one limit for both solves here
+    /// (`[sim] max_solver_iterations`, 2 … 200).
+    pub max_iterations: Option<u32>,
     /// Steps per frame when the step is fixed (`cflMethod` 0).
     pub substeps: Option<u32>,
     /// Whether the step follows the largest speed every frame (`cflMethod` 1 or 2, SPlisHSPlasH's default).
@@ -192,25 +195,51 @@ impl SceneFile {
                 Some(super::params::Solver::Dfsph)
             }
         };
-        // DFSPH's bounds (percent, as here); the corrections per solve are Meniscus' own limit.
+        // DFSPH's bounds (percent, as here) and its iteration limits (one for both solves here: the larger).
         let (mut max_error, mut max_error_v) = (None, None);
+        let mut limits: Vec<(String, u32)> = vec![];
         if let Some(df) = config.get("DFSPH").and_then(Value::as_object) {
             for (key, v) in df {
                 let at = format!("Configuration.DFSPH.{key}");
                 match key.as_str() {
                     "maxError" => max_error = checked(path, &at, Some(v), num)?.filter(|e| *e > 0.0),
                     "maxErrorV" => max_error_v = checked(path, &at, Some(v), num)?.filter(|e| *e > 0.0),
-                    "maxIterations" | "maxIterationsV" | "minIterations" | "minIterationsV" => warn(
-                        at,
-                        "the corrections per solve are `[sim] max_solver_iterations` here (each is recorded ahead \
-                         on the GPU; at least 2 and 1): ignored",
-                    ),
+                    "maxIterations" | "maxIterationsV" => {
+                        let n = checked(path, &at, Some(v), num)?
+                            .filter(|n| *n >= 1.0)
+                            .ok_or_else(|| invalid(path, &at, "not a positive number"))?;
+                        limits.push((at, n.min(u32::MAX as f32) as u32));
+                    }
+                    "minIterations" | "minIterationsV" => {
+                        let least = if key == "minIterations" { 2.0 } else { 1.0 };
+                        if num(Some(v)) != Some(least) {
+                            warn(
+                                at,
+                                &format!(
+                                    "the solves here take at least 2 (density) and 1 (divergence) corrections, \
+                                     SPlisHSPlasH's defaults: {least} is used"
+                                ),
+                            );
+                        }
+                    }
                     "enableDivergenceSolver" if v.as_bool() == Some(true) => {}
                     "enableDivergenceSolver" => warn(at, "the divergence-free solve always runs here: ignored"),
                     _ => warn(at, "not supported: ignored"),
                 }
             }
         }
+        // The solves share one limit here, the larger of the file's two, within what `[sim]` accepts.
+        let max_iterations = limits.iter().map(|(_, n)| *n).max().map(|n| {
+            let kept = n.clamp(2, 200);
+            if kept != n || limits.iter().any(|(_, m)| *m != n) {
+                let names: Vec<&str> = limits.iter().map(|(k, _)| k.as_str()).collect();
+                warn(
+                    names.join(" and "),
+                    &format!("one limit for both solves here (2 … 200): {kept} corrections per solve"),
+                );
+            }
+            kept
+        });
         const READ: [&str; 10] = [
             "particleRadius",
             "gravitation",
@@ -517,6 +546,7 @@ impl SceneFile {
             solver,
             max_error,
             max_error_v,
+            max_iterations,
             warnings,
         })
     }
@@ -556,6 +586,9 @@ impl SceneFile {
         }
         if let Some(e) = self.max_error_v {
             params.max_divergence_error = e;
+        }
+        if let Some(n) = self.max_iterations {
+            params.max_solver_iterations = n;
         }
     }
 }

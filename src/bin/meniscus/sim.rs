@@ -339,8 +339,9 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let med = meniscus::timing::median_times(&runs);
     if !runs.is_empty() && med.0.is_empty() {
         eprintln!(
-            "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time (DFSPH \
-             records every correction it may need; fewer [sim] max_solver_iterations or substeps fit)",
+            "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time (with \
+             MENISCUS_PARTS=1 DFSPH times every correction it may need; fewer [sim] max_solver_iterations or substeps \
+             fit)",
             meniscus::timing::MAX_SCOPES
         );
     } else if !runs.is_empty() {
