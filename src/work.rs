@@ -60,3 +60,17 @@ pub struct NoiseWork {
     /// NOISE_CHUNK, one work group each).
     pub longest: u64,
 }
+
+/// Each pass's own count of its work in one frame (`RendererState::work`): a pass that did not run (or, for
+/// `iso_volume`, did not rebuild the field) has none; nor has the splat in a rasterised variant.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct FrameWork {
+    /// The compute `splat`.
+    pub splat: Option<SplatWork>,
+    /// `iso`.
+    pub iso: Option<IsoWork>,
+    /// `iso_volume` (the smoothed field's rebuild).
+    pub iso_volume: Option<IsoVolumeWork>,
+    /// `noise`.
+    pub noise: Option<NoiseWork>,
+}

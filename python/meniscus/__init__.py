@@ -137,6 +137,14 @@ class Renderer:
         """The last frame's GPU time of each pass in milliseconds (the frame's order)."""
         return dict(self._r.timings())
 
+    def work(self) -> Dict[str, Optional[Dict[str, int]]]:
+        """Each pass's own count of its work in the last frame, as `meniscus bench` reports it: "splat" (tests:
+        sphere–pixel tests, spheres, tiles_skipped), "iso" (samples: field samples, queued, fallbacks),
+        "iso_volume" (deposits, atomics; only in a frame that rebuilt the smoothed field) and "noise" (level,
+        texels, sprites, evaluated, skipped, binned, longest); None for a pass that did not run. What a GPU's
+        cost follows, on any device."""
+        return dict(self._r.work())
+
     def host_timings(self) -> Dict[str, float]:
         """The last `render` of an array's host stages in milliseconds: "arrays" (read, camera framed),
         "upload" (particles set), the renderer's "prepare", "slot_wait", "stage", "record", "submit" (as `meniscus

@@ -289,6 +289,40 @@ impl Renderer {
         self.times.0.clone()
     }
 
+    /// Each pass's own count of its work in the last frame (`meniscus bench`'s "Work per pass"): per pass
+    /// ("splat", "iso", "iso_volume", "noise") a dict of its counters, or None where the pass did not run.
+    fn work<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let ran = |pass: &str| self.times.0.iter().any(|(n, _)| n == pass);
+        let w = self.core.state().work(&self.settings, ran).map_err(py_err)?;
+        let d = PyDict::new(py);
+        let counts = |pairs: &[(&str, u64)]| -> PyResult<Bound<'py, PyDict>> {
+            let e = PyDict::new(py);
+            for (k, v) in pairs {
+                e.set_item(*k, *v)?;
+            }
+            Ok(e)
+        };
+        let splat = w.splat.map(|s| counts(&[("tests", s.tests), ("spheres", s.spheres), ("tiles_skipped", s.tiles_skipped)]));
+        let iso = w.iso.map(|s| counts(&[("samples", s.samples), ("queued", s.queued), ("fallbacks", s.fallbacks)]));
+        let vol = w.iso_volume.map(|s| counts(&[("deposits", s.deposits), ("atomics", s.atomics)]));
+        let noise = w.noise.map(|s| {
+            counts(&[
+                ("level", s.level as u64),
+                ("texels", s.texels),
+                ("sprites", s.sprites),
+                ("evaluated", s.evaluated),
+                ("skipped", s.skipped),
+                ("binned", s.binned),
+                ("longest", s.longest),
+            ])
+        });
+        d.set_item("splat", splat.transpose()?)?;
+        d.set_item("iso", iso.transpose()?)?;
+        d.set_item("iso_volume", vol.transpose()?)?;
+        d.set_item("noise", noise.transpose()?)?;
+        Ok(d)
+    }
+
     /// The last `render` of an array's host stages, in milliseconds: the arrays read and the camera framed,
     /// the particles set, the renderer's own stages (as `meniscus bench` reports them), the wait for the GPU
     /// with the image's copy out of the frame's read-back buffer, and the NumPy array made of it.

@@ -43,6 +43,28 @@ def test_render_equals_the_cli_png(cli, frame, tmp_path, preset):
                        "to_numpy"] and all(v >= 0 for v in h.values())
 
 
+def test_work_counts_each_pass(frame):
+    r = meniscus.Renderer(160, 90)
+    pos = meniscus.load(frame)["positions"]
+    r.render(pos, particle_radius=0.025, camera=CAM)
+    w = r.work()
+    assert set(w) == {"splat", "iso", "iso_volume", "noise"}, w
+    assert w["splat"]["tests"] >= w["splat"]["spheres"] > 0, w
+    assert w["iso"]["samples"] > 0 and w["noise"]["evaluated"] > 0, w
+    # The first frame of a particle set builds the smoothed field: its deposits are counted.
+    assert w["iso_volume"]["deposits"] > 0 and w["iso_volume"]["atomics"] >= w["iso_volume"]["deposits"], w
+    # The same frame again: the same splat and cast (the field kept, or rebuilt the same).
+    r.render(pos, particle_radius=0.025, camera=CAM)
+    again = r.work()
+    assert again["splat"] == w["splat"] and again["iso"] == w["iso"], (again, w)
+    assert again["iso_volume"] in (None, w["iso_volume"]), again
+    # The fast preset draws spheres: no iso pass, no field.
+    fast = meniscus.Renderer(160, 90, preset="fast")
+    fast.render(pos, particle_radius=0.025, camera=CAM)
+    fw = fast.work()
+    assert fw["iso"] is None and fw["iso_volume"] is None and fw["splat"]["tests"] > 0, fw
+
+
 def test_render_buffers_and_a_view_matrix(frame):
     r = meniscus.Renderer(96, 64)
     pos = meniscus.load(frame)["positions"]

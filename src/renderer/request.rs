@@ -227,6 +227,31 @@ impl<'a> RendererState<'a> {
         self.targets
     }
 
+    /// Each pass's own count of its work in the latest frame that ran it (waits for the device): `ran(pass)`
+    /// says which passes the frames asked about ran (a pass's counters keep the last frame that ran it); the
+    /// splat counts only in its compute variant (`settings.splat.mode`). What `meniscus bench` reports as "Work
+    /// per pass" and Python's `Renderer.work()`.
+    pub fn work(&self, settings: &Settings, ran: impl Fn(&str) -> bool) -> Result<crate::work::FrameWork> {
+        use crate::settings::Surface;
+        let Some(t) = self.targets else { return Ok(crate::work::FrameWork::default()) };
+        let compute = settings.splat.mode == crate::named::SplatMode::Compute;
+        let splat = (ran(crate::passes::splat::NAME) && compute).then(|| t.splat_work(self.gpu)).transpose()?;
+        let iso = match (ran(crate::passes::iso::NAME), &t.iso_queue) {
+            (true, Some(q)) => Some(q.work(self.gpu)?),
+            _ => None,
+        };
+        let volume = self.surfaces.get(Surface::Iso).grid().and_then(|b| b.volume.as_ref());
+        let iso_volume = match (ran(crate::passes::iso::VOLUME_NAME), volume) {
+            (true, Some(v)) => Some(v.work(self.gpu)?),
+            _ => None,
+        };
+        let noise = match self.effects.get::<crate::effect::noise::NoiseEffect>() {
+            Some(n) if ran(crate::passes::noise::NAME) => n.work()?,
+            _ => None,
+        };
+        Ok(crate::work::FrameWork { splat, iso, iso_volume, noise })
+    }
+
     /// The image that holds the last frame's smoothed depth.
     pub fn smoothed_depth(&self) -> Option<&'a Image> {
         Some(self.targets?.smoothed(self.smoothed))

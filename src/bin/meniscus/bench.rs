@@ -14,7 +14,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::effect::noise::NoiseEffect;
 use meniscus::named::{Filter, SplatMode};
 use meniscus::scene::procedural;
 
@@ -350,20 +349,10 @@ impl Series {
     }
 
     fn finish(self, r: &Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
-        let t = r.state().targets().expect("rendered");
         let memory: Vec<Mem> =
             r.state().memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
         let ran = |pass: &str| self.per_pass.iter().any(|(n, _)| n == pass);
-        let iso_ran = ran("iso");
-        let splat_work = match ran("splat") && self.s.splat.mode == SplatMode::Compute {
-            true => Some(t.splat_work(&r.gpu)?),
-            false => None,
-        };
-        let iso = r.state().surfaces().get(meniscus::settings::Surface::Iso).grid();
-        let iso_volume_work = match (ran("iso_volume"), iso.and_then(|b| b.volume.as_ref())) {
-            (true, Some(v)) => Some(v.work(&r.gpu)?),
-            _ => None,
-        };
+        let work = r.state().work(&self.s, ran)?;
         Ok(Entry {
             scene: w.label.clone(),
             particles: w.particles.len(),
@@ -394,13 +383,10 @@ impl Series {
             pass_queues: self.pass_queues,
             rss_after_frames_bytes: rss_bytes(),
             gpu_memory: r.gpu.memory_report(),
-            noise_work: r.effects.get::<NoiseEffect>().map(|n| n.work()).transpose()?.flatten(),
-            iso_work: match iso_ran {
-                true => t.iso_queue.as_ref().map(|q| q.work(&r.gpu)).transpose()?,
-                false => None,
-            },
-            splat_work,
-            iso_volume_work,
+            noise_work: work.noise,
+            iso_work: work.iso,
+            splat_work: work.splat,
+            iso_volume_work: work.iso_volume,
             host_ms: HOST_STAGES
                 .iter()
                 .enumerate()
