@@ -8,7 +8,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::Result;
-use crate::gpu::{Buffer, Gpu, Image};
+use crate::gpu::{Gpu, Image};
 use crate::settings::{Settings, Surface};
 
 /// What the frame's images must be; two equal descriptions give the same images.
@@ -90,8 +90,8 @@ pub struct Targets {
     pub iso_queue: Option<crate::passes::iso::queue::IsoQueue>,
     /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
     pub depth_tiles: Image,
-    /// The compute splat's work counts (`crate::work::SplatWork`, 4 u32).
-    pub splat_work: Buffer,
+    /// The compute splat's work counts (`crate::work::SplatWork`).
+    pub splat_work: crate::work::Counters,
     /// D32 depth buffer of the depth-tested rasterised splat variants.
     pub zbuffer: Option<Image>,
     /// Full-resolution depth upsampled from the fluid resolution (`fluid_scale` < 1).
@@ -137,15 +137,7 @@ impl Targets {
                     .then(|| crate::passes::iso::queue::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
                     .transpose()?,
                 depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
-                splat_work: Buffer::new(
-                    gpu,
-                    "splat_work",
-                    16,
-                    vk::BufferUsageFlags::STORAGE_BUFFER
-                        | vk::BufferUsageFlags::TRANSFER_DST
-                        | vk::BufferUsageFlags::TRANSFER_SRC,
-                    gpu_allocator::MemoryLocation::GpuOnly,
-                )?,
+                splat_work: crate::work::Counters::new(gpu, "splat_work")?,
                 zbuffer: d
                     .zbuffer
                     .then(|| img("zbuffer", fluid, vk::Format::D32_SFLOAT, U::DEPTH_STENCIL_ATTACHMENT, None))
@@ -194,9 +186,8 @@ impl Targets {
 
     /// The compute splat's work in the last frame it drew (waits for the device: for `bench` and tests).
     pub fn splat_work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::SplatWork> {
-        let host = crate::gpu::transfer::read_back(gpu, &[(&self.splat_work, 0, 16)])?;
-        let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 4)?;
-        Ok(crate::work::SplatWork { tests: w[0] as u64, spheres: w[1] as u64, tiles_skipped: w[2] as u64 })
+        let [tests, spheres, tiles_skipped, _] = self.splat_work.read(gpu)?;
+        Ok(crate::work::SplatWork { tests, spheres, tiles_skipped })
     }
 
     /// (name, bytes) of every image (and the iso queue) that exists.

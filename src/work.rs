@@ -5,6 +5,44 @@
 //! reports them (JSON `noise_work`, `splat_work`, `iso_work`, `iso_volume_work`) beside every pass's compute
 //! invocations (the GPU timer's pipeline-statistics queries, `crate::gpu::timer`).
 
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::gpu::{Buffer, Gpu};
+
+/// A pass's counters on the device: [`Counters::WORDS`] u32 its shader adds to (the pass zeroes them when it is
+/// recorded, `FrameCtx::fill`), read back after the frame. Owned by the pass's resources (`Targets::splat_work`,
+/// the iso queue's, the smoothed field's).
+pub struct Counters {
+    /// The words (storage; zeroed and read back by transfers).
+    pub buffer: Buffer,
+}
+
+impl Counters {
+    /// Words a pass may count in.
+    pub const WORDS: usize = 4;
+
+    /// Zeroed-on-record counters named `name` (the GPU memory report's name).
+    pub fn new(gpu: &Arc<Gpu>, name: &str) -> Result<Counters> {
+        use ash::vk::BufferUsageFlags as U;
+        let usage = U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC;
+        let bytes = 4 * Self::WORDS as u64;
+        Ok(Counters { buffer: Buffer::new(gpu, name, bytes, usage, gpu_allocator::MemoryLocation::GpuOnly)? })
+    }
+
+    /// The words as the last frame that recorded the pass left them (waits for the device).
+    pub fn read(&self, gpu: &Arc<Gpu>) -> Result<[u64; Counters::WORDS]> {
+        let host = crate::gpu::transfer::read_back(gpu, &[(&self.buffer, 0, 4 * Self::WORDS as u64)])?;
+        Self::words(&host[0])
+    }
+
+    /// The words of a read-back copy of the counters.
+    pub fn words(host: &Buffer) -> Result<[u64; Counters::WORDS]> {
+        let w: Vec<u32> = crate::gpu::transfer::host_vec(host, Self::WORDS)?;
+        Ok(std::array::from_fn(|k| w[k] as u64))
+    }
+}
+
 /// The `iso` pass's work in one frame that its queue counts: the rays its first dispatch left unfinished
 /// (after `[iso] first_steps` samples) for the second to finish, and the coarse-to-fine cast's fallbacks
 /// (`passes::iso::queue::IsoQueue::work`). The second dispatch's cost follows the first count and how far those rays

@@ -1508,6 +1508,8 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
 #[test]
 fn the_splat_counts_its_sphere_pixel_tests() {
     let gpu = gpu();
+    // The GPU's counts of a scene's splat, and the CPU's: the pixels of every on-screen sphere's rectangle, and
+    // those spheres.
     let counted = |scene: &str, n: usize, (w, h): (u32, u32), closer: f32| {
         let (g, v) = splat_scene(scene, n, w, h, 0.0, closer);
         let mut s = settings(g.radius);
@@ -1516,38 +1518,27 @@ fn the_splat_counts_its_sphere_pixel_tests() {
         r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
         r.render(&v, &s).unwrap();
         let work = r.targets.as_ref().unwrap().splat_work(&gpu).unwrap();
-        (g, v, s, work)
+        let (view_m, f, radius) = (v.camera.view(), v.camera.focal_px(h), g.radius * s.splat_scale());
+        let (mut tests, mut spheres) = (0u64, 0u64);
+        for p in &g.particles.positions {
+            let c = view_m.transform_point3(glam::Vec3::from(*p)).to_array();
+            if let Some((lo, hi)) = sphere_bounds(c, radius, w as usize, h as usize, f, v.camera.near) {
+                tests += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
+                spheres += 1;
+            }
+        }
+        (work, tests, spheres)
     };
     // Far: no cull (spheres under half a tile).
-    let (g, v, s, work) = counted("drop", 3000, (96, 64), 1.0);
-    let view_m = v.camera.view();
-    let f = v.camera.focal_px(v.height);
-    let (mut tests, mut spheres) = (0u64, 0u64);
-    for p in &g.particles.positions {
-        let c = view_m.transform_point3(glam::Vec3::from(*p)).to_array();
-        let r = g.radius * s.splat_scale();
-        if let Some((lo, hi)) = sphere_bounds(c, r, 96, 64, f, v.camera.near) {
-            tests += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
-            spheres += 1;
-        }
-    }
+    let (work, tests, spheres) = counted("drop", 3000, (96, 64), 1.0);
     eprintln!("splat: {work:?}; the CPU's rectangles: {tests} tests, {spheres} spheres");
     assert!(spheres > 1000 && spheres <= 3000, "{spheres} spheres on screen");
     assert!(work.spheres.abs_diff(spheres) <= spheres / 200, "{work:?}: {spheres} spheres");
     assert!(work.tests.abs_diff(tests) <= tests / 200, "{work:?}: {tests} tests");
     assert_eq!(work.tiles_skipped, 0, "no cull at this size");
     // Close up: the occlusion cull skips the tiles where a sphere is hidden.
-    let (g, v, s, culled) = counted("block", 4000, (320, 240), 0.45);
+    let (culled, all, _) = counted("block", 4000, (320, 240), 0.45);
     assert!(culled.tiles_skipped > 1000, "{culled:?}");
-    let mut all = 0u64;
-    let view_m = v.camera.view();
-    let f = v.camera.focal_px(v.height);
-    for p in &g.particles.positions {
-        let c = view_m.transform_point3(glam::Vec3::from(*p)).to_array();
-        if let Some((lo, hi)) = sphere_bounds(c, g.radius * s.splat_scale(), 320, 240, f, v.camera.near) {
-            all += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
-        }
-    }
     eprintln!("culled splat: {culled:?}; {all} tests without the cull");
     assert!(culled.tests < all / 2, "the cull removes most tests: {culled:?} of {all}");
     assert_clean(&gpu);

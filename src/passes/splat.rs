@@ -225,7 +225,7 @@ impl Splat {
         count: u32,
         depth: &Image,
         back: Option<(&'a Image, &'a Image)>,
-        (tiles, work): (&Image, &Buffer),
+        (tiles, work): (&Image, &crate::work::Counters),
         (radius, radius_scale): (f32, f32),
         ellipsoids: Option<(&Buffer, f32)>,
         info: &FrameInfo,
@@ -255,7 +255,7 @@ impl Splat {
                 if let Some(BackBound::Pixel(i) | BackBound::Tile(i)) = bound {
                     self.clear.record(ctx, i, 0.0f32.to_bits());
                 }
-                ctx.fill(work, 0);
+                ctx.fill(&work.buffer, 0);
             });
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             if cull {
@@ -279,7 +279,7 @@ impl Splat {
                 back: matches!(bound, Some(BackBound::Pixel(_))) as u32,
             };
             let res =
-                [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into(), pixel_back.into(), work.into()];
+                [frame.into(), particles.into(), depth.into(), tiles.into(), kernels.into(), pixel_back.into(), (&work.buffer).into()];
             ctx.part("splat/spheres", |ctx| self.prog.dispatch(ctx, &res, &push, groups));
         });
         bound

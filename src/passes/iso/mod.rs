@@ -500,7 +500,7 @@ impl Iso {
                 ctx.fill(&v.table, 0);
                 ctx.fill(&v.header, 0);
                 ctx.fill(&v.acc, 0);
-                ctx.fill(&v.work, 0);
+                ctx.fill(&v.work.buffer, 0);
             });
             let push = v.vol_push(p, n);
             let mark = [frame.into(), (&b.weighted).into(), (&v.table).into()];
@@ -508,7 +508,7 @@ impl Iso {
             let table = [(v.shape.table_len() as u32).div_ceil(super::LOCAL_1D), 1, 1];
             let alloc = [frame.into(), (&v.table).into(), (&v.header).into(), (&v.coords).into()];
             ctx.part("iso_volume/alloc", |ctx| self.volume[1].dispatch(ctx, &alloc, &push, table));
-            let (weighted, counts, table, acc, work) = (&b.weighted, &b.counts, &v.table, &v.acc, &v.work);
+            let (weighted, counts, table, acc, work) = (&b.weighted, &b.counts, &v.table, &v.acc, &v.work.buffer);
             let dep = [frame.into(), weighted.into(), counts.into(), table.into(), acc.into(), work.into()];
             ctx.part("iso_volume/deposit", |ctx| self.volume[2].dispatch(ctx, &dep, &push, per_point));
             let apron = [frame.into(), (&v.table).into(), (&v.coords).into(), (&v.header).into(), (&v.acc).into()];
@@ -554,7 +554,7 @@ impl Iso {
         let back_img = back.unwrap_or(depth);
         ctx.pass(NAME, |ctx| {
             ctx.fill(&queue.header, 0);
-            ctx.fill(&queue.work, 0);
+            ctx.fill(&queue.work.buffer, 0);
             // Coarse-to-fine: one invocation per 2×2 block (iso_cast.glsl).
             let block = if push.fine[0] > 0.0 { 2 } else { 1 };
             let (w, h) = (depth.extent.width.div_ceil(block), depth.extent.height.div_ceil(block));
@@ -575,7 +575,7 @@ impl Iso {
                 (None, None) => (&self.cast, &self.rest),
             };
             // The work counts after the field's bindings (iso_cast.glsl's ISO_WORK_BINDING).
-            all.push((&queue.work).into());
+            all.push((&queue.work.buffer).into());
             // Round 0's queued rays by 8 or 32 lanes each where asked for and the device can (isotropic only).
             let lanes = if params.aniso.is_none() { ctx.gpu.info.shuffle_lanes(params.rest_lanes) } else { 1 };
             let field = usize::from(volume.is_some());

@@ -19,8 +19,8 @@ pub struct IsoQueue {
     /// (round 0: the first dispatch's unfinished rays; round 1: the fine dispatch's fallbacks), then round 0's
     /// indirect arguments with 8 and with 32 lanes per ray, {groups x, 1, 1} and a word of padding each.
     pub header: Buffer,
-    /// The cast's work counts, 4 u32: [0] field samples (iso_cast.glsl's `iso_work`), zeroed with the header.
-    pub work: Buffer,
+    /// The cast's work counts: [0] field samples (iso_cast.glsl's `iso_work`), zeroed with the header.
+    pub work: crate::work::Counters,
 }
 
 impl IsoQueue {
@@ -37,21 +37,17 @@ impl IsoQueue {
                 U::STORAGE_BUFFER | U::INDIRECT_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
                 MemoryLocation::GpuOnly,
             )?,
-            work: Buffer::new(
-                gpu,
-                "iso_work",
-                16,
-                U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
-                MemoryLocation::GpuOnly,
-            )?,
+            work: crate::work::Counters::new(gpu, "iso_work")?,
         })
     }
 
     /// The last frame's queued rays and field samples (waits for the device: for `bench` and tests, after a frame).
     pub fn work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::IsoWork> {
-        let host = crate::gpu::transfer::read_back(gpu, &[(&self.header, 0, 32), (&self.work, 0, 16)])?;
+        // The header and the counters in one read-back.
+        let counted = 4 * crate::work::Counters::WORDS as u64;
+        let host = crate::gpu::transfer::read_back(gpu, &[(&self.header, 0, 32), (&self.work.buffer, 0, counted)])?;
         let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 8)?;
-        let samples: Vec<u32> = crate::gpu::transfer::host_vec(&host[1], 4)?;
-        Ok(crate::work::IsoWork { queued: w[3] as u64, fallbacks: w[7] as u64, samples: samples[0] as u64 })
+        let [samples, ..] = crate::work::Counters::words(&host[1])?;
+        Ok(crate::work::IsoWork { queued: w[3] as u64, fallbacks: w[7] as u64, samples })
     }
 }

@@ -24,8 +24,8 @@ pub struct IsoVolume {
     /// Two fixed-point sums per stored voxel of the pool (10³ per brick: its 8³ and an apron), (B, B c̄): the
     /// field the cast reads (RG32UI texels).
     pub acc: Buffer,
-    /// The deposit's work counts, 4 u32: [0] point–voxel deposits ([`IsoVolume::work`]).
-    pub work: Buffer,
+    /// The deposit's work counts: [0] point–voxel deposits ([`IsoVolume::work`]).
+    pub work: crate::work::Counters,
     /// Whether the deposit takes one 64-bit atomic per deposit (else two 32-bit ones).
     pub deposit64: bool,
 }
@@ -57,16 +57,14 @@ impl IsoVolume {
             header: Buffer::texels(gpu, "iso_volume_header", 16, usage, vk::Format::R32_UINT)?,
             coords: Buffer::texels(gpu, "iso_volume_coords", 4 * capacity.max(1) as u64, usage, vk::Format::R32_UINT)?,
             acc: Buffer::texels(gpu, "iso_volume_acc", 8 * voxels, usage, vk::Format::R32G32_UINT)?,
-            work: Buffer::new(gpu, "iso_volume_work", 16, usage, gpu_allocator::MemoryLocation::GpuOnly)?,
+            work: crate::work::Counters::new(gpu, "iso_volume_work")?,
             deposit64: gpu.info.int64_atomics,
         })
     }
 
     /// The last build's deposit (waits for the device: for `bench` and tests, after a frame that built it).
     pub fn work(&self, gpu: &Arc<Gpu>) -> Result<crate::work::IsoVolumeWork> {
-        let host = crate::gpu::transfer::read_back(gpu, &[(&self.work, 0, 16)])?;
-        let w: Vec<u32> = crate::gpu::transfer::host_vec(&host[0], 4)?;
-        let deposits = w[0] as u64;
+        let [deposits, ..] = self.work.read(gpu)?;
         Ok(crate::work::IsoVolumeWork { deposits, atomics: if self.deposit64 { deposits } else { 2 * deposits } })
     }
 
