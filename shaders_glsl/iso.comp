@@ -10,6 +10,9 @@
 //! Out: the queue of rays unfinished after pc.steps.w samples (bindings 5, 6), which iso_rest.comp finishes; the
 //! field samples every dispatch took (binding 7: iso_cast.glsl's iso_work, bench's `iso_work.samples`).
 //! The march is in iso_cast.glsl; iso_aniso.comp is the same march over the anisotropic kernels' field.
+// The work counters' subgroup sums (work_count.glsl).
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #include "common.glsl"
 #define ISO_CELL_EMPTY
 #include "iso_field.glsl"

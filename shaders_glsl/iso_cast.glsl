@@ -87,7 +87,8 @@ void enqueue(uint round, ivec2 p, float d, float prev, float phi_prev) {
 #define ISO_WORK_BINDING (ISO_CAST_BINDING + 4)
 #endif
 layout(std430, set = 0, binding = ISO_WORK_BINDING) buffer IsoWork { uint iso_work[4]; };
-/// This invocation's field samples so far (added to iso_work[0] once, when it returns).
+#include "work_count.glsl"
+/// This invocation's field samples so far (added to iso_work[0] once per subgroup, when it returns).
 uint g_samples = 0u;
 
 /// φ at x (iso_field.glsl's iso_sum), counted.
@@ -395,6 +396,5 @@ void cast_main() {
 
 void main() {
     cast_main();
-    // One atomic per invocation that sampled (none for a pixel without fluid).
-    if (g_samples > 0u) atomicAdd(iso_work[0], g_samples);
+    WORK_ADD(iso_work[0], g_samples);
 }

@@ -6,6 +6,9 @@
 //! trusted. Isotropic kernels only.
 //! In/out: depth (the bound spheres' depth at this pixel, the surface at its marched neighbours; the surface
 //! out). In: back, the grid.
+// The work counters' subgroup sums (work_count.glsl).
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #include "common.glsl"
 #define ISO_CELL_EMPTY
 #include "iso_field.glsl"

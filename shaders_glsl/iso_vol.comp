@@ -10,6 +10,9 @@
 //! In: the weighted points (binding 1), cells (2), back (4), the lattice's table (7) and sums (8, RG32UI).
 //! In/out: depth (3). Out: the queue (5, 6). Variants: REST (the queued rays, a lane each), REST_WIDE8,
 //! REST_WIDE8_MANY and REST_WIDE32 (8 or 32 lanes each, `[iso] rest_lanes`).
+// The work counters' subgroup sums (work_count.glsl).
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #if defined(ISO_REST_WIDE8) || defined(ISO_REST_WIDE8_MANY) || defined(ISO_REST_WIDE32)
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_shuffle : require

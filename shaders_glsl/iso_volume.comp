@@ -1,4 +1,7 @@
 #version 460
+// The work counters' subgroup sums (work_count.glsl).
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #if defined(ISO_VOLUME_DEPOSIT64)
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_EXT_shader_atomic_int64 : require
@@ -68,6 +71,7 @@ layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
 // The deposit's work (bench's `iso_volume_work`): [0] voxel deposits (point–voxel pairs; one 64-bit atomic
 // each, or two 32-bit ones), zeroed by the host.
 layout(std430, set = 0, binding = 5) buffer VolWork { uint vol_work[4]; };
+#include "work_count.glsl"
 #define ISO_TABLE(i) texelFetch(table_t, int(i)).x
 #endif
 #include "iso_volume.glsl"
@@ -154,6 +158,6 @@ void main() {
             }
         }
     }
-    if (deposits > 0u) atomicAdd(vol_work[0], deposits);
+    WORK_ADD(vol_work[0], deposits);
 }
 #endif

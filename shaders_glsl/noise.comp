@@ -15,6 +15,9 @@
 //! In: particles (vec4 xyz + w, then one motion vec4 per particle after the `count` positions: x = id bits,
 //! y = |Δv|/Δt), the fluid depth (full resolution). Out: the accumulator atlas (r32ui, cleared to 0); the work
 //! counts.
+// The work counters' subgroup sums (work_count.glsl).
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #include "common.glsl"
 #include "sphere.glsl"
 #include "noise.glsl"
@@ -40,15 +43,22 @@ layout(push_constant) uniform Push {
 } pc;
 #include "noise_splat.glsl"
 
+#include "work_count.glsl"
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
     ivec2 size = imageSize(depth);
     Sprite s;
-    if (!noise_sprite_of(i, size, s)) return;
-    uint evaluated = noise_splat_alone(s, size);
-    atomicMax(work[0], uint(s.L));
-    atomicAdd(work[1], uint(s.hi.x - s.lo.x + 1) * uint(s.hi.y - s.lo.y + 1));
-    atomicAdd(work[2], 1u);
-    atomicAdd(work[3], evaluated);
+    uint level = 0u, texels = 0u, drawn = 0u, evaluated = 0u;
+    if (noise_sprite_of(i, size, s)) {
+        evaluated = noise_splat_alone(s, size);
+        level = uint(s.L);
+        texels = uint(s.hi.x - s.lo.x + 1) * uint(s.hi.y - s.lo.y + 1);
+        drawn = 1u;
+    }
+    WORK_MAX(work[0], level);
+    WORK_ADD(work[1], texels);
+    WORK_ADD(work[2], drawn);
+    WORK_ADD(work[3], evaluated);
 }
