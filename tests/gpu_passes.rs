@@ -2357,6 +2357,44 @@ fn a_frame_keeps_nothing_of_the_frame_before() {
     assert_clean(&gpu);
 }
 
+/// A sequence's frames move the fluid's box: the iso surface keeps its grid's buffers (made with room to spare)
+/// while they hold the new frame's grid, so the frame neither reallocates them nor waits for the GPU first; the
+/// particles are sorted into the new shape, and the depth equals a new renderer's bit for bit.
+#[test]
+fn the_iso_grid_is_kept_when_the_box_moves() {
+    let gpu = gpu();
+    let r = 0.1f32;
+    let v = view([0.4, 2.2, 2.6], [0.0, 0.0, 0.0], 96, 64, 40.0);
+    let mut s = settings(r);
+    s.surface = meniscus::settings::Surface::Iso;
+    let a = meniscus::scene::Particles { positions: noise_slab(10, r), ..Default::default() };
+    // B: a smaller slab, moved (its grid has fewer cells, at another origin).
+    let b_pos: Vec<[f32; 3]> = noise_slab(8, r).iter().map(|p| [p[0] + 0.3, p[1] - 0.1, p[2] + 0.2]).collect();
+    let b = meniscus::scene::Particles { positions: b_pos, ..Default::default() };
+    let grid = |rr: &Renderer| {
+        let g = rr.state().surfaces().get(meniscus::settings::Surface::Iso).grid().expect("the iso grid");
+        let g = g.gpu.as_ref().expect("built on the GPU");
+        (g.order.raw, g.shape.origin_cell.map(f32::to_bits), g.shape.dims)
+    };
+    let frame = |rr: &mut Renderer| {
+        rr.upload(meniscus::renderer::Upload::scene(&b, &s)).unwrap();
+        rr.render(&v, &s).unwrap();
+        read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap()
+    };
+    let mut used = Renderer::new(&gpu).unwrap();
+    used.upload(meniscus::renderer::Upload::scene(&a, &s)).unwrap();
+    used.render(&v, &s).unwrap();
+    let before = grid(&used);
+    let depth = frame(&mut used);
+    let after = grid(&used);
+    assert!(after.0 == before.0, "the grid's buffers were reallocated");
+    assert!(after.1 != before.1 && after.2 != before.2, "the grid kept the first box's shape");
+    let depth0 = frame(&mut Renderer::new(&gpu).unwrap());
+    assert!(depth0.iter().filter(|d| d.is_finite()).count() > 500, "too little to test");
+    assert!(depth == depth0, "the depth differs from a new renderer's");
+    assert_clean(&gpu);
+}
+
 /// The `diffuse` pass against its CPU reference (`passes::diffuse::reference`): foam riding a slab's surface,
 /// spray above it (some moving: streaks), bubbles under it (attenuated by the water above them), and one fluid
 /// particle marked isolated (the patent's low-density particle, drawn the same way). The accumulators equal the

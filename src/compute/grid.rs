@@ -122,20 +122,28 @@ pub struct GridBuffers {
     pub run_start: Buffer,
     /// Per scan block of runs: its total, then its offset.
     pub sums: Buffer,
-    /// The grid.
+    /// The grid (any shape of at most `cell_capacity` cells: [`GridBuffers::holds`]).
     pub shape: GridShape,
     /// Most points.
     pub capacity: u32,
+    /// Most cells.
+    pub cell_capacity: u32,
 }
 
 impl GridBuffers {
     /// Buffers for up to `capacity` points in `shape`.
     pub fn new(gpu: &Arc<Gpu>, shape: GridShape, capacity: u32) -> Result<GridBuffers> {
+        Self::with_room(gpu, shape, shape.cells(), capacity)
+    }
+
+    /// Buffers for up to `capacity` points in `shape` or any other shape of at most `cell_capacity` cells.
+    pub fn with_room(gpu: &Arc<Gpu>, shape: GridShape, cell_capacity: u32, capacity: u32) -> Result<GridBuffers> {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
         let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
-        let cells = shape.cells() as u64;
+        let cell_capacity = cell_capacity.max(shape.cells());
+        let cells = cell_capacity as u64;
         let runs = cells.div_ceil(GRID_RUN as u64);
         Ok(GridBuffers {
             counts: Buffer::texels(gpu, "grid_counts", (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
@@ -149,7 +157,13 @@ impl GridBuffers {
             sums: buf("grid_sums", 4 * runs.div_ceil(SCAN_BLOCK as u64))?,
             shape,
             capacity,
+            cell_capacity,
         })
+    }
+
+    /// Whether these buffers hold `n` points sorted into `shape` (set `shape` to it before recording).
+    pub fn holds(&self, shape: &GridShape, n: u32) -> bool {
+        shape.cells() <= self.cell_capacity && n <= self.capacity
     }
 }
 

@@ -111,9 +111,13 @@ impl IsoResources {
             };
             let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
             if let Some(b) = &mut self.buffers {
-                let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64);
-                if fits && b.gpu.as_ref().is_some_and(|g| g.shape == shape && g.capacity >= n) {
-                    if stale {
+                let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64) && b.cells.size >= 8 * shape.cells() as u64;
+                // A sequence's box moves every frame: the buffers are kept while they hold the new grid (they are
+                // made with room to spare), so a new frame neither reallocates them nor waits for the GPU first.
+                if let Some(g) = b.gpu.as_mut().filter(|g| fits && g.holds(&shape, n)) {
+                    let moved = g.shape != shape;
+                    g.shape = shape;
+                    if stale || moved {
                         b.rebuild.set(true);
                         b.mark_stale();
                         self.built_for = Some(particles.generation());
@@ -128,20 +132,23 @@ impl IsoResources {
             p.executor.wait_idle()?;
             // The smoothed field's buffers outlive the grid's (ensure_volume reuses them if they fit).
             let volume = self.buffers.take().and_then(|b| b.volume);
-            let cap = n.max(1);
+            // A quarter more points and cells than this frame's: the next frames of a sequence fit.
+            let room = |x: u32| x.saturating_add(x / 4);
+            let cap = room(n.max(1));
+            let cell_room = room(shape.cells());
             // TRANSFER_SRC: the tests read the grid and kernels back.
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
             let buf = |name: &str, bytes: u64, format| Buffer::texels(gpu, name, bytes.max(16), usage, format);
             self.buffers = Some(IsoBuffers {
                 points: buf("iso_points", cap as u64 * 16, IsoBuffers::POINTS)?,
-                cells: buf("iso_cells", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
-                cells_empty: buf("iso_cells_empty", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
-                empty_scratch: buf("iso_empty_scratch", shape.cells() as u64 * 8, IsoBuffers::CELLS)?,
+                cells: buf("iso_cells", cell_room as u64 * 8, IsoBuffers::CELLS)?,
+                cells_empty: buf("iso_cells_empty", cell_room as u64 * 8, IsoBuffers::CELLS)?,
+                empty_scratch: buf("iso_empty_scratch", cell_room as u64 * 8, IsoBuffers::CELLS)?,
                 weighted: buf("iso_weighted", cap as u64 * 16, IsoBuffers::WEIGHTED)?,
                 aniso: buf("iso_aniso", aniso_bytes(cap as u64), IsoBuffers::ANISO)?,
                 counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
                 shape: push,
-                gpu: Some(crate::compute::grid::GridBuffers::new(gpu, shape, cap)?),
+                gpu: Some(crate::compute::grid::GridBuffers::with_room(gpu, shape, cell_room, cap)?),
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),
