@@ -243,10 +243,52 @@ fn bench_also_presets_interleaves_every_preset() {
             assert!(!has(e, once), "{once} of a static frame runs once, in warm-up");
         }
         assert!(e["iso_volume_work"].is_null(), "no measured frame rebuilt the field");
+        assert!(e["cpu_frame_in_flight"].is_null(), "frames in flight only with --in-flight");
     }
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("Work per pass") && out.contains("sphere–pixel tests"), "{out}");
     assert!(out.contains("quality") && out.contains("÷ default"), "{out}");
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
+}
+
+/// `bench --in-flight` renders as many frames again with the renderer's frames in flight, a new frame of a
+/// sequence uploaded while the GPU works on the one before (validation and synchronisation validation on), and
+/// reports their wall time per frame beside the CPU frame, for every preset of the run. No timing is asserted.
+#[test]
+fn bench_in_flight_reports_the_overlapped_frame_time() {
+    let d = tmpdir("bench-in-flight-frames");
+    // Three frames of different particle counts: each frame's box and grid differ.
+    for k in 0..3 {
+        let g = meniscus::scene::procedural::generate("wave", 2000 + 300 * k).unwrap();
+        meniscus::scene::write_particles(&d.join(format!("f_{k}.bgeo")), &g.particles).unwrap();
+    }
+    let pattern = d.join("f_{}.bgeo");
+    let (o, v) = bench_json(
+        "bench-in-flight",
+        &[
+            "--scenes",
+            pattern.to_str().unwrap(),
+            "--sequence-frames",
+            "0..2",
+            "--resolutions",
+            "64x48",
+            "--warmup",
+            "1",
+            "--frames",
+            "3",
+            "--also-presets",
+            "fast",
+            "--in-flight",
+        ],
+    );
+    let entries = v["entries"].as_array().unwrap();
+    assert_eq!(entries.len(), 2);
+    for e in entries {
+        let ms = e["cpu_frame_in_flight"].as_f64().unwrap_or(0.0);
+        assert!(ms > 0.0, "{}: {}", e["variant"], e["cpu_frame_in_flight"]);
+    }
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("CPU frame, frames in flight"), "{out}");
     assert!(!String::from_utf8_lossy(&o.stderr).contains("[vulkan"));
 }
 

@@ -88,6 +88,9 @@ pub struct Entry {
     pub passes: Vec<(String, Stat)>,
     pub gpu_total: Stat,
     pub cpu_frame: Stat,
+    /// With `--in-flight`: wall ms per frame over as many frames again with the renderer's frames in flight
+    /// (the host's work overlapping the GPU's, as a sequence or a live view runs); absent without.
+    pub cpu_frame_in_flight: Option<f64>,
     pub memory: Vec<Mem>,
     pub memory_images_bytes: u64,
     /// The fluid's own screen-sized images (all but the background's colour/depth and the 8-bit output).
@@ -176,49 +179,61 @@ pub fn start_rss() -> Option<u64> {
     START_RSS.get().copied().flatten()
 }
 
+/// How many frames a measurement renders: warm-up, measured, and whether it then renders as many again with
+/// the renderer's frames in flight (`--in-flight`).
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    pub warmup: u32,
+    pub frames: u32,
+    pub in_flight: bool,
+}
+
 /// Run one workload at one size with settings `s`.
-#[allow(clippy::too_many_arguments)]
 pub fn measure(
     r: &mut Renderer,
     w: &Workload,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     s: &Settings,
     variant: &str,
-    warmup: u32,
-    frames: u32,
+    plan: Plan,
 ) -> Result<Entry> {
     let mut series = Series::new(r, w, width, height, s, variant)?;
-    for k in 0..warmup + frames.max(1) {
-        series.frame(r, w, k < warmup, k + 1 == warmup)?;
+    for k in 0..plan.warmup + plan.frames.max(1) {
+        series.frame(r, w, k < plan.warmup, k + 1 == plan.warmup)?;
     }
-    series.finish(r, w, warmup, frames)
+    if plan.in_flight {
+        series.in_flight_ms = Some(series.in_flight(r, w, plan.frames)?);
+    }
+    series.finish(r, w, plan.warmup, plan.frames)
 }
 
 /// Run several settings on one workload at one size with frames interleaved (frame k of every variant, then
 /// frame k + 1), each variant on its own renderer, so they see the same host: on a shared 2-core machine the
 /// speed drifts ±20 % within seconds, and variants measured one after another gave frame ratios from 1.1 to
 /// 1.5 for the same build. Entries in the order of `variants`.
-#[allow(clippy::too_many_arguments)]
+/// With `--in-flight` each variant's frames in flight follow, one variant after another.
 pub fn measure_interleaved(
     rs: &mut [Renderer],
     w: &Workload,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     variants: &[(String, Settings)],
-    warmup: u32,
-    frames: u32,
+    plan: Plan,
 ) -> Result<Vec<Entry>> {
     let mut series = vec![];
     for (r, (label, s)) in rs.iter_mut().zip(variants) {
         series.push(Series::new(r, w, width, height, s, label)?);
     }
-    for k in 0..warmup + frames.max(1) {
+    for k in 0..plan.warmup + plan.frames.max(1) {
         for (r, x) in rs.iter_mut().zip(&mut series) {
-            x.frame(r, w, k < warmup, k + 1 == warmup)?;
+            x.frame(r, w, k < plan.warmup, k + 1 == plan.warmup)?;
         }
     }
-    rs.iter_mut().zip(series).map(|(r, x)| x.finish(r, w, warmup, frames)).collect()
+    if plan.in_flight {
+        for (r, x) in rs.iter_mut().zip(&mut series) {
+            x.in_flight_ms = Some(x.in_flight(r, w, plan.frames)?);
+        }
+    }
+    rs.iter_mut().zip(series).map(|(r, x)| x.finish(r, w, plan.warmup, plan.frames)).collect()
 }
 
 /// One variant's measured frames: set up once (camera, particles), then one [`Series::frame`] per frame.
@@ -240,6 +255,8 @@ struct Series {
     rss_after_warmup: Option<u64>,
     /// Frames rendered (the next sequence frame to upload).
     rendered: usize,
+    /// Wall ms per frame with the renderer's frames in flight ([`Series::in_flight`]).
+    in_flight_ms: Option<f64>,
 }
 
 impl Series {
@@ -271,12 +288,12 @@ impl Series {
             invocations: vec![],
             rss_after_warmup: rss_bytes(),
             rendered: 0,
+            in_flight_ms: None,
         })
     }
 
-    /// Render one frame; a warm-up frame is not recorded (`last_warmup`: note the memory after it).
-    fn frame(&mut self, r: &mut Renderer, w: &Workload, warmup: bool, last_warmup: bool) -> Result<()> {
-        let t_upload = Instant::now();
+    /// A sequence's next frame of particles (and its diffuse particles) uploaded; a still scene keeps its own.
+    fn next_particles(&mut self, r: &mut Renderer, w: &Workload) -> Result<()> {
         if !w.sequence.is_empty() {
             // The upload is recorded into the frame (its copy is on the GPU clock, not in a pass).
             let k = self.rendered % w.sequence.len();
@@ -286,6 +303,36 @@ impl Series {
             }
         }
         self.rendered += 1;
+        Ok(())
+    }
+
+    /// `frames` more frames with the renderer's frames in flight, as `render` runs a sequence: the next frame's
+    /// particles are uploaded and its commands recorded and submitted while the GPU works on the one before.
+    /// Returns the wall ms per frame — what a sequence or a live view sustains: the slower of the host and the
+    /// GPU once they overlap (the CPU frame of one frame at a time is their sum).
+    fn in_flight(&mut self, r: &mut Renderer, w: &Workload, frames: u32) -> Result<f64> {
+        let slots = r.slots().count().max(1);
+        let mut pending = std::collections::VecDeque::new();
+        let t0 = Instant::now();
+        for _ in 0..frames.max(1) {
+            self.next_particles(r, w)?;
+            pending.push_back(r.submit(FrameRequest::new(&self.view, &self.s))?);
+            if pending.len() >= slots {
+                if let Some(sub) = pending.pop_front() {
+                    r.finish(sub)?;
+                }
+            }
+        }
+        for sub in pending {
+            r.finish(sub)?;
+        }
+        Ok(t0.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64)
+    }
+
+    /// Render one frame; a warm-up frame is not recorded (`last_warmup`: note the memory after it).
+    fn frame(&mut self, r: &mut Renderer, w: &Workload, warmup: bool, last_warmup: bool) -> Result<()> {
+        let t_upload = Instant::now();
+        self.next_particles(r, w)?;
         let upload_ms = t_upload.elapsed().as_secs_f64() * 1e3;
         let t0 = Instant::now();
         let sub = r.submit(FrameRequest::new(&self.view, &self.s))?;
@@ -367,6 +414,7 @@ impl Series {
             passes: self.per_pass.into_iter().map(|(n, v)| (n, Stat::of(&v))).collect(),
             gpu_total: Stat::of(&self.totals),
             cpu_frame: Stat::of(&self.cpu),
+            cpu_frame_in_flight: self.in_flight_ms,
             memory_images_bytes: memory.iter().map(|m| m.bytes).sum(),
             memory_fluid_images_bytes: memory
                 .iter()
@@ -435,22 +483,31 @@ pub fn markdown(entries: &[Entry]) -> String {
             e.memory_fluid_images_bytes as f64 / 1e6
         ));
     }
-    // The host's stages beside the GPU's time (medians, ms).
+    // The host's stages beside the GPU's time (medians, ms); with --in-flight the frame time once they overlap.
+    let overlap = entries.iter().any(|e| e.cpu_frame_in_flight.is_some());
     s.push_str(&format!(
-        "\nHost stages per frame (ms, medians):\n\n| scene | resolution | variant | {} | CPU frame | GPU total |\n|---|---|---|{}---:|---:|\n",
+        "\nHost stages per frame (ms, medians):\n\n| scene | resolution | variant | {} | CPU frame |{} GPU total |\n|---|---|---|{}---:|{}---:|\n",
         HOST_STAGES.join(" | "),
-        "---:|".repeat(HOST_STAGES.len())
+        if overlap { " CPU frame, frames in flight |" } else { "" },
+        "---:|".repeat(HOST_STAGES.len()),
+        if overlap { "---:|" } else { "" }
     ));
     for e in entries {
         let stages: Vec<String> = e.host_ms.iter().map(|(_, st)| format!("{:.3}", st.median)).collect();
+        let flight = match (overlap, e.cpu_frame_in_flight) {
+            (false, _) => String::new(),
+            (true, Some(ms)) => format!(" {ms:.3} |"),
+            (true, None) => " – |".to_string(),
+        };
         s.push_str(&format!(
-            "| {} | {}×{} | {} | {} | {:.3} | {:.3} |\n",
+            "| {} | {}×{} | {} | {} | {:.3} |{} {:.3} |\n",
             e.scene,
             e.width,
             e.height,
             e.variant,
             stages.join(" | "),
             e.cpu_frame.median,
+            flight,
             e.gpu_total.median
         ));
     }
@@ -584,6 +641,12 @@ pub struct BenchArgs {
     /// Measured frames.
     #[arg(long, default_value_t = 10)]
     frames: u32,
+    /// Then render as many frames again with the renderer's frames in flight (the next frame's upload and
+    /// recording overlap the GPU's work on the one before, as `render` runs a sequence) and report their wall
+    /// time per frame beside the CPU frame (JSON `cpu_frame_in_flight`): what a sequence or a live view
+    /// sustains, the slower of the host and the GPU.
+    #[arg(long = "in-flight")]
+    in_flight: bool,
     /// Particle radius for file workloads (default: estimated from the spacing).
     #[arg(long, allow_negative_numbers = true)]
     radius: Option<f32>,
@@ -665,6 +728,13 @@ pub struct BenchArgs {
     load: LoadArgs,
     #[command(flatten)]
     gpu: GpuArgs,
+}
+
+impl BenchArgs {
+    /// The frames each measurement renders.
+    fn plan(&self) -> Plan {
+        Plan { warmup: self.warmup, frames: self.frames, in_flight: self.in_flight }
+    }
 }
 
 /// A workload from its command-line name.
@@ -908,7 +978,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                         s.ssr.max_steps = steps;
                     });
                     let label = format!("ssr stride {stride}, refine {refine}, steps {steps}");
-                    entries.push(measure(&mut r, &w, wd, ht, &vs, &label, a.warmup, a.frames)?);
+                    entries.push(measure(&mut r, &w, (wd, ht), &vs, &label, a.plan())?);
                 }
                 bar.inc(1);
                 continue;
@@ -930,7 +1000,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 rs.insert(0, r);
                 let mut vs = vec![(a.preset.clone(), base.clone())];
                 vs.extend(also.iter().cloned());
-                let measured = measure_interleaved(&mut rs, &w, wd, ht, &vs, a.warmup, a.frames);
+                let measured = measure_interleaved(&mut rs, &w, (wd, ht), &vs, a.plan());
                 r = rs.remove(0);
                 also_renderers = rs;
                 entries.extend(measured?);
@@ -942,12 +1012,12 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                     } else {
                         a.preset.clone()
                     };
-                    entries.push(measure(&mut r, &w, wd, ht, &base, &label, a.warmup, a.frames)?);
+                    entries.push(measure(&mut r, &w, (wd, ht), &base, &label, a.plan())?);
                 }
                 r.async_compute = a.async_mode == "on";
                 for (label, vs) in &also {
                     bar.set_message(format!("{} {}×{} preset {label}", w.label, wd, ht));
-                    entries.push(measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+                    entries.push(measure(&mut r, &w, (wd, ht), vs, label, a.plan())?);
                 }
             }
             bar.inc(1);
@@ -973,7 +1043,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 }
                 for (label, vs) in &variants {
                     bar.set_message(format!("variant {label}"));
-                    entries.push(measure(&mut r, &w, wd, ht, vs, label, a.warmup, a.frames)?);
+                    entries.push(measure(&mut r, &w, (wd, ht), vs, label, a.plan())?);
                     bar.inc(1);
                 }
             }
@@ -1117,7 +1187,7 @@ fn run_sweep(
                 sequence: vec![],
                 diffuse: vec![],
             };
-            let e = measure(r, &w, res.0, res.1, base, "sweep particles", a.warmup, a.frames)?;
+            let e = measure(r, &w, res, base, "sweep particles", a.plan())?;
             pts.push((e.particles as f64, chart_point(&e)));
             entries.push(e);
             bar.inc(1);
@@ -1138,7 +1208,7 @@ fn run_sweep(
         let mut pts = vec![];
         for &(wd, ht) in &sizes {
             bar.set_message(format!("{wd}×{ht}"));
-            let e = measure(r, &w, wd, ht, base, "sweep pixels", a.warmup, a.frames)?;
+            let e = measure(r, &w, (wd, ht), base, "sweep pixels", a.plan())?;
             pts.push(((wd * ht) as f64, chart_point(&e)));
             entries.push(e);
             bar.inc(1);
