@@ -2124,14 +2124,19 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
         let work = own.work().unwrap();
         let noise = read_f32(&gpu, &own.noise).unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
-        runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap()));
+        let normals = read_u32(&gpu, &rr.targets.as_ref().unwrap().normals).unwrap();
+        runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap(), normals));
     }
     assert!(runs[0].3 == runs[1].3, "the two splats' accumulators differ");
+    // The tiled path's apply resolves N itself (noise_apply's RESOLVE variant), the other's noise_resolve does:
+    // the same N, coarse levels included, and the same normals, bit for bit.
+    assert!(runs[0].1 == runs[1].1, "N resolved inside the apply differs from noise_resolve's");
+    assert!(runs[0].4 == runs[1].4, "the normals differ between the two applies");
     let (a, b) = (runs[0].0, runs[1].0);
     assert_eq!((a.level, a.texels, a.sprites, a.evaluated), (b.level, b.texels, b.sprites, b.evaluated));
     assert!(a.binned > 0 && a.skipped == 0, "the close-up's large sprites go to the tiles: {a:?}");
     eprintln!("tiled splat: {} list entries, the longest list {} sprites", a.binned, a.longest);
-    let (work, noise, depth, _) = runs.pop().unwrap();
+    let (work, noise, depth, ..) = runs.pop().unwrap();
     let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
     let want = reference::accumulate(&particles, &depth, w, h, f, r, v.camera.near, &s.noise);

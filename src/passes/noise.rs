@@ -3,7 +3,8 @@
 //! scaled by how fast its velocity changes, into a noise image N; N's partial derivatives are added to the
 //! normals (small waves) and its magnitude tints the surface toward grey-white whitecaps in `composite`. Runs on every
 //! surface (after `normals`, before `ssr`, so reflections see the waves); `[noise] enabled = false` leaves it
-//! out. Shaders: shaders_glsl/noise.comp (the splat), shaders_glsl/noise_apply.comp (the normals), with
+//! out. Shaders: shaders_glsl/noise.comp (the splat; noise_bin, noise_scan, noise_fill and noise_gather on GPUs),
+//! shaders_glsl/noise_resolve.comp (N), shaders_glsl/noise_apply.comp (the normals; on GPUs resolving N itself), with
 //! shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
 use std::sync::Arc;
 
@@ -193,6 +194,17 @@ declare_program!(pub GATHER: SpritePush = compute(shaders::NOISE_GATHER, [Unifor
 declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
 // Apply: frame, noise, fluid depth, normals (in place).
 declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite]));
+// Apply resolving N itself (the tiled splat's: GPUs): frame, accumulator atlas, fluid depth → noise, normals (in
+// place); the splat's coarsest level (work).
+declare_program!(pub APPLY_RESOLVE: ApplyPush = compute(shaders::NOISE_APPLY_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, ImgWrite, BufRead]));
+
+/// How N reaches the normals.
+enum Apply {
+    /// noise_resolve writes the noise image, noise_apply reads it (CPU drivers: two light dispatches).
+    Resolved { resolve: ComputeProgram<()>, apply: ComputeProgram<ApplyPush> },
+    /// noise_apply resolves N itself where it needs it and writes the noise image (GPUs: one dispatch fewer).
+    Resolving(ComputeProgram<ApplyPush>),
+}
 
 /// How the sprites reach the accumulator.
 enum Splat {
@@ -214,8 +226,7 @@ struct TiledSplat {
 pub struct Noise {
     splat: Splat,
     small: u32,
-    resolve: ComputeProgram<()>,
-    apply: ComputeProgram<ApplyPush>,
+    apply: Apply,
     /// The atlas's clear, each frame.
     clear: Clear,
 }
@@ -372,8 +383,16 @@ impl Noise {
             splat,
             small,
             clear: Clear::new(gpu)?,
-            resolve: ComputeProgram::new(gpu, &RESOLVE)?,
-            apply: ComputeProgram::new(gpu, &APPLY)?,
+            // The tiled splat is the GPUs': there the apply resolves N itself (on lavapipe that variant cost
+            // twice the two dispatches: its branches run masked).
+            apply: if tiled {
+                Apply::Resolving(ComputeProgram::new(gpu, &APPLY_RESOLVE)?)
+            } else {
+                Apply::Resolved {
+                    resolve: ComputeProgram::new(gpu, &RESOLVE)?,
+                    apply: ComputeProgram::new(gpu, &APPLY)?,
+                }
+            },
         })
     }
 
@@ -460,10 +479,27 @@ impl Noise {
                 (Splat::Tiled(_), None) => {}
             }
             let g = groups_2d(own.noise.extent.width, own.noise.extent.height, super::LOCAL_2D);
-            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
-            ctx.part("noise/resolve", |ctx| self.resolve.dispatch(ctx, &res, &(), g));
-            let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
-            ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &ApplyPush { strength: p.strength, edge }, g));
+            let push = ApplyPush { strength: p.strength, edge };
+            match &self.apply {
+                Apply::Resolved { resolve, apply } => {
+                    let res =
+                        [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
+                    ctx.part("noise/resolve", |ctx| resolve.dispatch(ctx, &res, &(), g));
+                    let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
+                    ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
+                }
+                Apply::Resolving(apply) => {
+                    let res = [
+                        frame.into(),
+                        (&own.accum).into(),
+                        i.depth.into(),
+                        (&own.noise).into(),
+                        i.normals.into(),
+                        (&own.work).into(),
+                    ];
+                    ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
+                }
+            }
         });
     }
 }
