@@ -6,8 +6,13 @@
 //! no work group walks more than one chunk however many sprites pile up on one tile).
 //! It also writes the indirect dispatches that follow: noise_fill, one thread per binned sprite, and
 //! noise_gather, one work group per chunk — none when no sprite was binned (every sprite was small).
+//! The runs' sums are scanned within each subgroup (subgroupExclusiveAdd) and the subgroups' totals by one
+//! thread: two barriers, where a Hillis–Steele scan of the 1024 runs took twenty (0.029 ms of the H100's 1080p
+//! frame for 11 k tiles).
 //! In/out: tiles ([0, n) counts → [n, 2n) starts, [2n, 3n) cursors, [3n, 4n) first chunks). In: work[6]
 //! (sprites binned). Out: args.
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 layout(local_size_x = 1024) in;
 layout(std430, set = 0, binding = 0) buffer Tiles { uint tiles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Work { uint work[8]; };
@@ -26,7 +31,8 @@ layout(push_constant) uniform Push {
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
 } pc;
 
-shared uvec2 s_sum[1024];
+// Per subgroup: its runs' total, then the sum of the subgroups before it (subgroups of 4 lanes or more).
+shared uvec2 s_part[256];
 
 void main() {
     uint t = gl_LocalInvocationID.x;
@@ -44,17 +50,21 @@ void main() {
     // (sprites, chunks) of the run.
     uvec2 sum = uvec2(0u);
     for (uint k = a; k < b; ++k) sum += uvec2(tiles[k], (tiles[k] + NOISE_CHUNK - 1u) / NOISE_CHUNK);
-    s_sum[t] = sum;
+    uvec2 before = subgroupExclusiveAdd(sum);
+    if (gl_SubgroupInvocationID == gl_SubgroupSize - 1u) s_part[gl_SubgroupID] = before + sum;
     barrier();
-    for (uint off = 1u; off < 1024u; off <<= 1) {
-        uvec2 add = t >= off ? s_sum[t - off] : uvec2(0u);
-        barrier();
-        s_sum[t] += add;
-        barrier();
+    if (t == 0u) {
+        uvec2 total = uvec2(0u);
+        for (uint g = 0u; g < gl_NumSubgroups; ++g) {
+            uvec2 v = s_part[g];
+            s_part[g] = total;
+            total += v;
+        }
+        // The gather's work groups: every chunk of every tile.
+        args[3] = binned > 0u ? total.y : 0u;
     }
-    uvec2 start = s_sum[t] - sum;
-    // The gather's work groups: every chunk of every tile.
-    if (t == 1023u) args[3] = binned > 0u ? s_sum[t].y : 0u;
+    barrier();
+    uvec2 start = s_part[gl_SubgroupID] + before;
     for (uint k = a; k < b; ++k) {
         uint c = tiles[k];
         tiles[n + k] = start.x;
