@@ -5,6 +5,8 @@
 
 /// 8×8 work groups for image passes.
 pub const LOCAL_2D: u32 = 8;
+/// Texels of a row each invocation of the compute clear (shaders_glsl/clear.comp) writes.
+pub const CLEAR_SPAN: u32 = 4;
 /// 64-thread work groups for per-particle passes.
 pub const LOCAL_1D: u32 = 64;
 /// Work-group edge of the tiled curvature-flow shader (filter_curvature.comp).
@@ -121,6 +123,7 @@ const _: () = assert!(ISO_VOLUME_BRICK == 8);
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
+    ("CLEAR_SPAN", CLEAR_SPAN),
     ("LOCAL_1D", LOCAL_1D),
     ("NOISE_LEVELS", NOISE_LEVELS),
     ("COMPOSITE_LAYERS", COMPOSITE_LAYERS),

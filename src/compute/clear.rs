@@ -11,7 +11,7 @@ use ash::vk;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, ComputeProgram, FrameCtx, Gpu, Image};
-use crate::shader_constants::LOCAL_2D;
+use crate::shader_constants::{CLEAR_SPAN, LOCAL_2D};
 use crate::shaders;
 
 /// Push constant of clear.comp: the value's 32 bits.
@@ -48,7 +48,7 @@ impl Clear {
                 return;
             }
         };
-        let g = groups_2d(img.extent.width, img.extent.height, LOCAL_2D);
+        let g = groups_2d(img.extent.width.div_ceil(CLEAR_SPAN), img.extent.height, LOCAL_2D);
         prog.dispatch(ctx, &[img.into()], &ClearPush { bits }, g);
     }
 }
