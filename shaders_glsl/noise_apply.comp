@@ -7,25 +7,24 @@
 //! else 0, as in `normals`.
 //! In: noise (r32ui holding f32 bits, N in radii: noise_resolve.comp), fluid depth (full resolution), normals (r32ui octahedral).
 //! Out: normals (perturbed in place).
-//! NOISE_APPLY_RESOLVE (GPUs): no noise_resolve dispatch before it — each work group resolves N from the
-//! accumulator atlas (noise_resolve.glsl) over its pixels and a one-pixel border into shared memory, writes
-//! its pixels' N to the noise image and takes the derivatives from there. In: the atlas, depth, the splat's
-//! work counts; out: noise, normals. On lavapipe a variant resolving each neighbour again cost twice the two
-//! dispatches it replaces (3.2 → 6.3 ms, the wave at 480×270), and llvmpipe's barriers are slow: the CPU
-//! driver keeps noise_resolve.comp.
+//! NOISE_APPLY_RESOLVE (GPUs): after noise_resolve's COARSE variant, which writes N only when the splat wrote a
+//! level coarser than 0. Where it did not (most frames), N is level 0's sum at the pixel: this variant reads it
+//! from the accumulator atlas for its pixel and the neighbours its derivatives need and writes its pixel's N
+//! (one full-screen dispatch fewer); else it reads N as the plain variant does. In: the atlas, depth, the
+//! splat's work counts, the noise image; out: noise, normals. Tried and not kept: resolving the coarse levels
+//! here as well — each neighbour again (the worst case's `noise` 0.365 against 0.251 ms on the H100) or once per
+//! work group and border into shared memory (its `noise/apply` 0.088 against 0.068 for the two dispatches); on
+//! lavapipe the first cost twice the two dispatches (3.2 → 6.3 ms, the wave at 480×270): the CPU driver keeps
+//! the plain pair.
 #include "common.glsl"
-#ifdef NOISE_APPLY_RESOLVE
-#include "noise.glsl"
-#endif
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 #ifdef NOISE_APPLY_RESOLVE
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
-layout(set = 0, binding = 3, r32ui) uniform writeonly uimage2D noise; // f32 bits: a composite layer
+layout(set = 0, binding = 3, r32ui) uniform uimage2D noise; // f32 bits: written here at level 0, else read
 layout(set = 0, binding = 4, r32ui) uniform uimage2D normals;
 // The splat's work counts: [0] the coarsest level it wrote.
 layout(std430, set = 0, binding = 5) readonly buffer Work { uint work[4]; };
-#include "noise_resolve.glsl"
 #else
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D noise; // f32 bits
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
@@ -39,15 +38,9 @@ layout(push_constant) uniform Push {
 ivec2 g_size;
 
 #ifdef NOISE_APPLY_RESOLVE
-// N over the work group's pixels and a one-pixel border (0 off the image and where there is no fluid), each
-// resolved once: the derivatives read the neighbours' from here (resolving them again cost the worst case,
-// whose coarse levels each take four taps, 0.365 against 0.251 ms for the two dispatches on the H100).
-const int TILE = int(LOCAL_2D) + 2;
-shared float s_n[TILE * TILE];
-ivec2 g_origin;
+bool g_level0;
 float height(ivec2 q) {
-    ivec2 t = q - g_origin;
-    return s_n[t.x + TILE * t.y];
+    return g_level0 ? float(int(imageLoad(accum, q).x)) * (1.0 / 65536.0) : uintBitsToFloat(imageLoad(noise, q).x);
 }
 #else
 float height(ivec2 q) { return uintBitsToFloat(imageLoad(noise, q).x); }
@@ -72,19 +65,15 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     g_size = imageSize(noise);
 #ifdef NOISE_APPLY_RESOLVE
-    g_origin = ivec2(gl_WorkGroupID.xy) * int(LOCAL_2D) - 1;
-    int levels = int(min(work[0], uint(NOISE_LEVELS)));
-    for (uint k = gl_LocalInvocationIndex; k < uint(TILE * TILE); k += LOCAL_2D * LOCAL_2D) {
-        ivec2 q = g_origin + ivec2(int(k) % TILE, int(k) / TILE);
-        bool inside = all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, g_size));
-        s_n[k] = inside && is_fluid(imageLoad(depth, q).x) ? noise_resolve(q, g_size, levels) : 0.0;
-    }
-    barrier();
     if (any(greaterThanEqual(p, g_size))) return;
+    g_level0 = work[0] == 0u;
     float d = imageLoad(depth, p).x;
-    float n0 = height(p);
-    imageStore(noise, p, uvec4(floatBitsToUint(n0)));
+    if (g_level0) {
+        float n = is_fluid(d) ? height(p) : 0.0;
+        imageStore(noise, p, uvec4(floatBitsToUint(n)));
+    }
     if (!is_fluid(d)) return;
+    float n0 = height(p);
 #else
     if (any(greaterThanEqual(p, g_size))) return;
     float d = imageLoad(depth, p).x;

@@ -2226,8 +2226,12 @@ fn noise_matches_cpu_reference() {
         })
         .unwrap();
     other.render(&v, &s).unwrap();
-    let atlas2 = words(&other.effects.get::<NoiseEffect>().unwrap().images().unwrap().accum);
+    let own2 = other.effects.get::<NoiseEffect>().unwrap().images().unwrap();
+    let atlas2 = words(&own2.accum);
     assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
+    // Level 0 alone: the tiled path's apply writes N from the sums itself (no resolve); the same N and normals.
+    assert!(read_f32(&gpu, &own2.noise).unwrap() == noise, "the other path's N differs");
+    assert!(words(&other.targets.as_ref().unwrap().normals) == normals, "the other path's normals differ");
     let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
     let want = reference::accumulate(&particles, &depth, w, h, f, r, v.camera.near, &s.noise);

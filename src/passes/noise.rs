@@ -194,16 +194,20 @@ declare_program!(pub GATHER: SpritePush = compute(shaders::NOISE_GATHER, [Unifor
 declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
 // Apply: frame, noise, fluid depth, normals (in place).
 declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite]));
-// Apply resolving N itself (the tiled splat's: GPUs): frame, accumulator atlas, fluid depth → noise, normals (in
-// place); the splat's coarsest level (work).
-declare_program!(pub APPLY_RESOLVE: ApplyPush = compute(shaders::NOISE_APPLY_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, ImgWrite, BufRead]));
+// The tiled splat's (GPUs'): resolve only where coarse levels were written; apply reading level 0's sums itself
+// and writing N then, else reading N: frame, accumulator atlas, fluid depth, noise, normals (in place); work.
+declare_program!(pub RESOLVE_COARSE: () = compute(shaders::NOISE_RESOLVE_COARSE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
+declare_program!(pub APPLY_RESOLVE: ApplyPush = compute(shaders::NOISE_APPLY_RESOLVE, [Uniform, ImgRead, ImgRead, ImgWrite, ImgWrite, BufRead]));
 
-/// How N reaches the normals.
-enum Apply {
-    /// noise_resolve writes the noise image, noise_apply reads it (CPU drivers: two light dispatches).
-    Resolved { resolve: ComputeProgram<()>, apply: ComputeProgram<ApplyPush> },
-    /// noise_apply resolves N itself where it needs it and writes the noise image (GPUs: one dispatch fewer).
-    Resolving(ComputeProgram<ApplyPush>),
+/// How N reaches the normals: noise_resolve writes the noise image, noise_apply reads it (CPU drivers: two
+/// light dispatches); or, with the tiled splat (GPUs), noise_resolve runs only when the splat wrote a coarser
+/// level than 0 and otherwise noise_apply reads level 0's sums itself and writes N (one full-screen dispatch
+/// fewer on most frames; both give the same N and normals bit for bit).
+struct Apply {
+    resolve: ComputeProgram<()>,
+    apply: ComputeProgram<ApplyPush>,
+    /// noise_apply's RESOLVE variant (the tiled splat's).
+    resolving: bool,
 }
 
 /// How the sprites reach the accumulator.
@@ -383,15 +387,10 @@ impl Noise {
             splat,
             small,
             clear: Clear::new(gpu)?,
-            // The tiled splat is the GPUs': there the apply resolves N itself (on lavapipe that variant cost
-            // twice the two dispatches: its branches run masked).
-            apply: if tiled {
-                Apply::Resolving(ComputeProgram::new(gpu, &APPLY_RESOLVE)?)
-            } else {
-                Apply::Resolved {
-                    resolve: ComputeProgram::new(gpu, &RESOLVE)?,
-                    apply: ComputeProgram::new(gpu, &APPLY)?,
-                }
+            apply: Apply {
+                resolve: ComputeProgram::new(gpu, if tiled { &RESOLVE_COARSE } else { &RESOLVE })?,
+                apply: ComputeProgram::new(gpu, if tiled { &APPLY_RESOLVE } else { &APPLY })?,
+                resolving: tiled,
             },
         })
     }
@@ -480,25 +479,22 @@ impl Noise {
             }
             let g = groups_2d(own.noise.extent.width, own.noise.extent.height, super::LOCAL_2D);
             let push = ApplyPush { strength: p.strength, edge };
-            match &self.apply {
-                Apply::Resolved { resolve, apply } => {
-                    let res =
-                        [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
-                    ctx.part("noise/resolve", |ctx| resolve.dispatch(ctx, &res, &(), g));
-                    let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
-                    ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
-                }
-                Apply::Resolving(apply) => {
-                    let res = [
-                        frame.into(),
-                        (&own.accum).into(),
-                        i.depth.into(),
-                        (&own.noise).into(),
-                        i.normals.into(),
-                        (&own.work).into(),
-                    ];
-                    ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
-                }
+            let Apply { resolve, apply, resolving } = &self.apply;
+            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
+            ctx.part("noise/resolve", |ctx| resolve.dispatch(ctx, &res, &(), g));
+            if *resolving {
+                let res = [
+                    frame.into(),
+                    (&own.accum).into(),
+                    i.depth.into(),
+                    (&own.noise).into(),
+                    i.normals.into(),
+                    (&own.work).into(),
+                ];
+                ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
+            } else {
+                let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
+                ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
             }
         });
     }
