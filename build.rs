@@ -61,9 +61,8 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
         "iso_rest.comp",
         &[("", ""), ("WIDE8", "ISO_REST_WIDE8"), ("WIDE8_MANY", "ISO_REST_WIDE8_MANY"), ("WIDE32", "ISO_REST_WIDE32")],
     ),
-    // The noise's N and normals: noise_resolve always, then noise_apply from the noise image (CPU drivers); on
-    // GPUs noise_resolve only when coarse levels were written (COARSE) and noise_apply resolving level 0 itself.
-    ("noise_resolve.comp", &[("", ""), ("COARSE", "NOISE_RESOLVE_COARSE")]),
+    // The noise's normals: from the noise image noise_resolve wrote (CPU drivers), or on GPUs also from level
+    // 0's sums when the splat wrote no coarser level (noise_resolve is then not dispatched).
     ("noise_apply.comp", &[("", ""), ("RESOLVE", "NOISE_APPLY_RESOLVE")]),
     // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
     ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),

@@ -40,6 +40,7 @@ layout(push_constant) uniform Push {
     uint tiles;      // tiles of every level (the tiled splat)
     uint small;      // sprites of at most this many texels are not binned (noise_bin)
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
+    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
 } pc;
 #include "noise_splat.glsl"
 

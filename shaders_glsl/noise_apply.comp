@@ -7,8 +7,8 @@
 //! else 0, as in `normals`.
 //! In: noise (r32ui holding f32 bits, N in radii: noise_resolve.comp), fluid depth (full resolution), normals (r32ui octahedral).
 //! Out: normals (perturbed in place).
-//! NOISE_APPLY_RESOLVE (GPUs): after noise_resolve's COARSE variant, which writes N only when the splat wrote a
-//! level coarser than 0. Where it did not (most frames), N is level 0's sum at the pixel: this variant reads it
+//! NOISE_APPLY_RESOLVE (GPUs): after noise_resolve, dispatched indirectly only when the splat wrote a level
+//! coarser than 0. Where it did not (most frames), N is level 0's sum at the pixel: this variant reads it
 //! from the accumulator atlas for its pixel and the neighbours its derivatives need and writes its pixel's N
 //! (one full-screen dispatch fewer); else it reads N as the plain variant does. In: the atlas, depth, the
 //! splat's work counts, the noise image; out: noise, normals. Tried and not kept: resolving the coarse levels

@@ -37,6 +37,7 @@ layout(push_constant) uniform Push {
     uint tiles;      // n: tiles of every level
     uint small;      // sprites of at most this many texels are splatted here, not binned
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
+    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
 } pc;
 #include "noise_splat.glsl"
 

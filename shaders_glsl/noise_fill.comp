@@ -24,6 +24,7 @@ layout(push_constant) uniform Push {
     uint tiles;      // n: tiles of every level
     uint small;
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
+    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
 } pc;
 
 void main() {

@@ -30,6 +30,7 @@ layout(push_constant) uniform Push {
     uint tiles;      // n
     uint small;      // sprites of at most this many texels are not binned (noise_bin)
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
+    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
 } pc;
 #define NOISE_TERM_ONLY
 #include "noise_splat.glsl"

@@ -1,8 +1,8 @@
 #version 460
 //! noise_resolve — the noise image N (radii of height) from the `noise` pass's accumulator atlas
 //! (noise_resolve.glsl: level 0's sum plus the coarser levels' interpolated), 0 where there is no fluid.
-//! NOISE_RESOLVE_COARSE (GPUs): only when the splat wrote a coarser level than 0; else its work groups return at
-//! once and noise_apply (NOISE_APPLY_RESOLVE) writes N from level 0's sums itself.
+//! With the tiled splat (GPUs) it is dispatched indirectly, with no work groups when the splat wrote level 0
+//! alone (noise_scan writes the count): noise_apply (NOISE_APPLY_RESOLVE) then writes N from the sums itself.
 //! NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is noise.comp's.
 //! In: accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest level).
 //! Out: noise (r32ui holding f32 bits: the composite reads it as a layer, `crate::effect::Blend::Tint`).
@@ -21,10 +21,6 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(noise);
     int levels = int(min(work[0], uint(NOISE_LEVELS)));
-#ifdef NOISE_RESOLVE_COARSE
-    // Level 0 alone: noise_apply (NOISE_APPLY_RESOLVE) reads the sums itself and writes N.
-    if (levels == 0) return;
-#endif
     if (any(greaterThanEqual(p, size))) return;
     float n = is_fluid(imageLoad(depth, p).x) ? noise_resolve(p, size, levels) : 0.0;
     imageStore(noise, p, uvec4(floatBitsToUint(n)));

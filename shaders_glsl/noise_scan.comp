@@ -5,7 +5,10 @@
 //! The same scan numbers the tiles' chunks (NOISE_CHUNK sprites of a list each: noise_gather's work groups, so
 //! no work group walks more than one chunk however many sprites pile up on one tile).
 //! It also writes the indirect dispatches that follow: noise_fill, one thread per binned sprite, and
-//! noise_gather, one work group per chunk — none when no sprite was binned (every sprite was small).
+//! noise_gather, one work group per chunk — none when no sprite was binned (every sprite was small); and
+//! noise_resolve's, none when the splat wrote level 0 alone (work[0], the coarsest level, is final after
+//! noise_bin, which splats the small sprites; the gather writes the binned ones at their own levels, which bin
+//! counted too).
 //! The runs' sums are scanned within each subgroup (subgroupExclusiveAdd) and the subgroups' totals by one
 //! thread: two barriers, where a Hillis–Steele scan of the 1024 runs took twenty (0.029 ms of the H100's 1080p
 //! frame for 11 k tiles).
@@ -16,8 +19,9 @@
 layout(local_size_x = 1024) in;
 layout(std430, set = 0, binding = 0) buffer Tiles { uint tiles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Work { uint work[8]; };
-// Two dispatches' work group counts: [0, 3) noise_fill, [3, 6) noise_gather.
-layout(std430, set = 0, binding = 2) writeonly buffer Args { uint args[8]; };
+// Three dispatches' work group counts: [0, 3) noise_fill, [3, 6) noise_gather, [8, 11) noise_resolve (none
+// when the splat wrote level 0 alone: noise_apply then reads the sums itself).
+layout(std430, set = 0, binding = 2) writeonly buffer Args { uint args[12]; };
 layout(push_constant) uniform Push {
     uint count;
     float size;
@@ -29,6 +33,7 @@ layout(push_constant) uniform Push {
     uint tiles;      // n
     uint small;      // sprites of at most this many texels are not binned (noise_bin)
     float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
+    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
 } pc;
 
 // Per subgroup: its runs' total, then the sum of the subgroups before it (subgroups of 4 lanes or more).
@@ -44,6 +49,9 @@ void main() {
         args[2] = 1u;
         args[4] = 1u;
         args[5] = 1u;
+        args[8] = work[0] > 0u ? pc.resolve.x : 0u;
+        args[9] = pc.resolve.y;
+        args[10] = 1u;
     }
     uint run = (n + 1023u) / 1024u;
     uint a = min(t * run, n), b = min(a + run, n);
