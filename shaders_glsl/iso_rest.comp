@@ -8,7 +8,6 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #if defined(ISO_REST_WIDE8) || defined(ISO_REST_WIDE8_MANY) || defined(ISO_REST_WIDE32)
-#extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_shuffle : require
 #endif
 #include "common.glsl"

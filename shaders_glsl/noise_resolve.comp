@@ -1,6 +1,9 @@
 #version 460
-//! noise_resolve — the noise image N (radii of height) from the `noise` pass's accumulator atlas
-//! (noise_resolve.glsl: level 0's sum plus the coarser levels' interpolated), 0 where there is no fluid.
+//! noise_resolve — the noise image N (radii of height) from the `noise` pass's accumulator atlas: level 0's
+//! fixed-point sum at the pixel plus every coarser level's sum interpolated bilinearly at the pixel (texel i of
+//! level L sits at full-resolution position (i + ½)·2^L − ½). A coarse texel whose depth pixel showed no fluid
+//! was never written: it is left out of the interpolation and the weights of the others renormalised, so a
+//! close-up sprite's noise reaches the silhouette instead of fading towards it. 0 where there is no fluid.
 //! With the tiled splat (GPUs) it is dispatched indirectly, with no work groups when the splat wrote level 0
 //! alone (noise_scan writes the count): noise_apply (NOISE_APPLY_RESOLVE) then writes N from the sums itself.
 //! NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is noise.comp's.
@@ -15,13 +18,34 @@ layout(set = 0, binding = 3, r32ui) uniform writeonly uimage2D noise; // f32 bit
 // noise.comp's work counts: [0] the coarsest level it wrote.
 layout(std430, set = 0, binding = 4) readonly buffer Work { uint work[4]; };
 
-#include "noise_resolve.glsl"
-
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(noise);
-    int levels = int(min(work[0], uint(NOISE_LEVELS)));
     if (any(greaterThanEqual(p, size))) return;
-    float n = is_fluid(imageLoad(depth, p).x) ? noise_resolve(p, size, levels) : 0.0;
-    imageStore(noise, p, uvec4(floatBitsToUint(n)));
+    if (!is_fluid(imageLoad(depth, p).x)) {
+        imageStore(noise, p, uvec4(floatBitsToUint(0.0)));
+        return;
+    }
+    float n = float(int(imageLoad(accum, p).x));
+    int levels = int(min(work[0], uint(NOISE_LEVELS)));
+    for (int L = 1; L <= levels; ++L) {
+        ivec2 lsize = noise_level_size(size, L);
+        ivec2 base = noise_level_base(size, L);
+        vec2 t = (vec2(p) + 0.5) / float(1 << L) - 0.5;
+        ivec2 i0 = ivec2(floor(t));
+        vec2 f = t - vec2(i0);
+        float sum = 0.0, wsum = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            ivec2 o = ivec2(k & 1, k >> 1);
+            ivec2 q = clamp(i0 + o, ivec2(0), lsize - 1);
+            float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y);
+            ivec2 pick = min(q * (1 << L) + (1 << (L - 1)), size - 1);
+            if (w > 0.0 && is_fluid(imageLoad(depth, pick).x)) {
+                sum += w * float(int(imageLoad(accum, base + q).x));
+                wsum += w;
+            }
+        }
+        if (wsum > 0.0) n += sum / wsum;
+    }
+    imageStore(noise, p, uvec4(floatBitsToUint(n * (1.0 / 65536.0))));
 }

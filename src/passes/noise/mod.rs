@@ -202,19 +202,6 @@ declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, 
 // normals (in place); work.
 declare_program!(pub APPLY_RESOLVE: ApplyPush = compute(shaders::NOISE_APPLY_RESOLVE, [Uniform, ImgRead, ImgRead, ImgWrite, ImgWrite, BufRead]));
 
-/// How N reaches the normals: noise_resolve writes the noise image, noise_apply reads it (CPU drivers: two
-/// light dispatches); or, with the tiled splat (GPUs), noise_resolve is dispatched indirectly, with work groups
-/// only when the splat wrote a coarser level than 0 (noise_scan writes the count), and otherwise noise_apply
-/// reads level 0's sums itself and writes N (one full-screen dispatch fewer on most frames: an early return in
-/// each of its 32 k work groups at 1080p cost the H100 what resolving did, 0.023 ms). Both give the same N and
-/// normals bit for bit.
-struct Apply {
-    resolve: ComputeProgram<()>,
-    apply: ComputeProgram<ApplyPush>,
-    /// noise_apply's RESOLVE variant (the tiled splat's).
-    resolving: bool,
-}
-
 /// How the sprites reach the accumulator.
 enum Splat {
     /// One thread per sprite, atomics (noise.comp).
@@ -235,7 +222,14 @@ struct TiledSplat {
 pub struct Noise {
     splat: Splat,
     small: u32,
-    apply: Apply,
+    resolve: ComputeProgram<()>,
+    /// How N reaches the normals: noise_resolve writes the noise image, noise_apply reads it (the per-sprite
+    /// splat's, CPU drivers: two light dispatches); or, with the tiled splat (GPUs), noise_resolve is dispatched
+    /// indirectly, with work groups only when the splat wrote a coarser level than 0 (noise_scan writes the
+    /// count), and otherwise noise_apply (its RESOLVE variant) reads level 0's sums itself and writes N (one
+    /// full-screen dispatch fewer on most frames: an early return in each of its 32 k work groups at 1080p cost
+    /// the H100 what resolving did, 0.023 ms). Both give the same N and normals bit for bit.
+    apply: ComputeProgram<ApplyPush>,
     /// The atlas's clear, each frame.
     clear: Clear,
 }
@@ -392,11 +386,8 @@ impl Noise {
             splat,
             small,
             clear: Clear::new(gpu)?,
-            apply: Apply {
-                resolve: ComputeProgram::new(gpu, &RESOLVE)?,
-                apply: ComputeProgram::new(gpu, if tiled { &APPLY_RESOLVE } else { &APPLY })?,
-                resolving: tiled,
-            },
+            resolve: ComputeProgram::new(gpu, &RESOLVE)?,
+            apply: ComputeProgram::new(gpu, if tiled { &APPLY_RESOLVE } else { &APPLY })?,
         })
     }
 
@@ -440,7 +431,8 @@ impl Noise {
                 resolve: [g[0], g[1]],
             };
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
-            match (&self.splat, own.bins.as_ref().filter(|b| b.particles >= count)) {
+            let bins = own.bins.as_ref().filter(|b| b.particles >= count);
+            match (&self.splat, bins) {
                 (Splat::Tiled(t), Some(b)) => {
                     let TiledSplat { bin, fill, scan, gather } = &**t;
                     ctx.fill(&b.tiles, 0);
@@ -485,18 +477,17 @@ impl Noise {
                 (Splat::Tiled(_), None) => {}
             }
             let push = ApplyPush { strength: p.strength, edge };
-            let Apply { resolve, apply, resolving } = &self.apply;
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
-            match (resolving, own.bins.as_ref().filter(|b| b.particles >= count)) {
-                (false, _) => ctx.part("noise/resolve", |ctx| resolve.dispatch(ctx, &res, &(), g)),
+            match (&self.splat, bins) {
+                (Splat::Alone(_), _) => ctx.part("noise/resolve", |ctx| self.resolve.dispatch(ctx, &res, &(), g)),
                 // As noise_scan counted it: no work groups at level 0 alone.
-                (true, Some(b)) => {
-                    ctx.part("noise/resolve", |ctx| resolve.dispatch_indirect(ctx, &res, &(), &b.args, 32))
+                (Splat::Tiled(_), Some(b)) => {
+                    ctx.part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &b.args, 32))
                 }
                 // No splat this frame (bins too small): the sums are 0, at level 0.
-                (true, None) => {}
+                (Splat::Tiled(_), None) => {}
             }
-            if *resolving {
+            if self.is_tiled() {
                 let res = [
                     frame.into(),
                     (&own.accum).into(),
@@ -505,10 +496,10 @@ impl Noise {
                     i.normals.into(),
                     (&own.work).into(),
                 ];
-                ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
+                ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
             } else {
                 let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
-                ctx.part("noise/apply", |ctx| apply.dispatch(ctx, &res, &push, g));
+                ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
             }
         });
     }

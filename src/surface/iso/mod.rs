@@ -111,7 +111,7 @@ impl IsoResources {
             };
             let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
             if let Some(b) = &mut self.buffers {
-                let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64) && b.cells.size >= 8 * shape.cells() as u64;
+                let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64);
                 // A sequence's box moves every frame: the buffers are kept while they hold the new grid (they are
                 // made with room to spare), so a new frame neither reallocates them nor waits for the GPU first.
                 if let Some(g) = b.gpu.as_mut().filter(|g| fits && g.holds(&shape, n)) {
