@@ -62,18 +62,90 @@ impl IsoGrid {
         IsoGrid { grid: UniformGrid::new(positions, reach.max(support)), support, empty: Default::default() }
     }
 
-    /// 1 / n_j for every sorted point (the GPU's `iso` pass computes the same on the device).
+    /// 1 / n_j for every sorted point (the GPU's `iso` pass computes the same on the device). A point's terms are
+    /// the points of the 3×3×3 cells around it, in the walk's order ([`UniformGrid::for_each_near`]); those
+    /// beyond the support (a hair wider, so that no rounding drops a term) add exactly zero and are skipped —
+    /// the same sum, bit for bit. The points of one cell share their candidates: the 27 cells are gathered once
+    /// per cell into a dense list (rows of cells in parallel), not walked once per point — a quarter of the time
+    /// on the 59k dam break.
     pub fn inv_density(&self) -> Vec<f32> {
         use rayon::prelude::*;
-        self.points
-            .par_iter()
-            .map(|p| {
-                let x = Vec3::new(p[0], p[1], p[2]);
-                let mut s = 0.0;
-                self.for_each_near(x, |_, y| s += kernel(x.distance(y) / self.support));
-                1.0 / s
-            })
-            .collect()
+        let reach = self.support * 1.0001;
+        let reach2 = reach * reach;
+        let [nx, ny, nz] = self.dims.map(|d| d as i32);
+        let cell = |x: i32, y: i32, z: i32| self.cells[(x + nx * (y + ny * z)) as usize];
+        // Rows of cells (y, z) hold consecutive sorted points: split the output along them.
+        let mut rows: Vec<(i32, i32, &mut [f32])> = Vec::with_capacity((ny * nz) as usize);
+        let mut inv = vec![0f32; self.points.len()];
+        let mut rest = inv.as_mut_slice();
+        for z in 0..nz {
+            for y in 0..ny {
+                let n: u32 = (0..nx).map(|x| cell(x, y, z)[1]).sum();
+                let (row, tail) = std::mem::take(&mut rest).split_at_mut(n as usize);
+                rest = tail;
+                if n > 0 {
+                    rows.push((y, z, row));
+                }
+            }
+        }
+        rows.into_par_iter().for_each_init(
+            || (Vec::<Vec3>::new(), Vec::<f32>::new()),
+            |(near, kept), (y, z, out)| {
+                let mut at = 0;
+                for x in 0..nx {
+                    let [first, count] = cell(x, y, z);
+                    if count == 0 {
+                        continue;
+                    }
+                    near.clear();
+                    for dz in -1..=1 {
+                        for dy in -1..=1 {
+                            for dx in -1..=1 {
+                                let (qx, qy, qz) = (x + dx, y + dy, z + dz);
+                                if qx < 0 || qy < 0 || qz < 0 || qx >= nx || qy >= ny || qz >= nz {
+                                    continue;
+                                }
+                                let [s, n] = cell(qx, qy, qz);
+                                near.extend(
+                                    self.points[s as usize..(s + n) as usize]
+                                        .iter()
+                                        .map(|p| Vec3::new(p[0], p[1], p[2])),
+                                );
+                            }
+                        }
+                    }
+                    kept.resize(near.len(), 0.0);
+                    for p in &self.points[first as usize..(first + count) as usize] {
+                        let x = Vec3::new(p[0], p[1], p[2]);
+                        // The squared distances within reach, in order (branch-free: every one is written, the
+                        // count advances for those kept), then `kernel` over them as selects.
+                        let mut m = 0;
+                        for &y in near.iter() {
+                            let d2 = x.distance_squared(y);
+                            kept[m] = d2;
+                            m += (d2 < reach2) as usize;
+                        }
+                        let mut s = 0.0;
+                        for &d2 in &kept[..m] {
+                            let q = d2.sqrt() / self.support;
+                            let a = 1.0 - q;
+                            let near = 1.0 - 6.0 * q * q + 6.0 * q * q * q;
+                            let far = 2.0 * a * a * a;
+                            s += if q <= 0.5 {
+                                near
+                            } else if q < 1.0 {
+                                far
+                            } else {
+                                0.0
+                            };
+                        }
+                        out[at] = 1.0 / s;
+                        at += 1;
+                    }
+                }
+            },
+        );
+        inv
     }
 
     /// φ(x) and the distance to the nearest point (capped at the cell size).
@@ -505,6 +577,43 @@ mod tests {
             let x = Vec3::new(p[0], p[1], p[2]);
             let n: f32 = g.points.iter().map(|q| kernel(x.distance(Vec3::new(q[0], q[1], q[2])) / 0.04)).sum();
             assert!((1.0 / inv[k] - n).abs() < 1e-4, "{k}: {} vs {n}", 1.0 / inv[k]);
+        }
+    }
+
+    /// The sum that skips cells and points beyond the support equals the plain sum over the 3×3×3 cells bit for
+    /// bit (the GPU computes the plain sum): a jittered block of particles, cells exactly the support wide and
+    /// wider.
+    #[test]
+    fn inv_density_equals_the_full_cell_sum_bit_for_bit() {
+        let mut pts = vec![];
+        let mut seed = 0x2545_f491_u32;
+        let mut jitter = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            (seed as f32 / u32::MAX as f32 - 0.5) * 0.01
+        };
+        for i in 0..20 {
+            for j in 0..20 {
+                for k in 0..12 {
+                    pts.push([i as f32 * 0.02 + jitter(), j as f32 * 0.02 + jitter(), k as f32 * 0.02 + jitter()]);
+                }
+            }
+        }
+        for reach in [0.05, 0.07] {
+            let g = IsoGrid::build_reaching(&pts, 0.05, reach);
+            let full: Vec<f32> = g
+                .points
+                .iter()
+                .map(|p| {
+                    let x = Vec3::new(p[0], p[1], p[2]);
+                    let mut s = 0.0;
+                    g.for_each_near(x, |_, y| s += kernel(x.distance(y) / g.support));
+                    1.0 / s
+                })
+                .collect();
+            let got = g.inv_density();
+            assert!(full.iter().zip(&got).all(|(a, b)| a.to_bits() == b.to_bits()), "cells {reach}");
         }
     }
 
