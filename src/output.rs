@@ -464,25 +464,38 @@ pub struct MeshData<'a> {
 }
 
 /// A binary little-endian PLY body: per vertex x y z nx ny nz (f32), per triangle the count 3 (u8) and three
-/// u32 indices; packed in parallel (rayon's current pool), the same bytes on any thread count.
-fn ply_body(m: MeshData) -> Vec<u8> {
+/// u32 indices; handed to `sink` in pieces of at most `chunk` records, each packed in parallel (rayon's current
+/// pool) into one reused buffer — the same bytes on any thread count and chunk size. Reusing a buffer of a few
+/// MB that stays in cache, rather than packing the whole body into fresh memory (36 MB for the 1.4 M-triangle
+/// dam-break mesh) before one write, spares the page faults and the zeroing of that memory.
+fn ply_body(m: MeshData, chunk: usize, mut sink: impl FnMut(&[u8]) -> std::io::Result<()>) -> std::io::Result<()> {
     use rayon::prelude::*;
-    let split = 24 * m.vertices.len();
-    let mut body = vec![0u8; split + 13 * m.triangles.len()];
-    let (vs, ts) = body.split_at_mut(split);
-    vs.par_chunks_mut(24).zip(m.vertices.par_iter().zip(m.normals)).with_min_len(4096).for_each(|(out, (v, n))| {
-        for (k, x) in v.iter().chain(n).enumerate() {
-            out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
-        }
-    });
-    ts.par_chunks_mut(13).zip(m.triangles.par_iter()).with_min_len(4096).for_each(|(out, t)| {
-        out[0] = 3;
-        for (k, i) in t.iter().enumerate() {
-            out[1 + 4 * k..5 + 4 * k].copy_from_slice(&i.to_le_bytes());
-        }
-    });
-    body
+    let chunk = chunk.max(1);
+    let mut buf = Vec::new();
+    for (vs, ns) in m.vertices.chunks(chunk).zip(m.normals.chunks(chunk)) {
+        buf.resize(24 * vs.len(), 0);
+        buf.par_chunks_mut(24).zip(vs.par_iter().zip(ns)).with_min_len(4096).for_each(|(out, (v, n))| {
+            for (k, x) in v.iter().chain(n).enumerate() {
+                out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
+            }
+        });
+        sink(&buf)?;
+    }
+    for ts in m.triangles.chunks(chunk) {
+        buf.resize(13 * ts.len(), 0);
+        buf.par_chunks_mut(13).zip(ts.par_iter()).with_min_len(4096).for_each(|(out, t)| {
+            out[0] = 3;
+            for (k, i) in t.iter().enumerate() {
+                out[1 + 4 * k..5 + 4 * k].copy_from_slice(&i.to_le_bytes());
+            }
+        });
+        sink(&buf)?;
+    }
+    Ok(())
 }
+
+/// Records per piece of [`ply_body`]: 1.5 MB of vertices, 0.8 MB of triangles.
+const PLY_CHUNK: usize = 1 << 16;
 
 /// The formats a fluid mesh is written in ([`write_mesh`]).
 pub const MESH_KINDS: [FileKind; 3] = [FileKind::Ply, FileKind::Obj, FileKind::Vtk];
@@ -506,10 +519,10 @@ pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
                 m.vertices.len(),
                 m.triangles.len()
             )?;
-            // The body is packed into memory by every thread, each record at its own offset, and written at
-            // once: 4-byte writes through the BufWriter cost 0.06 s on the 1.4 M-triangle dam-break mesh, and
-            // one thread packing it 0.07 s of a 0.21 s `mesh` on 16 cores (the serial part Amdahl's law keeps).
-            w.write_all(&ply_body(m))?;
+            // The body is packed by every thread, a piece at a time, each record at its own offset: 4-byte writes
+            // through the BufWriter cost 0.06 s on the 1.4 M-triangle dam-break mesh, and one thread packing it
+            // 0.07 s of a 0.21 s `mesh` on 16 cores (the serial part Amdahl's law keeps).
+            ply_body(m, PLY_CHUNK, |piece| w.write_all(piece))?;
             Ok(())
         }),
         FileKind::Obj => write_atomic(path, FileKind::Obj, |w| {
@@ -556,7 +569,7 @@ pub fn write_mesh(path: &Path, m: MeshData) -> Result<()> {
 mod tests {
     use super::*;
 
-    /// The parallel PLY body is the records one after another, as a serial writer puts them.
+    /// The parallel PLY body is the records one after another, as a serial writer puts them, in pieces of any size.
     #[test]
     fn the_ply_body_is_the_records_in_order() {
         let n = 10_000usize;
@@ -575,7 +588,14 @@ mod tests {
                 serial.extend_from_slice(&i.to_le_bytes());
             }
         }
-        let body = ply_body(MeshData { vertices: &vertices, normals: &normals, triangles: &triangles });
-        assert_eq!(body, serial);
+        for chunk in [1, 1000, 4096, 1 << 16] {
+            let mut body = vec![];
+            ply_body(MeshData { vertices: &vertices, normals: &normals, triangles: &triangles }, chunk, |piece| {
+                body.extend_from_slice(piece);
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(body, serial, "pieces of {chunk} records");
+        }
     }
 }
