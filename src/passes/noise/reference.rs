@@ -72,6 +72,51 @@ pub struct NoiseParticle {
     pub accel: f32,
 }
 
+/// A sprite as noise_sprite_of places it on a `width`×`height` depth image (level 0): eye depth `z`, centre and
+/// radius `rr` (pixels), its pixel rectangle [lo, hi] (clipped; empty when lo > hi); None when the particle is
+/// behind the near plane or lies deeper than DEEP falloffs plus the sprite's radius below the surface at its
+/// centre. Shared by [`accumulate`] and [`work`].
+struct Placed {
+    z: f32,
+    centre: [f32; 2],
+    rr: f32,
+    lo: [i64; 2],
+    hi: [i64; 2],
+}
+
+#[allow(clippy::too_many_arguments)]
+fn place(
+    pt: &NoiseParticle,
+    depth: &[f32],
+    width: usize,
+    height: usize,
+    f: f32,
+    r: f32,
+    near: f32,
+    p: &Params,
+) -> Option<Placed> {
+    let z = -pt.c[2];
+    if z <= near {
+        return None;
+    }
+    let centre = [0.5 * width as f32 + f * pt.c[0] / z - 0.5, 0.5 * height as f32 - f * pt.c[1] / z - 0.5];
+    let rr = f * p.size * r / z;
+    let lo = [(centre[0] - rr).ceil().max(0.0) as i64, (centre[1] - rr).ceil().max(0.0) as i64];
+    let hi = [
+        ((centre[0] + rr).floor() as i64).min(width as i64 - 1),
+        ((centre[1] + rr).floor() as i64).min(height as i64 - 1),
+    ];
+    let mid = [
+        (centre[0].round() as i64).clamp(0, width as i64 - 1) as usize,
+        (centre[1].round() as i64).clamp(0, height as i64 - 1) as usize,
+    ];
+    let dc = depth[mid[1] * width + mid[0]];
+    if dc < 1e30 && z - dc > (DEEP * p.falloff + p.size) * r {
+        return None;
+    }
+    Some(Placed { z, centre, rr, lo, hi })
+}
+
 /// The accumulator noise.comp fills for `particles` over a `width`×`height` depth image (row-major, +inf =
 /// no fluid), focal `f` (pixels), radius `r`, near plane `near`: fixed-point sums, as i32.
 #[allow(clippy::too_many_arguments)]
@@ -86,30 +131,13 @@ pub fn accumulate(
     p: &Params,
 ) -> Vec<i32> {
     let mut acc = vec![0i32; width * height];
-    let size = [width as f32, height as f32];
+    let inv_fall = 1.0 / (p.falloff * r);
     for pt in particles {
-        let z = -pt.c[2];
-        if z <= near {
+        let Some(Placed { z, centre, rr, lo, hi }) = place(pt, depth, width, height, f, r, near, p) else {
             continue;
-        }
+        };
         let amp = amplitude(pt.accel, p);
         let o = offset(pt.id);
-        let centre = [0.5 * size[0] + f * pt.c[0] / z - 0.5, 0.5 * size[1] - f * pt.c[1] / z - 0.5];
-        let rr = f * p.size * r / z;
-        let lo = [(centre[0] - rr).ceil().max(0.0) as i64, (centre[1] - rr).ceil().max(0.0) as i64];
-        let hi = [
-            ((centre[0] + rr).floor() as i64).min(width as i64 - 1),
-            ((centre[1] + rr).floor() as i64).min(height as i64 - 1),
-        ];
-        let inv_fall = 1.0 / (p.falloff * r);
-        let mid = [
-            (centre[0].round() as i64).clamp(0, width as i64 - 1) as usize,
-            (centre[1].round() as i64).clamp(0, height as i64 - 1) as usize,
-        ];
-        let dc = depth[mid[1] * width + mid[0]];
-        if dc < 1e30 && z - dc > (DEEP * p.falloff + p.size) * r {
-            continue;
-        }
         for y in lo[1]..=hi[1] {
             for x in lo[0]..=hi[0] {
                 let uv = [(x as f32 - centre[0]) / rr, (y as f32 - centre[1]) / rr];
@@ -147,28 +175,10 @@ pub fn work(
     near: f32,
     p: &Params,
 ) -> u64 {
-    let mut n = 0u64;
-    for pt in particles {
-        let z = -pt.c[2];
-        if z <= near {
-            continue;
-        }
-        let centre = [0.5 * width as f32 + f * pt.c[0] / z - 0.5, 0.5 * height as f32 - f * pt.c[1] / z - 0.5];
-        let rr = f * p.size * r / z;
-        let lo = [(centre[0] - rr).ceil().max(0.0) as i64, (centre[1] - rr).ceil().max(0.0) as i64];
-        let hi = [
-            ((centre[0] + rr).floor() as i64).min(width as i64 - 1),
-            ((centre[1] + rr).floor() as i64).min(height as i64 - 1),
-        ];
-        let mid = [
-            (centre[0].round() as i64).clamp(0, width as i64 - 1) as usize,
-            (centre[1].round() as i64).clamp(0, height as i64 - 1) as usize,
-        ];
-        let dc = depth[mid[1] * width + mid[0]];
-        if (dc < 1e30 && z - dc > (DEEP * p.falloff + p.size) * r) || lo[0] > hi[0] || lo[1] > hi[1] {
-            continue;
-        }
-        n += ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as u64;
-    }
-    n
+    particles
+        .iter()
+        .filter_map(|pt| place(pt, depth, width, height, f, r, near, p))
+        .filter(|s| s.lo[0] <= s.hi[0] && s.lo[1] <= s.hi[1])
+        .map(|s| ((s.hi[0] - s.lo[0] + 1) * (s.hi[1] - s.lo[1] + 1)) as u64)
+        .sum()
 }
