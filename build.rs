@@ -61,9 +61,6 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
         "iso_rest.comp",
         &[("", ""), ("WIDE8", "ISO_REST_WIDE8"), ("WIDE8_MANY", "ISO_REST_WIDE8_MANY"), ("WIDE32", "ISO_REST_WIDE32")],
     ),
-    // The noise's normals: from the noise image noise_resolve wrote (CPU drivers), or on GPUs also from level
-    // 0's sums when the splat wrote no coarser level (noise_resolve is then not dispatched).
-    ("noise_apply.comp", &[("", ""), ("RESOLVE", "NOISE_APPLY_RESOLVE")]),
     // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
     ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),
     // The composite for 0 … 4 layers: a frame without effects runs the composite that knows of none.

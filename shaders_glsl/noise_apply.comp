@@ -5,31 +5,26 @@
 //! (small waves): n' = normalize(n − k (∂h/∂X, ∂h/∂Y, 0)), view space. Along each axis the derivative is the
 //! central difference where both neighbours are on the same surface (depth jump under `edge`), else one-sided,
 //! else 0, as in `normals`.
-//! In: noise (r32ui holding f32 bits, N in radii: noise_resolve.comp), fluid depth (full resolution), normals (r32ui octahedral).
-//! Out: normals (perturbed in place).
-//! NOISE_APPLY_RESOLVE (GPUs): after noise_resolve, dispatched indirectly only when the splat wrote a level
-//! coarser than 0. Where it did not (most frames), N is level 0's sum at the pixel: this variant reads it
-//! from the accumulator atlas for its pixel and the neighbours its derivatives need and writes its pixel's N
-//! (one full-screen dispatch fewer); else it reads N as the plain variant does. In: the atlas, depth, the
-//! splat's work counts, the noise image; out: noise, normals. Tried and not kept: resolving the coarse levels
-//! here as well — each neighbour again (the worst case's `noise` 0.365 against 0.251 ms on the H100) or once per
-//! work group and border into shared memory (its `noise/apply` 0.088 against 0.068 for the two dispatches); on
-//! lavapipe the first cost twice the two dispatches (3.2 → 6.3 ms, the wave at 480×270): the CPU driver keeps
-//! the plain pair.
+//! noise_resolve is dispatched indirectly, with work groups only when the splat wrote a level coarser than 0.
+//! Where it did not (most frames), N is level 0's sum at the pixel: this pass reads it from the accumulator atlas
+//! for its pixel and the neighbours its derivatives need and writes its pixel's N (one full-screen dispatch
+//! fewer: on the H100 an early return in each of its 32 k work groups at 1080p cost what resolving did, 0.023
+//! ms; on lavapipe the resolve's 2.4 ms of a wave frame at 480×270); else it reads the N noise_resolve wrote.
+//! Tried and not kept: resolving the coarse levels here as well — each neighbour again (the worst case's `noise`
+//! 0.365 against 0.251 ms on the H100) or once per work group and border into shared memory (its `noise/apply`
+//! 0.088 against 0.068 for the two dispatches); on lavapipe the first cost twice the two dispatches (3.2 → 6.3
+//! ms, the wave at 480×270).
+//! In: the accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest
+//! level), the noise image (r32ui holding f32 bits, N in radii: noise_resolve.comp). Out: noise (at level 0
+//! alone), normals (r32ui octahedral, perturbed in place).
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
-#ifdef NOISE_APPLY_RESOLVE
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
 layout(set = 0, binding = 3, r32ui) uniform uimage2D noise; // f32 bits: written here at level 0, else read
 layout(set = 0, binding = 4, r32ui) uniform uimage2D normals;
 // The splat's work counts: [0] the coarsest level it wrote.
 layout(std430, set = 0, binding = 5) readonly buffer Work { uint work[4]; };
-#else
-layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D noise; // f32 bits
-layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
-layout(set = 0, binding = 3, r32ui) uniform uimage2D normals;
-#endif
 layout(push_constant) uniform Push {
     float strength; // scale of the slopes added to the normal
     float edge;     // depth jump (world units) that separates two surfaces
@@ -37,14 +32,10 @@ layout(push_constant) uniform Push {
 
 ivec2 g_size;
 
-#ifdef NOISE_APPLY_RESOLVE
 bool g_level0;
 float height(ivec2 q) {
     return g_level0 ? float(int(imageLoad(accum, q).x)) * (1.0 / 65536.0) : uintBitsToFloat(imageLoad(noise, q).x);
 }
-#else
-float height(ivec2 q) { return uintBitsToFloat(imageLoad(noise, q).x); }
-#endif
 
 bool same(ivec2 q, float d) {
     if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, g_size))) return false;
@@ -64,7 +55,6 @@ float slope(ivec2 p, float d, float n0, ivec2 step) {
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     g_size = imageSize(noise);
-#ifdef NOISE_APPLY_RESOLVE
     if (any(greaterThanEqual(p, g_size))) return;
     g_level0 = work[0] == 0u;
     float d = imageLoad(depth, p).x;
@@ -74,12 +64,6 @@ void main() {
     }
     if (!is_fluid(d)) return;
     float n0 = height(p);
-#else
-    if (any(greaterThanEqual(p, g_size))) return;
-    float d = imageLoad(depth, p).x;
-    if (!is_fluid(d)) return;
-    float n0 = height(p);
-#endif
     // World units of height per pixel step, per world unit across: r · F / d.
     float k = pc.strength * frame.fluid.x * focal_for(float(g_size.y)) / d;
     float gx = slope(p, d, n0, ivec2(1, 0)) * k;

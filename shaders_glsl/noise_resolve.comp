@@ -4,8 +4,8 @@
 //! level L sits at full-resolution position (i + ½)·2^L − ½). A coarse texel whose depth pixel showed no fluid
 //! was never written: it is left out of the interpolation and the weights of the others renormalised, so a
 //! close-up sprite's noise reaches the silhouette instead of fading towards it. 0 where there is no fluid.
-//! With the tiled splat (GPUs) it is dispatched indirectly, with no work groups when the splat wrote level 0
-//! alone (noise_scan writes the count): noise_apply (NOISE_APPLY_RESOLVE) then writes N from the sums itself.
+//! Dispatched indirectly, with no work groups when the splat wrote level 0 alone (noise_scan or noise.comp
+//! writes the count): noise_apply then writes N from the sums itself.
 //! NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is noise.comp's.
 //! In: accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest level).
 //! Out: noise (r32ui holding f32 bits: the composite reads it as a layer, `crate::effect::Blend::Tint`).

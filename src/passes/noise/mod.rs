@@ -181,8 +181,8 @@ pub struct ApplyPush {
 }
 
 // Splat, one thread per sprite: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first),
-// work counts.
-declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
+// work counts, noise_resolve's indirect dispatch.
+declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite, BufWrite]));
 // The tiled splat: binning (count, then fill), the lists' starts, the tiles' sums.
 // Bin: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms, the binned
 // sprites' indices.
@@ -195,12 +195,9 @@ declare_program!(pub FILL: SpritePush = compute(shaders::NOISE_FILL, [BufRead, B
 declare_program!(pub GATHER: SpritePush = compute(shaders::NOISE_GATHER, [Uniform, BufRead, BufRead, BufRead, ImgRead, ImgWrite, BufWrite]));
 // Resolve: frame, accumulator atlas, fluid depth → noise (N in radii); the splat's coarsest level.
 declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
-// Apply: frame, noise, fluid depth, normals (in place).
-declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite]));
-// The tiled splat's (GPUs') apply: reading level 0's sums itself and writing N when the splat wrote no coarser
-// level (noise_resolve is then not dispatched), else reading N: frame, accumulator atlas, fluid depth, noise,
-// normals (in place); work.
-declare_program!(pub APPLY_RESOLVE: ApplyPush = compute(shaders::NOISE_APPLY_RESOLVE, [Uniform, ImgRead, ImgRead, ImgWrite, ImgWrite, BufRead]));
+// Apply: reading level 0's sums itself and writing N when the splat wrote no coarser level (noise_resolve is then
+// not dispatched), else reading N: frame, accumulator atlas, fluid depth, noise, normals (in place); work.
+declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite, ImgWrite, BufRead]));
 
 /// How the sprites reach the accumulator.
 enum Splat {
@@ -223,12 +220,11 @@ pub struct Noise {
     splat: Splat,
     small: u32,
     resolve: ComputeProgram<()>,
-    /// How N reaches the normals: noise_resolve writes the noise image, noise_apply reads it (the per-sprite
-    /// splat's, CPU drivers: two light dispatches); or, with the tiled splat (GPUs), noise_resolve is dispatched
-    /// indirectly, with work groups only when the splat wrote a coarser level than 0 (noise_scan writes the
-    /// count), and otherwise noise_apply (its RESOLVE variant) reads level 0's sums itself and writes N (one
-    /// full-screen dispatch fewer on most frames: an early return in each of its 32 k work groups at 1080p cost
-    /// the H100 what resolving did, 0.023 ms). Both give the same N and normals bit for bit.
+    /// How N reaches the normals: noise_resolve is dispatched indirectly, with work groups only when the splat
+    /// wrote a coarser level than 0 (noise_scan, or the per-sprite splat itself, writes the count), and
+    /// otherwise noise_apply reads level 0's sums itself and writes N (one full-screen dispatch fewer on most
+    /// frames: an early return in each of its 32 k work groups at 1080p cost the H100 what resolving did, 0.023
+    /// ms; lavapipe's resolve cost 2.4 ms of a wave frame at 480×270). Either way the same N and normals.
     apply: ComputeProgram<ApplyPush>,
     /// The atlas's clear, each frame.
     clear: Clear,
@@ -255,6 +251,9 @@ pub struct NoiseTargets {
     pub noise: Image,
     /// The splat's work, u32 ×8 ([`NoiseWork`]; host-readable).
     pub work: Buffer,
+    /// The per-sprite splat's indirect dispatch of noise_resolve (3 u32; none at level 0 alone: noise.comp
+    /// writes it). The tiled splat's is in its bins' `args`.
+    pub resolve_args: Buffer,
     /// The tiled splat's bins, once reserved.
     pub bins: Option<Bins>,
     width: u32,
@@ -297,6 +296,13 @@ impl NoiseTargets {
             accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
             noise: Image::new(gpu, "noise", full, vk::Format::R32_UINT, storage, None)?,
             work: Buffer::new(gpu, "noise_work", 32, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
+            resolve_args: Buffer::new(
+                gpu,
+                "noise_resolve_args",
+                16,
+                usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                gpu_allocator::MemoryLocation::GpuOnly,
+            )?,
             bins: None,
             width,
             height,
@@ -387,7 +393,7 @@ impl Noise {
             small,
             clear: Clear::new(gpu)?,
             resolve: ComputeProgram::new(gpu, &RESOLVE)?,
-            apply: ComputeProgram::new(gpu, if tiled { &APPLY_RESOLVE } else { &APPLY })?,
+            apply: ComputeProgram::new(gpu, &APPLY)?,
         })
     }
 
@@ -412,6 +418,9 @@ impl Noise {
         ctx.pass(NAME, |ctx| {
             ctx.part("noise/clear", |ctx| {
                 ctx.fill(&own.work, 0);
+                if !self.is_tiled() {
+                    ctx.fill(&own.resolve_args, 0);
+                }
                 self.clear.record(ctx, &own.accum, 0);
             });
             let (buf, count) = particles;
@@ -470,7 +479,14 @@ impl Noise {
                     ctx.part("noise/gather", |ctx| gather.dispatch_indirect(ctx, &res, &push, &b.args, 12));
                 }
                 (Splat::Alone(splat), _) => {
-                    let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
+                    let res = [
+                        frame.into(),
+                        buf.into(),
+                        i.depth.into(),
+                        (&own.accum).into(),
+                        (&own.work).into(),
+                        (&own.resolve_args).into(),
+                    ];
                     ctx.part("noise/splat", |ctx| splat.dispatch(ctx, &res, &push, groups));
                 }
                 // Bins too small for these particles: no noise this frame rather than lost writes.
@@ -478,29 +494,25 @@ impl Noise {
             }
             let push = ApplyPush { strength: p.strength, edge };
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
+            // As the splat counted it: no work groups at level 0 alone.
             match (&self.splat, bins) {
-                (Splat::Alone(_), _) => ctx.part("noise/resolve", |ctx| self.resolve.dispatch(ctx, &res, &(), g)),
-                // As noise_scan counted it: no work groups at level 0 alone.
+                (Splat::Alone(_), _) => ctx
+                    .part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &own.resolve_args, 0)),
                 (Splat::Tiled(_), Some(b)) => {
                     ctx.part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &b.args, 32))
                 }
                 // No splat this frame (bins too small): the sums are 0, at level 0.
                 (Splat::Tiled(_), None) => {}
             }
-            if self.is_tiled() {
-                let res = [
-                    frame.into(),
-                    (&own.accum).into(),
-                    i.depth.into(),
-                    (&own.noise).into(),
-                    i.normals.into(),
-                    (&own.work).into(),
-                ];
-                ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
-            } else {
-                let res = [frame.into(), (&own.noise).into(), i.depth.into(), i.normals.into()];
-                ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
-            }
+            let res = [
+                frame.into(),
+                (&own.accum).into(),
+                i.depth.into(),
+                (&own.noise).into(),
+                i.normals.into(),
+                (&own.work).into(),
+            ];
+            ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
         });
     }
 }
