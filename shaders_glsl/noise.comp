@@ -14,7 +14,7 @@
 //! Level 0 is evaluated exactly as the CPU reference (`passes::noise::reference`) does.
 //! In: particles (vec4 xyz + w, then one motion vec4 per particle after the `count` positions: x = id bits,
 //! y = |Δv|/Δt), the fluid depth (full resolution). Out: the accumulator atlas (r32ui, cleared to 0); the work
-//! counts; noise_resolve's indirect dispatch (work groups only when a level coarser than 0 was written).
+//! counts (noise_args.comp turns work[0], the coarsest level, into noise_resolve's indirect dispatch).
 // The work counters' subgroup sums (work_count.glsl).
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -29,9 +29,6 @@ layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;
 // rectangle at its level), [2] sprites drawn, [3] texels whose noise was evaluated, [4] sprites left out (more
 // than NOISE_MAX_TILES tiles: the tiled splat), [5] tile-list entries (the tiled splat).
 layout(std430, set = 0, binding = 4) buffer Work { uint work[8]; };
-// noise_resolve's indirect dispatch (zeroed before the pass): its work groups (pc.resolve, 1) once a sprite was
-// drawn on a level coarser than 0; none at level 0 alone, where noise_apply writes N from the sums itself.
-layout(std430, set = 0, binding = 5) buffer ResolveArgs { uint resolve_args[3]; };
 layout(push_constant) uniform Push {
     uint count;
     float size;      // sprite radius in particle radii
@@ -61,14 +58,7 @@ void main() {
         texels = uint(s.hi.x - s.lo.x + 1) * uint(s.hi.y - s.lo.y + 1);
         drawn = 1u;
     }
-    // WORK_MAX of the coarsest level, which also asks for noise_resolve's work groups.
-    uint coarsest = subgroupMax(level);
-    if (subgroupElect() && coarsest > 0u) {
-        atomicMax(work[0], coarsest);
-        atomicMax(resolve_args[0], pc.resolve.x);
-        atomicMax(resolve_args[1], pc.resolve.y);
-        atomicMax(resolve_args[2], 1u);
-    }
+    WORK_MAX(work[0], level);
     WORK_ADD(work[1], texels);
     WORK_ADD(work[2], drawn);
     WORK_ADD(work[3], evaluated);

@@ -5,26 +5,21 @@
 //! (small waves): n' = normalize(n − k (∂h/∂X, ∂h/∂Y, 0)), view space. Along each axis the derivative is the
 //! central difference where both neighbours are on the same surface (depth jump under `edge`), else one-sided,
 //! else 0, as in `normals`.
-//! noise_resolve is dispatched indirectly, with work groups only when the splat wrote a level coarser than 0.
-//! Where it did not (most frames), N is level 0's sum at the pixel: this pass reads it from the accumulator atlas
-//! for its pixel and the neighbours its derivatives need and writes its pixel's N (one full-screen dispatch
-//! fewer: on the H100 an early return in each of its 32 k work groups at 1080p cost what resolving did, 0.023
-//! ms; on lavapipe the resolve's 2.4 ms of a wave frame at 480×270); else it reads the N noise_resolve wrote.
-//! Tried and not kept: resolving the coarse levels here as well — each neighbour again (the worst case's `noise`
-//! 0.365 against 0.251 ms on the H100) or once per work group and border into shared memory (its `noise/apply`
-//! 0.088 against 0.068 for the two dispatches); on lavapipe the first cost twice the two dispatches (3.2 → 6.3
-//! ms, the wave at 480×270).
-//! In: the accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest
-//! level), the noise image (r32ui holding f32 bits, N in radii: noise_resolve.comp). Out: noise (at level 0
-//! alone), normals (r32ui octahedral, perturbed in place).
+//! N is level 0 of the accumulator atlas: the splat's fixed-point sums, or where the splat wrote coarser levels,
+//! what noise_resolve wrote back over them (same fixed point); this pass also writes N as the composite's layer.
+//! One image and one load per neighbour whatever the levels (a choice between two images per load cost lavapipe
+//! both loads: its SIMD lanes run every branch). Tried and not kept: resolving the coarse levels here as well —
+//! each neighbour again (the worst case's `noise` 0.365 against 0.251 ms on the H100) or once per work group and
+//! border into shared memory (its `noise/apply` 0.088 against 0.068 for the two dispatches); on lavapipe the
+//! first cost twice the two dispatches (3.2 → 6.3 ms, the wave at 480×270).
+//! In: the accumulator atlas (r32ui; level 0 read), fluid depth (full resolution). Out: noise (r32ui holding f32
+//! bits, N in radii, 0 off the fluid: a composite layer), normals (r32ui octahedral, perturbed in place).
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
-layout(set = 0, binding = 3, r32ui) uniform uimage2D noise; // f32 bits: written here at level 0, else read
+layout(set = 0, binding = 3, r32ui) uniform writeonly uimage2D noise; // f32 bits: a composite layer
 layout(set = 0, binding = 4, r32ui) uniform uimage2D normals;
-// The splat's work counts: [0] the coarsest level it wrote.
-layout(std430, set = 0, binding = 5) readonly buffer Work { uint work[4]; };
 layout(push_constant) uniform Push {
     float strength; // scale of the slopes added to the normal
     float edge;     // depth jump (world units) that separates two surfaces
@@ -32,10 +27,8 @@ layout(push_constant) uniform Push {
 
 ivec2 g_size;
 
-bool g_level0;
-float height(ivec2 q) {
-    return g_level0 ? float(int(imageLoad(accum, q).x)) * (1.0 / 65536.0) : uintBitsToFloat(imageLoad(noise, q).x);
-}
+/// N at pixel q (radii): level 0's fixed-point value.
+float height(ivec2 q) { return float(int(imageLoad(accum, q).x)) * (1.0 / 65536.0); }
 
 bool same(ivec2 q, float d) {
     if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, g_size))) return false;
@@ -54,16 +47,12 @@ float slope(ivec2 p, float d, float n0, ivec2 step) {
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    g_size = imageSize(noise);
+    g_size = imageSize(depth);
     if (any(greaterThanEqual(p, g_size))) return;
-    g_level0 = work[0] == 0u;
     float d = imageLoad(depth, p).x;
-    if (g_level0) {
-        float n = is_fluid(d) ? height(p) : 0.0;
-        imageStore(noise, p, uvec4(floatBitsToUint(n)));
-    }
+    float n0 = is_fluid(d) ? height(p) : 0.0;
+    imageStore(noise, p, uvec4(floatBitsToUint(n0)));
     if (!is_fluid(d)) return;
-    float n0 = height(p);
     // World units of height per pixel step, per world unit across: r · F / d.
     float k = pc.strength * frame.fluid.x * focal_for(float(g_size.y)) / d;
     float gx = slope(p, d, n0, ivec2(1, 0)) * k;

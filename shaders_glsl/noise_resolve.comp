@@ -1,31 +1,28 @@
 #version 460
-//! noise_resolve — the noise image N (radii of height) from the `noise` pass's accumulator atlas: level 0's
-//! fixed-point sum at the pixel plus every coarser level's sum interpolated bilinearly at the pixel (texel i of
-//! level L sits at full-resolution position (i + ½)·2^L − ½). A coarse texel whose depth pixel showed no fluid
-//! was never written: it is left out of the interpolation and the weights of the others renormalised, so a
-//! close-up sprite's noise reaches the silhouette instead of fading towards it. 0 where there is no fluid.
-//! Dispatched indirectly, with no work groups when the splat wrote level 0 alone (noise_scan or noise.comp
-//! writes the count): noise_apply then writes N from the sums itself.
-//! NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is noise.comp's.
-//! In: accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest level).
-//! Out: noise (r32ui holding f32 bits: the composite reads it as a layer, `crate::effect::Blend::Tint`).
+//! noise_resolve — the noise N (radii of height) where the `noise` pass's splat wrote coarser levels than 0:
+//! level 0's fixed-point sum at the pixel plus every coarser level's sum interpolated bilinearly at the pixel
+//! (texel i of level L sits at full-resolution position (i + ½)·2^L − ½), written back over level 0's sum in the
+//! same fixed point (rounded to 2^-16 radii), so that noise_apply reads one image whether or not this ran. A
+//! coarse texel whose depth pixel showed no fluid was never written: it is left out of the interpolation and the
+//! weights of the others renormalised, so a close-up sprite's noise reaches the silhouette instead of fading
+//! towards it. Dispatched indirectly, with no work groups when the splat wrote level 0 alone (noise_scan or
+//! noise_args writes the count). NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is
+//! noise.comp's.
+//! In: the accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest
+//! level). Out: the atlas's level 0 (N, fixed point; each invocation writes its own pixel's texel, which no
+//! other reads).
 #include "common.glsl"
 #include "noise.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
-layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D accum;
+layout(set = 0, binding = 1, r32ui) uniform uimage2D accum;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
-layout(set = 0, binding = 3, r32ui) uniform writeonly uimage2D noise; // f32 bits: a composite layer
 // noise.comp's work counts: [0] the coarsest level it wrote.
-layout(std430, set = 0, binding = 4) readonly buffer Work { uint work[4]; };
+layout(std430, set = 0, binding = 3) readonly buffer Work { uint work[4]; };
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 size = imageSize(noise);
-    if (any(greaterThanEqual(p, size))) return;
-    if (!is_fluid(imageLoad(depth, p).x)) {
-        imageStore(noise, p, uvec4(floatBitsToUint(0.0)));
-        return;
-    }
+    ivec2 size = imageSize(depth);
+    if (any(greaterThanEqual(p, size)) || !is_fluid(imageLoad(depth, p).x)) return;
     float n = float(int(imageLoad(accum, p).x));
     int levels = int(min(work[0], uint(NOISE_LEVELS)));
     for (int L = 1; L <= levels; ++L) {
@@ -47,5 +44,5 @@ void main() {
         }
         if (wsum > 0.0) n += sum / wsum;
     }
-    imageStore(noise, p, uvec4(floatBitsToUint(n * (1.0 / 65536.0))));
+    imageStore(accum, p, uvec4(uint(int(round(n)))));
 }

@@ -2128,9 +2128,9 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
         runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap(), normals));
     }
     assert!(runs[0].3 == runs[1].3, "the two splats' accumulators differ");
-    // Both splats ask for noise_resolve's work groups only when a coarse level was written (noise_scan counts
-    // them for the tiled one, noise.comp itself for the other), and noise_apply writes N from level 0's sums
-    // otherwise: the same N, coarse levels included, and the same normals, bit for bit.
+    // Both splats ask for noise_resolve's work groups only when a coarse level was written (noise_scan for the
+    // tiled one, noise_args for the other), and noise_apply reads N at level 0 either way: the same N, coarse
+    // levels included, and the same normals, bit for bit.
     assert!(runs[0].1 == runs[1].1, "N resolved inside the apply differs from noise_resolve's");
     assert!(runs[0].4 == runs[1].4, "the normals differ between the two applies");
     let (a, b) = (runs[0].0, runs[1].0);

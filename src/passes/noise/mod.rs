@@ -4,7 +4,8 @@
 //! normals (small waves) and its magnitude tints the surface toward grey-white whitecaps in `composite`. Runs on every
 //! surface (after `normals`, before `ssr`, so reflections see the waves); `[noise] enabled = false` leaves it
 //! out. Shaders: shaders_glsl/noise.comp (the splat; noise_bin, noise_scan, noise_fill and noise_gather on GPUs),
-//! shaders_glsl/noise_resolve.comp (N), shaders_glsl/noise_apply.comp (the normals; on GPUs resolving N itself), with
+//! shaders_glsl/noise_resolve.comp (N where coarse levels were written), shaders_glsl/noise_apply.comp (the normals and
+//! the noise image), with
 //! shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
 use std::sync::Arc;
 
@@ -138,8 +139,8 @@ pub struct SpritePush {
     pub small: u32,
     /// [`Params::lod_samples`].
     pub lod: f32,
-    /// noise_resolve's work groups (x, y): noise_scan writes its indirect dispatch, none when the splat wrote
-    /// level 0 alone.
+    /// noise_resolve's work groups (x, y): noise_scan (or noise_args) writes its indirect dispatch, none when the
+    /// splat wrote level 0 alone.
     pub resolve: [u32; 2],
 }
 
@@ -181,8 +182,10 @@ pub struct ApplyPush {
 }
 
 // Splat, one thread per sprite: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first),
-// work counts, noise_resolve's indirect dispatch.
-declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite, BufWrite]));
+// work counts.
+declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
+// The per-sprite splat's noise_resolve dispatch: work (its coarsest level) → args.
+declare_program!(pub ARGS: SpritePush = compute(shaders::NOISE_ARGS, [BufRead, BufWrite]));
 // The tiled splat: binning (count, then fill), the lists' starts, the tiles' sums.
 // Bin: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms, the binned
 // sprites' indices.
@@ -193,16 +196,17 @@ declare_program!(pub SCAN: SpritePush = compute(shaders::NOISE_SCAN, [BufWrite, 
 declare_program!(pub FILL: SpritePush = compute(shaders::NOISE_FILL, [BufRead, BufRead, BufRead, ImgRead, BufWrite, BufWrite]));
 // Gather: frame, sprite records, tiles, lists, fluid depth → accumulator atlas (cleared first), work.
 declare_program!(pub GATHER: SpritePush = compute(shaders::NOISE_GATHER, [Uniform, BufRead, BufRead, BufRead, ImgRead, ImgWrite, BufWrite]));
-// Resolve: frame, accumulator atlas, fluid depth → noise (N in radii); the splat's coarsest level.
-declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgRead, ImgRead, ImgOverwrite, BufRead]));
-// Apply: reading level 0's sums itself and writing N when the splat wrote no coarser level (noise_resolve is then
-// not dispatched), else reading N: frame, accumulator atlas, fluid depth, noise, normals (in place); work.
-declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgWrite, ImgWrite, BufRead]));
+// Resolve (only when the splat wrote coarser levels than 0): frame, accumulator atlas (level 0 rewritten with N,
+// fixed point), fluid depth, the splat's work (its coarsest level).
+declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgWrite, ImgRead, BufRead]));
+// Apply: frame, accumulator atlas (N at level 0), fluid depth → noise (N in radii: the composite's layer), normals
+// (in place).
+declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgOverwrite, ImgWrite]));
 
 /// How the sprites reach the accumulator.
 enum Splat {
-    /// One thread per sprite, atomics (noise.comp).
-    Alone(ComputeProgram<SpritePush>),
+    /// One thread per sprite, atomics (noise.comp); noise_args writes noise_resolve's dispatch after it.
+    Alone { splat: ComputeProgram<SpritePush>, args: ComputeProgram<SpritePush> },
     /// Binned to tiles, each tile summed by a work group (noise_bin, noise_scan, noise_gather).
     Tiled(Box<TiledSplat>),
 }
@@ -221,10 +225,11 @@ pub struct Noise {
     small: u32,
     resolve: ComputeProgram<()>,
     /// How N reaches the normals: noise_resolve is dispatched indirectly, with work groups only when the splat
-    /// wrote a coarser level than 0 (noise_scan, or the per-sprite splat itself, writes the count), and
-    /// otherwise noise_apply reads level 0's sums itself and writes N (one full-screen dispatch fewer on most
-    /// frames: an early return in each of its 32 k work groups at 1080p cost the H100 what resolving did, 0.023
-    /// ms; lavapipe's resolve cost 2.4 ms of a wave frame at 480×270). Either way the same N and normals.
+    /// wrote a coarser level than 0 (noise_scan, or noise_args after the per-sprite splat, writes the count), and writes
+    /// N back over level 0's sums in their fixed point; noise_apply reads level 0 either way and writes the
+    /// noise image (one full-screen dispatch fewer on most frames: an early return in each of its 32 k work
+    /// groups at 1080p cost the H100 what resolving did, 0.023 ms; lavapipe's resolve cost 2.4 ms of a wave
+    /// frame at 480×270).
     apply: ComputeProgram<ApplyPush>,
     /// The atlas's clear, each frame.
     clear: Clear,
@@ -251,7 +256,7 @@ pub struct NoiseTargets {
     pub noise: Image,
     /// The splat's work, u32 ×8 ([`NoiseWork`]; host-readable).
     pub work: Buffer,
-    /// The per-sprite splat's indirect dispatch of noise_resolve (3 u32; none at level 0 alone: noise.comp
+    /// The per-sprite splat's indirect dispatch of noise_resolve (3 u32; none at level 0 alone: noise_args
     /// writes it). The tiled splat's is in its bins' `args`.
     pub resolve_args: Buffer,
     /// The tiled splat's bins, once reserved.
@@ -385,7 +390,7 @@ impl Noise {
                 gather: ComputeProgram::new(gpu, &GATHER)?,
             }))
         } else {
-            Splat::Alone(ComputeProgram::new(gpu, &SPLAT)?)
+            Splat::Alone { splat: ComputeProgram::new(gpu, &SPLAT)?, args: ComputeProgram::new(gpu, &ARGS)? }
         };
         let small = std::env::var("MENISCUS_NOISE_SMALL").ok().and_then(|v| v.parse().ok()).unwrap_or(SMALL_SPRITE);
         Ok(Noise {
@@ -418,9 +423,6 @@ impl Noise {
         ctx.pass(NAME, |ctx| {
             ctx.part("noise/clear", |ctx| {
                 ctx.fill(&own.work, 0);
-                if !self.is_tiled() {
-                    ctx.fill(&own.resolve_args, 0);
-                }
                 self.clear.record(ctx, &own.accum, 0);
             });
             let (buf, count) = particles;
@@ -478,25 +480,20 @@ impl Noise {
                     ];
                     ctx.part("noise/gather", |ctx| gather.dispatch_indirect(ctx, &res, &push, &b.args, 12));
                 }
-                (Splat::Alone(splat), _) => {
-                    let res = [
-                        frame.into(),
-                        buf.into(),
-                        i.depth.into(),
-                        (&own.accum).into(),
-                        (&own.work).into(),
-                        (&own.resolve_args).into(),
-                    ];
+                (Splat::Alone { splat, args }, _) => {
+                    let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
                     ctx.part("noise/splat", |ctx| splat.dispatch(ctx, &res, &push, groups));
+                    let res = [(&own.work).into(), (&own.resolve_args).into()];
+                    ctx.part("noise/args", |ctx| args.dispatch(ctx, &res, &push, [1, 1, 1]));
                 }
                 // Bins too small for these particles: no noise this frame rather than lost writes.
                 (Splat::Tiled(_), None) => {}
             }
             let push = ApplyPush { strength: p.strength, edge };
-            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), (&own.work).into()];
+            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.work).into()];
             // As the splat counted it: no work groups at level 0 alone.
             match (&self.splat, bins) {
-                (Splat::Alone(_), _) => ctx
+                (Splat::Alone { .. }, _) => ctx
                     .part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &own.resolve_args, 0)),
                 (Splat::Tiled(_), Some(b)) => {
                     ctx.part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &b.args, 32))
@@ -504,14 +501,7 @@ impl Noise {
                 // No splat this frame (bins too small): the sums are 0, at level 0.
                 (Splat::Tiled(_), None) => {}
             }
-            let res = [
-                frame.into(),
-                (&own.accum).into(),
-                i.depth.into(),
-                (&own.noise).into(),
-                i.normals.into(),
-                (&own.work).into(),
-            ];
+            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), i.normals.into()];
             ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
         });
     }
