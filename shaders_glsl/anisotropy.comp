@@ -2,13 +2,13 @@
 //! anisotropy — the anisotropic kernels of Yu & Turk 2013 ("Reconstructing surfaces of particle-based fluids
 //! using anisotropic kernels", §4), one thread per sorted grid point: the weighted mean and covariance of the
 //! neighbours within the kernel support h (weights 1 − (d/h)³, the point included), the covariance's
-//! eigen-decomposition (cyclic Jacobi, the same steps as `sym_eigen` in src/field/iso.rs; the neighbourhood's radius is
+//! eigen-decomposition (cyclic Jacobi, the same steps as `sym_eigen` in src/field/iso/mod.rs; the neighbourhood's radius is
 //! pc.aniso2.z: h, or up to 2 h as in the paper, N_ε still counts within h), the small eigenvalues
 //! raised to σ_max / k_r, and the kernel matrix M = R diag(1 / a_k) Rᵀ with semi-axes a_k h ∝ σ̃_k, of the
 //! sphere's volume unless the longest would exceed pc.aniso2.x h (the field multiplies by det M so the
 //! kernel's integral is unchanged). Points with fewer than N_ε neighbours keep the
 //! sphere. The centre moves by λ towards the weighted mean (eq. 6), at most pc.aniso.w.
-//! CPU reference: IsoGrid::anisotropy / Aniso::from_covariance in src/field/iso.rs.
+//! CPU reference: IsoGrid::anisotropy / Aniso::from_covariance in src/field/iso/mod.rs.
 //! In: sorted points, cells. Out: aniso (three vec4 per point: centre + det M, m00 m01 m02 m11, m12 m22).
 #include "common.glsl"
 #define ISO_NO_WEIGHTS

@@ -1,6 +1,6 @@
 #version 460
 //! iso — ray-casts the SPH colour-field iso-surface φ = threshold per pixel (direct ray casting of the
-//! field as in Fraedrich et al. 2010; the field is splashsurf's, see iso_field.glsl and src/field/iso.rs for the
+//! field as in Fraedrich et al. 2010; the field is splashsurf's, see iso_field.glsl and src/field/iso/mod.rs for the
 //! CPU reference). The march starts at the depth the `splat` pass wrote for spheres of the bound radius (the
 //! surface lies inside them), steps by max(nearest point − bound, smallest step) so empty space is skipped,
 //! and refines the first step past the threshold by bisection. Rays that leave the grid's box miss.

@@ -3,7 +3,7 @@
 //! (the particle's SPH volume up to the rest mass; splashsurf's normalisation), and in the same neighbour loop
 //! its neighbour count c_j = Σ_{k≠j} max(0, 1 − |x_j − x_k|²/h²) (splashsurf's feature weight, Löschner et al.
 //! 2023: high in the bulk, low at the surface and in spray), which the smoothed field (iso_volume) deposits.
-//! CPU reference: IsoGrid::inv_density and neighbour_weights in src/field/iso.rs.
+//! CPU reference: IsoGrid::inv_density and neighbour_weights in src/field/iso/mod.rs.
 //! In: sorted points, cells. Out: the weighted points (xyz, 1/n_j), which the casts read; c_j.
 #include "common.glsl"
 #define ISO_WRITES_WEIGHTS

@@ -1,5 +1,5 @@
 //! iso_field.glsl — the SPH colour field φ(x) = Σ_j W(|x − x_j|) / n_j on the uniform grid built at upload
-//! (src/field/iso.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
+//! (src/field/iso/mod.rs, which holds the CPU reference of everything here). Shared by `iso_density` and `iso`.
 //! Binding 1: the points sorted by cell: (xyz, 1/n_j) in the casts (`weighted`, iso_density's output), xyz in
 //! iso_density and the anisotropy pass (`points`); binding 2: cells (first point, count; in the casts,
 //! ISO_CELL_EMPTY, iso_empty's copy with each cell's empty distance in the count's top bits); with

@@ -6,7 +6,7 @@
 //! the bulk weight, and the exact φ summed over the neighbours only where w < 1 (spray, sheets and the calm
 //! water's rim keep their particle-scale shape). Where w = 0 the march skips empty space by the nearest point's
 //! distance as iso.comp does; elsewhere it takes its smallest steps. CPU reference: VolumeShape::sample and
-//! smoothed_field in src/field/iso.rs.
+//! smoothed_field in src/field/iso/mod.rs.
 //! In: the weighted points (binding 1), cells (2), back (4), the lattice's table (7) and sums (8, RG32UI).
 //! In/out: depth (3). Out: the queue (5, 6). Variants: REST (the queued rays, a lane each), REST_WIDE8,
 //! REST_WIDE8_MANY and REST_WIDE32 (8 or 32 lanes each, `[iso] rest_lanes`).

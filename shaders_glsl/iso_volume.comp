@@ -30,7 +30,7 @@
 //! trilinear (cloud-in-cell) deposit with a separate blur was cheaper (8 voxels per point) but its weights
 //! depend on where a point lies within its voxel: a tilted lattice of particles came out with 3° normal steps
 //! (tests/gpu_passes.rs, the seam test; docs/iso-surface.md).
-//! CPU reference: VolumeShape::{marked, deposit} in src/field/iso.rs.
+//! CPU reference: VolumeShape::{marked, deposit} in src/field/iso/mod.rs.
 //! MARK in: points (1). In/out: table (2). ALLOC in/out: table (1), header (2: {0, 1, 1, bricks}, zeroed by the
 //! host); out: coordinates (3, x | y << 11 | z << 22). Plain in: points (1), c (2), table (3); in/out: the sums
 //! (4, two uints per stored voxel, zeroed by the host), which the cast reads, and the work counts (5). APRON in: table (1), coordinates

@@ -3,7 +3,7 @@
 //! table over the lattice's box at brick resolution holds, per brick, 0 (no brick: every value there is 0), its
 //! index in the pool + 1, or ISO_UNSTORED; the pool holds the allocated bricks' voxels, x fastest within a
 //! brick. Shared by iso_volume.comp (mark, allocate, deposit) and the cast (iso_field.glsl with ISO_VOLUME).
-//! CPU reference: VolumeShape in src/field/iso.rs.
+//! CPU reference: VolumeShape in src/field/iso/mod.rs.
 //! The including shader defines ISO_TABLE(i) → uint, the table's entry i.
 
 #define ISO_STORE 10

@@ -843,7 +843,7 @@ fn skybox_faces_from_files() {
     assert_clean(&gpu);
 }
 
-/// The `iso` pass against the CPU reference (src/field/iso.rs) on a bumpy slab, a lone particle and a close
+/// The `iso` pass against the CPU reference (src/field/iso/mod.rs) on a bumpy slab, a lone particle and a close
 /// pair: same coverage and the same depth where both are covered.
 #[test]
 fn iso_surface_matches_cpu_ray_cast() {

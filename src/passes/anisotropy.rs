@@ -4,7 +4,7 @@
 //! the centre moved towards the neighbours' weighted mean — so the `iso` field is flat where the water is calm
 //! (no particle-scale bumps) while isolated droplets keep their spheres. Runs after the `grid` pass on its
 //! sorted points; the `iso` ray cast reads the result. Shader: shaders_glsl/anisotropy.comp; CPU reference:
-//! `IsoGrid::anisotropy` in src/field/iso.rs.
+//! `IsoGrid::anisotropy` in src/field/iso/mod.rs.
 //!
 //! In: the iso grid's sorted points and cell table. Out: `IsoBuffers::aniso` (three vec4 per point).
 //! Where the method is ours: the kernel's longest axis is h (Yu & Turk scale by k_s so that interior kernels

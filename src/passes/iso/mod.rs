@@ -1,6 +1,6 @@
 //! `iso` pass (runs after `splat` when `surface = "iso"`): replaces the splatted sphere depth by the depth of
 //! the SPH colour-field iso-surface, ray-cast per pixel (shaders_glsl/iso.comp, field in iso_field.glsl,
-//! CPU reference and grid build in src/field/iso.rs). The grid (points sorted by cell + cell table) is built on the GPU
+//! CPU reference and grid build in src/field/iso/mod.rs). The grid (points sorted by cell + cell table) is built on the GPU
 //! (`grid` pass, or uploaded with isolated particles) and the `iso_density` pass (1/n_j per point, its own timestamp; and
 //! each cell's empty distance, iso_empty.comp, which the casts skip empty space by) runs when the particles
 //! change; every frame, the march from the bound spheres' depth (two dispatches: the first samples of every ray,
@@ -9,7 +9,7 @@
 //! particles change, `iso_volume` (iso_volume.comp) allocates the bricks of a sparse lattice where the particles
 //! reach and deposits their mass and neighbour counts there with a smooth kernel as wide as the smoothing; the
 //! cast (iso_vol.comp) reads them with a quadratic B-spline and blends them with the exact field where the water
-//! is not bulk. CPU reference: VolumeShape::{marked, deposit, sample}, smoothed_field in src/field/iso.rs.
+//! is not bulk. CPU reference: VolumeShape::{marked, deposit, sample}, smoothed_field in src/field/iso/mod.rs.
 use std::sync::Arc;
 
 use ash::vk;
