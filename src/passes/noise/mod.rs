@@ -491,15 +491,15 @@ impl Noise {
             }
             let push = ApplyPush { strength: p.strength, edge };
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.work).into()];
-            // As the splat counted it: no work groups at level 0 alone.
-            match (&self.splat, bins) {
-                (Splat::Alone { .. }, _) => ctx
-                    .part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &own.resolve_args, 0)),
-                (Splat::Tiled(_), Some(b)) => {
-                    ctx.part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), &b.args, 32))
-                }
-                // No splat this frame (bins too small): the sums are 0, at level 0.
-                (Splat::Tiled(_), None) => {}
+            // As the splat counted it (noise_args, or noise_scan at its args[8..11]): no work groups at level 0
+            // alone. No splat this frame (bins too small): the sums are 0, at level 0.
+            let counted = match (&self.splat, bins) {
+                (Splat::Alone { .. }, _) => Some((&own.resolve_args, 0)),
+                (Splat::Tiled(_), Some(b)) => Some((&b.args, 32)),
+                (Splat::Tiled(_), None) => None,
+            };
+            if let Some((args, offset)) = counted {
+                ctx.part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), args, offset));
             }
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), i.normals.into()];
             ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
