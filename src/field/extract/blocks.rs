@@ -65,7 +65,8 @@ pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     let lat = Lattice::of(grid, p.cube.max(1e-6));
     let b = p.block.max(1) as i32;
     let (blocks, reaches, nb) = occupied_blocks_counted(grid, &lat, b);
-    // Per-thread scratch (corner values, inside flags, edge → vertex slots), reused from block to block.
+    // Per-thread scratch (corner values, inside flags, edge → vertex slots of two corner layers), reused from
+    // block to block.
     let n = b + 3;
     let cells = (n as usize).pow(3);
     let (scatter_ns, march_ns) = (AtomicU64::new(0), AtomicU64::new(0));
@@ -79,8 +80,12 @@ pub fn extract_blocks_keyed(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams) ->
     let mut made: Vec<(usize, BlockMesh)> = (0..workers)
         .into_par_iter()
         .flat_map_iter(|_| {
-            let (mut v, mut inside, mut slot, mut rows) =
-                (vec![0f32; cells], vec![0u8; cells], vec![u32::MAX; 3 * cells], vec![0u8; (n * n) as usize]);
+            let (mut v, mut inside, mut slot, mut rows) = (
+                vec![0f32; cells],
+                vec![0u8; cells],
+                vec![u32::MAX; 2 * 3 * (n * n) as usize],
+                vec![0u8; (n * n) as usize],
+            );
             let mut mine = vec![];
             while let Some(&i) = order.get(next.fetch_add(1, Relaxed)) {
                 let bk = blocks[i];
@@ -243,7 +248,10 @@ fn scatter_block(grid: &IsoGrid, inv_n: &[f32], p: &ExtractParams, lat: &Lattice
 
 /// Step 3 of [`extract_blocks`]: march the block's own cubes (local 1 … b, skipping cubes past the lattice and
 /// rows of cubes with no crossing); each crossing edge's vertex is made once per block (`slot`: local edge →
-/// vertex). Triangles in memory order; [`weld_blocks`] puts them in cube order.
+/// vertex, for the two corner layers the current layer of cubes touches — an edge starts at its lower corner, so
+/// once the march has moved past a corner layer no cube looks its edges up again. Two layers (108 KB at 64³)
+/// instead of the block's every corner (3.6 MB per thread, faulted in at the start and refilled every block)
+/// stay in cache: docs/mesh-extraction.md). Triangles in memory order; [`weld_blocks`] puts them in cube order.
 fn march_block(
     lat: &Lattice,
     blk: &BlockShape,
@@ -266,7 +274,9 @@ fn march_block(
     for (f, s) in v.iter().zip(inside.iter_mut()) {
         *s = (*f >= threshold) as u8;
     }
-    slot.fill(u32::MAX);
+    // Which of the two slot layers hold vertices (cleared before the layer is reused).
+    let layer = 3 * (blk.n * blk.n) as usize;
+    let mut dirty = [true; 2];
     // Index offsets of the 8 cube corners.
     let off: [usize; 8] = std::array::from_fn(|m| blk.idx(corner_delta(m)));
     let (ie, je, ke) = ((dims.x - 2 - c0.x).min(b), (dims.y - 2 - c0.y).min(b), (dims.z - 2 - c0.z).min(b));
@@ -287,6 +297,15 @@ fn march_block(
     }
     let mut out = BlockMesh { verts: vec![], face: vec![], foreign: vec![], tris: vec![] };
     for k in 1..=ke {
+        // Cubes of layer k touch corner layers k and k + 1: layer k + 1's slots (last used by corner layer k − 1,
+        // which no cube looks at any more) start empty — and both at the block's first layer.
+        for z in if k == 1 { 1..=2 } else { k + 1..=k + 1 } {
+            let ring = (z & 1) as usize;
+            if dirty[ring] {
+                slot[ring * layer..(ring + 1) * layer].fill(u32::MAX);
+                dirty[ring] = false;
+            }
+        }
         for j in 1..=je {
             let r = (k * n + j) as usize;
             let u = uniform[r];
@@ -305,8 +324,10 @@ fn march_block(
                     let tri = t.map(|e| {
                         let (a, bb, axis) = EDGES[e as usize];
                         let la = l + corner_delta(a);
-                        let s = &mut slot[blk.idx(la) * 3 + axis];
+                        let ring = (la.z & 1) as usize;
+                        let s = &mut slot[ring * layer + ((la.y * blk.n + la.x) * 3) as usize + axis];
                         if *s == u32::MAX {
+                            dirty[ring] = true;
                             let lb = l + corner_delta(bb);
                             let (fa, fb) = (at(la), at(lb));
                             let tt = ((threshold - fa) / (fb - fa)).clamp(0.0, 1.0);
@@ -461,6 +482,31 @@ pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64
     let (mut blocks, nb) = block_reaches(grid, lat, b);
     blocks.dedup();
     (blocks, nb)
+}
+
+/// How many blocks of `b`³ cubes [`occupied_blocks`] lists, from one bit per block (no list, no sort: what the
+/// choice of the block size reads).
+pub(crate) fn occupied_count(grid: &IsoGrid, lat: &Lattice, b: i32) -> usize {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    let (h, dims) = (lat.h, lat.dims);
+    let reach = (grid.support / h).ceil() as i32;
+    let nb = (dims - 1 + b - 1) / b;
+    let bits: Vec<AtomicU64> =
+        (0..(nb.x as usize * nb.y as usize * nb.z as usize).div_ceil(64)).map(|_| AtomicU64::new(0)).collect();
+    grid.points.par_iter().for_each(|q| {
+        let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
+        let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
+        let b1 = ((c + reach).min(dims - 2)) / b;
+        for x in b0.x..=b1.x {
+            for y in b0.y..=b1.y {
+                for z in b0.z..=b1.z {
+                    let k = ((x * nb.y + y) * nb.z + z) as usize;
+                    bits[k / 64].fetch_or(1 << (k % 64), Relaxed);
+                }
+            }
+        }
+    });
+    bits.iter().map(|w| w.load(Relaxed).count_ones() as usize).sum()
 }
 
 /// [`occupied_blocks`], and for each block the particles whose support reaches it (what scattering it costs).

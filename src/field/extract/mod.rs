@@ -231,20 +231,25 @@ impl ExtractParams {
 /// [`ExtractParams::block`]: choose the block size by the thread count ([`auto_block`]).
 pub const AUTO_BLOCK: u32 = u32::MAX;
 
-/// The block size for `threads` threads: 64 cubes per edge (the fastest on 1–2 threads: the one-corner margin
-/// costs least), else the largest of 64, 32, 16 that leaves at least 40 occupied blocks per thread, so that no
-/// thread waits long for the last blocks. Measured on the 16-core host of an H100 (59k dam break f20,
-/// `bench --mesh --block 64,32,16`; benches/results/nvidia-h100-host-bench-mesh-93097bc/): at 0.5 r and 16
-/// threads 64 → 0.30 s, 32 → 0.23, 16 → 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie. On 2
-/// threads, blocks of 32 balance the 6,859-particle frame at 1 r better (7 blocks of 64³: efficiency 79–85 %
-/// → 95–97 %) but take longer (0.018 → 0.022 s: the margins and the per-block set-up), so 64 stays.
+/// The block size for `threads` threads: on one thread 64 cubes per edge (the one-corner margin costs least);
+/// on two, 64 when that leaves at least 8 occupied blocks per thread, else 32; on more, the largest of 64, 32, 16
+/// that leaves at least 40 occupied blocks per thread — so that no thread waits long for the last blocks.
+/// Measured on the 16-core host of an H100 (59k dam break f20, `bench --mesh --block 64,32,16`;
+/// benches/results/nvidia-h100-host-bench-mesh-93097bc/): at 0.5 r and 16 threads 64 → 0.30 s, 32 → 0.23, 16 →
+/// 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie. On two threads (this 2-core host, `bench --mesh
+/// … --block 64,32`, three runs, docs/mesh-extraction.md): the 6,859-particle frame at 1 r has 7 blocks of 64³,
+/// three of them heavy — efficiency 77–84 %; with blocks of 32 (32 blocks) 93–96 % for the same wall time
+/// (0.019–0.025 s against 0.018–0.024); its 0.5 r (32 blocks of 64³) and the 59k frame (30 and 174) stay at 64.
 pub fn auto_block(grid: &IsoGrid, cube: f32, threads: usize) -> u32 {
-    if threads <= 2 || grid.points.is_empty() {
+    if threads <= 1 || grid.points.is_empty() {
         return 64;
     }
     let lat = Lattice::of(grid, cube.max(1e-6));
+    if threads == 2 {
+        return if blocks::occupied_count(grid, &lat, 64) >= 8 * threads { 64 } else { 32 };
+    }
     for b in [64, 32] {
-        if occupied_blocks(grid, &lat, b).0.len() >= 40 * threads {
+        if blocks::occupied_count(grid, &lat, b) >= 40 * threads {
             return b as u32;
         }
     }

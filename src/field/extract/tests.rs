@@ -138,3 +138,27 @@ fn single_pair_and_random_particles() {
     let (median, p99) = (angles[angles.len() / 2], angles[angles.len() * 99 / 100]);
     assert!(median < 2.0 && p99 < 12.0, "normal angles: median {median}°, p99 {p99}°");
 }
+
+/// The block size's choice: the bit count of occupied blocks equals the listed blocks, and two threads take
+/// blocks of 32 where blocks of 64 would leave fewer than 8 per thread (one thread keeps 64).
+#[test]
+fn the_block_size_follows_the_occupied_blocks() {
+    let mut seed = 777u32;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        (seed >> 8) as f32 / (1 << 24) as f32
+    };
+    let pts: Vec<[f32; 3]> = (0..2000).map(|_| [rnd() * 2.0, rnd() * 0.3, rnd() * 1.0]).collect();
+    let g = IsoGrid::build(&pts, 4.0 * 0.02);
+    let lat = Lattice::of(&g, 0.01);
+    for b in [3, 16, 32, 64] {
+        assert_eq!(blocks::occupied_count(&g, &lat, b), occupied_blocks(&g, &lat, b).0.len(), "blocks of {b}");
+    }
+    let n64 = occupied_blocks(&g, &lat, 64).0.len();
+    assert!(n64 < 16, "the cloud is small enough for the choice to matter: {n64} blocks of 64");
+    assert_eq!(auto_block(&g, 0.01, 1), 64);
+    assert_eq!(auto_block(&g, 0.01, 2), 32);
+    // A cube a quarter as large: 4³ × as many blocks of 64, enough for two threads.
+    assert!(occupied_blocks(&g, &Lattice::of(&g, 0.0025), 64).0.len() >= 16);
+    assert_eq!(auto_block(&g, 0.0025, 2), 64);
+}
