@@ -71,6 +71,8 @@ layout(std430, set = 0, binding = 4) buffer Acc { uvec2 acc[]; };
 // The deposit's work (bench's `iso_volume_work`): [0] voxel deposits (point–voxel pairs; one 64-bit atomic
 // each, or two 32-bit ones), zeroed by the host.
 layout(std430, set = 0, binding = 5) buffer VolWork { uint vol_work[4]; };
+// No frame block here: the deposits are counted whenever the field is built (once per particle set).
+#define WORK_ALWAYS
 #include "work_count.glsl"
 #define ISO_TABLE(i) texelFetch(table_t, int(i)).x
 #endif

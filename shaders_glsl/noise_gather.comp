@@ -19,6 +19,7 @@ layout(set = 0, binding = 4, r32f) uniform readonly image2D depth;
 // Holds the small sprites' terms (noise_bin): a tile's sum is added to them.
 layout(set = 0, binding = 5, r32ui) uniform uimage2D accum;
 layout(std430, set = 0, binding = 6) buffer Work { uint work[8]; };
+#include "work_count.glsl"
 layout(push_constant) uniform Push {
     uint count;
     float size;
@@ -97,7 +98,8 @@ void main() {
     if (inside && sum != 0) imageAtomicAdd(accum, noise_level_base(size, L) + q, uint(sum));
     if (evaluated > 0u) atomicAdd(s_evaluated, evaluated);
     barrier();
-    if (li == 0u) {
+    // Counted only in a frame that asks (work_count.glsl's WORK_COUNTING).
+    if (li == 0u && WORK_COUNTING) {
         if (s_evaluated > 0u) atomicAdd(work[3], s_evaluated);
         if (first == 0u) atomicMax(work[7], count);
     }

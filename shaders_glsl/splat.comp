@@ -26,6 +26,7 @@ layout(set = 0, binding = 5, r32ui) uniform coherent uimage2D back_bits;
 // The pass's work (bench's `splat_work`), zeroed by the host: [0] sphere–pixel tests (ray–sphere or ray–ellipsoid
 // intersections), [1] spheres drawn (on screen, not culled whole), [2] 8×8 tiles the occlusion bound skipped.
 layout(std430, set = 0, binding = 6) buffer SplatWork { uint splat_work[4]; };
+#include "work_count.glsl"
 layout(push_constant) uniform Push {
     uint count;
     float radius_scale;
@@ -107,6 +108,8 @@ void main() {
     barrier();
     uint i = gl_GlobalInvocationID.x;
     uvec2 w = i < pc.count ? splat_sphere(i) : uvec2(0u);
+    // Counted only in a frame that asks (work_count.glsl's WORK_COUNTING).
+    if (!WORK_COUNTING) w = uvec2(0u);
     if (w.x > 0u) {
         atomicAdd(s_work[0], w.x);
         atomicAdd(s_work[1], 1u);

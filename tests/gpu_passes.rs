@@ -967,13 +967,13 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     rd.keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     s.iso.first_steps = 0;
-    rd.render(&v, &s).unwrap();
+    rd.render_counted(&v, &s).unwrap();
     let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let work = |rd: &Renderer| rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap().work(&gpu).unwrap();
     let whole = work(&rd);
     s.iso.first_steps = first_steps;
     s.iso.rest_lanes = 1;
-    rd.render(&v, &s).unwrap();
+    rd.render_counted(&v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
@@ -1516,7 +1516,7 @@ fn the_splat_counts_its_sphere_pixel_tests() {
         s.filter.method = Filter::None;
         let mut r = Renderer::new(&gpu).unwrap();
         r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
-        r.render(&v, &s).unwrap();
+        r.render_counted(&v, &s).unwrap();
         let work = r.targets.as_ref().unwrap().splat_work(&gpu).unwrap();
         let (view_m, f, radius) = (v.camera.view(), v.camera.focal_px(h), g.radius * s.splat_scale());
         let (mut tests, mut spheres) = (0u64, 0u64);
@@ -2060,7 +2060,7 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
         let up =
             meniscus::renderer::Upload::Points { positions: &pos, radii: None, isolated: None, motion: Some(&motion) };
         rr.upload(up).unwrap();
-        rr.render(&v, &s).unwrap();
+        rr.render_counted(&v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         runs.push((own.work().unwrap(), read_u32(&gpu, &own.accum).unwrap()));
     }
@@ -2119,7 +2119,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
             motion: Some(&motion),
         })
         .unwrap();
-        rr.render(&v, &s).unwrap();
+        rr.render_counted(&v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         let work = own.work().unwrap();
         let noise = read_f32(&gpu, &own.noise).unwrap();
@@ -2200,7 +2200,7 @@ fn noise_matches_cpu_reference() {
         motion: Some(&motion),
     })
     .unwrap();
-    rr.render(&v, &s).unwrap();
+    rr.render_counted(&v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
     let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
@@ -2532,4 +2532,42 @@ fn a_frame_with_more_scopes_than_the_timer_holds_reads_as_untimed() {
         }
     }
     assert_clean(&gpu);
+}
+
+/// The passes count their own work only in a frame that asks (`FrameRequest::count_work`: each counting
+/// shader's twin pipeline, WORK_COUNTING on): a frame that does not leaves the counts at 0 (the noise's coarsest
+/// level, which its resolve reads, excepted), and both frames draw the same image bit for bit.
+#[test]
+fn a_frame_counts_its_work_only_when_asked() {
+    let gpu = gpu();
+    let (g, v) = splat_scene("wave", 20_000, 160, 90, 0.01, 1.0);
+    let s = meniscus::settings::Settings::default().with(|s| {
+        s.radius = g.radius;
+        s.noise.enabled = true;
+    });
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
+    let frame = |r: &mut Renderer, counted: bool| {
+        if counted {
+            r.render_counted(&v, &s).unwrap();
+        } else {
+            r.render(&v, &s).unwrap();
+        }
+        let work = r.state().work(&s, |_| true).unwrap();
+        (work, read_image(&gpu, &r.targets.as_ref().unwrap().final_color).unwrap())
+    };
+    let (plain, image) = frame(&mut r, false);
+    let (counted, image_counted) = frame(&mut r, true);
+    let (again, image_again) = frame(&mut r, false);
+    assert!(image == image_counted && image == image_again, "counting changed the image");
+    let (splat, iso, noise) = (counted.splat.unwrap(), counted.iso.unwrap(), counted.noise.unwrap());
+    assert!(splat.tests > 0 && iso.samples > 0 && noise.evaluated > 0, "{counted:?}");
+    for w in [&plain, &again] {
+        assert_eq!((w.splat.unwrap().tests, w.iso.unwrap().samples), (0, 0), "{w:?}");
+        let n = w.noise.unwrap();
+        assert_eq!((n.level, n.texels, n.sprites, n.evaluated), (noise.level, 0, 0, 0), "{w:?}");
+        // The queue's length is the cast's own (its second dispatch reads it), counted or not.
+        assert_eq!(w.iso.unwrap().queued, iso.queued);
+    }
+    common::assert_clean(&gpu);
 }

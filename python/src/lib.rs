@@ -93,8 +93,10 @@ fn render_image(
     view: &View,
     s: &meniscus::settings::Settings,
     hooks: Hooks,
+    count_work: bool,
 ) -> meniscus::Result<(image::RgbaImage, meniscus::timing::PassTimes)> {
-    let sub = core.submit(FrameRequest::new(view, s).hooks(hooks).readback())?;
+    let req = FrameRequest::new(view, s).hooks(hooks).readback();
+    let sub = core.submit(if count_work { req.count_work() } else { req })?;
     let img = core.read_submitted(sub)?;
     Ok((img, core.finish(sub)?))
 }
@@ -110,6 +112,11 @@ struct Renderer {
     /// The particles (and the radius and isolated-particle settings they were set with) the renderer holds from the last
     /// `render` of an array: the same again are not set again (a turntable of one frame uploads it once).
     held: Option<(Particles, u32, meniscus::settings::IsolatedParams)>,
+    /// The passes count their own work in the next frames (`work()`); off: the counting costs the frame.
+    #[pyo3(get, set)]
+    count_work: bool,
+    /// Whether the last frame counted its work.
+    counted: bool,
 }
 
 #[pymethods]
@@ -129,7 +136,16 @@ impl Renderer {
         let s = settings(preset, settings_file)?;
         let gpu = crate::device(device)?;
         let core = Core::new(&gpu).map_err(py_err)?;
-        Ok(Renderer { core, settings: s, size: (width, height), times: PassTimes::default(), host: vec![], held: None })
+        Ok(Renderer {
+            core,
+            settings: s,
+            size: (width, height),
+            times: PassTimes::default(),
+            host: vec![],
+            held: None,
+            count_work: false,
+            counted: false,
+        })
     }
 
     /// Render particles; returns the image as H×W×4 RGBA bytes.
@@ -171,6 +187,7 @@ impl Renderer {
         let key = (s.radius.to_bits(), s.isolated.clone());
         let held = self.held.as_ref().is_some_and(|(q, r, sp)| *r == key.0 && *sp == key.1 && *q == p);
         let work = OnThisThread((&mut self.core, &p, &view, &s, drawn));
+        let count_work = self.count_work;
         let (img, times, upload, frame) = py
             .allow_threads(move || {
                 let (core, p, view, s, diffuse) = work.into_inner();
@@ -183,7 +200,7 @@ impl Renderer {
                 }
                 let upload = ms(t1);
                 let t2 = std::time::Instant::now();
-                let (img, times) = render_image(core, view, s, Hooks::default())?;
+                let (img, times) = render_image(core, view, s, Hooks::default(), count_work)?;
                 Ok::<_, meniscus::Error>((img, times, upload, ms(t2)))
             })
             .map_err(py_err)?;
@@ -191,6 +208,7 @@ impl Renderer {
             self.held = Some((p, key.0, key.1));
         }
         self.times = times;
+        self.counted = count_work;
         let t3 = std::time::Instant::now();
         let out = image_array(py, img);
         let h = self.core.state().host_times();
@@ -235,6 +253,7 @@ impl Renderer {
         let first = sim.core.frames == 0;
         let initial = if first { Some(sim.core.read().map_err(py_err)?) } else { None };
         let work = OnThisThread((&mut self.core, &view, &s, src, initial));
+        let count_work = self.count_work;
         let (img, times) = py
             .allow_threads(move || {
                 let (core, view, s, src, initial) = work.into_inner();
@@ -242,7 +261,7 @@ impl Renderer {
                     // Not stepped yet: the scene's initial particles, from the host.
                     Some(p) => {
                         core.upload(Upload::points(&p.positions))?;
-                        render_image(core, view, s, Hooks::default())
+                        render_image(core, view, s, Hooks::default(), count_work)
                     }
                     None => {
                         core.upload(Upload::Gpu { count: n, bounds: (lo, hi), diffuse_slots: 0 })?;
@@ -251,12 +270,13 @@ impl Renderer {
                             let region = ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
                             ctx.copy_buffer(src, out, region);
                         };
-                        render_image(core, view, s, Hooks { produce: Some(&copy), ..Default::default() })
+                        render_image(core, view, s, Hooks { produce: Some(&copy), ..Default::default() }, count_work)
                     }
                 }
             })
             .map_err(py_err)?;
         self.times = times;
+        self.counted = count_work;
         image_array(py, img)
     }
 
@@ -292,6 +312,11 @@ impl Renderer {
     /// Each pass's own count of its work in the last frame (`meniscus bench`'s "Work per pass"): per pass
     /// ("splat", "iso", "iso_volume", "noise") a dict of its counters, or None where the pass did not run.
     fn work<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        if !self.counted {
+            return Err(PyValueError::new_err(
+                "the last frame did not count its work: set Renderer.count_work = True before rendering it",
+            ));
+        }
         let ran = |pass: &str| self.times.0.iter().any(|(n, _)| n == pass);
         let w = self.core.state().work(&self.settings, ran).map_err(py_err)?;
         let d = PyDict::new(py);

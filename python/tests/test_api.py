@@ -46,6 +46,8 @@ def test_render_equals_the_cli_png(cli, frame, tmp_path, preset):
 def test_work_counts_each_pass(frame):
     r = meniscus.Renderer(160, 90)
     pos = meniscus.load(frame)["positions"]
+    assert r.count_work is False  # off by default: the counting costs the frame
+    r.count_work = True
     r.render(pos, particle_radius=0.025, camera=CAM)
     w = r.work()
     assert set(w) == {"splat", "iso", "iso_volume", "noise"}, w
@@ -58,8 +60,14 @@ def test_work_counts_each_pass(frame):
     again = r.work()
     assert again["splat"] == w["splat"] and again["iso"] == w["iso"], (again, w)
     assert again["iso_volume"] in (None, w["iso_volume"]), again
+    # A frame rendered without counting: asking names the switch.
+    r.count_work = False
+    r.render(pos, particle_radius=0.025, camera=CAM)
+    with pytest.raises(ValueError, match="count_work"):
+        r.work()
     # The fast preset draws spheres: no iso pass, no field.
     fast = meniscus.Renderer(160, 90, preset="fast")
+    fast.count_work = True
     fast.render(pos, particle_radius=0.025, camera=CAM)
     fw = fast.work()
     assert fw["iso"] is None and fw["iso_volume"] is None and fw["splat"]["tests"] > 0, fw

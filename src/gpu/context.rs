@@ -53,6 +53,11 @@ pub struct FrameCtx<'t> {
     /// Every resource this context declared a use of, and whether it wrote it (for the cross-queue waits of
     /// `schedule::derive_waits`).
     pub touches: Vec<super::schedule::Touch>,
+    /// The passes count their own work in this recording: programs whose shader has the counting constant
+    /// (shaders_glsl/work_count.glsl's WORK_COUNTING) dispatch their counting pipeline
+    /// ([`super::pipeline::ProgramCore::pipeline_for`]). Off unless a frame asks
+    /// ([`crate::renderer::FrameRequest::count_work`]).
+    pub count_work: bool,
 }
 
 impl<'t> FrameCtx<'t> {
@@ -61,13 +66,13 @@ impl<'t> FrameCtx<'t> {
         if let Some(t) = timer.as_deref_mut() {
             t.reset(cmd);
         }
-        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![] }
+        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![], count_work: false }
     }
 
     /// Continue a frame in another command buffer: the timer keeps its scopes (it was reset by the frame's
     /// first context, whose command buffer runs earlier on the same queue).
     pub fn continuing(gpu: &Arc<Gpu>, cmd: vk::CommandBuffer, timer: Option<&'t mut Timer>) -> Self {
-        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![] }
+        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![], count_work: false }
     }
 
     /// Derive the barriers for `uses` from each resource's last access, record them in ONE

@@ -108,10 +108,12 @@ impl SlotCommands {
     /// then the frame's passes through `passes` (one [`Recording`], or the split one: the async part, the fluid,
     /// the shading), then `finish` in the frame's last command buffer (the caller's after-work, the read-back).
     /// The queue segments — which command buffer, on which queue, with what it touched — are assembled here;
-    /// [`Executor::submit_recorded`] submits them.
+    /// [`Executor::submit_recorded`] submits them. `count_work`: the passes dispatch their counting pipelines
+    /// ([`FrameCtx::count_work`]).
     pub fn record<R>(
         &mut self,
         gpu: &Arc<Gpu>,
+        count_work: bool,
         upload: impl FnOnce(&mut FrameCtx),
         passes: impl FnOnce(&mut Recording) -> Result<R>,
         finish: impl FnOnce(&mut FrameCtx, &R),
@@ -119,6 +121,7 @@ impl SlotCommands {
         use super::schedule::QueueId;
         if !self.split {
             let mut ctx = FrameCtx::new(gpu, self.cmd, Some(&mut self.timer));
+            ctx.count_work = count_work;
             upload(&mut ctx);
             let r = passes(&mut Recording::One(&mut ctx))?;
             finish(&mut ctx, &r);
@@ -141,6 +144,9 @@ impl SlotCommands {
         let mut a = FrameCtx::continuing(gpu, compute_cmds[1], Some(ta));
         let mut f = FrameCtx::new(gpu, main_cmds[1], Some(tf));
         let mut sh = FrameCtx::new(gpu, main_cmds[2], Some(tsh));
+        for c in [&mut a, &mut f, &mut sh] {
+            c.count_work = count_work;
+        }
         let r = passes(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh })?;
         finish(&mut sh, &r);
         let segment =

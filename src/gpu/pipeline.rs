@@ -291,12 +291,93 @@ pub struct ProgramCore {
     /// The slot list the layout was built from.
     pub slots: &'static [Slot],
     stages: vk::ShaderStageFlags,
+    /// A compute shader that counts its work (declares WORK_COUNTING, shaders_glsl/work_count.glsl): its SPIR-V
+    /// and specialization constants, for the counting twin built at the first frame that counts.
+    counting: Option<Box<(&'static [u8], Vec<u32>)>>,
+    /// The counting twin of `pipeline` (WORK_COUNTING = true), once built.
+    counted: std::sync::OnceLock<vk::Pipeline>,
+}
+
+/// The specialization constant id of WORK_COUNTING (shaders_glsl/work_count.glsl): past the ids the programs
+/// number from 0 (`ComputeProgram::specialized`).
+pub const WORK_COUNTING_ID: u32 = 31;
+
+/// Whether SPIR-V declares a specialization constant of id `id` (an OpDecorate … SpecId `id`).
+fn declares_spec_constant(spirv: &[u8], id: u32) -> bool {
+    const OP_DECORATE: u32 = 71;
+    const SPEC_ID: u32 = 1;
+    let words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let mut at = 5; // past the header
+    while at < words.len() {
+        let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+        if count == 0 {
+            return false;
+        }
+        if op == OP_DECORATE && count >= 4 && words.get(at + 2) == Some(&SPEC_ID) && words.get(at + 3) == Some(&id) {
+            return true;
+        }
+        at += count;
+    }
+    false
+}
+
+/// A compute pipeline of `module` with the constants `constant_id = k` → `constants[k]`, and
+/// WORK_COUNTING_ID → `counting` where given.
+fn compute_pipeline(
+    gpu: &Gpu,
+    module: vk::ShaderModule,
+    layout: vk::PipelineLayout,
+    constants: &[u32],
+    counting: Option<bool>,
+) -> Result<vk::Pipeline> {
+    let mut data: Vec<u32> = constants.to_vec();
+    let mut entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+        .map(|k| vk::SpecializationMapEntry::default().constant_id(k).offset(4 * k).size(4))
+        .collect();
+    if let Some(on) = counting {
+        entries.push(
+            vk::SpecializationMapEntry::default().constant_id(WORK_COUNTING_ID).offset(4 * data.len() as u32).size(4),
+        );
+        data.push(on as u32);
+    }
+    let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(&data));
+    let mut stage =
+        vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+    if !entries.is_empty() {
+        stage = stage.specialization_info(&spec);
+    }
+    let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+    Ok(unsafe { gpu.device.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) }
+        .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0])
+}
+
+impl ProgramCore {
+    /// The pipeline to bind: the counting twin when `count_work` and the shader counts (built here the first
+    /// time: a frame that counts pays its compile once), else the program's own. Should the twin fail to build,
+    /// the program's own is bound and the pass's counts read 0.
+    pub fn pipeline_for(&self, count_work: bool) -> vk::Pipeline {
+        let Some((spirv, constants)) = self.counting.as_deref().filter(|_| count_work) else { return self.pipeline };
+        *self.counted.get_or_init(|| {
+            let build = || -> Result<vk::Pipeline> {
+                let module = shader_module(&self.gpu, spirv)?;
+                let p = compute_pipeline(&self.gpu, module, self.layout, constants, Some(true));
+                unsafe { self.gpu.device.destroy_shader_module(module, None) };
+                let p = p?;
+                self.gpu.name_object(p, self.file);
+                Ok(p)
+            };
+            build().unwrap_or(self.pipeline)
+        })
+    }
 }
 
 impl Drop for ProgramCore {
     fn drop(&mut self) {
         let d = &self.gpu.device;
         unsafe {
+            if let Some(&p) = self.counted.get().filter(|&&p| p != self.pipeline) {
+                d.destroy_pipeline(p, None);
+            }
             d.destroy_pipeline(self.pipeline, None);
             d.destroy_pipeline_layout(self.layout, None);
             d.destroy_descriptor_set_layout(self.set_layout, None);
@@ -377,21 +458,25 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
         let module = shader_module(gpu, decl.shader.spirv)?;
         let stages = vk::ShaderStageFlags::COMPUTE;
         let (set_layout, layout) = layouts(gpu, decl.slots, stages, push_size)?;
-        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
-            .map(|k| vk::SpecializationMapEntry::default().constant_id(k).offset(4 * k).size(4))
-            .collect();
-        let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
-        let mut stage = vk::PipelineShaderStageCreateInfo::default().stage(stages).module(module).name(c"main");
-        if !constants.is_empty() {
-            stage = stage.specialization_info(&spec);
-        }
-        let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-        let pipeline = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) }
-            .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0];
+        // A shader that counts its work gets WORK_COUNTING = false here: its counting sums compiled out of the
+        // frames that do not ask for them (they cost lavapipe's noise splat 15–20 %: docs/gpu-frame.md).
+        let counts = declares_spec_constant(decl.shader.spirv, WORK_COUNTING_ID);
+        let pipeline = compute_pipeline(gpu, module, layout, constants, counts.then_some(false));
         unsafe { d.destroy_shader_module(module, None) };
+        let pipeline = pipeline?;
         gpu.name_object(pipeline, file);
         Ok(ComputeProgram {
-            core: ProgramCore { gpu: gpu.clone(), file, pipeline, layout, set_layout, slots: decl.slots, stages },
+            core: ProgramCore {
+                gpu: gpu.clone(),
+                file,
+                pipeline,
+                layout,
+                set_layout,
+                slots: decl.slots,
+                stages,
+                counting: counts.then(|| Box::new((decl.shader.spirv, constants.to_vec()))),
+                counted: std::sync::OnceLock::new(),
+            },
             _push: std::marker::PhantomData,
         })
     }
@@ -401,7 +486,9 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
     pub fn dispatch(&self, ctx: &mut FrameCtx, res: &[Res], push: &P, groups: [u32; 3]) {
         let c = &self.core;
         c.bind(ctx, vk::PipelineBindPoint::COMPUTE, res);
-        unsafe { c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline) };
+        unsafe {
+            c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline_for(ctx.count_work))
+        };
         c.push(ctx.cmd, push);
         if groups.iter().all(|&g| g > 0) {
             unsafe { c.gpu.device.cmd_dispatch(ctx.cmd, groups[0], groups[1], groups[2]) };
@@ -417,7 +504,9 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
         let c = &self.core;
         c.bind(ctx, vk::PipelineBindPoint::COMPUTE, res);
         ctx.barrier(&[Use::Buffer(args, Access::IndirectRead)]);
-        unsafe { c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline) };
+        unsafe {
+            c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline_for(ctx.count_work))
+        };
         c.push(ctx.cmd, push);
         unsafe { c.gpu.device.cmd_dispatch_indirect(ctx.cmd, args.raw, offset) };
     }
@@ -580,6 +669,8 @@ impl<P: bytemuck::Pod> GraphicsProgram<P> {
                 set_layout,
                 slots: decl.slots,
                 stages: stages_flags,
+                counting: None,
+                counted: std::sync::OnceLock::new(),
             },
             _push: std::marker::PhantomData,
         })

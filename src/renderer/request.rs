@@ -163,17 +163,32 @@ pub struct FrameRequest<'a> {
     pub readback: bool,
     /// Binary semaphores to wait for and signal (a window's acquire and present).
     pub binary: Binary,
+    /// The passes count their own work ([`RendererState::work`] reads it after the frame): off by default,
+    /// because the counting sums cost the frame (15–20 % of the noise splat on lavapipe; docs/gpu-frame.md).
+    pub count_work: bool,
 }
 
 impl<'a> FrameRequest<'a> {
     /// A frame of `view` with settings `s`: no hooks, no read-back, no semaphores.
     pub fn new(view: &'a View, settings: &'a Settings) -> FrameRequest<'a> {
-        FrameRequest { view, settings, hooks: Hooks::default(), readback: false, binary: Binary::default() }
+        FrameRequest {
+            view,
+            settings,
+            hooks: Hooks::default(),
+            readback: false,
+            binary: Binary::default(),
+            count_work: false,
+        }
     }
 
     /// With these hooks.
     pub fn hooks(self, hooks: Hooks<'a>) -> FrameRequest<'a> {
         FrameRequest { hooks, ..self }
+    }
+
+    /// With the passes counting their own work (for [`RendererState::work`]).
+    pub fn count_work(self) -> FrameRequest<'a> {
+        FrameRequest { count_work: true, ..self }
     }
 
     /// With the final image copied into host memory.
@@ -229,8 +244,10 @@ impl<'a> RendererState<'a> {
 
     /// Each pass's own count of its work in the latest frame that ran it (waits for the device): `ran(pass)`
     /// says which passes the frames asked about ran (a pass's counters keep the last frame that ran it); the
-    /// splat counts only in its compute variant (`settings.splat.mode`). What `meniscus bench` reports as "Work
-    /// per pass" and Python's `Renderer.work()`.
+    /// splat counts only in its compute variant (`settings.splat.mode`). The passes count only in a frame
+    /// requested with [`FrameRequest::count_work`] (a frame without it leaves their counts at 0), except
+    /// `iso_volume`'s deposits, counted at every build of the field. What `meniscus bench` reports as "Work per
+    /// pass" (from a counted frame after the timed ones) and Python's `Renderer.work()`.
     pub fn work(&self, settings: &Settings, ran: impl Fn(&str) -> bool) -> Result<crate::work::FrameWork> {
         use crate::settings::Surface;
         let Some(t) = self.targets else { return Ok(crate::work::FrameWork::default()) };

@@ -395,7 +395,13 @@ impl Series {
         Ok(())
     }
 
-    fn finish(self, r: &Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
+    /// The entry: the timed frames' statistics, and each pass's own work from one more frame that counts it (the
+    /// counting sums would cost the timed frames: docs/gpu-frame.md) — a sequence's next frame, a still scene's
+    /// same particles.
+    fn finish(mut self, r: &mut Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
+        self.next_particles(r, w)?;
+        let counted = r.submit(FrameRequest::new(&self.view, &self.s).count_work())?;
+        r.finish(counted)?;
         let memory: Vec<Mem> =
             r.state().memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
         let ran = |pass: &str| self.per_pass.iter().any(|(n, _)| n == pass);
@@ -579,7 +585,8 @@ Compute invocations per pass (pipeline statistics, last measured frame; thousand
 /// whatever a CPU driver's milliseconds say. "–": the pass did not run (or, for `iso_volume`, did not rebuild).
 fn work_table(entries: &[Entry]) -> String {
     let mut s = String::from(
-        "\nWork per pass (each pass's own counters, last measured frame):\n\n| scene | resolution | variant | splat: \
+        "\nWork per pass (each pass's own counters, from a frame counted after the timed ones, which run without \
+         counting):\n\n| scene | resolution | variant | splat: \
          sphere–pixel tests (spheres) | iso: field samples (rays queued) | iso_volume: deposits (atomics) | noise: \
          texels evaluated (level) |\n|---|---|---|---:|---:|---:|---:|\n",
     );

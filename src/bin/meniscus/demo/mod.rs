@@ -892,7 +892,7 @@ impl App {
         };
         // The raw depth view and the particle view read the splatted depth after smoothing.
         st.renderer.keep_raw_depth = true;
-        st.renderer.submit(FrameRequest { view: &view, settings: &self.settings, hooks, readback: false, binary })?;
+        st.renderer.submit(FrameRequest { hooks, binary, ..FrameRequest::new(&view, &self.settings) })?;
         let late = st.renderer.state().late_times().cloned();
         if let Some(e) = sim_err.into_inner() {
             return Err(e);
