@@ -4,7 +4,7 @@
 //! system: on an H100 it cost the iso cast 10–60 % (2 M invocations at 1080p, all on iso_work[0]). Lanes that
 //! have not reconverged make partial sums, each added once: the totals are exact either way.
 //! The counts are taken only in a frame that asks for them: WORK_COUNTING is a specialization constant (id 31,
-//! `gpu::pipeline::WORK_COUNTING_ID`), false in a program's own pipeline and true in its counting twin, which
+//! `gpu::WORK_COUNTING_ID`), false in a program's own pipeline and true in its counting twin, which
 //! a frame requested with `FrameRequest::count_work` binds — so the sums are compiled out of the frames that
 //! do not count (they cost lavapipe's noise splat 15–20 %, and a uniform branch on a frame-block flag saved
 //! nothing there: docs/gpu-frame.md). A shader that defines WORK_ALWAYS counts every run (iso_volume: once per

@@ -22,6 +22,16 @@ fn pass_targets(r: &mut Renderer, v: &meniscus::view::View, s: &meniscus::settin
     r.uniforms.write(0, bytemuck::bytes_of(&u)).unwrap();
 }
 
+/// Render one frame whose passes count their own work (`FrameRequest::count_work`) and wait for it.
+fn render_counted(
+    r: &mut Renderer,
+    v: &meniscus::view::View,
+    s: &meniscus::settings::Settings,
+) -> meniscus::Result<meniscus::timing::PassTimes> {
+    let sub = r.submit(meniscus::renderer::FrameRequest::new(v, s).count_work())?;
+    r.finish(sub)
+}
+
 /// One sphere of radius 0.5 at the origin, camera at z = 3: splat depth equals the exact ray–sphere entry.
 #[test]
 fn splat_depth_matches_analytic_sphere() {
@@ -967,13 +977,13 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     rd.keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     s.iso.first_steps = 0;
-    rd.render_counted(&v, &s).unwrap();
+    render_counted(&mut rd, &v, &s).unwrap();
     let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let work = |rd: &Renderer| rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap().work(&gpu).unwrap();
     let whole = work(&rd);
     s.iso.first_steps = first_steps;
     s.iso.rest_lanes = 1;
-    rd.render_counted(&v, &s).unwrap();
+    render_counted(&mut rd, &v, &s).unwrap();
     let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
     let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
@@ -1516,7 +1526,7 @@ fn the_splat_counts_its_sphere_pixel_tests() {
         s.filter.method = Filter::None;
         let mut r = Renderer::new(&gpu).unwrap();
         r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
-        r.render_counted(&v, &s).unwrap();
+        render_counted(&mut r, &v, &s).unwrap();
         let work = r.targets.as_ref().unwrap().splat_work(&gpu).unwrap();
         let (view_m, f, radius) = (v.camera.view(), v.camera.focal_px(h), g.radius * s.splat_scale());
         let (mut tests, mut spheres) = (0u64, 0u64);
@@ -2060,7 +2070,7 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
         let up =
             meniscus::renderer::Upload::Points { positions: &pos, radii: None, isolated: None, motion: Some(&motion) };
         rr.upload(up).unwrap();
-        rr.render_counted(&v, &s).unwrap();
+        render_counted(&mut rr, &v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         runs.push((own.work().unwrap(), read_u32(&gpu, &own.accum).unwrap()));
     }
@@ -2119,7 +2129,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
             motion: Some(&motion),
         })
         .unwrap();
-        rr.render_counted(&v, &s).unwrap();
+        render_counted(&mut rr, &v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         let work = own.work().unwrap();
         let noise = read_f32(&gpu, &own.noise).unwrap();
@@ -2200,7 +2210,7 @@ fn noise_matches_cpu_reference() {
         motion: Some(&motion),
     })
     .unwrap();
-    rr.render_counted(&v, &s).unwrap();
+    render_counted(&mut rr, &v, &s).unwrap();
     let t = rr.targets.as_ref().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
     let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
@@ -2549,7 +2559,7 @@ fn a_frame_counts_its_work_only_when_asked() {
     r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
     let frame = |r: &mut Renderer, counted: bool| {
         if counted {
-            r.render_counted(&v, &s).unwrap();
+            render_counted(r, &v, &s).unwrap();
         } else {
             r.render(&v, &s).unwrap();
         }

@@ -13,6 +13,7 @@ pub mod queues;
 pub mod recording;
 mod resource;
 pub mod schedule;
+mod specialize;
 mod timer;
 pub mod transfer;
 
@@ -31,6 +32,7 @@ pub use access::{Access, AccessState};
 pub use context::{FrameCtx, Use};
 pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, RasterTargets, Res, Shader, Slot};
 pub use resource::{Buffer, Image};
+pub use specialize::WORK_COUNTING_ID;
 pub use timer::Timer;
 
 /// Options for [`Gpu::new`].

@@ -298,59 +298,6 @@ pub struct ProgramCore {
     counted: std::sync::OnceLock<vk::Pipeline>,
 }
 
-/// The specialization constant id of WORK_COUNTING (shaders_glsl/work_count.glsl): past the ids the programs
-/// number from 0 (`ComputeProgram::specialized`).
-pub const WORK_COUNTING_ID: u32 = 31;
-
-/// Whether SPIR-V declares a specialization constant of id `id` (an OpDecorate … SpecId `id`).
-fn declares_spec_constant(spirv: &[u8], id: u32) -> bool {
-    const OP_DECORATE: u32 = 71;
-    const SPEC_ID: u32 = 1;
-    let words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    let mut at = 5; // past the header
-    while at < words.len() {
-        let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
-        if count == 0 {
-            return false;
-        }
-        if op == OP_DECORATE && count >= 4 && words.get(at + 2) == Some(&SPEC_ID) && words.get(at + 3) == Some(&id) {
-            return true;
-        }
-        at += count;
-    }
-    false
-}
-
-/// A compute pipeline of `module` with the constants `constant_id = k` → `constants[k]`, and
-/// WORK_COUNTING_ID → `counting` where given.
-fn compute_pipeline(
-    gpu: &Gpu,
-    module: vk::ShaderModule,
-    layout: vk::PipelineLayout,
-    constants: &[u32],
-    counting: Option<bool>,
-) -> Result<vk::Pipeline> {
-    let mut data: Vec<u32> = constants.to_vec();
-    let mut entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
-        .map(|k| vk::SpecializationMapEntry::default().constant_id(k).offset(4 * k).size(4))
-        .collect();
-    if let Some(on) = counting {
-        entries.push(
-            vk::SpecializationMapEntry::default().constant_id(WORK_COUNTING_ID).offset(4 * data.len() as u32).size(4),
-        );
-        data.push(on as u32);
-    }
-    let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(&data));
-    let mut stage =
-        vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-    if !entries.is_empty() {
-        stage = stage.specialization_info(&spec);
-    }
-    let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-    Ok(unsafe { gpu.device.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) }
-        .map_err(|(_, r)| Error::Vulkan { call: "vkCreateComputePipelines", result: r })?[0])
-}
-
 impl ProgramCore {
     /// The pipeline to bind: the counting twin when `count_work` and the shader counts (built here the first
     /// time: a frame that counts pays its compile once), else the program's own. Should the twin fail to build,
@@ -360,7 +307,7 @@ impl ProgramCore {
         *self.counted.get_or_init(|| {
             let build = || -> Result<vk::Pipeline> {
                 let module = shader_module(&self.gpu, spirv)?;
-                let p = compute_pipeline(&self.gpu, module, self.layout, constants, Some(true));
+                let p = super::specialize::compute_pipeline(&self.gpu, module, self.layout, constants, Some(true));
                 unsafe { self.gpu.device.destroy_shader_module(module, None) };
                 let p = p?;
                 self.gpu.name_object(p, self.file);
@@ -460,8 +407,8 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
         let (set_layout, layout) = layouts(gpu, decl.slots, stages, push_size)?;
         // A shader that counts its work gets WORK_COUNTING = false here: its counting sums compiled out of the
         // frames that do not ask for them (they cost lavapipe's noise splat 15–20 %: docs/gpu-frame.md).
-        let counts = declares_spec_constant(decl.shader.spirv, WORK_COUNTING_ID);
-        let pipeline = compute_pipeline(gpu, module, layout, constants, counts.then_some(false));
+        let counts = super::specialize::declares_spec_constant(decl.shader.spirv, super::specialize::WORK_COUNTING_ID);
+        let pipeline = super::specialize::compute_pipeline(gpu, module, layout, constants, counts.then_some(false));
         unsafe { d.destroy_shader_module(module, None) };
         let pipeline = pipeline?;
         gpu.name_object(pipeline, file);

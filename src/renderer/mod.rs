@@ -149,13 +149,6 @@ impl Renderer {
         self.finish(sub)
     }
 
-    /// [`Renderer::render`] with the passes counting their own work ([`FrameRequest::count_work`]; read with
-    /// [`RendererState::work`] or each pass's own `work`).
-    pub fn render_counted(&mut self, view: &View, s: &Settings) -> Result<PassTimes> {
-        let sub = self.submit(FrameRequest::new(view, s).count_work())?;
-        self.finish(sub)
-    }
-
     /// Submit one frame and return without waiting for it (N frames may be in flight: starting the frame after
     /// waits only for the frame N back). With `readback`, the frame also copies its final image into host
     /// memory; take it with [`Renderer::read_submitted`] before N more frames are submitted.
