@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::specialize::{compute_pipeline, declares_spec_constant, WORK_COUNTING_ID};
 use super::{Access, Buffer, FrameCtx, Gpu, Image, Use};
 use crate::error::{Error, Result, VkContext};
 
@@ -307,7 +308,7 @@ impl ProgramCore {
         *self.counted.get_or_init(|| {
             let build = || -> Result<vk::Pipeline> {
                 let module = shader_module(&self.gpu, spirv)?;
-                let p = super::specialize::compute_pipeline(&self.gpu, module, self.layout, constants, Some(true));
+                let p = compute_pipeline(&self.gpu, module, self.layout, constants, Some(true));
                 unsafe { self.gpu.device.destroy_shader_module(module, None) };
                 let p = p?;
                 self.gpu.name_object(p, self.file);
@@ -407,8 +408,8 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
         let (set_layout, layout) = layouts(gpu, decl.slots, stages, push_size)?;
         // A shader that counts its work gets WORK_COUNTING = false here: its counting sums compiled out of the
         // frames that do not ask for them (they cost lavapipe's noise splat 15–20 %: docs/gpu-frame.md).
-        let counts = super::specialize::declares_spec_constant(decl.shader.spirv, super::specialize::WORK_COUNTING_ID);
-        let pipeline = super::specialize::compute_pipeline(gpu, module, layout, constants, counts.then_some(false));
+        let counts = declares_spec_constant(decl.shader.spirv, WORK_COUNTING_ID);
+        let pipeline = compute_pipeline(gpu, module, layout, constants, counts.then_some(false));
         unsafe { d.destroy_shader_module(module, None) };
         let pipeline = pipeline?;
         gpu.name_object(pipeline, file);

@@ -488,25 +488,46 @@ pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64
 /// choice of the block size reads).
 pub(crate) fn occupied_count(grid: &IsoGrid, lat: &Lattice, b: i32) -> usize {
     use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-    let (h, dims) = (lat.h, lat.dims);
-    let reach = (grid.support / h).ceil() as i32;
-    let nb = (dims - 1 + b - 1) / b;
-    let bits: Vec<AtomicU64> =
-        (0..(nb.x as usize * nb.y as usize * nb.z as usize).div_ceil(64)).map(|_| AtomicU64::new(0)).collect();
+    let r = BlockReach::new(grid, lat, b);
+    let blocks = r.nb.x as usize * r.nb.y as usize * r.nb.z as usize;
+    let bits: Vec<AtomicU64> = (0..blocks.div_ceil(64)).map(|_| AtomicU64::new(0)).collect();
     grid.points.par_iter().for_each(|q| {
-        let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
-        let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
-        let b1 = ((c + reach).min(dims - 2)) / b;
-        for x in b0.x..=b1.x {
-            for y in b0.y..=b1.y {
-                for z in b0.z..=b1.z {
-                    let k = ((x * nb.y + y) * nb.z + z) as usize;
-                    bits[k / 64].fetch_or(1 << (k % 64), Relaxed);
-                }
-            }
+        for k in r.keys(q) {
+            bits[k as usize / 64].fetch_or(1 << (k % 64), Relaxed);
         }
     });
     bits.iter().map(|w| w.load(Relaxed).count_ones() as usize).sum()
+}
+
+/// The blocks of `b`³ cubes a particle's support reaches: its lattice cell ± the support in cubes, clipped to the
+/// lattice's dims − 1 cubes, as block keys (x-major: (x · nb.y + y) · nb.z + z).
+struct BlockReach {
+    lo: Vec3,
+    h: f32,
+    reach: i32,
+    dims: glam::IVec3,
+    b: i32,
+    /// Blocks per axis.
+    nb: glam::IVec3,
+}
+
+impl BlockReach {
+    fn new(grid: &IsoGrid, lat: &Lattice, b: i32) -> BlockReach {
+        let (h, dims) = (lat.h, lat.dims);
+        BlockReach { lo: lat.lo, h, reach: (grid.support / h).ceil() as i32, dims, b, nb: (dims - 1 + b - 1) / b }
+    }
+
+    fn keys(&self, q: &[f32]) -> impl Iterator<Item = i64> + '_ {
+        let c = ((Vec3::new(q[0], q[1], q[2]) - self.lo) / self.h).floor().as_ivec3();
+        let b0 = ((c - self.reach).max(glam::IVec3::ZERO)) / self.b;
+        let b1 = ((c + self.reach).min(self.dims - 2)) / self.b;
+        let nb = self.nb;
+        (b0.x..=b1.x).flat_map(move |x| {
+            (b0.y..=b1.y).flat_map(move |y| {
+                (b0.z..=b1.z).map(move |z| (x as i64 * nb.y as i64 + y as i64) * nb.z as i64 + z as i64)
+            })
+        })
+    }
 }
 
 /// [`occupied_blocks`], and for each block the particles whose support reaches it (what scattering it costs).
@@ -525,23 +546,8 @@ pub(crate) fn occupied_blocks_counted(grid: &IsoGrid, lat: &Lattice, b: i32) -> 
 
 /// Every (particle, block its support reaches) as the block's key, sorted: [`occupied_blocks`] before the dedup.
 fn block_reaches(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64>, glam::IVec3) {
-    let (h, dims) = (lat.h, lat.dims);
-    let reach = (grid.support / h).ceil() as i32;
-    let nb = (dims - 1 + b - 1) / b; // blocks per axis over the dims − 1 cubes
-    let mut blocks: Vec<i64> = grid
-        .points
-        .par_iter()
-        .flat_map_iter(|q| {
-            let c = ((Vec3::new(q[0], q[1], q[2]) - lat.lo) / h).floor().as_ivec3();
-            let b0 = ((c - reach).max(glam::IVec3::ZERO)) / b;
-            let b1 = ((c + reach).min(dims - 2)) / b;
-            (b0.x..=b1.x).flat_map(move |x| {
-                (b0.y..=b1.y).flat_map(move |y| {
-                    (b0.z..=b1.z).map(move |z| (x as i64 * nb.y as i64 + y as i64) * nb.z as i64 + z as i64)
-                })
-            })
-        })
-        .collect();
+    let r = BlockReach::new(grid, lat, b);
+    let mut blocks: Vec<i64> = grid.points.par_iter().flat_map_iter(|q| r.keys(q)).collect();
     blocks.par_sort_unstable();
-    (blocks, nb)
+    (blocks, r.nb)
 }

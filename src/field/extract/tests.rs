@@ -3,6 +3,14 @@
 use super::blocks::extract_blocks_keyed;
 use super::*;
 
+/// Uniform numbers in [0, 1) from a linear congruential generator seeded with `seed` (the tests' clouds).
+fn uniform(mut seed: u32) -> impl FnMut() -> f32 {
+    move || {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        (seed >> 8) as f32 / (1 << 24) as f32
+    }
+}
+
 /// Every pattern's triangles close up across a cube with random corner values, and a whole random field
 /// gives a closed, consistently oriented mesh (the generated table's contract).
 #[test]
@@ -83,11 +91,7 @@ fn single_pair_and_random_particles() {
     assert_eq!(open_or_flipped_edges(&m2), 0);
     let ratio = m2.triangles.len() as f32 / m.triangles.len() as f32;
     assert!((ratio - 2.0).abs() < 0.1, "two far particles: {ratio} × one particle's triangles");
-    let mut seed = 12345u32;
-    let mut rnd = || {
-        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-        (seed >> 8) as f32 / (1 << 24) as f32
-    };
+    let mut rnd = uniform(12345u32);
     let pts: Vec<[f32; 3]> = (0..300).map(|_| [rnd() * 0.8, rnd() * 0.5, rnd() * 0.6]).collect();
     let g = IsoGrid::build(&pts, 4.0 * 0.03);
     let inv = g.inv_density();
@@ -143,11 +147,7 @@ fn single_pair_and_random_particles() {
 /// blocks of 32 where blocks of 64 would leave fewer than 8 per thread (one thread keeps 64).
 #[test]
 fn the_block_size_follows_the_occupied_blocks() {
-    let mut seed = 777u32;
-    let mut rnd = || {
-        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-        (seed >> 8) as f32 / (1 << 24) as f32
-    };
+    let mut rnd = uniform(777u32);
     let pts: Vec<[f32; 3]> = (0..2000).map(|_| [rnd() * 2.0, rnd() * 0.3, rnd() * 1.0]).collect();
     let g = IsoGrid::build(&pts, 4.0 * 0.02);
     let lat = Lattice::of(&g, 0.01);
