@@ -62,11 +62,11 @@ pub struct Params {
     /// (SPlisHSPlasH's `maxErrorV`).
     pub max_divergence_error: f32,
     /// DFSPH: most corrections per solve (each is recorded; the solves stop on the GPU once converged, and a
-    /// correction left over costs an empty indirect dispatch). The 59k dam break's collapse at 5 ms steps needs
-    /// up to 52 to keep the 0.05 % bound in its floor impact (at 20 a quarter of its steps stop at the limit, at
-    /// up to 0.155 %); 20 here because a resting pool started from a lattice denser than ρ0 along its walls is
-    /// pushed apart in its first frame when the solve converges fully, and sloshes (docs/simulation.md). A
-    /// SPlisHSPlasH scene file brings its own (`DFSPH.maxIterations`: 100, SPlisHSPlasH's default).
+    /// correction left over costs an empty indirect dispatch). 100, SPlisHSPlasH's default: the 59k dam break's
+    /// collapse at 5 ms steps needs up to 52 to keep the 0.05 % bound in its floor impact (at 20 a quarter of
+    /// its steps stopped at the limit, at up to 0.155 %). A resting pool converged from its first step stays at
+    /// rest since its lattice keeps `scene::WALL_GAP` from the walls (docs/simulation.md). A SPlisHSPlasH scene
+    /// file brings its own (`DFSPH.maxIterations`).
     pub max_solver_iterations: u32,
 }
 
@@ -113,7 +113,7 @@ impl Default for Params {
             solver: Solver::Pbf,
             max_density_error: 0.05,
             max_divergence_error: 0.1,
-            max_solver_iterations: 20,
+            max_solver_iterations: 100,
         }
     }
 }

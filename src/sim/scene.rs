@@ -107,10 +107,24 @@ pub const SCENES: &[(&str, usize, &str)] = &[
     ("pool", 20_000, "a pool at rest"),
 ];
 
-/// The spacing nearest `d` that divides `width` into whole cells, so a lattice filling a container's floor
-/// touches its walls: a pool that left a sliver of a spacing free at one wall would collapse into it and slosh.
+/// The gap, in spacings, between a container's face and a lattice's first layer beyond the half spacing a
+/// particle keeps: where the walls' continuum density term (sim_common.glsl's `wall_density`, h = 2 d) makes
+/// that layer exactly ρ0. At no gap the layer starts 2.6 % denser, and a solve that converges pushes it off the
+/// wall at once and the water sloshes (docs/simulation.md). Test: `a_pool_lattice_starts_at_rest_density`.
+pub const WALL_GAP: f32 = 0.0558;
+
+/// The spacing nearest `d` that fits whole cells across `width` with [`WALL_GAP`] at both walls, so a lattice
+/// filling a container's floor reaches its walls: a pool that left a sliver of a spacing free at one wall would
+/// collapse into it and slosh.
 fn fit(width: f32, d: f32) -> f32 {
-    width / (width / d).round().max(1.0)
+    width / ((width / d).round().max(1.0) + 2.0 * WALL_GAP)
+}
+
+/// The box a pool's lattice of spacing `d` fills: the container's floor lo..hi (x, z) up to `depth`, [`WALL_GAP`]
+/// from its walls and floor.
+fn pool_box(lo: Vec3, hi: Vec3, depth: f32, d: f32) -> (Vec3, Vec3) {
+    let g = WALL_GAP * d;
+    (lo + g, Vec3::new(hi.x - g, depth + g, hi.z - g))
 }
 
 /// Lattice points (cell centres) of spacing `d` in the box lo..hi, kept where `keep` holds.
@@ -149,7 +163,8 @@ impl SimScene {
                 let (lo, hi) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 2.0, 0.5));
                 let depth = 0.4;
                 let d = fit(hi.x - lo.x, (depth / n).cbrt());
-                let positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
+                let (a, b) = pool_box(lo, hi, depth, d);
+                let positions = lattice(a, b, d, |_| true);
                 SimScene::still("pool", (lo, hi), vec![], d, positions)
             }
             "drop" => {
@@ -157,7 +172,8 @@ impl SimScene {
                 let (depth, centre, radius) = (0.25f32, Vec3::new(0.0, 0.9, 0.0), 0.22f32);
                 let volume = 4.0 * depth + 4.0 / 3.0 * std::f32::consts::PI * radius.powi(3);
                 let d = fit(hi.x - lo.x, (volume / n).cbrt());
-                let mut positions = lattice(lo, Vec3::new(hi.x, depth, hi.z), d, |_| true);
+                let (a, b) = pool_box(lo, hi, depth, d);
+                let mut positions = lattice(a, b, d, |_| true);
                 let ball = lattice(centre - radius, centre + radius, d, |p| p.distance(centre) <= radius);
                 let first_ball = positions.len();
                 positions.extend(ball);
