@@ -1,13 +1,15 @@
 #version 460
-//! noise_args — the per-sprite splat's (noise.comp, CPU drivers) indirect dispatch of noise_resolve, by one
-//! invocation after the splat: its work groups when the splat wrote a level coarser than 0 (work[0], the coarsest
-//! level, is final then), none at level 0 alone — noise_apply then reads level 0's sums as they are. (The tiled
-//! splat's noise_scan writes the same.) Written here rather than by the splat's own invocations: on lavapipe
+//! noise_args — the per-sprite splat's (CPU drivers) indirect dispatches, by one invocation after noise_cull:
+//! noise.comp's work groups over the listed sprites (work[6]; none when nothing draws), and noise_resolve's: its
+//! work groups when a sprite is evaluated on a level coarser than 0 (work[0], the coarsest level, is final
+//! after the cull), none at level 0 alone — noise_apply then reads level 0's sums as they are. (The tiled
+//! splat's noise_scan writes the same.) Written here rather than by the cull's own invocations: on lavapipe
 //! their atomics on the dispatch's words from both cores cost the worst case 15 ms at 480×270.
-//! In: work[0]. Out: args (3 u32). NVIDIA patent US 8,947,430 (method.md §8); the levels are noise.comp's.
+//! In: work[0], work[6]. Out: args (noise_resolve's 3 u32 at 0, noise.comp's at 4). NVIDIA patent US 8,947,430
+//! (method.md §8); the levels are noise.comp's.
 layout(local_size_x = 1) in;
 layout(std430, set = 0, binding = 0) readonly buffer Work { uint work[8]; };
-layout(std430, set = 0, binding = 1) writeonly buffer Args { uint args[3]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Args { uint args[8]; };
 layout(push_constant) uniform Push {
     uint count;
     float size;
@@ -27,4 +29,7 @@ void main() {
     args[0] = coarse ? pc.resolve.x : 0u;
     args[1] = coarse ? pc.resolve.y : 0u;
     args[2] = coarse ? 1u : 0u;
+    args[4] = (work[6] + LOCAL_1D - 1u) / LOCAL_1D;
+    args[5] = 1u;
+    args[6] = 1u;
 }

@@ -3,7 +3,8 @@
 //! to tiles, each tile's texels summed by its own work group, no atomics). The sums are the same either way.
 //! Expects, declared before it: the particle buffer `particles`, the fluid depth image `depth`, and the push
 //! block `pc` (count, size, freq, falloff, calm, turbulent, threshold, tiles, small, lod); with NOISE_TERM_ONLY defined only
-//! the texel term (`noise_term`), which needs `pc` alone. `noise_splat_alone` needs the atlas `accum` too. NVIDIA patent US 8,947,430 (eq.
+//! the texel term (`noise_term`), which needs `pc` alone. `noise_splat_alone` needs the atlas `accum` too (left out
+//! with NOISE_CULL_ONLY: noise_cull.comp). NVIDIA patent US 8,947,430 (eq.
 //! 15–17; method.md §8); the level of detail and the depth cut are noise.glsl's.
 
 /// A particle's sprite: centre (full-resolution pixels), radius R (pixels), eye depth z, noise offset o,
@@ -21,10 +22,10 @@ struct Sprite {
 };
 
 #ifndef NOISE_TERM_ONLY
-/// Particle i's sprite on a `size` output; false when it draws nothing (isolated, behind the camera, off screen,
-/// too large, or deep: more than DEEP falloffs plus the sprite's radius below the surface at its centre — the
-/// reference's rule).
-bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
+/// Particle i's sprite on a `size` output, its place alone (centre, R, z, level, rectangle: what the cull needs);
+/// false when it draws nothing (isolated, behind the camera, off screen, too large, or deep: more than DEEP
+/// falloffs plus the sprite's radius below the surface at its centre — the reference's rule).
+bool noise_sprite_at(uint i, ivec2 size, out Sprite s) {
     Particle pt = load_particle(particles[i], 1.0);
     s.z = -pt.c.z;
     // An isolated particle is drawn apart from the surface: it adds no waves to it.
@@ -39,9 +40,14 @@ bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
     if (any(greaterThan(s.lo, s.hi)) || over_budget(s.lo, s.hi)) return false;
     ivec2 mid = clamp(ivec2(round(s.centre)), ivec2(0), size - 1);
     float dc = imageLoad(depth, mid).x;
-    if (is_fluid(dc) && s.z - dc > (NOISE_DEEP * pc.falloff + pc.size) * r) return false;
-    // Only a sprite that draws reads its motion and hashes its id (most particles of a large set are culled
-    // above: off screen or deep).
+    return !(is_fluid(dc) && s.z - dc > (NOISE_DEEP * pc.falloff + pc.size) * r);
+}
+
+/// Particle i's sprite on a `size` output, place and look (amplitude, reach, noise offset); false when it draws
+/// nothing (`noise_sprite_at`). Only a sprite that draws reads its motion and hashes its id (most particles of a
+/// large set are culled: off screen or deep).
+bool noise_sprite_of(uint i, ivec2 size, out Sprite s) {
+    if (!noise_sprite_at(i, size, s)) return false;
     vec4 motion = particles[particle_motion(pc.count, i)];
     s.amp = noise_amplitude(motion.y, pc.calm, pc.turbulent, pc.threshold);
     s.reach = noise_reach(s.amp);
@@ -72,7 +78,7 @@ bool noise_term(ivec2 q, int L, vec2 centre, float R, float z, vec3 o, float amp
     return true;
 }
 
-#ifndef NOISE_TERM_ONLY
+#if !defined(NOISE_TERM_ONLY) && !defined(NOISE_CULL_ONLY)
 /// Add sprite s's terms to the accumulator atlas `accum` (declared before this file) with one atomic per texel
 /// whose term is not 0, its own thread walking its rectangle; returns the texels whose noise was evaluated.
 uint noise_splat_alone(Sprite s, ivec2 size) {

@@ -62,11 +62,11 @@ impl Effect for NoiseEffect {
             let (w, h) = (p.width, p.height);
             super::replace(&mut self.images, p.executor, || on.then(|| NoiseTargets::new(gpu, w, h)).transpose())?;
         }
-        // The tiled splat's bins follow the particle count.
-        let count = p.particles.count();
-        if let Some(n) = self.images.as_mut().filter(|n| self.pass.is_tiled() && n.needs(count)) {
+        // The splat's lists follow the particle count.
+        let (count, tiled) = (p.particles.count(), self.pass.is_tiled());
+        if let Some(n) = self.images.as_mut().filter(|n| n.needs(count, tiled)) {
             p.executor.wait_idle()?;
-            n.reserve(p.gpu, count)?;
+            n.reserve(p.gpu, count, tiled)?;
         }
         Ok(())
     }

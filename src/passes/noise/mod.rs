@@ -3,7 +3,8 @@
 //! scaled by how fast its velocity changes, into a noise image N; N's partial derivatives are added to the
 //! normals (small waves) and its magnitude tints the surface toward grey-white whitecaps in `composite`. Runs on every
 //! surface (after `normals`, before `ssr`, so reflections see the waves); `[noise] enabled = false` leaves it
-//! out. Shaders: shaders_glsl/noise.comp (the splat; noise_bin, noise_scan, noise_fill and noise_gather on GPUs),
+//! out. Shaders: shaders_glsl/noise_cull.comp, noise_args.comp and noise.comp (the splat on CPU drivers; noise_bin,
+//! noise_scan, noise_fill and noise_gather on GPUs),
 //! shaders_glsl/noise_resolve.comp (N where coarse levels were written), shaders_glsl/noise_apply.comp (the normals and
 //! the noise image), with
 //! shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
@@ -181,10 +182,13 @@ pub struct ApplyPush {
     pub edge: f32,
 }
 
-// Splat, one thread per sprite: frame, particles (+ motions), fluid depth → accumulator atlas (cleared first),
-// work counts.
-declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite]));
-// The per-sprite splat's noise_resolve dispatch: work (its coarsest level) → args.
+// The per-sprite splat (CPU drivers). Cull: frame, particles, fluid depth → work (the listed count, the
+// coarsest level), the listed sprites' particle indices.
+declare_program!(pub CULL: SpritePush = compute(shaders::NOISE_CULL, [Uniform, BufRead, ImgRead, BufWrite, BufWrite]));
+// Splat, one thread per listed sprite: frame, particles (+ motions), fluid depth → accumulator atlas (cleared
+// first), work counts; the listed indices.
+declare_program!(pub SPLAT: SpritePush = compute(shaders::NOISE, [Uniform, BufRead, ImgRead, ImgWrite, BufWrite, BufRead]));
+// The splat's and noise_resolve's dispatches: work (the listed count, the coarsest level) → args.
 declare_program!(pub ARGS: SpritePush = compute(shaders::NOISE_ARGS, [BufRead, BufWrite]));
 // The tiled splat: binning (count, then fill), the lists' starts, the tiles' sums.
 // Bin: frame, particles, fluid depth → tiles (counts), sprite records, work, the small sprites' terms, the binned
@@ -205,10 +209,18 @@ declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, 
 
 /// How the sprites reach the accumulator.
 enum Splat {
-    /// One thread per sprite, atomics (noise.comp); noise_args writes noise_resolve's dispatch after it.
-    Alone { splat: ComputeProgram<SpritePush>, args: ComputeProgram<SpritePush> },
+    /// The sprites that draw listed (noise_cull.comp), then one thread per listed sprite with atomics
+    /// (noise.comp); noise_args writes the splat's and noise_resolve's dispatches between them.
+    Alone(Box<SpriteSplat>),
     /// Binned to tiles, each tile summed by a work group (noise_bin, noise_scan, noise_gather).
     Tiled(Box<TiledSplat>),
+}
+
+/// The per-sprite splat's programs.
+struct SpriteSplat {
+    cull: ComputeProgram<SpritePush>,
+    splat: ComputeProgram<SpritePush>,
+    args: ComputeProgram<SpritePush>,
 }
 
 /// The tiled splat's programs.
@@ -245,9 +257,9 @@ pub struct NoiseImages<'a> {
     pub own: &'a NoiseTargets,
 }
 
-/// What the pass owns per frame size: the accumulator atlas, the noise image and the work counts, and for the
-/// tiled splat its bins (grown with the particle count: [`NoiseTargets::reserve`]). Allocated only while
-/// `[noise] enabled` (`Targets::noise`).
+/// What the pass owns per frame size: the accumulator atlas, the noise image and the work counts, and the
+/// splat's lists, grown with the particle count ([`NoiseTargets::reserve`]): the per-sprite splat's listed
+/// sprites, or the tiled splat's bins. Allocated only while `[noise] enabled` (`Targets::noise`).
 pub struct NoiseTargets {
     /// Fixed-point accumulator atlas (R32_UINT): level 0 (the output's size) with the coarser levels stacked
     /// to its right ([`atlas_extent`]).
@@ -256,9 +268,11 @@ pub struct NoiseTargets {
     pub noise: Image,
     /// The splat's work, u32 ×8 ([`NoiseWork`]; host-readable).
     pub work: Buffer,
-    /// The per-sprite splat's indirect dispatch of noise_resolve (3 u32; none at level 0 alone: noise_args
-    /// writes it). The tiled splat's is in its bins' `args`.
-    pub resolve_args: Buffer,
+    /// The per-sprite splat's indirect dispatches (8 u32, noise_args writes them): noise_resolve's at 0 (none
+    /// at level 0 alone), noise.comp's over the listed sprites at 16. The tiled splat's are in its bins' `args`.
+    pub sprite_args: Buffer,
+    /// The per-sprite splat's listed sprites (a particle index each; noise_cull appends), once reserved.
+    pub listed: Option<Buffer>,
     /// The tiled splat's bins, once reserved.
     pub bins: Option<Bins>,
     width: u32,
@@ -301,13 +315,14 @@ impl NoiseTargets {
             accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
             noise: Image::new(gpu, "noise", full, vk::Format::R32_UINT, storage, None)?,
             work: Buffer::new(gpu, "noise_work", 32, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
-            resolve_args: Buffer::new(
+            sprite_args: Buffer::new(
                 gpu,
-                "noise_resolve_args",
-                16,
+                "noise_sprite_args",
+                32,
                 usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
                 gpu_allocator::MemoryLocation::GpuOnly,
             )?,
+            listed: None,
             bins: None,
             width,
             height,
@@ -315,19 +330,33 @@ impl NoiseTargets {
     }
 
     /// Whether [`NoiseTargets::reserve`] would allocate for `particles` (the caller waits for the GPU first).
-    pub fn needs(&self, particles: u32) -> bool {
-        self.bins.as_ref().is_none_or(|b| b.particles < particles)
+    pub fn needs(&self, particles: u32, tiled: bool) -> bool {
+        match tiled {
+            true => self.bins.as_ref().is_none_or(|b| b.particles < particles),
+            false => self.listed_capacity() < particles,
+        }
     }
 
-    /// Make the tiled splat's bins hold `particles` particles (with room for a quarter more, so a growing count
-    /// does not reallocate every frame). The GPU must not be using the old ones.
-    pub fn reserve(&mut self, gpu: &Arc<Gpu>, particles: u32) -> Result<()> {
-        if !self.needs(particles) {
+    /// Particles the per-sprite splat's list holds.
+    pub fn listed_capacity(&self) -> u32 {
+        self.listed.as_ref().map_or(0, |b| (b.size / 4) as u32)
+    }
+
+    /// Make the splat's lists hold `particles` particles (with room for a quarter more, so a growing count does
+    /// not reallocate every frame): the tiled splat's bins, or the per-sprite splat's list. The GPU must not be
+    /// using the old ones.
+    pub fn reserve(&mut self, gpu: &Arc<Gpu>, particles: u32, tiled: bool) -> Result<()> {
+        if !self.needs(particles, tiled) {
             return Ok(());
         }
         let n = particles.max(1024).saturating_add(particles / 4);
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
         let gpu_only = gpu_allocator::MemoryLocation::GpuOnly;
+        if !tiled {
+            self.listed = None;
+            self.listed = Some(Buffer::new(gpu, "noise_listed", 4 * n as u64, usage, gpu_only)?);
+            return Ok(());
+        }
         let tiles = tile_count(self.width, self.height) as u64;
         let max = crate::shader_constants::NOISE_MAX_TILES as u64;
         self.bins = None;
@@ -364,6 +393,9 @@ impl NoiseTargets {
             (self.noise.name.as_str(), self.noise.bytes()),
             (self.work.name.as_str(), self.work.size),
         ];
+        if let Some(b) = &self.listed {
+            m.push((b.name.as_str(), b.size));
+        }
         if let Some(b) = &self.bins {
             for buf in [&b.sprites, &b.tiles, &b.lists, &b.binned, &b.args] {
                 m.push((buf.name.as_str(), buf.size));
@@ -390,7 +422,11 @@ impl Noise {
                 gather: ComputeProgram::new(gpu, &GATHER)?,
             }))
         } else {
-            Splat::Alone { splat: ComputeProgram::new(gpu, &SPLAT)?, args: ComputeProgram::new(gpu, &ARGS)? }
+            Splat::Alone(Box::new(SpriteSplat {
+                cull: ComputeProgram::new(gpu, &CULL)?,
+                splat: ComputeProgram::new(gpu, &SPLAT)?,
+                args: ComputeProgram::new(gpu, &ARGS)?,
+            }))
         };
         let small = std::env::var("MENISCUS_NOISE_SMALL").ok().and_then(|v| v.parse().ok()).unwrap_or(SMALL_SPRITE);
         Ok(Noise {
@@ -402,13 +438,13 @@ impl Noise {
         })
     }
 
-    /// Whether this pass splats through tiles (then its targets need [`NoiseTargets::reserve`]).
+    /// Whether this pass splats through tiles (its targets' [`NoiseTargets::reserve`] takes it).
     pub fn is_tiled(&self) -> bool {
         matches!(self.splat, Splat::Tiled(_))
     }
 
     /// Splat the `count` particles' noise, resolve it into N and perturb the normals; `edge`: the normals'
-    /// depth jump (world). The tiled splat needs bins reserved for `count` particles (else the frame gets no
+    /// depth jump (world). The splat needs its lists reserved for `count` particles (else the frame gets no
     /// noise: the renderer reserves them before recording).
     pub fn record(
         &self,
@@ -443,6 +479,7 @@ impl Noise {
             };
             let groups = [count.div_ceil(super::LOCAL_1D), 1, 1];
             let bins = own.bins.as_ref().filter(|b| b.particles >= count);
+            let listed = own.listed.as_ref().filter(|_| own.listed_capacity() >= count);
             match (&self.splat, bins) {
                 (Splat::Tiled(t), Some(b)) => {
                     let TiledSplat { bin, fill, scan, gather } = &**t;
@@ -480,11 +517,24 @@ impl Noise {
                     ];
                     ctx.part("noise/gather", |ctx| gather.dispatch_indirect(ctx, &res, &push, &b.args, 12));
                 }
-                (Splat::Alone { splat, args }, _) => {
-                    let res = [frame.into(), buf.into(), i.depth.into(), (&own.accum).into(), (&own.work).into()];
-                    ctx.part("noise/splat", |ctx| splat.dispatch(ctx, &res, &push, groups));
-                    let res = [(&own.work).into(), (&own.resolve_args).into()];
-                    ctx.part("noise/args", |ctx| args.dispatch(ctx, &res, &push, [1, 1, 1]));
+                (Splat::Alone(a), _) => {
+                    let SpriteSplat { cull, splat, args } = &**a;
+                    if let Some(list) = listed {
+                        let res = [frame.into(), buf.into(), i.depth.into(), (&own.work).into(), list.into()];
+                        ctx.part("noise/cull", |ctx| cull.dispatch(ctx, &res, &push, groups));
+                        let res = [(&own.work).into(), (&own.sprite_args).into()];
+                        ctx.part("noise/args", |ctx| args.dispatch(ctx, &res, &push, [1, 1, 1]));
+                        let res = [
+                            frame.into(),
+                            buf.into(),
+                            i.depth.into(),
+                            (&own.accum).into(),
+                            (&own.work).into(),
+                            list.into(),
+                        ];
+                        let a = &own.sprite_args;
+                        ctx.part("noise/splat", |ctx| splat.dispatch_indirect(ctx, &res, &push, a, 16));
+                    }
                 }
                 // Bins too small for these particles: no noise this frame rather than lost writes.
                 (Splat::Tiled(_), None) => {}
@@ -494,7 +544,7 @@ impl Noise {
             // As the splat counted it (noise_args, or noise_scan at its args[8..11]): no work groups at level 0
             // alone. No splat this frame (bins too small): the sums are 0, at level 0.
             let counted = match (&self.splat, bins) {
-                (Splat::Alone { .. }, _) => Some((&own.resolve_args, 0)),
+                (Splat::Alone(_), _) => listed.map(|_| (&own.sprite_args, 0)),
                 (Splat::Tiled(_), Some(b)) => Some((&b.args, 32)),
                 (Splat::Tiled(_), None) => None,
             };
