@@ -300,6 +300,29 @@ pub struct ProgramCore {
 }
 
 impl ProgramCore {
+    /// A program's core: `pipeline` with its layouts, built from `decl`'s shader and slots for `stages`;
+    /// `counting`: a compute shader that counts its work, with the specialization constants its pipeline got.
+    fn new<P>(
+        gpu: &Arc<Gpu>,
+        decl: &ProgramDecl<P>,
+        (pipeline, layout, set_layout): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSetLayout),
+        stages: vk::ShaderStageFlags,
+        counting: Option<Vec<u32>>,
+    ) -> ProgramCore {
+        gpu.name_object(pipeline, decl.shader.file);
+        ProgramCore {
+            gpu: gpu.clone(),
+            file: decl.shader.file,
+            pipeline,
+            layout,
+            set_layout,
+            slots: decl.slots,
+            stages,
+            counting: counting.map(|c| Box::new((decl.shader.spirv, c))),
+            counted: std::sync::OnceLock::new(),
+        }
+    }
+
     /// The pipeline to bind: the counting twin when `count_work` and the shader counts (built here the first
     /// time: a frame that counts pays its compile once), else the program's own. Should the twin fail to build,
     /// the program's own is bound and the pass's counts read 0.
@@ -411,22 +434,9 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
         let counts = declares_spec_constant(decl.shader.spirv, WORK_COUNTING_ID);
         let pipeline = compute_pipeline(gpu, module, layout, constants, counts.then_some(false));
         unsafe { d.destroy_shader_module(module, None) };
-        let pipeline = pipeline?;
-        gpu.name_object(pipeline, file);
-        Ok(ComputeProgram {
-            core: ProgramCore {
-                gpu: gpu.clone(),
-                file,
-                pipeline,
-                layout,
-                set_layout,
-                slots: decl.slots,
-                stages,
-                counting: counts.then(|| Box::new((decl.shader.spirv, constants.to_vec()))),
-                counted: std::sync::OnceLock::new(),
-            },
-            _push: std::marker::PhantomData,
-        })
+        let counting = counts.then(|| constants.to_vec());
+        let core = ProgramCore::new(gpu, decl, (pipeline?, layout, set_layout), stages, counting);
+        Ok(ComputeProgram { core, _push: std::marker::PhantomData })
     }
 
     /// Barriers for `res` (derived from each resource's last access and its slot), bind `res` (in slot order),
@@ -605,23 +615,8 @@ impl<P: bytemuck::Pod> GraphicsProgram<P> {
             d.destroy_shader_module(vm, None);
             d.destroy_shader_module(fm, None);
         }
-        let pipeline = pipeline?[0];
-        let file = decl.shader.file;
-        gpu.name_object(pipeline, file);
-        Ok(GraphicsProgram {
-            core: ProgramCore {
-                gpu: gpu.clone(),
-                file,
-                pipeline,
-                layout,
-                set_layout,
-                slots: decl.slots,
-                stages: stages_flags,
-                counting: None,
-                counted: std::sync::OnceLock::new(),
-            },
-            _push: std::marker::PhantomData,
-        })
+        let core = ProgramCore::new(gpu, decl, (pipeline?[0], layout, set_layout), stages_flags, None);
+        Ok(GraphicsProgram { core, _push: std::marker::PhantomData })
     }
 
     /// Draw `vertices` non-indexed into `color` (cleared to `clear`) and `depth` (cleared to 0, reversed Z).
