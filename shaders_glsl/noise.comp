@@ -32,19 +32,7 @@ layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;
 // (noise_cull) or binned (noise_bin), [7] the longest tile list (the tiled splat).
 layout(std430, set = 0, binding = 4) buffer Work { uint work[8]; };
 layout(std430, set = 0, binding = 5) readonly buffer Listed { uint listed[]; };
-layout(push_constant) uniform Push {
-    uint count;
-    float size;      // sprite radius in particle radii
-    float freq;      // noise cycles across the sprite's radius
-    float falloff;   // depth below the surface (radii) over which the weight falls by 1/e
-    float calm;      // amplitude (radii of height) of a particle whose velocity changes slowly
-    float turbulent; // … and of one whose velocity changes faster than the threshold
-    float threshold; // velocity change (world units / s²)
-    uint tiles;      // tiles of every level (the tiled splat)
-    uint small;      // sprites of at most this many texels are not binned (noise_bin)
-    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
-    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
-} pc;
+#include "noise_push.glsl"
 #include "noise_splat.glsl"
 
 #include "work_count.glsl"

@@ -10,19 +10,7 @@
 layout(local_size_x = 1) in;
 layout(std430, set = 0, binding = 0) readonly buffer Work { uint work[8]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Args { uint args[8]; };
-layout(push_constant) uniform Push {
-    uint count;
-    float size;
-    float freq;
-    float falloff;
-    float calm;
-    float turbulent;
-    float threshold;
-    uint tiles;
-    uint small;
-    float lod;
-    uvec2 resolve;   // noise_resolve's work groups
-} pc;
+#include "noise_push.glsl"
 
 void main() {
     bool coarse = work[0] > 0u;

@@ -26,19 +26,7 @@ layout(std430, set = 0, binding = 5) buffer Work { uint work[8]; };
 // The accumulator atlas (cleared to 0 before): the small sprites' terms.
 layout(set = 0, binding = 6, r32ui) uniform uimage2D accum;
 layout(std430, set = 0, binding = 7) writeonly buffer Binned { uint binned[]; };
-layout(push_constant) uniform Push {
-    uint count;
-    float size;
-    float freq;
-    float falloff;
-    float calm;
-    float turbulent;
-    float threshold;
-    uint tiles;      // n: tiles of every level
-    uint small;      // sprites of at most this many texels are splatted here, not binned
-    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
-    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
-} pc;
+#include "noise_push.glsl"
 #include "noise_splat.glsl"
 
 #include "work_count.glsl"

@@ -21,19 +21,7 @@ layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
 // The work counts (noise.comp's layout; [6]: sprites listed).
 layout(std430, set = 0, binding = 3) buffer Work { uint work[8]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Listed { uint listed[]; };
-layout(push_constant) uniform Push {
-    uint count;
-    float size;
-    float freq;
-    float falloff;
-    float calm;
-    float turbulent;
-    float threshold;
-    uint tiles;
-    uint small;
-    float lod;
-    uvec2 resolve;
-} pc;
+#include "noise_push.glsl"
 #define NOISE_CULL_ONLY
 #include "noise_splat.glsl"
 

@@ -13,19 +13,7 @@ layout(std430, set = 0, binding = 2) readonly buffer Work { uint work[8]; };
 layout(set = 0, binding = 3, r32f) uniform readonly image2D depth;
 layout(std430, set = 0, binding = 4) buffer Tiles { uint tiles[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer Lists { uint lists[]; };
-layout(push_constant) uniform Push {
-    uint count;
-    float size;
-    float freq;
-    float falloff;
-    float calm;
-    float turbulent;
-    float threshold;
-    uint tiles;      // n: tiles of every level
-    uint small;
-    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
-    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
-} pc;
+#include "noise_push.glsl"
 
 void main() {
     uint k = gl_GlobalInvocationID.x;

@@ -20,19 +20,7 @@ layout(set = 0, binding = 4, r32f) uniform readonly image2D depth;
 layout(set = 0, binding = 5, r32ui) uniform uimage2D accum;
 layout(std430, set = 0, binding = 6) buffer Work { uint work[8]; };
 #include "work_count.glsl"
-layout(push_constant) uniform Push {
-    uint count;
-    float size;
-    float freq;
-    float falloff;
-    float calm;
-    float turbulent;
-    float threshold;
-    uint tiles;      // n
-    uint small;      // sprites of at most this many texels are not binned (noise_bin)
-    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
-    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
-} pc;
+#include "noise_push.glsl"
 #define NOISE_TERM_ONLY
 #include "noise_splat.glsl"
 

@@ -22,19 +22,7 @@ layout(std430, set = 0, binding = 1) readonly buffer Work { uint work[8]; };
 // Three dispatches' work group counts: [0, 3) noise_fill, [3, 6) noise_gather, [8, 11) noise_resolve (none
 // when the splat wrote level 0 alone: noise_apply then reads the sums itself).
 layout(std430, set = 0, binding = 2) writeonly buffer Args { uint args[12]; };
-layout(push_constant) uniform Push {
-    uint count;
-    float size;
-    float freq;
-    float falloff;
-    float calm;
-    float turbulent;
-    float threshold;
-    uint tiles;      // n
-    uint small;      // sprites of at most this many texels are not binned (noise_bin)
-    float lod;       // texels per cycle of the finer octave a level keeps ([noise] lod_samples)
-    uvec2 resolve;   // noise_resolve's work groups (noise_scan: its indirect dispatch, none at level 0 alone)
-} pc;
+#include "noise_push.glsl"
 
 // Per subgroup: its runs' total, then the sum of the subgroups before it (subgroups of 4 lanes or more).
 shared uvec2 s_part[256];

@@ -116,7 +116,7 @@ impl crate::section::Section for Params {
     }
 }
 
-/// Push constants of noise.comp.
+/// Push constants of the splat's shaders (shaders_glsl/noise_push.glsl: one declaration for all of them).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SpritePush {
