@@ -63,6 +63,8 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ),
     // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
     ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),
+    // The normals, and the normals with an effect's detail height field (the noise's small waves).
+    ("normals.comp", &[("", ""), ("DETAIL", "NORMALS_DETAIL")]),
     // The composite for 0 … 4 layers: a frame without effects runs the composite that knows of none.
     (
         "composite.comp",

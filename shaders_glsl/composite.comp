@@ -7,8 +7,9 @@
 //! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
 //! Layers (the effects', `crate::effect::Layer`), in the order given, at most COMPOSITE_LAYERS: each an r32ui
 //! image v with a colour (rgb), a weight w and a blend. `tint` (the noise's whitecaps, NVIDIA patent
-//! US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): v holds f32 bits; the water
-//! mixes toward the colour lit by the ambient light and the sun (Lambert × s) by w·smoothstep(from, full, |v|).
+//! US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): v holds a signed fixed-point
+//! value (from and full come in its units); the water mixes toward the colour lit by the ambient light and the
+//! sun (Lambert × s) by w·smoothstep(from, full, |v|).
 //! `under` (bubbles, Ihmsen et al. 2012): coverage C = v / units mixes the water toward the colour lit by
 //! ambient + s·sun by w·(1 − exp(−C)). `over` (foam and spray): the same over everything, water or background.
 //! In: scene colour (sampled), scene depth, fluid depth, normals, thickness (sampled), ssr (sampled), the
@@ -68,7 +69,7 @@ vec3 lay(vec3 c, uint raw, vec4 cw, vec4 b, bool water, float lambert) {
     if (!water && b.x != BLEND_OVER) return c;
     float t, light;
     if (b.x == BLEND_TINT) {
-        t = smoothstep(b.y, b.z, abs(uintBitsToFloat(raw)));
+        t = smoothstep(b.y, b.z, abs(float(int(raw))));
         light = lambert;
     } else {
         t = 1.0 - exp(-float(raw) / b.y);

@@ -3,12 +3,27 @@
 //! derivatives). Along each axis: the central difference where both neighbours lie on the same surface, else
 //! the one-sided difference with the SMALLER depth change (NVIDIA patent US 8,947,430), so silhouettes and
 //! occlusion edges do not bend the normal. Normals face the camera.
-//! In: smoothed depth (r32f). Out: normals (r32ui, octahedral 2×snorm16; 0 where there is no fluid).
+//! NORMALS_DETAIL (the variant run while an effect gives a detail height field: the `noise` effect's N, NVIDIA
+//! patent US 8,947,430; method.md §8): the height field h (radii, fixed point: 65536 units per radius, signed) on
+//! the fluid becomes small waves — its screen-space partial derivatives, turned into slopes per world unit at the
+//! pixel's depth (× strength · r · F / d), are subtracted from the normal: n' = normalize(n − (∂h/∂X, ∂h/∂Y, 0)),
+//! view space. Along each axis the derivative is the central difference where both neighbours are on the same
+//! surface (depth jump under `edge`), else one-sided, else 0. Here rather than in a pass of the effect's own: the
+//! depths it compares are the ones this pass loads anyway, and the normal is written once (a separate pass cost
+//! lavapipe 3 ms of the wave frame at 480×270 and 7–11 ms at 960×540; docs/gpu-frame.md).
+//! In: smoothed depth (r32f); with NORMALS_DETAIL the height field (r32ui, read at the pixel: level 0 of the
+//! noise's atlas). Out: normals (r32ui, octahedral 2×snorm16; 0 where there is no fluid).
 #include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D depth;
 layout(set = 0, binding = 2, r32ui) uniform writeonly uimage2D normals;
-layout(push_constant) uniform Push { float edge; } pc; // world depth jump that marks a discontinuity
+#ifdef NORMALS_DETAIL
+layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D detail;
+#endif
+layout(push_constant) uniform Push {
+    float edge;     // world depth jump that marks a discontinuity
+    float strength; // scale of the detail's slopes (NORMALS_DETAIL)
+} pc;
 
 ivec2 g_size;
 float g_F;
@@ -20,9 +35,8 @@ float load(ivec2 q) {
 
 vec3 pos(ivec2 q, float d) { return d * pixel_dir(vec2(q), vec2(g_size), g_F); }
 
-/// Derivative of the view position along `step` at p (depth d, position P).
-vec3 derivative(ivec2 p, float d, vec3 P, ivec2 step) {
-    float df = load(p + step), db = load(p - step);
+/// Derivative of the view position along `step` at p (depth d, position P; df, db: the depths ahead, behind).
+vec3 derivative(ivec2 p, float d, vec3 P, ivec2 step, float df, float db) {
     bool okf = is_fluid(df), okb = is_fluid(db);
     float ef = abs(df - d), eb = abs(d - db);
     if (okf && okb && ef < pc.edge && eb < pc.edge) return 0.5 * (pos(p + step, df) - pos(p - step, db));
@@ -30,6 +44,21 @@ vec3 derivative(ivec2 p, float d, vec3 P, ivec2 step) {
     if (okb) return P - pos(p - step, db);
     return pos(p + step, d) - P; // isolated pixel: a plane facing the camera
 }
+
+#ifdef NORMALS_DETAIL
+/// The height field at q (radii).
+float height(ivec2 q) { return float(int(imageLoad(detail, q).x)) * (1.0 / 65536.0); }
+
+/// dh per pixel along `step` at p (height h0): neighbours on the same surface when their depths (df ahead, db
+/// behind) are fluid within `edge` of d.
+float slope(ivec2 p, float d, float h0, ivec2 step, float df, float db) {
+    bool f = is_fluid(df) && abs(df - d) < pc.edge, b = is_fluid(db) && abs(db - d) < pc.edge;
+    if (f && b) return 0.5 * (height(p + step) - height(p - step));
+    if (f) return height(p + step) - h0;
+    if (b) return h0 - height(p - step);
+    return 0.0;
+}
+#endif
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -42,9 +71,19 @@ void main() {
         return;
     }
     vec3 P = pos(p, d);
-    vec3 dx = derivative(p, d, P, ivec2(1, 0));
-    vec3 dy = derivative(p, d, P, ivec2(0, 1)); // rows grow downwards
+    ivec2 X = ivec2(1, 0), Y = ivec2(0, 1); // rows grow downwards
+    float xf = load(p + X), xb = load(p - X), yf = load(p + Y), yb = load(p - Y);
+    vec3 dx = derivative(p, d, P, X, xf, xb);
+    vec3 dy = derivative(p, d, P, Y, yf, yb);
     vec3 n = normalize(cross(dy, dx));
     if (dot(n, P) > 0.0) n = -n;
+#ifdef NORMALS_DETAIL
+    // World units of height per pixel step, per world unit across: strength · r · F / d.
+    float h0 = height(p);
+    float k = pc.strength * frame.fluid.x * g_F / d;
+    float gx = slope(p, d, h0, X, xf, xb) * k;
+    float gy = -slope(p, d, h0, Y, yf, yb) * k; // image y grows downwards, view Y upwards
+    n = normalize(n - vec3(gx, gy, 0.0));
+#endif
     imageStore(normals, p, uvec4(pack_normal(n)));
 }

@@ -102,12 +102,12 @@ impl FrameUniforms {
 use crate::gpu::recording::{Part, Recording};
 use crate::passes::{FrameInfo, Passes};
 
-/// Every pass name in frame order — the frame's passes with the built-in effects after `normals` (timestamp
+/// Every pass name in frame order — the frame's passes with the built-in effects before `normals` (timestamp
 /// keys, JSON keys, `--timings` rows).
 pub fn pass_names() -> &'static [&'static str] {
     static NAMES: std::sync::LazyLock<Vec<&'static str>> = std::sync::LazyLock::new(|| {
         let mut names = crate::passes::PASS_NAMES.to_vec();
-        let at = names.iter().position(|n| *n == crate::passes::normals::NAME).map_or(names.len(), |k| k + 1);
+        let at = names.iter().position(|n| *n == crate::passes::normals::NAME).unwrap_or(names.len());
         names.splice(at..at, crate::effect::BUILT_IN.iter().copied());
         names
     });
@@ -152,7 +152,8 @@ pub struct FrameInputs<'a> {
 /// each pass derives its own barriers from its slots, and the cross-queue waits of a split frame are derived
 /// from what each part touched (`gpu::schedule`), so nothing here synchronises. The surface technique records
 /// its own passes (`crate::surface`): what `thickness` needs first (grids, kernels), then the fluid's depth.
-/// The effects (`crate::effect`) record after the normals and give the composite its layers.
+/// The effects (`crate::effect`) record before the normals, give them their detail (the noise's waves) and give the
+/// composite its layers.
 /// Optional steps: `background` (skipped while the view and scene stand), `upsample` (`fluid_scale` < 1), each
 /// effect (while it draws: `noise` with `[noise] enabled`, `diffuse` with `[diffuse] enabled` and something to draw).
 pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<RecordedFrame> {
@@ -193,10 +194,10 @@ pub fn record_frame(rec: &mut Recording, f: &FrameInputs) -> Result<RecordedFram
         }
         None => fluid_depth,
     };
-    p.normals.record(ctx, frame, depth, &t.normals, s.normals.edge * s.radius);
     let scene_depth = &t.scene_depth;
-    let effect = EffectFrame { frame, particles: f.particles, depth, normals: &t.normals, scene_depth, settings: s };
+    let effect = EffectFrame { frame, particles: f.particles, depth, scene_depth, settings: s };
     f.effects.record(ctx, &effect);
+    p.normals.record(ctx, frame, depth, &t.normals, s.normals.edge * s.radius, f.effects.detail(s)?);
     let ctx = rec.part(Shade);
     p.ssr.record(ctx, frame, depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
     let inputs = CompositeInputs {

@@ -298,7 +298,7 @@ fn normals_of_plane_and_sphere() {
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
+        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05, None);
         Ok(())
     })
     .unwrap();
@@ -451,7 +451,7 @@ fn ssr_hits_match_cpu_ray_tracer() {
             &t.scene_color,
             &t.scene_depth,
         );
-        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05);
+        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05, None);
         r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
         Ok(())
     })
@@ -2083,6 +2083,22 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
     assert_clean(&gpu);
 }
 
+/// N as the normals and the composite read it: level 0 of the noise's accumulator atlas in radii, 0 off the
+/// fluid.
+fn noise_n(
+    gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
+    own: &meniscus::passes::noise::NoiseTargets,
+    depth: &[f32],
+) -> Vec<f32> {
+    let (w, h) = own.size();
+    let (w, aw) = (w as usize, own.accum.extent.width as usize);
+    let atlas = read_u32(gpu, &own.accum).unwrap();
+    let units = meniscus::passes::noise::UNITS;
+    (0..w * h as usize)
+        .map(|k| if depth[k] < 1e30 { atlas[(k / w) * aw + k % w] as i32 as f32 / units } else { 0.0 })
+        .collect()
+}
+
 /// The `noise` pass's level of detail against the exact CPU reference: the slab seen from close up, so sprites
 /// are tens to hundreds of pixels across and are evaluated on coarse levels of the accumulator, then resolved
 /// bilinearly. The stated tolerance (docs/surface-detail.md), per `[noise] lod_samples`: over the covered
@@ -2132,17 +2148,17 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
         render_counted(&mut rr, &v, &s).unwrap();
         let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         let work = own.work().unwrap();
-        let noise = read_f32(&gpu, &own.noise).unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
+        let noise = noise_n(&gpu, own, &depth);
         let normals = read_u32(&gpu, &rr.targets.as_ref().unwrap().normals).unwrap();
         runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap(), normals));
     }
     assert!(runs[0].3 == runs[1].3, "the two splats' accumulators differ");
     // Both splats ask for noise_resolve's work groups only when a coarse level was written (noise_scan for the
-    // tiled one, noise_args for the other), and noise_apply reads N at level 0 either way: the same N, coarse
+    // tiled one, noise_args for the other), and the normals read N at level 0 either way: the same N, coarse
     // levels included, and the same normals, bit for bit.
-    assert!(runs[0].1 == runs[1].1, "N resolved inside the apply differs from noise_resolve's");
-    assert!(runs[0].4 == runs[1].4, "the normals differ between the two applies");
+    assert!(runs[0].1 == runs[1].1, "N differs between the two splats");
+    assert!(runs[0].4 == runs[1].4, "the normals differ between the two splats");
     let (a, b) = (runs[0].0, runs[1].0);
     assert_eq!((a.level, a.texels, a.sprites, a.evaluated), (b.level, b.texels, b.sprites, b.evaluated));
     assert!(a.binned > 0 && a.skipped == 0, "the close-up's large sprites go to the tiles: {a:?}");
@@ -2221,8 +2237,8 @@ fn noise_matches_cpu_reference() {
     let aw = own.accum.extent.width as usize;
     let atlas = words(&own.accum);
     let acc: Vec<i32> = (0..w * h).map(|k| atlas[(k / w) * aw + k % w] as i32).collect();
-    let noise = read_f32(&gpu, &own.noise).unwrap();
     let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
+    let noise = noise_n(&gpu, own, &depth);
     let normals = words(&t.normals);
     // The other splat (tiles on a CPU driver, one thread per sprite on a GPU) gives the same atlas.
     let mut other = Renderer::new(&gpu).unwrap();
@@ -2240,8 +2256,8 @@ fn noise_matches_cpu_reference() {
     let own2 = other.effects.get::<NoiseEffect>().unwrap().images().unwrap();
     let atlas2 = words(&own2.accum);
     assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
-    // Level 0 alone: the tiled path's apply writes N from the sums itself (no resolve); the same N and normals.
-    assert!(read_f32(&gpu, &own2.noise).unwrap() == noise, "the other path's N differs");
+    // Level 0 alone: N is the sums themselves (no resolve) on either path; the same N and normals.
+    assert!(noise_n(&gpu, own2, &depth) == noise, "the other path's N differs");
     assert!(words(&other.targets.as_ref().unwrap().normals) == normals, "the other path's normals differ");
     let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
@@ -2259,7 +2275,8 @@ fn noise_matches_cpu_reference() {
         let want_n = if depth[k] < 1e30 { acc[k] as f32 / UNITS } else { 0.0 };
         assert_eq!(noise[k], want_n, "N at pixel {k}");
     }
-    // The same frame without the pass: the unperturbed normals, then noise_apply.comp's slopes on the CPU.
+    // The same frame without the pass: the unperturbed normals, then the normals' detail slopes (normals.comp,
+    // NORMALS_DETAIL) on the CPU.
     let mut plain = Renderer::new(&gpu).unwrap();
     plain
         .upload(meniscus::renderer::Upload::Points {
@@ -2331,8 +2348,9 @@ fn noise_of_still_water_does_not_flicker() {
         assert!(motion.iter().all(|m| m.accel == 0.0));
         rr.upload(meniscus::renderer::Upload::Scene { particles: &p, settings: &s, motion: Some(&motion) }).unwrap();
         rr.render(&v, &s).unwrap();
+        let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
         frames.push((
-            read_f32(&gpu, &rr.effects.get::<NoiseEffect>().unwrap().images().unwrap().noise).unwrap(),
+            noise_n(&gpu, rr.effects.get::<NoiseEffect>().unwrap().images().unwrap(), &depth),
             rr.state().read_final().unwrap(),
         ));
     }
@@ -2361,8 +2379,8 @@ fn a_frame_keeps_nothing_of_the_frame_before() {
     let frame = |rr: &mut Renderer| {
         rr.upload(meniscus::renderer::Upload::scene(&b, &s)).unwrap();
         rr.render(&v, &s).unwrap();
-        let noise = read_f32(&gpu, &rr.effects.get::<NoiseEffect>().unwrap().images().unwrap().noise).unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
+        let noise = noise_n(&gpu, rr.effects.get::<NoiseEffect>().unwrap().images().unwrap(), &depth);
         (rr.state().read_final().unwrap(), noise, depth)
     };
     let mut used = Renderer::new(&gpu).unwrap();

@@ -1,13 +1,15 @@
 //! Effects: what a frame adds on and around the surface it drew — [`noise`] (the NVIDIA patent's small waves
 //! and whitecaps) and [`diffuse`] (spray, foam and bubbles, Ihmsen et al. 2012). An effect is a technique like
 //! a surface (`crate::surface`): it owns its pipelines and its images (allocated only while it draws: its
-//! setting on and something to draw), prepares them on the host, records its passes after the normals, and
-//! gives the `composite` pass its layers (`crate::passes::composite::Layer`) — the composite knows no effect by name. THE LIST is
+//! setting on and something to draw), prepares them on the host, records its passes once the surface's depth is
+//! known (before the normals), may give the `normals` pass a detail height field whose slopes it adds
+//! ([`Effect::detail`]: the noise's waves), and gives the `composite` pass its layers
+//! (`crate::passes::composite::Layer`) — neither pass knows an effect by name. THE LIST is
 //! `built_in_effects!`: a new effect is one module and one line there (or one [`Effects::push`] from outside the
 //! library: `Renderer::add_effect`).
 //!
-//! In: the frame's depth, normals, scene depth, particles and settings ([`EffectFrame`]). Out: each effect's
-//! own images, read by the composite as layers in list order (at most
+//! In: the frame's depth, scene depth, particles and settings ([`EffectFrame`]). Out: each effect's own images,
+//! read by the normals (at most one detail) and by the composite as layers in list order (at most
 //! [`crate::shader_constants::COMPOSITE_LAYERS`] in all).
 
 /// Declares the built-in effects from ONE list, in frame (and layer) order: each entry is the effect's module
@@ -39,6 +41,7 @@ use crate::gpu::executor::Executor;
 use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
 use crate::particles::ParticleSet;
 use crate::passes::composite::Layer;
+use crate::passes::normals::Detail;
 use crate::settings::Settings;
 
 /// What an effect prepares with, on the host, before a frame is recorded.
@@ -79,10 +82,9 @@ pub struct EffectFrame<'a> {
     pub frame: &'a Buffer,
     /// The particles.
     pub particles: FrameParticles<'a>,
-    /// Fluid depth at full resolution.
+    /// Fluid depth at full resolution (the normals are not made yet: an effect changes them through
+    /// [`Effect::detail`]).
     pub depth: &'a Image,
-    /// Packed view-space normals (an effect may perturb them: `noise` runs first).
-    pub normals: &'a Image,
     /// Background depth.
     pub scene_depth: &'a Image,
     /// The frame's settings.
@@ -96,8 +98,13 @@ pub trait Effect: Any {
     /// Bring its images up to date for the next frame's size, settings and particles: allocated while it draws
     /// (waiting for the frames in flight before replacing any), freed when it is off.
     fn prepare(&mut self, p: &EffectPrepare) -> Result<()>;
-    /// Record its passes (in the frame's fluid part, after the normals); nothing when it does not draw.
+    /// Record its passes (in the frame's fluid part, after the surface's depth, before the normals); nothing when
+    /// it does not draw.
     fn record(&self, ctx: &mut FrameCtx, f: &EffectFrame);
+    /// The height field whose slopes the `normals` pass adds this frame (small waves), if it gives one.
+    fn detail(&self, _s: &Settings) -> Option<Detail<'_>> {
+        None
+    }
     /// Its layers in the composite, in order; none when it does not draw this frame.
     fn layers(&self, s: &Settings) -> Vec<Layer<'_>>;
     /// (name, bytes) of the images and buffers it holds now, for the memory table.
@@ -150,6 +157,19 @@ impl Effects {
             )));
         }
         Ok(layers)
+    }
+
+    /// The detail height field the normals add: the one effect's that gives one; an error when several do (the
+    /// normals add one).
+    pub fn detail(&self, s: &Settings) -> Result<Option<Detail<'_>>> {
+        let mut given = self.all.iter().filter_map(|e| e.detail(s).map(|d| (e.name(), d)));
+        let first = given.next();
+        if let (Some((a, _)), Some((b, _))) = (&first, given.next()) {
+            return Err(Error::Invalid(format!(
+                "the effects {a} and {b} both give the normals a detail height field; the normals add one"
+            )));
+        }
+        Ok(first.map(|(_, d)| d))
     }
 
     /// (name, bytes) of what every effect holds now.

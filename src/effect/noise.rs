@@ -1,7 +1,8 @@
 //! The `noise` effect (NVIDIA patent US 8,947,430; method.md §8): small waves on the normals and, as the
 //! composite's `tint` layer, whitecaps where the noise is strong. It owns the `noise` pass
-//! (`crate::passes::noise`: splat, resolve, apply) and the pass's images, which exist only while
-//! `[noise] enabled`. In: fluid depth, normals, particles (+ motions). Out: normals (perturbed), N (its layer).
+//! (`crate::passes::noise`: splat, resolve) and the pass's images, which exist only while `[noise] enabled`.
+//! In: fluid depth, particles (+ motions). Out: N (level 0 of its accumulator atlas, fixed point): the normals'
+//! detail height field ([`Effect::detail`], × `[noise] strength`) and its layer.
 
 use std::sync::Arc;
 
@@ -9,7 +10,8 @@ use super::{Effect, EffectFrame, EffectPrepare};
 use crate::error::Result;
 use crate::gpu::{FrameCtx, Gpu};
 use crate::passes::composite::{Blend, Layer};
-use crate::passes::noise::{Noise, NoiseImages, NoiseTargets, NAME};
+use crate::passes::noise::{Noise, NoiseImages, NoiseTargets, NAME, UNITS};
+use crate::passes::normals::Detail;
 use crate::settings::Settings;
 use crate::work::NoiseWork;
 
@@ -56,7 +58,7 @@ impl Effect for NoiseEffect {
 
     fn prepare(&mut self, p: &EffectPrepare) -> Result<()> {
         let on = p.settings.noise.enabled;
-        let fits = |n: &NoiseTargets| n.noise.extent.width == p.width && n.noise.extent.height == p.height;
+        let fits = |n: &NoiseTargets| n.size() == (p.width, p.height);
         if on != self.images.is_some() || !self.images.as_ref().is_none_or(fits) {
             let gpu = p.gpu;
             let (w, h) = (p.width, p.height);
@@ -74,20 +76,24 @@ impl Effect for NoiseEffect {
     fn record(&self, ctx: &mut FrameCtx, f: &EffectFrame) {
         if let Some(own) = &self.images {
             let s = f.settings;
-            let images = NoiseImages { depth: f.depth, normals: f.normals, own };
+            let images = NoiseImages { depth: f.depth, own };
             let particles = (f.particles.buffer, f.particles.count);
-            self.pass.record(ctx, f.frame, particles, &images, &s.noise, s.normals.edge * s.radius);
+            self.pass.record(ctx, f.frame, particles, &images, &s.noise);
         }
+    }
+
+    fn detail(&self, s: &Settings) -> Option<Detail<'_>> {
+        self.images.as_ref().map(|own| Detail { image: &own.accum, strength: s.noise.strength })
     }
 
     fn layers(&self, s: &Settings) -> Vec<Layer<'_>> {
         let p = &s.noise;
         let Some(own) = &self.images else { return vec![] };
         vec![Layer {
-            image: &own.noise,
+            image: &own.accum,
             color: p.whitecaps_color,
             weight: p.whitecaps,
-            blend: Blend::Tint { from: p.whitecaps_from, full: p.whitecaps_full, sun: 0.6 },
+            blend: Blend::Tint { from: p.whitecaps_from, full: p.whitecaps_full, units: UNITS, sun: 0.6 },
         }]
     }
 

@@ -31,6 +31,8 @@ pub struct Image {
     pub aspect: vk::ImageAspectFlags,
     /// Array layers (6 for a cube map).
     pub layers: u32,
+    /// What it was created for (empty for an image owned elsewhere: a swapchain image).
+    pub usage: vk::ImageUsageFlags,
     pub(crate) state: Cell<AccessState>,
     alloc: Option<Allocation>,
     /// False for images owned by someone else (swapchain images): only the view is destroyed.
@@ -131,6 +133,7 @@ impl Image {
         let alloc = allocate(gpu, name, req, MemoryLocation::GpuOnly, false)
             .inspect_err(|_| unsafe { d.destroy_image(raw, None) })?;
         let mut img = Image::bare(gpu, raw, format, extent, name, layers, true);
+        img.usage = usage;
         unsafe { d.bind_image_memory(raw, alloc.memory(), alloc.offset()) }.vk("vkBindImageMemory")?;
         img.alloc = Some(alloc);
         img.view = img.make_view(format)?;
@@ -172,6 +175,7 @@ impl Image {
                 vk::ImageAspectFlags::COLOR
             },
             layers,
+            usage: vk::ImageUsageFlags::empty(),
             state: Cell::new(AccessState::default()),
             alloc: None,
             owned,

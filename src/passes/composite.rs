@@ -108,13 +108,16 @@ const _: () = assert!(LAYERS == 4, "composite.comp has a variant and a binding p
 /// How a layer's image changes the shaded colour (shaders_glsl/composite.comp's blends).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Blend {
-    /// The image holds f32 bits v; the water (not the background) mixes toward the layer's colour, lit by the
-    /// ambient light and `sun` × the sun's Lambert term, by weight · smoothstep(from, full, |v|).
+    /// The image holds a signed fixed-point value v = raw / units (raw: the texel as i32); the water (not the
+    /// background) mixes toward the layer's colour, lit by the ambient light and `sun` × the sun's Lambert term,
+    /// by weight · smoothstep(from, full, |v|).
     Tint {
         /// |v| where the tint starts …
         from: f32,
         /// … and where it is full.
         full: f32,
+        /// Image units per unit of v.
+        units: f32,
         /// The sun's share of the lighting (× n·l).
         sun: f32,
     },
@@ -135,7 +138,8 @@ pub enum Blend {
     },
 }
 
-/// One layer of the composite: an effect's image (R32_UINT, the output's size) and how it blends.
+/// One layer of the composite: an effect's image (R32_UINT, at least the output's size: read at the output's pixels)
+/// and how it blends.
 #[derive(Clone, Copy)]
 pub struct Layer<'a> {
     /// The image.
@@ -153,7 +157,7 @@ impl Layer<'_> {
     pub fn packed(&self) -> [[f32; 4]; 2] {
         let [r, g, b] = self.color;
         let mode = match self.blend {
-            Blend::Tint { from, full, sun } => [1.0, from, full, sun],
+            Blend::Tint { from, full, units, sun } => [1.0, from * units, full * units, sun],
             Blend::Under { units, sun } => [2.0, units, 0.0, sun],
             Blend::Over { units, sun } => [3.0, units, 0.0, sun],
         };

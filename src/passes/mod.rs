@@ -51,7 +51,7 @@ frame_passes! {
     composite: Composite,
 }
 
-// The effects' passes (`crate::effect` owns and records them, after `normals`).
+// The effects' passes (`crate::effect` owns and records them, before `normals`).
 pub mod diffuse;
 pub mod noise;
 

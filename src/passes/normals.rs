@@ -1,5 +1,6 @@
-//! `normals` pass: discontinuity-aware view-space normals from the smoothed depth, octahedral-packed.
-//! Shader: shaders_glsl/normals.comp.
+//! `normals` pass: discontinuity-aware view-space normals from the smoothed depth, octahedral-packed, with an
+//! effect's detail height field (the `noise` effect's small waves) added as slopes when one is given.
+//! Shader: shaders_glsl/normals.comp (NORMALS_DETAIL: the variant with the detail).
 use std::sync::Arc;
 
 use crate::declare_program;
@@ -34,25 +35,70 @@ impl crate::section::Section for Params {
     }
 }
 
-/// The pass: its compute program(s), built once per device.
+/// The pass: its compute programs (without and with a detail height field), built once per device.
 pub struct Normals {
-    prog: ComputeProgram<f32>,
+    prog: ComputeProgram<Push>,
+    detailed: ComputeProgram<Push>,
 }
 
-// Push: the silhouette edge threshold (world units).
-declare_program!(pub PROGRAM: f32 = compute(shaders::NORMALS, [Uniform, ImgRead, ImgOverwrite]));
+/// Push constants of normals.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Push {
+    /// Depth jump (world units) above which a neighbour is on another surface.
+    pub edge: f32,
+    /// Scale of the detail's slopes ([`Detail::strength`]; 0 without one).
+    pub strength: f32,
+}
+
+/// A height field an effect adds to the surface as small waves (`crate::effect::Effect::detail`): an R32_UINT
+/// image holding signed fixed-point heights, [`DETAIL_UNITS`] per particle radius, read at each pixel of the
+/// normals (at least their size; only its texels at the normals' pixels are read).
+#[derive(Clone, Copy)]
+pub struct Detail<'a> {
+    /// The heights.
+    pub image: &'a Image,
+    /// Scale of their slopes on the normals (1: the heights as they are).
+    pub strength: f32,
+}
+
+/// Fixed-point units of a detail height field per particle radius (the noise's accumulator's).
+pub const DETAIL_UNITS: f32 = 65536.0;
+
+// Frame, depth → normals; with a detail, its heights after them.
+declare_program!(pub PROGRAM: Push = compute(shaders::NORMALS, [Uniform, ImgRead, ImgOverwrite]));
+declare_program!(pub DETAILED: Push = compute(shaders::NORMALS_DETAIL, [Uniform, ImgRead, ImgOverwrite, ImgRead]));
 
 impl Normals {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(Normals { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        Ok(Normals { prog: ComputeProgram::new(gpu, &PROGRAM)?, detailed: ComputeProgram::new(gpu, &DETAILED)? })
     }
 
-    /// `edge`: depth jump (world units) above which a neighbour is on another surface.
-    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, depth: &Image, normals: &Image, edge: f32) {
+    /// `edge`: depth jump (world units) above which a neighbour is on another surface; `detail`: the height field
+    /// whose slopes perturb the normals, if an effect gives one.
+    pub fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        frame: &Buffer,
+        depth: &Image,
+        normals: &Image,
+        edge: f32,
+        detail: Option<Detail>,
+    ) {
         ctx.pass(NAME, |ctx| {
             let g = groups_2d(normals.extent.width, normals.extent.height, super::LOCAL_2D);
-            self.prog.dispatch(ctx, &[frame.into(), depth.into(), normals.into()], &edge, g);
+            match detail {
+                None => {
+                    let push = Push { edge, strength: 0.0 };
+                    self.prog.dispatch(ctx, &[frame.into(), depth.into(), normals.into()], &push, g)
+                }
+                Some(d) => {
+                    let push = Push { edge, strength: d.strength };
+                    let res = [frame.into(), depth.into(), normals.into(), d.image.into()];
+                    self.detailed.dispatch(ctx, &res, &push, g)
+                }
+            }
         });
     }
 }

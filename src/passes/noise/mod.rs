@@ -1,13 +1,13 @@
 //! `noise` pass: the patent's surface detail (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8). Every
 //! particle splats a Gaussian sprite of per-particle 3D noise, weighted by its depth below the fluid surface and
-//! scaled by how fast its velocity changes, into a noise image N; N's partial derivatives are added to the
-//! normals (small waves) and its magnitude tints the surface toward grey-white whitecaps in `composite`. Runs on every
-//! surface (after `normals`, before `ssr`, so reflections see the waves); `[noise] enabled = false` leaves it
-//! out. Shaders: shaders_glsl/noise_cull.comp, noise_args.comp and noise.comp (the splat on CPU drivers; noise_bin,
-//! noise_scan, noise_fill and noise_gather on GPUs),
-//! shaders_glsl/noise_resolve.comp (N where coarse levels were written), shaders_glsl/noise_apply.comp (the normals and
-//! the noise image), with
-//! shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
+//! scaled by how fast its velocity changes, into a noise image N (level 0 of its accumulator atlas, fixed
+//! point); the `normals` pass adds N's partial derivatives to the normals (small waves: the atlas is the noise
+//! effect's detail height field, `crate::passes::normals::Detail`) and the composite tints the surface toward
+//! grey-white whitecaps by N's magnitude (its `tint` layer reads the same image). Runs on every surface (after the
+//! fluid's depth, before `normals`, so the normals and the reflections see the waves); `[noise] enabled = false`
+//! leaves it out. Shaders: shaders_glsl/noise_cull.comp, noise_args.comp and noise.comp (the splat on CPU
+//! drivers; noise_bin, noise_scan, noise_fill and noise_gather on GPUs), shaders_glsl/noise_resolve.comp (N where
+//! coarse levels were written), with shaders_glsl/noise.glsl (the kernel, mirrored by [`reference`]).
 use std::sync::Arc;
 
 use ash::vk;
@@ -22,8 +22,9 @@ use crate::work::NoiseWork;
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `noise`.
 pub const NAME: &str = "noise";
 
-/// Fixed-point units of the accumulator per particle radius of height.
-pub const UNITS: f32 = 65536.0;
+/// Fixed-point units of the accumulator per particle radius of height (a detail height field's:
+/// [`crate::passes::normals::DETAIL_UNITS`]).
+pub const UNITS: f32 = crate::passes::normals::DETAIL_UNITS;
 
 /// Settings of the `noise` pass: the `[noise]` section of a settings file. Lengths in particle radii.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -172,16 +173,6 @@ pub fn tile_count(width: u32, height: u32) -> u32 {
         .sum()
 }
 
-/// Push constants of noise_apply.comp.
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ApplyPush {
-    /// [`Params::strength`].
-    pub strength: f32,
-    /// Depth jump (world units) that separates two surfaces.
-    pub edge: f32,
-}
-
 // The per-sprite splat (CPU drivers). Cull: frame, particles, fluid depth → work (the listed count, the
 // coarsest level), the listed sprites' particle indices.
 declare_program!(pub CULL: SpritePush = compute(shaders::NOISE_CULL, [Uniform, BufRead, ImgRead, BufWrite, BufWrite]));
@@ -203,9 +194,6 @@ declare_program!(pub GATHER: SpritePush = compute(shaders::NOISE_GATHER, [Unifor
 // Resolve (only when the splat wrote coarser levels than 0): frame, accumulator atlas (level 0 rewritten with N,
 // fixed point), fluid depth, the splat's work (its coarsest level).
 declare_program!(pub RESOLVE: () = compute(shaders::NOISE_RESOLVE, [Uniform, ImgWrite, ImgRead, BufRead]));
-// Apply: frame, accumulator atlas (N at level 0), fluid depth → noise (N in radii: the composite's layer), normals
-// (in place).
-declare_program!(pub APPLY: ApplyPush = compute(shaders::NOISE_APPLY, [Uniform, ImgRead, ImgRead, ImgOverwrite, ImgWrite]));
 
 /// How the sprites reach the accumulator.
 enum Splat {
@@ -235,14 +223,13 @@ struct TiledSplat {
 pub struct Noise {
     splat: Splat,
     small: u32,
+    /// How N reaches level 0: noise_resolve is dispatched indirectly, with work groups only when the splat
+    /// wrote a coarser level than 0 (noise_scan, or noise_args after the per-sprite splat, writes the count), and
+    /// writes N back over level 0's sums in their fixed point; the normals and the composite read level 0 either
+    /// way (one full-screen dispatch fewer on most frames: an early return in each of its 32 k work groups at
+    /// 1080p cost the H100 what resolving did, 0.023 ms; lavapipe's resolve cost 2.4 ms of a wave frame at
+    /// 480×270).
     resolve: ComputeProgram<()>,
-    /// How N reaches the normals: noise_resolve is dispatched indirectly, with work groups only when the splat
-    /// wrote a coarser level than 0 (noise_scan, or noise_args after the per-sprite splat, writes the count), and writes
-    /// N back over level 0's sums in their fixed point; noise_apply reads level 0 either way and writes the
-    /// noise image (one full-screen dispatch fewer on most frames: an early return in each of its 32 k work
-    /// groups at 1080p cost the H100 what resolving did, 0.023 ms; lavapipe's resolve cost 2.4 ms of a wave
-    /// frame at 480×270).
-    apply: ComputeProgram<ApplyPush>,
     /// The atlas's clear, each frame.
     clear: Clear,
 }
@@ -251,21 +238,18 @@ pub struct Noise {
 pub struct NoiseImages<'a> {
     /// Fluid depth at full resolution.
     pub depth: &'a Image,
-    /// Packed normals, perturbed in place.
-    pub normals: &'a Image,
     /// The pass's own resources (the effect's images, allocated only while it is on).
     pub own: &'a NoiseTargets,
 }
 
-/// What the pass owns per frame size: the accumulator atlas, the noise image and the work counts, and the
+/// What the pass owns per frame size: the accumulator atlas (N at its level 0) and the work counts, and the
 /// splat's lists, grown with the particle count ([`NoiseTargets::reserve`]): the per-sprite splat's listed
 /// sprites, or the tiled splat's bins. Allocated only while `[noise] enabled` (`Targets::noise`).
 pub struct NoiseTargets {
     /// Fixed-point accumulator atlas (R32_UINT): level 0 (the output's size) with the coarser levels stacked
-    /// to its right ([`atlas_extent`]).
+    /// to its right ([`atlas_extent`]). Once the frame's pass has run, level 0 holds N ([`UNITS`] per radius,
+    /// signed; 0 off the fluid): the normals' detail and the composite's layer.
     pub accum: Image,
-    /// N in radii (R32_UINT holding f32 bits: the composite reads it as a layer).
-    pub noise: Image,
     /// The splat's work, u32 ×8 ([`NoiseWork`]; host-readable).
     pub work: Buffer,
     /// The per-sprite splat's indirect dispatches (8 u32, noise_args writes them): noise_resolve's at 0 (none
@@ -309,11 +293,9 @@ impl NoiseTargets {
     pub fn new(gpu: &Arc<Gpu>, width: u32, height: u32) -> Result<NoiseTargets> {
         use vk::ImageUsageFlags as U;
         let storage = U::STORAGE | U::TRANSFER_SRC | U::TRANSFER_DST;
-        let full = vk::Extent2D { width, height };
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
         Ok(NoiseTargets {
             accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
-            noise: Image::new(gpu, "noise", full, vk::Format::R32_UINT, storage, None)?,
             work: Buffer::new(gpu, "noise_work", 32, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
             sprite_args: Buffer::new(
                 gpu,
@@ -335,6 +317,11 @@ impl NoiseTargets {
             true => self.bins.as_ref().is_none_or(|b| b.particles < particles),
             false => self.listed_capacity() < particles,
         }
+    }
+
+    /// The output's size (level 0 of the atlas).
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
     }
 
     /// Particles the per-sprite splat's list holds.
@@ -388,11 +375,7 @@ impl NoiseTargets {
 
     /// (name, bytes) of each resource, for the memory table.
     pub fn memory(&self) -> Vec<(&str, u64)> {
-        let mut m = vec![
-            (self.accum.name.as_str(), self.accum.bytes()),
-            (self.noise.name.as_str(), self.noise.bytes()),
-            (self.work.name.as_str(), self.work.size),
-        ];
+        let mut m = vec![(self.accum.name.as_str(), self.accum.bytes()), (self.work.name.as_str(), self.work.size)];
         if let Some(b) = &self.listed {
             m.push((b.name.as_str(), b.size));
         }
@@ -429,13 +412,7 @@ impl Noise {
             }))
         };
         let small = std::env::var("MENISCUS_NOISE_SMALL").ok().and_then(|v| v.parse().ok()).unwrap_or(SMALL_SPRITE);
-        Ok(Noise {
-            splat,
-            small,
-            clear: Clear::new(gpu)?,
-            resolve: ComputeProgram::new(gpu, &RESOLVE)?,
-            apply: ComputeProgram::new(gpu, &APPLY)?,
-        })
+        Ok(Noise { splat, small, clear: Clear::new(gpu)?, resolve: ComputeProgram::new(gpu, &RESOLVE)? })
     }
 
     /// Whether this pass splats through tiles (its targets' [`NoiseTargets::reserve`] takes it).
@@ -443,18 +420,9 @@ impl Noise {
         matches!(self.splat, Splat::Tiled(_))
     }
 
-    /// Splat the `count` particles' noise, resolve it into N and perturb the normals; `edge`: the normals'
-    /// depth jump (world). The splat needs its lists reserved for `count` particles (else the frame gets no
+    /// Splat the `count` particles' noise and resolve it into N (the atlas's level 0). The splat needs its lists reserved for `count` particles (else the frame gets no
     /// noise: the renderer reserves them before recording).
-    pub fn record(
-        &self,
-        ctx: &mut FrameCtx,
-        frame: &Buffer,
-        particles: (&Buffer, u32),
-        i: &NoiseImages,
-        p: &Params,
-        edge: f32,
-    ) {
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: (&Buffer, u32), i: &NoiseImages, p: &Params) {
         let own = i.own;
         ctx.pass(NAME, |ctx| {
             ctx.part("noise/clear", |ctx| {
@@ -462,8 +430,9 @@ impl Noise {
                 self.clear.record(ctx, &own.accum, 0);
             });
             let (buf, count) = particles;
-            let tiles = tile_count(own.noise.extent.width, own.noise.extent.height);
-            let g = groups_2d(own.noise.extent.width, own.noise.extent.height, super::LOCAL_2D);
+            let (width, height) = own.size();
+            let tiles = tile_count(width, height);
+            let g = groups_2d(width, height, super::LOCAL_2D);
             let push = SpritePush {
                 count,
                 size: p.size,
@@ -539,7 +508,6 @@ impl Noise {
                 // Bins too small for these particles: no noise this frame rather than lost writes.
                 (Splat::Tiled(_), None) => {}
             }
-            let push = ApplyPush { strength: p.strength, edge };
             let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.work).into()];
             // As the splat counted it (noise_args, or noise_scan at its args[8..11]): no work groups at level 0
             // alone. No splat this frame (bins too small): the sums are 0, at level 0.
@@ -551,8 +519,6 @@ impl Noise {
             if let Some((args, offset)) = counted {
                 ctx.part("noise/resolve", |ctx| self.resolve.dispatch_indirect(ctx, &res, &(), args, offset));
             }
-            let res = [frame.into(), (&own.accum).into(), i.depth.into(), (&own.noise).into(), i.normals.into()];
-            ctx.part("noise/apply", |ctx| self.apply.dispatch(ctx, &res, &push, g));
         });
     }
 }
