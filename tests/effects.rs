@@ -2,7 +2,8 @@
 //! (`Renderer::add_effect`). It owns a pass (a compute clear of its image to one value each frame), an image
 //! allocated with the frame's size, and one composite layer over everything. The picture it gives is checked
 //! against the composite's blend computed here from the picture without it; the composite's layer limit is an
-//! error, not a panic.
+//! error, not a panic. Given as a detail height field too (`Effect::detail`), its constant height leaves the
+//! normals as they are, and a second detail beside the noise's is an error naming both.
 
 mod common;
 
@@ -18,6 +19,7 @@ mod tint {
     use meniscus::effect::{replace, Effect, EffectFrame, EffectPrepare};
     use meniscus::gpu::{FrameCtx, Gpu, Image};
     use meniscus::passes::composite::{Blend, Layer};
+    use meniscus::passes::normals::Detail;
     use meniscus::settings::Settings;
 
     /// A coverage of `value` units everywhere, laid over the picture in `color` with `weight`.
@@ -30,11 +32,13 @@ mod tint {
         pub color: [f32; 3],
         /// The layer's weight.
         pub weight: f32,
+        /// Its image is also the normals' detail height field.
+        pub detail: bool,
     }
 
     impl Tint {
         pub fn new(gpu: &Arc<Gpu>, value: u32, color: [f32; 3], weight: f32) -> meniscus::Result<Tint> {
-            Ok(Tint { clear: Clear::new(gpu)?, image: None, value, color, weight })
+            Ok(Tint { clear: Clear::new(gpu)?, image: None, value, color, weight, detail: false })
         }
     }
 
@@ -60,6 +64,10 @@ mod tint {
             if let Some(image) = &self.image {
                 ctx.pass("tint", |ctx| self.clear.record(ctx, image, self.value));
             }
+        }
+
+        fn detail(&self, _: &Settings) -> Option<Detail<'_>> {
+            self.image.as_ref().filter(|_| self.detail).map(|image| Detail { image, strength: 1.0 })
         }
 
         fn layers(&self, _: &Settings) -> Vec<Layer<'_>> {
@@ -134,5 +142,36 @@ fn more_layers_than_the_composite_lays_is_an_error() {
     rr.add_effect(Box::new(tint::Tint::new(&gpu, 1, [1.0; 3], 0.1).unwrap()));
     let e = rr.render(&v, &s).expect_err("one layer too many").to_string();
     assert!(e.contains(&format!("at most {max}")) && e.contains("tint"), "{e}");
+    assert_clean(&gpu);
+}
+
+/// An effect's detail height field goes to the normals' detailed variant: a constant height has no slope, so
+/// the normals stay the plain ones, bit for bit (the noise tests check the slopes of a real one); a second detail beside the noise's is an error naming both effects, not
+/// a panic (the normals add one).
+#[test]
+fn a_constant_detail_leaves_the_normals_and_two_details_are_an_error() {
+    let gpu = gpu();
+    let r = 0.1f32;
+    let v = view([0.4, 1.6, 2.4], [0.0, 0.0, 0.0], 80, 56, 40.0);
+    let mut s = settings(r);
+    s.noise.enabled = false;
+    let p: Vec<[f32; 3]> =
+        (0..400).map(|k| [(k % 20) as f32 * 0.06 - 0.6, 0.0, (k / 20) as f32 * 0.06 - 0.6]).collect();
+    let mut rr = Renderer::new(&gpu).unwrap();
+    rr.upload(meniscus::renderer::Upload::points(&p)).unwrap();
+    rr.render(&v, &s).unwrap();
+    let words = |rr: &Renderer| meniscus::gpu::transfer::read_u32(&gpu, &rr.targets.as_ref().unwrap().normals).unwrap();
+    let plain = words(&rr);
+    let mut t = tint::Tint::new(&gpu, 3 << 16, [1.0; 3], 0.0).unwrap();
+    t.detail = true;
+    rr.add_effect(Box::new(t));
+    rr.render(&v, &s).unwrap();
+    let detailed = words(&rr);
+    assert!(plain.iter().filter(|n| **n != 0).count() > 100, "too little water to test");
+    // No slope: normalize(n − 0) is n, packed to the same bits.
+    assert!(detailed == plain, "a constant height changed the normals");
+    s.noise.enabled = true;
+    let e = rr.render(&v, &s).expect_err("two detail height fields").to_string();
+    assert!(e.contains("noise") && e.contains("tint") && e.contains("detail"), "{e}");
     assert_clean(&gpu);
 }
