@@ -2,10 +2,10 @@
 //! noise_resolve — the noise N (radii of height) where the `noise` pass's splat wrote coarser levels than 0:
 //! level 0's fixed-point sum at the pixel plus every coarser level's sum interpolated bilinearly at the pixel
 //! (texel i of level L sits at full-resolution position (i + ½)·2^L − ½), written back over level 0's sum in the
-//! same fixed point (rounded to 2^-16 radii), so that noise_apply reads one image whether or not this ran. A
-//! coarse texel whose depth pixel showed no fluid was never written: it is left out of the interpolation and the
-//! weights of the others renormalised, so a close-up sprite's noise reaches the silhouette instead of fading
-//! towards it. Dispatched indirectly, with no work groups when the splat wrote level 0 alone (noise_scan or
+//! same fixed point (rounded to 2^-16 radii), so that the normals (their detail) and the composite (its
+//! whitecaps layer) read one image whether or not this ran. A coarse texel whose depth pixel showed no fluid was
+//! never written: it is left out of the interpolation and the weights of the others renormalised, so a close-up
+//! sprite's noise reaches the silhouette instead of fading towards it. Dispatched indirectly, with no work groups when the splat wrote level 0 alone (noise_scan or
 //! noise_args writes the count). NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is
 //! noise.comp's.
 //! In: the accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest

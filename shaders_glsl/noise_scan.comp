@@ -20,7 +20,7 @@ layout(local_size_x = 1024) in;
 layout(std430, set = 0, binding = 0) buffer Tiles { uint tiles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Work { uint work[8]; };
 // Three dispatches' work group counts: [0, 3) noise_fill, [3, 6) noise_gather, [8, 11) noise_resolve (none
-// when the splat wrote level 0 alone: noise_apply then reads the sums itself).
+// when the splat wrote level 0 alone: the normals and the composite then read the sums themselves).
 layout(std430, set = 0, binding = 2) writeonly buffer Args { uint args[12]; };
 #include "noise_push.glsl"
 
