@@ -56,16 +56,14 @@ impl Clear {
     pub fn record(&self, ctx: &mut FrameCtx, img: &Image, bits: u32) {
         let transfer = self.transfer && img.usage.contains(vk::ImageUsageFlags::TRANSFER_DST);
         let prog = match img.format {
-            _ if transfer => {
-                ctx.clear(img, vk::ClearColorValue { uint32: [bits; 4] });
-                return;
-            }
-            vk::Format::R32_SFLOAT => &self.f32,
-            vk::Format::R32_UINT => &self.u32,
-            _ => {
-                ctx.clear(img, vk::ClearColorValue { uint32: [bits; 4] });
-                return;
-            }
+            _ if transfer => None,
+            vk::Format::R32_SFLOAT => Some(&self.f32),
+            vk::Format::R32_UINT => Some(&self.u32),
+            _ => None,
+        };
+        let Some(prog) = prog else {
+            ctx.clear(img, vk::ClearColorValue { uint32: [bits; 4] });
+            return;
         };
         let g = groups_2d(img.extent.width.div_ceil(CLEAR_SPAN), img.extent.height, LOCAL_2D);
         prog.dispatch(ctx, &[img.into()], &ClearPush { bits }, g);

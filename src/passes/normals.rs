@@ -88,13 +88,10 @@ impl Normals {
     ) {
         ctx.pass(NAME, |ctx| {
             let g = groups_2d(normals.extent.width, normals.extent.height, super::LOCAL_2D);
+            let push = Push { edge, strength: detail.map_or(0.0, |d| d.strength) };
             match detail {
-                None => {
-                    let push = Push { edge, strength: 0.0 };
-                    self.prog.dispatch(ctx, &[frame.into(), depth.into(), normals.into()], &push, g)
-                }
+                None => self.prog.dispatch(ctx, &[frame.into(), depth.into(), normals.into()], &push, g),
                 Some(d) => {
-                    let push = Push { edge, strength: d.strength };
                     let res = [frame.into(), depth.into(), normals.into(), d.image.into()];
                     self.detailed.dispatch(ctx, &res, &push, g)
                 }

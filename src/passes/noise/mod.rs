@@ -420,8 +420,8 @@ impl Noise {
         matches!(self.splat, Splat::Tiled(_))
     }
 
-    /// Splat the `count` particles' noise and resolve it into N (the atlas's level 0). The splat needs its lists reserved for `count` particles (else the frame gets no
-    /// noise: the renderer reserves them before recording).
+    /// Splat the `count` particles' noise and resolve it into N (the atlas's level 0). The splat needs its lists
+    /// reserved for `count` particles (else the frame gets no noise: the renderer reserves them before recording).
     pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: (&Buffer, u32), i: &NoiseImages, p: &Params) {
         let own = i.own;
         ctx.pass(NAME, |ctx| {
