@@ -63,10 +63,6 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ),
     // The compute clear of 32-bit storage images (src/compute/clear.rs): r32f and r32ui.
     ("clear.comp", &[("F32", "CLEAR_F32"), ("U32", "CLEAR_U32")]),
-    // The per-sprite noise splat's cull of every particle, or of the kept clusters' particles; the clusters built
-    // (once per particle set), the fluid depth's farthest per tile, the clusters tested (src/passes/noise).
-    ("noise_cull.comp", &[("", ""), ("CLUSTERS", "NOISE_CULL_CLUSTERS")]),
-    ("noise_clusters.comp", &[("BUILD", "NOISE_CLUSTERS_BUILD"), ("DEPTH", "NOISE_CLUSTERS_DEPTH"), ("TEST", "NOISE_CLUSTERS_TEST")]),
     // The normals, and the normals with an effect's detail height field (the noise's small waves).
     ("normals.comp", &[("", ""), ("DETAIL", "NORMALS_DETAIL")]),
     // The composite for 0 … 4 layers: a frame without effects runs the composite that knows of none.

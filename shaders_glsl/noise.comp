@@ -29,8 +29,7 @@ layout(set = 0, binding = 3, r32ui) uniform uimage2D accum;
 // The pass's work (cleared to 0 before it): [0] the coarsest level written, [1] texels visited (each sprite's
 // rectangle at its level), [2] sprites drawn, [3] texels whose noise was evaluated, [4] sprites left out (more
 // than NOISE_MAX_TILES tiles: the tiled splat), [5] tile-list entries (the tiled splat), [6] sprites listed
-// (noise_cull) or binned (noise_bin), [7] the longest tile list (the tiled splat), [8] particles the cull tested
-// (noise_cull: every particle, or those of the kept clusters).
+// (noise_cull) or binned (noise_bin), [7] the longest tile list (the tiled splat).
 layout(std430, set = 0, binding = 4) buffer Work { uint work[8]; };
 layout(std430, set = 0, binding = 5) readonly buffer Listed { uint listed[]; };
 #include "noise_push.glsl"

@@ -7,10 +7,8 @@
 //! lanes, so a sprite loop in the same invocation as the cull is run, masked, by every vector of culled particles
 //! too — on the waterfall 151k of 814k particles draw and the fused splat cost 32–34 ms, the cull alone 10–16
 //! (docs/gpu-frame.md). The coarsest level written is kept here too (noise_args: noise_resolve's dispatch).
-//! NOISE_CULL_CLUSTERS (build.rs) tests only the particles of the clusters noise_clusters.comp kept (their
-//! indices packed in its list): the same test per particle, so the same list.
-//! In: particles (positions, then motions), the fluid depth; with clusters, the kept particles' list. Out: the listed particle indices, work[6] (how many), work[0] (the
-//! coarsest level), work[2] (sprites drawn) and work[8] (particles tested; counted frames only).
+//! In: particles (positions, then motions), the fluid depth. Out: the listed particle indices, work[6] (how many),
+//! work[0] (the coarsest level), work[2] (sprites drawn, counted frames only).
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
@@ -20,13 +18,9 @@
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 1) readonly buffer Particles { vec4 particles[]; };
 layout(set = 0, binding = 2, r32f) uniform readonly image2D depth;
-// The work counts (noise.comp's layout; [6]: sprites listed, [8]: particles tested).
-layout(std430, set = 0, binding = 3) buffer Work { uint work[12]; };
+// The work counts (noise.comp's layout; [6]: sprites listed).
+layout(std430, set = 0, binding = 3) buffer Work { uint work[8]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Listed { uint listed[]; };
-#ifdef NOISE_CULL_CLUSTERS
-// {work groups, 1, 1, particles}, then the kept clusters' particle indices (noise_clusters.comp).
-layout(std430, set = 0, binding = 5) readonly buffer Kept { uint kept[]; };
-#endif
 #include "noise_push.glsl"
 #define NOISE_CULL_ONLY
 #include "noise_splat.glsl"
@@ -34,16 +28,9 @@ layout(std430, set = 0, binding = 5) readonly buffer Kept { uint kept[]; };
 #include "work_count.glsl"
 
 void main() {
-#ifdef NOISE_CULL_CLUSTERS
-    uint k = gl_GlobalInvocationID.x;
-    bool tested = k < kept[3];
-    uint i = tested ? kept[4u + k] : 0u;
-#else
     uint i = gl_GlobalInvocationID.x;
-    bool tested = i < pc.count;
-#endif
     Sprite s;
-    bool draws = tested && noise_sprite_at(i, imageSize(depth), s);
+    bool draws = i < pc.count && noise_sprite_at(i, imageSize(depth), s);
     uvec4 ballot = subgroupBallot(draws);
     uint n = subgroupBallotBitCount(ballot);
     uint first = 0u;
@@ -52,5 +39,4 @@ void main() {
     if (draws) listed[first + subgroupBallotExclusiveBitCount(ballot)] = i;
     WORK_MAX(work[0], draws ? uint(s.L) : 0u);
     WORK_ADD(work[2], draws ? 1u : 0u);
-    WORK_ADD(work[8], tested ? 1u : 0u);
 }

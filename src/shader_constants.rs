@@ -30,11 +30,6 @@ pub const NOISE_TILE: u32 = 16;
 pub const NOISE_CHUNK: u32 = NOISE_TILE * NOISE_TILE;
 /// Most tiles one sprite is binned to (a sprite's level keeps it under 39 texels across: at most 4 × 4 tiles).
 pub const NOISE_MAX_TILES: u32 = 16;
-/// Pixels per edge of a tile of the fluid depth's farthest values that the per-sprite noise splat's clusters are
-/// tested against (noise_clusters.comp).
-pub const NOISE_CLUSTER_TILE: u32 = 8;
-/// Most such tiles a cluster's test reads; a cluster covering more is kept (its particles tested one by one).
-pub const NOISE_CLUSTER_TILES_MAX: u32 = 64;
 /// Layers the `composite` pass lays over the shaded water (the effects' images: `crate::effect::Layer`).
 pub const COMPOSITE_LAYERS: u32 = 4;
 /// Vec4s per fluid particle in the renderer's particle buffer ([`ParticleLayout`]): its position and, after all
@@ -136,8 +131,6 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("NOISE_TILE", NOISE_TILE),
     ("NOISE_CHUNK", NOISE_CHUNK),
     ("NOISE_MAX_TILES", NOISE_MAX_TILES),
-    ("NOISE_CLUSTER_TILE", NOISE_CLUSTER_TILE),
-    ("NOISE_CLUSTER_TILES_MAX", NOISE_CLUSTER_TILES_MAX),
     ("CURVATURE_LOCAL", CURVATURE_LOCAL),
     ("MAX_BOXES", MAX_BOXES),
     ("SSR_MISS", SSR_MISS),

@@ -97,9 +97,6 @@ pub struct NoiseWork {
     /// The longest tile list of the tiled splat (sprites binned to one tile; noise_gather sums it in chunks of
     /// NOISE_CHUNK, one work group each).
     pub longest: u64,
-    /// Particles the per-sprite splat's cull tested: every particle, or only those of the clusters that may draw
-    /// (`passes::noise::Clusters`); 0 in the tiled splat.
-    pub tested: u64,
 }
 
 /// Each pass's own count of its work in one frame (`RendererState::work`): a pass that did not run (or, for

@@ -1,8 +1,6 @@
 //! The `noise` effect (NVIDIA patent US 8,947,430; method.md §8): small waves on the normals and, as the
 //! composite's `tint` layer, whitecaps where the noise is strong. It owns the `noise` pass
 //! (`crate::passes::noise`: splat, resolve) and the pass's images, which exist only while `[noise] enabled`.
-//! On CPU drivers it clusters a particle set it renders more than once (`crate::passes::noise::clusters`), so
-//! the cull tests only the clusters that may draw; `MENISCUS_NOISE_CLUSTERS=0` turns that off, for measuring.
 //! In: fluid depth, particles (+ motions). Out: N (level 0 of its accumulator atlas, fixed point): the normals'
 //! detail height field ([`Effect::detail`], × `[noise] strength`) and its layer.
 
@@ -12,40 +10,21 @@ use super::{Effect, EffectFrame, EffectPrepare};
 use crate::error::Result;
 use crate::gpu::{FrameCtx, Gpu};
 use crate::passes::composite::{Blend, Layer};
-use crate::passes::noise::clusters::CLUSTER_MIN;
-use crate::passes::noise::{Clusters, Noise, NoiseImages, NoiseTargets, NAME, UNITS};
+use crate::passes::noise::{Noise, NoiseImages, NoiseTargets, NAME, UNITS};
 use crate::passes::normals::Detail;
 use crate::settings::Settings;
 use crate::work::NoiseWork;
 
-/// The effect: the pass and, while it is on, its images; the particle set's clusters once it is rendered again.
+/// The effect: the pass and, while it is on, its images.
 pub struct NoiseEffect {
     pass: Noise,
     images: Option<NoiseTargets>,
-    clusters: Option<Clusters>,
-    /// Whether sets rendered more than once are clustered (the per-sprite splat).
-    clustering: bool,
-    /// The particle set of the last prepared frame, and whether this frame culls by clusters.
-    last_set: Option<u64>,
-    by_clusters: bool,
 }
 
 impl NoiseEffect {
     /// The effect with the splat the device suits (tiled on GPUs, one thread per sprite on CPU drivers).
     pub fn new(gpu: &Arc<Gpu>) -> Result<NoiseEffect> {
-        let clustering = std::env::var("MENISCUS_NOISE_CLUSTERS").map_or(true, |v| v != "0");
-        Ok(NoiseEffect { pass: Noise::new(gpu)?, images: None, clusters: None, clustering, last_set: None, by_clusters: false })
-    }
-
-    /// Cluster the particle sets rendered more than once (the default on CPU drivers) or cull every particle
-    /// every frame: the same sprites either way (the tests compare them).
-    pub fn set_clustering(&mut self, on: bool) {
-        self.clustering = on;
-    }
-
-    /// Whether the last prepared frame culls by clusters.
-    pub fn culls_by_clusters(&self) -> bool {
-        self.by_clusters
+        Ok(NoiseEffect { pass: Noise::new(gpu)?, images: None })
     }
 
     /// Choose the splat: tiled or one thread per sprite (the same sums; the tests compare them). Drops the
@@ -91,28 +70,6 @@ impl Effect for NoiseEffect {
             p.executor.wait_idle()?;
             n.reserve(p.gpu, count, tiled)?;
         }
-        // Clusters for a set rendered a second time (its positions on the host give the grid's box); a set seen
-        // once (a sequence's frame, a simulation's step) is culled particle by particle.
-        if !on && self.clusters.is_some() {
-            p.executor.wait_idle()?;
-            self.clusters = None;
-        }
-        let set = p.particles.generation();
-        let again = self.last_set.replace(set) == Some(set);
-        let positions = p.particles.positions();
-        self.by_clusters = on
-            && !tiled
-            && self.clustering
-            && again
-            && count >= CLUSTER_MIN
-            && positions.len() == count as usize;
-        if self.by_clusters && !self.clusters.as_ref().is_some_and(|c| c.are_for(set, count)) {
-            if self.clusters.is_some() {
-                p.executor.wait_idle()?;
-            }
-            let old = self.clusters.take();
-            self.clusters = Some(Clusters::for_set(p.gpu, old, set, positions, p.settings.radius)?);
-        }
         Ok(())
     }
 
@@ -121,8 +78,7 @@ impl Effect for NoiseEffect {
             let s = f.settings;
             let images = NoiseImages { depth: f.depth, own };
             let particles = (f.particles.buffer, f.particles.count);
-            let clusters = self.clusters.as_ref().filter(|_| self.by_clusters);
-            self.pass.record(ctx, f.frame, particles, &images, &s.noise, clusters);
+            self.pass.record(ctx, f.frame, particles, &images, &s.noise);
         }
     }
 
@@ -142,10 +98,6 @@ impl Effect for NoiseEffect {
     }
 
     fn memory(&self) -> Vec<(&str, u64)> {
-        let mut m = self.images.as_ref().map(|n| n.memory()).unwrap_or_default();
-        if let Some(c) = self.clusters.as_ref().filter(|_| self.images.is_some()) {
-            m.extend(c.memory());
-        }
-        m
+        self.images.as_ref().map(|n| n.memory()).unwrap_or_default()
     }
 }

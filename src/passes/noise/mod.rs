@@ -209,8 +209,6 @@ struct SpriteSplat {
     cull: ComputeProgram<SpritePush>,
     splat: ComputeProgram<SpritePush>,
     args: ComputeProgram<SpritePush>,
-    /// The cull by clusters, for a set whose clusters were built ([`clusters`]).
-    clusters: ClusterPrograms,
 }
 
 /// The tiled splat's programs.
@@ -261,9 +259,6 @@ pub struct NoiseTargets {
     pub listed: Option<Buffer>,
     /// The tiled splat's bins, once reserved.
     pub bins: Option<Bins>,
-    /// The fluid depth's farthest value per NOISE_CLUSTER_TILE² tile (f32 each; the per-sprite splat's clusters
-    /// are tested against it).
-    pub depth_tiles: Buffer,
     width: u32,
     height: u32,
 }
@@ -301,7 +296,7 @@ impl NoiseTargets {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
         Ok(NoiseTargets {
             accum: Image::new(gpu, "noise_accum", atlas_extent(width, height), vk::Format::R32_UINT, storage, None)?,
-            work: Buffer::new(gpu, "noise_work", 48, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
+            work: Buffer::new(gpu, "noise_work", 32, usage, gpu_allocator::MemoryLocation::GpuToCpu)?,
             sprite_args: Buffer::new(
                 gpu,
                 "noise_sprite_args",
@@ -311,13 +306,6 @@ impl NoiseTargets {
             )?,
             listed: None,
             bins: None,
-            depth_tiles: Buffer::new(
-                gpu,
-                "noise_depth_tiles",
-                4 * clusters::depth_tiles(width, height) as u64,
-                usage,
-                gpu_allocator::MemoryLocation::GpuOnly,
-            )?,
             width,
             height,
         })
@@ -382,17 +370,12 @@ impl NoiseTargets {
             skipped: w(4),
             binned: w(5),
             longest: w(7),
-            tested: w(8),
         })
     }
 
     /// (name, bytes) of each resource, for the memory table.
     pub fn memory(&self) -> Vec<(&str, u64)> {
-        let mut m = vec![
-            (self.accum.name.as_str(), self.accum.bytes()),
-            (self.work.name.as_str(), self.work.size),
-            (self.depth_tiles.name.as_str(), self.depth_tiles.size),
-        ];
+        let mut m = vec![(self.accum.name.as_str(), self.accum.bytes()), (self.work.name.as_str(), self.work.size)];
         if let Some(b) = &self.listed {
             m.push((b.name.as_str(), b.size));
         }
@@ -426,7 +409,6 @@ impl Noise {
                 cull: ComputeProgram::new(gpu, &CULL)?,
                 splat: ComputeProgram::new(gpu, &SPLAT)?,
                 args: ComputeProgram::new(gpu, &ARGS)?,
-                clusters: ClusterPrograms::new(gpu)?,
             }))
         };
         let small = std::env::var("MENISCUS_NOISE_SMALL").ok().and_then(|v| v.parse().ok()).unwrap_or(SMALL_SPRITE);
@@ -440,17 +422,7 @@ impl Noise {
 
     /// Splat the `count` particles' noise and resolve it into N (the atlas's level 0). The splat needs its lists
     /// reserved for `count` particles (else the frame gets no noise: the renderer reserves them before recording).
-    /// With `clusters` (built for these particles; the per-sprite splat) the cull tests only the particles of the
-    /// clusters that may draw: the same sprites are listed.
-    pub fn record(
-        &self,
-        ctx: &mut FrameCtx,
-        frame: &Buffer,
-        particles: (&Buffer, u32),
-        i: &NoiseImages,
-        p: &Params,
-        clusters: Option<&Clusters>,
-    ) {
+    pub fn record(&self, ctx: &mut FrameCtx, frame: &Buffer, particles: (&Buffer, u32), i: &NoiseImages, p: &Params) {
         let own = i.own;
         ctx.pass(NAME, |ctx| {
             ctx.part("noise/clear", |ctx| {
@@ -515,13 +487,10 @@ impl Noise {
                     ctx.part("noise/gather", |ctx| gather.dispatch_indirect(ctx, &res, &push, &b.args, 12));
                 }
                 (Splat::Alone(a), _) => {
-                    let SpriteSplat { cull, splat, args, clusters: by_clusters } = &**a;
+                    let SpriteSplat { cull, splat, args } = &**a;
                     if let Some(list) = listed {
                         let res = [frame.into(), buf.into(), i.depth.into(), (&own.work).into(), list.into()];
-                        match clusters.filter(|c| c.are_for_count(count)) {
-                            Some(c) => by_clusters.record(ctx, c, frame, buf, i.depth, &own.depth_tiles, res, &push),
-                            None => ctx.part("noise/cull", |ctx| cull.dispatch(ctx, &res, &push, groups)),
-                        }
+                        ctx.part("noise/cull", |ctx| cull.dispatch(ctx, &res, &push, groups));
                         let res = [(&own.work).into(), (&own.sprite_args).into()];
                         ctx.part("noise/args", |ctx| args.dispatch(ctx, &res, &push, [1, 1, 1]));
                         let res = [
@@ -554,11 +523,7 @@ impl Noise {
     }
 }
 
-pub mod clusters;
 pub mod reference;
-
-pub use clusters::Clusters;
-use clusters::ClusterPrograms;
 
 #[cfg(test)]
 mod tests {
