@@ -21,8 +21,19 @@ use crate::motion::Motion;
 use crate::shader_constants::ParticleLayout;
 use crate::shader_constants::BYTES_PER_PARTICLE;
 
-/// An upload: vec4s and the vec4 offset in the particle buffer they go to.
-pub type Staged = (Vec<[f32; 4]>, usize);
+/// An upload staged for the next frame: `len` vec4s copied to vec4 offset `at` of the particle buffer — the fluid
+/// part and the diffuse particles after it (`fluid`: a set uploaded from the host), or the diffuse particles alone
+/// (a GPU producer's set). The vec4s stay in the set ([`ParticleSet::staged_parts`]): the frame writes them into
+/// its staging buffer, with no copy of its own in between.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Staged {
+    /// The first vec4 of the particle buffer written.
+    pub at: usize,
+    /// Vec4s written.
+    pub len: usize,
+    /// The fluid part leads (else the diffuse particles alone).
+    pub fluid: bool,
+}
 
 /// The renderer's particles.
 #[derive(Default)]
@@ -79,10 +90,11 @@ impl ParticleSet {
         if let Some(m) = motion.filter(|m| m.len() != n) {
             return Err(Error::Invalid(format!("{} particle motions for {n} particles", m.len())));
         }
-        let mut data: Vec<[f32; 4]> = positions
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
+        // Into the last upload's vectors: a sequence sets a new frame every frame, and fresh allocations of a few MB
+        // cost their page faults each time.
+        let mut data = std::mem::take(&mut self.fluid);
+        data.clear();
+        data.extend(positions.iter().enumerate().map(|(i, p)| {
                 let r = radii.map(|r| r[i]).unwrap_or(0.0);
                 let isolated = isolated.is_some_and(|s| s[i]);
                 // An isolated particle without its own radius: −1 means "frame radius" for the thickness pass.
@@ -96,8 +108,7 @@ impl ParticleSet {
                     r
                 };
                 [p[0], p[1], p[2], w]
-            })
-            .collect();
+        }));
         match motion {
             Some(m) => data.extend(m.iter().map(Motion::encode)),
             None => data.extend((0..n as u32).map(|id| Motion { id, accel: 0.0 }.encode())),
@@ -107,7 +118,8 @@ impl ParticleSet {
         self.external = false;
         self.count = n as u32;
         self.restage();
-        self.positions = positions.to_vec();
+        self.positions.clear();
+        self.positions.extend_from_slice(positions);
         // Kept only where a particle is marked (every frame asks whether any is).
         self.isolated = isolated.filter(|s| s.iter().any(|&x| x)).map(|s| s.to_vec());
         self.generation += 1;
@@ -177,10 +189,16 @@ impl ParticleSet {
     /// after it; for a GPU producer, which writes the fluid part, only the diffuse particles, at their place.
     fn restage(&mut self) {
         self.staged = if self.external {
-            (!self.diffuse.is_empty()).then(|| (self.diffuse.clone(), self.layout().diffuse() as usize))
+            let at = self.layout().diffuse() as usize;
+            (!self.diffuse.is_empty()).then(|| Staged { at, len: self.diffuse.len(), fluid: false })
         } else {
-            Some(([self.fluid.as_slice(), self.diffuse.as_slice()].concat(), 0))
+            Some(Staged { at: 0, len: self.fluid.len() + self.diffuse.len(), fluid: true })
         };
+    }
+
+    /// The vec4s of a staged upload, in order: the fluid part (when it leads) and the diffuse particles.
+    pub fn staged_parts(&self, s: &Staged) -> [&[[f32; 4]]; 2] {
+        [if s.fluid { self.fluid.as_slice() } else { &[] }, self.diffuse.as_slice()]
     }
 
     /// The diffuse particles are written on the GPU after a header (their count and the `diffuse` pass's
@@ -296,5 +314,46 @@ impl ParticleSet {
     /// buffer), and whether a producer writes the buffer.
     pub fn take_pending(&mut self) -> (Option<Staged>, bool) {
         (self.staged.take(), std::mem::take(&mut self.external))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a frame copies: a host set's fluid part (positions, then motions) and its diffuse particles after it,
+    /// from offset 0; a GPU producer's set only the diffuse particles, at their place after the header. A new
+    /// frame's set reuses the vectors and stages the new values only.
+    #[test]
+    fn the_staged_upload_is_the_layout() {
+        let mut set = ParticleSet::default();
+        let limit = u64::MAX;
+        let staged = |set: &ParticleSet| {
+            let s = set.staged.expect("staged");
+            let parts = set.staged_parts(&s);
+            (s, parts.concat())
+        };
+        set.set(limit, &[[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]], None, None, None).unwrap();
+        let (s, data) = staged(&set);
+        assert_eq!(s, Staged { at: 0, len: 4, fluid: true });
+        assert_eq!(data[..2], [[1.0, 2.0, 3.0, 0.0], [4.0, 5.0, 6.0, 0.0]]);
+        assert_eq!(data[2..], [Motion { id: 0, accel: 0.0 }.encode(), Motion { id: 1, accel: 0.0 }.encode()]);
+        set.set_diffuse(limit, vec![[[7.0; 4], [8.0; 4]]]).unwrap();
+        let (s, data) = staged(&set);
+        assert_eq!(s, Staged { at: 0, len: 6, fluid: true });
+        assert_eq!(data[4..], [[7.0; 4], [8.0; 4]]);
+        set.set(limit, &[[9.0, 9.0, 9.0]], None, None, None).unwrap();
+        let (s, data) = staged(&set);
+        assert_eq!((s.len, data.len(), data[0]), (4, 4, [9.0, 9.0, 9.0, 0.0]));
+        assert_eq!(set.positions(), &[[9.0, 9.0, 9.0]]);
+        // A producer's set keeps the uploaded diffuse particles, staged at their place after its fluid part.
+        set.set_gpu_with_diffuse(limit, 5, (glam::Vec3::ZERO, glam::Vec3::ONE), 0).unwrap();
+        let (s, data) = staged(&set);
+        assert_eq!(s, Staged { at: 10, len: 2, fluid: false });
+        assert_eq!(data, [[7.0; 4], [8.0; 4]]);
+        set.set_diffuse(limit, vec![[[1.0; 4], [2.0; 4]]]).unwrap();
+        let (s, data) = staged(&set);
+        assert_eq!(s, Staged { at: set.layout().diffuse() as usize, len: 2, fluid: false });
+        assert_eq!(data, [[1.0; 4], [2.0; 4]]);
     }
 }

@@ -82,18 +82,23 @@ impl Renderer {
         }
         mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
         let (staged, external) = self.particles.take_pending();
-        if let Some((data, _)) = &staged {
-            let bytes: &[u8] = bytemuck::cast_slice(data);
-            if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
+        if let Some(st) = &staged {
+            let bytes = st.len * 16;
+            if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes) {
                 mem.staging = Some(Buffer::new(
                     &gpu,
                     "particles staging",
-                    (bytes.len() as u64).max(16),
+                    (bytes as u64).max(16),
                     vk::BufferUsageFlags::TRANSFER_SRC,
                     MemoryLocation::CpuToGpu,
                 )?);
             }
-            mem.staging.as_mut().expect("set").write(0, bytes)?;
+            let staging = mem.staging.as_mut().expect("set");
+            let mut at = 0;
+            for part in self.particles.staged_parts(st) {
+                staging.write(at, bytemuck::cast_slice(part))?;
+                at += part.len() * 16;
+            }
         }
         let need = self.targets.as_ref().expect("ensured").final_color.bytes();
         if readback && mem.readback.as_ref().is_none_or(|b| b.size < need) {
@@ -124,10 +129,9 @@ impl Renderer {
         // The particles of this frame: a copy at the start of its own (first) command buffer, made visible to
         // compute reads there, before any other queue's part waits for it.
         let upload = |ctx: &mut FrameCtx| {
-            if let (Some((data, at)), Some(staging)) = (&staged, mem.staging.as_ref()) {
+            if let (Some(st), Some(staging)) = (&staged, mem.staging.as_ref()) {
                 ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
-                let region =
-                    vk::BufferCopy { src_offset: 0, dst_offset: (*at * 16) as u64, size: (data.len() * 16) as u64 };
+                let region = vk::BufferCopy { src_offset: 0, dst_offset: (st.at * 16) as u64, size: (st.len * 16) as u64 };
                 if region.size > 0 {
                     unsafe { gpu.device.cmd_copy_buffer(ctx.cmd, staging.raw, particles.raw, &[region]) };
                 }
