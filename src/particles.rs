@@ -35,6 +35,37 @@ pub struct Staged {
     pub fluid: bool,
 }
 
+/// What the host derives from a particle set's positions for the default surface's prepare — the fluid's box
+/// and strays, and the smoothed field's lattice and marked bricks (`crate::surface::iso::analyse`) — computed
+/// ahead, on whichever thread loaded the set (a sequence's prefetch), so a new frame's prepare does not walk its
+/// particles on the render thread. Tied to the positions it was computed from ([`fingerprint`]) and to the
+/// parameters it was computed for: the prepare uses what matches and computes the rest itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SetAnalysis {
+    /// [`fingerprint`] of the positions.
+    pub fingerprint: u64,
+    /// The iso kernel's reach (world units) the box was computed for.
+    pub reach: f32,
+    /// `scene::fluid_bounds(positions, reach)`: the box and the strays left out.
+    pub bounds: Option<(crate::scene::Bounds, usize)>,
+    /// The smoothed field's lattice over the grid's box and the bricks the positions mark in it (`[iso]
+    /// smoothing` > 0).
+    pub volume: Option<(crate::field::volume::VolumeShape, u32)>,
+}
+
+/// A cheap identity of a set of positions: their count and the bits of up to 64 evenly strided ones (an analysis
+/// of other positions is not used).
+pub fn fingerprint(positions: &[[f32; 3]]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    positions.len().hash(&mut h);
+    let stride = positions.len().div_ceil(64).max(1);
+    for p in positions.iter().step_by(stride).chain(positions.last()) {
+        p.map(f32::to_bits).hash(&mut h);
+    }
+    h.finish()
+}
+
 /// The renderer's particles.
 #[derive(Default)]
 pub struct ParticleSet {
@@ -55,6 +86,8 @@ pub struct ParticleSet {
     positions: Vec<[f32; 3]>,
     isolated: Option<Vec<bool>>,
     generation: u64,
+    /// The current set's analysis, when its loader computed one ([`ParticleSet::set_analysis`]).
+    analysis: Option<SetAnalysis>,
     /// The last [`ParticleSet::nearest_depth`].
     nearest: std::sync::Mutex<Option<NearestDepth>>,
 }
@@ -95,19 +128,19 @@ impl ParticleSet {
         let mut data = std::mem::take(&mut self.fluid);
         data.clear();
         data.extend(positions.iter().enumerate().map(|(i, p)| {
-                let r = radii.map(|r| r[i]).unwrap_or(0.0);
-                let isolated = isolated.is_some_and(|s| s[i]);
-                // An isolated particle without its own radius: −1 means "frame radius" for the thickness pass.
-                let w = if isolated {
-                    if r > 0.0 {
-                        -r
-                    } else {
-                        -f32::MIN_POSITIVE
-                    }
+            let r = radii.map(|r| r[i]).unwrap_or(0.0);
+            let isolated = isolated.is_some_and(|s| s[i]);
+            // An isolated particle without its own radius: −1 means "frame radius" for the thickness pass.
+            let w = if isolated {
+                if r > 0.0 {
+                    -r
                 } else {
-                    r
-                };
-                [p[0], p[1], p[2], w]
+                    -f32::MIN_POSITIVE
+                }
+            } else {
+                r
+            };
+            [p[0], p[1], p[2], w]
         }));
         match motion {
             Some(m) => data.extend(m.iter().map(Motion::encode)),
@@ -123,7 +156,19 @@ impl ParticleSet {
         // Kept only where a particle is marked (every frame asks whether any is).
         self.isolated = isolated.filter(|s| s.iter().any(|&x| x)).map(|s| s.to_vec());
         self.generation += 1;
+        self.analysis = None;
         Ok(())
+    }
+
+    /// Attach the analysis its loader computed for the current set (ignored unless computed from these
+    /// positions).
+    pub fn set_analysis(&mut self, a: Option<&SetAnalysis>) {
+        self.analysis = a.filter(|a| !self.external && a.fingerprint == fingerprint(&self.positions)).copied();
+    }
+
+    /// The current set's analysis, when its loader computed one.
+    pub fn analysis(&self) -> Option<&SetAnalysis> {
+        self.analysis.as_ref()
     }
 
     /// The next frame's `count` particles are written on the GPU by its `Hooks::produce` (positions and
@@ -164,6 +209,7 @@ impl ParticleSet {
         self.restage();
         self.isolated = None;
         self.generation += 1;
+        self.analysis = None;
         Ok(())
     }
 
@@ -190,7 +236,7 @@ impl ParticleSet {
     fn restage(&mut self) {
         self.staged = if self.external {
             let at = self.layout().diffuse() as usize;
-            (!self.diffuse.is_empty()).then(|| Staged { at, len: self.diffuse.len(), fluid: false })
+            (!self.diffuse.is_empty()).then_some(Staged { at, len: self.diffuse.len(), fluid: false })
         } else {
             Some(Staged { at: 0, len: self.fluid.len() + self.diffuse.len(), fluid: true })
         };

@@ -2346,7 +2346,13 @@ fn noise_of_still_water_does_not_flicker() {
     for _ in 0..3 {
         let motion = tracker.next(&p);
         assert!(motion.iter().all(|m| m.accel == 0.0));
-        rr.upload(meniscus::renderer::Upload::Scene { particles: &p, settings: &s, motion: Some(&motion) }).unwrap();
+        rr.upload(meniscus::renderer::Upload::Scene {
+            particles: &p,
+            settings: &s,
+            motion: Some(&motion),
+            ahead: None,
+        })
+        .unwrap();
         rr.render(&v, &s).unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
         frames.push((
@@ -2598,4 +2604,42 @@ fn a_frame_counts_its_work_only_when_asked() {
         assert_eq!(w.iso.unwrap().queued, iso.queued);
     }
     common::assert_clean(&gpu);
+}
+
+/// A sequence's frames with the iso surface's host analysis computed ahead (`surface::iso::analyse`, as
+/// `render`'s prefetch thread does) render byte for byte as frames whose prepare computes it: the default
+/// surface with its smoothed field, two frames whose boxes differ (the grid and the lattice move). An analysis
+/// of other positions is not taken.
+#[test]
+fn an_analysis_computed_ahead_renders_the_same_frame() {
+    use meniscus::renderer::Upload;
+    let gpu = gpu();
+    let (g, v) = splat_scene("wave", 20_000, 160, 90, 0.01, 1.0);
+    let s = meniscus::settings::Settings::default().with(|s| s.radius = g.radius);
+    assert!(s.iso_params().volume.is_some(), "the default surface smooths its field: the test covers the lattice");
+    let mut moved = g.particles.clone();
+    moved.positions.iter_mut().for_each(|p| p[1] += 0.7 * g.radius * (p[0] * 13.0).sin());
+    let frames = [&g.particles, &moved];
+    let mut images = vec![];
+    for ahead in [false, true] {
+        let mut r = Renderer::new(&gpu).unwrap();
+        let mut got = vec![];
+        for p in frames {
+            let a = ahead.then(|| meniscus::surface::iso::analyse(&p.positions, &s));
+            assert!(a.as_ref().is_none_or(|a| a.volume.is_some_and(|(_, bricks)| bricks > 0)));
+            r.upload(Upload::Scene { particles: p, settings: &s, motion: None, ahead: a.as_ref() }).unwrap();
+            assert_eq!(r.state().particles().analysis().is_some(), ahead, "the analysis was not taken");
+            r.render(&v, &s).unwrap();
+            got.push(read_image(&gpu, &r.targets.as_ref().unwrap().final_color).unwrap());
+        }
+        images.push(got);
+    }
+    assert!(images[0][0] != images[0][1], "the two frames are the same: the test misses the moved lattice");
+    assert!(images[0] == images[1], "the frames computed ahead differ");
+    // Computed from other positions: refused.
+    let mut r = Renderer::new(&gpu).unwrap();
+    let other = meniscus::surface::iso::analyse(&moved.positions, &s);
+    r.upload(Upload::Scene { particles: &g.particles, settings: &s, motion: None, ahead: Some(&other) }).unwrap();
+    assert!(r.state().particles().analysis().is_none(), "an analysis of other positions was taken");
+    assert_clean(&gpu);
 }

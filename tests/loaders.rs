@@ -266,7 +266,7 @@ fn sequences_sort_numerically_with_ranges_and_shards() {
     // Prefetch delivers every frame in order, loaded.
     let frames = resolve(&pattern, None, None).unwrap();
     let got: Vec<f32> =
-        Prefetch::start(frames, Default::default(), 2).map(|(_, p)| p.unwrap().positions[0][0]).collect();
+        Prefetch::start(frames, Default::default(), 2).map(|(_, p)| p.unwrap().0.positions[0][0]).collect();
     assert_eq!(got, vec![1.0, 2.0, 10.0, 11.0, 20.0]);
 }
 

@@ -131,7 +131,8 @@ impl Renderer {
         let upload = |ctx: &mut FrameCtx| {
             if let (Some(st), Some(staging)) = (&staged, mem.staging.as_ref()) {
                 ctx.barrier(&[Use::Buffer(particles, Access::TransferDst)]);
-                let region = vk::BufferCopy { src_offset: 0, dst_offset: (st.at * 16) as u64, size: (st.len * 16) as u64 };
+                let region =
+                    vk::BufferCopy { src_offset: 0, dst_offset: (st.at * 16) as u64, size: (st.len * 16) as u64 };
                 if region.size > 0 {
                     unsafe { gpu.device.cmd_copy_buffer(ctx.cmd, staging.raw, particles.raw, &[region]) };
                 }

@@ -39,6 +39,9 @@ pub enum Upload<'a> {
         settings: &'a Settings,
         /// Each particle's motion over a sequence ([`crate::motion::MotionTracker`]).
         motion: Option<&'a [Motion]>,
+        /// The host's analysis of these positions, computed ahead by their loader
+        /// ([`crate::surface::iso::analyse`]; a sequence's prefetch): the frame's prepare then does not walk them.
+        ahead: Option<&'a crate::particles::SetAnalysis>,
     },
     /// `count` particles written on the GPU by each frame's `Hooks::produce` (xyz, w = 0), inside `bounds`
     /// (the near plane and the iso surface's grid are fitted to it), followed by `diffuse_slots` diffuse
@@ -71,14 +74,14 @@ impl<'a> Upload<'a> {
 
     /// A frame of a file, still ([`Upload::Scene`]).
     pub fn scene(particles: &'a crate::scene::Particles, settings: &'a Settings) -> Upload<'a> {
-        Upload::Scene { particles, settings, motion: None }
+        Upload::Scene { particles, settings, motion: None, ahead: None }
     }
 
     /// Bring the particle set up to date (`limit`: the device's storage buffer range).
     pub(super) fn apply(self, set: &mut ParticleSet, limit: u64) -> Result<()> {
         match self {
             Upload::Points { positions, radii, isolated, motion } => set.set(limit, positions, radii, isolated, motion),
-            Upload::Scene { particles: p, settings: s, motion } => {
+            Upload::Scene { particles: p, settings: s, motion, ahead } => {
                 let isolated =
                     crate::scene::isolated_mask_with(p, s.radius, s.isolated.density, s.isolated.by_neighbours);
                 let still;
@@ -89,7 +92,9 @@ impl<'a> Upload<'a> {
                         &still
                     }
                 };
-                set.set(limit, &p.positions, p.radii.as_deref(), Some(&isolated), Some(motion))
+                set.set(limit, &p.positions, p.radii.as_deref(), Some(&isolated), Some(motion))?;
+                set.set_analysis(ahead);
+                Ok(())
             }
             Upload::Gpu { count, bounds, diffuse_slots } => {
                 set.set_gpu_with_diffuse(limit, count, bounds, diffuse_slots)

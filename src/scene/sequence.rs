@@ -362,21 +362,38 @@ fn numbered(files: Vec<PathBuf>) -> Vec<Frame> {
         .collect()
 }
 
-/// Loads frames on a background thread, at most `depth` ahead of the consumer.
-pub struct Prefetch {
-    rx: mpsc::Receiver<(Frame, Result<Particles>)>,
+/// Loads frames on a background thread, at most `depth` ahead of the consumer; with [`Prefetch::start_with`]
+/// each loaded frame's `A` is computed there too (the host's analysis a frame's upload takes:
+/// `crate::surface::iso::analyse`), so the render thread does not walk the particles for it.
+pub struct Prefetch<A = ()> {
+    rx: mpsc::Receiver<(Frame, Result<(Particles, A)>)>,
     handle: Option<std::thread::JoinHandle<()>>,
 }
 
-impl Prefetch {
+impl Prefetch<()> {
     /// Start loading `frames` on a worker thread, at most `depth` frames ahead of the consumer.
-    pub fn start(frames: Vec<Frame>, opts: LoadOptions, depth: usize) -> Prefetch {
+    pub fn start(frames: Vec<Frame>, opts: LoadOptions, depth: usize) -> Prefetch<()> {
+        Prefetch::start_with(frames, opts, depth, |_| ())
+    }
+}
+
+impl<A: Send + 'static> Prefetch<A> {
+    /// [`Prefetch::start`], with `then` of each loaded frame computed on the worker thread after its load.
+    pub fn start_with(
+        frames: Vec<Frame>,
+        opts: LoadOptions,
+        depth: usize,
+        then: impl Fn(&Particles) -> A + Send + 'static,
+    ) -> Prefetch<A> {
         let (tx, rx) = mpsc::sync_channel(depth.max(1));
         let handle = std::thread::Builder::new()
             .name("meniscus-prefetch".into())
             .spawn(move || {
                 for f in frames {
-                    let p = crate::scene::load_with(&f.path, &opts);
+                    let p = crate::scene::load_with(&f.path, &opts).map(|p| {
+                        let a = then(&p);
+                        (p, a)
+                    });
                     if tx.send((f, p)).is_err() {
                         return; // consumer gone
                     }
@@ -387,14 +404,14 @@ impl Prefetch {
     }
 }
 
-impl Iterator for Prefetch {
-    type Item = (Frame, Result<Particles>);
+impl<A> Iterator for Prefetch<A> {
+    type Item = (Frame, Result<(Particles, A)>);
     fn next(&mut self) -> Option<Self::Item> {
         self.rx.recv().ok()
     }
 }
 
-impl Drop for Prefetch {
+impl<A> Drop for Prefetch<A> {
     fn drop(&mut self) {
         // Unblock the loader (its next send fails) and wait for it.
         let (_tx, rx) = mpsc::sync_channel(1);

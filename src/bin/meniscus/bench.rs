@@ -135,6 +135,10 @@ pub struct Entry {
     /// the isolated-particle classification and the copy into the particle set), then the renderer's own
     /// (`RendererState::host_times`), and the wait for the GPU with the timestamps' read-back.
     pub host_ms: Vec<(String, Stat)>,
+    /// A sequence's per-frame analysis for the iso surface (its box and bricks), ms: computed before the frame
+    /// as `render`'s prefetch thread computes it beside the load, so not in `host_ms` (absent for a still scene
+    /// or another surface).
+    pub analysis_ahead_ms: Option<Stat>,
     /// Compute shader invocations per pass in the last measured frame (a pipeline-statistics query, where the
     /// device has them: `info --device`), in frame order; a pass timed inside another is counted in its parent.
     /// The work a pass did, device-independent: a change's GPU cost can be judged from it on lavapipe.
@@ -257,6 +261,10 @@ struct Series {
     rendered: usize,
     /// Wall ms per frame with the renderer's frames in flight ([`Series::in_flight`]).
     in_flight_ms: Option<f64>,
+    /// A sequence's frames analysed for the iso surface as `render`'s prefetch thread does beside each load
+    /// (`surface::iso::analyse`), and how long each took (ms): the upload hands them over.
+    ahead: Vec<Option<meniscus::particles::SetAnalysis>>,
+    ahead_ms: Vec<f64>,
 }
 
 impl Series {
@@ -273,6 +281,15 @@ impl Series {
         let view = View { camera, width, height, env: Environment::around(&bounds, s.radius, &s) };
         // The one upload path of every subcommand: isolated flags and per-particle radii (pscale) included.
         r.upload(Upload::scene(&w.particles, &s))?;
+        // A sequence: each frame's analysis, as `render` computes it on its prefetch thread (timed apart: the host
+        // stages below are the render thread's).
+        let analyser = crate::job::Job::analyser_for(&s);
+        let (mut ahead, mut ahead_ms) = (vec![], vec![]);
+        for p in &w.sequence {
+            let t = Instant::now();
+            ahead.push(analyser(p));
+            ahead_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
         Ok(Series {
             view,
             s,
@@ -289,6 +306,8 @@ impl Series {
             rss_after_warmup: rss_bytes(),
             rendered: 0,
             in_flight_ms: None,
+            ahead,
+            ahead_ms,
         })
     }
 
@@ -297,7 +316,8 @@ impl Series {
         if !w.sequence.is_empty() {
             // The upload is recorded into the frame (its copy is on the GPU clock, not in a pass).
             let k = self.rendered % w.sequence.len();
-            r.upload(Upload::scene(&w.sequence[k], &self.s))?;
+            let ahead = self.ahead.get(k).and_then(|a| a.as_ref());
+            r.upload(Upload::Scene { particles: &w.sequence[k], settings: &self.s, motion: None, ahead })?;
             if let Some(d) = w.diffuse.get(k) {
                 r.upload(Upload::Diffuse { particles: d, settings: &self.s })?;
             }
@@ -446,6 +466,7 @@ impl Series {
                 .enumerate()
                 .map(|(k, n)| (n.to_string(), Stat::of(&self.host.iter().map(|h| h[k]).collect::<Vec<_>>())))
                 .collect(),
+            analysis_ahead_ms: self.ahead.iter().any(|a| a.is_some()).then(|| Stat::of(&self.ahead_ms)),
             invocations: self.invocations,
             effect_images: r.effects.memory().into_iter().map(|(n, _)| n.to_string()).collect(),
         })
@@ -515,6 +536,14 @@ pub fn markdown(entries: &[Entry]) -> String {
             e.cpu_frame.median,
             flight,
             e.gpu_total.median
+        ));
+    }
+    for e in entries.iter().filter(|e| e.analysis_ahead_ms.is_some()) {
+        let st = e.analysis_ahead_ms.as_ref().expect("filtered");
+        s.push_str(&format!(
+            "\n{} {}×{} {}: each frame's iso analysis (box, bricks) {:.3} ms (median), computed ahead as `render`'s \
+             prefetch thread does beside the load, not in the stages above\n",
+            e.scene, e.width, e.height, e.variant, st.median
         ));
     }
     // The work each pass did: compute invocations (pipeline statistics), the last measured frame.

@@ -292,15 +292,33 @@ impl Job {
         meniscus::motion::MotionTracker::new(self.frame_rate())
     }
 
-    /// Upload the next frame of a sequence walked in time order, its motion from `tracker`.
+    /// Upload the next frame of a sequence walked in time order, its motion from `tracker`, with the host's
+    /// analysis its loader computed ([`Job::analyser`]).
     pub fn upload_next(
         &self,
         r: &mut Renderer,
         p: &Particles,
         tracker: &mut meniscus::motion::MotionTracker,
+        ahead: Option<&meniscus::particles::SetAnalysis>,
     ) -> Result<()> {
         let motion = tracker.next(p);
-        Ok(r.upload(Upload::Scene { particles: p, settings: &self.settings, motion: Some(&motion) })?)
+        Ok(r.upload(Upload::Scene { particles: p, settings: &self.settings, motion: Some(&motion), ahead })?)
+    }
+
+    /// What a sequence's loader computes for each frame beside its load: the iso surface's analysis of the
+    /// particles (`surface::iso::analyse`) when the job draws that surface (and marks no particle isolated, which
+    /// builds its grid on the host instead), else nothing.
+    pub fn analyser(&self) -> impl Fn(&Particles) -> Option<meniscus::particles::SetAnalysis> + Send + 'static {
+        Job::analyser_for(&self.settings)
+    }
+
+    /// [`Job::analyser`] for settings `s`.
+    pub fn analyser_for(
+        s: &Settings,
+    ) -> impl Fn(&Particles) -> Option<meniscus::particles::SetAnalysis> + Send + 'static {
+        let s = s.clone();
+        let used = s.surface == meniscus::settings::Surface::Iso && s.isolated.density <= 0.0;
+        move |p: &Particles| used.then(|| meniscus::surface::iso::analyse(&p.positions, &s))
     }
 
     /// Add the background mesh, if any, to a renderer.

@@ -376,7 +376,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let bar = crate::args::progress(frames.len() as u64, "meshes");
     let (t0, mut last) = (std::time::Instant::now(), String::new());
     for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
-        let p: scene::Particles = loaded?;
+        let (p, ()): (scene::Particles, ()) = loaded?;
         let path = if out_kind == FileKind::Usd { out.clone() } else { names.path(frame.number) };
         last = one(&p, frame.number, &path).with_context(|| frame.path.display().to_string())?;
         bar.set_message(last.clone());

@@ -288,8 +288,10 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     };
     let mut diffuse_total = 0usize;
     let run = (|| -> Result<()> {
-        for (frame, loaded) in Prefetch::start(frames, job.load.clone(), 2) {
-            let particles = match loaded {
+        // The iso surface's analysis of each frame (its box and bricks) on the prefetch thread, beside its load.
+        let ahead = job.analyser();
+        for (frame, loaded) in Prefetch::start_with(frames, job.load.clone(), 2, ahead) {
+            let (particles, analysis) = match loaded {
                 Ok(p) => p,
                 Err(e) if a.skip_bad_frames => {
                     bar.suspend(|| eprintln!("warning: skipping frame {}: {e}", frame.number));
@@ -315,7 +317,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                 }
             }
             fed = Some(frame.number);
-            job.upload_next(&mut r, &particles, &mut tracker)?;
+            job.upload_next(&mut r, &particles, &mut tracker, analysis.as_ref())?;
             if let Some(src) = foam.as_mut() {
                 let ps = match src {
                     Foam::Walk(w) => w.advance(frame.number, Some(&particles))?.to_vec(),

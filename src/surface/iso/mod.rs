@@ -93,22 +93,18 @@ impl IsoResources {
             let bounds = match self.bounds {
                 Some((g, r, b)) if (g, r) == key => b,
                 _ => {
-                    let b = crate::scene::fluid_bounds(particles.positions(), reach);
+                    // Computed ahead by the set's loader, or here.
+                    let b = match particles.analysis().filter(|a| a.reach.to_bits() == key.1) {
+                        Some(a) => a.bounds,
+                        None => crate::scene::fluid_bounds(particles.positions(), reach),
+                    };
                     self.bounds = Some((key.0, key.1, b));
                     b
                 }
             };
-            let (lo, hi) = match bounds {
-                Some((b, _)) => (b.lo, b.hi),
-                None => (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
-            };
             let n = particles.count();
-            let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (glam::Vec3::ZERO, glam::Vec3::ZERO) };
-            let (cell, d) = crate::scene::grid::UniformGrid::shape_for(lo, hi, reach, n as usize);
-            let shape = crate::compute::grid::GridShape {
-                origin_cell: [lo.x, lo.y, lo.z, cell],
-                dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
-            };
+            let shape = grid_shape(bounds, reach, n);
+            let d = shape.dims;
             let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
             if let Some(b) = &mut self.buffers {
                 let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64);
@@ -232,18 +228,17 @@ impl IsoResources {
             return Ok(());
         };
         let (o, d) = (b.shape.origin, b.shape.dims);
-        let lo = glam::Vec3::new(o[0], o[1], o[2]);
-        let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
-        let shape = crate::field::volume::VolumeShape::around(lo, hi, &params).map_err(crate::error::Error::Limit)?;
+        let shape = volume_shape(o, [d[0], d[1], d[2]], &params).map_err(crate::error::Error::Limit)?;
         let unchanged = b.volume.as_ref().is_some_and(|v| v.shape == shape);
         if unchanged && b.volume_for.get().is_some() {
             return Ok(());
         }
-        let bricks = if p.particles.is_external() {
-            shape.table_len()
-        } else {
-            shape.marked(p.particles.positions(), |&x| glam::Vec3::from(x)).iter().filter(|&&m| m).count()
-        } as u32;
+        let ahead = p.particles.analysis().and_then(|a| a.volume).filter(|(s, _)| *s == shape);
+        let bricks = match ahead {
+            _ if p.particles.is_external() => shape.table_len() as u32,
+            Some((_, bricks)) => bricks,
+            None => marked_bricks(&shape, p.particles.positions()),
+        };
         // A sequence's box and bricks change every frame: the buffers are kept while they hold the new lattice
         // (its field is rebuilt for the new particles anyway), and grow by a quarter when they do not.
         if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape, bricks)) {
@@ -281,6 +276,53 @@ impl IsoResources {
         }
         Some(b)
     }
+}
+
+/// The GPU grid over a set's fluid box (`scene::fluid_bounds`, none: a point at the origin) for kernels reaching
+/// `reach`: cells at least `reach` wide (`UniformGrid::shape_for`).
+fn grid_shape(bounds: FluidBox, reach: f32, n: u32) -> crate::compute::grid::GridShape {
+    let (lo, hi) = match bounds {
+        Some((b, _)) if b.lo.x <= b.hi.x => (b.lo, b.hi),
+        _ => (glam::Vec3::ZERO, glam::Vec3::ZERO),
+    };
+    let (cell, d) = crate::scene::grid::UniformGrid::shape_for(lo, hi, reach, n as usize);
+    crate::compute::grid::GridShape {
+        origin_cell: [lo.x, lo.y, lo.z, cell],
+        dims: [d[0], d[1], d[2], d[0] * d[1] * d[2]],
+    }
+}
+
+/// The smoothed field's lattice over a grid's box (corner and cell side `o`, `d` cells per axis).
+fn volume_shape(
+    o: [f32; 4],
+    d: [u32; 3],
+    params: &crate::field::volume::VolumeParams,
+) -> std::result::Result<crate::field::volume::VolumeShape, String> {
+    let lo = glam::Vec3::new(o[0], o[1], o[2]);
+    let hi = lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3];
+    crate::field::volume::VolumeShape::around(lo, hi, params)
+}
+
+/// The bricks of `shape` the positions mark (the pool's size).
+fn marked_bricks(shape: &crate::field::volume::VolumeShape, positions: &[[f32; 3]]) -> u32 {
+    shape.marked(positions, |&x| glam::Vec3::from(x)).iter().filter(|&&m| m).count() as u32
+}
+
+/// The host's analysis of a particle set for the default surface's prepare under `settings` — what a new set's
+/// frame would otherwise compute on the render thread: the fluid's box and strays, and the smoothed field's
+/// marked bricks — for its loader to compute ahead (a sequence's prefetch thread) and hand over with the set
+/// (`Upload::Scene::ahead`). The same functions as the prepare, so the frame is the same either way (test:
+/// `an_analysis_computed_ahead_renders_the_same_frame`).
+pub fn analyse(positions: &[[f32; 3]], settings: &Settings) -> crate::particles::SetAnalysis {
+    let params = settings.iso_params();
+    let reach = params.reach(settings.iso.support * settings.radius);
+    let bounds = crate::scene::fluid_bounds(positions, reach);
+    let volume = params.volume.and_then(|v| {
+        let g = grid_shape(bounds, reach, positions.len() as u32);
+        let shape = volume_shape(g.origin_cell, [g.dims[0], g.dims[1], g.dims[2]], &v).ok()?;
+        Some((shape, marked_bricks(&shape, positions)))
+    });
+    crate::particles::SetAnalysis { fingerprint: crate::particles::fingerprint(positions), reach, bounds, volume }
 }
 
 /// The iso surface technique.

@@ -748,6 +748,7 @@ impl App {
                         particles: &p,
                         settings: &self.settings,
                         motion: Some(&sim.read_motion()?),
+                        ahead: None,
                     })?;
                     if diffuse {
                         st.renderer
@@ -777,7 +778,12 @@ impl App {
             }
             let p = self.src.get(self.frame, &self.load)?;
             let motion = self.motion.next(p);
-            st.renderer.upload(Upload::Scene { particles: p, settings: &self.settings, motion: Some(&motion) })?;
+            st.renderer.upload(Upload::Scene {
+                particles: p,
+                settings: &self.settings,
+                motion: Some(&motion),
+                ahead: None,
+            })?;
             if let (true, Some(walk), playback::Source::Sequence { frames, .. }) =
                 (self.settings.diffuse.enabled, self.walk.as_mut(), &self.src)
             {
