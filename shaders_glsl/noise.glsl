@@ -22,7 +22,7 @@
 /// amp · exp(−2q) · n · exp(−below²) (|n| < 2) is then under half a fixed-point unit (2^−16 radii) and rounds to 0,
 /// so the cut is exact. At most NOISE_DEEP.
 float noise_reach(float amp) {
-    return sqrt(clamp(log(4.0 * amp * 65536.0), 0.0, NOISE_DEEP * NOISE_DEEP));
+    return sqrt(clamp(log(4.0 * amp * float(DETAIL_UNITS)), 0.0, NOISE_DEEP * NOISE_DEEP));
 }
 
 /// The accumulator level a sprite of radius R pixels is evaluated on (noise.comp): the coarsest whose texels

@@ -74,7 +74,7 @@ bool noise_term(ivec2 q, int L, vec2 centre, float R, float z, vec3 o, float amp
     float below = (z - d) / (pc.falloff * frame.fluid.x);
     if (below > reach) return false;
     float v = amp * exp(-2.0 * qq) * noise_sprite(uv, pc.freq, o) * exp(-below * below);
-    units = int(round(v * 65536.0));
+    units = int(round(v * float(DETAIL_UNITS)));
     return true;
 }
 

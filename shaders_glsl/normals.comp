@@ -4,7 +4,7 @@
 //! the one-sided difference with the SMALLER depth change (NVIDIA patent US 8,947,430), so silhouettes and
 //! occlusion edges do not bend the normal. Normals face the camera.
 //! NORMALS_DETAIL (the variant run while an effect gives a detail height field: the `noise` effect's N, NVIDIA
-//! patent US 8,947,430; method.md §8): the height field h (radii, fixed point: 65536 units per radius, signed) on
+//! patent US 8,947,430; method.md §8): the height field h (radii, fixed point: DETAIL_UNITS per radius, signed) on
 //! the fluid becomes small waves — its screen-space partial derivatives, turned into slopes per world unit at the
 //! pixel's depth (× strength · r · F / d), are subtracted from the normal: n' = normalize(n − (∂h/∂X, ∂h/∂Y, 0)),
 //! view space. Along each axis the derivative is the central difference where both neighbours are on the same
@@ -47,7 +47,7 @@ vec3 derivative(ivec2 p, float d, vec3 P, ivec2 step, float df, float db) {
 
 #ifdef NORMALS_DETAIL
 /// The height field at q (radii).
-float height(ivec2 q) { return float(int(imageLoad(detail, q).x)) * (1.0 / 65536.0); }
+float height(ivec2 q) { return float(int(imageLoad(detail, q).x)) * (1.0 / float(DETAIL_UNITS)); }
 
 /// dh per pixel along `step` at p (height h0): neighbours on the same surface when their depths (df ahead, db
 /// behind) are fluid within `edge` of d.

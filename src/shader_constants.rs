@@ -30,6 +30,9 @@ pub const NOISE_TILE: u32 = 16;
 pub const NOISE_CHUNK: u32 = NOISE_TILE * NOISE_TILE;
 /// Most tiles one sprite is binned to (a sprite's level keeps it under 39 texels across: at most 4 × 4 tiles).
 pub const NOISE_MAX_TILES: u32 = 16;
+/// Fixed-point units per particle radius of a detail height field (the `noise` pass's accumulator, read by
+/// `normals` and the composite's tint layer): 2^16, so a term's rounding error is 2^−17 radii.
+pub const DETAIL_UNITS: u32 = 1 << 16;
 /// Layers the `composite` pass lays over the shaded water (the effects' images: `crate::effect::Layer`).
 pub const COMPOSITE_LAYERS: u32 = 4;
 /// Vec4s per fluid particle in the renderer's particle buffer ([`ParticleLayout`]): its position and, after all
@@ -131,6 +134,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("NOISE_TILE", NOISE_TILE),
     ("NOISE_CHUNK", NOISE_CHUNK),
     ("NOISE_MAX_TILES", NOISE_MAX_TILES),
+    ("DETAIL_UNITS", DETAIL_UNITS),
     ("CURVATURE_LOCAL", CURVATURE_LOCAL),
     ("MAX_BOXES", MAX_BOXES),
     ("SSR_MISS", SSR_MISS),

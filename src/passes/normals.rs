@@ -62,8 +62,9 @@ pub struct Detail<'a> {
     pub strength: f32,
 }
 
-/// Fixed-point units of a detail height field per particle radius (the noise's accumulator's).
-pub const DETAIL_UNITS: f32 = 65536.0;
+/// Fixed-point units of a detail height field per particle radius (the noise's accumulator's; the shaders'
+/// `DETAIL_UNITS`).
+pub const DETAIL_UNITS: f32 = crate::shader_constants::DETAIL_UNITS as f32;
 
 // Frame, depth → normals; with a detail, its heights after them.
 declare_program!(pub PROGRAM: Push = compute(shaders::NORMALS, [Uniform, ImgRead, ImgOverwrite]));

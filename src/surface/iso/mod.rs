@@ -2,7 +2,8 @@
 //! per-particle volume normalisation, threshold 0.6 — ray-cast per pixel on the GPU from the splatted bound
 //! spheres to their farthest exit; with `[iso] smoothing` > 0 the field is first smoothed in 3D where the water
 //! is bulk (`iso_volume`: a sparse lattice where the particles are). It owns the particles' grid and the smoothed field's lattice, rebuilt when
-//! the particles or the kernel change. `crate::field::iso` is the CPU reference of all of it.
+//! the particles or the kernel change. A new set's host work (its box, the lattice's bricks) may come computed ahead
+//! by its loader ([`analyse`]). `crate::field::iso` is the CPU reference of all of it.
 
 use ash::vk;
 
