@@ -2625,7 +2625,7 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
         let mut r = Renderer::new(&gpu).unwrap();
         let mut got = vec![];
         for p in frames {
-            let a = ahead.then(|| meniscus::surface::iso::analyse(&p.positions, &s));
+            let a = ahead.then(|| meniscus::surface::iso::analyse(&p.positions, &s).expect("the default surface's"));
             assert!(a.as_ref().is_none_or(|a| a.volume.is_some_and(|(_, bricks)| bricks > 0)));
             r.upload(Upload::Scene { particles: p, settings: &s, motion: None, ahead: a.as_ref() }).unwrap();
             assert_eq!(r.state().particles().analysis().is_some(), ahead, "the analysis was not taken");
@@ -2639,7 +2639,13 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
     // Computed from other positions: refused.
     let mut r = Renderer::new(&gpu).unwrap();
     let other = meniscus::surface::iso::analyse(&moved.positions, &s);
-    r.upload(Upload::Scene { particles: &g.particles, settings: &s, motion: None, ahead: Some(&other) }).unwrap();
-    assert!(r.state().particles().analysis().is_none(), "an analysis of other positions was taken");
+    r.upload(Upload::Scene { particles: &g.particles, settings: &s, motion: None, ahead: other.as_ref() }).unwrap();
+    assert!(other.is_some() && r.state().particles().analysis().is_none(), "an analysis of other positions was taken");
+    // Where the prepare would not use one, none is computed.
+    let spheres = meniscus::settings::Settings::default().with(|x| {
+        x.radius = g.radius;
+        x.surface = meniscus::settings::Surface::Spheres;
+    });
+    assert!(meniscus::surface::iso::analyse(&g.particles.positions, &spheres).is_none());
     assert_clean(&gpu);
 }

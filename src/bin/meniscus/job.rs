@@ -306,8 +306,7 @@ impl Job {
     }
 
     /// What a sequence's loader computes for each frame beside its load: the iso surface's analysis of the
-    /// particles (`surface::iso::analyse`) when the job draws that surface (and marks no particle isolated, which
-    /// builds its grid on the host instead), else nothing.
+    /// particles (`surface::iso::analyse`; none where the job's surface would not use it).
     pub fn analyser(&self) -> impl Fn(&Particles) -> Option<meniscus::particles::SetAnalysis> + Send + 'static {
         Job::analyser_for(&self.settings)
     }
@@ -317,8 +316,7 @@ impl Job {
         s: &Settings,
     ) -> impl Fn(&Particles) -> Option<meniscus::particles::SetAnalysis> + Send + 'static {
         let s = s.clone();
-        let used = s.surface == meniscus::settings::Surface::Iso && s.isolated.density <= 0.0;
-        move |p: &Particles| used.then(|| meniscus::surface::iso::analyse(&p.positions, &s))
+        move |p: &Particles| meniscus::surface::iso::analyse(&p.positions, &s)
     }
 
     /// Add the background mesh, if any, to a renderer.

@@ -235,10 +235,12 @@ impl IsoResources {
             return Ok(());
         }
         let ahead = p.particles.analysis().and_then(|a| a.volume).filter(|(s, _)| *s == shape);
-        let bricks = match ahead {
-            _ if p.particles.is_external() => shape.table_len() as u32,
-            Some((_, bricks)) => bricks,
-            None => marked_bricks(&shape, p.particles.positions()),
+        let bricks = if p.particles.is_external() {
+            shape.table_len() as u32
+        } else if let Some((_, bricks)) = ahead {
+            bricks
+        } else {
+            marked_bricks(&shape, p.particles.positions())
         };
         // A sequence's box and bricks change every frame: the buffers are kept while they hold the new lattice
         // (its field is rebuilt for the new particles anyway), and grow by a quarter when they do not.
@@ -313,8 +315,12 @@ fn marked_bricks(shape: &crate::field::volume::VolumeShape, positions: &[[f32; 3
 /// frame would otherwise compute on the render thread: the fluid's box and strays, and the smoothed field's
 /// marked bricks — for its loader to compute ahead (a sequence's prefetch thread) and hand over with the set
 /// (`Upload::Scene::ahead`). The same functions as the prepare, so the frame is the same either way (test:
-/// `an_analysis_computed_ahead_renders_the_same_frame`).
-pub fn analyse(positions: &[[f32; 3]], settings: &Settings) -> crate::particles::SetAnalysis {
+/// `an_analysis_computed_ahead_renders_the_same_frame`). None where that prepare would not use it: another
+/// surface, or `[isolated]` on (a set with isolated particles builds its grid on the host, without the box).
+pub fn analyse(positions: &[[f32; 3]], settings: &Settings) -> Option<crate::particles::SetAnalysis> {
+    if settings.surface != crate::settings::Surface::Iso || settings.isolated.density > 0.0 {
+        return None;
+    }
     let params = settings.iso_params();
     let reach = params.reach(settings.iso.support * settings.radius);
     let bounds = crate::scene::fluid_bounds(positions, reach);
@@ -323,7 +329,7 @@ pub fn analyse(positions: &[[f32; 3]], settings: &Settings) -> crate::particles:
         let shape = volume_shape(g.origin_cell, [g.dims[0], g.dims[1], g.dims[2]], &v).ok()?;
         Some((shape, marked_bricks(&shape, positions)))
     });
-    crate::particles::SetAnalysis { fingerprint: crate::particles::fingerprint(positions), reach, bounds, volume }
+    Some(crate::particles::SetAnalysis { fingerprint: crate::particles::fingerprint(positions), reach, bounds, volume })
 }
 
 /// The iso surface technique.
