@@ -56,10 +56,10 @@ layout(set = 0, binding = ISO_CAST_BINDING, r32f) uniform image2D depth;
 layout(set = 0, binding = ISO_CAST_BINDING + 1, r32f) uniform readonly image2D back;
 #ifdef ISO_REST
 layout(std430, set = 0, binding = ISO_CAST_BINDING + 2) readonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) readonly buffer IsoArgs { uint iso_args[16]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) readonly buffer IsoArgs { uint iso_args[20]; };
 #else
 layout(std430, set = 0, binding = ISO_CAST_BINDING + 2) writeonly buffer IsoQueue { uvec4 iso_queue[]; };
-layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) buffer IsoArgs { uint iso_args[16]; };
+layout(std430, set = 0, binding = ISO_CAST_BINDING + 3) buffer IsoArgs { uint iso_args[20]; };
 
 /// Append pixel p's march state to the queue's round (0 or 1). Round 0 counts the work groups of each of its
 /// second dispatches: one lane per ray (x at [0]), 8 lanes per ray (x at [8]) and 32 (x at [12]).
@@ -87,6 +87,11 @@ void enqueue(uint round, ivec2 p, float d, float prev, float phi_prev) {
 #define ISO_WORK_BINDING (ISO_CAST_BINDING + 4)
 #endif
 layout(std430, set = 0, binding = ISO_WORK_BINDING) buffer IsoWork { uint iso_work[4]; };
+#if !defined(ISO_REST) && !defined(ISO_FINE) && !defined(ISO_BLOCKS)
+// The first dispatch's tiles (iso_tiles.comp): one work group per tile of the bound spheres' depth that holds
+// fluid (x | y << 16, in tiles of LOCAL_2D × LOCAL_2D pixels).
+layout(std430, set = 0, binding = ISO_WORK_BINDING + 1) readonly buffer IsoTiles { uint iso_tiles[]; };
+#endif
 #include "work_count.glsl"
 /// This invocation's field samples so far (added to iso_work[0] once per subgroup, when it returns).
 uint g_samples = 0u;
@@ -292,10 +297,15 @@ void cast_main() {
 }
 #elif !defined(ISO_REST)
 void cast_main() {
-    // One pixel per invocation (coarse-to-fine off: the shader is the lean march alone, see iso_blocks.comp).
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    // The indirect dispatch's y and z (x and the count are counted up from the host's zeros).
-    if (p == ivec2(0)) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; iso_args[13] = 1u; iso_args[14] = 1u; }
+    // One pixel per invocation (coarse-to-fine off: the shader is the lean march alone, see iso_blocks.comp),
+    // one work group per tile that holds fluid (iso_tiles.comp).
+    uint g = gl_WorkGroupID.y * ISO_TILE_ROW + gl_WorkGroupID.x;
+    // The second dispatches' y and z (x and the count are counted up from the host's zeros).
+    if (g == 0u && gl_LocalInvocationIndex == 0u) { iso_args[1] = 1u; iso_args[2] = 1u; iso_args[9] = 1u; iso_args[10] = 1u; iso_args[13] = 1u; iso_args[14] = 1u; }
+    // The last row's work groups past the listed tiles have none.
+    if (g >= iso_args[19]) return;
+    uint tile = iso_tiles[g];
+    ivec2 p = ivec2(tile & 0xffffu, tile >> 16) * int(LOCAL_2D) + ivec2(gl_LocalInvocationID.xy);
     ivec2 size = imageSize(depth);
     if (any(greaterThanEqual(p, size))) return;
     float d = imageLoad(depth, p).x;

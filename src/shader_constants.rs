@@ -105,6 +105,10 @@ const _: () = assert!(LOCAL_1D.is_multiple_of(32));
 /// 0.141 ms) and 8 won from 41.7 k (the worst case at 540p: 0.049 against 0.095; the 59k sequence at 1080p, 56 k
 /// rays: 0.175 against 0.222): benches/results/nvidia-h100-iso-lanes32-10b74e8/.
 pub const ISO_WIDE_SPLIT: u32 = 32768;
+/// Work groups per row of the `iso` cast's first dispatch, one per tile that holds fluid (iso_tiles.comp): the
+/// rows keep the dispatch within every device's 65,535 work groups per dimension (a 4K output has 129,600 tiles),
+/// and at most this many − 1 groups of the last row find no tile.
+pub const ISO_TILE_ROW: u32 = 64;
 /// Cells the iso casts' empty distance looks along each axis (iso_empty.comp): a position in a cell at least
 /// this + 1 cells (Chebyshev) from every cell holding a point is at least this many cells from every point.
 pub const ISO_EMPTY_REACH: u32 = 3;
@@ -143,6 +147,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("ISO_BACK_STEPS", ISO_BACK_STEPS),
     ("ISO_SHORT_STEPS", ISO_SHORT_STEPS),
     ("ISO_WIDE_SPLIT", ISO_WIDE_SPLIT),
+    ("ISO_TILE_ROW", ISO_TILE_ROW),
     ("ISO_EMPTY_REACH", ISO_EMPTY_REACH),
     ("ISO_EMPTY_BITS", ISO_EMPTY_BITS),
     ("ISO_VOLUME_FIX_BITS", ISO_VOLUME_FIX_BITS),

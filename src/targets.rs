@@ -134,7 +134,7 @@ impl Targets {
                 depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
                 iso_queue: d
                     .back
-                    .then(|| crate::passes::iso::queue::IsoQueue::new(gpu, fluid.width as u64 * fluid.height as u64))
+                    .then(|| crate::passes::iso::queue::IsoQueue::new(gpu, fluid.width, fluid.height))
                     .transpose()?,
                 depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
                 splat_work: crate::work::Counters::new(gpu, "splat_work")?,

@@ -53,6 +53,9 @@ pub struct IsoWork {
     pub queued: u64,
     /// Rays the coarse-to-fine cast queued to march from their start.
     pub fallbacks: u64,
+    /// Tiles (LOCAL_2D × LOCAL_2D pixels) of the bound spheres' depth that held fluid: the first dispatch's work
+    /// groups (0 with coarse-to-fine, which dispatches every block).
+    pub tiles: u64,
     /// Field samples (evaluations of φ) over the pass's dispatches: the march's steps, the bisections and
     /// Newton steps, each lane's of the wide dispatch — the pass's cost on any device follows this count.
     pub samples: u64,

@@ -995,6 +995,23 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     assert!(split.queued > 0 && whole.samples >= hits && hits > 1000, "{whole:?} {split:?}, {hits} hits");
     eprintln!("iso: one dispatch {whole:?}, split {split:?}, {hits} hits");
     assert_eq!(split.samples, whole.samples, "first_steps {first_steps}: the samples of the split cast");
+    // The first dispatch ran on the tiles of the bound spheres' depth that hold fluid (iso_tiles.comp): every tile
+    // with a hit among them, the same tiles either way, and not the whole screen (the slab covers part of it).
+    let t = meniscus::shader_constants::LOCAL_2D as usize;
+    let mut hit_tiles = std::collections::HashSet::new();
+    for (k, d) in got.iter().enumerate() {
+        if d.is_finite() {
+            hit_tiles.insert((k % w / t, k / w / t));
+        }
+    }
+    let screen = (w.div_ceil(t) * h.div_ceil(t)) as u64;
+    assert_eq!(split.tiles, whole.tiles, "the tiles cast");
+    assert!(
+        split.tiles >= hit_tiles.len() as u64 && split.tiles < screen,
+        "{} tiles cast, {} hold a hit, {screen} on the screen",
+        split.tiles,
+        hit_tiles.len()
+    );
     // The queued rays marched by 8 and by 32 lanes each (isotropic kernels, where the device's subgroups allow):
     // the same rays bracketed on a finer lattice, so only queued pixels may differ, each within the
     // interpolation's error or by a crossing thinner than one lane's step; the CPU comparison below holds for all.

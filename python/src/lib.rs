@@ -328,7 +328,7 @@ impl Renderer {
             Ok(e)
         };
         let splat = w.splat.map(|s| counts(&[("tests", s.tests), ("spheres", s.spheres), ("tiles_skipped", s.tiles_skipped)]));
-        let iso = w.iso.map(|s| counts(&[("samples", s.samples), ("queued", s.queued), ("fallbacks", s.fallbacks)]));
+        let iso = w.iso.map(|s| counts(&[("samples", s.samples), ("queued", s.queued), ("fallbacks", s.fallbacks), ("tiles", s.tiles)]));
         let vol = w.iso_volume.map(|s| counts(&[("deposits", s.deposits), ("atomics", s.atomics)]));
         let noise = w.noise.map(|s| {
             counts(&[

@@ -460,8 +460,11 @@ impl<P: bytemuck::Pod> ComputeProgram<P> {
     /// use).
     pub fn dispatch_indirect(&self, ctx: &mut FrameCtx, res: &[Res], push: &P, args: &Buffer, offset: u64) {
         let c = &self.core;
-        c.bind(ctx, vk::PipelineBindPoint::COMPUTE, res);
+        // The arguments are read before the dispatch's shaders run: their barrier comes first, so a dispatch that
+        // also writes its arguments' buffer (the `iso` cast's, counting the queued rays in its header) waits for
+        // the writes before it as an indirect read, and its own writes wait for that read.
         ctx.barrier(&[Use::Buffer(args, Access::IndirectRead)]);
+        c.bind(ctx, vk::PipelineBindPoint::COMPUTE, res);
         unsafe {
             c.gpu.device.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::COMPUTE, c.pipeline_for(ctx.count_work))
         };

@@ -616,13 +616,13 @@ fn work_table(entries: &[Entry]) -> String {
     let mut s = String::from(
         "\nWork per pass (each pass's own counters, from a frame counted after the timed ones, which run without \
          counting):\n\n| scene | resolution | variant | splat: \
-         sphere–pixel tests (spheres) | iso: field samples (rays queued) | iso_volume: deposits (atomics) | noise: \
+         sphere–pixel tests (spheres) | iso: field samples (rays queued; tiles cast) | iso_volume: deposits (atomics) | noise: \
          texels evaluated (level) |\n|---|---|---|---:|---:|---:|---:|\n",
     );
     let dash = || "–".to_string();
     for e in entries {
         let splat = e.splat_work.map_or_else(dash, |w| format!("{} ({})", w.tests, w.spheres));
-        let iso = e.iso_work.map_or_else(dash, |w| format!("{} ({})", w.samples, w.queued + w.fallbacks));
+        let iso = e.iso_work.map_or_else(dash, |w| format!("{} ({}; {})", w.samples, w.queued + w.fallbacks, w.tiles));
         let vol = e.iso_volume_work.map_or_else(dash, |w| format!("{} ({})", w.deposits, w.atomics));
         let noise = e.noise_work.map_or_else(dash, |w| format!("{} ({})", w.evaluated, w.level));
         s.push_str(&format!(

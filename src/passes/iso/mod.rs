@@ -318,6 +318,8 @@ pub struct Iso {
     cast: ComputeProgram<IsoPush>,
     cast_blocks: ComputeProgram<IsoPush>,
     cast_aniso: ComputeProgram<IsoPush>,
+    /// The tiles that hold fluid, for the first dispatch (iso_tiles.comp).
+    tiles: ComputeProgram<()>,
     rest: ComputeProgram<IsoPush>,
     rest_aniso: ComputeProgram<IsoPush>,
     fine: ComputeProgram<IsoPush>,
@@ -363,12 +365,15 @@ pub struct EmptyPush {
 }
 // Ray cast: frame, the weighted points, the cell table, depth (read as the start, written as the surface), back
 // depth, the queue of unfinished rays and its header (written).
-declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite, BufRead]));
+// The tiles of the bound spheres' depth that hold fluid: depth → the queue's header (the first dispatch's work
+// groups), the tiles listed; the first dispatch (CAST, CAST_ANISO, CAST_VOL) reads them after its work counts.
+declare_program!(pub TILES: () = compute(shaders::ISO_TILES, [ImgRead, BufWrite, BufWrite]));
 // The first dispatch with coarse-to-fine on: one invocation per 2×2 block (iso_cast.glsl).
 declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
 // the isotropic cast's cost on lavapipe, 553 → 988 ms on the dam-break frame at 960×540).
-declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, BufWrite]));
+declare_program!(pub CAST_ANISO: IsoPush = compute(shaders::ISO_ANISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, BufWrite, BufRead]));
 // The second dispatches: the queued rays finished (the queue and its header read).
 declare_program!(pub REST: IsoPush = compute(shaders::ISO_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, BufWrite]));
 // The same, 8 or 32 lanes per ray (`[iso] rest_lanes`; iso_cast.glsl).
@@ -391,7 +396,7 @@ declare_program!(pub VOLUME_DEPOSIT64: VolPush = compute(shaders::ISO_VOLUME_DEP
 // Each allocated brick's apron copied from its neighbours.
 declare_program!(pub VOLUME_APRON: VolPush = compute(shaders::ISO_VOLUME_APRON, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
 // The casts over the smoothed field: frame, weighted points, cells, depth, back, queue, header, table, field.
-declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead, BufWrite]));
+declare_program!(pub CAST_VOL: IsoPush = compute(shaders::ISO_VOL, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, TexelRead, TexelRead, BufWrite, BufRead]));
 declare_program!(pub REST_VOL: IsoPush = compute(shaders::ISO_VOL_REST, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
 declare_program!(pub REST_VOL_WIDE8: IsoPush = compute(shaders::ISO_VOL_REST_WIDE8, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
 declare_program!(pub REST_VOL_WIDE32: IsoPush = compute(shaders::ISO_VOL_REST_WIDE32, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufRead, BufRead, TexelRead, TexelRead, BufWrite]));
@@ -410,6 +415,7 @@ impl Iso {
             cast: ComputeProgram::new(gpu, &CAST)?,
             cast_blocks: ComputeProgram::new(gpu, &CAST_BLOCKS)?,
             cast_aniso: ComputeProgram::new(gpu, &CAST_ANISO)?,
+            tiles: ComputeProgram::new(gpu, &TILES)?,
             rest: ComputeProgram::new(gpu, &REST)?,
             rest_aniso: ComputeProgram::new(gpu, &REST_ANISO)?,
             fine: ComputeProgram::new(gpu, &FINE)?,
@@ -587,7 +593,17 @@ impl Iso {
                 _ => vec![],
             };
             let fine = push.fine[0] > 0.0;
-            ctx.part("iso/cast", |ctx| (if fine { &self.cast_blocks } else { cast }).dispatch(ctx, &all, &push, g));
+            if fine {
+                ctx.part("iso/cast", |ctx| self.cast_blocks.dispatch(ctx, &all, &push, g));
+            } else {
+                // A work group per tile of the bound spheres' depth that holds fluid (iso_tiles.comp).
+                ctx.part("iso/tiles", |ctx| {
+                    self.tiles.dispatch(ctx, &[depth.into(), h, (&queue.tiles).into()], &(), g);
+                });
+                let mut first = all.clone();
+                first.push((&queue.tiles).into());
+                ctx.part("iso/cast", |ctx| cast.dispatch_indirect(ctx, &first, &push, &queue.header, queue::TILES_ARGS));
+            }
             if push.steps[3] < push.steps[0] {
                 ctx.part("iso/rest", |ctx| {
                     if wide.is_empty() {
