@@ -32,7 +32,7 @@ fn gpu_grid_matches_a_cpu_counting_sort() {
     // run is partial in both.
     for cell in [0.07, 0.0199] {
         let shape = GridShape::covering(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.5), cell);
-        let g = GridBuffers::new(&gpu, shape, pts.len() as u32).unwrap();
+        let g = GridBuffers::new(&gpu, "test", shape, pts.len() as u32).unwrap();
         gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, None);
             grid.record_pass(&mut ctx, &points, pts.len() as u32, &g);

@@ -131,30 +131,38 @@ pub struct GridBuffers {
 }
 
 impl GridBuffers {
-    /// Buffers for up to `capacity` points in `shape`.
-    pub fn new(gpu: &Arc<Gpu>, shape: GridShape, capacity: u32) -> Result<GridBuffers> {
-        Self::with_room(gpu, shape, shape.cells(), capacity)
+    /// Buffers for up to `capacity` points in `shape`, named after their `owner` (`sim_grid_keys`, …).
+    pub fn new(gpu: &Arc<Gpu>, owner: &str, shape: GridShape, capacity: u32) -> Result<GridBuffers> {
+        Self::with_room(gpu, owner, shape, shape.cells(), capacity)
     }
 
-    /// Buffers for up to `capacity` points in `shape` or any other shape of at most `cell_capacity` cells.
-    pub fn with_room(gpu: &Arc<Gpu>, shape: GridShape, cell_capacity: u32, capacity: u32) -> Result<GridBuffers> {
+    /// Buffers for up to `capacity` points in `shape` or any other shape of at most `cell_capacity` cells, named
+    /// after their `owner` (`iso_grid_keys`, …: the memory table tells the iso grid's from the simulation's).
+    pub fn with_room(
+        gpu: &Arc<Gpu>,
+        owner: &str,
+        shape: GridShape,
+        cell_capacity: u32,
+        capacity: u32,
+    ) -> Result<GridBuffers> {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
-        let buf = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
+        let name = |what: &str| format!("{owner}_grid_{what}");
+        let buf = |what: &str, bytes: u64| Buffer::new(gpu, &name(what), bytes.max(16), usage, MemoryLocation::GpuOnly);
         let cell_capacity = cell_capacity.max(shape.cells());
         let cells = cell_capacity as u64;
         let runs = cells.div_ceil(GRID_RUN as u64);
         Ok(GridBuffers {
-            counts: Buffer::texels(gpu, "grid_counts", (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
+            counts: Buffer::texels(gpu, &name("counts"), (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
             // These three are also read as texels (see `Buffer::with_texel_view`): sim_neighbours reads a row's
             // bounds, sim_reorder a particle's cell and that cell's places.
-            start: Buffer::texels(gpu, "grid_start", (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
-            order: Buffer::texels(gpu, "grid_order", (4 * capacity as u64).max(16), usage, vk::Format::R32_UINT)?,
-            keys: Buffer::texels(gpu, "grid_keys", (8 * capacity as u64).max(16), usage, vk::Format::R32G32_UINT)?,
-            run_counts: buf("grid_run_counts", 4 * runs)?,
-            run_start: buf("grid_run_start", 4 * runs)?,
-            sums: buf("grid_sums", 4 * runs.div_ceil(SCAN_BLOCK as u64))?,
+            start: Buffer::texels(gpu, &name("start"), (4 * cells).max(16), usage, vk::Format::R32_UINT)?,
+            order: Buffer::texels(gpu, &name("order"), (4 * capacity as u64).max(16), usage, vk::Format::R32_UINT)?,
+            keys: Buffer::texels(gpu, &name("keys"), (8 * capacity as u64).max(16), usage, vk::Format::R32G32_UINT)?,
+            run_counts: buf("run_counts", 4 * runs)?,
+            run_start: buf("run_start", 4 * runs)?,
+            sums: buf("sums", 4 * runs.div_ceil(SCAN_BLOCK as u64))?,
             shape,
             capacity,
             cell_capacity,

@@ -194,7 +194,7 @@ impl Simulation {
                 Some(m) => crate::gpu::transfer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
                 None => buf("sim_sdf", 16)?,
             },
-            grid: GridBuffers::new(gpu, shape, cap as u32)?,
+            grid: GridBuffers::new(gpu, "sim", shape, cap as u32)?,
             neighbours: stages::Neighbours {
                 count: Buffer::texels(gpu, "sim_nbr_count", 4 * cap, usage, vk::Format::R32_UINT)?,
                 list: {

@@ -145,7 +145,7 @@ impl IsoResources {
                 aniso: buf("iso_aniso", aniso_bytes(cap as u64), IsoBuffers::ANISO)?,
                 counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
                 shape: push,
-                gpu: Some(crate::compute::grid::GridBuffers::with_room(gpu, shape, cell_room, cap)?),
+                gpu: Some(crate::compute::grid::GridBuffers::with_room(gpu, "iso", shape, cell_room, cap)?),
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),
