@@ -100,18 +100,9 @@ vec3 layers(vec3 c, ivec2 p, bool water, float lambert) {
 
 vec4 encode(vec3 c) { return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0); }
 
-void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 size = imageSize(out_color);
-    if (any(greaterThanEqual(p, size))) return;
-    vec2 uv = (vec2(p) + 0.5) / vec2(size);
-    vec3 bg = texture(scene_color, uv).rgb;
-    float sd = imageLoad(scene_depth, p).x;
-    float d = imageLoad(fluid_depth, p).x;
-    if (!is_fluid(d) || d >= sd) {
-        imageStore(out_color, p, encode(layers(bg, p, false, 0.0)));
-        return;
-    }
+/// The water at pixel p (fluid depth d, in front of the scene): refraction, reflection and the sun's highlight
+/// over the fluid's colour; `lambert`: the sun's n·l there, for the layers.
+vec3 water_at(ivec2 p, ivec2 size, vec2 uv, float d, out float lambert) {
     vec3 n = unpack_normal(imageLoad(normals, p).x);
     vec3 P = d * pixel_dir(vec2(p), vec2(size), focal_for(float(size.y)));
     vec3 V = normalize(-P);
@@ -147,7 +138,22 @@ void main() {
     vec3 L = mat3(frame.view) * frame.sun.xyz;
     vec3 H = normalize(L + V);
     float spec = frame.shading.w * pow(max(dot(n, H), 0.0), frame.shading2.x) * frame.sun.w;
+    lambert = max(dot(n, L), 0.0);
+    return mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
+}
 
-    vec3 c = mix(c_fluid, c_refract * (1.0 - fres), tau) + c_reflect * fres + vec3(spec);
-    imageStore(out_color, p, encode(layers(c, p, true, max(dot(n, L), 0.0))));
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(out_color);
+    if (any(greaterThanEqual(p, size))) return;
+    vec2 uv = (vec2(p) + 0.5) / vec2(size);
+    float sd = imageLoad(scene_depth, p).x;
+    float d = imageLoad(fluid_depth, p).x;
+    // Fluid behind nearer scene geometry is hidden. Water and background take one path to the layers and the store:
+    // lavapipe runs both sides of a branch (as masked SIMD lanes), so a path each loaded every layer's texel twice.
+    bool water = is_fluid(d) && d < sd;
+    vec3 c = texture(scene_color, uv).rgb;
+    float lambert = 0.0;
+    if (water) c = water_at(p, size, uv, d, lambert);
+    imageStore(out_color, p, encode(layers(c, p, water, lambert)));
 }
