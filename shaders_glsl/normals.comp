@@ -50,13 +50,13 @@ vec3 derivative(ivec2 p, float d, vec3 P, ivec2 step, float df, float db) {
 float height(ivec2 q) { return float(int(imageLoad(detail, q).x)) * (1.0 / float(DETAIL_UNITS)); }
 
 /// dh per pixel along `step` at p (height h0): neighbours on the same surface when their depths (df ahead, db
-/// behind) are fluid within `edge` of d.
+/// behind) are fluid within `edge` of d. Each neighbour's height is loaded once, whichever difference uses it
+/// (clamped to the image: a neighbour off it is never used): lavapipe runs every branch as masked SIMD lanes, so
+/// a load in each branch was paid in each.
 float slope(ivec2 p, float d, float h0, ivec2 step, float df, float db) {
     bool f = is_fluid(df) && abs(df - d) < pc.edge, b = is_fluid(db) && abs(db - d) < pc.edge;
-    if (f && b) return 0.5 * (height(p + step) - height(p - step));
-    if (f) return height(p + step) - h0;
-    if (b) return h0 - height(p - step);
-    return 0.0;
+    float hf = height(clamp(p + step, ivec2(0), g_size - 1)), hb = height(clamp(p - step, ivec2(0), g_size - 1));
+    return f && b ? 0.5 * (hf - hb) : f ? hf - h0 : b ? h0 - hb : 0.0;
 }
 #endif
 
