@@ -76,6 +76,8 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
             ("L4", "COMPOSITE_L4"),
         ],
     ),
+    // The background without a mesh, and with one (its BVH walked).
+    ("background.comp", &[("", ""), ("MESH", "BACKGROUND_MESH")]),
     // The iso grid cells' empty distance, one axis per dispatch.
     ("iso_empty.comp", &[("X", "ISO_EMPTY_X"), ("Y", "ISO_EMPTY_Y"), ("Z", "ISO_EMPTY_Z")]),
 ];

@@ -10,16 +10,24 @@
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
 layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D color_out;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D depth_out;
+// BACKGROUND_MESH (the variant run while a mesh is set): the mesh's BVH. Without one the BVH walk is not compiled
+// at all: lavapipe ran it, masked, for every pixel's three rays even with no node to visit.
+#ifdef BACKGROUND_MESH
 layout(std430, set = 0, binding = 4) readonly buffer BvhNodes { vec4 nodes[]; };
 layout(std430, set = 0, binding = 5) readonly buffer BvhTris { vec4 tris[]; };
 layout(push_constant) uniform Push { uint node_count; } pc;
 
 #include "bvh.glsl"
+#endif
 
 /// Anything (box or mesh) between p and the sun.
 bool in_shadow(vec3 p) {
     float ts; vec3 ns;
+#ifdef BACKGROUND_MESH
     return hit_boxes(p, frame.sun.xyz, ts, ns) || hit_mesh(p, frame.sun.xyz, INF, pc.node_count, ts, ns);
+#else
+    return hit_boxes(p, frame.sun.xyz, ts, ns);
+#endif
 }
 
 void main() {
@@ -38,14 +46,21 @@ void main() {
     if (tg <= 0.0) tg = INF;
     float ambient = frame.fluid_color.w;
     float diffuse_sun = frame.sun.w;
-    float tm; vec3 nm;
-    bool mesh = hit_mesh(o, dw, min(tg, box ? tb : INF), pc.node_count, tm, nm);
+    float tm = INF; vec3 nm = vec3(0, 1, 0);
+    bool mesh = false;
+#ifdef BACKGROUND_MESH
+    mesh = hit_mesh(o, dw, min(tg, box ? tb : INF), pc.node_count, tm, nm);
+#endif
+    // One shadow ray, from the mesh where the sun lights it or from the ground (a ray in each branch was run, masked,
+    // for every pixel on lavapipe).
+    bool ground = !mesh && !(box && tb < tg) && tg < INF;
+    float lit_mesh = max(dot(nm, frame.sun.xyz), 0.0);
+    vec3 hp_mesh = o + tm * dw, hp_ground = o + tg * dw;
+    vec3 from = mesh ? hp_mesh + nm * 1e-4 * max(tm, 1.0) : hp_ground + vec3(0, 1e-4, 0);
+    bool shadowed = ((mesh && lit_mesh > 0.0) || ground) && in_shadow(from);
     if (mesh) {
         t = tm;
-        vec3 hp = o + t * dw;
-        float lit = max(dot(nm, frame.sun.xyz), 0.0);
-        if (lit > 0.0 && in_shadow(hp + nm * 1e-4 * max(t, 1.0))) lit *= 0.35;
-        c = vec3(0.70, 0.68, 0.62) * (ambient + diffuse_sun * lit);
+        c = vec3(0.70, 0.68, 0.62) * (ambient + diffuse_sun * (shadowed ? lit_mesh * 0.35 : lit_mesh));
     } else if (box && tb < tg) {
         t = tb;
         vec3 base = vec3(0.78, 0.42, 0.30);
@@ -53,14 +68,13 @@ void main() {
         // Faint stripes so reflections and refraction of the boxes read as texture.
         float stripe = 0.85 + 0.15 * step(0.5, fract(hp.y / max(frame.ground.y * 0.5, 1e-6)));
         c = base * stripe * (ambient + diffuse_sun * max(dot(nb, frame.sun.xyz), 0.0));
-    } else if (tg < INF) {
+    } else if (ground) {
         t = tg;
-        vec3 hp = o + t * dw;
-        vec2 cell = floor(hp.xz / frame.ground.y);
+        vec2 cell = floor(hp_ground.xz / frame.ground.y);
         float checker = mod(cell.x + cell.y, 2.0);
         vec3 base = mix(vec3(0.62, 0.60, 0.56), vec3(0.30, 0.32, 0.34), checker);
-        // Shadow of the boxes on the ground.
-        float shadow = in_shadow(hp + vec3(0, 1e-4, 0)) ? 0.35 : 1.0;
+        // Shadow of the boxes (and mesh) on the ground.
+        float shadow = shadowed ? 0.35 : 1.0;
         c = base * (ambient + diffuse_sun * shadow * max(frame.sun.y, 0.0));
         float fog = 1.0 - exp(-t / max(frame.ground.w, 1e-6));
         c = mix(c, sky(vec3(dw.x, 0.0, dw.z)), clamp(fog, 0.0, 1.0));

@@ -42,21 +42,26 @@ impl crate::section::Section for Params {
     }
 }
 
-/// The pass: its compute program(s), built once per device.
+/// The pass: its compute programs, built once per device.
 pub struct BackgroundCast {
-    prog: ComputeProgram<u32>,
+    /// Without a mesh (no BVH walk compiled).
+    plain: ComputeProgram<()>,
+    /// With the mesh's BVH.
+    mesh: ComputeProgram<u32>,
 }
 
-// Slots: frame, colour out, depth out, sky, BVH nodes, triangles. Push: the BVH's node count.
-declare_program!(pub PROGRAM: u32 = compute(
-    shaders::BACKGROUND,
+// Slots: frame, colour out, depth out, sky.
+declare_program!(pub PROGRAM: () = compute(shaders::BACKGROUND, [Uniform, ImgOverwrite, ImgOverwrite, Sampled]));
+// The same and the mesh: BVH nodes, triangles. Push: the BVH's node count.
+declare_program!(pub PROGRAM_MESH: u32 = compute(
+    shaders::BACKGROUND_MESH,
     [Uniform, ImgOverwrite, ImgOverwrite, Sampled, BufRead, BufRead]
 ));
 
 impl BackgroundCast {
     /// Build the pass's pipelines (their slot lists were checked against the shaders at compile time).
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
-        Ok(BackgroundCast { prog: ComputeProgram::new(gpu, &PROGRAM)? })
+        Ok(BackgroundCast { plain: ComputeProgram::new(gpu, &PROGRAM)?, mesh: ComputeProgram::new(gpu, &PROGRAM_MESH)? })
     }
 
     /// Writes all of `color` and `depth`; `sky` is the cube map (a placeholder when procedural); `mesh`: the
@@ -73,9 +78,13 @@ impl BackgroundCast {
     ) {
         ctx.pass(NAME, |ctx| {
             let g = groups_2d(color.extent.width, color.extent.height, super::LOCAL_2D);
-            let res =
-                [frame.into(), color.into(), depth.into(), sky.into(), (&mesh.nodes).into(), (&mesh.triangles).into()];
-            self.prog.dispatch(ctx, &res, &mesh.node_count, g);
+            let res = [frame.into(), color.into(), depth.into(), sky.into()];
+            if mesh.node_count == 0 {
+                self.plain.dispatch(ctx, &res, &(), g);
+            } else {
+                let res = [res[0], res[1], res[2], res[3], (&mesh.nodes).into(), (&mesh.triangles).into()];
+                self.mesh.dispatch(ctx, &res, &mesh.node_count, g);
+            }
         });
     }
 }
