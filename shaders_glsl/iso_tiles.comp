@@ -6,15 +6,16 @@
 //! with every invocation returning at once, against 97 ms marching (the shared 59k dam break frame 20 at the
 //! reference camera, where a tenth of the screen holds fluid; docs/iso-surface.md). One work group per tile: a
 //! subgroup vote, one atomic per tile that holds fluid.
-//! In: depth (R32F, linear eye depth, +inf = no fluid). Out: the tiles (x | y << 16, in tiles); the cast's
+//! In: depth (R32F, linear eye depth; common.glsl's `is_fluid`). Out: the tiles (x | y << 16, in tiles); the cast's
 //! indirect dispatch at iso_args[16 … 18], rows of ISO_TILE_ROW work groups (x: up to ISO_TILE_ROW, y: the rows,
 //! z: 1), and the count of tiles at [19]; the host zeroes the header.
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_vote : require
+#include "common.glsl"
 layout(local_size_x = LOCAL_2D, local_size_y = LOCAL_2D) in;
-layout(set = 0, binding = 0, r32f) uniform readonly image2D depth;
-layout(std430, set = 0, binding = 1) buffer IsoArgs { uint iso_args[20]; };
-layout(std430, set = 0, binding = 2) writeonly buffer IsoTiles { uint iso_tiles[]; };
+layout(set = 0, binding = 1, r32f) uniform readonly image2D depth;
+layout(std430, set = 0, binding = 2) buffer IsoArgs { uint iso_args[20]; };
+layout(std430, set = 0, binding = 3) writeonly buffer IsoTiles { uint iso_tiles[]; };
 
 shared uint fluid;
 
@@ -22,8 +23,7 @@ void main() {
     if (gl_LocalInvocationIndex == 0u) fluid = 0u;
     barrier();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    // +inf is "no fluid" (common.glsl's is_fluid).
-    bool here = all(lessThan(p, imageSize(depth))) && imageLoad(depth, p).x < 1e30;
+    bool here = all(lessThan(p, imageSize(depth))) && is_fluid(imageLoad(depth, p).x);
     if (subgroupAny(here) && subgroupElect()) atomicOr(fluid, 1u);
     barrier();
     if (gl_LocalInvocationIndex == 0u) {

@@ -366,9 +366,9 @@ pub struct EmptyPush {
 // Ray cast: frame, the weighted points, the cell table, depth (read as the start, written as the surface), back
 // depth, the queue of unfinished rays and its header (written).
 declare_program!(pub CAST: IsoPush = compute(shaders::ISO, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite, BufRead]));
-// The tiles of the bound spheres' depth that hold fluid: depth → the queue's header (the first dispatch's work
+// The tiles of the bound spheres' depth that hold fluid: frame (binding 0, unread), depth → the queue's header (the first dispatch's work
 // groups), the tiles listed; the first dispatch (CAST, CAST_ANISO, CAST_VOL) reads them after its work counts.
-declare_program!(pub TILES: () = compute(shaders::ISO_TILES, [ImgRead, BufWrite, BufWrite]));
+declare_program!(pub TILES: () = compute(shaders::ISO_TILES, [Uniform, ImgRead, BufWrite, BufWrite]));
 // The first dispatch with coarse-to-fine on: one invocation per 2×2 block (iso_cast.glsl).
 declare_program!(pub CAST_BLOCKS: IsoPush = compute(shaders::ISO_BLOCKS, [Uniform, TexelRead, TexelRead, ImgWrite, ImgRead, BufWrite, BufWrite, BufWrite]));
 // The same over the anisotropic kernels (a separate program: a run-time branch in the field's inner loop doubled
@@ -598,7 +598,7 @@ impl Iso {
             } else {
                 // A work group per tile of the bound spheres' depth that holds fluid (iso_tiles.comp).
                 ctx.part("iso/tiles", |ctx| {
-                    self.tiles.dispatch(ctx, &[depth.into(), h, (&queue.tiles).into()], &(), g);
+                    self.tiles.dispatch(ctx, &[frame.into(), depth.into(), h, (&queue.tiles).into()], &(), g);
                 });
                 let mut first = all.clone();
                 first.push((&queue.tiles).into());
