@@ -34,7 +34,7 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     ("sim_dfsph_alpha.comp", NBR),
     ("sim_dfsph_rate.comp", NBR),
     ("sim_dfsph_update.comp", NBR),
-    // The smoothed iso field (src/passes/iso.rs): the bricks marked, allocated, the sums deposited (two 32-bit
+    // The smoothed iso field (src/passes/iso/mod.rs): the bricks marked, allocated, the sums deposited (two 32-bit
     // atomics, or one 64-bit where the device has them), the bricks' aprons copied; the cast over the volume and its queued rays.
     (
         "iso_volume.comp",

@@ -1,5 +1,5 @@
 #version 460
-//! composite — shades the fluid over the background (Moritz §3.4–3.6, eq. 3.21; method.md §5):
+//! composite — shades the fluid over the background (Moritz §3.4–3.6, eq. 3.21):
 //!   c = mix(c_fluid, c_refract·(1−F), τ) + c_reflect·F + σ
 //! c_fluid = I0·exp(−η·T) (Beer–Lambert per channel); c_refract = background at the pixel offset by
 //! n.xy·min(T·α, β) (eq. 3.27 with the min fix), attenuated by exp(−η·T) as well; τ = exp(−γ·T) (eq. 3.28);

@@ -1,5 +1,5 @@
 #version 460
-//! diffuse — draws the diffuse particles (src/diffuse.rs: spray, foam and bubbles after Ihmsen et al. 2012) and
+//! diffuse — draws the diffuse particles (src/diffuse/: spray, foam and bubbles after Ihmsen et al. 2012) and
 //! the isolated fluid particles (low density: kept out of the surface, NVIDIA patent US 8,947,430). One thread per
 //! particle splats a billboard: a capsule from x − v·s/2 to x + v·s/2 on screen (s: the shutter time, motion
 //! blur), its radius the particle's (varied per particle), its coverage opacity · fade · exp(−3 q²) spread over

@@ -1,7 +1,7 @@
 #version 460
 //! filter_bilateral — depth smoothing of the `filter` pass: bilateral filter (Moritz eq. 3.9; Janisz eqs. 2.1–2.3):
 //! w = exp(−Δi²/(2σ_d²) − Δz²/(2σ_r²)), normalised; background samples are skipped and background stays
-//! background. The kernel is constant in WORLD space: radius_px = ρ·F/d (method.md §3), clamped to max_px.
+//! background. The kernel is constant in WORLD space: radius_px = ρ·F/d, clamped to max_px.
 //! Modes: separable (one axis per dispatch, `dir`), exact 2D (`dir` = 0), Gaussian (σ_r = 0: no range term).
 //! In: depth (r32f). Out: smoothed depth (r32f).
 #include "common.glsl"

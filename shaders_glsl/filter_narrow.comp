@@ -1,5 +1,5 @@
 #version 460
-//! filter_narrow — narrow-range filter of the `filter` pass (Truong & Yuksel, I3D 2018; method.md §3).
+//! filter_narrow — narrow-range filter of the `filter` pass (Truong & Yuksel, I3D 2018).
 //! A Gaussian (σ = radius/2, radius = ρ·F/d px) whose samples are judged against an accepted depth range
 //! [lo, hi] that starts at d ± threshold: a sample in FRONT of lo (another surface nearer the camera) is
 //! dropped together with its mirror sample; a sample BEHIND hi (a surface further back, or background) is

@@ -1,5 +1,5 @@
 //! mc_common.glsl — shared by the `mc` pass's shaders (GPU marching cubes, src/compute/mc.rs; the CPU path and
-//! the reference the tests hold it to is src/surface/mesh/extract.rs's block extraction). The lattice, the blocks and the
+//! the reference the tests hold it to is src/field/extract/blocks.rs's block extraction). The lattice, the blocks and the
 //! push constants; a block is MC_BLOCK³ cubes whose corner values are stored with a one-corner margin
 //! (MC_N = MC_BLOCK + 3 corners per axis, local corner 0 = global corner c0), exactly the CPU's block layout.
 #define MC_N (MC_BLOCK + 3u)

@@ -2,7 +2,7 @@
 //! mc_field — the field at every corner of every occupied block (first stage of the `mc` pass, GPU marching
 //! cubes). One work group per block; each corner GATHERS the particles of the 3×3×3 neighbour-grid cells around
 //! it (cells ≥ the kernel support), in ascending cell order and sorted order within a cell — the same terms in
-//! the same order as the CPU's scatter (src/surface/mesh/extract.rs), so the values agree to rounding.
+//! the same order as the CPU's scatter (src/field/extract/blocks.rs), so the values agree to rounding.
 //! Field: the SPH colour field Σ W(|x − x_j| / h) / n_j (cubic spline, splashsurf's), or the thesis' metaball
 //! field Σ f(|x − x_j| / R_c) (Janisz §2.2). In: points (sorted), cells, weights 1/n_j, blocks (c0).
 //! Out: field[block × MC_NC + corner].

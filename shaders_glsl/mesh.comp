@@ -1,6 +1,6 @@
 #version 460
 //! mesh — the fluid surface as the triangle mesh that marching cubes extracted from the SPH colour field
-//! (src/surface/mesh/extract.rs; Janisz thesis §2.2), ray-cast per pixel through its BVH (bvh.glsl) into the fluid depth,
+//! (src/field/extract/; Janisz thesis §2.2), ray-cast per pixel through its BVH (bvh.glsl) into the fluid depth,
 //! replacing the splatted spheres (`--surface mesh`): the rest of the frame (smoothing, normals, reflections,
 //! shading) is the same, so pictures compare like with like.
 //! In: frame block, BVH nodes and triangles (world). Out: depth (r32f linear eye depth, +inf where no mesh).

@@ -1,5 +1,5 @@
 #version 460
-//! noise — the patent's noise image (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8), every sprite by its
+//! noise — the patent's noise image (NVIDIA patent US 8,947,430, eq. 15–17), every sprite by its
 //! own thread: each particle that draws (noise_cull.comp listed it) splats its Gaussian sprite of per-particle 3D
 //! noise (noise.glsl), weighted by how deep the particle lies below the fluid surface at each texel and scaled by
 //! its amplitude (calm, or raised while its velocity changes fast), into a fixed-point accumulator atlas (2^16

@@ -1,4 +1,4 @@
-//! noise.glsl — the patent's per-particle noise kernel (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8),
+//! noise.glsl — the patent's per-particle noise kernel (NVIDIA patent US 8,947,430, eq. 15–17),
 //! shared by noise.comp and mirrored exactly by `passes::noise::reference` (the CPU reference the tests compare
 //! against).
 //! A particle's sprite covers a disc of `size` radii around its centre on screen; at sprite coordinates

@@ -5,8 +5,8 @@
 //! after the cull), none at level 0 alone — the normals and the composite then read level 0's sums as they are.
 //! (The tiled splat's noise_scan writes the same.) Written here rather than by the cull's own invocations: on
 //! lavapipe their atomics on the dispatch's words from both cores cost the worst case 15 ms at 480×270.
-//! In: work[0], work[6]. Out: args (noise_resolve's 3 u32 at 0, noise.comp's at 4). NVIDIA patent US 8,947,430
-//! (method.md §8); the levels are noise.comp's.
+//! In: work[0], work[6]. Out: args (noise_resolve's 3 u32 at 0, noise.comp's at 4). NVIDIA patent US 8,947,430;
+//! the levels are noise.comp's.
 layout(local_size_x = 1) in;
 layout(std430, set = 0, binding = 0) readonly buffer Work { uint work[8]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Args { uint args[8]; };

@@ -1,5 +1,5 @@
 #version 460
-//! noise_bin — the tiled noise splat's binning (GPUs; NVIDIA patent US 8,947,430, eq. 15–17; method.md §8): each
+//! noise_bin — the tiled noise splat's binning (GPUs; NVIDIA patent US 8,947,430, eq. 15–17): each
 //! particle's sprite (noise_splat.glsl: its level of detail, rectangle and culling, as noise.comp) of more than
 //! `small` texels (a push constant, 64 by default) is counted into every tile (NOISE_TILE² texels of its level)
 //! its rectangle touches, its record (centre, R, z; offset, amplitude) written for noise_fill and noise_gather,

@@ -1,6 +1,5 @@
 #version 460
-//! noise_cull — the per-sprite noise splat's first half (CPU drivers; NVIDIA patent US 8,947,430, eq. 15–17;
-//! method.md §8): every particle's sprite is culled as noise_splat.glsl's `noise_sprite_at` does (isolated,
+//! noise_cull — the per-sprite noise splat's first half (CPU drivers; NVIDIA patent US 8,947,430, eq. 15–17): every particle's sprite is culled as noise_splat.glsl's `noise_sprite_at` does (isolated,
 //! behind the camera, off screen, over budget, or deeper below the surface at its centre than its term can reach)
 //! and the index of each one that draws is appended to the list noise.comp walks (one atomic per subgroup).
 //! Why apart from the texels: lavapipe runs a work group's invocations as SIMD lanes and a branch as masked

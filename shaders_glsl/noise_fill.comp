@@ -1,5 +1,5 @@
 #version 460
-//! noise_fill — the tiled noise splat's lists (GPUs; NVIDIA patent US 8,947,430; method.md §8): after noise_scan
+//! noise_fill — the tiled noise splat's lists (GPUs; NVIDIA patent US 8,947,430): after noise_scan
 //! gave each tile its list's start, each binned sprite (noise_bin appended their indices; this pass is dispatched
 //! indirectly, one thread per binned sprite) writes its particle index into the list of every tile its
 //! rectangle touches, its level and rectangle recomputed from its record as noise_bin computed them.

@@ -1,5 +1,5 @@
 #version 460
-//! noise_gather — the tiled noise splat's sums (GPUs; NVIDIA patent US 8,947,430, eq. 15–17; method.md §8): one
+//! noise_gather — the tiled noise splat's sums (GPUs; NVIDIA patent US 8,947,430, eq. 15–17): one
 //! work group per chunk (NOISE_CHUNK sprites of one tile's list, numbered by noise_scan) of a tile of the
 //! accumulator atlas (NOISE_TILE² texels of one level); its threads load the chunk's sprites into shared memory
 //! and each thread adds every sprite's term at its own texel (noise_splat.glsl's `noise_term`, the same

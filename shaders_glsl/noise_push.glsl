@@ -1,6 +1,6 @@
 //! noise_push.glsl — the `noise` pass's sprite push constants (`passes::noise::SpritePush`), one declaration for
 //! every shader of the splat (noise_cull, noise_args, noise, noise_bin, noise_scan, noise_fill, noise_gather).
-//! NVIDIA patent US 8,947,430 (method.md §8). Lengths in particle radii.
+//! NVIDIA patent US 8,947,430. Lengths in particle radii.
 layout(push_constant) uniform Push {
     uint count;
     float size;      // sprite radius in particle radii

@@ -6,7 +6,7 @@
 //! whitecaps layer) read one image whether or not this ran. A coarse texel whose depth pixel showed no fluid was
 //! never written: it is left out of the interpolation and the weights of the others renormalised, so a close-up
 //! sprite's noise reaches the silhouette instead of fading towards it. Dispatched indirectly, with no work groups when the splat wrote level 0 alone (noise_scan or
-//! noise_args writes the count). NVIDIA patent US 8,947,430 (eq. 15–17; method.md §8); the level of detail is
+//! noise_args writes the count). NVIDIA patent US 8,947,430 (eq. 15–17); the level of detail is
 //! noise.comp's.
 //! In: the accumulator atlas (r32ui), fluid depth (full resolution), the splat's work counts (its coarsest
 //! level). Out: the atlas's level 0 (N, fixed point; each invocation writes its own pixel's texel, which no

@@ -5,7 +5,7 @@
 //! block `pc` (count, size, freq, falloff, calm, turbulent, threshold, tiles, small, lod); with NOISE_TERM_ONLY defined only
 //! the texel term (`noise_term`), which needs `pc` alone. `noise_splat_alone` needs the atlas `accum` too (left out
 //! with NOISE_CULL_ONLY: noise_cull.comp). NVIDIA patent US 8,947,430 (eq.
-//! 15–17; method.md §8); the level of detail and the depth cut are noise.glsl's.
+//! 15–17); the level of detail and the depth cut are noise.glsl's.
 
 /// A particle's sprite: centre (full-resolution pixels), radius R (pixels), eye depth z, noise offset o,
 /// amplitude, reach (falloffs), its level L and the level's texel rectangle [lo, hi].

@@ -4,7 +4,7 @@
 //! the one-sided difference with the SMALLER depth change (NVIDIA patent US 8,947,430), so silhouettes and
 //! occlusion edges do not bend the normal. Normals face the camera.
 //! NORMALS_DETAIL (the variant run while an effect gives a detail height field: the `noise` effect's N, NVIDIA
-//! patent US 8,947,430; method.md §8): the height field h (radii, fixed point: DETAIL_UNITS per radius, signed) on
+//! patent US 8,947,430): the height field h (radii, fixed point: DETAIL_UNITS per radius, signed) on
 //! the fluid becomes small waves — its screen-space partial derivatives, turned into slopes per world unit at the
 //! pixel's depth (× strength · r · F / d), are subtracted from the normal: n' = normalize(n − (∂h/∂X, ∂h/∂Y, 0)),
 //! view space. Along each axis the derivative is the central difference where both neighbours are on the same

@@ -1,5 +1,5 @@
 #version 460
-//! particles — the particles themselves as lit spheres coloured by an attribute (Princisgh §2, method.md §9):
+//! particles — the particles themselves as lit spheres coloured by an attribute (Princisgh §2):
 //! Lambert + ambient shading of the exact sphere normal, colour interpolated between two colours in HSV by the
 //! particle's normalised value (speed, density or height). Runs after `splat` (compute) filled the raw depth:
 //! each particle colours the pixels where its own depth is the stored minimum (bit-exact, same math).

@@ -1,4 +1,4 @@
-//! sim_common.glsl — Position Based Fluids (Macklin & Müller, SIGGRAPH 2013; ../shared/docs/method.md §12),
+//! sim_common.glsl — Position Based Fluids (Macklin & Müller, SIGGRAPH 2013),
 //! shared by the sim_* shaders (the stages of src/sim/stages.rs): the simulation's uniform block (mirrored by
 //! `sim::SimUniforms`), the SPH kernels (poly6 for densities, spiky gradients), the colliders and the
 //! neighbour loop over THE GPU grid (grid.glsl, cells one kernel radius wide).

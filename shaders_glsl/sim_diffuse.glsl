@@ -1,4 +1,4 @@
-//! sim_diffuse.glsl — the live simulation's diffuse particles on the GPU: src/diffuse.rs's model (Ihmsen et al.
+//! sim_diffuse.glsl — the live simulation's diffuse particles on the GPU: src/diffuse/'s model (Ihmsen et al.
 //! 2012, "Unified spray, foam and air bubbles for particle-based fluids"; Bender et al. 2019's automatic limits)
 //! as stages after a frame's last step (src/sim/diffuse.rs): density and neighbour count, colour-field normals,
 //! potentials (with the running maxima), advection of the pool, spawning into it, and the copy into the

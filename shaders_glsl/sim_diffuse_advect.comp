@@ -3,7 +3,7 @@
 //! within h (fewer than spray_below: spray; more than bubble_above: bubble; else foam) and move it (Ihmsen eq.
 //! 11–13): spray ballistically with air drag, foam with the SPH-interpolated fluid velocity Σ W v / Σ W, bubbles
 //! by buoyancy and drag toward it; it ages, and dies at the end of its lifetime or an h below the water's lowest
-//! particle. src/diffuse.rs `Generator::advect`.
+//! particle. src/diffuse/ `Generator::advect`.
 //! In: grid counts, start; state; floor. Out: pool (in place).
 #include "sim_diffuse.glsl"
 layout(local_size_x = LOCAL_1D) in;

@@ -1,7 +1,7 @@
 #version 460
 //! sim_diffuse_density — per fluid particle (grid order, after the frame's last step): the diffuse model's SPH
 //! density ρ_i = m (W(0) + Σ_j W(r_ij)) over the neighbours within h = 4 r and their number; and the lowest
-//! particle's height (diffuse particles falling an h below it die). src/diffuse.rs `Fluid::new`.
+//! particle's height (diffuse particles falling an h below it die). src/diffuse/ `Fluid::new`.
 //! In: grid counts, start; state (grid order). Out: aux (ρ, neighbours, 0, 0), floor (sortable bits, atomicMin).
 #include "sim_diffuse.glsl"
 layout(local_size_x = LOCAL_1D) in;

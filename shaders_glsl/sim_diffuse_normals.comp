@@ -1,6 +1,6 @@
 #version 460
 //! sim_diffuse_normals — per fluid particle near the surface (at most 20 neighbours): the colour field's normal
-//! n_i = normalize(Σ_j m/ρ_j (−dW/dr) (x_i − x_j)/r), pointing out of the water (src/diffuse.rs `Fluid::new`);
+//! n_i = normalize(Σ_j m/ρ_j (−dW/dr) (x_i − x_j)/r), pointing out of the water (src/diffuse/ `Fluid::new`);
 //! zero inside.
 //! In: grid counts, start; state; aux (ρ, neighbours). Out: normals (xyz).
 #include "sim_diffuse.glsl"

@@ -3,7 +3,7 @@
 //! air: Σ V_j |v_ij| (1 − v̂_ij·x̂_ij) W_ij), eq. 4–7 (wave crest: Σ V_j (1 − n̂_i·n̂_j) W_ij over the neighbours
 //! behind the surface, where it moves along its normal) and the kinetic energy ½ m |v|², unclamped; their
 //! running maxima over the run (atomicMax on the bits of non-negative floats: order-independent), from which the
-//! spawn stage takes the automatic limits. src/diffuse.rs `Fluid::potentials`, `Live`.
+//! spawn stage takes the automatic limits. src/diffuse/ `Fluid::potentials`, `Live`.
 //! In: grid counts, start; state; aux; normals. Out: pot (ta, wc, ke, 1 when it may spawn), run (maxima bits).
 #include "sim_diffuse.glsl"
 layout(local_size_x = LOCAL_1D) in;

@@ -3,7 +3,7 @@
 //! of each to each, the kinetic energy's lower limit at least `ke_floor`; else the hand-set ones), the clamped
 //! potentials (eq. 1), round(foam_scale · I_ke · (I_ta + I_wc) · Δt) spawns (at most as many as its free slots)
 //! in the cylinder around its velocity (eq. 10), written into its own free slots in order. Every random number
-//! is diffuse::hash4(id, frame, spawn, channel), as on the CPU. src/diffuse.rs `Generator::spawn`.
+//! is diffuse::hash4(id, frame, spawn, channel), as on the CPU. src/diffuse/ `Generator::spawn`.
 //! In: state; pot; run. Out: pool (this particle's slots).
 #include "sim_diffuse.glsl"
 layout(local_size_x = LOCAL_1D) in;

@@ -1,6 +1,6 @@
 //! sphere.glsl — exact ray–sphere coverage of one particle, shared by `splat` and `thickness`.
 //! Instead of a flat impostor with the fixed normal n = (u, v, sqrt(1−u²−v²)) (Moritz eq. 3.2–3.4) each pixel's
-//! view ray is intersected with the sphere exactly (as recommended in method.md §1, after FleX/blub), in a
+//! view ray is intersected with the sphere exactly (after FleX and blub), in a
 //! numerically stable form (closest approach first: no cancellation of |c|² against r²).
 
 /// Pixel bounds [lo, hi] of the sphere (view-space centre c, radius r) in an image of `size` with focal F;

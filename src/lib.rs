@@ -1,10 +1,22 @@
 //! Meniscus — a Vulkan-native, compute-heavy screen-space fluid renderer for SPH particle data
-//! (van der Laan, Green & Sainz 2009; Green 2010; Moritz 2016).
+//! (van der Laan, Green & Sainz 2009; Green 2010; Moritz 2016), with a GPU fluid simulation and surface
+//! reconstruction beside it.
 //!
-//! Layout: [`device`] (the device as applications see it; the device layer itself, `gpu` — resources, access
-//! tracking, programs, timestamps — is the library's own and hidden here), [`passes`] (one struct per pass),
-//! [`frame`] (the frame's table of contents), [`renderer`] (frame driver and readback), [`scene`]
-//! (particles, loaders, camera, procedural scenes), [`settings`], [`output`] (PNG/NPY writers).
+//! Modules:
+//! - rendering: [`renderer`] (the frame driver, its requests and read-back), [`frame`] (the frame's passes in
+//!   order), [`passes`] (one struct per pass), [`surface`] (the surface techniques: spheres, iso, mesh),
+//!   [`effect`] (effects beside a surface: noise, diffuse particles), [`background`] (the ray-cast scene behind
+//!   the water), [`targets`] (the images every surface shares), [`particles`] (the particle set on the GPU),
+//!   [`view`] (camera and projection), [`settings`] and [`section`] (the TOML settings and their sections),
+//!   [`named`] (names shared by module, shader, label and JSON key), [`shader_constants`] and [`shaders`];
+//! - measuring: [`timing`] (GPU timestamps per pass), [`work`] (each pass's work counts), [`inspect`] (what a
+//!   frame holds, for the demo and tests);
+//! - computing: [`compute`] (the GPU neighbour grid, marching cubes), [`field`] (the SPH colour field on the CPU:
+//!   extraction, smoothing, volumes), [`sim`] (PBF and DFSPH on the GPU, scene files, validation), [`diffuse`]
+//!   (spray, foam and bubbles), [`motion`] (per-particle motion for the noise);
+//! - files: [`scene`] (particles, loaders, camera, procedural scenes), [`input`] (bounded reads), [`output`]
+//!   (atomic writers: PNG, NPY, particle caches), [`export`] (USD and OpenVDB);
+//! - the device: [`device`] (the device as applications see it; the layer itself, `gpu`, is hidden).
 
 #![warn(missing_docs)]
 

@@ -121,6 +121,13 @@ impl FileKind {
     /// The kind among `choices` that `path`'s extension names, or an error listing the extensions accepted.
     pub fn by_extension(path: &Path, choices: &[FileKind]) -> Result<FileKind> {
         let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        // `.usda` alone is a hidden file with no extension to every other tool (pxr, Path::extension).
+        if let Some(k) = choices.iter().find(|k| k.extensions().iter().any(|e| name == format!(".{e}"))) {
+            return Err(Error::Output {
+                path: path.to_path_buf(),
+                reason: format!("the name has nothing before its .{} extension", k.extensions()[0]),
+            });
+        }
         choices.iter().copied().find(|k| k.extensions().iter().any(|e| name.ends_with(&format!(".{e}")))).ok_or_else(
             || {
                 let exts: Vec<String> = choices.iter().map(|k| format!(".{}", k.extensions()[0])).collect();
@@ -232,34 +239,43 @@ fn parse_partial(file: &str) -> Option<(u32, Option<&str>)> {
     Some((pid.parse().ok()?, Some(last)))
 }
 
-/// Folders whose stale partial files this process has removed (each is listed once: the folder of a long
-/// sequence is not read again for every frame).
-static CLEANED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// Per folder this process writes into, the stale partial files found there at its first write (listed once:
+/// the folder of a long sequence is not read again for every frame).
+static STALE: Mutex<Vec<(PathBuf, Vec<String>)>> = Mutex::new(Vec::new());
 
-/// Remove the partial files a killed run left in `path`'s folder: at this process's first write there, every
-/// `NAME.PID.HOST.partial` of this machine (or in the older form `NAME.PID.partial`) whose process no longer
-/// runs, whatever its NAME (a killed run's frames that this run does not write too).
-/// A partial file of another machine (a folder shared by a cluster's shards) is never touched: its process
-/// cannot be seen from here.
+/// Remove the partial files a killed run left for `path` itself: `NAME.PID.HOST.partial` (or a scratch file
+/// `NAME.TAG.PID.HOST.partial`, or the older `NAME.PID.partial`) of this machine whose process no longer runs,
+/// where NAME is `path`'s own file name. Other names in the folder are never touched, even when they look like a
+/// partial file — they are no output of this run (a user's file, another job's frames). A partial file of
+/// another machine (a folder shared by a cluster's shards) is never touched: its process cannot be seen from here.
 fn remove_stale_partials(path: &Path) {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else { return };
     let dead = |pid: u32| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists();
-    let mut g = CLEANED.lock().unwrap_or_else(|e| e.into_inner());
-    if g.contains(&dir) {
-        return;
-    }
-    g.push(dir.clone());
-    drop(g);
-    let Ok(rd) = std::fs::read_dir(&dir) else { return };
-    for e in rd.flatten() {
-        let file = e.file_name().to_string_lossy().into_owned();
-        let Some((pid, host)) = parse_partial(&file) else { continue };
-        // The older form names no machine: taken as this one's.
-        let stale = host.is_none_or(|h| h == host_tag()) && dead(pid);
-        if stale {
-            let _ = std::fs::remove_file(e.path());
+    let mut g = STALE.lock().unwrap_or_else(|e| e.into_inner());
+    if !g.iter().any(|(d, _)| *d == dir) {
+        let mut stale = vec![];
+        if let Ok(rd) = std::fs::read_dir(&dir) {
+            for e in rd.flatten() {
+                let file = e.file_name().to_string_lossy().into_owned();
+                let Some((pid, host)) = parse_partial(&file) else { continue };
+                // The older form names no machine: taken as this one's.
+                if host.is_none_or(|h| h == host_tag()) && dead(pid) {
+                    stale.push(file);
+                }
+            }
         }
+        g.push((dir.clone(), stale));
     }
+    let Some((_, stale)) = g.iter_mut().find(|(d, _)| *d == dir) else { return };
+    let prefix = format!("{name}.");
+    stale.retain(|file| {
+        let ours = file.starts_with(&prefix);
+        if ours {
+            let _ = std::fs::remove_file(dir.join(file));
+        }
+        !ours
+    });
 }
 
 /// A file being written under its partial name `NAME.PID.HOST.partial`, renamed into place by [`Partial::commit`] and

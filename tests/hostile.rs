@@ -320,40 +320,19 @@ fn frames_larger_than_the_device_holds_are_a_clear_error() {
     fails_with(&o, &["16384×16384"]);
 }
 
-/// Whether this test may mount a small tmpfs (root, `mount` present). Without it the full-disk tests check
-/// nothing: a FAILURE under CI=true (CI runs as root), a note elsewhere.
-fn small_tmpfs(name: &str, kib: u32) -> Option<PathBuf> {
-    let d = tmpdir(name);
-    let o = Command::new("mount").args(["-t", "tmpfs", "-o", &format!("size={kib}k"), "tmpfs"]).arg(&d).output();
-    match o {
-        Ok(o) if o.status.success() => Some(d),
-        other => {
-            let why = match other {
-                Ok(o) => String::from_utf8_lossy(&o.stderr).trim().to_string(),
-                Err(e) => e.to_string(),
-            };
-            let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "0" && v != "false");
-            assert!(!ci, "cannot mount a tmpfs for the full-disk test (needs root) under CI=true: {why}");
-            eprintln!("cannot mount a tmpfs ({why}): the full-disk case checked nothing (it fails under CI=true)");
-            None
-        }
-    }
-}
-
-/// Fill the filesystem at `dir` until `free` bytes or fewer are left.
-fn fill_up(dir: &Path, free: u64) {
-    use std::io::Write;
-    let mut f = std::fs::File::create(dir.join("filler")).unwrap();
-    let chunk = vec![0u8; 4096];
-    while f.write_all(&chunk).is_ok() {}
-    drop(f);
-    let len = std::fs::metadata(dir.join("filler")).unwrap().len();
-    let f = std::fs::OpenOptions::new().write(true).open(dir.join("filler")).unwrap();
-    f.set_len(len.saturating_sub(free)).unwrap();
-}
-
-fn unmount(dir: &Path) {
-    let _ = Command::new("umount").arg(dir).status();
+/// `meniscus ARGS…` run with its files limited to `kib` KiB (RLIMIT_FSIZE, with SIGXFSZ ignored so a write past
+/// the limit fails with EFBIG, "File too large", as a full disk fails with ENOSPC): the writer's side of a full
+/// disk, with no privilege needed (no mount), so the case runs on every machine.
+fn meniscus_with_file_limit(kib: u32, args: &[&std::ffi::OsStr]) -> Output {
+    let bin = env!("CARGO_BIN_EXE_meniscus");
+    // The shell's `ulimit -f` counts 512-byte blocks (POSIX); `trap '' XFSZ` is inherited across exec.
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("trap '' XFSZ; ulimit -f {}; exec \"$0\" \"$@\"", kib * 2))
+        .arg(bin)
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 #[test]
@@ -404,23 +383,35 @@ fn a_movie_on_a_full_disk_keeps_the_good_one() {
         });
         img.save(d.join(format!("f_{n}.png"))).unwrap();
     }
-    let Some(disk) = small_tmpfs("movie-disk", 1024) else { return };
+    let disk = tmpdir("movie-disk");
     let movie = disk.join("m.mp4");
     let frames = d.join("f_{}.png").to_string_lossy().into_owned();
     let o = meniscus().args(["encode", &frames, "--out"]).arg(&movie).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let good = std::fs::read(&movie).unwrap();
-    fill_up(&disk, 4096);
-    let o = meniscus().args(["encode", &frames, "--crf", "0", "--out"]).arg(&movie).output().unwrap();
+    // The lossless encode is larger than the limit: its write fails part-way.
+    let limit = 16u32;
+    assert!(good.len() > 1024, "the good movie is {} bytes", good.len());
+    let args: Vec<&std::ffi::OsStr> = ["encode", frames.as_str(), "--crf", "0", "--out"]
+        .into_iter()
+        .map(|a| a.as_ref())
+        .chain([movie.as_os_str()])
+        .collect();
+    let o = meniscus_with_file_limit(limit, &args);
     let kept = std::fs::read(&movie).unwrap();
     let leftovers: Vec<_> = std::fs::read_dir(&disk)
         .unwrap()
         .flatten()
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains("partial"))
+        .filter(|n| n != "m.mp4")
         .collect();
-    unmount(&disk);
+    // The failure names the file and its cause (the write that did not fit), on one line with the file.
     fails_with(&o, &["m.mp4"]);
+    let e = stderr(&o);
+    assert!(
+        e.lines().any(|l| l.contains("m.mp4") && (l.contains("File too large") || l.contains("No space"))),
+        "the cause (the write that did not fit) is not said with the file: {e}"
+    );
     assert!(kept == good, "the good movie was replaced");
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
@@ -450,7 +441,8 @@ fn resume_renders_damaged_frames_again() {
     let e = stderr(&o);
     assert!(o.status.success(), "{e}");
     for (n, why) in [(1, "truncated"), (2, "CRC"), (3, "empty"), (4, "truncated")] {
-        assert!(e.contains(&format!("f_{n:04}.png: ")) && e.contains(why), "frame {n}: {why} not said: {e}");
+        let name = format!("f_{n:04}.png: ");
+        assert!(e.lines().any(|l| l.contains(&name) && l.contains(why)), "frame {n}: {why} not said on its line: {e}");
     }
     assert!(e.contains("rendering it again") && !e.contains("f_0005.png: "), "{e}");
     for n in 1..=5 {
@@ -592,6 +584,9 @@ fn flags_are_used_or_refused() {
     assert!(!d.join("x.png").exists());
 }
 
+/// A killed run's partial files are removed by the next run that writes the same outputs, and only those: a
+/// partial-looking file of another name (a user's, another job's frame this run does not write) stays, and so
+/// does another machine's.
 #[test]
 fn a_killed_runs_partial_files_are_cleaned_by_the_next_run() {
     let d = tmpdir("litter");
@@ -606,18 +601,102 @@ fn a_killed_runs_partial_files_are_cleaned_by_the_next_run() {
     let dead = child.id();
     child.wait().unwrap();
     let host = meniscus::output::host_tag();
-    let litter = d.join(format!("m/m_0004.ply.{dead}.{host}.partial"));
-    let older = d.join(format!("m/m_0003.ply.{dead}.partial"));
+    let litter = d.join(format!("m/m_0002.ply.{dead}.{host}.partial"));
+    let older = d.join(format!("m/m_0001.ply.{dead}.partial"));
+    // Not this run's outputs: a frame it does not write, and a user's file that merely looks like a partial one.
+    let later = d.join(format!("m/m_0004.ply.{dead}.{host}.partial"));
+    let users = d.join(format!("m/notes.txt.{dead}.{host}.partial"));
     // Another machine's partial file (a cluster shard writing into the same folder) is never touched.
-    let other = d.join(format!("m/m_0004.ply.{dead}.othernode.partial"));
-    for f in [&litter, &older, &other] {
+    let other = d.join(format!("m/m_0002.ply.{dead}.othernode.partial"));
+    for f in [&litter, &older, &later, &users, &other] {
         std::fs::write(f, b"ply\nhalf").unwrap();
     }
-    // The next run, with fewer frames, still cleans them.
-    let o =
-        meniscus().args(["mesh", &seq, "--radius", "0.01", "--frames", "1..2", "--out"]).arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(!litter.exists() && !older.exists(), "the killed run's partial files are still there");
+    let run = |frames: &str| {
+        let o = meniscus().args(["mesh", &seq, "--radius", "0.01", "--frames", frames, "--out"]).arg(&out).output();
+        let o = o.unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    run("1..2");
+    assert!(
+        !litter.exists() && !older.exists(),
+        "the killed run's partial files of this run's outputs are still there"
+    );
+    assert!(later.exists(), "a partial file of a frame this run does not write was removed");
+    assert!(users.exists(), "a file of another name was removed");
     assert!(other.exists(), "another machine's partial file was removed");
     assert!(d.join("m/m_0001.ply").is_file());
+    // The run that writes frame 4 cleans its litter.
+    run("3..4");
+    assert!(!later.exists() && users.exists());
+}
+
+/// Silent garbage a hostile user found, each now an error that says why, with no output written: a `--scale`
+/// that leaves a given radius meaningless, a frame rate whose steps the step bound cannot hold (or a `max_dt`
+/// that needs more than 1,000 steps a frame), the fluid's own files given as diffuse particles, an output named
+/// only by its extension, and a report whose folder does not exist. Each case is run once as it should work first
+/// (the negative control: the refusal is about the value, not the command).
+#[test]
+fn silent_garbage_is_an_error() {
+    let d = tmpdir("garbage");
+    for n in 1..=2 {
+        write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(8, &[]));
+    }
+    let f1 = d.join("f_1.bgeo");
+    let seq = d.join("f_{}.bgeo").to_string_lossy().into_owned();
+    // --scale: the radius (given) against the particles' spacing.
+    let mesh = |scale: &str, out: &str| {
+        meniscus()
+            .arg("mesh")
+            .arg(&f1)
+            .args(["--radius", "0.01", "--scale", scale, "--out"])
+            .arg(d.join(out))
+            .output()
+            .unwrap()
+    };
+    assert!(mesh("1", "ok.ply").status.success());
+    fails_with(&mesh("1e-5", "tiny.ply"), &["f_1.bgeo", "radius", "--scale"]);
+    assert!(!d.join("tiny.ply").exists());
+    // The step bound: --fps 1e-9 would run 1,000 steps of 1e6 s.
+    let sim = |fps: &str, out: &str| {
+        meniscus()
+            .args(["sim", "dambreak", "--particles", "1000", "--frames", "1", "--fps", fps, "--export"])
+            .arg(d.join(out))
+            .output()
+            .unwrap()
+    };
+    assert!(sim("25", "ok_{}.bgeo").status.success(), "{}", stderr(&sim("25", "ok2_{}.bgeo")));
+    fails_with(&sim("1e-9", "slow_{}.bgeo"), &["frames/s", "max_dt"]);
+    assert!(!d.join("slow_1.bgeo").exists());
+    std::fs::write(d.join("dt.toml"), "[sim]\nmax_dt = 1e-9\n").unwrap();
+    let o = meniscus()
+        .args(["sim", "dambreak", "--particles", "1000", "--frames", "1", "--settings"])
+        .arg(d.join("dt.toml"))
+        .arg("--export")
+        .arg(d.join("dt_{}.bgeo"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["max_dt"]);
+    // --diffuse given the fluid's own files.
+    let o = meniscus()
+        .args(["render", &seq, "--width", "40", "--height", "30", "--radius", "0.01", "--diffuse", &seq, "--out"])
+        .arg(d.join("png/f_{}.png"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["not a file of diffuse particles"]);
+    // An output named only by its extension.
+    let o =
+        meniscus().arg("mesh").arg(&f1).args(["--radius", "0.01", "--out"]).arg(d.join("m/.usda")).output().unwrap();
+    fails_with(&o, &[".usda", "nothing before"]);
+    assert!(!d.join("m/.usda").exists());
+    // A report into a folder that does not exist is refused, and the folder is not made.
+    let o = meniscus()
+        .arg("bench")
+        .arg("--mesh")
+        .arg(&f1)
+        .args(["--radius", "0.01", "--threads", "1", "--cube-size", "1.0", "--chart"])
+        .arg(d.join("nowhere/deeper/c.png"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["--chart", "does not exist"]);
+    assert!(!d.join("nowhere").exists(), "a report created its folders");
 }

@@ -1,5 +1,5 @@
-//! `mc` pass: marching cubes on the GPU (the GPU path of `meniscus mesh --gpu`; Janisz §2.2, method.md §10),
-//! sparse over the same blocks and lattice as the CPU block extraction (src/field/extract.rs), so the two meshes are
+//! `mc` pass: marching cubes on the GPU (the GPU path of `meniscus mesh --gpu`; Janisz §2.2),
+//! sparse over the same blocks and lattice as the CPU block extraction (src/field/extract/mod.rs), so the two meshes are
 //! the same mesh up to float rounding (the tests hold them to it):
 //! 1. `mc_field`: every corner of every occupied block gathers the field from the neighbour grid;
 //! 2. `mc_count`: triangles per cube from the case table, and the crossed edges each cube owns (those starting at

@@ -59,8 +59,9 @@ pub fn from_particles(p: &crate::scene::Particles) -> std::result::Result<Vec<Pa
         .collect()
 }
 
-/// Read an exported frame of diffuse particles (`meniscus foam --export`, or any particle file with the
-/// attributes of [`to_particles`]); a file with no particles is an empty frame.
+/// Read an exported frame of diffuse particles (`meniscus diffuse --export`, or any particle file with the
+/// `type` and `lifetime` attributes of [`to_particles`]; others are refused); a file with no particles is an
+/// empty frame.
 pub fn load(path: &std::path::Path) -> crate::error::Result<Vec<Particle>> {
     use crate::error::Error;
     let bytes = crate::input::read(path)?;
@@ -71,5 +72,17 @@ pub fn load(path: &std::path::Path) -> crate::error::Result<Vec<Particle>> {
     })?;
     let raw = crate::scene::parse_raw(format, path, &bytes)?;
     let p = raw.into_particles(&crate::scene::LoadOptions::default());
+    // A file of diffuse particles says so by its attributes: the fluid's own files (or another simulation's) are
+    // refused, not drawn as foam.
+    let has = |name: &str| p.extra.iter().any(|a| a.name == name && a.components == 1);
+    if !p.is_empty() && !(has("type") && has("lifetime")) {
+        return Err(Error::Parse {
+            path: path.to_path_buf(),
+            offset: 0,
+            reason: "not a file of diffuse particles: it has no `type` and `lifetime` attributes (`meniscus \
+                     diffuse --export` writes them); is this the fluid's own sequence?"
+                .into(),
+        });
+    }
     from_particles(&p).map_err(|reason| Error::Parse { path: path.to_path_buf(), offset: 0, reason })
 }

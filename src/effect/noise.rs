@@ -1,4 +1,4 @@
-//! The `noise` effect (NVIDIA patent US 8,947,430; method.md §8): small waves on the normals and, as the
+//! The `noise` effect (NVIDIA patent US 8,947,430): small waves on the normals and, as the
 //! composite's `tint` layer, whitecaps where the noise is strong. It owns the `noise` pass
 //! (`crate::passes::noise`: splat, resolve) and the pass's images, which exist only while `[noise] enabled`.
 //! In: fluid depth, particles (+ motions). Out: N (level 0 of its accumulator atlas, fixed point): the normals'

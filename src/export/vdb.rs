@@ -168,38 +168,42 @@ pub fn write_surface(
     Ok(ls.active_voxels())
 }
 
-/// Write `grids` to `path` (atomically; the output checks of `crate::output`).
+/// Write `grids` to `path` (atomically; the output checks of `crate::output`). The file is assembled in memory
+/// first: its UUID is derived from its own contents, so the same grids give the same bytes on any machine, at any
+/// thread count and on any day (OpenVDB reads the UUID as the file's identity; equal content, equal identity).
 pub fn write(path: &Path, grids: &[VdbGrid]) -> Result<()> {
     let partial = crate::output::Partial::begin(path, FileKind::Vdb)?;
     let res = (|| -> std::io::Result<()> {
-        let f = std::fs::File::create(partial.tmp())?;
-        let mut w = std::io::BufWriter::new(f);
+        let mut w = std::io::Cursor::new(Vec::new());
         w.write_all(&MAGIC.to_le_bytes())?;
         put_u32(&mut w, FILE_VERSION)?;
         put_u32(&mut w, 10)?;
         put_u32(&mut w, 0)?;
         w.write_all(&[1])?; // has grid offsets
-        w.write_all(uuid().as_bytes())?;
+        let uuid_at = w.position() as usize;
+        w.write_all(&[b'0'; 36])?; // the UUID, once the rest is known
         put_u32(&mut w, 1)?; // file metadata
         put_meta(&mut w, "creator", "string", b"meniscus")?;
         put_u32(&mut w, grids.len() as u32)?;
         for g in grids {
             put_grid(&mut w, g)?;
         }
-        w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()
+        let mut bytes = w.into_inner();
+        let id = content_uuid(&bytes[uuid_at + 36..]);
+        bytes[uuid_at..uuid_at + 36].copy_from_slice(id.as_bytes());
+        let mut f = std::fs::File::create(partial.tmp())?;
+        f.write_all(&bytes)?;
+        f.sync_all()
     })();
     res.map_err(|e| crate::error::Error::io(path, e))?;
     partial.commit()
 }
 
-/// A version-4-shaped UUID from the time and the process (the file's identity; not a security token).
-fn uuid() -> String {
-    let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
-    let a = crate::diffuse::generator::hash4(t as u32, (t >> 32) as u32, std::process::id(), 0x5644_4220);
-    let b = crate::diffuse::generator::hash4(a, (t >> 64) as u32, 1, 2);
-    let c = crate::diffuse::generator::hash4(b, a, 3, 4);
-    let d = crate::diffuse::generator::hash4(c, b, 5, 6);
+/// A version-4-shaped UUID from two FNV-1a hashes of `bytes` (the file's identity; not a security token).
+fn content_uuid(bytes: &[u8]) -> String {
+    let fnv = |seed: u64| bytes.iter().fold(seed, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3));
+    let (x, y) = (fnv(0xcbf2_9ce4_8422_2325), fnv(0x6c62_272e_07bb_0142));
+    let (a, b, c, d) = ((x >> 32) as u32, x as u32, (y >> 32) as u32, y as u32);
     format!("{a:08x}-{:04x}-4{:03x}-{:04x}-{:04x}{d:08x}", b >> 16, b & 0xfff, (c >> 16) & 0x3fff | 0x8000, c & 0xffff)
 }
 

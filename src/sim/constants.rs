@@ -156,9 +156,21 @@ impl Constants {
     }
 }
 
+impl Constants {
+    /// The XSPH c the viscosity ν asks for at this step and resolution (22 ν Δt / h²), before the clamp at
+    /// [`XSPH_MAX`]; with it, the largest ν the step applies (the one whose c is `XSPH_MAX`).
+    pub fn viscosity_reach(&self) -> (f32, f32) {
+        let asked = 22.0 * self.nu * self.dt / (self.h * self.h);
+        (asked, XSPH_MAX * self.h * self.h / (22.0 * self.dt.max(1e-12)))
+    }
+}
+
+/// The most steps a frame takes ([`cfl_substeps`]'s cap; `Simulation::new` refuses a set-up that needs more).
+pub const MAX_SUBSTEPS: u32 = 1000;
+
 /// Steps per frame under the CFL bound at `speed` (m/s) for particles `spacing` apart: ⌈frame time / min(cfl ×
-/// spacing / speed, max_dt)⌉, in 1 ..= 1000.
+/// spacing / speed, max_dt)⌉, in 1 ..= [`MAX_SUBSTEPS`].
 pub fn cfl_substeps(p: &Params, spacing: f32, speed: f32) -> u32 {
-    let dt_max = (p.cfl * spacing / speed.max(1e-3)).min(p.max_dt.max(1e-5));
-    ((1.0 / p.fps / dt_max).ceil() as u32).clamp(1, 1000)
+    let dt_max = (p.cfl * spacing / speed.max(1e-3)).min(p.max_dt.max(1e-9));
+    ((1.0 / p.fps / dt_max).ceil().min(1e9) as u32).clamp(1, MAX_SUBSTEPS)
 }

@@ -140,6 +140,8 @@ impl SceneFile {
     /// Read `path` and lay out its scene.
     pub fn load(path: &Path) -> Result<SceneFile> {
         let text = crate::input::read_text(path)?;
+        // A UTF-8 byte-order mark (editors on Windows write one) is not JSON, but it is not an error either.
+        let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
         let root: Value = serde_json::from_str(&text).map_err(|e| Error::Parse {
             path: path.to_path_buf(),
             offset: crate::scene::splishsplash::offset_of(&text, e.line(), e.column()),
@@ -163,17 +165,64 @@ impl SceneFile {
             .filter(|r| *r > 0.0)
             .ok_or_else(|| invalid(path, "Configuration.particleRadius", "missing or not a positive number"))?;
         let d = 2.0 * radius;
-        let fps = checked(path, "Configuration.dataExportFPS", config.get("dataExportFPS"), num)?.filter(|f| *f > 0.0);
-        let stop = checked(path, "Configuration.stopAt", config.get("stopAt"), num)?.filter(|t| *t > 0.0);
+        // A value the file sets outside its range is an error naming the key, never silently the default.
+        let positive = |key: &str, v: Option<f32>| -> Result<Option<f32>> {
+            match v {
+                Some(x) if !(x > 0.0) => Err(invalid(path, key, &format!("{x} is not a positive number"))),
+                v => Ok(v),
+            }
+        };
+        let fps = positive(
+            "Configuration.dataExportFPS",
+            checked(path, "Configuration.dataExportFPS", config.get("dataExportFPS"), num)?,
+        )?;
+        let stop = positive("Configuration.stopAt", checked(path, "Configuration.stopAt", config.get("stopAt"), num)?)?;
+        if let (Some(t), f) = (stop, fps.unwrap_or(25.0)) {
+            if t * f > 1e6 {
+                return Err(invalid(
+                    path,
+                    "Configuration.stopAt",
+                    &format!("{t} s at {f} frames/s is {:.3e} frames, more than the 1,000,000 a run writes", t * f),
+                ));
+            }
+        }
         let gravity = checked(path, "Configuration.gravitation", config.get("gravitation"), vec3)?;
-        let cfl_method = num(config.get("cflMethod")).unwrap_or(1.0);
-        let dt = checked(path, "Configuration.timeStepSize", config.get("timeStepSize"), num)?.filter(|t| *t > 0.0);
-        let cfl = checked(path, "Configuration.cflFactor", config.get("cflFactor"), num)?.filter(|c| *c > 0.0);
-        let cfl_max = checked(path, "Configuration.cflMaxTimeStepSize", config.get("cflMaxTimeStepSize"), num)?;
+        let cfl_method = checked(path, "Configuration.cflMethod", config.get("cflMethod"), num)?.unwrap_or(1.0);
+        if ![0.0, 1.0, 2.0].contains(&cfl_method) {
+            return Err(invalid(
+                path,
+                "Configuration.cflMethod",
+                &format!("{cfl_method} is not 0 (fixed step), 1 or 2 (the CFL step)"),
+            ));
+        }
+        let dt = positive(
+            "Configuration.timeStepSize",
+            checked(path, "Configuration.timeStepSize", config.get("timeStepSize"), num)?,
+        )?;
+        let cfl = positive(
+            "Configuration.cflFactor",
+            checked(path, "Configuration.cflFactor", config.get("cflFactor"), num)?,
+        )?;
+        let cfl_max = positive(
+            "Configuration.cflMaxTimeStepSize",
+            checked(path, "Configuration.cflMaxTimeStepSize", config.get("cflMaxTimeStepSize"), num)?,
+        )?;
         let (max_dt, substeps) = if cfl_method == 0.0 {
-            (dt, dt.zip(fps).map(|(dt, fps)| (1.0 / (fps * dt)).round().max(1.0) as u32))
+            let steps = dt.zip(fps.or(Some(25.0))).map(|(dt, fps)| (1.0 / (fps * dt)).round().max(1.0));
+            if let Some(n) = steps.filter(|n| *n > super::constants::MAX_SUBSTEPS as f32) {
+                return Err(invalid(
+                    path,
+                    "Configuration.timeStepSize",
+                    &format!(
+                        "{} s makes {n:.3e} steps a frame, more than the {} a frame takes here",
+                        dt.unwrap_or(0.0),
+                        super::constants::MAX_SUBSTEPS
+                    ),
+                ));
+            }
+            (dt, steps.map(|n| n as u32))
         } else {
-            (cfl_max.filter(|t| *t > 0.0), None)
+            (cfl_max, None)
         };
         // The pressure solver: SPlisHSPlasH's simulationMethod (0 WCSPH, 1 PCISPH, 2 PBF, 3 IISPH, 4 DFSPH, 5
         // Projective Fluids, 6 ICSPH); the methods not built here run as DFSPH, the nearest (a pressure solve
@@ -202,8 +251,8 @@ impl SceneFile {
             for (key, v) in df {
                 let at = format!("Configuration.DFSPH.{key}");
                 match key.as_str() {
-                    "maxError" => max_error = checked(path, &at, Some(v), num)?.filter(|e| *e > 0.0),
-                    "maxErrorV" => max_error_v = checked(path, &at, Some(v), num)?.filter(|e| *e > 0.0),
+                    "maxError" => max_error = positive(&at, checked(path, &at, Some(v), num)?)?,
+                    "maxErrorV" => max_error_v = positive(&at, checked(path, &at, Some(v), num)?)?,
                     "maxIterations" | "maxIterationsV" => {
                         let n = checked(path, &at, Some(v), num)?
                             .filter(|n| *n >= 1.0)

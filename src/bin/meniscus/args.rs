@@ -251,6 +251,19 @@ pub fn check_out(flag: &str, path: &Path, kind: FileKind) -> Result<()> {
     meniscus::output::check_output(path, kind).with_context(|| flag.to_string())
 }
 
+/// [`check_out`] for a report beside the main output (`--json`, `--markdown`, `--chart`): its folder must exist
+/// already — a report is never the reason to create folders (`--chart /nonexistent/dir/c.png` is an error, not a
+/// new `/nonexistent`).
+pub fn check_report(flag: &str, path: &Path, kind: FileKind) -> Result<()> {
+    check_out(flag, path, kind)?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!("{flag} {}: the folder {} does not exist (create it first)", path.display(), dir.display());
+        }
+    }
+    Ok(())
+}
+
 /// A sequence write makes a new cache: refuse when any of its frames exists already (they belong to another
 /// run, which this one would replace), unless the user said `--overwrite`. Names the count and the first.
 pub fn refuse_existing(flag: &str, paths: &[std::path::PathBuf], overwrite: bool) -> Result<()> {

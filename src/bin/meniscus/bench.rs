@@ -913,10 +913,26 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         ("--chart", &a.chart, FileKind::Png),
     ] {
         if let Some(p) = path {
-            crate::args::check_out(flag, p, kind)?;
+            crate::args::check_report(flag, p, kind)?;
         }
     }
     if let Some(file) = &a.mesh {
+        // The frame flags have no meaning for the mesh extraction's benchmark: refused, not ignored.
+        let unused: Vec<&str> = [
+            ("--sweep", a.sweep.is_some()),
+            ("--scenes", !a.scenes.is_empty()),
+            ("--sim", a.sim.is_some()),
+            ("--variants", a.variants),
+            ("--also-presets", !a.also_presets.is_empty()),
+            ("--in-flight", a.in_flight),
+        ]
+        .into_iter()
+        .filter(|(_, on)| *on)
+        .map(|(f, _)| f)
+        .collect();
+        if !unused.is_empty() {
+            bail!("{} measure frames; --mesh measures the mesh extraction: run them apart", unused.join(", "));
+        }
         let opts = crate::bench_mesh::Options {
             threads: a.threads.clone(),
             cubes: a.cube_size.clone(),

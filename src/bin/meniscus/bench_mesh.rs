@@ -103,13 +103,13 @@ pub fn run(
     use meniscus::output::FileKind;
     meniscus::input::note(file);
     if let Some(p) = json {
-        crate::args::check_out("--json", p, FileKind::Json)?;
+        crate::args::check_report("--json", p, FileKind::Json)?;
     }
     if let Some(p) = chart {
-        crate::args::check_out("--chart", p, FileKind::Png)?;
+        crate::args::check_report("--chart", p, FileKind::Png)?;
     }
     if let Some(p) = markdown {
-        crate::args::check_out("--markdown", p, FileKind::Markdown)?;
+        crate::args::check_report("--markdown", p, FileKind::Markdown)?;
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads: Vec<usize> = if o.threads.is_empty() {

@@ -2,7 +2,7 @@
 //! per-stage GPU medians per step, ms per step and steps/s. Then frames that step AND render (the step recorded
 //! through `Hooks::produce` into the renderer's particle buffer, as `demo --sim` does) at one resolution, with
 //! async compute off and/or on: per-queue busy time, the union over both queues and the time the overlap hid
-//! (method.md §14). JSON with --json.
+//!. JSON with --json.
 
 use std::path::Path;
 use std::sync::Arc;

@@ -69,6 +69,9 @@ pub struct Job {
 
 /// The `scene.json` describing the particle file `path`, if any, with one line about what it gives; one that
 /// cannot be read is reported and ignored (it only adds the radius and the walls).
+/// How far (as a factor either way) a given radius may be from the one the particles' spacing gives.
+const RADIUS_RANGE: f32 = 20.0;
+
 fn find_scene_json(path: &Path) -> Option<meniscus::scene::splishsplash::SceneJson> {
     match meniscus::scene::splishsplash::SceneJson::find_for(path) {
         Ok(Some(s)) => {
@@ -194,6 +197,23 @@ impl Job {
                 (r, RadiusFrom::Estimated)
             }
         };
+        // A radius given (flag or scene.json) that the spacing of 64 or more particles contradicts by more than 20× would
+        // be drawn or meshed as nothing or as one blob (`--scale 1e-5` with a scene.json's radius: a mesh of 126
+        // vertices instead of 140k): an error with both numbers, never an empty output.
+        if radius_from != RadiusFrom::Estimated && first.len() >= 64 {
+            if let Some(est) = scene::estimate_radius(&first.positions) {
+                let ratio = radius / est;
+                if !(1.0 / RADIUS_RANGE..=RADIUS_RANGE).contains(&ratio) {
+                    bail!(
+                        "{label}: the radius {radius:e} ({}) is {ratio:.3e}× the radius the particles' spacing gives \
+                         ({est:e}): a surface at that radius {}; check the units (--scale scales the positions, \
+                         not a scene.json's radius) or pass --radius",
+                        if radius_from == RadiusFrom::Flag { "--radius" } else { "from scene.json" },
+                        if ratio > 1.0 { "merges everything into one blob" } else { "leaves every particle apart" }
+                    );
+                }
+            }
+        }
         settings.radius = radius;
         settings.validate()?;
         let bounds = scene::percentile_bounds(&first.positions, 0.01).context("no finite particle positions")?;

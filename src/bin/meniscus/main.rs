@@ -49,6 +49,53 @@ enum Cmd {
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
     #[command(after_help = demo::HELP)]
     Demo(demo::DemoArgs),
+    /// Print the command-line reference (every subcommand and flag with its help) as markdown: docs/cli.md.
+    #[command(hide = true)]
+    CliReference,
+}
+
+/// The command-line reference as markdown, walked from clap's command tree (docs/cli.md is this output; a test
+/// fails when it is stale).
+fn cli_reference() -> String {
+    use clap::CommandFactory;
+    use std::fmt::Write;
+    let mut out = String::from(
+        "# Command-line reference\n\nGenerated from the code by `meniscus cli-reference > docs/cli.md` (a test fails when \
+         this page is stale). Every subcommand also prints this with `--help`.\n",
+    );
+    let root = Cli::command();
+    for sub in root.get_subcommands().filter(|c| !c.is_hide_set() && c.get_name() != "help") {
+        let _ = write!(out, "\n## meniscus {}\n\n", sub.get_name());
+        if let Some(a) = sub.get_long_about().or(sub.get_about()) {
+            let _ = writeln!(out, "{a}\n");
+        }
+        let args: Vec<_> = sub.get_arguments().filter(|a| !a.is_hide_set()).collect();
+        if args.is_empty() {
+            out.push_str("No options.\n");
+            continue;
+        }
+        out.push_str("| argument | help |\n|---|---|\n");
+        for a in args {
+            let name = match (a.get_long(), a.get_short()) {
+                (Some(l), _) => format!("`--{l}`"),
+                (None, Some(c)) => format!("`-{c}`"),
+                (None, None) => format!("`{}`", a.get_id().as_str().to_uppercase()),
+            };
+            let help = a.get_long_help().or(a.get_help()).map(|h| h.to_string()).unwrap_or_default();
+            let mut help = help.replace('\n', " ").replace('|', "\\|");
+            let defaults: Vec<String> =
+                a.get_default_values().iter().map(|v| v.to_string_lossy().into_owned()).collect();
+            if !defaults.is_empty() {
+                let _ = write!(help, " (default: `{}`)", defaults.join(","));
+            }
+            let values: Vec<String> = a.get_possible_values().iter().map(|v| v.get_name().to_string()).collect();
+            if !values.is_empty() && a.get_action().takes_values() {
+                let _ = write!(help, " (one of: {})", values.join(", "));
+            }
+            let _ = writeln!(out, "| {name} | {help} |");
+        }
+    }
+    out
 }
 
 /// Spellings of the command line that still work but are deprecated: the `foam` subcommand and `--foam` flag
@@ -112,6 +159,10 @@ fn main() {
         Cmd::Mesh(a) => mesh::run(&a),
         Cmd::Sim(a) => sim::run(&a),
         Cmd::Diffuse(a) => diffuse::run(&a),
+        Cmd::CliReference => {
+            print!("{}", cli_reference());
+            Ok(())
+        }
         Cmd::Scenes => {
             for (name, n, what) in procedural::SCENES {
                 println!("{name:8} {n:>9} particles  {what}");

@@ -1,4 +1,4 @@
-//! Iso-surface MESH extraction from the particles (the thesis' second technique, Janisz §2.2; method.md §10):
+//! Iso-surface MESH extraction from the particles (the thesis' second technique, Janisz §2.2):
 //! marching cubes over the SPH colour field the `iso` pass ray-casts (splashsurf's: cubic spline of support
 //! h = 4 r, per-particle normalisation, threshold 0.6), so the mesh, the ray-cast surface and splashsurf agree.
 //!
@@ -212,10 +212,10 @@ pub struct ExtractParams {
     /// fluid (bubbles not connected to the outside), whose surfaces it does not reach.
     pub dense: bool,
     /// Cubes per edge of a block (the default path, [`extract_blocks`]); 0 = the per-corner paths above
-    /// (`dense`, or surface following); [`AUTO_BLOCK`] (the default) = chosen by the thread count
-    /// ([`auto_block`]). Changes nothing but the time and the memory.
+    /// (`dense`, or surface following); [`AUTO_BLOCK`] (the default) = chosen from the particles and the
+    /// cube size ([`auto_block`]). Changes the vertices' order (block by block), the time and the memory.
     pub block: u32,
-    /// The thesis' metaball field instead of the SPH colour field (Janisz §2.2, method.md §10):
+    /// The thesis' metaball field instead of the SPH colour field (Janisz §2.2):
     /// F(x) = Σ f(|x − x_j|), f(d) = (d/(√2 R_c))⁴ − (d/(√2 R_c))² + ¼ for d < R_c, else 0 — unnormalised
     /// (the 1/n_j weights are not used), with R_c the grid's support. Block path only.
     pub metaball: bool,
@@ -228,38 +228,35 @@ impl ExtractParams {
     }
 }
 
-/// [`ExtractParams::block`]: choose the block size by the thread count ([`auto_block`]).
+/// [`ExtractParams::block`]: choose the block size from the particles and the cube size ([`auto_block`]).
 pub const AUTO_BLOCK: u32 = u32::MAX;
 
-/// The block size for `threads` threads: on one thread 64 cubes per edge (the one-corner margin costs least);
-/// on two, 64 when that leaves at least 8 occupied blocks per thread, else 32; on more, the largest of 64, 32, 16
-/// that leaves at least 40 occupied blocks per thread — so that no thread waits long for the last blocks.
-/// Measured on the 16-core host of an H100 (59k dam break f20, `bench --mesh --block 64,32,16`;
-/// benches/results/nvidia-h100-host-bench-mesh-93097bc/): at 0.5 r and 16 threads 64 → 0.30 s, 32 → 0.23, 16 →
-/// 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie. On two threads (this 2-core host, `bench --mesh
-/// … --block 64,32`, three runs, docs/mesh-extraction.md): the 6,859-particle frame at 1 r has 7 blocks of 64³,
-/// three of them heavy — efficiency 77–84 %; with blocks of 32 (32 blocks) 93–96 % for the same wall time
-/// (0.019–0.025 s against 0.018–0.024); its 0.5 r (32 blocks of 64³) and the 59k frame (30 and 174) stay at 64.
-pub fn auto_block(grid: &IsoGrid, cube: f32, threads: usize) -> u32 {
-    if threads <= 1 || grid.points.is_empty() {
+/// The block size for `grid` at cube edge `cube`: 64 cubes per edge (the one-corner margin costs least) when that
+/// leaves at least [`AUTO_BLOCK_MIN`] occupied blocks, else 32 — so that a pool of up to 16 threads has blocks to
+/// share. The choice depends on the particles and the cube size alone, never on the thread count or the machine:
+/// the block size orders the mesh's vertices (block by block), so a default `meniscus mesh` writes the same bytes
+/// on a 2-core laptop and a 16-core node, at any `--threads`. Measured on the 16-core host of an H100 (59k dam
+/// break f20, `bench --mesh --block 64,32,16`; benches/results/nvidia-h100-host-bench-mesh-93097bc/): at 0.5 r and
+/// 16 threads 64 → 0.30 s, 32 → 0.23, 16 → 0.29; at 1 r 0.077, 0.074, 0.066; on 4 threads 64 and 32 tie.
+pub fn auto_block(grid: &IsoGrid, cube: f32) -> u32 {
+    if grid.points.is_empty() {
         return 64;
     }
     let lat = Lattice::of(grid, cube.max(1e-6));
-    if threads == 2 {
-        return if blocks::occupied_count(grid, &lat, 64) >= 8 * threads { 64 } else { 32 };
+    if blocks::occupied_count(grid, &lat, 64) >= AUTO_BLOCK_MIN {
+        64
+    } else {
+        32
     }
-    for b in [64, 32] {
-        if blocks::occupied_count(grid, &lat, b) >= 40 * threads {
-            return b as u32;
-        }
-    }
-    16
 }
 
-/// `p` with its block size decided ([`AUTO_BLOCK`] resolved for the current thread pool).
+/// [`auto_block`] keeps blocks of 64 when at least this many are occupied.
+pub const AUTO_BLOCK_MIN: usize = 64;
+
+/// `p` with its block size decided ([`AUTO_BLOCK`] resolved by [`auto_block`]).
 pub fn resolve_block(grid: &IsoGrid, p: &ExtractParams) -> ExtractParams {
     if p.block == AUTO_BLOCK {
-        ExtractParams { block: auto_block(grid, p.cube, rayon::current_num_threads()), ..*p }
+        ExtractParams { block: auto_block(grid, p.cube), ..*p }
     } else {
         *p
     }
@@ -340,7 +337,7 @@ pub fn memory_estimate(grid: &IsoGrid, p: &ExtractParams, threads: usize) -> u64
     if grid.points.is_empty() {
         return 0;
     }
-    let p = &if p.block == AUTO_BLOCK { ExtractParams { block: auto_block(grid, p.cube, threads), ..*p } } else { *p };
+    let p = &if p.block == AUTO_BLOCK { ExtractParams { block: auto_block(grid, p.cube), ..*p } } else { *p };
     let lat = Lattice::of(grid, p.cube.max(1e-6));
     if (p.block > 0 && !p.dense) || p.metaball {
         let n = p.block.max(1) as u64 + 3;

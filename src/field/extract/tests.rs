@@ -143,8 +143,8 @@ fn single_pair_and_random_particles() {
     assert!(median < 2.0 && p99 < 12.0, "normal angles: median {median}°, p99 {p99}°");
 }
 
-/// The block size's choice: the bit count of occupied blocks equals the listed blocks, and two threads take
-/// blocks of 32 where blocks of 64 would leave fewer than 8 per thread (one thread keeps 64).
+/// The block size's choice: the bit count of occupied blocks equals the listed blocks; blocks of 32 where blocks of
+/// 64 would leave fewer than AUTO_BLOCK_MIN, 64 where they would not — from the particles and the cube alone.
 #[test]
 fn the_block_size_follows_the_occupied_blocks() {
     let mut rnd = uniform(777u32);
@@ -155,10 +155,9 @@ fn the_block_size_follows_the_occupied_blocks() {
         assert_eq!(blocks::occupied_count(&g, &lat, b), occupied_blocks(&g, &lat, b).0.len(), "blocks of {b}");
     }
     let n64 = occupied_blocks(&g, &lat, 64).0.len();
-    assert!(n64 < 16, "the cloud is small enough for the choice to matter: {n64} blocks of 64");
-    assert_eq!(auto_block(&g, 0.01, 1), 64);
-    assert_eq!(auto_block(&g, 0.01, 2), 32);
-    // A cube a quarter as large: 4³ × as many blocks of 64, enough for two threads.
-    assert!(occupied_blocks(&g, &Lattice::of(&g, 0.0025), 64).0.len() >= 16);
-    assert_eq!(auto_block(&g, 0.0025, 2), 64);
+    assert!(n64 < AUTO_BLOCK_MIN, "the cloud is small enough for the choice to matter: {n64} blocks of 64");
+    assert_eq!(auto_block(&g, 0.01), 32);
+    // A cube a quarter as large: 4³ × as many blocks of 64.
+    assert!(occupied_blocks(&g, &Lattice::of(&g, 0.0025), 64).0.len() >= AUTO_BLOCK_MIN);
+    assert_eq!(auto_block(&g, 0.0025), 64);
 }

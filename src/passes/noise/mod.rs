@@ -1,4 +1,4 @@
-//! `noise` pass: the patent's surface detail (NVIDIA patent US 8,947,430, eq. 15–17; method.md §8). Every
+//! `noise` pass: the patent's surface detail (NVIDIA patent US 8,947,430, eq. 15–17). Every
 //! particle splats a Gaussian sprite of per-particle 3D noise, weighted by its depth below the fluid surface and
 //! scaled by how fast its velocity changes, into a noise image N (level 0 of its accumulator atlas, fixed
 //! point); the `normals` pass adds N's partial derivatives to the normals (small waves: the atlas is the noise
