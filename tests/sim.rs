@@ -383,31 +383,13 @@ fn front(p: &[[f32; 3]]) -> f32 {
     xs[((xs.len() - 1) as f32 * 0.995) as usize]
 }
 
-/// Martin & Moyce (1952), square column (n² = 1): front Z = z/a against T = t·√(2g/a), as commonly tabulated.
-const MARTIN_MOYCE: &[(f32, f32)] = &[
-    (0.41, 1.11),
-    (0.84, 1.22),
-    (1.19, 1.44),
-    (1.43, 1.67),
-    (1.63, 1.89),
-    (1.83, 2.11),
-    (1.98, 2.33),
-    (2.20, 2.56),
-    (2.32, 2.78),
-    (2.51, 3.00),
-    (2.65, 3.22),
-    (2.83, 3.44),
-    (2.98, 3.67),
-];
-
-fn martin_moyce(t: f32) -> f32 {
-    let w = MARTIN_MOYCE.windows(2).find(|w| t >= w[0].0 && t <= w[1].0).unwrap_or(&MARTIN_MOYCE[11..13]);
-    let f = (t - w[0].0) / (w[1].0 - w[0].0);
-    w[0].1 + f * (w[1].1 - w[0].1)
-}
-
+/// The 6,859-particle dam break's surge front (the 99.5th percentile of x near the floor) against SPlisHSPlasH's
+/// own run of the same set-up at 0.2, 0.4 and 0.6 s: within 10 % of the tank's length (measured: 1.4, 2.9, 4.3 %).
+/// Negative control: the water frozen at its first frame is 43 % of the tank behind at 0.6 s and fails the same
+/// bound. (The experiments' comparison, with its own gate, is `dam_break_front_follows_the_experiments`.) Beside
+/// it: the breaking front is turbulent for the noise, and the diffuse particles gather at it.
 #[test]
-fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
+fn the_dam_break_front_follows_splishsplash() {
     let Some(dir) = common::shared_data("splishsplash/dambreak_6859/partio") else { return };
     let gpu = common::gpu();
     let scene = SimScene::new("dambreak", 6859).unwrap();
@@ -425,13 +407,15 @@ fn the_dam_break_front_follows_splishsplash_and_martin_moyce() {
         assert_eq!(ours.len(), n, "particle count conserved");
         let theirs = meniscus::scene::load(&dir.join(format!("ParticleData_Fluid_{file}.bgeo"))).unwrap();
         let (a, b) = (front(&ours.positions), front(&theirs.positions));
-        // Martin & Moyce: a = 1 m column, front measured from the left wall (x = −2).
-        let mm = martin_moyce(t as f32 * (2.0 * 9.81f32).sqrt()) - 2.0;
         eprintln!(
-            "t = {t:.1} s: front PBF {a:.3} m, SPlisHSPlasH (DFSPH) {b:.3} m, Martin & Moyce {mm:.3} m; |PBF − DFSPH| = {:.1} % of the tank",
+            "t = {t:.1} s: front PBF {a:.3} m, SPlisHSPlasH (DFSPH) {b:.3} m; |PBF − DFSPH| = {:.1} % of the tank",
             100.0 * (a - b).abs() / tank
         );
         worst = worst.max((a - b).abs() / tank);
+        if file == 16 {
+            let frozen = front(&SimScene::new("dambreak", 6859).unwrap().positions);
+            assert!((frozen - b).abs() / tank > 0.10, "the bound passes water frozen at its first frame");
+        }
         // The breaking front is turbulent for the patent's noise: particles whose velocity changes faster than
         // the threshold, within the first second.
         let tau = meniscus::passes::noise::Params::default().threshold;
