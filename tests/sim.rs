@@ -835,6 +835,38 @@ fn dam_break_front_follows_the_experiments() {
     common::assert_clean(&gpu);
 }
 
+/// A scene file's `Materials` reach the solver: `density0` is the ρ0 of the GPU's uniform block (and the particle
+/// mass follows it), a "Standard" `viscosity` is the ν the XSPH coefficient is derived from. Negative control: the
+/// same file without `Materials` gives the defaults, which differ from both.
+#[test]
+fn scene_file_materials_reach_the_solver() {
+    let gpu = common::gpu();
+    let dir = std::env::temp_dir().join(format!("meniscus-materials-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let body = r#""Configuration": {"particleRadius": 0.05, "simulationMethod": 4}, "RigidBodies": [{"geometryFile": "UnitBox.obj", "isWall": true, "scale": [2,2,2]}], "FluidBlocks": [{"start": [-0.5,-0.9,-0.5], "end": [0.5,0.1,0.5]}]"#;
+    let with = format!(
+        r#"{{{body}, "Materials": [{{"id": "Fluid", "density0": 500, "viscosityMethod": 1, "Standard viscosity": {{"viscosity": 0.002}}}}]}}"#
+    );
+    let run = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        let (scene, file) = meniscus::sim::scene_file::resolve(p.to_str().unwrap(), None).unwrap();
+        let mut params = Params::default();
+        file.unwrap().apply(&mut params);
+        let sim = Simulation::new(&gpu, scene, params).unwrap();
+        let u = sim.uniforms_now();
+        (u.solver[0], sim.constants.nu, u.gravity_mass[3])
+    };
+    let (rho, nu, mass) = run("with.json", &with);
+    let (rho0, nu0, mass0) = run("without.json", &format!("{{{body}}}"));
+    eprintln!("with Materials: ρ0 {rho}, ν {nu}, mass {mass}; without: ρ0 {rho0}, ν {nu0}, mass {mass0}");
+    assert_eq!((rho, nu), (500.0, 0.002), "the file's Materials did not reach the solver");
+    assert!((mass / mass0 - 0.5).abs() < 1e-5, "the particle mass does not follow ρ0: {mass} against {mass0}");
+    assert!(rho0 != 500.0 && nu0 != 0.002, "the defaults equal the file's values: the check could not fail");
+    std::fs::remove_dir_all(&dir).ok();
+    common::assert_clean(&gpu);
+}
+
 /// DFSPH (`[sim] solver = "dfsph"`) on a resting pool: every step's solves converge to their bounds (the GPU's
 /// statistics), the water stays in its container, its mean compression stays at the bound, and it settles.
 #[test]
