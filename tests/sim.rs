@@ -138,6 +138,58 @@ fn one_step_matches_the_cpu_reference() {
     common::assert_clean(&gpu);
 }
 
+/// One DFSPH step of a small random blob, squeezed (with a sphere, a box and the container's walls) on the GPU against the
+/// CPU reference (`reference::dfsph_step`: the same equations, brute-force neighbour lists): every particle's
+/// position, velocity and density within float tolerance, and each solve's correction count equal. Negative
+/// control: the reference with the constant-density solve's bound 100× looser moves the particles measurably
+/// (so the comparison sees the solve).
+#[test]
+fn one_dfsph_step_matches_the_cpu_reference() {
+    let gpu = common::gpu();
+    // Squeezed to three quarters of its width in x and z: compressed water, so both solves have work to do.
+    let mut scene = blob(350, 29);
+    for p in &mut scene.positions {
+        (p[0], p[2]) = (0.75 * p[0], 0.75 * p[2]);
+    }
+    let n0 = scene.positions.len();
+    let params = Params { substeps: 1, solver: meniscus::sim::params::Solver::Dfsph, ..Params::default() };
+    let eta = [params.max_divergence_error * 0.01, params.max_density_error * 0.01];
+    let max_iter = params.max_solver_iterations;
+    let mut sim = Simulation::new(&gpu, scene.clone(), params).unwrap();
+    let mut u = sim.uniforms_now();
+    u.counts[0] = n0 as u32;
+    sim.step_frame().unwrap();
+    let got = sim.read().unwrap();
+    let stats = sim.solver_stats().unwrap().expect("DFSPH statistics");
+    let x0: Vec<Vec3> = scene.positions.iter().map(|p| Vec3::from(*p)).collect();
+    let v0: Vec<Vec3> = scene.velocities.iter().map(|p| Vec3::from(*p)).collect();
+    let (x, v, rho, solves) = reference::dfsph_step(&u, scene.mesh_collider.as_deref(), eta, max_iter, &x0, &v0);
+    let ids = got.ids.as_ref().unwrap();
+    let (gv, gd) = (got.velocities.as_ref().unwrap(), got.densities.as_ref().unwrap());
+    let (mut ex, mut ev, mut ed) = (0f32, 0f32, 0f32);
+    for (k, &id) in ids.iter().enumerate() {
+        let i = id as usize;
+        ex = ex.max((Vec3::from(got.positions[k]) - x[i]).length());
+        ev = ev.max((Vec3::from(gv[k]) - v[i]).length());
+        ed = ed.max((gd[k] - rho[i]).abs() / 1000.0);
+    }
+    eprintln!(
+        "DFSPH step: GPU corrections {} / {}, CPU {:?} (errors {:?}); max |Δx| {ex:.2e} m, |Δv| {ev:.2e} m/s, \
+         |Δρ|/ρ0 {ed:.2e}",
+        stats.divergence.corrections, stats.density.corrections, solves.corrections, solves.error
+    );
+    assert_eq!(sim.neighbour_overflow().unwrap(), 0, "the neighbour lists held everyone");
+    assert_eq!([stats.divergence.corrections, stats.density.corrections], solves.corrections);
+    assert!(solves.corrections[1] >= 2, "the density solve did nothing to compare: {solves:?}");
+    assert!(ex < 2e-5, "positions differ by {ex}");
+    assert!(ev < 2e-3, "velocities differ by {ev}");
+    assert!(ed < 1e-4, "densities differ by {ed}");
+    let (x_loose, ..) = reference::dfsph_step(&u, None, [eta[0], 100.0 * eta[1]], max_iter, &x0, &v0);
+    let moved = (0..n0).map(|i| (x_loose[i] - x[i]).length()).fold(0.0, f32::max);
+    assert!(moved > 10.0 * ex.max(1e-6), "a 100× looser density bound moved nothing ({moved}): the check is blind");
+    common::assert_clean(&gpu);
+}
+
 /// sim_velocity.comp's static friction, by cases: water the floor pushes keeps no tangential velocity up to μ_s
 /// times that push, faster water slides on unchanged, and a particle off the faces or pulled away is free.
 #[test]

@@ -154,6 +154,42 @@ pub fn wall_friction(u: &SimUniforms, xs: Vec3, mut vel: Vec3, vp: Vec3) -> Vec3
     vel
 }
 
+/// The end every step shares (sim_velocity, sim_vorticity, sim_viscosity): v = (p − x)/Δt with the container's
+/// static friction (`v_pred`: the velocity after gravity), then vorticity confinement and XSPH over `lists`.
+fn end_of_step(u: &SimUniforms, lists: &[Vec<usize>], x: &[Vec3], p: &[Vec3], v: &[Vec3]) -> Vec<Vec3> {
+    let n = x.len();
+    let dt = u.lo_dt[3];
+    let vol = u.kern[3];
+    let vel: Vec<Vec3> = (0..n).map(|i| wall_friction(u, p[i], (p[i] - x[i]) / dt, v[i])).collect();
+    let omega: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let mut w = Vec3::ZERO;
+            for &j in &lists[i] {
+                w += (vel[j] - vel[i]).cross(-spiky_grad(u, p[i] - p[j]));
+            }
+            w * vol
+        })
+        .collect();
+    let out_v: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let (mut eta, mut xsph) = (Vec3::ZERO, Vec3::ZERO);
+            for &j in &lists[i] {
+                let r = p[i] - p[j];
+                eta += (omega[j].length() - omega[i].length()) * spiky_grad(u, r);
+                xsph += (vel[j] - vel[i]) * poly6(u, r.length_squared());
+            }
+            eta *= vol;
+            let mut vi = vel[i] + u.visc[0] * vol * xsph;
+            let le = eta.length();
+            if le > 1e-9 && u.visc[1] > 0.0 {
+                vi += dt * u.visc[1] * (eta / le).cross(omega[i]);
+            }
+            vi
+        })
+        .collect();
+    out_v
+}
+
 /// One step of `iterations` solver iterations from positions `x` and velocities `v`: the new positions,
 /// velocities and the densities of the last iteration.
 pub fn step(
@@ -204,32 +240,112 @@ pub fn step(
             })
             .collect();
     }
-    let vel: Vec<Vec3> = (0..n).map(|i| wall_friction(u, p[i], (p[i] - x[i]) / dt, v[i])).collect();
-    let omega: Vec<Vec3> = (0..n)
-        .map(|i| {
-            let mut w = Vec3::ZERO;
-            for &j in &lists[i] {
-                w += (vel[j] - vel[i]).cross(-spiky_grad(u, p[i] - p[j]));
-            }
-            w * vol
-        })
-        .collect();
-    let out_v = (0..n)
-        .map(|i| {
-            let (mut eta, mut xsph) = (Vec3::ZERO, Vec3::ZERO);
-            for &j in &lists[i] {
-                let r = p[i] - p[j];
-                eta += (omega[j].length() - omega[i].length()) * spiky_grad(u, r);
-                xsph += (vel[j] - vel[i]) * poly6(u, r.length_squared());
-            }
-            eta *= vol;
-            let mut vi = vel[i] + u.visc[0] * vol * xsph;
-            let le = eta.length();
-            if le > 1e-9 && u.visc[1] > 0.0 {
-                vi += dt * u.visc[1] * (eta / le).cross(omega[i]);
-            }
-            vi
-        })
-        .collect();
+    let out_v = end_of_step(u, &lists, x, &p, &v);
     (p, out_v, density)
+}
+
+/// What a DFSPH solve did ([`dfsph_step`]): corrections per solve (divergence-free, constant-density) and the
+/// average error each ended at.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DfsphSolves {
+    /// Corrections of the divergence-free and the constant-density solve (the warm start not counted).
+    pub corrections: [u32; 2],
+    /// The average error each solve ended at.
+    pub error: [f32; 2],
+}
+
+/// One DFSPH step (src/sim/dfsph.rs and the sim_dfsph_*.comp shaders; Bender & Koschier 2017) from rest of the
+/// warm starts (a first step: no κ carried), with brute-force neighbour lists at x: v* = v + Δt g; ρ̂ and the
+/// factor; the divergence-free solve then the constant-density solve, each a Jacobi iteration of κ from the
+/// density change rate until the average error is within `eta` (fractions: divergence, density) after at least
+/// 1 and 2 corrections, or `max_iter` corrections; x + Δt v with the collisions; then PBF's end of step. Returns
+/// the new positions, velocities, the densities (kg/m³, ρ̂ ρ0) and what the solves did.
+pub fn dfsph_step(
+    u: &SimUniforms,
+    sdf: Option<&Sdf>,
+    eta: [f32; 2],
+    max_iter: u32,
+    x: &[Vec3],
+    v: &[Vec3],
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<f32>, DfsphSolves) {
+    let n = x.len();
+    let dt = u.lo_dt[3];
+    let g = v3(u.gravity_mass);
+    let vol = u.kern[3];
+    let v_pred: Vec<Vec3> = v.iter().map(|v| *v + dt * g).collect();
+    let h2 = u.kern[0];
+    let lists: Vec<Vec<usize>> =
+        (0..n).map(|i| (0..n).filter(|&j| j != i && (x[i] - x[j]).length_squared() < h2).collect()).collect();
+    // ρ̂ and the factor (sim_dfsph_alpha).
+    let (mut rho, mut factor) = (vec![0.0f32; n], vec![0.0f32; n]);
+    for i in 0..n {
+        let (mut w, mut gsum, mut g2) = (poly6(u, 0.0), Vec3::ZERO, 0.0);
+        for &j in &lists[i] {
+            let r = x[i] - x[j];
+            w += poly6(u, r.length_squared());
+            let gr = vol * spiky_grad(u, r);
+            gsum += gr;
+            g2 += gr.length_squared();
+        }
+        let (fw, gw) = wall_density(u, x[i]);
+        rho[i] = vol * w + fw;
+        let s1 = gsum + gw;
+        let s = s1.length_squared() + g2;
+        factor[i] = if s > 1e-6 { -1.0 / s } else { 0.0 };
+    }
+    let mut vel = v_pred.clone();
+    let mut solves = DfsphSolves::default();
+    for (solve, min_iter) in [(0usize, 1u32), (1, 2)] {
+        // The density change rate and κ (sim_dfsph_rate), the average error.
+        let rate = |vel: &[Vec3]| -> (Vec<f32>, f32) {
+            let mut kappa = vec![0.0f32; n];
+            let mut sum = 0.0f32;
+            for i in 0..n {
+                let mut d = 0.0;
+                for &j in &lists[i] {
+                    d += (vel[i] - vel[j]).dot(spiky_grad(u, x[i] - x[j]));
+                }
+                d = vol * d + vel[i].dot(wall_density(u, x[i]).1);
+                let err = if solve == 1 {
+                    let adv = (rho[i] + dt * d).max(1.0);
+                    kappa[i] = (adv - 1.0) * factor[i] / (dt * dt);
+                    adv - 1.0
+                } else {
+                    let d = if lists[i].len() < 20 { 0.0 } else { d.max(0.0) };
+                    kappa[i] = d * factor[i] / dt;
+                    d * dt
+                };
+                sum += err;
+            }
+            (kappa, sum / n.max(1) as f32)
+        };
+        // One Jacobi correction (sim_dfsph_update).
+        let update = |vel: &mut Vec<Vec3>, kappa: &[f32]| {
+            let dv: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let mut s = Vec3::ZERO;
+                    for &j in &lists[i] {
+                        s += (kappa[i] + kappa[j]) * spiky_grad(u, x[i] - x[j]);
+                    }
+                    dt * (vol * s + kappa[i] * wall_density(u, x[i]).1)
+                })
+                .collect();
+            for (v, d) in vel.iter_mut().zip(dv) {
+                *v += d;
+            }
+        };
+        let (mut kappa, mut avg) = rate(&vel);
+        let mut done = 0u32;
+        while !((avg <= eta[solve] && done >= min_iter) || done >= max_iter) {
+            update(&mut vel, &kappa);
+            done += 1;
+            (kappa, avg) = rate(&vel);
+        }
+        solves.corrections[solve] = done;
+        solves.error[solve] = avg;
+    }
+    let p: Vec<Vec3> = (0..n).map(|i| collide(u, sdf, x[i] + dt * vel[i])).collect();
+    let out_v = end_of_step(u, &lists, x, &p, &v_pred);
+    let density = rho.iter().map(|r| r * u.solver[0]).collect();
+    (p, out_v, density, solves)
 }
