@@ -103,7 +103,7 @@ const _: () = assert!(LOCAL_1D.is_multiple_of(32));
 /// With `[iso] rest_lanes` = 32, the most queued rays marched by 32 lanes each; more are marched by 8 each. On an
 /// H100 (`first_steps` 4) 32 lanes won up to 18.9 k rays (the 59k still frame at 1080p: `iso/rest` 0.108 against
 /// 0.141 ms) and 8 won from 41.7 k (the worst case at 540p: 0.049 against 0.095; the 59k sequence at 1080p, 56 k
-/// rays: 0.175 against 0.222): benches/results/nvidia-h100-iso-lanes32-10b74e8/.
+/// rays: 0.175 against 0.222): the nvidia-h100-iso-lanes32-10b74e8 run (in git history)
 pub const ISO_WIDE_SPLIT: u32 = 32768;
 /// Work groups per row of the `iso` cast's first dispatch, one per tile that holds fluid (iso_tiles.comp): the
 /// rows keep the dispatch within every device's 65,535 work groups per dimension (a 4K output has 129,600 tiles),

@@ -59,7 +59,7 @@ pub struct Params {
     /// first dispatch does not wait on one long ray among short ones (0: one dispatch runs every ray to the
     /// end). The same surface with `rest_lanes` = 1; only the cost changes (see iso_cast.glsl). 4 by default:
     /// on an H100 the `iso` pass 0.47 → 0.43 ms on the 59k sequence at 1080p and 0.36 → 0.30 at 540p against 8
-    /// (benches/results/nvidia-h100-iso-rest-lanes-*), on lavapipe within its noise.
+    /// (the nvidia-h100-iso-rest-lanes runs, in git history), on lavapipe within its noise.
     pub first_steps: u32,
     /// Iso-surface: lanes that march one queued ray together in the cast's second dispatch (1, 8 or 32). With
     /// more than one, each step samples that many consecutive smallest steps at once and the ray moves to the
