@@ -813,6 +813,11 @@ fn scene_file_errors_name_the_key() {
         (r#"{"Configuration": {"particleRadius": 0.05, "DFSPH": {"maxError": -0.1}}}"#, "DFSPH.maxError"),
         (r#"{"Configuration": {"particleRadius": 0.05, "cflMethod": 7}}"#, "Configuration.cflMethod"),
         (r#"{"Configuration": {"particleRadius": 0.05, "stopAt": 1e9}}"#, "Configuration.stopAt"),
+        // A wall whose mesh is missing is named, not "no container".
+        (
+            r#"{"Configuration": {"particleRadius": 0.05}, "RigidBodies": [{"geometryFile": "nothere/Wall.obj", "isWall": true}], "FluidBlocks": [{"start": [0,0,0], "end": [1,1,1]}]}"#,
+            "RigidBodies[0].geometryFile: the wall nothere/Wall.obj does not exist",
+        ),
         (
             r#"{"Configuration": {"particleRadius": 0.05, "cflMethod": 0, "timeStepSize": 1e-12}}"#,
             "Configuration.timeStepSize",

@@ -374,6 +374,23 @@ impl SceneFile {
             warn("RigidBodies".into(), &format!("{s}: ignored"));
         }
         let Some(&container) = sj.containers.first() else {
+            // Say what the file has instead: a wall given as another mesh, or one whose file is missing.
+            let bodies = top.get("RigidBodies").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+            for (i, b) in bodies.iter().enumerate() {
+                let wall = b.get("isWall").and_then(Value::as_bool) == Some(true)
+                    || b.get("mapInvert").and_then(Value::as_bool) == Some(true);
+                let Some(file) = b.get("geometryFile").and_then(Value::as_str).filter(|_| wall) else { continue };
+                let on_disk = path.parent().unwrap_or(Path::new("")).join(file);
+                let why = if on_disk.exists() {
+                    format!("the wall {file} is not a UnitBox.obj: only an axis-aligned box container is read here")
+                } else {
+                    format!(
+                        "the wall {file} does not exist ({}), and only a UnitBox.obj container is read here",
+                        on_disk.display()
+                    )
+                };
+                return Err(invalid(path, &format!("RigidBodies[{i}].geometryFile"), &why));
+            }
             return Err(invalid(path, "RigidBodies", "no container (a UnitBox.obj with isWall or mapInvert)"));
         };
         if sj.containers.len() > 1 {
