@@ -1,7 +1,10 @@
 #version 460
 //! splat — nearest linear eye depth of all particles (van der Laan et al. 2009; Moritz §3.2.1), as a COMPUTE
 //! splat: one thread per particle walks the pixels its sphere covers and keeps the minimum with a 32-bit
-//! atomicMin on the float's bits (positive floats order like their bit patterns; Schütz et al. 2021).
+//! atomicMin on the float's bits (positive floats order like their bit patterns; Schütz et al. 2021). Where
+//! spheres are large (pc.lanes > 1), pc.lanes consecutive invocations share a sphere, each taking every
+//! lanes-th pixel, so a GPU's warp is not held by one thread's long walk; the dispatch is then 2D (rows of
+//! pc.row invocations) and the depth is the same.
 //! No gl_FragDepth, so no early-Z to lose, and no fragment-shader arithmetic (slow on some GPUs).
 //! Pixels are walked tile by tile (8×8); with pc.cull a tile is skipped when `splat_cull`'s occlusion bound
 //! proves the sphere hidden there (a software Hi-Z test; the output is unchanged).
@@ -35,6 +38,8 @@ layout(push_constant) uniform Push {
     uint ellipsoid; // 1: draw each particle's anisotropic kernel (then no cull)
     float stretch;  // the kernels' longest axis relative to ∛det M (bounds the screen rectangle)
     uint back;      // 1: also the farthest exit per pixel (never with cull)
+    uint lanes;     // consecutive invocations per sphere (1: one thread walks its pixels)
+    uint row;       // invocations per row of the dispatch grid (the linear index spans rows)
 } pc;
 
 mat3 ell_m;      // the ellipsoid's matrix in view space (pc.ellipsoid = 1)
@@ -55,12 +60,14 @@ void splat_pixel(ivec2 q, vec3 c, float r, vec2 size, float F, float near) {
     if (pc.back != 0u && imageLoad(back_bits, q).x < dout) imageAtomicMax(back_bits, q, dout);
 }
 
-/// Sphere i drawn; its work: (sphere–pixel tests, tiles skipped).
-uvec2 splat_sphere(uint i) {
+/// Sphere i drawn by lane `lane` of its `pc.lanes` (each takes every lanes-th pixel of the sphere's rectangle,
+/// tile by tile with the cull); its work: (sphere–pixel tests, tiles skipped, drawn) — tiles and drawn counted
+/// by lane 0 alone.
+uvec3 splat_sphere(uint i, uint lane) {
     // The depth splat may use a larger sphere than the particle (radius_scale): SPH surfaces lie about half a
     // radius outside the particle centres' spheres, and the larger spheres close gaps between particles.
     Particle pt = load_particle(particles[i], pc.radius_scale);
-    if (pt.isolated) return uvec2(0u);
+    if (pt.isolated) return uvec3(0u);
     vec3 c = pt.c;
     float r = pt.r;
     if (pc.ellipsoid != 0u) {
@@ -70,18 +77,23 @@ uvec2 splat_sphere(uint i) {
     float F = focal_for(size.y);
     float near = frame.proj.w;
     ivec2 lo, hi;
-    if (!sphere_bounds(c, r, size, F, near, lo, hi)) return uvec2(0u);
+    if (!sphere_bounds(c, r, size, F, near, lo, hi)) return uvec3(0u);
     // Bound the work of one thread (a sphere swallowing the camera); such a sphere is clipped, not dropped.
-    if (over_budget(lo, hi)) return uvec2(0u);
+    if (over_budget(lo, hi)) return uvec3(0u);
+    uint L = max(pc.lanes, 1u);
     if (pc.cull == 0u) {
-        for (int y = lo.y; y <= hi.y; ++y) {
-            for (int x = lo.x; x <= hi.x; ++x) splat_pixel(ivec2(x, y), c, r, size, F, near);
+        uint w = uint(hi.x - lo.x + 1), n = w * uint(hi.y - lo.y + 1);
+        uint tests = 0u;
+        for (uint k = lane; k < n; k += L) {
+            splat_pixel(lo + ivec2(k % w, k / w), c, r, size, F, near);
+            ++tests;
         }
-        return uvec2(uint(hi.x - lo.x + 1) * uint(hi.y - lo.y + 1), 0u);
+        return uvec3(tests, 0u, lane == 0u && n > 0u ? 1u : 0u);
     }
     int T = int(pc.tile);
     uint nearest = floatBitsToUint(max(-c.z - r, near));
     uint tests = 0u, skipped = 0u;
+    bool drawn = false;
     for (int ty = lo.y / T; ty <= hi.y / T; ++ty) {
         for (int tx = lo.x / T; tx <= hi.x / T; ++tx) {
             // Hidden in this whole tile: every pixel already ends at or before the bound.
@@ -90,13 +102,15 @@ uvec2 splat_sphere(uint i) {
                 continue;
             }
             ivec2 a = max(lo, ivec2(tx, ty) * T), b = min(hi, ivec2(tx, ty) * T + T - 1);
-            for (int y = a.y; y <= b.y; ++y) {
-                for (int x = a.x; x <= b.x; ++x) splat_pixel(ivec2(x, y), c, r, size, F, near);
+            uint w = uint(b.x - a.x + 1), n = w * uint(b.y - a.y + 1);
+            for (uint k = lane; k < n; k += L) {
+                splat_pixel(a + ivec2(k % w, k / w), c, r, size, F, near);
+                ++tests;
             }
-            tests += uint(b.x - a.x + 1) * uint(b.y - a.y + 1);
+            drawn = true;
         }
     }
-    return uvec2(tests, skipped);
+    return uvec3(tests, lane == 0u ? skipped : 0u, lane == 0u && drawn ? 1u : 0u);
 }
 
 // The work group's counts, added to the pass's with one atomic each per group: an atomic per thread on the
@@ -106,14 +120,14 @@ shared uint s_work[3];
 void main() {
     if (gl_LocalInvocationIndex < 3u) s_work[gl_LocalInvocationIndex] = 0u;
     barrier();
-    uint i = gl_GlobalInvocationID.x;
-    uvec2 w = i < pc.count ? splat_sphere(i) : uvec2(0u);
+    uint g = gl_GlobalInvocationID.y * pc.row + gl_GlobalInvocationID.x;
+    uint L = max(pc.lanes, 1u);
+    uint i = g / L;
+    uvec3 w = i < pc.count ? splat_sphere(i, g % L) : uvec3(0u);
     // Counted only in a frame that asks (work_count.glsl's WORK_COUNTING).
-    if (!WORK_COUNTING) w = uvec2(0u);
-    if (w.x > 0u) {
-        atomicAdd(s_work[0], w.x);
-        atomicAdd(s_work[1], 1u);
-    }
+    if (!WORK_COUNTING) w = uvec3(0u);
+    if (w.x > 0u) atomicAdd(s_work[0], w.x);
+    if (w.z > 0u) atomicAdd(s_work[1], 1u);
     if (w.y > 0u) atomicAdd(s_work[2], w.y);
     barrier();
     if (gl_LocalInvocationIndex < 3u && s_work[gl_LocalInvocationIndex] > 0u)

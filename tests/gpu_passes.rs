@@ -1571,6 +1571,39 @@ fn the_splat_counts_its_sphere_pixel_tests() {
     assert_clean(&gpu);
 }
 
+/// The compute splat's lanes per large sphere (`[splat] lanes`: 32 by default on GPUs, 1 on lavapipe) change who
+/// walks a sphere's pixels, not the depth: on the culled close-up block the depth of 1, 8 and 32 lanes is
+/// bit-identical, and so are the work counts (tests, spheres, tiles skipped). Control: a larger `radius_scale`
+/// changes the depth (the comparison sees a change).
+#[test]
+fn the_splat_lanes_per_sphere_change_nothing_but_time() {
+    let gpu = gpu();
+    let (g, v) = splat_scene("block", 4000, 320, 240, 0.0, 0.45);
+    let run = |lanes: u32, scale: f32| {
+        let mut s = settings(g.radius);
+        s.filter.method = Filter::None;
+        s.splat.lanes = lanes;
+        s.splat.radius_scale = scale;
+        let mut r = Renderer::new(&gpu).unwrap();
+        r.keep_raw_depth = true;
+        r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
+        render_counted(&mut r, &v, &s).unwrap();
+        let t = r.targets.as_ref().unwrap();
+        (read_f32(&gpu, &t.depth).unwrap(), t.splat_work(&gpu).unwrap())
+    };
+    let scale = settings(g.radius).splat.radius_scale;
+    let (one, w1) = run(1, scale);
+    assert!(w1.tiles_skipped > 0, "the close-up must take the culled path: {w1:?}");
+    for lanes in [8, 32] {
+        let (d, w) = run(lanes, scale);
+        assert!(d.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()), "{lanes} lanes changed the depth");
+        assert_eq!((w.tests, w.spheres, w.tiles_skipped), (w1.tests, w1.spheres, w1.tiles_skipped), "{lanes} lanes");
+    }
+    let (bigger, _) = run(32, scale * 1.2);
+    assert!(bigger.iter().zip(&one).any(|(a, b)| a.to_bits() != b.to_bits()), "the comparison cannot see a change");
+    assert_clean(&gpu);
+}
+
 #[test]
 fn occlusion_culled_splat_equals_unculled_raster() {
     use meniscus::named::SplatMode;

@@ -47,7 +47,7 @@ impl Technique for Spheres {
         match kernels {
             Some(k) => {
                 let t = f.targets;
-                let spheres = (s.radius, s.splat_scale());
+                let spheres = (s.radius, s.splat_scale(), s.splat.lanes);
                 let kernel = Some((k.aniso, k.stretch));
                 f.passes.splat.record(
                     ctx,
@@ -77,7 +77,7 @@ pub(crate) fn record_splat<'t>(ctx: &mut FrameCtx, f: &SurfaceFrame<'t>) -> Resu
     let (particles, count) = f.particles;
     match s.splat.mode {
         SplatMode::Compute => {
-            let spheres = (s.radius, s.splat_scale());
+            let spheres = (s.radius, s.splat_scale(), s.splat.lanes);
             let back = t.depth_back.as_ref().zip(t.depth_back_tiles.as_ref());
             let tiles = (&t.depth_tiles, &t.splat_work);
             Ok(p.splat.record(ctx, f.frame, particles, count, &t.depth, back, tiles, spheres, None, f.info))
