@@ -3,7 +3,7 @@
 //! and `--timings` report, and the naming rule of a pass's parts. `gpu::timer` measures; this reads.
 
 /// Most scopes a frame can open. A DFSPH step times each of its two solves whole (about 14 scopes per step), but
-/// with `MENISCUS_PARTS=1` every correction it recorded ahead (three dispatches each, up to
+/// with `bench --parts` every correction it recorded ahead (three dispatches each, up to
 /// `max_solver_iterations` per solve): a frame of eight steps at 20 corrections then opens about 1,100 scopes and
 /// at 100 about 4,900; a frame that opens more is not timed at all (its passes read as none) rather than timed
 /// in part.

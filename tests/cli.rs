@@ -907,3 +907,29 @@ fn the_cli_reference_is_current() {
          `tools/dev cli-reference > docs/cli.md`)"
     );
 }
+
+/// `bench --parts` times each part of a pass on its own (an API flag, `FrameRequest::time_parts`, not the
+/// environment): the JSON lists `splat/clear` and the like only when asked. Control: the same run without the
+/// flag lists none.
+#[test]
+fn bench_parts_are_a_flag() {
+    let args = ["--scenes", "drop:2000", "--resolutions", "64x48", "--warmup", "1", "--frames", "1"];
+    let parts_of = |json: &serde_json::Value| -> Vec<String> {
+        json["entries"][0]["passes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p[0].as_str().unwrap().to_string())
+            .filter(|n| n.contains('/'))
+            .collect()
+    };
+    let (o, plain) = bench_json("parts-off", &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut with = args.to_vec();
+    with.push("--parts");
+    let (o, timed) = bench_json("parts-on", &with);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(parts_of(&plain), Vec::<String>::new(), "parts timed without --parts");
+    let parts = parts_of(&timed);
+    assert!(parts.iter().any(|p| p == "splat/clear"), "no parts with --parts: {parts:?}");
+}

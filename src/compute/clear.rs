@@ -6,7 +6,7 @@
 //!   transitions to and from the transfer layout), where the same bytes written by a dispatch cost what writing
 //!   them costs;
 //! - on lavapipe the dispatch stores texel by texel (an image store per SIMD lane), where its transfer clear fills
-//!   memory: the wave scene at 960×540 (`MENISCUS_PARTS=1 meniscus bench --scenes wave --quarter-framing
+//!   memory: the wave scene at 960×540 (`meniscus bench --parts --scenes wave --quarter-framing
 //!   --resolutions 960x540`, three alternated pairs, 2026-11-28) — `noise/clear` 3.9–4.6 → 0.47–0.56 ms,
 //!   `splat/clear` 5.0–5.4 → 0.62–0.68 ms (docs/gpu-frame.md).
 //!

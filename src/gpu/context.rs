@@ -58,6 +58,20 @@ pub struct FrameCtx<'t> {
     /// ([`super::pipeline::ProgramCore::pipeline_for`]). Off unless a frame asks
     /// ([`crate::renderer::FrameRequest::count_work`]).
     pub count_work: bool,
+    /// The parts of passes ([`FrameCtx::part`]) are timed on their own scopes in this recording: what each of a
+    /// pass's dispatches costs on a device (every part's timestamps drain the pipeline, so the pass itself
+    /// reads slower then). Off unless a frame or a step asks ([`Measure::time_parts`]).
+    pub time_parts: bool,
+}
+
+/// What a recording measures beside the passes' times: the passes' own work counts and the parts of passes.
+/// The API's measuring hooks (`FrameRequest::measure`, `Simulation::time_parts`, `bench --parts`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Measure {
+    /// The passes count their own work ([`FrameCtx::count_work`]).
+    pub count_work: bool,
+    /// Each part of a pass is timed on its own ([`FrameCtx::time_parts`]).
+    pub time_parts: bool,
 }
 
 impl<'t> FrameCtx<'t> {
@@ -66,13 +80,31 @@ impl<'t> FrameCtx<'t> {
         if let Some(t) = timer.as_deref_mut() {
             t.reset(cmd);
         }
-        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![], count_work: false }
+        FrameCtx {
+            gpu: gpu.clone(),
+            cmd,
+            timer,
+            open: vec![],
+            barrier_batches: 0,
+            touches: vec![],
+            count_work: false,
+            time_parts: false,
+        }
     }
 
     /// Continue a frame in another command buffer: the timer keeps its scopes (it was reset by the frame's
     /// first context, whose command buffer runs earlier on the same queue).
     pub fn continuing(gpu: &Arc<Gpu>, cmd: vk::CommandBuffer, timer: Option<&'t mut Timer>) -> Self {
-        FrameCtx { gpu: gpu.clone(), cmd, timer, open: vec![], barrier_batches: 0, touches: vec![], count_work: false }
+        FrameCtx {
+            gpu: gpu.clone(),
+            cmd,
+            timer,
+            open: vec![],
+            barrier_batches: 0,
+            touches: vec![],
+            count_work: false,
+            time_parts: false,
+        }
     }
 
     /// Derive the barriers for `uses` from each resource's last access, record them in ONE
@@ -185,23 +217,16 @@ impl<'t> FrameCtx<'t> {
         r
     }
 
-    /// A part of the open pass (`name` = "pass/part"), timed on its own scope where the environment sets
-    /// `MENISCUS_PARTS=1` (what a pass's dispatches each cost, on a device; every part's timestamps drain the
-    /// pipeline, so the pass itself reads slower then), else simply `f`. Parts are not passes: frame totals
-    /// and per-queue sums leave them out ([`super::PassTimes::total`], [`is_part`]).
+    /// A part of the open pass (`name` = "pass/part"), timed on its own scope when the recording asks
+    /// ([`FrameCtx::time_parts`]), else simply `f`. Parts are not passes: frame totals and per-queue sums leave
+    /// them out ([`super::PassTimes::total`], [`is_part`]).
     pub fn part<R>(&mut self, name: &str, f: impl FnOnce(&mut Self) -> R) -> R {
-        if parts_timed() {
+        if self.time_parts {
             self.pass(name, f)
         } else {
             f(self)
         }
     }
-}
-
-/// Whether `MENISCUS_PARTS=1` asks for the parts of passes to be timed ([`FrameCtx::part`]).
-pub fn parts_timed() -> bool {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *ON.get_or_init(|| std::env::var("MENISCUS_PARTS").is_ok_and(|v| v == "1"))
 }
 
 fn image_barrier(img: &Image, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {

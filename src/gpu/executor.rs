@@ -108,12 +108,12 @@ impl SlotCommands {
     /// then the frame's passes through `passes` (one [`Recording`], or the split one: the async part, the fluid,
     /// the shading), then `finish` in the frame's last command buffer (the caller's after-work, the read-back).
     /// The queue segments — which command buffer, on which queue, with what it touched — are assembled here;
-    /// [`Executor::submit_recorded`] submits them. `count_work`: the passes dispatch their counting pipelines
-    /// ([`FrameCtx::count_work`]).
+    /// [`Executor::submit_recorded`] submits them. `measure`: the passes' work counts and parts
+    /// ([`super::context::Measure`]).
     pub fn record<R>(
         &mut self,
         gpu: &Arc<Gpu>,
-        count_work: bool,
+        measure: super::context::Measure,
         upload: impl FnOnce(&mut FrameCtx),
         passes: impl FnOnce(&mut Recording) -> Result<R>,
         finish: impl FnOnce(&mut FrameCtx, &R),
@@ -121,7 +121,7 @@ impl SlotCommands {
         use super::schedule::QueueId;
         if !self.split {
             let mut ctx = FrameCtx::new(gpu, self.cmd, Some(&mut self.timer));
-            ctx.count_work = count_work;
+            (ctx.count_work, ctx.time_parts) = (measure.count_work, measure.time_parts);
             upload(&mut ctx);
             let r = passes(&mut Recording::One(&mut ctx))?;
             finish(&mut ctx, &r);
@@ -137,6 +137,7 @@ impl SlotCommands {
         // The async part's timer starts in the upload's command buffer (it runs first on that queue), so a
         // simulation step recorded there is timed with the async passes.
         let mut up = FrameCtx::new(gpu, compute_cmds[0], Some(ta));
+        up.time_parts = measure.time_parts;
         upload(&mut up);
         let up_touches = std::mem::take(&mut up.touches);
         let ta = up.timer.take().expect("given");
@@ -145,7 +146,7 @@ impl SlotCommands {
         let mut f = FrameCtx::new(gpu, main_cmds[1], Some(tf));
         let mut sh = FrameCtx::new(gpu, main_cmds[2], Some(tsh));
         for c in [&mut a, &mut f, &mut sh] {
-            c.count_work = count_work;
+            (c.count_work, c.time_parts) = (measure.count_work, measure.time_parts);
         }
         let r = passes(&mut Recording::Split { async_part: &mut a, fluid: &mut f, shade: &mut sh })?;
         finish(&mut sh, &r);

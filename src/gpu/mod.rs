@@ -29,7 +29,7 @@ use crate::error::{Error, Result, VkContext};
 use queues::{choose_async_queue, AsyncQueue, QueueRef, Queues};
 
 pub use access::{Access, AccessState};
-pub use context::{FrameCtx, Use};
+pub use context::{FrameCtx, Measure, Use};
 pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, RasterTargets, Res, Shader, Slot};
 pub use resource::{Buffer, Image};
 pub use specialize::WORK_COUNTING_ID;

@@ -24,7 +24,7 @@ impl Renderer {
     /// copy, `record_frame`, the caller's after hook, the final image's read-back; submits (one queue, or the
     /// split frame's segments).
     pub(super) fn record_and_submit(&mut self, req: FrameRequest) -> Result<Submitted> {
-        let FrameRequest { view, settings: s, hooks, readback, binary, count_work } = req;
+        let FrameRequest { view, settings: s, hooks, readback, binary, count_work, time_parts } = req;
         let t0 = std::time::Instant::now();
         let mut host = HostTimes::default();
         let mut lap = {
@@ -192,7 +192,10 @@ impl Renderer {
             }
         };
         let passes = |rec: &mut Recording| Ok(record_frame(rec, &inputs)?.smoothed);
-        let (sm, recorded) = slot.record(&gpu, count_work, upload, passes, |ctx, sm| finish_frame(ctx, *sm))?;
+        let (sm, recorded) =
+            slot.record(&gpu, crate::gpu::Measure { count_work, time_parts }, upload, passes, |ctx, sm| {
+                finish_frame(ctx, *sm)
+            })?;
         self.smoothed = sm;
         host.record = lap();
         let sub = self.executor.submit_recorded(k, recorded, &binary);

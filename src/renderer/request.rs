@@ -171,6 +171,9 @@ pub struct FrameRequest<'a> {
     /// The passes count their own work ([`RendererState::work`] reads it after the frame): off by default,
     /// because the counting sums cost the frame (15–20 % of the noise splat on lavapipe; docs/gpu-frame.md).
     pub count_work: bool,
+    /// Each part of a pass (its dispatches: `noise/scan`, `iso/rest`, …) is timed on its own scope, beside the
+    /// pass; off by default (every part's timestamps drain the pipeline). `bench --parts`.
+    pub time_parts: bool,
 }
 
 impl<'a> FrameRequest<'a> {
@@ -183,6 +186,7 @@ impl<'a> FrameRequest<'a> {
             readback: false,
             binary: Binary::default(),
             count_work: false,
+            time_parts: false,
         }
     }
 
@@ -194,6 +198,11 @@ impl<'a> FrameRequest<'a> {
     /// With the passes counting their own work (for [`RendererState::work`]).
     pub fn count_work(self) -> FrameRequest<'a> {
         FrameRequest { count_work: true, ..self }
+    }
+
+    /// With each part of a pass timed on its own ([`FrameRequest::time_parts`]).
+    pub fn time_parts(self, on: bool) -> FrameRequest<'a> {
+        FrameRequest { time_parts: on, ..self }
     }
 
     /// With the final image copied into host memory.

@@ -34,7 +34,7 @@ pub const STAGE_NAMES: &[&str] =
     &["sim_dfsph_begin", "sim_dfsph_alpha", SOLVE_NAMES[0], SOLVE_NAMES[1], "sim_dfsph_integrate"];
 
 /// The two solves' passes, each timed whole (its warm start, its first evaluation and every correction it
-/// recorded): the divergence-free solve, then the constant-density solve. With `MENISCUS_PARTS=1` their
+/// recorded): the divergence-free solve, then the constant-density solve. With `bench --parts` their
 /// dispatches are timed too, as the parts `…/update`, `…/rate` and `…/check` (summed per name): a timestamp per
 /// dispatch drains lavapipe's pipeline, about 0.1 ms each, and a solve records 3 × `max_solver_iterations`
 /// dispatches, most of which find nothing to do once it converged.

@@ -80,6 +80,9 @@ pub struct Simulation {
     pub params: Params,
     /// Derived constants (of the last recorded frame: with `[sim] adaptive_step` its step changes per frame).
     pub constants: Constants,
+    /// Time each part of a stage on its own in [`Simulation::step_frame`] (DFSPH's every recorded correction:
+    /// `bench --sim … --parts`); off by default.
+    pub time_parts: bool,
     /// The constants with the step chosen at the start (the free-fall bound, or `substeps`).
     initial: Constants,
     /// Per ring slot: the frame's largest speed (f32 bits, host-visible; sim_viscosity's max over its steps).
@@ -188,6 +191,7 @@ impl Simulation {
             })
             .collect::<Result<Vec<_>>>()?;
         let mut sim = Simulation {
+            time_parts: false,
             gpu: gpu.clone(),
             stages: stages::Stages::new(gpu, params.scorr_n, scene.mesh_collider.is_some(), params.vorticity > 0.0)?,
             grid_pass: NeighbourGrid::new(gpu)?,
@@ -556,8 +560,10 @@ impl Simulation {
     pub fn step_frame(&mut self) -> Result<PassTimes> {
         let mut timer = self.timer.take().expect("timer");
         let gpu = self.gpu.clone();
+        let parts = self.time_parts;
         let r = gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, Some(&mut timer));
+            ctx.time_parts = parts;
             self.record_frame(&mut ctx, None)
         });
         let times = r.and_then(|_| timer.read());

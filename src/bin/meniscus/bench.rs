@@ -183,6 +183,15 @@ pub fn start_rss() -> Option<u64> {
     START_RSS.get().copied().flatten()
 }
 
+/// `--parts` for this process's measurements (the frames' `FrameRequest::time_parts`, the steps'
+/// `Simulation::time_parts`); `MENISCUS_PARTS=1` is its older, deprecated spelling.
+pub static PARTS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether `--parts` is on.
+pub fn parts() -> bool {
+    PARTS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// How many frames a measurement renders: warm-up, measured, and whether it then renders as many again with
 /// the renderer's frames in flight (`--in-flight`).
 #[derive(Clone, Copy, Debug)]
@@ -336,7 +345,7 @@ impl Series {
         let t0 = Instant::now();
         for _ in 0..frames.max(1) {
             self.next_particles(r, w)?;
-            pending.push_back(r.submit(FrameRequest::new(&self.view, &self.s))?);
+            pending.push_back(r.submit(FrameRequest::new(&self.view, &self.s).time_parts(parts()))?);
             if pending.len() >= slots {
                 if let Some(sub) = pending.pop_front() {
                     r.finish(sub)?;
@@ -355,7 +364,7 @@ impl Series {
         self.next_particles(r, w)?;
         let upload_ms = t_upload.elapsed().as_secs_f64() * 1e3;
         let t0 = Instant::now();
-        let sub = r.submit(FrameRequest::new(&self.view, &self.s))?;
+        let sub = r.submit(FrameRequest::new(&self.view, &self.s).time_parts(parts()))?;
         let spans = r.spans(sub)?;
         let cpu_ms = t0.elapsed().as_secs_f64() * 1e3;
         let h = r.state().host_times();
@@ -683,6 +692,11 @@ pub struct BenchArgs {
     /// sustains, the slower of the host and the GPU.
     #[arg(long = "in-flight")]
     in_flight: bool,
+    /// Also time each part of a pass on its own (its dispatches: `noise/scan`, `iso/rest`, DFSPH's every recorded
+    /// correction, …), in the table and the JSON beside the pass. Every part's timestamps drain the GPU's
+    /// pipeline, so the passes themselves read slower: measure parts apart from frame times.
+    #[arg(long)]
+    parts: bool,
     /// Particle radius for file workloads (default: estimated from the spacing).
     #[arg(long, allow_negative_numbers = true)]
     radius: Option<f32>,
@@ -897,6 +911,11 @@ fn overlap_report(entries: &[Entry]) -> String {
 /// Run the benchmark.
 pub fn run(a: &BenchArgs) -> Result<()> {
     note_start_rss();
+    let env_parts = std::env::var("MENISCUS_PARTS").is_ok_and(|v| v == "1");
+    if env_parts {
+        eprintln!("warning: MENISCUS_PARTS=1 is deprecated: it is `bench --parts` now");
+    }
+    PARTS.store(a.parts || env_parts, std::sync::atomic::Ordering::Relaxed);
     use meniscus::output::FileKind;
     if a.sweep.is_none() && a.mesh.is_none() && a.chart.is_some() {
         bail!("--chart applies to a sweep or --mesh: add --sweep particles (or pixels), or --mesh FILE");

@@ -99,6 +99,7 @@ pub fn run(
     let frames = frames.max(1);
     // The solver alone.
     let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
+    sim.time_parts = crate::bench::parts();
     if with_diffuse {
         sim.set_diffuse(Some(&base.diffuse))?;
     }
@@ -185,7 +186,7 @@ pub fn run(
                 }
             };
             let hooks = Hooks { produce: Some(&step), ..Default::default() };
-            let sub = r.submit(FrameRequest::new(&view, &s).hooks(hooks))?;
+            let sub = r.submit(FrameRequest::new(&view, &s).hooks(hooks).time_parts(crate::bench::parts()))?;
             let spans = r.spans(sub)?;
             if let Some(e) = err.into_inner() {
                 return Err(e.into());

@@ -350,7 +350,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     if !runs.is_empty() && med.0.is_empty() {
         eprintln!(
             "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time (with \
-             MENISCUS_PARTS=1 DFSPH times every correction it may need; fewer [sim] max_solver_iterations or substeps \
+             with parts timed DFSPH times every correction it may need; fewer [sim] max_solver_iterations or substeps \
              fit)",
             meniscus::timing::MAX_SCOPES
         );

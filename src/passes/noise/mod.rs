@@ -148,7 +148,8 @@ pub struct SpritePush {
 
 /// The tiled splat bins only sprites of more texels than this; smaller ones are splatted by their own thread
 /// with atomics (a tile's work group tests every sprite of the tile at all its texels: worth it for a sprite
-/// hundreds of texels across, not for one a few across). `MENISCUS_NOISE_SMALL` overrides it, for measuring.
+/// hundreds of texels across, not for one a few across). 64 against 16, 256 and 1,024 on an H100:
+/// docs/surface-detail.md.
 pub const SMALL_SPRITE: u32 = 64;
 
 /// Whether this device splats the noise through tiles (noise_bin, noise_scan, noise_gather: each tile's texels
@@ -411,8 +412,7 @@ impl Noise {
                 args: ComputeProgram::new(gpu, &ARGS)?,
             }))
         };
-        let small = std::env::var("MENISCUS_NOISE_SMALL").ok().and_then(|v| v.parse().ok()).unwrap_or(SMALL_SPRITE);
-        Ok(Noise { splat, small, clear: Clear::new(gpu)?, resolve: ComputeProgram::new(gpu, &RESOLVE)? })
+        Ok(Noise { splat, small: SMALL_SPRITE, clear: Clear::new(gpu)?, resolve: ComputeProgram::new(gpu, &RESOLVE)? })
     }
 
     /// Whether this pass splats through tiles (its targets' [`NoiseTargets::reserve`] takes it).
