@@ -134,7 +134,7 @@ pub struct Settings {
     pub filter: crate::passes::filter::Params,
     /// `[normals]`: discontinuities.
     pub normals: crate::passes::normals::Params,
-    /// `[noise]`: the patent's waves and foam on the surface.
+    /// `[noise]`: the patent's waves and whitecaps tint on the surface (the diffuse particles' foam is `[diffuse]`).
     pub noise: crate::passes::noise::Params,
     /// `[diffuse]`: spray, foam and bubbles — how they are generated and drawn.
     pub diffuse: crate::diffuse::params::Params,

@@ -18,7 +18,7 @@ fn spacing_of_a_grid() {
 }
 
 #[test]
-fn isolated_particles_are_spray() {
+fn isolated_particles_are_marked_isolated() {
     let mut pos = vec![];
     for z in 0..8 {
         for y in 0..8 {

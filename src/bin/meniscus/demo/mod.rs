@@ -56,7 +56,7 @@ C: print the camera as a --camera argument (stdout)
 Space: play/pause | Left/Right: step a frame | Up/Down: speed x2 / /2 | L: loop
 1 final | 2 raw depth | 3 smoothed depth | 4 thickness | 5 normals | 6 SSR | 7 particles
 B: particle colour by speed / density / height
-F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | N: noise and foam on/off | O: next preset
+F: next filter | I: spheres / iso-surface / mesh | G: fluid scale 1 / 0.5 / 0.25 | X: SSR on/off | N: noise (waves, whitecaps) on/off | O: next preset
 K: spray, foam and bubbles (diffuse particles) on/off
 V: vsync on/off | P: screenshot (PNG) | M: record a movie on/off (--record FILE, else meniscus-recording-NNNN.mp4) | H: help on/off | Esc: quit
 --sim: Space pause | Right: one frame | Backspace: restart | hold Ctrl + move the mouse: push the water";
