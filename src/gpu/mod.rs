@@ -111,6 +111,9 @@ pub struct DeviceInfo {
     pub int64_atomics: bool,
     /// pipelineStatisticsQuery enabled: `bench` counts each pass's compute invocations.
     pub pipeline_statistics: bool,
+    /// The device offers VK_EXT_mesh_shader (not enabled: reported by `meniscus info --device`, for a mesh
+    /// surface drawn by mesh shaders straight from the field).
+    pub mesh_shader: bool,
 }
 
 impl DeviceInfo {
@@ -494,6 +497,7 @@ impl Gpu {
             max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
             int64_atomics: false,
             pipeline_statistics: false,
+            mesh_shader: false,
         };
 
         // Features: synchronization2 and dynamic rendering (1.3), demote-to-helper (shaderc turns `discard`
@@ -549,6 +553,7 @@ impl Gpu {
         // is defined, so the per-queue spans of a split frame compare on one clock (the union, the overlap).
         let available = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
         let has = |n: &std::ffi::CStr| available.iter().any(|e| e.extension_name_as_c_str() == Ok(n));
+        info.mesh_shader = has(ash::ext::mesh_shader::NAME);
         // EXT first: the same feature, and validation layers older than the KHR promotion (Debian 12's 1.3.239)
         // warn about the KHR name ("not supported by this layer"), which fails a --validation run.
         if has(ash::ext::calibrated_timestamps::NAME) {

@@ -153,6 +153,10 @@ fn device(filter: Option<String>) -> Result<()> {
         "pipeline statistics: {} (bench's per-pass compute invocations)",
         if i.pipeline_statistics { "enabled" } else { "not available" }
     );
+    println!(
+        "mesh shaders: {} (VK_EXT_mesh_shader; not used yet)",
+        if i.mesh_shader { "offered" } else { "not offered" }
+    );
     // What a default frame holds on this device: every allocation by name (the renderer's images, the particle
     // buffer, the iso grid and the smoothed field's lattice).
     let g = scene::procedural::generate("wave", 143_944)?;
