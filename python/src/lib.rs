@@ -395,12 +395,10 @@ impl Simulation {
             }
         }
         // The pressure solver (`[sim] solver` of the settings file otherwise).
-        params.solver = match solver {
-            None => params.solver,
-            Some("pbf") => meniscus::sim::params::Solver::Pbf,
-            Some("dfsph") => meniscus::sim::params::Solver::Dfsph,
-            Some(other) => return Err(PyValueError::new_err(format!("solver {other:?}: \"pbf\" or \"dfsph\""))),
-        };
+        if let Some(name) = solver {
+            params.solver = meniscus::named::from_name::<meniscus::sim::params::Solver>(name)
+                .map_err(|e| PyValueError::new_err(format!("solver {name:?}: {e}")))?;
+        }
         // The step re-chosen every frame (`[sim] adaptive_step`, a scene file's cflMethod otherwise).
         if let Some(a) = adaptive_step {
             params.adaptive_step = a;

@@ -70,24 +70,20 @@ pub struct Params {
     pub max_solver_iterations: u32,
 }
 
-/// The pressure solver of a [`Simulation`] (`[sim] solver`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Solver {
-    /// Position Based Fluids (Macklin & Müller 2013): a fixed iteration count.
-    #[default]
-    Pbf,
-    /// Divergence-free SPH (Bender & Koschier 2015): two velocity solves to error bounds.
-    Dfsph,
+crate::named::named_enum! {
+    /// The pressure solver of a [`Simulation`] (`[sim] solver`, `sim --solver`, Python's `solver=`): one name
+    /// everywhere, from this declaration.
+    pub enum Solver {
+        /// Position Based Fluids (Macklin & Müller 2013): a fixed iteration count.
+        Pbf = "pbf",
+        /// Divergence-free SPH (Bender & Koschier 2015): two velocity solves to error bounds.
+        Dfsph = "dfsph",
+    }
 }
 
-impl Solver {
-    /// The name in settings, on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Solver::Pbf => "pbf",
-            Solver::Dfsph => "dfsph",
-        }
+impl Default for Solver {
+    fn default() -> Self {
+        Solver::Pbf
     }
 }
 

@@ -46,8 +46,8 @@ pub struct SimArgs {
     pub iterations: Option<u32>,
     /// The pressure solver: pbf (Position Based Fluids, the default) or dfsph (Divergence-free SPH, iterated to
     /// `[sim] max_density_error` and `max_divergence_error`); also `[sim] solver` in a settings file.
-    #[arg(long, value_parser = ["pbf", "dfsph"])]
-    pub solver: Option<String>,
+    #[arg(long, value_parser = crate::args::named::<meniscus::sim::params::Solver>())]
+    pub solver: Option<meniscus::sim::params::Solver>,
     /// A closed triangle mesh (OBJ, world coordinates) the water cannot enter; water that starts inside it is
     /// removed. The export's scene.json lists it, so `render` of the export draws it.
     #[arg(long, value_name = "FILE.obj")]
@@ -88,10 +88,8 @@ impl SimArgs {
         if self.adaptive_step {
             p.adaptive_step = true;
         }
-        match self.solver.as_deref() {
-            Some("dfsph") => p.solver = meniscus::sim::params::Solver::Dfsph,
-            Some(_) => p.solver = meniscus::sim::params::Solver::Pbf,
-            None => {}
+        if let Some(solver) = self.solver {
+            p.solver = solver;
         }
         if self.iterations.is_some() && p.solver == meniscus::sim::params::Solver::Dfsph {
             bail!(
