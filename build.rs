@@ -146,6 +146,10 @@ fn main() {
                 let text = if *value > i32::MAX as u32 { format!("{value:#x}u") } else { value.to_string() };
                 opts.add_macro_definition(name, Some(&text));
             }
+            for (name, value) in shader_constants::SHADER_CONSTANTS_F32 {
+                // A float literal GLSL reads as float ("4.0", not "4").
+                opts.add_macro_definition(name, Some(&format!("{value:?}")));
+            }
             if !define.is_empty() {
                 opts.add_macro_definition(define, Some("1"));
             }

@@ -16,7 +16,6 @@
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 3) writeonly buffer Aniso { vec4 aniso[]; };
 
-const int JACOBI_SWEEPS = 6;
 
 /// Eigenvalues (the diagonal of `a` on return) and eigenvectors (the columns of v, v[row][col]).
 void sym_eigen(inout float a[3][3], out float v[3][3]) {

@@ -34,7 +34,7 @@ layout(push_constant) uniform Push {
     uint indirect;      // 1: the diffuse particles follow a header written on the GPU (x: groups, w: their count)
 } pc;
 
-const float UNITS = 4096.0;
+const float UNITS = DIFFUSE_UNITS;
 const uint BUBBLE = 2u;
 
 vec2 to_pixel(vec3 c, vec2 size, float F) {

@@ -6,7 +6,6 @@
 //! CPU reference: VolumeShape in src/field/iso/mod.rs.
 //! The including shader defines ISO_TABLE(i) → uint, the table's entry i.
 
-#define ISO_STORE 10
 #define ISO_STORE_VOXELS (ISO_STORE * ISO_STORE * ISO_STORE)
 const uint ISO_NONE = 0xffffffffu;
 /// A table entry for a marked brick the pool had no room for (iso_volume's ALLOC): read as 0 like an unmarked

@@ -15,8 +15,8 @@
 //! velocity changes faster than `threshold` (eq. 17, as a smooth ramp from ½ to 1½ of the threshold so a
 //! particle near it does not flicker between two levels).
 
-/// Depth below the surface, in falloffs, past which a particle adds nothing (see noise.comp).
-#define NOISE_DEEP 4.0
+// NOISE_DEEP (depth below the surface, in falloffs, past which a particle adds nothing; see noise.comp) and
+// NOISE_2D_RMS are shader_constants (src/shader_constants.rs), defined by build.rs.
 
 /// Depth below the surface, in falloffs, past which a particle of amplitude `amp` adds nothing: its term
 /// amp · exp(−2q) · n · exp(−below²) (|n| < 2) is then under half a fixed-point unit (2^−16 radii) and rounds to 0,
@@ -81,9 +81,8 @@ uint noise_hash(uint x) {
     return x;
 }
 
-/// The 2D noise's scale: its RMS (0.3045 over the lattice) brought to the 3D gradient noise's slice (0.2698), so
-/// the amplitudes `calm` and `turbulent` keep their meaning.
-#define NOISE_2D_RMS 0.886
+// The 2D noise's scale NOISE_2D_RMS: its RMS (0.3045 over the lattice) brought to the 3D gradient noise's slice
+// (0.2698), so the amplitudes `calm` and `turbulent` keep their meaning.
 
 /// A lattice corner's gradient, one of the four diagonals (±1, ±1) chosen by the hash, dotted with the offset f.
 float noise_grad(uint h, vec2 f) {

@@ -127,6 +127,25 @@ pub const ISO_VOLUME_FIX_BITS: u32 = 20;
 pub const ISO_VOLUME_BRICK: u32 = 8;
 const _: () = assert!(ISO_VOLUME_BRICK == 8);
 
+/// Voxels per edge of a brick as stored (the brick and a one-voxel apron each side: ISO_VOLUME_BRICK + 2), the
+/// unit of iso_volume.glsl's store index.
+pub const ISO_STORE: u32 = ISO_VOLUME_BRICK + 2;
+/// Jacobi sweeps of the 3×3 symmetric eigen-decomposition of the anisotropic kernels (anisotropy.comp and
+/// `field::iso::sym_eigen`: converges to float precision in 4–5).
+pub const JACOBI_SWEEPS: u32 = 6;
+
+/// Float constants shared by Rust and GLSL (build.rs defines them as float literals).
+/// The noise's depth below the surface, in falloffs, past which a particle adds nothing (noise.glsl).
+pub const NOISE_DEEP: f32 = 4.0;
+/// The 2D noise's scale: its RMS (0.3045 over the lattice) brought to the 3D gradient noise's slice (0.2698).
+pub const NOISE_2D_RMS: f32 = 0.886;
+/// Fixed-point units of the diffuse pass's coverage images per unit of coverage (diffuse.comp, passes::diffuse).
+pub const DIFFUSE_UNITS: f32 = 4096.0;
+
+/// Every float constant above, by its GLSL name.
+pub const SHADER_CONSTANTS_F32: &[(&str, f32)] =
+    &[("NOISE_DEEP", NOISE_DEEP), ("NOISE_2D_RMS", NOISE_2D_RMS), ("DIFFUSE_UNITS", DIFFUSE_UNITS)];
+
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("LOCAL_2D", LOCAL_2D),
@@ -161,4 +180,6 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("MC_MAX_TRIS", MC_MAX_TRIS),
     ("SCAN_BLOCK", SCAN_BLOCK),
     ("GRID_RUN", GRID_RUN),
+    ("ISO_STORE", ISO_STORE),
+    ("JACOBI_SWEEPS", JACOBI_SWEEPS),
 ];

@@ -62,7 +62,7 @@ impl VolumeParams {
 /// Voxels per edge of a brick of the smoothed field's sparse lattice.
 pub const BRICK: u32 = crate::shader_constants::ISO_VOLUME_BRICK;
 /// Voxels the GPU stores per brick: its [`BRICK`]³ and a one-voxel apron copied from its neighbours (10³).
-pub const STORED_BRICK_VOXELS: u32 = (BRICK + 2) * (BRICK + 2) * (BRICK + 2);
+pub const STORED_BRICK_VOXELS: u32 = crate::shader_constants::ISO_STORE.pow(3);
 /// Most bricks per axis of the lattice (iso_volume packs a brick's coordinates in 11 + 11 + 10 bits).
 pub const MAX_BRICKS_PER_AXIS: [u32; 3] = [2047, 2047, 1023];
 

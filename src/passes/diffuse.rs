@@ -20,7 +20,7 @@ use crate::shaders;
 pub const NAME: &str = crate::diffuse::NAME;
 
 /// Fixed-point units of the coverage images per unit of coverage.
-pub const UNITS: f32 = 4096.0;
+pub const UNITS: f32 = crate::shader_constants::DIFFUSE_UNITS;
 
 /// Push constants of diffuse.comp.
 #[repr(C)]

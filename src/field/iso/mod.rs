@@ -255,7 +255,7 @@ pub struct AnisoParams {
 }
 
 /// Jacobi sweeps of `sym_eigen` (a 3×3 symmetric matrix converges to float precision in 4–5).
-pub const JACOBI_SWEEPS: usize = 6;
+pub const JACOBI_SWEEPS: usize = crate::shader_constants::JACOBI_SWEEPS as usize;
 
 /// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations (the same steps as
 /// `sym_eigen` in anisotropy.comp): the eigenvalues (unsorted) and the eigenvectors as the COLUMNS of the

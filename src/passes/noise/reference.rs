@@ -2,7 +2,7 @@
 use super::{Params, UNITS};
 
 /// NOISE_DEEP of noise.glsl.
-pub const DEEP: f32 = 4.0;
+pub const DEEP: f32 = crate::shader_constants::NOISE_DEEP;
 
 /// lowbias32 (noise_hash).
 pub fn hash(mut x: u32) -> u32 {
@@ -15,7 +15,7 @@ pub fn hash(mut x: u32) -> u32 {
 }
 
 /// NOISE_2D_RMS of noise.glsl.
-pub const RMS_2D: f32 = 0.886;
+pub const RMS_2D: f32 = crate::shader_constants::NOISE_2D_RMS;
 
 fn grad(h: u32, f: [f32; 2]) -> f32 {
     (if h & 1 == 0 { f[0] } else { -f[0] }) + (if h & 2 == 0 { f[1] } else { -f[1] })
