@@ -193,6 +193,11 @@ fn results_are_data_with_an_index() {
     assert!(unlisted.is_empty(), "result sets missing from benches/results/README.md: {unlisted:?}");
     let logs: Vec<_> = files("benches/results", &[".log", ".txt"]);
     assert!(logs.is_empty(), "logs in benches/results (the JSON is the record): {logs:?}");
+    // Data, not a journal: at most 150 files and 5 MB (a set of several runs keeps them in one runs.json).
+    let all = files("benches/results", &[""]);
+    let bytes: u64 = all.iter().map(|f| std::fs::metadata(f).map_or(0, |m| m.len())).sum();
+    assert!(all.len() <= 150, "benches/results holds {} files (at most 150)", all.len());
+    assert!(bytes <= 5_000_000, "benches/results holds {bytes} bytes (at most 5 MB)");
 }
 
 #[test]
