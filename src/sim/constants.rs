@@ -157,6 +157,35 @@ impl Constants {
 }
 
 impl Constants {
+    /// A set-up whose step the solver cannot keep, refused: the step bound (CFL and `[sim] max_dt`) must hold
+    /// within [`MAX_SUBSTEPS`] steps a frame (a tiny --fps or max_dt would otherwise take steps far longer than
+    /// the bound without a word), and a viscosity the user set must be one the explicit XSPH step applies (it
+    /// would be clamped at [`XSPH_MAX`] without a word: 250× the default moved the dam break's front by 0.4 %);
+    /// a scene's own default is clamped (finer resolutions than it was set for get less viscosity).
+    pub fn check_step(&self, params: &Params) -> crate::error::Result<()> {
+        use crate::error::Error;
+        if params.substeps == 0 && self.substeps >= MAX_SUBSTEPS {
+            return Err(Error::Invalid(format!(
+                "at {} frames/s a frame would need {} or more steps to keep the step within its bound ([sim] \
+                 max_dt = {} s and the CFL bound): raise --fps (frames per simulated second) or [sim] max_dt",
+                params.fps, MAX_SUBSTEPS, params.max_dt
+            )));
+        }
+        let (asked, reach) = self.viscosity_reach();
+        if let (Some(nu), None) = (params.viscosity, params.xsph) {
+            if asked > XSPH_MAX * 1.0001 {
+                return Err(Error::Invalid(format!(
+                    "[sim] viscosity = {nu} m²/s needs an XSPH c of {asked:.2} per step at this resolution and step \
+                     (Δt {:.2} ms, h {:.4} m), past the explicit step's stable {XSPH_MAX}: at most {reach:.3e} m²/s \
+                     is applied here (more steps per frame, [sim] max_dt, raise it)",
+                    self.dt * 1e3,
+                    self.h
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The XSPH c the viscosity ν asks for at this step and resolution (22 ν Δt / h²), before the clamp at
     /// [`XSPH_MAX`]; with it, the largest ν the step applies (the one whose c is `XSPH_MAX`).
     pub fn viscosity_reach(&self) -> (f32, f32) {

@@ -47,7 +47,7 @@ use crate::gpu::{Buffer, FrameCtx, Gpu, Timer};
 use crate::shader_constants::ParticleLayout;
 use crate::shader_constants::MAX_COLLIDERS;
 use crate::timing::PassTimes;
-use constants::{Constants, SimUniforms, XSPH_MAX};
+use constants::{Constants, SimUniforms};
 use params::{Params, Solver};
 use scene::{Collider, SimScene};
 
@@ -138,29 +138,7 @@ impl Simulation {
         // A viscosity set by the user that the explicit XSPH step cannot apply is refused (the step would clamp
         // it without a word: 250× the default moved the dam break's front by 0.4 %); a scene's own default is
         // clamped (finer resolutions than it was set for get less viscosity; `sim` prints the reach).
-        // The step bound (CFL and `[sim] max_dt`) holds or the run is refused: at 1,000 steps a frame (the cap) a
-        // tiny --fps or max_dt would otherwise take steps far longer than the bound without a word.
-        if params.substeps == 0 && constants.substeps >= constants::MAX_SUBSTEPS {
-            return Err(Error::Invalid(format!(
-                "at {} frames/s a frame would need {} or more steps to keep the step within its bound ([sim] \
-                 max_dt = {} s and the CFL bound): raise --fps (frames per simulated second) or [sim] max_dt",
-                params.fps,
-                constants::MAX_SUBSTEPS,
-                params.max_dt
-            )));
-        }
-        let (asked, reach) = constants.viscosity_reach();
-        if let (Some(nu), None) = (params.viscosity, params.xsph) {
-            if asked > XSPH_MAX * 1.0001 {
-                return Err(Error::Invalid(format!(
-                    "[sim] viscosity = {nu} m²/s needs an XSPH c of {asked:.2} per step at this resolution and step \
-                     (Δt {:.2} ms, h {:.4} m), past the explicit step's stable {XSPH_MAX}: at most {reach:.3e} m²/s \
-                     is applied here (more steps per frame, [sim] max_dt, raise it)",
-                    constants.dt * 1e3,
-                    constants.h
-                )));
-            }
-        }
+        constants.check_step(&params)?;
         let solver = params.solver;
         let cap = scene.capacity.max(1) as u64;
         if cap * 32 > gpu.info.max_storage_buffer_range {

@@ -12,7 +12,7 @@
 //! particles deep between free-slip walls. The front is the largest x of any particle plus its radius (the leading
 //! edge runs along the floor; no spray leads it before the far wall).
 //!
-//! Each point is judged twice ([`judge`]), both gated ([`Bounds`]):
+//! Each point is judged twice ([`judge`]), both gated ([`ErrorBounds`]):
 //! - **as measured**: the simulation's Z/L at the experiment's T;
 //! - **with the gate's opening**: the experiments' gates took time to open, so their fronts lag an instantly
 //!   released column. Each experiment's lag ΔT is one constant ([`GATE_OPENING`]), fitted ONCE — PBF, 12,288
@@ -164,7 +164,7 @@ pub fn gate_opening(source: &str) -> f64 {
 
 /// The largest relative error a point may have: as measured, and at T − ΔT of its experiment.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bounds {
+pub struct ErrorBounds {
     /// |error| as measured.
     pub as_measured: f64,
     /// |error| with the gate's opening.
@@ -176,11 +176,11 @@ pub struct Bounds {
 /// (DFSPH); with the frozen ΔT, PBF is within 4.8 % of Martin & Moyce and 7.3 % of Koshizuka & Oka, DFSPH within
 /// 6.8 % and 9.7 %. The bounds: 25 % as measured, 8 % (Martin & Moyce) and 10 % (Koshizuka & Oka) at T − ΔT.
 /// PBF at one iteration (113 % / 82 %) fails them.
-pub fn bounds(source: &str) -> Bounds {
+pub fn bounds(source: &str) -> ErrorBounds {
     if experiment(source) == "Martin & Moyce 1952" {
-        Bounds { as_measured: 0.25, shifted: 0.08 }
+        ErrorBounds { as_measured: 0.25, shifted: 0.08 }
     } else {
-        Bounds { as_measured: 0.25, shifted: 0.10 }
+        ErrorBounds { as_measured: 0.25, shifted: 0.10 }
     }
 }
 
@@ -198,7 +198,7 @@ pub struct Point {
     /// The experiment's ΔT, Z/L simulated at T − ΔT, and its relative error.
     pub shifted: (f64, f64, f64),
     /// The point's bounds.
-    pub bounds: Bounds,
+    pub bounds: ErrorBounds,
 }
 
 impl Point {
