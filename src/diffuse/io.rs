@@ -75,7 +75,7 @@ pub fn load(path: &std::path::Path) -> crate::error::Result<Vec<Particle>> {
     // A file of diffuse particles says so by its attributes: the fluid's own files (or another simulation's) are
     // refused, not drawn as foam.
     let has = |name: &str| p.extra.iter().any(|a| a.name == name && a.components == 1);
-    if !p.is_empty() && !(has("type") && has("lifetime")) {
+    if !p.is_empty() && (!has("type") || !has("lifetime")) {
         return Err(Error::Parse {
             path: path.to_path_buf(),
             offset: 0,

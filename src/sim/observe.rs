@@ -130,23 +130,27 @@ impl Gate {
     /// `Err` naming every bound `x` breaks, with its value.
     pub fn check(&self, x: &Agreement) -> std::result::Result<(), String> {
         let mut broken = vec![];
-        if !(x.iou >= self.iou) {
+        // Each test as "within", so a NaN is outside.
+        let (iou, height) = (x.iou >= self.iou, x.height_rms_radii <= self.height_rms_radii);
+        let (kinetic, potential) = (x.kinetic.is_nan() || x.kinetic <= self.kinetic, x.potential <= self.potential);
+        let centre = x.centre_radii <= self.centre_radii;
+        if !iou {
             broken.push(format!("occupancy IoU {:.3} < {:.3}", x.iou, self.iou));
         }
-        if !(x.height_rms_radii <= self.height_rms_radii) {
+        if !height {
             broken.push(format!("height-field RMS {:.2} r > {:.2} r", x.height_rms_radii, self.height_rms_radii));
         }
-        if !(x.kinetic.is_nan() || x.kinetic <= self.kinetic) {
+        if !kinetic {
             broken.push(format!("kinetic energy off by {:.1} % > {:.1} %", 100.0 * x.kinetic, 100.0 * self.kinetic));
         }
-        if !(x.potential <= self.potential) {
+        if !potential {
             broken.push(format!(
                 "potential energy off by {:.2} % > {:.2} %",
                 100.0 * x.potential,
                 100.0 * self.potential
             ));
         }
-        if !(x.centre_radii <= self.centre_radii) {
+        if !centre {
             broken.push(format!("centres of mass {:.2} r apart > {:.2} r", x.centre_radii, self.centre_radii));
         }
         if broken.is_empty() {

@@ -73,17 +73,13 @@ pub struct Params {
 crate::named::named_enum! {
     /// The pressure solver of a [`Simulation`] (`[sim] solver`, `sim --solver`, Python's `solver=`): one name
     /// everywhere, from this declaration.
+    #[derive(Default)]
     pub enum Solver {
         /// Position Based Fluids (Macklin & Müller 2013): a fixed iteration count.
+        #[default]
         Pbf = "pbf",
         /// Divergence-free SPH (Bender & Koschier 2015): two velocity solves to error bounds.
         Dfsph = "dfsph",
-    }
-}
-
-impl Default for Solver {
-    fn default() -> Self {
-        Solver::Pbf
     }
 }
 

@@ -168,7 +168,7 @@ impl SceneFile {
         // A value the file sets outside its range is an error naming the key, never silently the default.
         let positive = |key: &str, v: Option<f32>| -> Result<Option<f32>> {
             match v {
-                Some(x) if !(x > 0.0) => Err(invalid(path, key, &format!("{x} is not a positive number"))),
+                Some(x) if x.is_nan() || x <= 0.0 => Err(invalid(path, key, &format!("{x} is not a positive number"))),
                 v => Ok(v),
             }
         };
