@@ -25,7 +25,7 @@ pub struct Options {
     pub threads: Vec<usize>,
     /// Cube sizes in particle radii (empty: 0.5 and 1.0).
     pub cubes: Vec<f32>,
-    /// Cubes per block edge (empty: chosen by the thread count, as `mesh` does).
+    /// Cubes per block edge (empty: chosen from the particles and the cube size, as `mesh` does).
     pub blocks: Vec<u32>,
     /// Particle radius (default: the job's: scene.json or estimated).
     pub radius: Option<f32>,

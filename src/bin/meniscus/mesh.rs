@@ -70,11 +70,10 @@ pub struct MeshArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     rc: f32,
     /// Cubes per block edge: each block scatters its particles into its own corner values and marches its
-    /// cubes, in parallel. Default: chosen by the thread count (64 on 1–2 threads; with more, the largest of
-    /// 64, 32, 16 that leaves at least 40 blocks per thread: docs/mesh-extraction.md). 0: the per-corner paths
-    /// (every corner gathers its particles), surface following unless --dense. The mesh is the same at every
-    /// block size up to the order of its vertices and triangles; one block size gives the same bytes on any
-    /// thread count (pass it for byte-identical files across machines of different core counts).
+    /// cubes, in parallel. Default: chosen from the particles and the cube size, never from the threads (64 where
+    /// that leaves at least 64 occupied blocks, else 32), so the default writes the same bytes on any machine and
+    /// at any --threads. 0: the per-corner paths (every corner gathers its particles), surface following unless
+    /// --dense. The mesh is the same at every block size up to the order of its vertices and triangles.
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
     block: Option<u32>,
     /// With --block 0: evaluate the field at every cube corner within the kernel support (the reference)
