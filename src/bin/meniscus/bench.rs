@@ -767,8 +767,8 @@ pub struct BenchArgs {
     /// With --mesh: extract on the GPU too (`mesh --gpu`), its stages and host part beside the CPU rows.
     #[arg(long = "mesh-gpu")]
     pub mesh_gpu: bool,
-    /// With --mesh: cubes per block edge of the CPU extraction (comma-separated; default: chosen by the thread
-    /// count, as `mesh --block` is).
+    /// With --mesh: cubes per block edge of the CPU extraction (comma-separated; default: chosen from the
+    /// particles and the cube size, as `mesh --block` is).
     #[arg(long = "block", value_delimiter = ',')]
     pub block: Vec<u32>,
     /// With --mesh: runs per configuration (the median is reported).
