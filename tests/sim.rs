@@ -79,6 +79,20 @@ fn blob(n: usize, seed: u64) -> SimScene {
     s
 }
 
+/// The GPU's state against a CPU reference's (particles by id): the largest |Δx| (m), |Δv| (m/s) and |Δρ|/ρ0.
+fn largest_differences(got: &meniscus::scene::Particles, x: &[Vec3], v: &[Vec3], rho: &[f32]) -> (f32, f32, f32) {
+    let ids = got.ids.as_ref().unwrap();
+    let (gv, gd) = (got.velocities.as_ref().unwrap(), got.densities.as_ref().unwrap());
+    let (mut ex, mut ev, mut ed) = (0f32, 0f32, 0f32);
+    for (k, &id) in ids.iter().enumerate() {
+        let i = id as usize;
+        ex = ex.max((Vec3::from(got.positions[k]) - x[i]).length());
+        ev = ev.max((Vec3::from(gv[k]) - v[i]).length());
+        ed = ed.max((gd[k] - rho[i]).abs() / 1000.0);
+    }
+    (ex, ev, ed)
+}
+
 #[test]
 fn one_step_matches_the_cpu_reference() {
     let gpu = common::gpu();
@@ -105,14 +119,7 @@ fn one_step_matches_the_cpu_reference() {
         let v0: Vec<Vec3> = scene.velocities.iter().map(|p| Vec3::from(*p)).collect();
         let (x, v, rho) = reference::step(&u, scene.mesh_collider.as_deref(), iterations, &x0, &v0);
         let ids = got.ids.as_ref().unwrap();
-        let (gv, gd) = (got.velocities.as_ref().unwrap(), got.densities.as_ref().unwrap());
-        let (mut ex, mut ev, mut ed) = (0f32, 0f32, 0f32);
-        for (k, &id) in ids.iter().enumerate() {
-            let i = id as usize;
-            ex = ex.max((Vec3::from(got.positions[k]) - x[i]).length());
-            ev = ev.max((Vec3::from(gv[k]) - v[i]).length());
-            ed = ed.max((gd[k] - rho[i]).abs() / 1000.0);
-        }
+        let (ex, ev, ed) = largest_differences(&got, &x, &v, &rho);
         let mut sorted_ids = ids.clone();
         sorted_ids.sort();
         assert_eq!(sorted_ids, (0..n0 as i64).collect::<Vec<i64>>(), "every particle once");
@@ -164,15 +171,7 @@ fn one_dfsph_step_matches_the_cpu_reference() {
     let x0: Vec<Vec3> = scene.positions.iter().map(|p| Vec3::from(*p)).collect();
     let v0: Vec<Vec3> = scene.velocities.iter().map(|p| Vec3::from(*p)).collect();
     let (x, v, rho, solves) = reference::dfsph_step(&u, scene.mesh_collider.as_deref(), eta, max_iter, &x0, &v0);
-    let ids = got.ids.as_ref().unwrap();
-    let (gv, gd) = (got.velocities.as_ref().unwrap(), got.densities.as_ref().unwrap());
-    let (mut ex, mut ev, mut ed) = (0f32, 0f32, 0f32);
-    for (k, &id) in ids.iter().enumerate() {
-        let i = id as usize;
-        ex = ex.max((Vec3::from(got.positions[k]) - x[i]).length());
-        ev = ev.max((Vec3::from(gv[k]) - v[i]).length());
-        ed = ed.max((gd[k] - rho[i]).abs() / 1000.0);
-    }
+    let (ex, ev, ed) = largest_differences(&got, &x, &v, &rho);
     eprintln!(
         "DFSPH step: GPU corrections {} / {}, CPU {:?} (errors {:?}); max |Δx| {ex:.2e} m, |Δv| {ev:.2e} m/s, \
          |Δρ|/ρ0 {ed:.2e}",

@@ -65,7 +65,8 @@ pub struct FrameCtx<'t> {
 }
 
 /// What a recording measures beside the passes' times: the passes' own work counts and the parts of passes.
-/// The API's measuring hooks (`FrameRequest::measure`, `Simulation::time_parts`, `bench --parts`).
+/// The API's measuring hooks (`FrameRequest::count_work` and `time_parts`, `Simulation::time_parts`,
+/// `bench --parts`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Measure {
     /// The passes count their own work ([`FrameCtx::count_work`]).
@@ -80,16 +81,7 @@ impl<'t> FrameCtx<'t> {
         if let Some(t) = timer.as_deref_mut() {
             t.reset(cmd);
         }
-        FrameCtx {
-            gpu: gpu.clone(),
-            cmd,
-            timer,
-            open: vec![],
-            barrier_batches: 0,
-            touches: vec![],
-            count_work: false,
-            time_parts: false,
-        }
+        FrameCtx::continuing(gpu, cmd, timer)
     }
 
     /// Continue a frame in another command buffer: the timer keeps its scopes (it was reset by the frame's

@@ -154,6 +154,27 @@ pub fn wall_friction(u: &SimUniforms, xs: Vec3, mut vel: Vec3, vp: Vec3) -> Vec3
     vel
 }
 
+/// Every particle's neighbours within h at positions `p` (brute force: sim_neighbours.comp's lists, for a step).
+fn neighbour_lists(u: &SimUniforms, p: &[Vec3]) -> Vec<Vec<usize>> {
+    let h2 = u.kern[0];
+    (0..p.len()).map(|i| (0..p.len()).filter(|&j| j != i && (p[i] - p[j]).length_squared() < h2).collect()).collect()
+}
+
+/// Particle i's sums over its neighbours `list` at positions `p`, as sim_density and sim_dfsph_alpha take them:
+/// Σ W_poly6 (itself included), Σ V ∇W_spiky and Σ |V ∇W_spiky|².
+fn kernel_sums(u: &SimUniforms, p: &[Vec3], list: &[usize], i: usize) -> (f32, Vec3, f32) {
+    let vol = u.kern[3];
+    let (mut w, mut grad, mut sum2) = (poly6(u, 0.0), Vec3::ZERO, 0.0);
+    for &j in list {
+        let r = p[i] - p[j];
+        w += poly6(u, r.length_squared());
+        let gr = vol * spiky_grad(u, r);
+        grad += gr;
+        sum2 += gr.length_squared();
+    }
+    (w, grad, sum2)
+}
+
 /// The end every step shares (sim_velocity, sim_vorticity, sim_viscosity): v = (p − x)/Δt with the container's
 /// static friction (`v_pred`: the velocity after gravity), then vorticity confinement and XSPH over `lists`.
 fn end_of_step(u: &SimUniforms, lists: &[Vec<usize>], x: &[Vec3], p: &[Vec3], v: &[Vec3]) -> Vec<Vec3> {
@@ -206,21 +227,12 @@ pub fn step(
     let v: Vec<Vec3> = v.iter().map(|v| *v + dt * g).collect();
     let mut p: Vec<Vec3> = x.iter().zip(&v).map(|(x, v)| collide(u, sdf, *x + dt * *v)).collect();
     // Neighbour lists at the predicted positions, fixed for the step (sim_neighbours.comp).
-    let h2 = u.kern[0];
-    let lists: Vec<Vec<usize>> =
-        (0..n).map(|i| (0..n).filter(|&j| j != i && (p[i] - p[j]).length_squared() < h2).collect()).collect();
+    let lists = neighbour_lists(u, &p);
     let mut density = vec![0.0; n];
     for _ in 0..iterations {
         let mut lambda = vec![0.0; n];
         for i in 0..n {
-            let (mut w, mut grad_i, mut sum2) = (poly6(u, 0.0), Vec3::ZERO, 0.0);
-            for &j in &lists[i] {
-                let r = p[i] - p[j];
-                w += poly6(u, r.length_squared());
-                let gr = vol * spiky_grad(u, r);
-                grad_i += gr;
-                sum2 += gr.length_squared();
-            }
+            let (w, mut grad_i, sum2) = kernel_sums(u, &p, &lists[i], i);
             let (fw, gw) = wall_density(u, p[i]);
             grad_i += gw;
             let rho = u.gravity_mass[3] * w + u.solver[0] * fw;
@@ -273,20 +285,11 @@ pub fn dfsph_step(
     let g = v3(u.gravity_mass);
     let vol = u.kern[3];
     let v_pred: Vec<Vec3> = v.iter().map(|v| *v + dt * g).collect();
-    let h2 = u.kern[0];
-    let lists: Vec<Vec<usize>> =
-        (0..n).map(|i| (0..n).filter(|&j| j != i && (x[i] - x[j]).length_squared() < h2).collect()).collect();
+    let lists = neighbour_lists(u, x);
     // ρ̂ and the factor (sim_dfsph_alpha).
     let (mut rho, mut factor) = (vec![0.0f32; n], vec![0.0f32; n]);
     for i in 0..n {
-        let (mut w, mut gsum, mut g2) = (poly6(u, 0.0), Vec3::ZERO, 0.0);
-        for &j in &lists[i] {
-            let r = x[i] - x[j];
-            w += poly6(u, r.length_squared());
-            let gr = vol * spiky_grad(u, r);
-            gsum += gr;
-            g2 += gr.length_squared();
-        }
+        let (w, gsum, g2) = kernel_sums(u, x, &lists[i], i);
         let (fw, gw) = wall_density(u, x[i]);
         rho[i] = vol * w + fw;
         let s1 = gsum + gw;
