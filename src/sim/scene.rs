@@ -150,6 +150,12 @@ impl SimScene {
         if particles < 8 {
             return Err(Error::Invalid(format!("--particles {particles}: a simulation needs at least 8 particles")));
         }
+        if particles > super::scene_file::MAX_PARTICLES {
+            return Err(Error::Invalid(format!(
+                "--particles {particles}: at most {} particles (the simulation's state is 32 bytes a particle, and more)",
+                super::scene_file::MAX_PARTICLES
+            )));
+        }
         let n = particles as f32;
         let tank = (Vec3::new(-2.0, 0.0, -0.75), Vec3::new(2.0, 3.0, 0.75));
         let scene = match name {

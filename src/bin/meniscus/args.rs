@@ -20,6 +20,16 @@ pub fn named<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
     PossibleValuesParser::new(T::NAMES).map(|s| from_name::<T>(&s).expect("clap checked the possible values"))
 }
 
+/// The value parser of every floating-point flag: a number that is finite. `nan`, `inf` and `1e39` (infinite
+/// as an f32) are refused by name before any work starts, so no flag carries a non-finite value into a job.
+pub fn finite<T: std::str::FromStr + Into<f64> + Copy>(s: &str) -> Result<T, String> {
+    let v: T = s.trim().parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if !v.into().is_finite() {
+        return Err(format!("{s:?} is not a finite number"));
+    }
+    Ok(v)
+}
+
 /// How to read particle files: attribute names, up axis, unit scale.
 #[derive(Args, Clone, Debug)]
 pub struct LoadArgs {
@@ -39,7 +49,7 @@ pub struct LoadArgs {
     #[arg(long, value_parser = ["y", "z"], default_value = "y")]
     pub up: String,
     /// Multiply positions, radii and velocities by this (unit conversion).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true, default_value_t = 1.0)]
     pub scale: f32,
 }
 
@@ -77,7 +87,7 @@ pub struct SceneArgs {
     #[arg(default_value = "wave", long_help = input_help())]
     pub input: String,
     /// Particle radius in world units (default: from the scene, or estimated from the particles' density).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     pub radius: Option<f32>,
     /// Particle count of a built-in scene (default: the scene's own).
     #[arg(long)]
@@ -124,7 +134,7 @@ pub struct SettingsArgs {
     #[arg(long, value_parser = named::<Filter>())]
     pub filter: Option<Filter>,
     /// Fluid resolution relative to the output: 1, 0.5 or 0.25 (upsampled silhouette-aware).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     pub fluid_scale: Option<f32>,
     /// Fluid depth: the ray-cast SPH iso-surface (the default: the surface splashsurf reconstructs; `[iso]
     /// smoothing` in a settings file), nearest particle spheres (then narrow-range unless --filter says

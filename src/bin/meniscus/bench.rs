@@ -681,10 +681,10 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     resolutions: Vec<String>,
     /// Frames rendered before measuring (lavapipe compiles pipelines at first use).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=10_000))]
     warmup: u32,
     /// Measured frames.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(0..=100_000))]
     frames: u32,
     /// Then render as many frames again with the renderer's frames in flight (the next frame's upload and
     /// recording overlap the GPU's work on the one before, as `render` runs a sequence) and report their wall
@@ -698,7 +698,7 @@ pub struct BenchArgs {
     #[arg(long)]
     parts: bool,
     /// Particle radius for file workloads (default: estimated from the spacing).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     radius: Option<f32>,
     /// Camera for file workloads, EYE:TARGET[:FOVY] (default: fitted).
     #[arg(long, allow_hyphen_values = true)]
@@ -762,7 +762,7 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     pub threads: Vec<usize>,
     /// With --mesh: cube sizes in particle radii (comma-separated; default 0.5, 1.0).
-    #[arg(long = "cube-size", value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long = "cube-size", value_parser = crate::args::finite::<f32>, value_delimiter = ',', allow_negative_numbers = true)]
     pub cube_size: Vec<f32>,
     /// With --mesh: extract on the GPU too (`mesh --gpu`), its stages and host part beside the CPU rows.
     #[arg(long = "mesh-gpu")]
@@ -934,6 +934,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         if let Some(p) = path {
             crate::args::check_report(flag, p, kind)?;
         }
+    }
+    if let Some(n) = a.threads.iter().find(|n| !(1..=crate::mesh::MAX_THREADS).contains(n)) {
+        bail!("--threads {n}: between 1 and {}", crate::mesh::MAX_THREADS);
     }
     if let Some(file) = &a.mesh {
         // The frame flags have no meaning for the mesh extraction's benchmark: refused, not ignored.

@@ -47,7 +47,7 @@ pub struct DiffuseArgs {
     #[arg(long = "frames", value_name = "RANGE")]
     pub frames_range: Option<String>,
     /// Particle radius (default: a scene.json beside the files, or estimated from the particles).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     pub radius: Option<f32>,
     /// Ignore a SPlisHSPlasH scene.json beside the files (its radius and frame rate).
     #[arg(long)]

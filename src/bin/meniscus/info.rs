@@ -25,7 +25,7 @@ pub struct InfoArgs {
     #[arg(long, num_args = 0..=1, value_name = "NAME")]
     pub device: Option<Option<String>>,
     /// Particle radius to report instead of the estimate.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     pub radius: Option<f32>,
     #[command(flatten)]
     pub load: LoadArgs,

@@ -51,7 +51,12 @@ enum Cmd {
     Demo(demo::DemoArgs),
     /// Print the command-line reference (every subcommand and flag with its help) as markdown: docs/cli.md.
     #[command(hide = true)]
-    CliReference,
+    CliReference {
+        /// Instead, one line per flag: SUBCOMMAND, FLAG and the kind of its value (switch, float, int, path,
+        /// text, or one-of:A|B|…), tab-separated: what tests/flags.rs walks.
+        #[arg(long)]
+        flags: bool,
+    },
 }
 
 /// The command-line reference as markdown, walked from clap's command tree (docs/cli.md is this output; a test
@@ -93,6 +98,43 @@ fn cli_reference() -> String {
                 let _ = write!(help, " (one of: {})", values.join(", "));
             }
             let _ = writeln!(out, "| {name} | {help} |");
+        }
+    }
+    out
+}
+
+/// Every flag of every subcommand with the kind of value it takes, one tab-separated line each (a test feeds
+/// each kind its hostile values: tests/flags.rs).
+fn cli_flags() -> String {
+    use clap::CommandFactory;
+    use std::any::TypeId;
+    let mut out = String::new();
+    let root = Cli::command();
+    for sub in root.get_subcommands().filter(|c| !c.is_hide_set() && c.get_name() != "help") {
+        for a in sub.get_arguments().filter(|a| !a.is_hide_set()) {
+            let Some(long) = a.get_long() else { continue };
+            if matches!(long, "help" | "version") {
+                continue;
+            }
+            let values: Vec<String> = a.get_possible_values().iter().map(|v| v.get_name().to_string()).collect();
+            let t = a.get_value_parser().type_id();
+            let kind = if !a.get_action().takes_values() {
+                "switch".to_string()
+            } else if !values.is_empty() {
+                format!("one-of:{}", values.join("|"))
+            } else if t == TypeId::of::<f32>() || t == TypeId::of::<f64>() {
+                "float".to_string()
+            } else if [TypeId::of::<u32>(), TypeId::of::<u64>(), TypeId::of::<usize>(), TypeId::of::<i32>()]
+                .iter()
+                .any(|id| t == *id)
+            {
+                "int".to_string()
+            } else if t == TypeId::of::<std::path::PathBuf>() {
+                "path".to_string()
+            } else {
+                "text".to_string()
+            };
+            out.push_str(&format!("{}\t--{long}\t{kind}\n", sub.get_name()));
         }
     }
     out
@@ -159,8 +201,8 @@ fn main() {
         Cmd::Mesh(a) => mesh::run(&a),
         Cmd::Sim(a) => sim::run(&a),
         Cmd::Diffuse(a) => diffuse::run(&a),
-        Cmd::CliReference => {
-            print!("{}", cli_reference());
+        Cmd::CliReference { flags } => {
+            print!("{}", if flags { cli_flags() } else { cli_reference() });
             Ok(())
         }
         Cmd::Scenes => {

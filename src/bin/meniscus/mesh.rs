@@ -22,6 +22,9 @@ use crate::args::{check_out, out_kind, LoadArgs, SceneArgs};
 use crate::job::{Job, Select};
 
 /// `meniscus mesh`.
+/// Most worker threads `--threads` asks for (each is an OS thread with its own stack and block buffers).
+pub const MAX_THREADS: usize = 1024;
+
 #[derive(Args, Clone, Debug)]
 pub struct MeshArgs {
     #[command(flatten)]
@@ -44,31 +47,31 @@ pub struct MeshArgs {
     /// --smoothing-iters). One input file; --camera or fitted.
     #[arg(long, value_name = "PNG")]
     compare: Option<PathBuf>,
-    /// Width of each --compare panel.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Height of each --compare panel.
-    #[arg(long, default_value_t = 360)]
-    height: u32,
+    /// Width of each --compare panel (default 640).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Height of each --compare panel (default 360).
+    #[arg(long)]
+    height: Option<u32>,
     #[command(flatten)]
     device: crate::args::GpuArgs,
     /// Marching-cubes edge length in particle radii (splashsurf's --cube-size).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true, default_value_t = 0.5)]
     cube_size: f32,
     /// Kernel support in particle radii (splashsurf: 2 × smoothing length 2 = 4).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 4.0)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true, default_value_t = 4.0)]
     support: f32,
     /// Iso value (default: 0.6 for the SPH field, splashsurf's; for the metaball field the value that puts an
     /// isolated particle's surface at its radius).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     threshold: Option<f32>,
     /// The field: sph (the colour field the iso pass ray-casts and splashsurf meshes) or metaball (the thesis'
     /// f(d) = (d/(√2 R_c))⁴ − (d/(√2 R_c))² + ¼ within R_c, unnormalised).
     #[arg(long, value_parser = ["sph", "metaball"], default_value = "sph")]
     field: String,
-    /// The metaball field's radius of influence R_c in particle radii.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
-    rc: f32,
+    /// The metaball field's radius of influence R_c in particle radii (default 3).
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
+    rc: Option<f32>,
     /// Cubes per block edge: each block scatters its particles into its own corner values and marches its
     /// cubes, in parallel. Default: chosen from the particles and the cube size, never from the threads (64 where
     /// that leaves at least 64 occupied blocks, else 32), so the default writes the same bytes on any machine and
@@ -95,10 +98,10 @@ pub struct MeshArgs {
     #[arg(long)]
     gpu: bool,
     /// USD: frames per second (time codes are frame numbers). Default: the sequence's scene.json, else 25.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::finite::<f64>, allow_negative_numbers = true)]
     fps: Option<f64>,
     /// USD: the stage's metersPerUnit (default 1: SPlisHSPlasH's scenes are in metres).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::finite::<f64>, allow_negative_numbers = true)]
     meters_per_unit: Option<f64>,
     /// USD, sequences: add the diffuse particles (spray, foam, bubbles; `[diffuse]` of --settings) as a
     /// UsdGeomPoints with widths, velocities and a `kind` primvar (0 foam, 1 spray, 2 bubbles).
@@ -108,7 +111,7 @@ pub struct MeshArgs {
     #[arg(long)]
     vdb_fog: bool,
     /// VDB: the level set's half-width in voxels (default: 3, OpenVDB's).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     vdb_half_width: Option<f32>,
 }
 
@@ -132,11 +135,18 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         bail!("--smoothing-iters must be at most 1000");
     }
     let metaball = a.field == "metaball";
-    if metaball && !(a.rc.is_finite() && (1.0..=16.0).contains(&a.rc)) {
+    if a.rc.is_some() && !metaball {
+        bail!("--rc applies to --field metaball");
+    }
+    let rc = a.rc.unwrap_or(3.0);
+    if metaball && !(1.0..=16.0).contains(&rc) {
         bail!("--rc must be in [1, 16] particle radii");
     }
+    if a.compare.is_none() && (a.width.is_some() || a.height.is_some()) {
+        bail!("--width and --height size the --compare panels");
+    }
     let threshold =
-        a.threshold.unwrap_or(if metaball { meniscus::field::extract::metaball_threshold(1.0, a.rc) } else { 0.6 });
+        a.threshold.unwrap_or(if metaball { meniscus::field::extract::metaball_threshold(1.0, rc) } else { 0.6 });
     let top = if metaball { 0.25 } else { 1.0 };
     if !(threshold > 0.0 && threshold < top) {
         bail!("--threshold must be in (0, {top}) for the {} field", a.field);
@@ -176,15 +186,15 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = a.threads {
-        if n == 0 {
-            bail!("--threads must be at least 1");
+        if !(1..=MAX_THREADS).contains(&n) {
+            bail!("--threads {n}: between 1 and {MAX_THREADS}");
         }
         pool = pool.num_threads(n);
     }
     let pool = pool.build()?;
     let select = Select { range: a.frames_range.as_deref().map(FrameRange::parse).transpose()?, shard: None };
     let job = Job::open(&a.scene, &a.load, meniscus::settings::Settings::default(), select)?;
-    eprintln!("{}", job.summary(a.compare.as_ref().map(|_| (a.width, a.height))));
+    eprintln!("{}", job.summary(a.compare.as_ref().map(|_| compare_size(a))));
     // Again now that the inputs are known (the job records every file it reads).
     if let Some(p) = &a.compare {
         check_out("--compare", p, FileKind::Png)?;
@@ -193,7 +203,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         if job.frames.is_some() {
             bail!("--compare takes one file, not a sequence");
         }
-        crate::args::check_size(a.width, a.height)?;
+        let (w, h) = compare_size(a);
+        crate::args::check_size(w, h)?;
         compare(a, &job, png)?;
         if a.out.is_none() {
             return Ok(());
@@ -206,7 +217,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let r = job.settings.radius;
     let block = a.block.unwrap_or(meniscus::field::extract::AUTO_BLOCK);
     let params = ExtractParams { cube: a.cube_size * r, threshold, dense: a.dense, block, metaball };
-    let support = if metaball { a.rc } else { a.support };
+    let support = if metaball { rc } else { a.support };
     let gpu_mc = if a.gpu {
         let gpu = a.device.open()?;
         let mc = meniscus::compute::mc::Mc::new(&gpu)?;
@@ -392,6 +403,11 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     done()
 }
 
+/// The size of each `--compare` panel.
+fn compare_size(a: &MeshArgs) -> (u32, u32) {
+    (a.width.unwrap_or(640), a.height.unwrap_or(360))
+}
+
 /// `--compare`: render the job's particles with the three surfaces at one camera, time each (GPU medians of 3
 /// frames after one warm-up; the mesh adds its CPU extraction), label and place them side by side.
 fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
@@ -400,8 +416,8 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
     let mut r = meniscus::renderer::Renderer::new(&gpu)?;
     job.apply_background(&mut r)?;
     job.upload(&mut r, &job.first)?;
-    let view = job.view(a.width, a.height);
-    let (w, h) = (a.width, a.height);
+    let (w, h) = compare_size(a);
+    let view = job.view(w, h);
     let mut out = image::RgbaImage::new(3 * w, h);
     let base = job.settings.clone();
     let panels: [(&str, Settings); 3] = [

@@ -21,12 +21,13 @@ pub const MOVIE_KINDS: [FileKind; 3] = [FileKind::Mp4, FileKind::Webm, FileKind:
 #[derive(Args, Clone, Debug, Default)]
 pub struct MovieArgs {
     /// Movie frame rate (default: the sequence's own, from its scene.json's dataExportFPS, else 25).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     pub fps: Option<f32>,
     /// Movie quality: ffmpeg's constant rate factor (lower is better; default 18 for MP4, 32 for WebM).
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=63))]
     pub crf: Option<u32>,
     /// Extra ffmpeg arguments placed before the output (split at spaces), e.g. "-preset slow -tune animation".
+    /// ffmpeg runs with -n: a file named there is never overwritten.
     #[arg(long, allow_hyphen_values = true, value_name = "ARGS")]
     pub ffmpeg_args: Option<String>,
 }
@@ -50,7 +51,9 @@ impl Movie {
         }
         let partial = Partial::begin(path, kind)?;
         let mut cmd = Command::new("ffmpeg");
-        cmd.args(["-hide_banner", "-loglevel", "error", "-nostdin", "-y", "-f", "rawvideo", "-pix_fmt", "rgba"]);
+        // `-n`: ffmpeg never overwrites a file. Ours is a fresh partial name; a path in --ffmpeg-args is taken by
+        // ffmpeg as one more output, and must not replace an input that happens to be named there.
+        cmd.args(["-hide_banner", "-loglevel", "error", "-nostdin", "-n", "-f", "rawvideo", "-pix_fmt", "rgba"]);
         cmd.args(["-s", &format!("{width}x{height}"), "-framerate", &fps.to_string(), "-i", "pipe:0"]);
         // H.264 and VP9 in yuv420p need even sizes: pad by one pixel where needed.
         let even = "pad=ceil(iw/2)*2:ceil(ih/2)*2";

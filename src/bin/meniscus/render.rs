@@ -62,12 +62,12 @@ pub struct RenderArgs {
     /// Print a per-pass GPU time table (median over the timed frames, after warm-up).
     #[arg(long)]
     timings: bool,
-    /// With --timings: frames rendered first and not timed (lavapipe compiles pipelines at first use).
-    #[arg(long, default_value_t = 2)]
-    warmup: u32,
-    /// With --timings: frames timed; the table shows per-pass medians.
-    #[arg(long = "timed-frames", default_value_t = 5)]
-    frames: u32,
+    /// With --timings: frames rendered first and not timed (lavapipe compiles pipelines at first use; default 2).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=10_000))]
+    warmup: Option<u32>,
+    /// With --timings: frames timed; the table shows per-pass medians (default 5).
+    #[arg(long = "timed-frames", value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    frames: Option<u32>,
     /// Write buffers next to the PNG: depth, smoothed, thickness as OUT.NAME.npy (float32, H×W, +inf = none),
     /// normals as OUT.normals.npy (H×W×3, view space) and OUT.normals.png, ssr as OUT.ssr.png, final = the PNG.
     #[arg(long, value_delimiter = ',')]
@@ -83,6 +83,9 @@ pub struct RenderArgs {
 /// `meniscus render`: one frame, or every frame of a sequence.
 pub fn run(a: &RenderArgs) -> Result<()> {
     check_size(a.width, a.height)?;
+    if !a.timings && (a.warmup.is_some() || a.frames.is_some()) {
+        bail!("--warmup and --timed-frames apply to --timings");
+    }
     check_dumps(a)?;
     let select = Select {
         range: a.frames_range.as_deref().map(FrameRange::parse).transpose()?,
@@ -95,6 +98,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     if a.resume || a.skip_bad_frames || a.diffuse.is_some() {
         bail!("--resume, --skip-bad-frames and --diffuse apply to sequences");
     }
+    refuse_movie_flags(a)?;
     if FileKind::by_extension(&a.out, &MOVIE_KINDS).is_ok() {
         bail!("--out {}: a movie is made from a sequence (a pattern with {{}}, a folder or a glob)", a.out.display());
     }
@@ -123,9 +127,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let first = times.clone();
     if a.timings {
         let mut runs = vec![];
-        for k in 0..a.warmup + a.frames.max(1) {
+        let (warmup, timed) = (a.warmup.unwrap_or(2), a.frames.unwrap_or(5));
+        for k in 0..warmup + timed {
             let t = r.render(&view, s)?;
-            if k >= a.warmup {
+            if k >= warmup {
                 runs.push(t);
             }
         }
@@ -145,7 +150,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     );
     eprintln!("camera: --camera {}", view.camera.to_arg());
     if a.timings {
-        println!("median of {} frames after {} warm-up frames", a.frames.max(1), a.warmup);
+        println!("median of {} frames after {} warm-up frames", a.frames.unwrap_or(5), a.warmup.unwrap_or(2));
         println!("| pass | GPU ms |\n|---|---:|");
         for (name, ms) in &times.0 {
             println!("| {name} | {ms:.3} |");
@@ -169,13 +174,24 @@ fn check_dumps(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// The movie's flags are refused, not ignored, where no movie is written.
+fn refuse_movie_flags(a: &RenderArgs) -> Result<()> {
+    if a.movie.fps.is_some() || a.movie.crf.is_some() || a.movie.ffmpeg_args.is_some() {
+        bail!("--fps, --crf and --ffmpeg-args apply to a movie (a sequence with --out NAME.mp4, .webm or .gif)");
+    }
+    Ok(())
+}
+
 /// Render a sequence to numbered PNGs: background prefetch, progress bar, camera fitted once to the sequence.
 fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     let all = job.frames.clone().expect("a sequence");
-    if !a.dump.is_empty() {
-        bail!("--dump applies to single frames");
+    if !a.dump.is_empty() || a.timings {
+        bail!("--dump and --timings apply to single frames (`bench --scenes SEQ` times a sequence)");
     }
     let movie = FileKind::by_extension(&a.out, &MOVIE_KINDS).ok();
+    if movie.is_none() {
+        refuse_movie_flags(a)?;
+    }
     let names = Numbered::new(&a.out, "png");
     match movie {
         Some(kind) => {

@@ -28,10 +28,10 @@ pub struct SimArgs {
     #[arg(long)]
     pub particles: Option<usize>,
     /// Cache files to write (file 1 is the initial state). Default: a scene file's stopAt × fps + 1, else 50.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub frames: Option<u32>,
     /// Frames per simulated second.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true)]
     pub fps: Option<f32>,
     /// Steps per frame (0: from the CFL bound, at most 5 ms).
     #[arg(long)]

@@ -73,7 +73,7 @@ pub struct DemoArgs {
     #[command(flatten)]
     set: SettingsArgs,
     /// Playback rate of a sequence in frames per second (before the speed factor).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 25.0)]
+    #[arg(long, value_parser = crate::args::finite::<f32>, allow_negative_numbers = true, default_value_t = 25.0)]
     fps: f32,
     /// Present without vsync (IMMEDIATE or MAILBOX when the driver has them).
     #[arg(long)]
