@@ -10,7 +10,7 @@
 //!   [`view`] (camera and projection), [`settings`] and [`section`] (the TOML settings and their sections),
 //!   [`named`] (names shared by module, shader, label and JSON key), [`shader_constants`] and [`shaders`];
 //! - measuring: [`timing`] (GPU timestamps per pass), [`work`] (each pass's work counts), [`inspect`] (what a
-//!   frame holds, for the demo and tests);
+//!   frame holds, for the demo and tests), [`quality`] (a surface against a reference, its roughness, flicker);
 //! - computing: [`compute`] (the GPU neighbour grid, marching cubes), [`field`] (the SPH colour field on the CPU:
 //!   extraction, smoothing, volumes), [`sim`] (PBF and DFSPH on the GPU, scene files, validation), [`diffuse`]
 //!   (spray, foam and bubbles), [`motion`] (per-particle motion for the noise);
@@ -40,6 +40,7 @@ pub mod named;
 pub mod output;
 pub mod particles;
 pub mod passes;
+pub mod quality;
 pub mod renderer;
 pub mod scene;
 pub mod section;

@@ -136,6 +136,7 @@ fn base(sub: &str, seq: &Path, png: &Path) -> Vec<String> {
         "mesh" => return vec![f1, "--out".into(), "{out}/o.ply".into()],
         "diffuse" => return vec![pattern, "--export".into(), "{out}/d_{}.bgeo".into()],
         "sim" => vec!["drop", "--particles", "300", "--frames", "2"],
+        "quality" => vec!["drop", "--particles", "300", "--width", "32", "--height", "18"],
         "demo" => vec!["drop", "--particles", "300", "--width", "32", "--height", "18", "--frames", "1"],
         other => panic!("no base command for `meniscus {other}`: add one here"),
     };
@@ -212,7 +213,7 @@ fn every_flag_keeps_the_rules_whatever_its_value() {
         })
         .collect();
     // The walk covers every subcommand and every kind of value (a listing that lost them would pass vacuously).
-    for sub in ["render", "encode", "info", "bench", "mesh", "diffuse", "sim", "demo"] {
+    for sub in ["render", "encode", "info", "bench", "mesh", "diffuse", "sim", "quality", "demo"] {
         assert!(flags.iter().any(|f| f[0] == sub), "no flags listed for {sub}");
     }
     for kind in ["float", "int", "path", "text", "one-of:", "switch"] {

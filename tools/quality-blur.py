@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
 # tools/quality-blur.py DEPTH.npy SIGMA_PX CUT_R OUT.npy — a normalised Gaussian of a dumped depth image over its
 # fluid pixels (neighbours further than CUT_R particle radii in depth left out), for measuring screen-space
-# smoothing of the iso surface with ../shared/tools/quality (docs/iso-surface.md, commit 14600b6). Needs numpy. Radius 0.0125 m
+# smoothing of the iso surface with `meniscus quality` (docs/iso-surface.md). Needs numpy. Radius 0.0125 m
 # (the shared dam break). Example:
 #   meniscus render F --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --surface iso --filter none --out i.png --dump smoothed
 #   tools/quality-blur.py i.smoothed.npy 0.7 2 b.npy
-#   quality compare --ref-depth ../shared/data/quality/dambreak59k_f20_smooth_ref_depth.npy --depth b.npy \
-#       --normals-from-depth --ref-normals-from-depth --radius 0.0125
+#   meniscus quality F --radius 0.0125 --camera 0,2.5,6:0,0.3,0:45 --depth b.npy \
+#       --reference ../shared/data/quality/dambreak59k_f20_smooth_ref_depth.npy
 import sys
 
 import numpy as np

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Measure every surface, kernel and smoothing filter on the shared dam-break frame 20 (960×540, the reference
-# camera) against BOTH splashsurf references in ../shared/data/quality/ with ../shared/tools/quality: the raw
+# camera) against BOTH splashsurf references in ../shared/data/quality/ with `meniscus quality`: the raw
 # reconstruction (dambreak59k_f20_ref_depth.npy) and the smoothed one practitioners render
-# (dambreak59k_f20_smooth_ref_depth.npy). Prints one markdown table per reference (issue #15: the tables are
-# produced by this script, never typed in). Each configuration is rendered once; its `filter`/`iso`/
+# (dambreak59k_f20_smooth_ref_depth.npy). Prints one markdown table per reference (the tables are produced by
+# this script, never typed in). Each configuration is rendered once; its `filter`/`iso`/
 # `anisotropy` GPU ms are this machine's (benchmarks: `meniscus bench`).
 # Usage: tools/quality.sh [extra render args…]; CONFIGS="name|render args;…" replaces the list; SCENE picks the
 # reference (dambreak59k_f20, the default; ddbs25k_f12 or ddbs25k_f16: the double dam break around a sphere,
@@ -12,11 +12,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=${MENISCUS_SHARED:-../shared}
-q=${QUALITY_BIN:-/tmp/meniscus-quality/release/quality}
-if [ ! -x "$q" ]; then
-    CARGO_TARGET_DIR=/tmp/meniscus-quality cargo build --release --quiet --manifest-path "$shared/tools/quality/Cargo.toml"
-    q=/tmp/meniscus-quality/release/quality
-fi
 scene=${SCENE:-dambreak59k_f20}
 case "$scene" in
     dambreak59k_f20) frame="$shared/data/splishsplash/dambreak_59k/partio/ParticleData_Fluid_20.bgeo"
@@ -68,18 +63,19 @@ for c in "${configs[@]}"; do
         exit 1
     fi
     ms=$(awk -F'|' '$2 ~ /^ (splat|filter|iso|anisotropy|mesh) $/ {gsub(/ /,"",$2); gsub(/ /,"",$3); printf "%s%s %s", sep, $2, $3; sep=", "}' <<< "$timings")
-    for ref in ref smooth_ref; do
-        rows[$ref]+=$("$q" compare --ref-depth "${refs}_${ref}_depth.npy" \
-            --depth "$out/c.smoothed.npy" --normals-from-depth --ref-normals-from-depth --radius "$radius" | tail -n 1 |
-            python3 -c "import json,sys; d=json.load(sys.stdin); r=$radius; print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (d['iou'], d['depth_median_abs']/r, d['depth_p90_abs']/r, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
+    target/release/meniscus quality "$frame" --radius "$radius" --camera "$camera" --width 960 --height 540 \
+        --depth "$out/c.smoothed.npy" --reference "${refs}_ref_depth.npy" --reference "${refs}_smooth_ref_depth.npy" \
+        --json "$out/q.json" >/dev/null 2>"$out/err" || { cat "$out/err" >&2; exit 1; }
+    for k in 0 1; do
+        ref=$([ $k = 0 ] && echo ref || echo smooth_ref)
+        rows[$ref]+=$(python3 -c "import json; c=json.load(open('$out/q.json'))['frames'][0]['references'][$k][1]; print('| $name | %.3f | %.2f | %.2f | %.1f | %.1f | ${ms:-–} |' % (c['iou'], c['depth_median_r'], c['depth_p90_r'], c['normal_median_deg'], c['normal_p90_deg']))")$'\n'
     done
 done
 # The yardstick: splashsurf's own unsmoothed surface (the raw reference) measured against its smoothed one — the
 # same reconstruction without the mesh smoothing, i.e. what any unsmoothed surface of the field can reach.
-rows[smooth_ref]+=$("$q" compare --ref-depth "${refs}_smooth_ref_depth.npy" \
-    --depth "${refs}_ref_depth.npy" --normals-from-depth --ref-normals-from-depth \
-    --radius "$radius" | tail -n 1 |
-    python3 -c "import json,sys; d=json.load(sys.stdin); r=$radius; print('| splashsurf raw reference (yardstick) | %.3f | %.2f | %.2f | %.1f | %.1f | – |' % (d['iou'], d['depth_median_abs']/r, d['depth_p90_abs']/r, d['normal_median_deg'], d['normal_p90_deg']))")$'\n'
+target/release/meniscus quality "$frame" --radius "$radius" --camera "$camera" --width 960 --height 540 \
+    --depth "${refs}_ref_depth.npy" --reference "${refs}_smooth_ref_depth.npy" --json "$out/y.json" >/dev/null 2>&1
+rows[smooth_ref]+=$(python3 -c "import json; c=json.load(open('$out/y.json'))['frames'][0]['references'][0][1]; print('| splashsurf raw reference (yardstick) | %.3f | %.2f | %.2f | %.1f | %.1f | – |' % (c['iou'], c['depth_median_r'], c['depth_p90_r'], c['normal_median_deg'], c['normal_p90_deg']))")$'\n'
 for ref in ref smooth_ref; do
     printf '\n### against %s_%s_depth.npy\n\n' "$scene" "$ref"
     printf '| surface + filter | IoU | depth median (r) | depth p90 (r) | normal median (°) | normal p90 (°) | GPU ms |\n|---|---:|---:|---:|---:|---:|---|\n'

@@ -52,6 +52,125 @@ impl Geometry {
         })
     }
 
+    /// Read a triangle mesh: OBJ, or PLY (ASCII or binary little-endian; `vertex` x y z as float or double,
+    /// `face` a list of vertex indices, polygons fanned) as `meniscus mesh` and splashsurf write it.
+    pub fn load_mesh(path: &Path) -> Result<Geometry> {
+        let bytes = crate::input::read(path)?;
+        let parsed = if bytes.starts_with(b"ply") { Geometry::parse_ply(&bytes) } else { Geometry::parse_obj(&bytes) };
+        parsed.map_err(|(offset, reason)| Error::Parse { path: path.to_path_buf(), offset, reason })
+    }
+
+    /// Parse a PLY mesh; errors are (byte offset, reason).
+    pub fn parse_ply(bytes: &[u8]) -> std::result::Result<Geometry, (u64, String)> {
+        let end =
+            bytes.windows(11).position(|w| w == b"end_header\n").ok_or((0, "no end_header line".to_string()))? + 11;
+        let header = std::str::from_utf8(&bytes[..end]).map_err(|_| (0, "the header is not text".to_string()))?;
+        let (mut format, mut element) = ("", "");
+        let (mut nv, mut nf) = (0usize, 0usize);
+        // Vertex properties (name, size in bytes); the face list's count and index sizes.
+        let mut vprops: Vec<(String, usize)> = vec![];
+        let mut list = (1usize, 4usize);
+        let size = |t: &str| match t {
+            "char" | "uchar" | "int8" | "uint8" => Some(1),
+            "short" | "ushort" | "int16" | "uint16" => Some(2),
+            "int" | "uint" | "float" | "int32" | "uint32" | "float32" => Some(4),
+            "double" | "float64" => Some(8),
+            _ => None,
+        };
+        let mut offset = 0u64;
+        for line in header.lines() {
+            let at = offset;
+            offset += line.len() as u64 + 1;
+            let w: Vec<&str> = line.split_whitespace().collect();
+            let bad = |why: &str| (at, format!("{why}: {line:?}"));
+            match w.as_slice() {
+                ["format", f, ..] => format = f,
+                ["element", e, n] => {
+                    element = e;
+                    let n: usize = n.parse().map_err(|_| bad("bad element count"))?;
+                    match *e {
+                        "vertex" => nv = n,
+                        "face" => nf = n,
+                        _ if n > 0 => return Err(bad("only vertex and face elements are read")),
+                        _ => {}
+                    }
+                }
+                ["property", "list", c, i, _] if element == "face" => {
+                    list = (size(c).ok_or_else(|| bad("unknown type"))?, size(i).ok_or_else(|| bad("unknown type"))?);
+                }
+                ["property", t, name] if element == "vertex" => {
+                    vprops.push((name.to_string(), size(t).ok_or_else(|| bad("unknown type"))?));
+                }
+                _ => {}
+            }
+        }
+        let find = |n: &str| vprops.iter().position(|(p, _)| p == n);
+        let (Some(ix), Some(iy), Some(iz)) = (find("x"), find("y"), find("z")) else {
+            return Err((0, "the vertex element has no x, y and z".to_string()));
+        };
+        let body = &bytes[end..];
+        let mut verts = Vec::with_capacity(nv.min(body.len()));
+        let mut triangles = vec![];
+        let short = |at: usize| ((end + at) as u64, "the file ends inside its body".to_string());
+        match format {
+            "ascii" => {
+                let text = std::str::from_utf8(body).map_err(|_| (end as u64, "the body is not text".to_string()))?;
+                let mut nums = text.split_whitespace();
+                let mut next = || nums.next().and_then(|t| t.parse::<f64>().ok());
+                for _ in 0..nv {
+                    let v: Vec<f64> =
+                        (0..vprops.len()).map(|_| next()).collect::<Option<_>>().ok_or_else(|| short(0))?;
+                    verts.push(Vec3::new(v[ix] as f32, v[iy] as f32, v[iz] as f32));
+                }
+                for _ in 0..nf {
+                    let k = next().ok_or_else(|| short(0))? as usize;
+                    let idx: Vec<f64> = (0..k).map(|_| next()).collect::<Option<_>>().ok_or_else(|| short(0))?;
+                    fan(&verts, &idx.iter().map(|&i| i as usize).collect::<Vec<_>>(), &mut triangles)
+                        .ok_or((end as u64, "a face names a vertex past the vertex count".to_string()))?;
+                }
+            }
+            "binary_little_endian" => {
+                let read = |at: usize, n: usize, float: bool| -> Option<f64> {
+                    let b = body.get(at..at + n)?;
+                    Some(match (n, float) {
+                        (1, _) => b[0] as f64,
+                        (2, _) => u16::from_le_bytes([b[0], b[1]]) as f64,
+                        (4, true) => f32::from_le_bytes(b.try_into().ok()?) as f64,
+                        (4, false) => u32::from_le_bytes(b.try_into().ok()?) as f64,
+                        (8, _) => f64::from_le_bytes(b.try_into().ok()?),
+                        _ => return None,
+                    })
+                };
+                let stride: usize = vprops.iter().map(|p| p.1).sum();
+                let at_of = |k: usize| vprops[..k].iter().map(|p| p.1).sum::<usize>();
+                let (ox, oy, oz) = (at_of(ix), at_of(iy), at_of(iz));
+                let fsize = vprops[ix].1;
+                for v in 0..nv {
+                    let b = v * stride;
+                    let c = |o: usize| read(b + o, fsize, true).ok_or_else(|| short(b));
+                    verts.push(Vec3::new(c(ox)? as f32, c(oy)? as f32, c(oz)? as f32));
+                }
+                let mut at = nv * stride;
+                for _ in 0..nf {
+                    let k = read(at, list.0, false).ok_or_else(|| short(at))? as usize;
+                    at += list.0;
+                    let idx: Vec<usize> = (0..k)
+                        .map(|j| read(at + j * list.1, list.1, false).map(|i| i as usize))
+                        .collect::<Option<_>>()
+                        .ok_or_else(|| short(at))?;
+                    at += k * list.1;
+                    fan(&verts, &idx, &mut triangles)
+                        .ok_or(((end + at) as u64, "a face names a vertex past the vertex count".to_string()))?;
+                }
+            }
+            f => return Err((0, format!("PLY format {f:?}: ascii or binary_little_endian are read"))),
+        }
+        if triangles.is_empty() {
+            return Err((0, "no faces".to_string()));
+        }
+        Ok(Geometry { triangles })
+    }
+
     /// Parse OBJ text; errors are (byte offset, reason).
     pub fn parse_obj(bytes: &[u8]) -> std::result::Result<Geometry, (u64, String)> {
         let text = std::str::from_utf8(bytes).map_err(|e| (e.valid_up_to() as u64, "not UTF-8 text".to_string()))?;
@@ -119,6 +238,15 @@ impl Geometry {
         }
         best
     }
+}
+
+/// Fan polygon `idx` of `verts` into `out`; None when an index is out of range.
+fn fan(verts: &[Vec3], idx: &[usize], out: &mut Vec<[Vec3; 3]>) -> Option<()> {
+    let v = |i: usize| verts.get(idx[i]).copied();
+    for k in 2..idx.len() {
+        out.push([v(0)?, v(k - 1)?, v(k)?]);
+    }
+    Some(())
 }
 
 /// Möller–Trumbore; the same arithmetic as `ray_triangle` in background.comp.

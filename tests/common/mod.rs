@@ -9,6 +9,24 @@ use meniscus::settings::Settings;
 use meniscus::view::Environment;
 use meniscus::view::View;
 
+/// The `meniscus` binary of this build, as a command to run.
+pub fn meniscus() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_meniscus"))
+}
+
+/// A fresh empty folder for test `name` of suite `suite` (emptied if a previous run left it).
+pub fn tmpdir(suite: &str, name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("meniscus-{suite}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A command's stderr as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
 /// An axis-aligned box lo..hi as OBJ text: 8 vertices and 6 quads (12 triangles once loaded).
 pub fn box_obj(lo: [f32; 3], hi: [f32; 3]) -> String {
     let mut obj = String::new();

@@ -13,6 +13,7 @@ mod info;
 mod job;
 mod mesh;
 mod movie;
+mod quality;
 mod render;
 mod sim;
 
@@ -44,6 +45,9 @@ enum Cmd {
     /// Generate the diffuse particles (spray, foam and air bubbles, Ihmsen 2012) of a sequence and write them per frame (.bgeo/.vtk).
     #[command(alias = "foam")]
     Diffuse(diffuse::DiffuseArgs),
+    /// Measure a rendered surface: its roughness (particle rows), its distance to a reference surface's depth,
+    /// and for a sequence its flicker from frame to frame (colour, normals, warping error along the velocities).
+    Quality(quality::QualityArgs),
     /// Simulate a built-in scene or a SPlisHSPlasH scene file on the GPU (Position Based Fluids or DFSPH) and write a particle cache (.bgeo/.vtk).
     Sim(sim::SimArgs),
     /// Interactive window: play a sequence, fly the camera, look inside every pass.
@@ -201,6 +205,7 @@ fn main() {
         Cmd::Mesh(a) => mesh::run(&a),
         Cmd::Sim(a) => sim::run(&a),
         Cmd::Diffuse(a) => diffuse::run(&a),
+        Cmd::Quality(a) => quality::run(&a),
         Cmd::CliReference { flags } => {
             print!("{}", if flags { cli_flags() } else { cli_reference() });
             Ok(())
