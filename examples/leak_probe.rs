@@ -119,7 +119,7 @@ fn main() -> meniscus::Result<()> {
                 None,
             )?;
             Box::new(move || {
-                let t = r.targets.as_ref().expect("rendered");
+                let t = r.state().targets().expect("rendered");
                 let inputs = meniscus::passes::composite::CompositeInputs {
                     scene_color: if sampled_only { &tex } else { &t.scene_color },
                     scene_depth: &t.scene_depth,
@@ -127,19 +127,25 @@ fn main() -> meniscus::Result<()> {
                     normals: &t.normals,
                     thickness: if sampled_only { &tex } else { &t.thickness },
                     ssr: &t.ssr,
-                    sky: &r.background.sky,
+                    sky: &r.state().background().sky,
                 };
                 g.one_shot(|cmd| {
                     let mut ctx = FrameCtx::new(&g, cmd, None);
-                    let layers = r.effects.layers(&meniscus::settings::Settings::default())?;
-                    r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &layers, &t.final_color)
+                    let layers = r.state().effects().layers(&meniscus::settings::Settings::default())?;
+                    r.state().passes().composite.record(
+                        &mut ctx,
+                        r.state().uniforms(),
+                        &inputs,
+                        &layers,
+                        &t.final_color,
+                    )
                 })
             })
         }
         m if m.starts_with("frame") => {
             // frame, frame-cachedbg (static background reused), frame-nofilter (filter none)
             let (mut r, view, s) = wave_frame(&gpu, m.contains("nofilter"))?;
-            r.background.always_render = !m.contains("cachedbg");
+            r.parts_mut().background.always_render = !m.contains("cachedbg");
             Box::new(move || r.render(&view, &s).map(|_| ()))
         }
         m => return Err(meniscus::Error::Invalid(format!("unknown mode {m}"))),

@@ -5,7 +5,7 @@
 //! n.xy·min(T·α, β) (eq. 3.27 with the min fix), attenuated by exp(−η·T) as well; τ = exp(−γ·T) (eq. 3.28);
 //! F = Schlick Fresnel; c_reflect = the `ssr` hit where there is one, else the sky in the reflected direction;
 //! σ = k_s·max(0, n·h)^c (Blinn–Phong, sun). Fluid behind nearer scene geometry is hidden.
-//! Layers (the effects', `crate::effect::Layer`), in the order given, at most COMPOSITE_LAYERS: each an r32ui
+//! Layers (the effects', `crate::layer::Layer`), in the order given, at most COMPOSITE_LAYERS: each an r32ui
 //! image v with a colour (rgb), a weight w and a blend. `tint` (the noise's whitecaps, NVIDIA patent
 //! US 8,947,430: "a grayish color … as a function of the magnitude of the noise"): v holds a signed fixed-point
 //! value (from and full come in its units); the water mixes toward the colour lit by the ambient light and the
@@ -54,10 +54,7 @@ layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D layer3;
 #endif
 
 #if LAYERS_BOUND > 0
-// Blends (crate::passes::composite::Blend).
-#define BLEND_TINT 1.0
-#define BLEND_UNDER 2.0
-#define BLEND_OVER 3.0
+// Blends (crate::layer::Blend; their codes BLEND_TINT, BLEND_UNDER, BLEND_OVER are shader_constants).
 layout(push_constant) uniform Push {
     vec4 color[COMPOSITE_LAYERS]; // rgb: colour; w: weight
     vec4 blend[COMPOSITE_LAYERS]; // x: blend; tint: y from, z full; under/over: y units; w: the sun's share s

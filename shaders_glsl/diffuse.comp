@@ -35,7 +35,6 @@ layout(push_constant) uniform Push {
 } pc;
 
 const float UNITS = DIFFUSE_UNITS;
-const uint BUBBLE = 2u;
 
 vec2 to_pixel(vec3 c, vec2 size, float F) {
     return vec2(0.5 * size.x + F * c.x / -c.z - 0.5, 0.5 * size.y - F * c.y / -c.z - 0.5);
@@ -103,7 +102,7 @@ void main() {
             float fd = imageLoad(depth, ivec2(px, py)).x;
             float w = w0 * exp(-3.0 * q);
             bool under = is_fluid(fd) && zp > fd;
-            if (kind == BUBBLE && under) {
+            if (kind == DIFFUSE_BUBBLE && under) {
                 w *= exp(-(zp - fd) / pc.bubble_depth);
                 uint units = uint(round(w * UNITS));
                 if (units != 0u) imageAtomicAdd(bubbles, ivec2(px, py), units);

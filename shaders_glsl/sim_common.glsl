@@ -153,12 +153,12 @@ vec3 collide(vec3 x) {
         vec4 a = sim.colliders[2u * k];
         vec4 b = sim.colliders[2u * k + 1u];
         uint kind = uint(a.w + 0.5);
-        if (kind == 1u) {
+        if (kind == COLLIDER_SPHERE) {
             vec3 d = x - a.xyz;
             float l = length(d);
             float R = b.x + r;
             if (l < R) x = a.xyz + (l > 1e-9 ? d / l : vec3(0.0, 1.0, 0.0)) * R;
-        } else if (kind == 2u) {
+        } else if (kind == COLLIDER_BOX) {
             vec3 d = x - a.xyz;
             vec3 e = b.xyz + r;
             vec3 q = e - abs(d);
@@ -168,7 +168,7 @@ vec3 collide(vec3 x) {
                 else if (q.y <= q.z) x.y = a.y + s.y * e.y;
                 else x.z = a.z + s.z * e.z;
             }
-        } else if (kind == 3u) {
+        } else if (kind == COLLIDER_PLANE) {
             float s = dot(a.xyz, x) - (b.x + r);
             if (s < 0.0) x -= s * a.xyz;
         }

@@ -43,9 +43,6 @@ layout(push_constant) uniform DiffusePush {
     uint draw_cap;      // at most this many are appended for drawing
 } pc;
 
-const uint FOAM = 0u;
-const uint SPRAY = 1u;
-const uint BUBBLE = 2u;
 const float MAX_FLOAT = 3.4028235e38;
 
 float w_kernel(float r) {

@@ -40,12 +40,12 @@ void main() {
         }
     END_ROWS
     vf = sum > 0.0 ? vf / sum : vec3(0.0);
-    uint kind = n < pc.spray_below ? SPRAY : (n > pc.bubble_above ? BUBBLE : FOAM);
+    uint kind = n < pc.spray_below ? DIFFUSE_SPRAY : (n > pc.bubble_above ? DIFFUSE_BUBBLE : DIFFUSE_FOAM);
     vec3 g = sim.gravity_mass.xyz;
-    if (kind == SPRAY) {
+    if (kind == DIFFUSE_SPRAY) {
         v += pc.dt * (g - pc.air_drag * v);
         x += pc.dt * v;
-    } else if (kind == FOAM) {
+    } else if (kind == DIFFUSE_FOAM) {
         v = vf;
         x += pc.dt * vf;
     } else {

@@ -51,7 +51,7 @@ void main() {
         float life = pc.life_min + i_ke * unit(hash4(id, pc.frame, k, 3u)) * (pc.life_max - pc.life_min);
         pool[3u * at] = vec4(x + radial + hh * axis, life);
         pool[3u * at + 1u] = vec4(radial + v, 0.0);
-        pool[3u * at + 2u] = vec4(uintBitsToFloat(hash4(id, pc.frame, k, 7u)), float(FOAM), uintBitsToFloat(id), 0.0);
+        pool[3u * at + 2u] = vec4(uintBitsToFloat(hash4(id, pc.frame, k, 7u)), float(DIFFUSE_FOAM), uintBitsToFloat(id), 0.0);
         k += 1u;
     }
 }

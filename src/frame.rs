@@ -137,7 +137,7 @@ pub struct FrameInputs<'a> {
     /// The effects, their images prepared.
     pub effects: &'a Effects,
     /// Their layers in the composite, in order (`Effects::layers`).
-    pub layers: &'a [crate::passes::composite::Layer<'a>],
+    pub layers: &'a [crate::layer::Layer<'a>],
     /// The scene behind the fluid.
     pub background: &'a Background,
     /// The background images still show this view: the `background` pass is skipped.

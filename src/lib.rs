@@ -5,7 +5,7 @@
 //! Modules:
 //! - rendering: [`renderer`] (the frame driver, its requests and read-back), [`frame`] (the frame's passes in
 //!   order), [`passes`] (one struct per pass), [`surface`] (the surface techniques: spheres, iso, mesh),
-//!   [`effect`] (effects beside a surface: noise, diffuse particles), [`background`] (the ray-cast scene behind
+//!   [`effect`] (effects beside a surface: noise, diffuse particles) and [`layer`] (what an effect hands the frame), [`background`] (the ray-cast scene behind
 //!   the water), [`targets`] (the images every surface shares), [`particles`] (the particle set on the GPU),
 //!   [`view`] (camera and projection), [`settings`] and [`section`] (the TOML settings and their sections),
 //!   [`named`] (names shared by module, shader, label and JSON key), [`shader_constants`] and [`shaders`];
@@ -35,6 +35,7 @@ pub mod frame;
 pub mod gpu;
 pub mod input;
 pub mod inspect;
+pub mod layer;
 pub mod motion;
 pub mod named;
 pub mod output;

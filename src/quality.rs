@@ -274,8 +274,8 @@ pub fn roughness(normals: &[[f32; 3]], width: usize, height: usize) -> Option<Ro
     Some(Roughness { median_deg: quantile(&mut a, 0.5)?, p90_deg: quantile(&mut a, 0.9)?, pixels })
 }
 
-/// One rendered frame as [`Flicker`] reads it.
-pub struct FrameImages<'a> {
+/// One rendered frame as [`Flicker`] reads it: its colour, depth and normals.
+pub struct Picture<'a> {
     /// The final colour, RGBA8.
     pub colour: &'a image::RgbaImage,
     /// The water's depth (linear eye depth, +inf where none).
@@ -311,7 +311,7 @@ pub struct Flicker {
 
 /// The motion of a frame's surface: its particles' positions and velocities (world units per second), the
 /// time between frames, the camera.
-pub struct Motion<'a> {
+pub struct SurfaceMotion<'a> {
     /// Particle positions (world).
     pub positions: &'a [[f32; 3]],
     /// Particle velocities (world units per second).
@@ -342,7 +342,7 @@ pub struct FlickerMeter {
 impl FlickerMeter {
     /// Add the change from `prev` to `next` (same size); with `motion` (of `next`'s particles) also its warping
     /// error.
-    pub fn add(&mut self, prev: &FrameImages, next: &FrameImages, motion: Option<&Motion>) {
+    pub fn add(&mut self, prev: &Picture, next: &Picture, motion: Option<&SurfaceMotion>) {
         let (w, h) = (next.depth.width, next.depth.height);
         self.pairs += 1;
         for i in 0..w * h {
@@ -570,11 +570,12 @@ mod tests {
             .collect();
         let warp = |v: f32| {
             let velocities = vec![[v, 0.0, 0.0]; positions.len()];
-            let m = Motion { positions: &positions, velocities: &velocities, dt: 1.0, camera: &cam, radius: 0.05 };
+            let m =
+                SurfaceMotion { positions: &positions, velocities: &velocities, dt: 1.0, camera: &cam, radius: 0.05 };
             let mut meter = FlickerMeter::default();
             meter.add(
-                &FrameImages { colour: &colour, depth: &depth, normals: &na },
-                &FrameImages { colour: &colour, depth: &depth, normals: &nb },
+                &Picture { colour: &colour, depth: &depth, normals: &na },
+                &Picture { colour: &colour, depth: &depth, normals: &nb },
                 Some(&m),
             );
             meter.result()
@@ -616,8 +617,7 @@ mod tests {
         for (k, px) in c1.pixels_mut().enumerate() {
             px.0[2] = if k % 2 == 0 { 164 } else { 156 };
         }
-        let (a, b) =
-            (FrameImages { colour: &c0, depth: &p, normals: &n }, FrameImages { colour: &c1, depth: &p, normals: &n });
+        let (a, b) = (Picture { colour: &c0, depth: &p, normals: &n }, Picture { colour: &c1, depth: &p, normals: &n });
         let mut still = FlickerMeter::default();
         still.add(&a, &a, None);
         let s = still.result();

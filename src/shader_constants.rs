@@ -33,7 +33,7 @@ pub const NOISE_MAX_TILES: u32 = 16;
 /// Fixed-point units per particle radius of a detail height field (the `noise` pass's accumulator, read by
 /// `normals` and the composite's tint layer): 2^16, so a term's rounding error is 2^−17 radii.
 pub const DETAIL_UNITS: u32 = 1 << 16;
-/// Layers the `composite` pass lays over the shaded water (the effects' images: `crate::effect::Layer`).
+/// Layers the `composite` pass lays over the shaded water (the effects' images: `crate::layer::Layer`).
 pub const COMPOSITE_LAYERS: u32 = 4;
 /// Vec4s per fluid particle in the renderer's particle buffer ([`ParticleLayout`]): its position and, after all
 /// positions, its motion (id bits, |Δv|/Δt), read by the `noise` pass.
@@ -134,6 +134,21 @@ pub const ISO_STORE: u32 = ISO_VOLUME_BRICK + 2;
 /// `field::iso::sym_eigen`: converges to float precision in 4–5).
 pub const JACOBI_SWEEPS: u32 = 6;
 
+/// Diffuse particle kinds as the pool stores them (`crate::diffuse::Kind`, numbered as SPlisHSPlasH's
+/// FoamGenerator numbers them): foam …
+pub const DIFFUSE_FOAM: u32 = 0;
+/// … spray …
+pub const DIFFUSE_SPRAY: u32 = 1;
+/// … and air bubbles.
+pub const DIFFUSE_BUBBLE: u32 = 2;
+/// Collider kinds in the simulation's uniform block (`crate::sim::scene::Collider::encode`, sim_common.glsl's
+/// `collide`): a sphere …
+pub const COLLIDER_SPHERE: u32 = 1;
+/// … a solid box …
+pub const COLLIDER_BOX: u32 = 2;
+/// … and a half-space.
+pub const COLLIDER_PLANE: u32 = 3;
+
 /// Float constants shared by Rust and GLSL (build.rs defines them as float literals).
 /// The noise's depth below the surface, in falloffs, past which a particle adds nothing (noise.glsl).
 pub const NOISE_DEEP: f32 = 4.0;
@@ -142,12 +157,31 @@ pub const NOISE_2D_RMS: f32 = 0.886;
 /// Fixed-point units of the diffuse pass's coverage images per unit of coverage (diffuse.comp, passes::diffuse).
 pub const DIFFUSE_UNITS: f32 = 4096.0;
 
+/// The composite's blend codes (`crate::layer::Blend`, composite.comp's layers): a tint of the water …
+pub const BLEND_TINT: f32 = 1.0;
+/// … coverage under the surface …
+pub const BLEND_UNDER: f32 = 2.0;
+/// … and coverage over everything.
+pub const BLEND_OVER: f32 = 3.0;
+
 /// Every float constant above, by its GLSL name.
-pub const SHADER_CONSTANTS_F32: &[(&str, f32)] =
-    &[("NOISE_DEEP", NOISE_DEEP), ("NOISE_2D_RMS", NOISE_2D_RMS), ("DIFFUSE_UNITS", DIFFUSE_UNITS)];
+pub const SHADER_CONSTANTS_F32: &[(&str, f32)] = &[
+    ("NOISE_DEEP", NOISE_DEEP),
+    ("NOISE_2D_RMS", NOISE_2D_RMS),
+    ("DIFFUSE_UNITS", DIFFUSE_UNITS),
+    ("BLEND_TINT", BLEND_TINT),
+    ("BLEND_UNDER", BLEND_UNDER),
+    ("BLEND_OVER", BLEND_OVER),
+];
 
 /// Every constant above, by its GLSL name.
 pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
+    ("DIFFUSE_FOAM", DIFFUSE_FOAM),
+    ("DIFFUSE_SPRAY", DIFFUSE_SPRAY),
+    ("DIFFUSE_BUBBLE", DIFFUSE_BUBBLE),
+    ("COLLIDER_SPHERE", COLLIDER_SPHERE),
+    ("COLLIDER_BOX", COLLIDER_BOX),
+    ("COLLIDER_PLANE", COLLIDER_PLANE),
     ("LOCAL_2D", LOCAL_2D),
     ("CLEAR_SPAN", CLEAR_SPAN),
     ("LOCAL_1D", LOCAL_1D),

@@ -3,7 +3,9 @@
 //! allocated with the frame's size, and one composite layer over everything. The picture it gives is checked
 //! against the composite's blend computed here from the picture without it; the composite's layer limit is an
 //! error, not a panic. Given as a detail height field too (`Effect::detail`), its constant height leaves the
-//! normals as they are, and a second detail beside the noise's is an error naming both.
+//! normals as they are, and a second detail beside the noise's is an error naming both. It imports neither
+//! `meniscus::passes` nor the device layer `meniscus::gpu` (tests/layout.rs holds it to that): the effect
+//! vocabulary is `meniscus::layer`'s, the device types `meniscus::device`'s.
 
 mod common;
 
@@ -16,10 +18,9 @@ mod tint {
 
     use ash::vk;
     use meniscus::compute::clear::Clear;
+    use meniscus::device::{FrameCtx, Gpu, Image};
     use meniscus::effect::{replace, Effect, EffectFrame, EffectPrepare};
-    use meniscus::gpu::{FrameCtx, Gpu, Image};
-    use meniscus::passes::composite::{Blend, Layer};
-    use meniscus::passes::normals::Detail;
+    use meniscus::layer::{Blend, Detail, Layer};
     use meniscus::settings::Settings;
 
     /// A coverage of `value` units everywhere, laid over the picture in `color` with `weight`.
@@ -160,7 +161,10 @@ fn a_constant_detail_leaves_the_normals_and_two_details_are_an_error() {
     let mut rr = Renderer::new(&gpu).unwrap();
     rr.upload(meniscus::renderer::Upload::points(&p)).unwrap();
     rr.render(&v, &s).unwrap();
-    let words = |rr: &Renderer| meniscus::gpu::transfer::read_u32(&gpu, &rr.targets.as_ref().unwrap().normals).unwrap();
+    let words = |rr: &Renderer| -> Vec<u32> {
+        let st = rr.state();
+        bytemuck::pod_collect_to_vec(&st.read_image(&st.targets().unwrap().normals).unwrap())
+    };
     let plain = words(&rr);
     let mut t = tint::Tint::new(&gpu, 3 << 16, [1.0; 3], 0.0).unwrap();
     t.detail = true;

@@ -89,7 +89,7 @@ fn async_split_frame_is_bit_identical() {
         // Two frames in flight: each frame is read back before its slot is reused.
         let mut out = vec![];
         let mut r2 = Renderer::new(&gpu).unwrap();
-        r2.async_compute = split;
+        *r2.parts_mut().async_compute = split;
         let mut pending = std::collections::VecDeque::new();
         for (k, v) in views.iter().enumerate() {
             // New particles every frame (the split frame uploads them on the async queue, double-buffered).

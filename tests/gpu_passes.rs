@@ -16,10 +16,11 @@ use meniscus::renderer::Renderer;
 
 /// The frame's images for `v` and `s`, and its uniform block written, for tests that record passes one by one.
 fn pass_targets(r: &mut Renderer, v: &meniscus::view::View, s: &meniscus::settings::Settings) {
-    let desc = meniscus::targets::TargetsDesc::new(v.width, v.height, s, r.keep_raw_depth);
-    r.targets = Some(meniscus::targets::Targets::new(&r.gpu, desc).unwrap());
+    let desc = meniscus::targets::TargetsDesc::new(v.width, v.height, s, r.state().keeps_raw_depth());
+    let t = meniscus::targets::Targets::new(r.state().gpu(), desc).unwrap();
+    *r.parts_mut().targets = Some(t);
     let u = meniscus::frame::FrameUniforms::new(v, s, r.state().particles().count());
-    r.uniforms.write(0, bytemuck::bytes_of(&u)).unwrap();
+    r.parts_mut().uniforms.write(0, bytemuck::bytes_of(&u)).unwrap();
 }
 
 /// Render one frame whose passes count their own work (`FrameRequest::count_work`) and wait for it.
@@ -41,7 +42,7 @@ fn splat_depth_matches_analytic_sphere() {
     let mut s = settings(0.5);
     s.filter.method = Filter::None;
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, true);
-    let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
+    let depth = read_f32(&gpu, &r.state().targets().unwrap().depth).unwrap();
     let f = v.camera.focal_px(h as u32) as f64;
     let (mut covered, mut max_err) = (0, 0f64);
     for y in 0..h {
@@ -70,7 +71,7 @@ fn splat_clamps_to_near_plane() {
     let mut s = settings(0.5);
     s.filter.method = Filter::None;
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, true);
-    let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().depth).unwrap();
+    let depth = read_f32(&gpu, &r.state().targets().unwrap().depth).unwrap();
     let centre = depth[16 * 32 + 16];
     assert!((centre - v.camera.near).abs() < 1e-6, "centre depth {centre}, near {}", v.camera.near);
     assert_clean(&gpu);
@@ -86,7 +87,7 @@ fn thickness_of_one_sphere_is_its_chord() {
     s.thickness.scale = 1.0;
     s.thickness.blur_px = 0;
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, false);
-    let t = read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap();
+    let t = read_f32(&gpu, &r.state().targets().unwrap().thickness).unwrap();
     let f = v.camera.focal_px(h as u32) as f64;
     let mut max_err = 0f64;
     for y in 0..h {
@@ -116,7 +117,7 @@ fn thickness_is_zero_behind_scene_geometry() {
     s.thickness.scale = 1.0;
     s.thickness.blur_px = 0;
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, false);
-    let t = read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap();
+    let t = read_f32(&gpu, &r.state().targets().unwrap().thickness).unwrap();
     // The sphere covers a disc of about 15 px radius around (32, 32); the box hides x < 32.
     for y in 26..38 {
         assert_eq!(t[y * w + 21], 0.0, "hidden pixel ({}, {y}) has thickness", 21);
@@ -204,16 +205,16 @@ fn smooth_once(
     its: u32,
 ) -> Vec<f32> {
     let mut r = Renderer::new(gpu).unwrap();
-    r.keep_raw_depth = true;
+    *r.parts_mut().keep_raw_depth = true;
     pass_targets(&mut r, v, s);
-    let t = r.targets.as_ref().unwrap();
+    let t = r.state().targets().unwrap();
     upload_image(gpu, &t.depth, bytemuck::cast_slice(src)).unwrap();
     let out = gpu
         .one_shot(|cmd| {
             let mut ctx = FrameCtx::new(gpu, cmd, None);
-            Ok(r.passes.filter.record_iterations(
+            Ok(r.state().passes().filter.record_iterations(
                 &mut ctx,
-                &r.uniforms,
+                r.state().uniforms(),
                 &t.depth,
                 t.ping_pong(),
                 &s.filter,
@@ -268,7 +269,7 @@ fn normals_of_plane_and_sphere() {
     let s = settings(0.05);
     let mut r = Renderer::new(&gpu).unwrap();
     pass_targets(&mut r, &v, &s);
-    let t = r.targets.as_ref().unwrap();
+    let t = r.state().targets().unwrap();
     // Plane through (0,0,−3) with view-space normal n: n·P = n·(0,0,−3).
     let n = {
         let n = [0.3f64, -0.2, 1.0];
@@ -298,7 +299,7 @@ fn normals_of_plane_and_sphere() {
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05, None);
+        r.state().passes().normals.record(&mut ctx, r.state().uniforms(), &t.depth, &t.normals, 0.05, None);
         Ok(())
     })
     .unwrap();
@@ -439,20 +440,29 @@ fn ssr_hits_match_cpu_ray_tracer() {
             }
         }
     }
-    let t = r.targets.as_ref().unwrap();
+    let t = r.state().targets().unwrap();
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&depth)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.background.record(
+        r.state().passes().background.record(
             &mut ctx,
-            &r.uniforms,
-            &r.background.sky,
-            r.background.geometry(),
+            r.state().uniforms(),
+            &r.state().background().sky,
+            r.state().background().geometry(),
             &t.scene_color,
             &t.scene_depth,
         );
-        r.passes.normals.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, 0.05, None);
-        r.passes.ssr.record(&mut ctx, &r.uniforms, &t.depth, &t.normals, &t.scene_depth, &t.ssr, &s.ssr, s.radius);
+        r.state().passes().normals.record(&mut ctx, r.state().uniforms(), &t.depth, &t.normals, 0.05, None);
+        r.state().passes().ssr.record(
+            &mut ctx,
+            r.state().uniforms(),
+            &t.depth,
+            &t.normals,
+            &t.scene_depth,
+            &t.ssr,
+            &s.ssr,
+            s.radius,
+        );
         Ok(())
     })
     .unwrap();
@@ -530,7 +540,7 @@ fn upsample_never_lands_between_surfaces() {
     s.fluid_scale = 0.5;
     let mut r = Renderer::new(&gpu).unwrap();
     pass_targets(&mut r, &v, &s);
-    let t = r.targets.as_ref().unwrap();
+    let t = r.state().targets().unwrap();
     let (lw, lh) = (t.depth.extent.width as usize, t.depth.extent.height as usize);
     assert_eq!((lw, lh), (32, 24));
     // Left: a near surface sloping from 2.0; right: a far one at 3.0; a background band at the top.
@@ -549,7 +559,13 @@ fn upsample_never_lands_between_surfaces() {
     upload_image(&gpu, &t.depth, bytemuck::cast_slice(&low)).unwrap();
     gpu.one_shot(|cmd| {
         let mut ctx = FrameCtx::new(&gpu, cmd, None);
-        r.passes.upsample.record(&mut ctx, &r.uniforms, &t.depth, t.depth_full.as_ref().unwrap(), 0.05);
+        r.state().passes().upsample.record(
+            &mut ctx,
+            r.state().uniforms(),
+            &t.depth,
+            t.depth_full.as_ref().unwrap(),
+            0.05,
+        );
         Ok(())
     })
     .unwrap();
@@ -780,13 +796,13 @@ fn splat_depth(
     s.filter.method = Filter::None;
     s.splat.mode = mode;
     let mut r = Renderer::new(gpu).unwrap();
-    if !r.passes.splat.supports(mode) {
+    if !r.state().supports_splat(mode) {
         return None;
     }
-    r.keep_raw_depth = true;
+    *r.parts_mut().keep_raw_depth = true;
     r.upload(meniscus::renderer::Upload::points(positions)).unwrap();
     r.render(v, &s).unwrap();
-    Some(read_f32(gpu, &r.targets.as_ref().unwrap().depth).unwrap())
+    Some(read_f32(gpu, &r.state().targets().unwrap().depth).unwrap())
 }
 
 /// Two depth images agree pixel for pixel (equal, or within 1e-6).
@@ -902,7 +918,7 @@ fn weights_follow(kernel: meniscus::settings::Kernel, once: &[&str]) {
     s.kernel = kernel;
     let ran = |t: &meniscus::timing::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.keep_raw_depth = true;
+    *rd.parts_mut().keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&a)).unwrap();
     let first = rd.render(&v, &s).unwrap();
     assert!(once.iter().all(|p| ran(&first, p)), "the first frame computes {once:?}: {:?}", first.0);
@@ -911,12 +927,12 @@ fn weights_follow(kernel: meniscus::settings::Kernel, once: &[&str]) {
     rd.upload(meniscus::renderer::Upload::points(&b)).unwrap();
     let next = rd.render(&v, &s).unwrap();
     assert!(once.iter().all(|p| ran(&next, p)), "new particles: {once:?} again: {:?}", next.0);
-    let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    let got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
     let mut fresh = Renderer::new(&gpu).unwrap();
-    fresh.keep_raw_depth = true;
+    *fresh.parts_mut().keep_raw_depth = true;
     fresh.upload(meniscus::renderer::Upload::points(&b)).unwrap();
     fresh.render(&v, &s).unwrap();
-    let want = read_f32(&gpu, &fresh.targets.as_ref().unwrap().depth).unwrap();
+    let want = read_f32(&gpu, &fresh.state().targets().unwrap().depth).unwrap();
     let covered = want.iter().filter(|d| d.is_finite()).count();
     assert!(covered > 500, "covered {covered}");
     // The grid's within-cell order comes from atomics, so sums may round differently: 1e-4 r.
@@ -974,17 +990,17 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     // Every pixel marches (particles are ≈ 2 px here anyway); coarse-to-fine has its own test.
     s.iso.fine_px = 0.0;
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.keep_raw_depth = true;
+    *rd.parts_mut().keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     s.iso.first_steps = 0;
     render_counted(&mut rd, &v, &s).unwrap();
-    let one_dispatch = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
-    let work = |rd: &Renderer| rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap().work(&gpu).unwrap();
+    let one_dispatch = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
+    let work = |rd: &Renderer| rd.state().targets().unwrap().iso_queue.as_ref().unwrap().work(&gpu).unwrap();
     let whole = work(&rd);
     s.iso.first_steps = first_steps;
     s.iso.rest_lanes = 1;
     render_counted(&mut rd, &v, &s).unwrap();
-    let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    let got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
     let differ = got.iter().zip(&one_dispatch).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "first_steps {first_steps}: {differ} pixels differ from the one-dispatch cast");
     // The pass's count of its field samples: the same samples whether a ray is marched in one dispatch or
@@ -1022,9 +1038,9 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
         }
         s.iso.rest_lanes = lanes;
         rd.render(&v, &s).unwrap();
-        let queue = rd.targets.as_ref().unwrap().iso_queue.as_ref().unwrap();
+        let queue = rd.state().targets().unwrap().iso_queue.as_ref().unwrap();
         let queued = queue.work(&gpu).unwrap().queued as usize;
-        let wide_got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+        let wide_got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
         let (mut differ, mut far) = (0, 0);
         for (a, b) in wide_got.iter().zip(&one_dispatch) {
             if a.to_bits() != b.to_bits() {
@@ -1202,14 +1218,14 @@ fn smoothed_iso_field_matches_cpu() {
     s.surface = meniscus::settings::Surface::Iso;
     s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.keep_raw_depth = true;
+    *rd.parts_mut().keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let first = rd.render(&v, &s).unwrap();
     let again = rd.render(&v, &s).unwrap();
     let ran = |t: &meniscus::timing::PassTimes, name: &str| t.0.iter().any(|(n, _)| n == name);
     assert!(ran(&first, "iso_volume"), "{:?}", first.0);
     assert!(!ran(&again, "iso_volume"), "a static frame reuses it: {:?}", again.0);
-    let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
+    let got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
     let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
     let vol = b.volume.as_ref().expect("the lattice");
     let shape = vol.shape;
@@ -1398,7 +1414,7 @@ fn smoothed_iso_surface_has_no_seams_at_voxel_faces() {
     let (w, h) = (160usize, 120usize);
     let v = view([0.0, 2.0, 0.6], [0.0, 0.0, 0.0], w as u32, h as u32, 30.0);
     rd.render(&v, &s).unwrap();
-    let t = rd.targets.as_ref().unwrap();
+    let t = rd.state().targets().unwrap();
     let words: Vec<u32> = bytemuck::pod_collect_to_vec(&read_image(&gpu, &t.normals).unwrap());
     let depth = read_f32(&gpu, &t.depth).unwrap();
     let n: Vec<glam::Vec3> = words.iter().map(|&x| glam::Vec3::from(meniscus::passes::normals::unpack(x))).collect();
@@ -1445,13 +1461,13 @@ fn iso_coarse_to_fine_matches_the_march() {
     s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.keep_raw_depth = true;
+    *rd.parts_mut().keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let mut depth = |fine_px: f32, refine: u32| {
         s.iso.fine_px = fine_px;
         s.iso.refine = refine;
         rd.render(&v, &s).unwrap();
-        read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap()
+        read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap()
     };
     let exact = depth(0.0, 6);
     let march = depth(0.0, 0);
@@ -1501,7 +1517,7 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
     r.upload(meniscus::renderer::Upload::points(&[[10.0, 10.0, 10.0]])).unwrap();
     r.set_background(meniscus::renderer::Backdrop::Mesh(&mesh)).unwrap();
     r.render(&v, &s).unwrap();
-    let depth = read_f32(&gpu, &r.targets.as_ref().unwrap().scene_depth).unwrap();
+    let depth = read_f32(&gpu, &r.state().targets().unwrap().scene_depth).unwrap();
     let inv = v.camera.view().inverse();
     let f = v.camera.focal_px(h as u32) as f64;
     let (mut hit, mut max_err, mut mismatch) = (0, 0f32, 0);
@@ -1544,7 +1560,7 @@ fn the_splat_counts_its_sphere_pixel_tests() {
         let mut r = Renderer::new(&gpu).unwrap();
         r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
         render_counted(&mut r, &v, &s).unwrap();
-        let work = r.targets.as_ref().unwrap().splat_work(&gpu).unwrap();
+        let work = r.state().targets().unwrap().splat_work(&gpu).unwrap();
         let (view_m, f, radius) = (v.camera.view(), v.camera.focal_px(h), g.radius * s.splat_scale());
         let (mut tests, mut spheres) = (0u64, 0u64);
         for p in &g.particles.positions {
@@ -1585,10 +1601,10 @@ fn the_splat_lanes_per_sphere_change_nothing_but_time() {
         s.splat.lanes = lanes;
         s.splat.radius_scale = scale;
         let mut r = Renderer::new(&gpu).unwrap();
-        r.keep_raw_depth = true;
+        *r.parts_mut().keep_raw_depth = true;
         r.upload(meniscus::renderer::Upload::points(&g.particles.positions)).unwrap();
         render_counted(&mut r, &v, &s).unwrap();
-        let t = r.targets.as_ref().unwrap();
+        let t = r.state().targets().unwrap();
         (read_f32(&gpu, &t.depth).unwrap(), t.splat_work(&gpu).unwrap())
     };
     let scale = settings(g.radius).splat.radius_scale;
@@ -1653,7 +1669,7 @@ fn composite_matches_cpu_reference() {
     let mut r = Renderer::new(&gpu).unwrap();
     r.upload(meniscus::renderer::Upload::points(&[[0.0, 0.0, 0.0]])).unwrap();
     pass_targets(&mut r, &v, &s);
-    let t = r.targets.as_ref().unwrap();
+    let t = r.state().targets().unwrap();
     // Background: red = x/64, green 0.5, blue 0.25; nothing in front of the fluid.
     let bg = |x: usize| [x as f32 / 64.0, 0.5, 0.25];
     let mut scene = vec![0u16; w * h * 4];
@@ -1687,10 +1703,10 @@ fn composite_matches_cpu_reference() {
             normals: &t.normals,
             thickness: &t.thickness,
             ssr: &t.ssr,
-            sky: &r.background.sky,
+            sky: &r.state().background().sky,
         };
         // No layers: the shading alone.
-        r.passes.composite.record(&mut ctx, &r.uniforms, &inputs, &[], &t.final_color)?;
+        r.state().passes().composite.record(&mut ctx, r.state().uniforms(), &inputs, &[], &t.final_color)?;
         Ok(())
     })
     .unwrap();
@@ -1741,7 +1757,7 @@ fn thickness_blur_matches_cpu_gaussian() {
         let mut s = s.clone();
         s.thickness.blur_px = blur;
         let r = rendered(&gpu, &particles, &v, &s, false);
-        read_f32(&gpu, &r.targets.as_ref().unwrap().thickness).unwrap()
+        read_f32(&gpu, &r.state().targets().unwrap().thickness).unwrap()
     };
     let raw = render(0);
     let radius = 3i64;
@@ -1779,7 +1795,7 @@ fn barrier_batches_follow_the_access_table() {
     let v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 16, 16, 40.0);
     let s = settings(0.3);
     let r = rendered(&gpu, &[[0.0, 0.0, 0.0]], &v, &s, false);
-    let t = r.targets.as_ref().unwrap();
+    let t = r.state().targets().unwrap();
     let counts = gpu
         .one_shot(|cmd| {
             let mut ctx = FrameCtx::new(&gpu, cmd, None);
@@ -1821,7 +1837,7 @@ fn mesh_depth_matches_iso_ray_cast() {
         if surface == meniscus::settings::Surface::Mesh {
             assert!(times.get("mesh").is_some() && times.get("splat").is_none(), "{times:?}");
         }
-        read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap()
+        read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap()
     };
     let iso = depth_of(meniscus::settings::Surface::Iso);
     let mesh = depth_of(meniscus::settings::Surface::Mesh);
@@ -1868,7 +1884,7 @@ fn smoothed_mesh_renders_near_the_raw_mesh() {
             meniscus::settings::Settings { radius: r, ..meniscus::settings::Settings::preset("smooth").unwrap() };
         s.mesh.smoothing_iters = iters;
         rd.render(&v, &s).unwrap();
-        read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap()
+        read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap()
     };
     let raw = depth_of(0);
     let smooth = depth_of(10);
@@ -2003,11 +2019,11 @@ fn ellipsoid_splat_matches_analytic_ray_ellipsoid() {
     s.thickness.scale = 1.0;
     s.thickness.blur_px = 0;
     let mut rd = Renderer::new(&gpu).unwrap();
-    rd.keep_raw_depth = true;
+    *rd.parts_mut().keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     rd.render(&v, &s).unwrap();
-    let got = read_f32(&gpu, &rd.targets.as_ref().unwrap().depth).unwrap();
-    let thick = read_f32(&gpu, &rd.targets.as_ref().unwrap().thickness).unwrap();
+    let got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
+    let thick = read_f32(&gpu, &rd.state().targets().unwrap().thickness).unwrap();
 
     let grid = IsoGrid::build_reaching(&pts, s.iso.support * r, s.iso_reach());
     let kernels = grid.anisotropy(&s.iso_params().aniso.unwrap());
@@ -2116,12 +2132,12 @@ fn tiled_noise_sums_long_tile_lists_in_chunks() {
     let mut runs = vec![];
     for tiled in [true, false] {
         let mut rr = Renderer::new(&gpu).unwrap();
-        rr.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
+        rr.parts_mut().effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
         let up =
             meniscus::renderer::Upload::Points { positions: &pos, radii: None, isolated: None, motion: Some(&motion) };
         rr.upload(up).unwrap();
         render_counted(&mut rr, &v, &s).unwrap();
-        let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
+        let own = rr.state().effects().get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         runs.push((own.work().unwrap(), read_u32(&gpu, &own.accum).unwrap()));
     }
     let (tiled, alone) = (&runs[0], &runs[1]);
@@ -2187,7 +2203,7 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
     let mut runs = vec![];
     for tiled in [true, false] {
         let mut rr = Renderer::new(&gpu).unwrap();
-        rr.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
+        rr.parts_mut().effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
         rr.upload(meniscus::renderer::Upload::Points {
             positions: &pos,
             radii: None,
@@ -2196,11 +2212,11 @@ fn noise_level_of_detail_at(samples: f32, mean_of_peak: f32, within_percent: usi
         })
         .unwrap();
         render_counted(&mut rr, &v, &s).unwrap();
-        let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
+        let own = rr.state().effects().get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
         let work = own.work().unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
         let noise = noise_n(&gpu, own, &depth);
-        let normals = read_u32(&gpu, &rr.targets.as_ref().unwrap().normals).unwrap();
+        let normals = read_u32(&gpu, &rr.state().targets().unwrap().normals).unwrap();
         runs.push((work, noise, depth, read_u32(&gpu, &own.accum).unwrap(), normals));
     }
     assert!(runs[0].3 == runs[1].3, "the two splats' accumulators differ");
@@ -2277,9 +2293,9 @@ fn noise_matches_cpu_reference() {
     })
     .unwrap();
     render_counted(&mut rr, &v, &s).unwrap();
-    let t = rr.targets.as_ref().unwrap();
+    let t = rr.state().targets().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
-    let own = rr.effects.get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
+    let own = rr.state().effects().get::<NoiseEffect>().and_then(|n| n.images()).expect("the noise pass's images");
     // Level 0 of the accumulator atlas: every sprite here is small enough to be evaluated at full resolution.
     let work = own.work().unwrap();
     assert_eq!(work.level, 0, "{work:?}");
@@ -2292,8 +2308,8 @@ fn noise_matches_cpu_reference() {
     let normals = words(&t.normals);
     // The other splat (tiles on a CPU driver, one thread per sprite on a GPU) gives the same atlas.
     let mut other = Renderer::new(&gpu).unwrap();
-    let tiled = !rr.effects.get::<NoiseEffect>().unwrap().is_tiled();
-    other.effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
+    let tiled = !rr.state().effects().get::<NoiseEffect>().unwrap().is_tiled();
+    other.parts_mut().effects.get_mut::<NoiseEffect>().unwrap().set_tiled(&gpu, tiled).unwrap();
     other
         .upload(meniscus::renderer::Upload::Points {
             positions: &pos,
@@ -2303,12 +2319,12 @@ fn noise_matches_cpu_reference() {
         })
         .unwrap();
     other.render(&v, &s).unwrap();
-    let own2 = other.effects.get::<NoiseEffect>().unwrap().images().unwrap();
+    let own2 = other.state().effects().get::<NoiseEffect>().unwrap().images().unwrap();
     let atlas2 = words(&own2.accum);
     assert!(atlas2 == atlas, "the {} splat's accumulator differs", if tiled { "tiled" } else { "per-sprite" });
     // Level 0 alone: N is the sums themselves (no resolve) on either path; the same N and normals.
     assert!(noise_n(&gpu, own2, &depth) == noise, "the other path's N differs");
-    assert!(words(&other.targets.as_ref().unwrap().normals) == normals, "the other path's normals differ");
+    assert!(words(&other.state().targets().unwrap().normals) == normals, "the other path's normals differ");
     let particles = noise_reference_particles(&pos, &motion, &v);
     let f = v.camera.focal_px(h as u32);
     let want = reference::accumulate(&particles, &depth, w, h, f, r, v.camera.near, &s.noise);
@@ -2337,7 +2353,7 @@ fn noise_matches_cpu_reference() {
         })
         .unwrap();
     plain.render(&v, &s.with(|s| s.noise.enabled = false)).unwrap();
-    let n0 = words(&plain.targets.as_ref().unwrap().normals);
+    let n0 = words(&plain.state().targets().unwrap().normals);
     let edge = s.normals.edge * r;
     let same = |x: i64, y: i64, d: f32| {
         x >= 0 && y >= 0 && x < w as i64 && y < h as i64 && {
@@ -2406,7 +2422,7 @@ fn noise_of_still_water_does_not_flicker() {
         rr.render(&v, &s).unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
         frames.push((
-            noise_n(&gpu, rr.effects.get::<NoiseEffect>().unwrap().images().unwrap(), &depth),
+            noise_n(&gpu, rr.state().effects().get::<NoiseEffect>().unwrap().images().unwrap(), &depth),
             rr.state().read_final().unwrap(),
         ));
     }
@@ -2436,7 +2452,7 @@ fn a_frame_keeps_nothing_of_the_frame_before() {
         rr.upload(meniscus::renderer::Upload::scene(&b, &s)).unwrap();
         rr.render(&v, &s).unwrap();
         let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
-        let noise = noise_n(&gpu, rr.effects.get::<NoiseEffect>().unwrap().images().unwrap(), &depth);
+        let noise = noise_n(&gpu, rr.state().effects().get::<NoiseEffect>().unwrap().images().unwrap(), &depth);
         (rr.state().read_final().unwrap(), noise, depth)
     };
     let mut used = Renderer::new(&gpu).unwrap();
@@ -2536,9 +2552,9 @@ fn diffuse_matches_cpu_reference() {
     .unwrap();
     rr.upload(meniscus::renderer::Upload::Diffuse { particles: &diffuse, settings: &s }).unwrap();
     rr.render(&v, &s).unwrap();
-    let t = rr.targets.as_ref().unwrap();
+    let t = rr.state().targets().unwrap();
     let words = |img| read_u32(&gpu, img).unwrap();
-    let own = rr.effects.get::<DiffuseEffect>().and_then(|d| d.images()).expect("the diffuse pass's images");
+    let own = rr.state().effects().get::<DiffuseEffect>().and_then(|d| d.images()).expect("the diffuse pass's images");
     let (white, bubbles) = (words(&own.white), words(&own.bubbles));
     let depth = read_f32(&gpu, rr.state().smoothed_depth().unwrap()).unwrap();
     let scene_depth = read_f32(&gpu, &t.scene_depth).unwrap();
@@ -2638,7 +2654,7 @@ fn a_frame_counts_its_work_only_when_asked() {
             r.render(&v, &s).unwrap();
         }
         let work = r.state().work(&s, |_| true).unwrap();
-        (work, read_image(&gpu, &r.targets.as_ref().unwrap().final_color).unwrap())
+        (work, read_image(&gpu, &r.state().targets().unwrap().final_color).unwrap())
     };
     let (plain, image) = frame(&mut r, false);
     let (counted, image_counted) = frame(&mut r, true);
@@ -2680,7 +2696,7 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
             r.upload(Upload::Scene { particles: p, settings: &s, motion: None, ahead: a.as_ref() }).unwrap();
             assert_eq!(r.state().particles().analysis().is_some(), ahead, "the analysis was not taken");
             r.render(&v, &s).unwrap();
-            got.push(read_image(&gpu, &r.targets.as_ref().unwrap().final_color).unwrap());
+            got.push(read_image(&gpu, &r.state().targets().unwrap().final_color).unwrap());
         }
         images.push(got);
     }

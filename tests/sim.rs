@@ -583,7 +583,7 @@ fn the_diffuse_layer_of_a_steady_flow_does_not_flicker() {
         r.upload(meniscus::renderer::Upload::scene(&p, &s)).unwrap();
         r.upload(meniscus::renderer::Upload::Diffuse { particles: live.particles(), settings: &s }).unwrap();
         r.render(&v, &s).unwrap();
-        let own = r.effects.get::<meniscus::effect::diffuse::DiffuseEffect>().and_then(|d| d.images());
+        let own = r.state().effects().get::<meniscus::effect::diffuse::DiffuseEffect>().and_then(|d| d.images());
         let white: Vec<f32> = read_u32(&gpu, &own.expect("diffuse images").white)
             .unwrap()
             .into_iter()
@@ -687,7 +687,8 @@ fn gpu_drawn_diffuse_particles_equal_uploaded_ones() {
     let words = |r: &Renderer| {
         read_u32(
             &gpu,
-            &r.effects
+            &r.state()
+                .effects()
                 .get::<meniscus::effect::diffuse::DiffuseEffect>()
                 .and_then(|d| d.images())
                 .expect("diffuse images")

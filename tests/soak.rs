@@ -32,7 +32,7 @@ fn rss_stays_flat_over_hundreds_of_frames() {
         motion: None,
     })
     .unwrap();
-    r.background.always_render = true;
+    r.parts_mut().background.always_render = true;
     for surface in [Surface::Spheres, Surface::Iso] {
         let s = Settings { radius: gen.radius, surface, ..Settings::default() };
         let view = View {

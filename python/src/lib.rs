@@ -282,7 +282,7 @@ impl Renderer {
 
     /// The last frame's depth (linear eye depth, +inf = no fluid), view-space normals and thickness.
     fn buffers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let t = self.core.targets.as_ref().ok_or_else(|| PyRuntimeError::new_err("nothing rendered yet"))?;
+        let t = self.core.state().targets().ok_or_else(|| PyRuntimeError::new_err("nothing rendered yet"))?;
         let state = self.core.state();
         let d = PyDict::new(py);
         let img2 = |img: &meniscus::device::Image| -> PyResult<Bound<'py, PyArray2<f32>>> {

@@ -47,11 +47,11 @@ pub const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
 #[repr(u8)]
 pub enum Kind {
     /// Carried on the surface by the fluid.
-    Foam = 0,
+    Foam = crate::shader_constants::DIFFUSE_FOAM as u8,
     /// In the air, ballistic.
-    Spray = 1,
+    Spray = crate::shader_constants::DIFFUSE_SPRAY as u8,
     /// Under water, rising.
-    Bubble = 2,
+    Bubble = crate::shader_constants::DIFFUSE_BUBBLE as u8,
 }
 
 impl Kind {

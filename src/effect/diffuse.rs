@@ -11,7 +11,7 @@ use std::sync::Arc;
 use super::{Effect, EffectFrame, EffectPrepare};
 use crate::error::Result;
 use crate::gpu::{FrameCtx, Gpu};
-use crate::passes::composite::{Blend, Layer};
+use crate::layer::{Blend, Layer};
 use crate::passes::diffuse::{Diffuse, DiffuseImages, DiffuseTargets, NAME, UNITS};
 use crate::settings::Settings;
 

@@ -4,7 +4,10 @@
 //! setting on and something to draw), prepares them on the host, records its passes once the surface's depth is
 //! known (before the normals), may give the `normals` pass a detail height field whose slopes it adds
 //! ([`Effect::detail`]: the noise's waves), and gives the `composite` pass its layers
-//! (`crate::passes::composite::Layer`) — neither pass knows an effect by name. THE LIST is
+//! (`crate::layer::Layer`) — neither pass knows an effect by name. The vocabulary an effect speaks — `Layer`,
+//! `Blend`, `Detail` — is `crate::layer`'s (a leaf module both the effects and the passes read), and the device
+//! types it records with are `crate::device`'s, so an effect written outside the library (tests/effects.rs)
+//! imports neither `passes` nor the device layer. THE LIST is
 //! `built_in_effects!`: a new effect is one module and one line there (or one [`Effects::push`] from outside the
 //! library: `Renderer::add_effect`).
 //!
@@ -39,9 +42,8 @@ use std::sync::Arc;
 use crate::error::{Error, Result};
 use crate::gpu::executor::Executor;
 use crate::gpu::{Buffer, FrameCtx, Gpu, Image};
+use crate::layer::{Detail, Layer};
 use crate::particles::ParticleSet;
-use crate::passes::composite::Layer;
-use crate::passes::normals::Detail;
 use crate::settings::Settings;
 
 /// What an effect prepares with, on the host, before a frame is recorded.

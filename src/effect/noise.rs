@@ -9,9 +9,9 @@ use std::sync::Arc;
 use super::{Effect, EffectFrame, EffectPrepare};
 use crate::error::Result;
 use crate::gpu::{FrameCtx, Gpu};
-use crate::passes::composite::{Blend, Layer};
+use crate::layer::{Blend, Layer};
 use crate::passes::noise::{Noise, NoiseImages, NoiseTargets, NAME, UNITS};
-use crate::passes::normals::Detail;
+use crate::layer::Detail;
 use crate::settings::Settings;
 use crate::work::NoiseWork;
 

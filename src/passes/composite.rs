@@ -6,6 +6,7 @@ use std::sync::Arc;
 use crate::declare_program;
 use crate::error::{Error, Result};
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
+use crate::layer::Layer;
 use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `composite`.
@@ -104,67 +105,6 @@ pub struct CompositeInputs<'a> {
 /// The most layers the composite lays (one binding each in composite.comp).
 pub const LAYERS: usize = crate::shader_constants::COMPOSITE_LAYERS as usize;
 const _: () = assert!(LAYERS == 4, "composite.comp has a variant and a binding per layer, four");
-
-/// How a layer's image changes the shaded colour (shaders_glsl/composite.comp's blends).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Blend {
-    /// The image holds a signed fixed-point value v = raw / units (raw: the texel as i32); the water (not the
-    /// background) mixes toward the layer's colour, lit by the ambient light and `sun` × the sun's Lambert term,
-    /// by weight · smoothstep(from, full, |v|).
-    Tint {
-        /// |v| where the tint starts …
-        from: f32,
-        /// … and where it is full.
-        full: f32,
-        /// Image units per unit of v.
-        units: f32,
-        /// The sun's share of the lighting (× n·l).
-        sun: f32,
-    },
-    /// The image holds fixed-point coverage C = v / units under the surface: the water mixes toward the colour,
-    /// lit by the ambient light + `sun` × the sun, by weight · (1 − exp(−C)).
-    Under {
-        /// Image units per unit of coverage.
-        units: f32,
-        /// The sun's share of the lighting.
-        sun: f32,
-    },
-    /// As [`Blend::Under`], over everything: water and background.
-    Over {
-        /// Image units per unit of coverage.
-        units: f32,
-        /// The sun's share of the lighting.
-        sun: f32,
-    },
-}
-
-/// One layer of the composite: an effect's image (R32_UINT, at least the output's size: read at the output's pixels)
-/// and how it blends.
-#[derive(Clone, Copy)]
-pub struct Layer<'a> {
-    /// The image.
-    pub image: &'a Image,
-    /// Its colour (linear rgb).
-    pub color: [f32; 3],
-    /// Its weight (0: invisible).
-    pub weight: f32,
-    /// How it blends.
-    pub blend: Blend,
-}
-
-impl Layer<'_> {
-    /// The layer's two push-constant vectors: (rgb, weight) and (blend, its parameters, the sun's share).
-    pub fn packed(&self) -> [[f32; 4]; 2] {
-        let [r, g, b] = self.color;
-        let mode = match self.blend {
-            Blend::Tint { from, full, units, sun } => [1.0, from * units, full * units, sun],
-            Blend::Under { units, sun } => [2.0, units, 0.0, sun],
-            Blend::Over { units, sun } => [3.0, units, 0.0, sun],
-        };
-        [[r, g, b, self.weight], mode]
-    }
-}
-
 
 /// Push constants of composite.comp: the layers ([`Layer::packed`]; zero past the last: no layer).
 #[repr(C)]

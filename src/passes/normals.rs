@@ -6,6 +6,7 @@ use std::sync::Arc;
 use crate::declare_program;
 use crate::error::Result;
 use crate::gpu::{groups_2d, Buffer, ComputeProgram, FrameCtx, Gpu, Image};
+use crate::layer::Detail;
 use crate::shaders;
 
 /// The pass's one name (module, shader stem, debug label, timestamp key, JSON key): `normals`.
@@ -50,21 +51,6 @@ pub struct Push {
     /// Scale of the detail's slopes ([`Detail::strength`]; 0 without one).
     pub strength: f32,
 }
-
-/// A height field an effect adds to the surface as small waves (`crate::effect::Effect::detail`): an R32_UINT
-/// image holding signed fixed-point heights, [`DETAIL_UNITS`] per particle radius, read at each pixel of the
-/// normals (at least their size; only its texels at the normals' pixels are read).
-#[derive(Clone, Copy)]
-pub struct Detail<'a> {
-    /// The heights.
-    pub image: &'a Image,
-    /// Scale of their slopes on the normals (1: the heights as they are).
-    pub strength: f32,
-}
-
-/// Fixed-point units of a detail height field per particle radius (the noise's accumulator's; the shaders'
-/// `DETAIL_UNITS`).
-pub const DETAIL_UNITS: f32 = crate::shader_constants::DETAIL_UNITS as f32;
 
 // Frame, depth → normals; with a detail, its heights after them.
 declare_program!(pub PROGRAM: Push = compute(shaders::NORMALS, [Uniform, ImgRead, ImgOverwrite]));

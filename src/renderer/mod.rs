@@ -48,16 +48,17 @@ pub fn decode_ssr(hit: u32) -> Option<[f32; 2]> {
     crate::passes::ssr::decode(hit)
 }
 
-/// Renders frames on one device.
+/// Renders frames on one device. Its parts are reached through methods ([`Renderer::targets`],
+/// [`Renderer::background_mut`], …): no field is public.
 pub struct Renderer {
     /// The device.
-    pub gpu: Arc<Gpu>,
+    pub(crate) gpu: Arc<Gpu>,
     /// Every pass of the frame.
-    pub passes: Passes,
+    pub(crate) passes: Passes,
     /// The frame's images (after the first render).
-    pub targets: Option<Targets>,
+    pub(crate) targets: Option<Targets>,
     /// The frame uniform block (written by tests that record passes by hand; frames use their slot's own).
-    pub uniforms: Buffer,
+    pub(crate) uniforms: Buffer,
     /// The particles on the device (and their host copy).
     particles: ParticleSet,
     executor: Executor,
@@ -66,20 +67,40 @@ pub struct Renderer {
     smoothed: Smoothed,
     /// Keep the raw splatted depth through smoothing (costs one more screen-sized image); set before rendering
     /// when the raw depth will be read back or viewed.
-    pub keep_raw_depth: bool,
+    pub(crate) keep_raw_depth: bool,
     /// The scene behind the fluid: sky, geometry, and whether its images still hold.
-    pub background: Background,
+    pub(crate) background: Background,
     /// GPU times of the frame a slot ran before the latest submission (read when the slot was reused).
     late_times: Option<PassTimes>,
     /// Where the host's time went in the latest submission ([`RendererState::host_times`]).
     host: HostTimes,
     /// Split each frame over two queues: the background and the thickness on the async compute queue, beside
     /// the fluid passes on the main queue (on a device with one queue both parts go to it, in order).
-    pub async_compute: bool,
+    pub(crate) async_compute: bool,
     /// The surface techniques, each with its resources (grids, lattice, mesh).
-    pub surfaces: Surfaces,
+    pub(crate) surfaces: Surfaces,
     /// The effects (noise, diffuse, any added with [`Renderer::add_effect`]), each with its images.
-    pub effects: Effects,
+    pub(crate) effects: Effects,
+}
+
+/// The parts of a [`Renderer`] an application changes ([`Renderer::parts_mut`]).
+pub struct RendererParts<'a> {
+    /// The scene behind the fluid (`always_render`: re-render it every frame, as a timed frame does).
+    pub background: &'a mut Background,
+    /// The effects (noise, diffuse and any added with [`Renderer::add_effect`]): `effects.get_mut::<T>()`.
+    pub effects: &'a mut Effects,
+    /// Keep the raw splatted depth through smoothing (one more screen-sized image): set before rendering when
+    /// the raw depth will be read back or viewed.
+    pub keep_raw_depth: &'a mut bool,
+    /// Split each frame over the main and the async compute queue (the background and the thickness beside
+    /// the fluid passes; on a device with one queue both parts go to it, in order).
+    pub async_compute: &'a mut bool,
+    /// The frame uniform block (tests that record passes by hand write it).
+    #[doc(hidden)]
+    pub uniforms: &'a mut Buffer,
+    /// The frame's images (tests that record passes by hand make their own).
+    #[doc(hidden)]
+    pub targets: &'a mut Option<Targets>,
 }
 
 /// Host-written memory of one frame slot.
@@ -190,6 +211,11 @@ impl Renderer {
     pub fn state(&self) -> RendererState<'_> {
         RendererState {
             gpu: &self.gpu,
+            passes: &self.passes,
+            uniforms: &self.uniforms,
+            background: &self.background,
+            keep_raw_depth: self.keep_raw_depth,
+            async_compute: self.async_compute,
             targets: self.targets.as_ref(),
             smoothed: self.smoothed,
             particles: &self.particles,
@@ -197,6 +223,20 @@ impl Renderer {
             effects: &self.effects,
             host: self.host,
             late: self.late_times.as_ref(),
+        }
+    }
+
+    /// The renderer's parts, to change: the scene behind the fluid, the effects, whether the raw depth is kept and
+    /// frames are split over two queues (and, for tests that record single passes, its passes' uniform block and
+    /// images). What [`Renderer::state`] reads.
+    pub fn parts_mut(&mut self) -> RendererParts<'_> {
+        RendererParts {
+            background: &mut self.background,
+            effects: &mut self.effects,
+            keep_raw_depth: &mut self.keep_raw_depth,
+            async_compute: &mut self.async_compute,
+            uniforms: &mut self.uniforms,
+            targets: &mut self.targets,
         }
     }
 

@@ -241,6 +241,11 @@ impl FrameSlots<'_> {
 /// host's time went.
 pub struct RendererState<'a> {
     pub(super) gpu: &'a std::sync::Arc<crate::gpu::Gpu>,
+    pub(super) passes: &'a crate::passes::Passes,
+    pub(super) uniforms: &'a crate::gpu::Buffer,
+    pub(super) background: &'a crate::background::Background,
+    pub(super) keep_raw_depth: bool,
+    pub(super) async_compute: bool,
     pub(super) targets: Option<&'a Targets>,
     pub(super) smoothed: crate::passes::filter::Output,
     pub(super) particles: &'a ParticleSet,
@@ -251,6 +256,49 @@ pub struct RendererState<'a> {
 }
 
 impl<'a> RendererState<'a> {
+    /// The device.
+    pub fn gpu(&self) -> &'a std::sync::Arc<crate::gpu::Gpu> {
+        self.gpu
+    }
+
+    /// The scene behind the fluid.
+    pub fn background(&self) -> &'a crate::background::Background {
+        self.background
+    }
+
+    /// The effects, each with its images.
+    pub fn effects(&self) -> &'a crate::effect::Effects {
+        self.effects
+    }
+
+    /// Whether the raw splatted depth is kept through smoothing.
+    pub fn keeps_raw_depth(&self) -> bool {
+        self.keep_raw_depth
+    }
+
+    /// Whether frames are split over two queues.
+    pub fn async_compute(&self) -> bool {
+        self.async_compute
+    }
+
+    /// Whether the depth splat can draw in `mode` on this device (the rasterised variants need what the device
+    /// offers).
+    pub fn supports_splat(&self, mode: crate::named::SplatMode) -> bool {
+        self.passes.splat.supports(mode)
+    }
+
+    /// Every pass, for the library's integration tests that record single passes by hand.
+    #[doc(hidden)]
+    pub fn passes(&self) -> &'a crate::passes::Passes {
+        self.passes
+    }
+
+    /// The frame uniform block, for the same tests.
+    #[doc(hidden)]
+    pub fn uniforms(&self) -> &'a crate::gpu::Buffer {
+        self.uniforms
+    }
+
     /// The frame's images (after the first frame).
     pub fn targets(&self) -> Option<&'a Targets> {
         self.targets

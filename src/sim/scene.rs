@@ -42,13 +42,19 @@ pub enum Collider {
 }
 
 impl Collider {
-    /// The two vec4 of the collider in sim_common.glsl's uniform block.
+    /// The two vec4 of the collider in sim_common.glsl's uniform block (its kind, `shader_constants::COLLIDER_*`,
+    /// in the first one's w).
     pub fn encode(&self) -> [[f32; 4]; 2] {
+        use crate::shader_constants::{COLLIDER_BOX, COLLIDER_PLANE, COLLIDER_SPHERE};
         match *self {
-            Collider::Sphere { centre, radius } => [centre.extend(1.0).to_array(), [radius, 0.0, 0.0, 0.0]],
-            Collider::Box { centre, half } => [centre.extend(2.0).to_array(), half.extend(0.0).to_array()],
+            Collider::Sphere { centre, radius } => {
+                [centre.extend(COLLIDER_SPHERE as f32).to_array(), [radius, 0.0, 0.0, 0.0]]
+            }
+            Collider::Box { centre, half } => {
+                [centre.extend(COLLIDER_BOX as f32).to_array(), half.extend(0.0).to_array()]
+            }
             Collider::Plane { normal, offset } => {
-                [normal.normalize_or(Vec3::Y).extend(3.0).to_array(), [offset, 0.0, 0.0, 0.0]]
+                [normal.normalize_or(Vec3::Y).extend(COLLIDER_PLANE as f32).to_array(), [offset, 0.0, 0.0, 0.0]]
             }
         }
     }

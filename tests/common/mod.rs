@@ -46,7 +46,7 @@ pub fn rendered(
     raw: bool,
 ) -> meniscus::renderer::Renderer {
     let mut r = meniscus::renderer::Renderer::new(gpu).unwrap();
-    r.keep_raw_depth = raw;
+    *r.parts_mut().keep_raw_depth = raw;
     r.upload(meniscus::renderer::Upload::points(particles)).unwrap();
     r.render(v, s).unwrap();
     r

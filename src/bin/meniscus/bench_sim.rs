@@ -154,7 +154,7 @@ pub fn run(
     // Rendering and simulating together.
     let mut combined = vec![];
     let mut r = Renderer::new(gpu)?;
-    r.background.always_render = true;
+    r.parts_mut().background.always_render = true;
     let mut s = base.clone();
     s.radius = scene.radius();
     s.validate()?;
@@ -170,7 +170,7 @@ pub fn run(
         },
     };
     for &on in modes {
-        r.async_compute = on;
+        *r.parts_mut().async_compute = on;
         let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
         if with_diffuse {
             sim.set_diffuse(Some(&base.diffuse))?;

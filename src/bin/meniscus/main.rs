@@ -4,7 +4,9 @@
 
 mod args;
 mod bench;
+mod bench_measure;
 mod bench_mesh;
+mod bench_report;
 mod bench_sim;
 mod chart;
 pub(crate) mod demo;

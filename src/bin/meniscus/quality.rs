@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meniscus::quality::{self, DepthImage, FlickerMeter, FrameImages, Motion};
+use meniscus::quality::{self, DepthImage, FlickerMeter, Picture, SurfaceMotion};
 use meniscus::renderer::Renderer;
 use meniscus::scene::sequence::FrameRange;
 
@@ -87,7 +87,7 @@ fn read_frame(r: &Renderer, w: u32, h: u32) -> Result<Rendered> {
     let state = r.state();
     let colour = state.read_final()?;
     let depth = state.read_f32(state.smoothed_depth().context("nothing rendered")?)?;
-    let t = r.targets.as_ref().context("nothing rendered")?;
+    let t = r.state().targets().context("nothing rendered")?;
     let words: Vec<u32> = bytemuck::pod_collect_to_vec(&state.read_image(&t.normals)?);
     let normals =
         words.into_iter().map(|w| if w == 0 { [0.0; 3] } else { meniscus::renderer::unpack_normal(w) }).collect();
@@ -219,7 +219,7 @@ pub fn run(a: &QualityArgs) -> Result<()> {
                     _ => None,
                 };
                 if let Some((before, _)) = &prev {
-                    let motion = velocities.as_ref().map(|v| Motion {
+                    let motion = velocities.as_ref().map(|v| SurfaceMotion {
                         positions: &p.positions,
                         velocities: v,
                         dt,
@@ -227,8 +227,8 @@ pub fn run(a: &QualityArgs) -> Result<()> {
                         radius: s.radius,
                     });
                     meter.add(
-                        &FrameImages { colour: &before.0, depth: &before.1, normals: &before.2 },
-                        &FrameImages { colour: &now.0, depth: &now.1, normals: &now.2 },
+                        &Picture { colour: &before.0, depth: &before.1, normals: &before.2 },
+                        &Picture { colour: &now.0, depth: &now.1, normals: &now.2 },
                         motion.as_ref(),
                     );
                 }

@@ -117,11 +117,11 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         r.set_background(Backdrop::Sky { size: *size, faces })?;
         view.env.sky_cube = true;
     }
-    r.keep_raw_depth = a.dump.iter().any(|d| d == "depth");
+    *r.parts_mut().keep_raw_depth = a.dump.iter().any(|d| d == "depth");
     job.upload(&mut r, &job.first)?;
     eprintln!("{}", job.summary(Some((a.width, a.height))));
     // Timed frames re-render the static background too, so the table shows every pass.
-    r.background.always_render = a.timings;
+    r.parts_mut().background.always_render = a.timings;
     let mut times = r.render(&view, s)?;
     crate::job::warn_strays(&r, s, &mut None);
     let first = times.clone();
@@ -439,7 +439,7 @@ fn dump_path(out: &std::path::Path, name: &str, ext: &str) -> PathBuf {
 }
 
 fn dump(r: &Renderer, a: &RenderArgs, out: &std::path::Path, view: &View) -> Result<()> {
-    let Some(t) = r.targets.as_ref() else { return Ok(()) };
+    let Some(t) = r.state().targets() else { return Ok(()) };
     let path = |n: &str, ext: &str| dump_path(out, n, ext);
     for d in &a.dump {
         match d.as_str() {

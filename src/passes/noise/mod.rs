@@ -2,7 +2,7 @@
 //! particle splats a Gaussian sprite of per-particle 3D noise, weighted by its depth below the fluid surface and
 //! scaled by how fast its velocity changes, into a noise image N (level 0 of its accumulator atlas, fixed
 //! point); the `normals` pass adds N's partial derivatives to the normals (small waves: the atlas is the noise
-//! effect's detail height field, `crate::passes::normals::Detail`) and the composite tints the surface toward
+//! effect's detail height field, `crate::layer::Detail`) and the composite tints the surface toward
 //! grey-white whitecaps by N's magnitude (its `tint` layer reads the same image). Runs on every surface (after the
 //! fluid's depth, before `normals`, so the normals and the reflections see the waves); `[noise] enabled = false`
 //! leaves it out. Shaders: shaders_glsl/noise_cull.comp, noise_args.comp and noise.comp (the splat on CPU
@@ -23,8 +23,8 @@ use crate::work::NoiseWork;
 pub const NAME: &str = "noise";
 
 /// Fixed-point units of the accumulator per particle radius of height (a detail height field's:
-/// [`crate::passes::normals::DETAIL_UNITS`]).
-pub const UNITS: f32 = crate::passes::normals::DETAIL_UNITS;
+/// [`crate::layer::DETAIL_UNITS`]).
+pub const UNITS: f32 = crate::layer::DETAIL_UNITS;
 
 /// Settings of the `noise` pass: the `[noise]` section of a settings file. Lengths in particle radii.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
