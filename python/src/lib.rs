@@ -236,7 +236,7 @@ impl Renderer {
         sim: &Simulation,
         camera: Option<([f32; 3], [f32; 3], f32)>,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
-        if !Arc::ptr_eq(&sim.gpu, &self.core.gpu) {
+        if !Arc::ptr_eq(&sim.gpu, self.core.state().gpu()) {
             return Err(PyValueError::new_err("the simulation runs on another device than this renderer"));
         }
         let mut s = self.settings.clone();
