@@ -427,6 +427,85 @@ impl FlickerMeter {
     }
 }
 
+/// How a sequence's meshes move from one frame to the next, in particle radii: for (a sample of) each vertex of a
+/// frame's mesh, the distance to the nearest vertex of the next frame's mesh — as it stands (`plain`), and after
+/// moving it by its nearest particle's velocity over one frame (`warped`: what is left is the surface changing in
+/// ways the flow does not explain). Distances are capped at [`MESH_REACH`] radii; the vertex spacing (about half
+/// the cube size) bounds the resolution from below.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct MeshFlicker {
+    /// Frame pairs measured.
+    pub pairs: usize,
+    /// Mean distance without moving the vertices, radii.
+    pub plain_mean_r: f32,
+    /// Its 90th percentile.
+    pub plain_p90_r: f32,
+    /// Mean distance after moving each vertex with the flow, radii; None without velocities.
+    pub warped_mean_r: Option<f32>,
+    /// Its 90th percentile.
+    pub warped_p90_r: Option<f32>,
+}
+
+/// The distance cap of [`MeshFlicker`], particle radii.
+pub const MESH_REACH: f32 = 4.0;
+
+/// Vertices sampled per frame pair by [`MeshFlickerMeter`] (every k-th, evenly).
+pub const MESH_SAMPLES: usize = 20_000;
+
+/// A frame's particles as they move: positions, velocities (world units per second) and the seconds to the
+/// next frame.
+pub struct FrameMotion<'a> {
+    /// Positions (world).
+    pub positions: &'a [[f32; 3]],
+    /// Velocities, one per position.
+    pub velocities: &'a [[f32; 3]],
+    /// Seconds between the frames.
+    pub dt: f32,
+}
+
+/// Accumulates [`MeshFlicker`] over consecutive frames.
+#[derive(Default)]
+pub struct MeshFlickerMeter {
+    plain: Vec<f32>,
+    warped: Vec<f32>,
+    pairs: usize,
+    moved: bool,
+}
+
+impl MeshFlickerMeter {
+    /// Add the change from the mesh vertices `prev` to `next`; with `motion` (the particles of `prev`'s frame:
+    /// positions, velocities, seconds between the frames) also the warped distance. `radius`: the particles'.
+    pub fn add(&mut self, prev: &[[f32; 3]], next: &[[f32; 3]], radius: f32, motion: Option<&FrameMotion>) {
+        self.pairs += 1;
+        let reach = MESH_REACH * radius;
+        let targets = NearestParticle::new(next, reach);
+        let near = motion.map(|m| NearestParticle::new(m.positions, 2.0 * radius));
+        let dist = |q: Vec3| targets.nearest(q).map_or(MESH_REACH, |k| Vec3::from_array(next[k]).distance(q) / radius);
+        let step = prev.len().div_ceil(MESH_SAMPLES).max(1);
+        for v in prev.iter().step_by(step) {
+            let v = Vec3::from_array(*v);
+            self.plain.push(dist(v));
+            if let (Some(m), Some(near)) = (motion, &near) {
+                self.moved = true;
+                let moved = near.nearest(v).map_or(v, |k| v + Vec3::from_array(m.velocities[k]) * m.dt);
+                self.warped.push(dist(moved));
+            }
+        }
+    }
+
+    /// The figure so far.
+    pub fn result(&mut self) -> MeshFlicker {
+        let mean = |v: &[f32]| if v.is_empty() { 0.0 } else { v.iter().sum::<f32>() / v.len() as f32 };
+        MeshFlicker {
+            pairs: self.pairs,
+            plain_mean_r: mean(&self.plain),
+            plain_p90_r: quantile(&mut self.plain, 0.9).unwrap_or(0.0),
+            warped_mean_r: self.moved.then(|| mean(&self.warped)),
+            warped_p90_r: if self.moved { quantile(&mut self.warped, 0.9) } else { None },
+        }
+    }
+}
+
 /// The particle nearest to a point, within a reach, through a hashed grid of cells of that reach.
 struct NearestParticle<'a> {
     positions: &'a [[f32; 3]],
@@ -584,6 +663,31 @@ mod tests {
         assert!(right.normal_mean_deg > 5.0, "{right:?}");
         assert!(right.warp_mean_deg.unwrap() < 0.4 * right.normal_mean_deg, "{right:?}");
         assert!(wrong.warp_mean_deg.unwrap() > right.normal_mean_deg, "{wrong:?}");
+    }
+
+    #[test]
+    fn a_mesh_moved_with_its_flow_does_not_flicker() {
+        // A sheet of vertices rising 0.5 radii a frame (along its normal), particles on it with that velocity:
+        // the warped distance is ~0, the plain one the rise; with the velocity reversed the warp makes it worse.
+        // (A sheet sliding within its own plane does not change the surface, and scores ~0 unwarped too.)
+        let sheet = |dy: f32| -> Vec<[f32; 3]> {
+            (0..60).flat_map(|i| (0..60).map(move |j| [i as f32 * 0.25, dy, j as f32 * 0.25])).collect()
+        };
+        let (a, b) = (sheet(0.0), sheet(0.5));
+        let run = |v: f32| {
+            let vel = vec![[0.0, v, 0.0]; a.len()];
+            let mut m = MeshFlickerMeter::default();
+            m.add(&a, &b, 1.0, Some(&FrameMotion { positions: &a, velocities: &vel, dt: 1.0 }));
+            m.result()
+        };
+        let (right, wrong) = (run(0.5), run(-0.5));
+        assert!(right.warped_mean_r.unwrap() < 0.01, "{right:?}");
+        assert!((right.plain_mean_r - 0.5).abs() < 0.01, "{right:?}");
+        assert!(wrong.warped_mean_r.unwrap() > right.plain_mean_r, "{wrong:?}");
+        let mut still = MeshFlickerMeter::default();
+        still.add(&a, &a, 1.0, None);
+        let s = still.result();
+        assert_eq!((s.plain_mean_r, s.warped_mean_r), (0.0, None));
     }
 
     #[test]

@@ -182,3 +182,45 @@ fn still_frames_do_not_flicker_and_jittered_ones_do() {
     assert!(jittered["particle_step_median_r"].as_f64().unwrap() > 0.1, "{jittered}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--mesh`: a slab rising with its velocities in the files; its meshes moved with the flow stay put (the warped
+/// distance is below the plain one), and with the velocities reversed (the control) they do not.
+#[test]
+fn mesh_flicker_follows_the_velocities() {
+    let d = tmpdir("quality", "mesh-flicker");
+    let risen = |k: usize, v: f32| {
+        let mut p = slab(0.0, 0);
+        for q in &mut p.positions {
+            q[1] += 0.006 * k as f32;
+        }
+        p.velocities = Some(vec![[0.0, v, 0.0]; p.positions.len()]);
+        p
+    };
+    let measure = |v: f32| {
+        for k in 0..3 {
+            std::fs::write(d.join(format!("f_{}.bgeo", k + 1)), scene::bgeo::write(&risen(k, v).to_raw(), true))
+                .unwrap();
+        }
+        let q = d.join("m.json");
+        let o = meniscus()
+            .arg("quality")
+            .arg(d.join("f_{}.bgeo"))
+            .args(["--radius", "0.01", "--mesh", "--json"])
+            .arg(&q)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        json(&q)["mesh_flicker"][0][1].clone()
+    };
+    // 25 frames a second: 0.006 a frame is 0.15 a second.
+    let right = measure(0.15);
+    let (plain, warped) = (right["plain_mean_r"].as_f64().unwrap(), right["warped_mean_r"].as_f64().unwrap());
+    assert!(plain > 0.2, "{right}");
+    assert!(warped < 0.5 * plain, "{right}");
+    let wrong = measure(-0.15);
+    assert!(wrong["warped_mean_r"].as_f64().unwrap() > plain, "{wrong}");
+    // A single file is refused: --mesh measures a sequence.
+    let o = meniscus().args(["quality", "drop", "--mesh"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -41,6 +41,11 @@ pub struct QualityArgs {
     /// Sequence: frames FIRST..LAST[:STEP] (inclusive, by the numbers in the file names), e.g. 10..40:2.
     #[arg(long = "frames", value_name = "RANGE")]
     frames_range: Option<String>,
+    /// Sequence: measure the meshes `meniscus mesh` makes of each frame instead of the rendered surface (cube
+    /// 0.5 r, unsmoothed and with 25 smoothing iterations): how far each frame's mesh is from the next, as it
+    /// stands and moved with the particles' velocities. No GPU needed.
+    #[arg(long)]
+    mesh: bool,
     /// Write the figures as JSON here.
     #[arg(long, value_name = "JSON")]
     json: Option<PathBuf>,
@@ -77,6 +82,8 @@ struct Report {
     /// Median over the frames of the roughness p90, degrees.
     roughness_p90_median_deg: Option<f32>,
     flicker: Option<quality::Flicker>,
+    /// With --mesh: the unsmoothed and the smoothed meshes' change from frame to frame.
+    mesh_flicker: Option<[(String, quality::MeshFlicker); 2]>,
 }
 
 /// A rendered frame: colour, the water's depth and its view-space normals.
@@ -130,6 +137,12 @@ pub fn run(a: &QualityArgs) -> Result<()> {
     }
     if job.frames.is_some() && (a.depth.is_some() || a.depth_out.is_some()) {
         bail!("--depth and --depth-out measure one frame, not a sequence");
+    }
+    if a.mesh {
+        if job.frames.is_none() || !a.reference.is_empty() || a.depth.is_some() {
+            bail!("--mesh measures a sequence's meshes from frame to frame (no --reference or --depth)");
+        }
+        return mesh_flicker(a, &job);
     }
     let s = &job.settings;
     let view = job.view(a.width, a.height);
@@ -207,17 +220,7 @@ pub fn run(a: &QualityArgs) -> Result<()> {
                 let now = read_frame(&r, a.width, a.height)?;
                 frames.push(figures(Some(f.number), &now.1, &now.2, &refs, fovy, s.radius)?);
                 // Velocities: the file's, else the positions' change since the previous frame (same count).
-                let velocities = match (&p.velocities, &prev) {
-                    (Some(v), _) => Some(v.clone()),
-                    (None, Some((_, before))) if before.len() == p.positions.len() => Some(
-                        p.positions
-                            .iter()
-                            .zip(before)
-                            .map(|(x, y)| [(x[0] - y[0]) / dt, (x[1] - y[1]) / dt, (x[2] - y[2]) / dt])
-                            .collect(),
-                    ),
-                    _ => None,
-                };
+                let velocities = velocities(&p, prev.as_ref().map(|x| x.1.as_slice()), dt);
                 if let Some((before, _)) = &prev {
                     let motion = velocities.as_ref().map(|v| SurfaceMotion {
                         positions: &p.positions,
@@ -243,6 +246,105 @@ pub fn run(a: &QualityArgs) -> Result<()> {
     finish(&gpu)
 }
 
+/// The velocities of frame `p` (the file's, else its positions' change since `before`, the same count), in world
+/// units per second with `dt` seconds between frames.
+fn velocities(p: &meniscus::scene::Particles, before: Option<&[[f32; 3]]>, dt: f32) -> Option<Vec<[f32; 3]>> {
+    match (&p.velocities, before) {
+        (Some(v), _) => Some(v.clone()),
+        (None, Some(b)) if b.len() == p.positions.len() => Some(
+            p.positions
+                .iter()
+                .zip(b)
+                .map(|(x, y)| [(x[0] - y[0]) / dt, (x[1] - y[1]) / dt, (x[2] - y[2]) / dt])
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
+/// `--mesh`: each frame meshed (unsmoothed and smoothed), each mesh against the next frame's.
+fn mesh_flicker(a: &QualityArgs, job: &Job) -> Result<()> {
+    use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
+    let list = job.frames.as_ref().expect("a sequence");
+    if list.len() < 2 {
+        bail!("{}: a sequence of {} frame: the flicker needs two or more", a.scene.input, list.len());
+    }
+    let r = job.settings.radius;
+    let dt = 1.0 / job.frame_rate();
+    let kinds = [("unsmoothed", 0u32), ("smoothed (25 iterations)", 25)];
+    let mut meters = [quality::MeshFlickerMeter::default(), quality::MeshFlickerMeter::default()];
+    // The previous frame: its meshes' vertices, positions and velocities.
+    struct Before {
+        meshes: [Vec<[f32; 3]>; 2],
+        positions: Vec<[f32; 3]>,
+        velocities: Option<Vec<[f32; 3]>>,
+    }
+    let mut prev: Option<Before> = None;
+    let bar = crate::args::progress(list.len() as u64, "frames");
+    for f in list {
+        let p = meniscus::scene::load_with(&f.path, &job.load).with_context(|| format!("frame {}", f.number))?;
+        let vel = velocities(&p, prev.as_ref().map(|x| x.positions.as_slice()), dt);
+        let mut meshes: [Vec<[f32; 3]>; 2] = Default::default();
+        for (k, (_, iterations)) in kinds.iter().enumerate() {
+            let recon = meniscus::surface::mesh::Reconstruct {
+                support: 4.0 * r,
+                extract: ExtractParams::new(0.5 * r, 0.6),
+                smoothing: SmoothParams { iterations: *iterations, ..Default::default() },
+            };
+            let rec = meniscus::surface::mesh::reconstruct_field(&p.positions, &recon, None)
+                .with_context(|| format!("frame {}: the mesh", f.number))?;
+            meshes[k] = rec.mesh.vertices;
+        }
+        if let Some(b) = &prev {
+            let motion =
+                b.velocities.as_deref().map(|v| quality::FrameMotion { positions: &b.positions, velocities: v, dt });
+            for (k, meter) in meters.iter_mut().enumerate() {
+                meter.add(&b.meshes[k], &meshes[k], r, motion.as_ref());
+            }
+        }
+        prev = Some(Before { meshes, positions: p.positions, velocities: vel });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let result = [(kinds[0].0.to_string(), meters[0].result()), (kinds[1].0.to_string(), meters[1].result())];
+    println!(
+        "{}: meshes (cube 0.5 r) from frame to frame, particle radii (capped at {} r)",
+        a.scene.input,
+        quality::MESH_REACH
+    );
+    println!("\n| mesh | pairs | mean | p90 | moved with the flow: mean | p90 |\n|---|---:|---:|---:|---:|---:|");
+    for (name, m) in &result {
+        println!(
+            "| {name} | {} | {:.3} | {:.3} | {} | {} |",
+            m.pairs,
+            m.plain_mean_r,
+            m.plain_p90_r,
+            opt(m.warped_mean_r, 3),
+            opt(m.warped_p90_r, 3)
+        );
+    }
+    if let Some(j) = &a.json {
+        let report = Report {
+            input: a.scene.input.clone(),
+            device: "none (CPU meshes)".into(),
+            size: [a.width, a.height],
+            radius: r,
+            camera: String::new(),
+            surface: "mesh".into(),
+            frames: vec![],
+            roughness_p90_median_deg: None,
+            flicker: None,
+            mesh_flicker: Some(result),
+        };
+        let text = serde_json::to_string_pretty(&report)?;
+        meniscus::output::write_atomic(j, meniscus::output::FileKind::Json, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })?;
+        eprintln!("wrote {}", j.display());
+    }
+    Ok(())
+}
+
 /// Print the figures, and write `--json` and `--depth-out`.
 fn report(
     a: &QualityArgs,
@@ -265,6 +367,7 @@ fn report(
         roughness_p90_median_deg: quality::quantile(&mut p90s, 0.5),
         frames,
         flicker,
+        mesh_flicker: None,
     };
     print_report(&report);
     if let Some(j) = &a.json {
