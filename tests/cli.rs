@@ -1,12 +1,8 @@
 //! The `meniscus` binary as a user runs it: a PNG from a built-in scene, clear errors and no PNG on bad input.
 
-use std::process::Command;
-
 mod common;
 
-fn meniscus() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_meniscus"))
-}
+use common::meniscus;
 
 /// The names of the partial files (`NAME.PID.HOST.partial`, what a writer renames into place) left in `d`.
 fn partials(d: &std::path::Path) -> Vec<String> {
@@ -18,12 +14,6 @@ fn partials(d: &std::path::Path) -> Vec<String> {
         .collect()
 }
 
-fn tmpdir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("meniscus-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 /// `meniscus render FRAME` at 64×48 with `extra` flags, into `png`.
 fn render_small(frame: &std::path::Path, extra: &[&str], png: &std::path::Path) -> std::process::Output {
     let size = ["--width", "64", "--height", "48"];
@@ -33,7 +23,7 @@ fn render_small(frame: &std::path::Path, extra: &[&str], png: &std::path::Path) 
 /// `meniscus bench ARGS --validation --json FILE` in a fresh folder named `name`: it must succeed; its output
 /// and the JSON report.
 fn bench_json(name: &str, args: &[&str]) -> (std::process::Output, serde_json::Value) {
-    let json = tmpdir(name).join("bench.json");
+    let json = common::tmpdir("cli", name).join("bench.json");
     let o = meniscus().arg("bench").args(args).args(["--validation", "--json"]).arg(&json).output().unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     (o, serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap())
@@ -41,7 +31,7 @@ fn bench_json(name: &str, args: &[&str]) -> (std::process::Output, serde_json::V
 
 #[test]
 fn render_builtin_scene_writes_png_and_timings() {
-    let d = tmpdir("ok");
+    let d = common::tmpdir("cli", "ok");
     let out = d.join("f.png");
     let o = meniscus()
         .args(["render", "drop", "--particles", "3000", "--width", "64", "--height", "48", "--timings", "--validation"])
@@ -115,7 +105,7 @@ fn render_builtin_scene_writes_png_and_timings() {
 
 #[test]
 fn corrupt_file_gives_one_line_error_and_no_png() {
-    let d = tmpdir("bad");
+    let d = common::tmpdir("cli", "bad");
     let bad = d.join("broken.bgeo");
     let mut bytes = meniscus::scene::bgeo::write(
         &meniscus::scene::Particles { positions: vec![[0.0; 3]; 100], ..Default::default() }.to_raw(),
@@ -135,7 +125,7 @@ fn corrupt_file_gives_one_line_error_and_no_png() {
 
 #[test]
 fn bad_background_obj_is_a_one_line_error_with_the_byte_offset() {
-    let d = tmpdir("obj");
+    let d = common::tmpdir("cli", "obj");
     let obj = d.join("bad.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
     let out = d.join("never.png");
@@ -162,7 +152,7 @@ fn bad_flags_are_errors_not_panics() {
         vec!["render", "block", "--radius", "-1"],
         vec!["render", "block", "--dump", "bogus"],
     ] {
-        let o = meniscus().args(&args).arg("--out").arg(tmpdir("flags").join("x.png")).output().unwrap();
+        let o = meniscus().args(&args).arg("--out").arg(common::tmpdir("cli", "flags").join("x.png")).output().unwrap();
         assert_eq!(o.status.code(), Some(1), "{args:?}");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.starts_with("error:") && !err.contains("panicked"), "{args:?}: {err}");
@@ -266,7 +256,7 @@ fn bench_also_presets_interleaves_every_preset() {
 /// reports their wall time per frame beside the CPU frame, for every preset of the run. No timing is asserted.
 #[test]
 fn bench_in_flight_reports_the_overlapped_frame_time() {
-    let d = tmpdir("bench-in-flight-frames");
+    let d = common::tmpdir("cli", "bench-in-flight-frames");
     // Three frames of different particle counts: each frame's box and grid differ.
     for k in 0..3 {
         let g = meniscus::scene::procedural::generate("wave", 2000 + 300 * k).unwrap();
@@ -307,7 +297,7 @@ fn bench_in_flight_reports_the_overlapped_frame_time() {
 #[test]
 fn bgeo_and_vtk_of_one_frame_render_identically() {
     let Some(root) = common::shared_data("splishsplash/dambreak_6859") else { return };
-    let d = tmpdir("same");
+    let d = common::tmpdir("cli", "same");
     let mut outs = vec![];
     for f in ["partio/ParticleData_Fluid_20.bgeo", "vtk/ParticleData_Fluid_20.vtk"] {
         let out = d.join(format!("{}.png", f.replace('/', "_")));
@@ -327,7 +317,7 @@ fn bgeo_and_vtk_of_one_frame_render_identically() {
 /// A sequence renders to numbered PNGs, honouring --frames and --shard.
 #[test]
 fn sequence_renders_numbered_pngs() {
-    let d = tmpdir("seq");
+    let d = common::tmpdir("cli", "seq");
     for n in [1, 2, 3, 10, 11] {
         let p = meniscus::scene::procedural::generate("drop", 800).unwrap().particles;
         std::fs::write(d.join(format!("f_{n}.bgeo")), meniscus::scene::bgeo::write(&p.to_raw(), true)).unwrap();
@@ -352,7 +342,7 @@ fn sequence_renders_numbered_pngs() {
 /// stderr is not a terminal).
 #[test]
 fn mesh_of_a_sequence_honours_frames() {
-    let d = tmpdir("meshseq");
+    let d = common::tmpdir("cli", "meshseq");
     for n in [1, 2, 3] {
         let p = meniscus::scene::procedural::generate("drop", 500).unwrap().particles;
         std::fs::write(d.join(format!("f_{n}.bgeo")), meniscus::scene::bgeo::write(&p.to_raw(), true)).unwrap();
@@ -378,7 +368,7 @@ fn mesh_of_a_sequence_honours_frames() {
 /// A camera east of / below the origin: values with a leading minus sign are values, not flags.
 #[test]
 fn negative_numbers_in_flag_values() {
-    let d = tmpdir("neg");
+    let d = common::tmpdir("cli", "neg");
     let out = d.join("neg.png");
     let o = meniscus()
         .args(["render", "drop", "--particles", "800", "--width", "32", "--height", "24"])
@@ -399,7 +389,7 @@ fn negative_numbers_in_flag_values() {
 /// `info` lists it.
 #[test]
 fn pvd_series_renders_as_a_sequence() {
-    let d = tmpdir("pvd");
+    let d = common::tmpdir("cli", "pvd");
     let pvd = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/vtk/series.pvd");
     let o = meniscus()
         .arg("render")
@@ -424,7 +414,7 @@ fn pvd_series_renders_as_a_sequence() {
 /// at a time (`--frames-in-flight 1`).
 #[test]
 fn sequence_with_frames_in_flight_matches_one_at_a_time() {
-    let d = tmpdir("inflight");
+    let d = common::tmpdir("cli", "inflight");
     for n in 1..=6 {
         let mut p = meniscus::scene::procedural::generate("drop", 600).unwrap().particles;
         for q in p.positions.iter_mut() {
@@ -457,7 +447,7 @@ fn sequence_with_frames_in_flight_matches_one_at_a_time() {
 /// mesh with 1 and 2 threads; a wrong extension is a one-line error and no file.
 #[test]
 fn mesh_subcommand_writes_ply_and_obj() {
-    let d = tmpdir("mesh");
+    let d = common::tmpdir("cli", "mesh");
     let run = |out: &str, threads: &str| {
         meniscus()
             .args(["mesh", "drop", "--particles", "600", "--cube-size", "1", "--threads", threads, "--out"])
@@ -589,7 +579,7 @@ fn mesh_subcommand_writes_ply_and_obj() {
 /// `info` and `render` read; bad scenes and patterns are one-line errors that write nothing.
 #[test]
 fn sim_exports_a_cache_that_loads_and_renders() {
-    let d = tmpdir("sim");
+    let d = common::tmpdir("cli", "sim");
     for ext in ["bgeo", "vtk"] {
         let pattern = d.join(format!("f_{{}}.{ext}"));
         let foam = d.join(format!("foam/d_{{}}.{ext}"));
@@ -669,7 +659,7 @@ fn sim_exports_a_cache_that_loads_and_renders() {
 /// a missing, broken or misplaced OBJ is a one-line error naming the file.
 #[test]
 fn sim_with_a_mesh_collider() {
-    let d = tmpdir("sim-collider");
+    let d = common::tmpdir("cli", "sim-collider");
     // A block through the dam-break water cube (x −1.95..−0.95): some water starts inside it.
     let (lo, hi) = ([-1.5f32, 0.0, -0.3], [-0.5f32, 0.4, 0.3]);
     let block = d.join("block.obj");
@@ -758,7 +748,7 @@ fn bench_sim_reports_stages_and_overlap() {
 /// without --mesh.
 #[test]
 fn bench_mesh_reports_phases_per_thread_count() {
-    let d = tmpdir("bench-mesh");
+    let d = common::tmpdir("cli", "bench-mesh");
     let mut pos = vec![];
     for z in 0..10 {
         for y in 0..10 {
@@ -809,7 +799,7 @@ fn bench_mesh_reports_phases_per_thread_count() {
 /// diffuse`, `--foam` is `--diffuse`, and a settings file's `[noise] foam*` keys are `whitecaps*`.
 #[test]
 fn deprecated_spellings_still_work_with_a_warning() {
-    let d = tmpdir("deprecated");
+    let d = common::tmpdir("cli", "deprecated");
     let stderr = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
     // The subcommand and the flag: parsed as the new ones (the missing input is the error after the warning).
     let missing = d.join("none_{}.bgeo").to_string_lossy().into_owned();
@@ -852,7 +842,7 @@ fn mesh_bytes_do_not_depend_on_the_thread_count() {
     let Some(frame) = common::shared_data("splishsplash/dambreak_6859/partio/ParticleData_Fluid_40.bgeo") else {
         return;
     };
-    let d = tmpdir("mesh-threads");
+    let d = common::tmpdir("cli", "mesh-threads");
     let run = |out: &str, extra: &[&str]| -> Vec<u8> {
         let o = meniscus()
             .arg("mesh")

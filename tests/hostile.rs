@@ -6,25 +6,14 @@
 //! encoded onto a full disk, `--resume` trusting a damaged frame, an export that spoils its input folder, flags
 //! accepted and ignored, partial files a killed run left behind.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
+mod common;
+
+use common::{meniscus, stderr};
+
 use meniscus::scene::{self, Particles};
-
-fn meniscus() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_meniscus"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("meniscus-hostile-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// Failed with a clean message containing each of `want` (no panic, no backtrace).
 fn fails_with(o: &Output, want: &[&str]) {
@@ -57,7 +46,7 @@ fn write_bgeo(path: &Path, p: &Particles) {
 
 #[test]
 fn a_closed_stdout_is_a_normal_end() {
-    let d = tmpdir("pipe");
+    let d = common::tmpdir("hostile", "pipe");
     let f = d.join("p.bgeo");
     write_bgeo(&f, &block(6, &[]));
     // `true` exits at once: by the time `info` prints, nobody reads its stdout.
@@ -73,7 +62,7 @@ fn a_closed_stdout_is_a_normal_end() {
 
 #[test]
 fn sizes_beyond_the_machine_are_refused_before_allocating() {
-    let d = tmpdir("sizes");
+    let d = common::tmpdir("hostile", "sizes");
     let f = d.join("p.bgeo");
     write_bgeo(&f, &block(6, &[]));
     let o = meniscus().arg("mesh").arg(&f).args(["--radius", "0.01", "--block", "1500"]).output().unwrap();
@@ -107,7 +96,7 @@ fn sizes_beyond_the_machine_are_refused_before_allocating() {
 
 #[test]
 fn inflation_bombs_and_devices_are_bounded() {
-    let d = tmpdir("bomb");
+    let d = common::tmpdir("hostile", "bomb");
     // A BGEO header for 10 points followed by 512 MiB of zeros, gzip'ed (about 0.5 MB).
     let mut head = scene::bgeo::write(&block(1, &[]).to_raw(), false);
     head.truncate(head.len() - 2);
@@ -152,7 +141,7 @@ fn covered(npy: &Path) -> usize {
 
 #[test]
 fn stray_particles_do_not_cost_the_surface() {
-    let d = tmpdir("stray");
+    let d = common::tmpdir("hostile", "stray");
     let (clean, stray) = (d.join("clean.bgeo"), d.join("stray.bgeo"));
     write_bgeo(&clean, &block(10, &[]));
     write_bgeo(&stray, &block(10, &[[1e6, 0.0, 0.0]]));
@@ -179,7 +168,7 @@ fn stray_particles_do_not_cost_the_surface() {
 
 #[test]
 fn top_down_views_render_and_non_finite_cameras_are_refused() {
-    let d = tmpdir("camera");
+    let d = common::tmpdir("hostile", "camera");
     let f = d.join("p.bgeo");
     write_bgeo(&f, &block(10, &[]));
     // Straight down (straight up the view basis is the same code: src/scene/camera.rs's test; from below, the
@@ -209,7 +198,7 @@ fn top_down_views_render_and_non_finite_cameras_are_refused() {
 
 #[test]
 fn headers_that_under_count_their_data_are_reported() {
-    let d = tmpdir("count");
+    let d = common::tmpdir("hostile", "count");
     let p = block(4, &[]);
     let raw = p.to_raw();
     // BGEO: nPoints is the int32 at byte 9.
@@ -250,7 +239,7 @@ fn headers_that_under_count_their_data_are_reported() {
 
 #[test]
 fn sequences_report_gaps_bad_attributes_and_folders() {
-    let d = tmpdir("seq");
+    let d = common::tmpdir("hostile", "seq");
     for n in [1, 2, 4] {
         write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(5, &[]));
     }
@@ -281,7 +270,7 @@ fn sequences_report_gaps_bad_attributes_and_folders() {
 
 #[test]
 fn failing_writes_and_corrupt_frames_say_what_happened() {
-    let d = tmpdir("writes");
+    let d = common::tmpdir("hostile", "writes");
     for n in 1..=3 {
         write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(5, &[]));
     }
@@ -314,7 +303,7 @@ fn failing_writes_and_corrupt_frames_say_what_happened() {
 fn frames_larger_than_the_device_holds_are_a_clear_error() {
     let o = meniscus()
         .args(["render", "drop", "--particles", "1000", "--width", "16384", "--height", "16384", "--out"])
-        .arg(tmpdir("huge").join("x.png"))
+        .arg(common::tmpdir("hostile", "huge").join("x.png"))
         .output()
         .unwrap();
     fails_with(&o, &["16384×16384"]);
@@ -337,7 +326,7 @@ fn meniscus_with_file_limit(kib: u32, args: &[&std::ffi::OsStr]) -> Output {
 
 #[test]
 fn a_sequence_write_does_not_replace_another_runs_cache() {
-    let d = tmpdir("cache");
+    let d = common::tmpdir("hostile", "cache");
     let partio = d.join("c/partio");
     std::fs::create_dir_all(&partio).unwrap();
     for n in 1..=3 {
@@ -374,7 +363,7 @@ fn a_sequence_write_does_not_replace_another_runs_cache() {
 
 #[test]
 fn a_movie_on_a_full_disk_keeps_the_good_one() {
-    let d = tmpdir("movie-src");
+    let d = common::tmpdir("hostile", "movie-src");
     for n in 1..=12 {
         // Noisy frames: each costs the encoder some kilobytes.
         let img = image::RgbaImage::from_fn(64, 48, |x, y| {
@@ -383,7 +372,7 @@ fn a_movie_on_a_full_disk_keeps_the_good_one() {
         });
         img.save(d.join(format!("f_{n}.png"))).unwrap();
     }
-    let disk = tmpdir("movie-disk");
+    let disk = common::tmpdir("hostile", "movie-disk");
     let movie = disk.join("m.mp4");
     let frames = d.join("f_{}.png").to_string_lossy().into_owned();
     let o = meniscus().args(["encode", &frames, "--out"]).arg(&movie).output().unwrap();
@@ -418,7 +407,7 @@ fn a_movie_on_a_full_disk_keeps_the_good_one() {
 
 #[test]
 fn resume_renders_damaged_frames_again() {
-    let d = tmpdir("resume");
+    let d = common::tmpdir("hostile", "resume");
     for n in 1..=5 {
         write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(5, &[]));
     }
@@ -459,7 +448,7 @@ fn resume_renders_damaged_frames_again() {
 
 #[test]
 fn an_export_beside_its_input_does_not_spoil_the_folder() {
-    let d = tmpdir("spoil");
+    let d = common::tmpdir("hostile", "spoil");
     let p = d.join("p");
     std::fs::create_dir_all(&p).unwrap();
     for n in 1..=3 {
@@ -516,7 +505,7 @@ fn an_export_beside_its_input_does_not_spoil_the_folder() {
 
 #[test]
 fn errors_say_what_happened() {
-    let d = tmpdir("say");
+    let d = common::tmpdir("hostile", "say");
     // `encode` of a folder of PNG frames, as its help says.
     let frames = d.join("frames");
     std::fs::create_dir_all(&frames).unwrap();
@@ -566,7 +555,7 @@ fn errors_say_what_happened() {
 
 #[test]
 fn flags_are_used_or_refused() {
-    let d = tmpdir("flags");
+    let d = common::tmpdir("hostile", "flags");
     let o = meniscus().args(["bench", "--chart"]).arg(d.join("c.png")).output().unwrap();
     fails_with(&o, &["--chart", "--sweep"]);
     let o =
@@ -589,7 +578,7 @@ fn flags_are_used_or_refused() {
 /// does another machine's.
 #[test]
 fn a_killed_runs_partial_files_are_cleaned_by_the_next_run() {
-    let d = tmpdir("litter");
+    let d = common::tmpdir("hostile", "litter");
     for n in 1..=4 {
         write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(5, &[]));
     }
@@ -637,7 +626,7 @@ fn a_killed_runs_partial_files_are_cleaned_by_the_next_run() {
 /// (the negative control: the refusal is about the value, not the command).
 #[test]
 fn silent_garbage_is_an_error() {
-    let d = tmpdir("garbage");
+    let d = common::tmpdir("hostile", "garbage");
     for n in 1..=2 {
         write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(8, &[]));
     }

@@ -2,25 +2,12 @@
 //! refuses an input path, a mismatched extension and an existing file of another kind (leaving it byte-identical);
 //! interrupted runs leave only complete files; `--shard`, `--frames` and `--resume` give byte-identical frames.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 mod common;
 
-fn meniscus() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_meniscus"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("meniscus-out-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{meniscus, stderr};
 
 /// A small particle block written as gzip'ed BGEO.
 fn particle_file(path: &Path) -> Vec<u8> {
@@ -51,7 +38,7 @@ fn refused(o: &Output, want: &[&str], path: &Path, bytes: &[u8]) {
 
 #[test]
 fn no_writer_destroys_an_input_or_a_file_of_another_kind() {
-    let d = tmpdir("clobber");
+    let d = common::tmpdir("out", "clobber");
     let input = d.join("in.bgeo");
     let bytes = particle_file(&input);
     let small = ["--width", "32", "--height", "24", "--radius", "0.01"];
@@ -147,7 +134,7 @@ fn frames_in(dir: &Path) -> Vec<(String, Vec<u8>)> {
 fn shards_ranges_and_resumed_runs_give_the_same_frames() {
     let Some(dir) = common::shared_data("splishsplash/dambreak_6859/partio") else { return };
     let seq = dir.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
-    let d = tmpdir("shards");
+    let d = common::tmpdir("out", "shards");
     let (whole, sharded, ranged) = (d.join("whole"), d.join("sharded"), d.join("ranged"));
     let o = render_seq(&seq, &whole, &["--frames", "1..6"]);
     let job_line = |o: &Output| stderr(o).lines().find(|l| l.starts_with("job:")).unwrap_or("").to_string();
@@ -178,7 +165,7 @@ fn shards_ranges_and_resumed_runs_give_the_same_frames() {
 fn foam_export_and_generated_foam_render_the_same_frames() {
     let Some(dir) = common::shared_data("splishsplash/dambreak_6859/partio") else { return };
     let seq = dir.join("ParticleData_Fluid_{}.bgeo").to_string_lossy().into_owned();
-    let d = tmpdir("foam");
+    let d = common::tmpdir("out", "foam");
     let export = d.join("foam").join("f_{}.bgeo").to_string_lossy().into_owned();
     let o = meniscus().args(["diffuse", &seq, "--frames", "1..12", "--export", &export]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
@@ -237,7 +224,7 @@ fn complete_pngs(dir: &Path) -> (usize, usize) {
 
 #[test]
 fn interrupted_sequences_leave_only_complete_files_and_resume() {
-    let d = tmpdir("interrupt");
+    let d = common::tmpdir("out", "interrupt");
     for n in 1..=30 {
         particle_file(&d.join(format!("p_{n}.bgeo")));
     }
@@ -271,7 +258,7 @@ fn interrupted_sequences_leave_only_complete_files_and_resume() {
 
 #[test]
 fn a_sequence_renders_to_a_movie_that_decodes() {
-    let d = tmpdir("movie");
+    let d = common::tmpdir("out", "movie");
     for n in 1..=6 {
         particle_file(&d.join(format!("p_{n}.bgeo")));
     }
@@ -311,7 +298,7 @@ fn a_sequence_renders_to_a_movie_that_decodes() {
 #[test]
 fn the_same_frame_renders_the_same_bytes_on_every_run() {
     let Some(dir) = common::shared_data("splishsplash/dambreak_59k/partio") else { return };
-    let d = tmpdir("repeat");
+    let d = common::tmpdir("out", "repeat");
     let frame = dir.join("ParticleData_Fluid_2.bgeo");
     let mut depths = vec![];
     for k in 0..3 {
