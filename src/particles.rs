@@ -36,7 +36,7 @@ pub struct Staged {
 }
 
 /// What the host derives from a particle set's positions for the default surface's prepare — the fluid's box
-/// and strays, and the smoothed field's lattice and marked bricks (`crate::surface::iso::analyse`) — computed
+/// and strays, and the smoothed field's lattice and marked bricks (`crate::surface::grid::analyse`) — computed
 /// ahead, on whichever thread loaded the set (a sequence's prefetch), so a new frame's prepare does not walk its
 /// particles on the render thread. Tied to the positions it was computed from ([`fingerprint`]) and to the
 /// parameters it was computed for: the prepare uses what matches and computes the rest itself.

@@ -1065,7 +1065,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     let aniso = p.aniso.map(|a| grid.anisotropy(&a));
     if let Some(want) = &aniso {
         // The GPU grid sorts within a cell in the atomics' order: match the points by position.
-        let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
+        let b = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().and_then(|i| i.grid()).unwrap();
         let n = b.shape.dims[3] as usize;
         let points: Vec<[f32; 4]> =
             bytemuck::cast_slice(&meniscus::gpu::transfer::read_buffer(&gpu, &b.points, n as u64 * 16).unwrap())
@@ -1226,7 +1226,7 @@ fn smoothed_iso_field_matches_cpu() {
     assert!(ran(&first, "iso_volume"), "{:?}", first.0);
     assert!(!ran(&again, "iso_volume"), "a static frame reuses it: {:?}", again.0);
     let got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
-    let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
+    let b = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().and_then(|i| i.grid()).unwrap();
     let vol = b.volume.as_ref().expect("the lattice");
     let shape = vol.shape;
     assert_eq!(shape.spacing, s.iso.voxel * r, "the voxel size asked for");
@@ -1314,7 +1314,7 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let v = view([50.0, 50.0, 50.0], [12.0, 12.0, 12.0], 160, 120, 50.0);
     rd.render(&v, &s).unwrap();
-    let b = rd.state().surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap();
+    let b = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().and_then(|i| i.grid()).unwrap();
     let vol = b.volume.as_ref().expect("the lattice");
     let shape = vol.shape;
     assert_eq!(shape.spacing, s.iso.voxel * r, "the voxel size asked for, not a coarser one");
@@ -1357,7 +1357,13 @@ fn the_64_bit_deposit_equals_the_32_bit_one() {
         rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
         rd.render(&v, &s).unwrap();
         let state = rd.state();
-        let vol = state.surfaces().get(meniscus::settings::Surface::Iso).grid().unwrap().volume.as_ref();
+        let vol = state
+            .surfaces()
+            .technique::<meniscus::surface::iso::IsoSurface>()
+            .and_then(|i| i.grid())
+            .unwrap()
+            .volume
+            .as_ref();
         let vol = vol.expect("the lattice");
         let out = read_lattice(&gpu, vol);
         let work = vol.work(&gpu).unwrap();
@@ -2482,7 +2488,12 @@ fn the_iso_grid_is_kept_when_the_box_moves() {
     let b_pos: Vec<[f32; 3]> = noise_slab(8, r).iter().map(|p| [p[0] + 0.3, p[1] - 0.1, p[2] + 0.2]).collect();
     let b = meniscus::scene::Particles { positions: b_pos, ..Default::default() };
     let grid = |rr: &Renderer| {
-        let g = rr.state().surfaces().get(meniscus::settings::Surface::Iso).grid().expect("the iso grid");
+        let g = rr
+            .state()
+            .surfaces()
+            .technique::<meniscus::surface::iso::IsoSurface>()
+            .and_then(|i| i.grid())
+            .expect("the iso grid");
         let g = g.gpu.as_ref().expect("built on the GPU");
         (g.order.raw, g.shape.origin_cell.map(f32::to_bits), g.shape.dims)
     };
@@ -2672,7 +2683,7 @@ fn a_frame_counts_its_work_only_when_asked() {
     common::assert_clean(&gpu);
 }
 
-/// A sequence's frames with the iso surface's host analysis computed ahead (`surface::iso::analyse`, as
+/// A sequence's frames with the iso surface's host analysis computed ahead (`surface::grid::analyse`, as
 /// `render`'s prefetch thread does) render byte for byte as frames whose prepare computes it: the default
 /// surface with its smoothed field, two frames whose boxes differ (the grid and the lattice move). An analysis
 /// of other positions is not taken.
@@ -2691,7 +2702,7 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
         let mut r = Renderer::new(&gpu).unwrap();
         let mut got = vec![];
         for p in frames {
-            let a = ahead.then(|| meniscus::surface::iso::analyse(&p.positions, &s).expect("the default surface's"));
+            let a = ahead.then(|| meniscus::surface::grid::analyse(&p.positions, &s).expect("the default surface's"));
             assert!(a.as_ref().is_none_or(|a| a.volume.is_some_and(|(_, bricks)| bricks > 0)));
             r.upload(Upload::Scene { particles: p, settings: &s, motion: None, ahead: a.as_ref() }).unwrap();
             assert_eq!(r.state().particles().analysis().is_some(), ahead, "the analysis was not taken");
@@ -2704,7 +2715,7 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
     assert!(images[0] == images[1], "the frames computed ahead differ");
     // Computed from other positions: refused.
     let mut r = Renderer::new(&gpu).unwrap();
-    let other = meniscus::surface::iso::analyse(&moved.positions, &s);
+    let other = meniscus::surface::grid::analyse(&moved.positions, &s);
     r.upload(Upload::Scene { particles: &g.particles, settings: &s, motion: None, ahead: other.as_ref() }).unwrap();
     assert!(other.is_some() && r.state().particles().analysis().is_none(), "an analysis of other positions was taken");
     // Where the prepare would not use one, none is computed.
@@ -2712,6 +2723,6 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
         x.radius = g.radius;
         x.surface = meniscus::settings::Surface::Spheres;
     });
-    assert!(meniscus::surface::iso::analyse(&g.particles.positions, &spheres).is_none());
+    assert!(meniscus::surface::grid::analyse(&g.particles.positions, &spheres).is_none());
     assert_clean(&gpu);
 }

@@ -245,3 +245,43 @@ fn no_type_name_is_declared_twice() {
         .collect();
     assert!(twice.is_empty(), "type names declared twice:\n{}", twice.join("\n"));
 }
+
+/// The names a technique or effect file `code` uses of its siblings (`siblings`, in module `parent`) or of the
+/// renderer: `super::NAME`, `crate::PARENT::NAME`, `crate::renderer`.
+fn sibling_uses(code: &str, parent: &str, own: &str, siblings: &[&str]) -> Vec<String> {
+    let mut hits = vec![];
+    for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
+        for s in siblings.iter().filter(|s| **s != own) {
+            if line.contains(&format!("super::{s}::")) || line.contains(&format!("crate::{parent}::{s}::")) {
+                hits.push(format!("{own}: {}", line.trim()));
+            }
+        }
+        if line.contains("crate::renderer") {
+            hits.push(format!("{own}: {}", line.trim()));
+        }
+    }
+    hits
+}
+
+/// A technique (`src/surface/`: spheres, iso, mesh) or an effect (`src/effect/`: noise, diffuse) imports
+/// neither another of its kind nor the renderer: what two share lives apart (`surface::grid`, the depth splat).
+#[test]
+fn techniques_and_effects_import_neither_each_other_nor_the_renderer() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    // The control: a spheres file that reached into the iso surface is caught.
+    assert_eq!(sibling_uses("use super::iso::IsoResources;", "surface", "spheres", &["spheres", "iso"]).len(), 1);
+    let mut hits = vec![];
+    for (parent, members) in
+        [("surface", ["spheres", "iso", "mesh"].as_slice()), ("effect", ["noise", "diffuse"].as_slice())]
+    {
+        for own in members {
+            let file = root.join(parent).join(format!("{own}.rs"));
+            let files = if file.exists() { vec![file] } else { rust_files(&root.join(parent).join(own), None) };
+            assert!(!files.is_empty(), "no source for {parent}::{own}");
+            for f in files {
+                hits.extend(sibling_uses(&std::fs::read_to_string(&f).unwrap(), parent, own, members));
+            }
+        }
+    }
+    assert!(hits.is_empty(), "techniques or effects reach into each other or the renderer:\n{}", hits.join("\n"));
+}

@@ -40,7 +40,7 @@ pub enum Upload<'a> {
         /// Each particle's motion over a sequence ([`crate::motion::MotionTracker`]).
         motion: Option<&'a [Motion]>,
         /// The host's analysis of these positions, computed ahead by their loader
-        /// ([`crate::surface::iso::analyse`]; a sequence's prefetch): the frame's prepare then does not walk them.
+        /// ([`crate::surface::grid::analyse`]; a sequence's prefetch): the frame's prepare then does not walk them.
         ahead: Option<&'a crate::particles::SetAnalysis>,
     },
     /// `count` particles written on the GPU by each frame's `Hooks::produce` (xyz, w = 0), inside `bounds`
@@ -311,7 +311,6 @@ impl<'a> RendererState<'a> {
     /// `iso_volume`'s deposits, counted at every build of the field. What `meniscus bench` reports as "Work per
     /// pass" (from a counted frame after the timed ones) and Python's `Renderer.work()`.
     pub fn work(&self, settings: &Settings, ran: impl Fn(&str) -> bool) -> Result<crate::work::FrameWork> {
-        use crate::settings::Surface;
         let Some(t) = self.targets else { return Ok(crate::work::FrameWork::default()) };
         let compute = settings.splat.mode == crate::named::SplatMode::Compute;
         let splat = (ran(crate::passes::splat::NAME) && compute).then(|| t.splat_work(self.gpu)).transpose()?;
@@ -319,7 +318,11 @@ impl<'a> RendererState<'a> {
             (true, Some(q)) => Some(q.work(self.gpu)?),
             _ => None,
         };
-        let volume = self.surfaces.get(Surface::Iso).grid().and_then(|b| b.volume.as_ref());
+        let volume = self
+            .surfaces
+            .technique::<crate::surface::iso::IsoSurface>()
+            .and_then(|i| i.grid())
+            .and_then(|b| b.volume.as_ref());
         let iso_volume = match (ran(crate::passes::iso::VOLUME_NAME), volume) {
             (true, Some(v)) => Some(v.work(self.gpu)?),
             _ => None,
@@ -359,7 +362,7 @@ impl<'a> RendererState<'a> {
         self.particles
     }
 
-    /// The surface techniques and their resources (`surfaces.get(Surface::Iso).grid()`, `mesh_stats()`).
+    /// The surface techniques and their resources (`surfaces.technique::<IsoSurface>()` for its grid, `FluidMesh::mesh_stats`).
     pub fn surfaces(&self) -> &'a Surfaces {
         self.surfaces
     }

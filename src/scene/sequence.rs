@@ -364,7 +364,7 @@ fn numbered(files: Vec<PathBuf>) -> Vec<Frame> {
 
 /// Loads frames on a background thread, at most `depth` ahead of the consumer; with [`Prefetch::start_with`]
 /// each loaded frame's `A` is computed there too (the host's analysis a frame's upload takes:
-/// `crate::surface::iso::analyse`), so the render thread does not walk the particles for it.
+/// `crate::surface::grid::analyse`), so the render thread does not walk the particles for it.
 pub struct Prefetch<A = ()> {
     rx: mpsc::Receiver<(Frame, Result<(Particles, A)>)>,
     handle: Option<std::thread::JoinHandle<()>>,

@@ -3,12 +3,16 @@
 //! or smoothed in 3D), [`mesh`] (the marching-cubes mesh of the same field, ray-cast through its BVH). Each owns
 //! its resources and their staleness (grids, lattice, mesh, BVH, keyed to the particles' generation and its
 //! settings), prepares them on the host before a frame, and records the passes that write the fluid depth;
-//! the CPU references live beside each. The renderer asks [`Surfaces::get`] for the one the settings name:
-//! a new surface is one module and one line there.
+//! the CPU references live beside each. What two techniques share lives apart, so that no technique imports
+//! another: [`grid`] (the particles' grid, weights and kernels on the device) and the depth splat. The renderer
+//! asks [`Surfaces::get`] for the one the settings name: a new surface is one module and one line there;
+//! [`Surfaces::technique`] gives a technique by its type (a test's look at the iso surface's grid).
 
+pub mod grid;
 pub mod iso;
 pub mod mesh;
 pub mod spheres;
+mod splat;
 
 use std::sync::Arc;
 
@@ -64,7 +68,7 @@ pub struct Kernels<'a> {
 }
 
 /// One surface technique.
-pub trait Technique {
+pub trait Technique: std::any::Any {
     /// Bring its resources up to date for the particles and settings (host work and allocations).
     fn prepare(&mut self, p: &Prepare) -> Result<()>;
     /// Record what the frame needs before `thickness` (grids, weights, kernels), in the part it belongs to;
@@ -76,17 +80,9 @@ pub trait Technique {
     ) -> Option<Kernels<'a>>;
     /// Record the passes that write the fluid's depth into `targets.depth` (the fluid part).
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, kernels: Option<Kernels>) -> Result<()>;
-    /// Its particle grid, weights and kernels on the device, if it keeps them (for tests).
-    fn grid(&self) -> Option<&crate::passes::iso::IsoBuffers> {
-        None
-    }
     /// The particles far from the fluid it left out, with the particle generation they were counted for (a
     /// caller warns once per generation: `scene::stray_warning`).
     fn strays(&self) -> Option<(u64, usize)> {
-        None
-    }
-    /// Seconds its last host build took and the vertex and triangle counts of a mesh, if it builds one.
-    fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
         None
     }
 }
@@ -121,6 +117,12 @@ impl Surfaces {
     /// The technique the settings name.
     pub fn get(&self, s: Surface) -> &dyn Technique {
         self.all[Self::index(s)].as_ref()
+    }
+
+    /// The technique of type `T` (`iso::IsoSurface`, `mesh::FluidMesh`, `spheres::Spheres`), for what only it
+    /// has: the iso surface's grid, the mesh's build statistics.
+    pub fn technique<T: Technique>(&self) -> Option<&T> {
+        self.all.iter().find_map(|t| (t.as_ref() as &dyn std::any::Any).downcast_ref::<T>())
     }
 }
 

@@ -6,10 +6,9 @@
 use crate::error::Result;
 use crate::gpu::recording::{Part, Recording};
 use crate::gpu::FrameCtx;
-use crate::named::SplatMode;
-use crate::passes::splat::BackBound;
 
-use super::iso::IsoResources;
+use super::grid::IsoResources;
+use super::splat::record_splat;
 use super::{Kernels, Prepare, SurfaceFrame, Technique};
 
 /// The spheres technique; its grid exists only for ellipsoids.
@@ -67,33 +66,5 @@ impl Technique for Spheres {
             }
         }
         Ok(())
-    }
-}
-
-/// The `splat` pass in the chosen mode (compute, or a rasterised variant) over the particle spheres scaled
-/// by `splat_scale`; returns where the far bound of the `iso` march was written (the compute splat only).
-pub(crate) fn record_splat<'t>(ctx: &mut FrameCtx, f: &SurfaceFrame<'t>) -> Result<Option<BackBound<'t>>> {
-    let (p, t, s) = (f.passes, f.targets, f.settings);
-    let (particles, count) = f.particles;
-    match s.splat.mode {
-        SplatMode::Compute => {
-            let spheres = (s.radius, s.splat_scale(), s.splat.lanes);
-            let back = t.depth_back.as_ref().zip(t.depth_back_tiles.as_ref());
-            let tiles = (&t.depth_tiles, &t.splat_work);
-            Ok(p.splat.record(ctx, f.frame, particles, count, &t.depth, back, tiles, spheres, None, f.info))
-        }
-        mode => {
-            p.splat.record_raster(
-                ctx,
-                f.frame,
-                particles,
-                count,
-                &t.depth,
-                t.zbuffer.as_ref(),
-                s.splat_scale(),
-                mode,
-            )?;
-            Ok(None)
-        }
     }
 }

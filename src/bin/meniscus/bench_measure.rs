@@ -93,7 +93,7 @@ struct Series {
     /// Wall ms per frame with the renderer's frames in flight ([`Series::in_flight`]).
     in_flight_ms: Option<f64>,
     /// A sequence's frames analysed for the iso surface as `render`'s prefetch thread does beside each load
-    /// (`surface::iso::analyse`), and how long each took (ms): the upload hands them over.
+    /// (`surface::grid::analyse`), and how long each took (ms): the upload hands them over.
     ahead: Vec<Option<meniscus::particles::SetAnalysis>>,
     ahead_ms: Vec<f64>,
 }

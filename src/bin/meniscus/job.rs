@@ -326,7 +326,7 @@ impl Job {
     }
 
     /// What a sequence's loader computes for each frame beside its load: the iso surface's analysis of the
-    /// particles (`surface::iso::analyse`; none where the job's surface would not use it).
+    /// particles (`surface::grid::analyse`; none where the job's surface would not use it).
     pub fn analyser(&self) -> impl Fn(&Particles) -> Option<meniscus::particles::SetAnalysis> + Send + 'static {
         Job::analyser_for(&self.settings)
     }
@@ -336,7 +336,7 @@ impl Job {
         s: &Settings,
     ) -> impl Fn(&Particles) -> Option<meniscus::particles::SetAnalysis> + Send + 'static {
         let s = s.clone();
-        move |p: &Particles| meniscus::surface::iso::analyse(&p.positions, &s)
+        move |p: &Particles| meniscus::surface::grid::analyse(&p.positions, &s)
     }
 
     /// Add the background mesh, if any, to a renderer.

@@ -443,7 +443,10 @@ fn compare(a: &MeshArgs, job: &Job, png: &std::path::Path) -> Result<()> {
         r.render(&view, s)?;
         let mut ms: Vec<f64> = (0..3).map(|_| r.render(&view, s).map(|t| t.total())).collect::<Result<_, _>>()?;
         let gpu_ms = meniscus::timing::median(&mut ms);
-        let label = match (s.surface, r.state().surfaces().get(meniscus::settings::Surface::Mesh).mesh_stats()) {
+        let label = match (
+            s.surface,
+            r.state().surfaces().technique::<meniscus::surface::mesh::FluidMesh>().and_then(|m| m.mesh_stats()),
+        ) {
             (Surface::Mesh, Some((secs, _, tris))) => {
                 let cpu = if s.mesh.smoothing_iters > 0 {
                     "CPU extraction + smoothing + BVH"

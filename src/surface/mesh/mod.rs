@@ -24,6 +24,13 @@ pub struct FluidMesh {
     stats: Option<(f64, usize, usize)>,
 }
 
+impl FluidMesh {
+    /// Seconds its last host build took, and the mesh's vertex and triangle counts, once built.
+    pub fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
+        self.stats
+    }
+}
+
 impl Technique for FluidMesh {
     /// Extract the iso-surface mesh of the current particles (isolated particles and strays left out) with the `[iso]` field
     /// and the `[mesh]` cube size, and upload its BVH, unless it is there already.
@@ -62,10 +69,6 @@ impl Technique for FluidMesh {
 
     fn record_kernels<'a>(&'a self, _: &mut Recording, _: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
         None
-    }
-
-    fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
-        self.stats
     }
 
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
