@@ -2,7 +2,7 @@
 //!
 //! * View space is right-handed, the camera looks down −z (Moritz 2016 §3.1).
 //! * Depth images hold LINEAR EYE DEPTH d = −z_view > 0. "No fluid" is +inf (test with `is_fluid`); the same
-//!   convention as ../shared/tools/quality.
+//!   convention `meniscus quality` (src/quality/) reads.
 //! * Pixel (x, y) has its centre at (x + 0.5, y + 0.5); row 0 is the TOP row. A view-space point maps to
 //!   (W/2 + F·x/d, H/2 − F·y/d) with F = H / (2 tan(fovy/2)) pixels (focal length).
 //! * Binding 0 of every pass is the frame uniform block below.
