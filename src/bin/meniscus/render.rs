@@ -174,6 +174,112 @@ fn check_dumps(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// A sequence's outputs may be written: the movie (one file: not with --shard or --resume) or every frame's PNG.
+fn check_sequence_outputs(
+    a: &RenderArgs,
+    all: &[sequence::Frame],
+    movie: Option<FileKind>,
+    names: &Numbered,
+) -> Result<()> {
+    match movie {
+        Some(kind) => {
+            if a.resume || a.shard.is_some() {
+                bail!(
+                    "--out {}: a movie is one file; for --shard or --resume render PNG frames, then `meniscus \
+                     encode` them (README: On a cluster)",
+                    a.out.display()
+                );
+            }
+            check_out("--out", &a.out, kind)?;
+        }
+        None => {
+            for f in all {
+                check_out("--out", &names.path(f.number), FileKind::Png)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The frames to render: all, or with --resume those whose PNG is not whole at this job's size (a broken one is
+/// rendered again, and said).
+fn frames_to_render(a: &RenderArgs, all: &[sequence::Frame], names: &Numbered) -> Vec<sequence::Frame> {
+    let done = |n: u64| -> bool {
+        let p = names.path(n);
+        if !p.is_file() {
+            return false;
+        }
+        match meniscus::output::check_png(&p, a.width, a.height) {
+            Ok(()) => true,
+            Err(why) => {
+                eprintln!("--resume: {}: {why}; rendering it again", p.display());
+                false
+            }
+        }
+    };
+    if a.resume {
+        all.iter().filter(|f| !done(f.number)).cloned().collect()
+    } else {
+        all.to_vec()
+    }
+}
+
+/// The noise's amplitude needs the two frames before (the change of velocity): a frame whose predecessors were
+/// not rendered here (`fed`: the last frame the tracker saw; a shard's first, after --resume) gets them loaded
+/// first, so every frame looks the same however the sequence is split. `job.whole` is sorted by number: a
+/// binary search, not a scan per frame of a long sequence.
+fn prime_motion(job: &Job, number: u64, fed: Option<u64>, tracker: &mut meniscus::motion::MotionTracker) {
+    let whole = &job.whole;
+    let at = whole.partition_point(|f| f.number < number);
+    let at = if whole.get(at).is_some_and(|f| f.number == number) { at } else { 0 };
+    if at > 0 && fed != Some(whole[at - 1].number) {
+        *tracker = job.motion();
+        for f in &whole[at.saturating_sub(2)..at] {
+            match meniscus::scene::load_with(&f.path, &job.load) {
+                Ok(p) => drop(tracker.next(&p)),
+                Err(_) => *tracker = job.motion(),
+            }
+        }
+    }
+}
+
+/// The writer thread: PNGs, or the movie's frames into ffmpeg (which encodes beside the rendering); the channel
+/// the frames go to it by, and its count of frames written.
+type Writer = (std::sync::mpsc::SyncSender<(PathBuf, image::RgbaImage)>, std::thread::JoinHandle<Result<usize>>);
+
+/// Start the [`Writer`] of a sequence (`movie`: the movie's kind, else PNGs).
+fn start_writer(a: &RenderArgs, job: &Job, movie: Option<FileKind>) -> Result<Writer> {
+    let mut sink = match movie {
+        Some(kind) => {
+            let fps = a.movie.fps.or(job.fps).unwrap_or(25.0);
+            eprintln!("encoding {} at {fps} frames/s with ffmpeg", a.out.display());
+            Some(crate::movie::Movie::start(&a.out, kind, a.width, a.height, fps, &a.movie)?)
+        }
+        None => None,
+    };
+    let (tx, rx) = std::sync::mpsc::sync_channel::<(PathBuf, image::RgbaImage)>(2);
+    let writer = std::thread::spawn(move || -> Result<usize> {
+        let mut n = 0;
+        for (path, img) in rx {
+            match sink.as_mut() {
+                Some(m) => m.push(&img)?,
+                None => meniscus::output::write_png(&path, &img)?,
+            }
+            n += 1;
+        }
+        if let Some(m) = sink.take() {
+            m.finish()?;
+        }
+        Ok(n)
+    });
+    Ok((tx, writer))
+}
+
+/// The folder a file is in, as the summary names it ("." for the working folder).
+fn folder_of(path: &std::path::Path) -> String {
+    path.parent().map(|p| p.display().to_string()).filter(|p| !p.is_empty()).unwrap_or(".".into())
+}
+
 /// The movie's flags are refused, not ignored, where no movie is written.
 fn refuse_movie_flags(a: &RenderArgs) -> Result<()> {
     if a.movie.fps.is_some() || a.movie.crf.is_some() || a.movie.ffmpeg_args.is_some() {
@@ -193,38 +299,8 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
         refuse_movie_flags(a)?;
     }
     let names = Numbered::new(&a.out, "png");
-    match movie {
-        Some(kind) => {
-            if a.resume || a.shard.is_some() {
-                bail!(
-                    "--out {}: a movie is one file; for --shard or --resume render PNG frames, then `meniscus \
-                     encode` them (README: On a cluster)",
-                    a.out.display()
-                );
-            }
-            check_out("--out", &a.out, kind)?;
-        }
-        None => {
-            for f in &all {
-                check_out("--out", &names.path(f.number), FileKind::Png)?;
-            }
-        }
-    }
-    // --resume: a frame is done when its PNG is whole at this job's size; a broken one is rendered again.
-    let done = |n: u64| -> bool {
-        let p = names.path(n);
-        if !p.is_file() {
-            return false;
-        }
-        match meniscus::output::check_png(&p, a.width, a.height) {
-            Ok(()) => true,
-            Err(why) => {
-                eprintln!("--resume: {}: {why}; rendering it again", p.display());
-                false
-            }
-        }
-    };
-    let frames: Vec<_> = if a.resume { all.iter().filter(|f| !done(f.number)).cloned().collect() } else { all.clone() };
+    check_sequence_outputs(a, &all, movie, &names)?;
+    let frames = frames_to_render(a, &all, &names);
     if frames.is_empty() {
         eprintln!("--resume: all {} frames are already written", all.len());
         return Ok(());
@@ -249,36 +325,13 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
         gpu.info.name,
         if total < all.len() { format!(" ({} already written: --resume)", all.len() - total) } else { String::new() }
     );
-    let mut sink = match movie {
-        Some(kind) => {
-            let fps = a.movie.fps.or(job.fps).unwrap_or(25.0);
-            eprintln!("encoding {} at {fps} frames/s with ffmpeg", a.out.display());
-            Some(crate::movie::Movie::start(&a.out, kind, a.width, a.height, fps, &a.movie)?)
-        }
-        None => None,
-    };
     let bar = crate::args::progress(total as u64, "frames");
     let t0 = std::time::Instant::now();
     let mut gpu_ms = 0.0;
     // The overlap: frame n+1 loads on the prefetch thread and frame n−1's PNG encodes on the writer thread
     // while frame n renders; up to `frames_in_flight` frames are on the GPU at once (each copies its image
     // into its slot's readback buffer, taken before the slot is reused). The camera was fitted once.
-    let (tx, rx) = std::sync::mpsc::sync_channel::<(PathBuf, image::RgbaImage)>(2);
-    // The writer: PNGs, or the movie's frames into ffmpeg (which encodes beside the rendering).
-    let writer = std::thread::spawn(move || -> Result<usize> {
-        let mut n = 0;
-        for (path, img) in rx {
-            match sink.as_mut() {
-                Some(m) => m.push(&img)?,
-                None => meniscus::output::write_png(&path, &img)?,
-            }
-            n += 1;
-        }
-        if let Some(m) = sink.take() {
-            m.finish()?;
-        }
-        Ok(n)
-    });
+    let (tx, writer) = start_writer(a, job, movie)?;
     let mut pending = std::collections::VecDeque::new();
     let mut strays_warned = None;
     let mut skipped = vec![];
@@ -316,34 +369,11 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                 }
                 Err(e) => return Err(e.into()),
             };
-            // The noise's amplitude needs the two frames before (the change of velocity): a frame whose
-            // predecessors were not rendered here (a shard's first, after --resume) gets them loaded first, so
-            // every frame looks the same however the sequence is split.
-            // `whole` is sorted by number: a binary search, not a scan per frame of a long sequence.
-            let whole = &job.whole;
-            let at = whole.partition_point(|f| f.number < frame.number);
-            let at = if whole.get(at).is_some_and(|f| f.number == frame.number) { at } else { 0 };
-            if at > 0 && fed != Some(whole[at - 1].number) {
-                tracker = job.motion();
-                for f in &whole[at.saturating_sub(2)..at] {
-                    match meniscus::scene::load_with(&f.path, &job.load) {
-                        Ok(p) => drop(tracker.next(&p)),
-                        Err(_) => tracker = job.motion(),
-                    }
-                }
-            }
+            prime_motion(job, frame.number, fed, &mut tracker);
             fed = Some(frame.number);
             job.upload_next(&mut r, &particles, &mut tracker, analysis.as_ref())?;
             if let Some(src) = foam.as_mut() {
-                let ps = match src {
-                    Foam::Walk(w) => w.advance(frame.number, Some(&particles))?.to_vec(),
-                    Foam::Files(files) => {
-                        let path = files.get(&frame.number).with_context(|| {
-                            format!("--diffuse: no file of diffuse particles for frame {}", frame.number)
-                        })?;
-                        meniscus::diffuse::io::load(path)?
-                    }
-                };
+                let ps = src.particles(frame.number, &particles)?;
                 diffuse_total += ps.len();
                 r.upload(Upload::Diffuse { particles: &ps, settings: s })?;
             }
@@ -370,33 +400,23 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     let n_written = *written.as_ref().unwrap_or(&0);
     let place = match movie {
         Some(_) => a.out.display().to_string(),
-        None => names
-            .path(all[0].number)
-            .parent()
-            .map(|p| p.display().to_string())
-            .filter(|p| !p.is_empty())
-            .unwrap_or(".".into()),
+        None => folder_of(&names.path(all[0].number)),
     };
+    let per_frame = |x: f64| x / rendered.max(1) as f64;
     let mut summary = format!(
         "{n_written} of {} frames written to {place} in {secs:.1} s ({:.2} frames/s, mean GPU frame {:.1} ms)",
         all.len(),
         rendered as f64 / secs,
-        gpu_ms / rendered.max(1) as f64
+        per_frame(gpu_ms)
     );
     if foam.is_some() {
-        summary += &format!(", {:.0} diffuse particles per frame", diffuse_total as f64 / rendered.max(1) as f64);
+        summary += &format!(", {:.0} diffuse particles per frame", per_frame(diffuse_total as f64));
     }
+    eprintln!("{summary}");
     match (run, written) {
-        (Err(e), _) => {
-            eprintln!("{summary}");
-            Err(e)
-        }
-        (Ok(()), Err(e)) => {
-            eprintln!("{summary}");
-            Err(e.context("writing the frames"))
-        }
+        (Err(e), _) => Err(e),
+        (Ok(()), Err(e)) => Err(e.context("writing the frames")),
         (Ok(()), Ok(_)) => {
-            eprintln!("{summary}");
             finish(&gpu)?;
             if !skipped.is_empty() {
                 let list: Vec<String> = skipped.iter().map(|n| n.to_string()).collect();
@@ -413,6 +433,25 @@ enum Foam {
     Walk(Box<crate::diffuse::Walk>),
     /// Read per frame number from an exported set.
     Files(std::collections::BTreeMap<u64, PathBuf>),
+}
+
+impl Foam {
+    /// The diffuse particles of frame `number` (whose fluid is `fluid`).
+    fn particles(
+        &mut self,
+        number: u64,
+        fluid: &meniscus::scene::Particles,
+    ) -> Result<Vec<meniscus::diffuse::Particle>> {
+        Ok(match self {
+            Foam::Walk(w) => w.advance(number, Some(fluid))?.to_vec(),
+            Foam::Files(files) => {
+                let path = files
+                    .get(&number)
+                    .with_context(|| format!("--diffuse: no file of diffuse particles for frame {number}"))?;
+                meniscus::diffuse::io::load(path)?
+            }
+        })
+    }
 }
 
 /// The files `--dump` writes beside the output PNG `out`, each with the dump's name.
