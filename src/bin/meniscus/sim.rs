@@ -214,33 +214,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
         return validate(a);
     }
     let (scene, params, frames) = a.resolve()?;
-    if let Some(e) = &a.export {
-        let kind = crate::args::out_kind("--export", std::path::Path::new(e), &meniscus::output::PARTICLE_KINDS)?;
-        if !e.contains("{}") {
-            bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
-        }
-        let paths: Vec<std::path::PathBuf> =
-            (1..=frames.max(1)).map(|n| std::path::PathBuf::from(e.replace("{}", &n.to_string()))).collect();
-        for p in &paths {
-            crate::args::check_out("--export", p, kind)?;
-        }
-        crate::args::refuse_existing("--export", &paths, a.overwrite)?;
-    }
-    if let Some(f) = &a.diffuse {
-        if !f.contains("{}") {
-            bail!("--diffuse {f:?}: the pattern needs {{}} where the frame number goes, e.g. 'foam/f_{{}}.bgeo'");
-        }
-        let kind = crate::args::out_kind("--diffuse", std::path::Path::new(f), &meniscus::output::PARTICLE_KINDS)?;
-        let paths: Vec<std::path::PathBuf> =
-            (1..=frames.max(1)).map(|n| std::path::PathBuf::from(f.replace("{}", &n.to_string()))).collect();
-        for path in &paths {
-            crate::args::check_out("--diffuse", path, kind)?;
-            if a.export.as_ref().is_some_and(|e| meniscus::scene::sequence::would_join(e, path)) {
-                bail!("--diffuse {f}: {} would become a frame of the --export sequence", path.display());
-            }
-        }
-        crate::args::refuse_existing("--diffuse", &paths, a.overwrite)?;
-    }
+    check_outputs(a, frames)?;
     if frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -283,26 +257,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
     };
     write(&sim, 1)?;
     if let Some(e) = &a.export {
-        // The container beside the cache (SPlisHSPlasH's scene.json), so `render` draws the tank and needs no
-        // --radius; a scene.json that meniscus did not write is left alone.
-        let dir = std::path::Path::new(e).parent().unwrap_or(std::path::Path::new(""));
-        let path = dir.join("scene.json");
-        let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::is_ours(&path);
-        if ours {
-            let s = &sim.scene;
-            // The collider mesh by its absolute path, so `render` of the export draws it from any folder.
-            let meshes: Vec<std::path::PathBuf> =
-                a.collider.iter().map(|c| std::fs::canonicalize(c).unwrap_or_else(|_| c.clone())).collect();
-            meniscus::scene::splishsplash::write_scene_json(
-                &path,
-                s.radius(),
-                s.container,
-                &s.box_colliders(),
-                &meshes,
-            )?;
-        } else {
-            eprintln!("warning: {} exists and was not written by meniscus: left as it is", path.display());
-        }
+        write_scene_json(a, &sim, e)?;
     }
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
@@ -344,33 +299,7 @@ pub fn run(a: &SimArgs) -> Result<()> {
             sim.params.max_dt * 1e3
         );
     }
-    let med = meniscus::timing::median_times(&runs);
-    if !runs.is_empty() && med.0.is_empty() {
-        eprintln!(
-            "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time (with \
-             with parts timed DFSPH times every correction it may need; fewer [sim] max_solver_iterations or substeps \
-             fit)",
-            meniscus::timing::MAX_SCOPES
-        );
-    } else if !runs.is_empty() {
-        let (step, frame): (Vec<_>, Vec<_>) = med.0.iter().partition(|(k, _)| !diffuse(k));
-        let per_step = step.iter().map(|(_, v)| v).sum::<f64>();
-        eprintln!(
-            "{} frames, {} particles at the end; median GPU time per step {:.2} ms ({:.1} steps/s): {}",
-            runs.len(),
-            sim.count(),
-            per_step,
-            1e3 / per_step,
-            step.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ")
-        );
-        if !frame.is_empty() {
-            eprintln!(
-                "diffuse stages, median GPU ms per frame: {:.2} ({})",
-                frame.iter().map(|(_, v)| v).sum::<f64>(),
-                frame.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ")
-            );
-        }
-    }
+    report_times(&runs, &sim);
     let over = sim.neighbour_overflow()?;
     if over > 0 {
         eprintln!(
@@ -406,4 +335,88 @@ pub fn collider_line(
         path.display(),
         mesh.triangles.len()
     )
+}
+
+/// `--export` and `--diffuse` may be written: patterns with {}, names of a particle kind, not over inputs or
+/// (without --overwrite) existing files, the diffuse files not joining the export's sequence.
+fn check_outputs(a: &SimArgs, frames: u32) -> Result<()> {
+    if let Some(e) = &a.export {
+        let kind = crate::args::out_kind("--export", std::path::Path::new(e), &meniscus::output::PARTICLE_KINDS)?;
+        if !e.contains("{}") {
+            bail!("--export {e:?}: the pattern needs {{}} where the frame number goes, e.g. 'out/f_{{}}.bgeo'");
+        }
+        let paths: Vec<std::path::PathBuf> =
+            (1..=frames.max(1)).map(|n| std::path::PathBuf::from(e.replace("{}", &n.to_string()))).collect();
+        for p in &paths {
+            crate::args::check_out("--export", p, kind)?;
+        }
+        crate::args::refuse_existing("--export", &paths, a.overwrite)?;
+    }
+    if let Some(f) = &a.diffuse {
+        if !f.contains("{}") {
+            bail!("--diffuse {f:?}: the pattern needs {{}} where the frame number goes, e.g. 'foam/f_{{}}.bgeo'");
+        }
+        let kind = crate::args::out_kind("--diffuse", std::path::Path::new(f), &meniscus::output::PARTICLE_KINDS)?;
+        let paths: Vec<std::path::PathBuf> =
+            (1..=frames.max(1)).map(|n| std::path::PathBuf::from(f.replace("{}", &n.to_string()))).collect();
+        for path in &paths {
+            crate::args::check_out("--diffuse", path, kind)?;
+            if a.export.as_ref().is_some_and(|e| meniscus::scene::sequence::would_join(e, path)) {
+                bail!("--diffuse {f}: {} would become a frame of the --export sequence", path.display());
+            }
+        }
+        crate::args::refuse_existing("--diffuse", &paths, a.overwrite)?;
+    }
+    Ok(())
+}
+
+/// The container beside the cache `e` (SPlisHSPlasH's scene.json), so `render` draws the tank and needs no
+/// --radius; a scene.json that meniscus did not write is left alone.
+fn write_scene_json(a: &SimArgs, sim: &Simulation, e: &str) -> Result<()> {
+    let dir = std::path::Path::new(e).parent().unwrap_or(std::path::Path::new(""));
+    let path = dir.join("scene.json");
+    let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::is_ours(&path);
+    if ours {
+        let s = &sim.scene;
+        // The collider mesh by its absolute path, so `render` of the export draws it from any folder.
+        let meshes: Vec<std::path::PathBuf> =
+            a.collider.iter().map(|c| std::fs::canonicalize(c).unwrap_or_else(|_| c.clone())).collect();
+        meniscus::scene::splishsplash::write_scene_json(&path, s.radius(), s.container, &s.box_colliders(), &meshes)?;
+    } else {
+        eprintln!("warning: {} exists and was not written by meniscus: left as it is", path.display());
+    }
+    Ok(())
+}
+
+/// The step's median GPU time per stage (and the diffuse stages' per frame), or why there is none.
+fn report_times(runs: &[meniscus::timing::PassTimes], sim: &Simulation) {
+    // The solver's stages are kept per step (`sim::per_step`), the diffuse stages, which run once, per frame.
+    let diffuse = |k: &str| meniscus::sim::diffuse::STAGE_NAMES.contains(&k);
+    let med = meniscus::timing::median_times(runs);
+    if !runs.is_empty() && med.0.is_empty() {
+        eprintln!(
+            "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time (with \
+             with parts timed DFSPH times every correction it may need; fewer [sim] max_solver_iterations or substeps \
+             fit)",
+            meniscus::timing::MAX_SCOPES
+        );
+    } else if !runs.is_empty() {
+        let (step, frame): (Vec<_>, Vec<_>) = med.0.iter().partition(|(k, _)| !diffuse(k));
+        let per_step = step.iter().map(|(_, v)| v).sum::<f64>();
+        eprintln!(
+            "{} frames, {} particles at the end; median GPU time per step {:.2} ms ({:.1} steps/s): {}",
+            runs.len(),
+            sim.count(),
+            per_step,
+            1e3 / per_step,
+            step.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ")
+        );
+        if !frame.is_empty() {
+            eprintln!(
+                "diffuse stages, median GPU ms per frame: {:.2} ({})",
+                frame.iter().map(|(_, v)| v).sum::<f64>(),
+                frame.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ")
+            );
+        }
+    }
 }
