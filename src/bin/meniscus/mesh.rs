@@ -117,73 +117,7 @@ pub struct MeshArgs {
 
 /// Run the extraction.
 pub fn run(a: &MeshArgs) -> Result<()> {
-    // Outputs first: a misplaced argument (`--compare FILE.bgeo`) must not cost the user a file.
-    if let Some(p) = &a.compare {
-        check_out("--compare", p, FileKind::Png)?;
-    }
-    let out_kind = match &a.out {
-        Some(p) => out_kind("--out", p, &meniscus::output::SURFACE_KINDS)?,
-        None => FileKind::Ply,
-    };
-    if !(a.cube_size.is_finite() && a.cube_size > 0.05 && a.cube_size <= 8.0) {
-        bail!("--cube-size must be in (0.05, 8] particle radii");
-    }
-    if !(a.support.is_finite() && (1.0..=16.0).contains(&a.support)) {
-        bail!("--support must be in [1, 16] particle radii");
-    }
-    if a.smoothing_iters > 1000 {
-        bail!("--smoothing-iters must be at most 1000");
-    }
-    let metaball = a.field == "metaball";
-    if a.rc.is_some() && !metaball {
-        bail!("--rc applies to --field metaball");
-    }
-    let rc = a.rc.unwrap_or(3.0);
-    if metaball && !(1.0..=16.0).contains(&rc) {
-        bail!("--rc must be in [1, 16] particle radii");
-    }
-    if a.compare.is_none() && (a.width.is_some() || a.height.is_some()) {
-        bail!("--width and --height size the --compare panels");
-    }
-    let threshold =
-        a.threshold.unwrap_or(if metaball { meniscus::field::extract::metaball_threshold(1.0, rc) } else { 0.6 });
-    let top = if metaball { 0.25 } else { 1.0 };
-    if !(threshold > 0.0 && threshold < top) {
-        bail!("--threshold must be in (0, {top}) for the {} field", a.field);
-    }
-    if out_kind != FileKind::Usd && (a.fps.is_some() || a.diffuse) {
-        bail!("--fps and --diffuse apply to a USD stage (--out NAME.usd)");
-    }
-    if out_kind != FileKind::Usd && a.meters_per_unit.is_some() {
-        bail!("--meters-per-unit applies to a USD stage (--out NAME.usd)");
-    }
-    if out_kind != FileKind::Vdb && (a.vdb_fog || a.vdb_half_width.is_some()) {
-        bail!("--vdb-fog and --vdb-half-width apply to --out NAME.vdb");
-    }
-    let meters_per_unit = a.meters_per_unit.unwrap_or(1.0);
-    let vdb_half_width = a.vdb_half_width.unwrap_or(3.0);
-    if let Some(f) = a.fps {
-        if !(f.is_finite() && f > 0.0 && f <= 10000.0) {
-            bail!("--fps must be in (0, 10000]");
-        }
-    }
-    if !(meters_per_unit.is_finite() && meters_per_unit > 0.0) {
-        bail!("--meters-per-unit must be positive");
-    }
-    if out_kind == FileKind::Vdb {
-        if metaball {
-            bail!("--out .vdb writes the SPH field's level set; drop --field metaball");
-        }
-        if a.smoothing_iters > 0 {
-            bail!("--out .vdb writes the field's level set, which --smoothing-iters (a mesh operation) does not change; drop it");
-        }
-        if !(vdb_half_width.is_finite() && (1.0..=32.0).contains(&vdb_half_width)) {
-            bail!("--vdb-half-width must be in [1, 32] voxels");
-        }
-    }
-    if a.compare.is_some() && metaball {
-        bail!("--compare renders the SPH field (the one the iso pass ray-casts); drop --field metaball");
-    }
+    let Checked { out_kind, metaball, rc, threshold, meters_per_unit, vdb_half_width } = check_args(a)?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = a.threads {
         if !(1..=MAX_THREADS).contains(&n) {
@@ -259,40 +193,8 @@ pub fn run(a: &MeshArgs) -> Result<()> {
             if rep.strays > 0 {
                 eprintln!("{}", scene::stray_warning(rep.strays, "the mesh"));
             }
-            let t_field = rep.field_s;
-            let how = match &rep.extraction {
-                Extraction::Gpu(st) => {
-                    let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
-                    format!(
-                        "on {} ({} blocks; host: grid and 1/n {t_field:.3} s, blocks {:.1} ms, upload {:.1} ms; GPU \
-                         {:.2} ms: {}; copy of the indexed mesh {:.1} ms)",
-                        gpu_mc.as_ref().map_or("", |(g, _)| g.info.name.as_str()),
-                        st.blocks,
-                        st.host_setup_ms,
-                        st.host_upload_ms,
-                        st.gpu_ms(),
-                        stages.join(", "),
-                        st.host_copy_ms
-                    )
-                }
-                Extraction::Cpu(t) => {
-                    let threads = pool.current_num_threads();
-                    match t {
-                        // Where the time goes: scatter and march are summed over the threads.
-                        Some(t) => format!(
-                            "({threads} threads; grid and 1/n {t_field:.3} s, {} blocks of {}³ cubes: scatter \
-                             {:.3} s, march {:.3} s (thread time), weld {:.3} s)",
-                            t.blocks, t.block, t.scatter, t.march, t.weld
-                        ),
-                        None => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
-                    }
-                }
-            };
-            let how = if recon.smoothing.iterations > 0 {
-                format!("{how}, smoothed ({} iterations) in {:.3} s", recon.smoothing.iterations, rep.smooth_s)
-            } else {
-                how
-            };
+            let gpu_name = gpu_mc.as_ref().map_or("", |(g, _)| g.info.name.as_str());
+            let how = describe(rep, gpu_name, pool.current_num_threads(), recon.smoothing.iterations);
             Ok((rec, how))
         })?;
         Ok((m, how, t0.elapsed().as_secs_f64()))
@@ -401,6 +303,125 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     // The bar is hidden when stderr is not a terminal: say what was done either way.
     eprintln!("{} meshes in {:.1} s; the last: {last}", frames.len(), t0.elapsed().as_secs_f64());
     done()
+}
+
+/// Where one frame's extraction spent its time, as the progress line says it.
+fn describe(
+    rep: &meniscus::surface::mesh::ReconstructReport,
+    gpu_name: &str,
+    threads: usize,
+    smoothing: u32,
+) -> String {
+    let t_field = rep.field_s;
+    let how = match &rep.extraction {
+        Extraction::Gpu(st) => {
+            let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
+            format!(
+                "on {gpu_name} ({} blocks; host: grid and 1/n {t_field:.3} s, blocks {:.1} ms, upload {:.1} ms; GPU \
+                 {:.2} ms: {}; copy of the indexed mesh {:.1} ms)",
+                st.blocks,
+                st.host_setup_ms,
+                st.host_upload_ms,
+                st.gpu_ms(),
+                stages.join(", "),
+                st.host_copy_ms
+            )
+        }
+        // Where the time goes: scatter and march are summed over the threads.
+        Extraction::Cpu(Some(t)) => format!(
+            "({threads} threads; grid and 1/n {t_field:.3} s, {} blocks of {}³ cubes: scatter {:.3} s, march {:.3} s \
+             (thread time), weld {:.3} s)",
+            t.blocks, t.block, t.scatter, t.march, t.weld
+        ),
+        Extraction::Cpu(None) => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
+    };
+    if smoothing > 0 {
+        format!("{how}, smoothed ({smoothing} iterations) in {:.3} s", rep.smooth_s)
+    } else {
+        how
+    }
+}
+
+/// What `check_args` derives from the flags once they are known to fit together.
+struct Checked {
+    out_kind: FileKind,
+    metaball: bool,
+    rc: f32,
+    threshold: f32,
+    meters_per_unit: f64,
+    vdb_half_width: f32,
+}
+
+/// Every flag in its range and in its context (a flag of another output or field is refused, not ignored),
+/// outputs checked first: a misplaced argument (`--compare FILE.bgeo`) must not cost the user a file.
+fn check_args(a: &MeshArgs) -> Result<Checked> {
+    if let Some(p) = &a.compare {
+        check_out("--compare", p, FileKind::Png)?;
+    }
+    let out_kind = match &a.out {
+        Some(p) => out_kind("--out", p, &meniscus::output::SURFACE_KINDS)?,
+        None => FileKind::Ply,
+    };
+    if !(a.cube_size.is_finite() && a.cube_size > 0.05 && a.cube_size <= 8.0) {
+        bail!("--cube-size must be in (0.05, 8] particle radii");
+    }
+    if !(a.support.is_finite() && (1.0..=16.0).contains(&a.support)) {
+        bail!("--support must be in [1, 16] particle radii");
+    }
+    if a.smoothing_iters > 1000 {
+        bail!("--smoothing-iters must be at most 1000");
+    }
+    let metaball = a.field == "metaball";
+    if a.rc.is_some() && !metaball {
+        bail!("--rc applies to --field metaball");
+    }
+    let rc = a.rc.unwrap_or(3.0);
+    if metaball && !(1.0..=16.0).contains(&rc) {
+        bail!("--rc must be in [1, 16] particle radii");
+    }
+    if a.compare.is_none() && (a.width.is_some() || a.height.is_some()) {
+        bail!("--width and --height size the --compare panels");
+    }
+    let threshold =
+        a.threshold.unwrap_or(if metaball { meniscus::field::extract::metaball_threshold(1.0, rc) } else { 0.6 });
+    let top = if metaball { 0.25 } else { 1.0 };
+    if !(threshold > 0.0 && threshold < top) {
+        bail!("--threshold must be in (0, {top}) for the {} field", a.field);
+    }
+    if out_kind != FileKind::Usd && (a.fps.is_some() || a.diffuse) {
+        bail!("--fps and --diffuse apply to a USD stage (--out NAME.usd)");
+    }
+    if out_kind != FileKind::Usd && a.meters_per_unit.is_some() {
+        bail!("--meters-per-unit applies to a USD stage (--out NAME.usd)");
+    }
+    if out_kind != FileKind::Vdb && (a.vdb_fog || a.vdb_half_width.is_some()) {
+        bail!("--vdb-fog and --vdb-half-width apply to --out NAME.vdb");
+    }
+    let meters_per_unit = a.meters_per_unit.unwrap_or(1.0);
+    let vdb_half_width = a.vdb_half_width.unwrap_or(3.0);
+    if let Some(f) = a.fps {
+        if !(f.is_finite() && f > 0.0 && f <= 10000.0) {
+            bail!("--fps must be in (0, 10000]");
+        }
+    }
+    if !(meters_per_unit.is_finite() && meters_per_unit > 0.0) {
+        bail!("--meters-per-unit must be positive");
+    }
+    if out_kind == FileKind::Vdb {
+        if metaball {
+            bail!("--out .vdb writes the SPH field's level set; drop --field metaball");
+        }
+        if a.smoothing_iters > 0 {
+            bail!("--out .vdb writes the field's level set, which --smoothing-iters (a mesh operation) does not change; drop it");
+        }
+        if !(vdb_half_width.is_finite() && (1.0..=32.0).contains(&vdb_half_width)) {
+            bail!("--vdb-half-width must be in [1, 32] voxels");
+        }
+    }
+    if a.compare.is_some() && metaball {
+        bail!("--compare renders the SPH field (the one the iso pass ray-casts); drop --field metaball");
+    }
+    Ok(Checked { out_kind, metaball, rc, threshold, meters_per_unit, vdb_half_width })
 }
 
 /// The size of each `--compare` panel.
