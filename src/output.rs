@@ -424,6 +424,12 @@ pub fn check_png(path: &Path, width: u32, height: u32) -> std::result::Result<()
     }
 }
 
+/// Write `value` as pretty-printed JSON (reports, scene.json): through [`write_atomic`], as every file here.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| Error::Invalid(e.to_string()))?;
+    write_atomic(path, FileKind::Json, |w| w.write_all(text.as_bytes()))
+}
+
 /// Write a float32 array as NumPy `.npy` (C order, little-endian) with the given shape.
 pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();

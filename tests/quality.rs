@@ -74,15 +74,8 @@ fn a_mesh_is_its_own_reference_and_the_render_is_near_it() {
 #[test]
 fn the_warping_error_follows_the_velocities() {
     let d = tmpdir("quality", "warp");
-    let moved = |k: usize, v: f32| {
-        let mut p = slab(0.0, 0);
-        for q in &mut p.positions {
-            q[0] += 0.012 * k as f32;
-        }
-        // 25 frames a second (no scene.json): 0.012 a frame is 0.3 a second.
-        p.velocities = Some(vec![[v, 0.0, 0.0]; p.positions.len()]);
-        p
-    };
+    // 25 frames a second (no scene.json): 0.012 a frame is 0.3 a second.
+    let moved = |k: usize, v: f32| moving_slab(0, 0.012 * k as f32, v);
     let right = flicker(&d, &[moved(0, 0.3), moved(1, 0.3), moved(2, 0.3)]);
     let (plain, warp) = (right["normal_mean_deg"].as_f64().unwrap(), right["warp_mean_deg"].as_f64().unwrap());
     assert!(warp < 0.5 * plain, "warping error {warp} against the plain change {plain}: {right}");
@@ -150,7 +143,20 @@ fn slab(jitter: f32, seed: u32) -> Particles {
     Particles { positions, ..Default::default() }
 }
 
-fn flicker(dir: &std::path::Path, frames: &[Particles]) -> serde_json::Value {
+/// The slab of `slab(0.0, 0)` moved by `offset` along `axis`, every particle with velocity `speed` along it.
+fn moving_slab(axis: usize, offset: f32, speed: f32) -> Particles {
+    let mut p = slab(0.0, 0);
+    for q in &mut p.positions {
+        q[axis] += offset;
+    }
+    let mut v = [0.0; 3];
+    v[axis] = speed;
+    p.velocities = Some(vec![v; p.positions.len()]);
+    p
+}
+
+/// `meniscus quality` of `frames` written as the sequence `dir/f_{}.bgeo` (radius 0.01), with `args`: its JSON.
+fn quality_of_sequence(dir: &std::path::Path, frames: &[Particles], args: &[&str]) -> serde_json::Value {
     for (k, p) in frames.iter().enumerate() {
         std::fs::write(dir.join(format!("f_{}.bgeo", k + 1)), scene::bgeo::write(&p.to_raw(), true)).unwrap();
     }
@@ -158,13 +164,20 @@ fn flicker(dir: &std::path::Path, frames: &[Particles]) -> serde_json::Value {
     let o = meniscus()
         .arg("quality")
         .arg(dir.join("f_{}.bgeo"))
-        .args(["--radius", "0.01", "--camera", "0.13,0.35,0.55:0.13,0.04,0.13:45", "--width", "160", "--height", "90"])
+        .args(["--radius", "0.01"])
+        .args(args)
         .arg("--json")
         .arg(&q)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
-    json(&q)["flicker"].clone()
+    json(&q)
+}
+
+/// The rendered surface's flicker over `frames` (160×90, a camera above the slab).
+fn flicker(dir: &std::path::Path, frames: &[Particles]) -> serde_json::Value {
+    let view = ["--camera", "0.13,0.35,0.55:0.13,0.04,0.13:45", "--width", "160", "--height", "90"];
+    quality_of_sequence(dir, frames, &view)["flicker"].clone()
 }
 
 #[test]
@@ -188,29 +201,9 @@ fn still_frames_do_not_flicker_and_jittered_ones_do() {
 #[test]
 fn mesh_flicker_follows_the_velocities() {
     let d = tmpdir("quality", "mesh-flicker");
-    let risen = |k: usize, v: f32| {
-        let mut p = slab(0.0, 0);
-        for q in &mut p.positions {
-            q[1] += 0.006 * k as f32;
-        }
-        p.velocities = Some(vec![[0.0, v, 0.0]; p.positions.len()]);
-        p
-    };
     let measure = |v: f32| {
-        for k in 0..3 {
-            std::fs::write(d.join(format!("f_{}.bgeo", k + 1)), scene::bgeo::write(&risen(k, v).to_raw(), true))
-                .unwrap();
-        }
-        let q = d.join("m.json");
-        let o = meniscus()
-            .arg("quality")
-            .arg(d.join("f_{}.bgeo"))
-            .args(["--radius", "0.01", "--mesh", "--json"])
-            .arg(&q)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", stderr(&o));
-        json(&q)["mesh_flicker"][0][1].clone()
+        let frames: Vec<Particles> = (0..3).map(|k| moving_slab(1, 0.006 * k as f32, v)).collect();
+        quality_of_sequence(&d, &frames, &["--mesh"])["mesh_flicker"][0][1].clone()
     };
     // 25 frames a second: 0.006 a frame is 0.15 a second.
     let right = measure(0.15);

@@ -18,6 +18,7 @@
 use glam::Vec3;
 
 use crate::scene::camera::Camera;
+use crate::scene::grid::UniformGrid;
 use crate::{Error, Result};
 
 /// A depth image: linear eye depth per pixel, +inf (or any non-finite or ≤ 0 value) where nothing is covered.
@@ -174,15 +175,10 @@ fn angle_deg(a: &[f32; 3], b: &[f32; 3]) -> f32 {
     a.dot(b).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
-/// The `q`-quantile (0…1) of `v`, linearly interpolated as numpy's default; None when `v` is empty.
-pub fn quantile(v: &mut [f32], q: f32) -> Option<f32> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f32::total_cmp);
-    let at = q * (v.len() - 1) as f32;
-    let (lo, hi) = (at.floor() as usize, at.ceil() as usize);
-    Some(v[lo] + (v[hi] - v[lo]) * (at - lo as f32))
+/// The `q`-quantile (0…1) of `v` (`crate::timing::percentile`: sorted in place, linearly interpolated as
+/// numpy's default); None when `v` is empty.
+pub fn quantile(v: &mut [f64], q: f64) -> Option<f32> {
+    (!v.is_empty()).then(|| crate::timing::percentile(v, q) as f32)
 }
 
 /// A depth image against a reference surface's.
@@ -213,7 +209,7 @@ pub fn compare(test: &DepthImage, reference: &DepthImage, fovy_deg: f32, radius:
     }
     let (nt, nr) = (normals_from_depth(test, fovy_deg), normals_from_depth(reference, fovy_deg));
     let (mut both, mut either, mut ct, mut cr) = (0usize, 0usize, 0usize, 0usize);
-    let (mut dd, mut na) = (vec![], vec![]);
+    let (mut dd, mut na): (Vec<f64>, Vec<f64>) = (vec![], vec![]);
     for i in 0..test.depth.len() {
         let (t, r) = (test.covered(i), reference.covered(i));
         ct += t as usize;
@@ -221,9 +217,9 @@ pub fn compare(test: &DepthImage, reference: &DepthImage, fovy_deg: f32, radius:
         either += (t || r) as usize;
         if t && r {
             both += 1;
-            dd.push((test.depth[i] - reference.depth[i]).abs() / radius);
+            dd.push(((test.depth[i] - reference.depth[i]).abs() / radius) as f64);
             if valid(&nt[i]) && valid(&nr[i]) {
-                na.push(angle_deg(&nt[i], &nr[i]));
+                na.push(angle_deg(&nt[i], &nr[i]) as f64);
             }
         }
     }
@@ -266,7 +262,7 @@ pub fn roughness(normals: &[[f32; 3]], width: usize, height: usize) -> Option<Ro
                 mean += Vec3::from_array(normals[j]).normalize_or_zero();
             }
             if all && mean.length() > 1e-6 {
-                a.push(angle_deg(&normals[i], &mean.to_array()));
+                a.push(angle_deg(&normals[i], &mean.to_array()) as f64);
             }
         }
     }
@@ -329,14 +325,14 @@ pub struct SurfaceMotion<'a> {
 pub struct FlickerMeter {
     colour_sum: f64,
     colour_n: u64,
-    colour_max: Vec<f32>,
-    normal: Vec<f32>,
+    colour_max: Vec<f64>,
+    normal: Vec<f64>,
     warp_sum: f64,
     warp_n: u64,
     warp_water: u64,
     warped: bool,
     pairs: usize,
-    steps: Vec<f32>,
+    steps: Vec<f64>,
 }
 
 impl FlickerMeter {
@@ -357,18 +353,18 @@ impl FlickerMeter {
                 largest = largest.max(d);
             }
             self.colour_n += 3;
-            self.colour_max.push(largest);
+            self.colour_max.push(largest as f64);
             if valid(&prev.normals[i]) && valid(&next.normals[i]) {
-                self.normal.push(angle_deg(&prev.normals[i], &next.normals[i]));
+                self.normal.push(angle_deg(&prev.normals[i], &next.normals[i]) as f64);
             }
         }
         let Some(m) = motion else { return };
         self.warped = true;
-        self.steps.extend(m.velocities.iter().map(|v| Vec3::from_array(*v).length() * m.dt / m.radius));
+        self.steps.extend(m.velocities.iter().map(|v| (Vec3::from_array(*v).length() * m.dt / m.radius) as f64));
         let view = m.camera.view();
         let to_world = view.inverse();
         let f = h as f32 / (2.0 * (m.camera.fovy_deg.to_radians() * 0.5).tan());
-        let near = NearestParticle::new(m.positions, 2.0 * m.radius);
+        let near = UniformGrid::new(m.positions, 2.0 * m.radius);
         for y in 0..h {
             for x in 0..w {
                 let i = y * w + x;
@@ -383,7 +379,7 @@ impl FlickerMeter {
                     -d,
                 );
                 let p = to_world.transform_point3(p_view);
-                let Some(k) = near.nearest(p) else { continue };
+                let Some((k, _)) = nearest(&near, p, 2.0 * m.radius) else { continue };
                 let back = view.transform_point3(p - Vec3::from_array(m.velocities[k]) * m.dt);
                 let db = -back.z;
                 if db <= 0.0 {
@@ -417,7 +413,7 @@ impl FlickerMeter {
             normal_mean_deg: if self.normal.is_empty() {
                 0.0
             } else {
-                self.normal.iter().sum::<f32>() / self.normal.len() as f32
+                (self.normal.iter().sum::<f64>() / self.normal.len() as f64) as f32
             },
             normal_p90_deg: quantile(&mut self.normal, 0.9).unwrap_or(0.0),
             warp_mean_deg: (self.warped && self.warp_n > 0).then(|| mean(self.warp_sum, self.warp_n)),
@@ -466,8 +462,8 @@ pub struct FrameMotion<'a> {
 /// Accumulates [`MeshFlicker`] over consecutive frames.
 #[derive(Default)]
 pub struct MeshFlickerMeter {
-    plain: Vec<f32>,
-    warped: Vec<f32>,
+    plain: Vec<f64>,
+    warped: Vec<f64>,
     pairs: usize,
     moved: bool,
 }
@@ -478,24 +474,25 @@ impl MeshFlickerMeter {
     pub fn add(&mut self, prev: &[[f32; 3]], next: &[[f32; 3]], radius: f32, motion: Option<&FrameMotion>) {
         self.pairs += 1;
         let reach = MESH_REACH * radius;
-        let targets = NearestParticle::new(next, reach);
-        let near = motion.map(|m| NearestParticle::new(m.positions, 2.0 * radius));
-        let dist = |q: Vec3| targets.nearest(q).map_or(MESH_REACH, |k| Vec3::from_array(next[k]).distance(q) / radius);
+        let targets = UniformGrid::new(next, reach);
+        let near = motion.map(|m| UniformGrid::new(m.positions, 2.0 * radius));
+        let dist = |q: Vec3| nearest(&targets, q, reach).map_or(MESH_REACH, |(_, d)| d / radius);
         let step = prev.len().div_ceil(MESH_SAMPLES).max(1);
         for v in prev.iter().step_by(step) {
             let v = Vec3::from_array(*v);
-            self.plain.push(dist(v));
+            self.plain.push(dist(v) as f64);
             if let (Some(m), Some(near)) = (motion, &near) {
                 self.moved = true;
-                let moved = near.nearest(v).map_or(v, |k| v + Vec3::from_array(m.velocities[k]) * m.dt);
-                self.warped.push(dist(moved));
+                let moved =
+                    nearest(near, v, 2.0 * radius).map_or(v, |(k, _)| v + Vec3::from_array(m.velocities[k]) * m.dt);
+                self.warped.push(dist(moved) as f64);
             }
         }
     }
 
     /// The figure so far.
     pub fn result(&mut self) -> MeshFlicker {
-        let mean = |v: &[f32]| if v.is_empty() { 0.0 } else { v.iter().sum::<f32>() / v.len() as f32 };
+        let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { (v.iter().sum::<f64>() / v.len() as f64) as f32 };
         MeshFlicker {
             pairs: self.pairs,
             plain_mean_r: mean(&self.plain),
@@ -506,46 +503,16 @@ impl MeshFlickerMeter {
     }
 }
 
-/// The particle nearest to a point, within a reach, through a hashed grid of cells of that reach.
-struct NearestParticle<'a> {
-    positions: &'a [[f32; 3]],
-    cell: f32,
-    cells: std::collections::HashMap<[i32; 3], Vec<u32>>,
-}
-
-impl<'a> NearestParticle<'a> {
-    fn new(positions: &'a [[f32; 3]], reach: f32) -> Self {
-        let mut cells: std::collections::HashMap<[i32; 3], Vec<u32>> = Default::default();
-        for (k, p) in positions.iter().enumerate() {
-            if p.iter().all(|c| c.is_finite()) {
-                cells.entry(Self::key(Vec3::from_array(*p), reach)).or_default().push(k as u32);
-            }
+/// The input index of the point of `grid` nearest to `p` within `reach` (at most the grid's cell size), and
+/// its distance.
+fn nearest(grid: &UniformGrid, p: Vec3, reach: f32) -> Option<(usize, f32)> {
+    let mut best: Option<(usize, f32)> = None;
+    grid.for_each_within(p.to_array(), reach, |j, d| {
+        if best.is_none_or(|(_, b)| d < b) {
+            best = Some((j, d));
         }
-        NearestParticle { positions, cell: reach, cells }
-    }
-
-    fn key(p: Vec3, cell: f32) -> [i32; 3] {
-        let c = (p / cell).floor();
-        [c.x as i32, c.y as i32, c.z as i32]
-    }
-
-    fn nearest(&self, p: Vec3) -> Option<usize> {
-        let c = Self::key(p, self.cell);
-        let mut best: Option<(f32, usize)> = None;
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    for &k in self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]).into_iter().flatten() {
-                        let d = Vec3::from_array(self.positions[k as usize]).distance_squared(p);
-                        if d <= self.cell * self.cell && best.is_none_or(|(b, _)| d < b) {
-                            best = Some((d, k as usize));
-                        }
-                    }
-                }
-            }
-        }
-        best.map(|(_, k)| k)
-    }
+    });
+    best
 }
 
 #[cfg(test)]

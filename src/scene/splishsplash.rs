@@ -251,8 +251,7 @@ pub fn write_scene_json(
         rigid_bodies: bodies,
         meniscus: Some(serde_json::json!({ "writtenBy": concat!("meniscus ", env!("CARGO_PKG_VERSION")) })),
     };
-    let text = serde_json::to_string_pretty(&f).map_err(|e| Error::Invalid(e.to_string()))?;
-    crate::output::write_atomic(path, crate::output::FileKind::Json, |w| std::io::Write::write_all(w, text.as_bytes()))
+    crate::output::write_json(path, &f)
 }
 
 #[cfg(test)]

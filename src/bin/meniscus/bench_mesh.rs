@@ -298,8 +298,7 @@ pub fn run(
             git_commit: crate::bench::git_commit(),
             rows,
         };
-        let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, FileKind::Json, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        meniscus::output::write_json(p, &report)?;
         eprintln!("wrote {}", p.display());
     }
     // The measurements first, so a chart that cannot be drawn (no font) loses nothing.

@@ -373,10 +373,7 @@ pub fn write_reports(
         rss_end_bytes: rss_bytes(),
     };
     if let Some(p) = &a.json {
-        let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, meniscus::output::FileKind::Json, |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })?;
+        meniscus::output::write_json(p, &report)?;
         eprintln!("wrote {}", p.display());
     }
     if let Some(p) = &a.markdown {

@@ -208,8 +208,8 @@ pub fn run(a: &QualityArgs) -> Result<()> {
             }
             let mut tracker = job.motion();
             let mut meter = FlickerMeter::default();
-            // The previous frame's images and particle positions.
-            let mut prev: Option<(Rendered, Vec<[f32; 3]>)> = None;
+            // The previous frame's images.
+            let mut prev: Option<Rendered> = None;
             let dt = 1.0 / job.frame_rate();
             let bar = crate::args::progress(list.len() as u64, "frames");
             for f in list {
@@ -219,10 +219,9 @@ pub fn run(a: &QualityArgs) -> Result<()> {
                 r.render(&view, s)?;
                 let now = read_frame(&r, a.width, a.height)?;
                 frames.push(figures(Some(f.number), &now.1, &now.2, &refs, fovy, s.radius)?);
-                // Velocities: the file's, else the positions' change since the previous frame (same count).
-                let velocities = velocities(&p, prev.as_ref().map(|x| x.1.as_slice()), dt);
-                if let Some((before, _)) = &prev {
-                    let motion = velocities.as_ref().map(|v| SurfaceMotion {
+                // Velocities: the file's, else the tracker's from the positions' change (by id, else by index).
+                if let Some(before) = &prev {
+                    let motion = tracker.velocities().map(|v| SurfaceMotion {
                         positions: &p.positions,
                         velocities: v,
                         dt,
@@ -235,7 +234,7 @@ pub fn run(a: &QualityArgs) -> Result<()> {
                         motion.as_ref(),
                     );
                 }
-                prev = Some((now, p.positions));
+                prev = Some(now);
                 bar.inc(1);
             }
             bar.finish_and_clear();
@@ -244,22 +243,6 @@ pub fn run(a: &QualityArgs) -> Result<()> {
     };
     report(a, &job, &view, gpu.info.name.clone(), frames, flicker, None)?;
     finish(&gpu)
-}
-
-/// The velocities of frame `p` (the file's, else its positions' change since `before`, the same count), in world
-/// units per second with `dt` seconds between frames.
-fn velocities(p: &meniscus::scene::Particles, before: Option<&[[f32; 3]]>, dt: f32) -> Option<Vec<[f32; 3]>> {
-    match (&p.velocities, before) {
-        (Some(v), _) => Some(v.clone()),
-        (None, Some(b)) if b.len() == p.positions.len() => Some(
-            p.positions
-                .iter()
-                .zip(b)
-                .map(|(x, y)| [(x[0] - y[0]) / dt, (x[1] - y[1]) / dt, (x[2] - y[2]) / dt])
-                .collect(),
-        ),
-        _ => None,
-    }
 }
 
 /// `--mesh`: each frame meshed (unsmoothed and smoothed), each mesh against the next frame's.
@@ -280,10 +263,13 @@ fn mesh_flicker(a: &QualityArgs, job: &Job) -> Result<()> {
         velocities: Option<Vec<[f32; 3]>>,
     }
     let mut prev: Option<Before> = None;
+    let mut tracker = job.motion();
     let bar = crate::args::progress(list.len() as u64, "frames");
     for f in list {
         let p = meniscus::scene::load_with(&f.path, &job.load).with_context(|| format!("frame {}", f.number))?;
-        let vel = velocities(&p, prev.as_ref().map(|x| x.positions.as_slice()), dt);
+        // Velocities: the file's, else the tracker's from the positions' change (by id, else by index).
+        tracker.next(&p);
+        let vel = tracker.velocities().map(<[_]>::to_vec);
         let mut meshes: [Vec<[f32; 3]>; 2] = Default::default();
         for (k, (_, iterations)) in kinds.iter().enumerate() {
             let recon = meniscus::surface::mesh::Reconstruct {
@@ -336,10 +322,7 @@ fn mesh_flicker(a: &QualityArgs, job: &Job) -> Result<()> {
             flicker: None,
             mesh_flicker: Some(result),
         };
-        let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(j, meniscus::output::FileKind::Json, |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })?;
+        meniscus::output::write_json(j, &report)?;
         eprintln!("wrote {}", j.display());
     }
     Ok(())
@@ -356,7 +339,7 @@ fn report(
     depth: Option<&DepthImage>,
 ) -> Result<()> {
     let s = &job.settings;
-    let mut p90s: Vec<f32> = frames.iter().filter_map(|f| f.roughness.map(|r| r.p90_deg)).collect();
+    let mut p90s: Vec<f64> = frames.iter().filter_map(|f| f.roughness.map(|r| r.p90_deg as f64)).collect();
     let report = Report {
         input: a.scene.input.clone(),
         device,
@@ -371,10 +354,7 @@ fn report(
     };
     print_report(&report);
     if let Some(j) = &a.json {
-        let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(j, meniscus::output::FileKind::Json, |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })?;
+        meniscus::output::write_json(j, &report)?;
         eprintln!("wrote {}", j.display());
     }
     if let (Some(o), Some(d)) = (&a.depth_out, depth) {
