@@ -100,7 +100,8 @@ fn the_default_meets_the_targets_on_the_shared_frame_and_the_screen_space_surfac
         let o = meniscus()
             .arg("quality")
             .arg(&frame)
-            .args(["--radius", "0.0125", "--camera", "0,2.5,6:0,0.3,0:45", "--preset", preset, "--reference"])
+            .args(["--radius", "0.0125", "--camera", "0,2.5,6:0,0.3,0:45", "--preset", preset, "--validation"])
+            .arg("--reference")
             .arg(&reference)
             .arg("--json")
             .arg(&q)
@@ -174,9 +175,10 @@ fn quality_of_sequence(dir: &std::path::Path, frames: &[Particles], args: &[&str
     json(&q)
 }
 
-/// The rendered surface's flicker over `frames` (160×90, a camera above the slab).
+/// The rendered surface's flicker over `frames` (160×90, a camera above the slab; validation on: a validation
+/// message fails the run).
 fn flicker(dir: &std::path::Path, frames: &[Particles]) -> serde_json::Value {
-    let view = ["--camera", "0.13,0.35,0.55:0.13,0.04,0.13:45", "--width", "160", "--height", "90"];
+    let view = ["--camera", "0.13,0.35,0.55:0.13,0.04,0.13:45", "--width", "160", "--height", "90", "--validation"];
     quality_of_sequence(dir, frames, &view)["flicker"].clone()
 }
 
