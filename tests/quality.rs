@@ -54,6 +54,21 @@ fn a_mesh_is_its_own_reference_and_the_render_is_near_it() {
     let iou = c["iou"].as_f64().unwrap();
     assert!(iou > 0.9 && iou < 1.0, "{c}");
     assert!(c["depth_median_r"].as_f64().unwrap() > 0.0, "{c}");
+    // --depth-out over a reference is refused before any work, the reference left as it was.
+    let before = std::fs::read(d.join("mesh_depth.npy")).unwrap();
+    let o = meniscus()
+        .args(["quality", "drop", "--particles", "3000"])
+        .args(size)
+        .arg("--reference")
+        .arg(d.join("mesh_depth.npy"))
+        .arg("--depth-out")
+        .arg(d.join("mesh_depth.npy"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--depth-out") && stderr(&o).contains("input"), "{}", stderr(&o));
+    assert!(o.stdout.is_empty(), "measured before refusing: {}", String::from_utf8_lossy(&o.stdout));
+    assert_eq!(std::fs::read(d.join("mesh_depth.npy")).unwrap(), before);
     // A reference of another size is refused by name, and a folder given for --json writes nothing.
     let small = d.join("small.npy");
     meniscus::output::write_npy(&small, &[2, 2], &[1.0; 4]).unwrap();

@@ -173,6 +173,7 @@ pub fn run(a: &QualityArgs) -> Result<()> {
     if let Some(p) = &a.depth {
         // A given surface: no render, no device.
         let depth = surface(p)?;
+        check_depth_out(a)?;
         if (depth.width, depth.height) != (a.width as usize, a.height as usize) {
             bail!(
                 "--depth {}: {}×{} but --width/--height say {}×{}",
@@ -187,6 +188,7 @@ pub fn run(a: &QualityArgs) -> Result<()> {
         let frames = vec![figures(None, &depth, &normals, &refs, fovy, s.radius)?];
         return report(a, &job, &view, "none (a given surface)".into(), frames, None, Some(&depth));
     }
+    check_depth_out(a)?;
     let gpu = a.gpu.open()?;
     let mut r = Renderer::new(&gpu)?;
     job.apply_background(&mut r)?;
@@ -243,6 +245,15 @@ pub fn run(a: &QualityArgs) -> Result<()> {
     };
     report(a, &job, &view, gpu.info.name.clone(), frames, flicker, None)?;
     finish(&gpu)
+}
+
+/// `--depth-out` again once every input is read (the references, `--depth`): never over one of them, refused
+/// before the work rather than at the write.
+fn check_depth_out(a: &QualityArgs) -> Result<()> {
+    if let Some(o) = &a.depth_out {
+        crate::args::check_out("--depth-out", o, meniscus::output::FileKind::Npy)?;
+    }
+    Ok(())
 }
 
 /// `--mesh`: each frame meshed (unsmoothed and smoothed), each mesh against the next frame's.
