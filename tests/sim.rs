@@ -1004,11 +1004,11 @@ fn dfsph_double_dam_break_follows_splishsplash() {
         }
         x
     };
-    let run = |gravity_scale: f32| -> Vec<Agreement> {
+    let run = |gravity_scale: f32, last: usize| -> Vec<Agreement> {
         let mut p = params.clone();
         p.gravity = p.gravity.map(|c| c * gravity_scale);
         let mut sim = Simulation::new(&gpu, scene.clone(), p).unwrap();
-        (2..=26)
+        (2..=last)
             .map(|f| {
                 sim.step_frame().unwrap();
                 against(f, &sim.read().unwrap())
@@ -1016,16 +1016,17 @@ fn dfsph_double_dam_break_follows_splishsplash() {
             .collect()
     };
     // Measured on lavapipe (2026-11-28), the worst frame of each: this solver IoU 0.33, height field 15.3 r,
-    // kinetic energy 4.7 %, potential 23.5 %, centres 3.2 r apart; gravity × 0.8: 0.26, 16.9 r, 34.9 %, 48.3 %,
-    // 15.2 r; frozen: 0.03, 37 r, 100 %, 656 %, 74 r. The occupancy and the height field are loose (the static
-    // sphere and the splash's droplets differ cell by cell); the energies and the centre of mass separate.
+    // kinetic energy 4.7 %, potential 23.5 %, centres 3.2 r apart; gravity × 0.8 (run to frame 10 only: the
+    // kinetic energy is already apart there): 0.63, 6.8 r, 34.9 %, 8.4 %, 3.3 r; frozen: 0.03, 37 r, 100 %,
+    // 656 %, 74 r. The occupancy and the height field are loose (the static sphere and the splash's droplets
+    // differ cell by cell); the energies and the centre of mass separate.
     let gate = Gate { iou: 0.25, height_rms_radii: 20.0, kinetic: 0.10, potential: 0.30, centre_radii: 5.0 };
-    let ours = worst(&run(1.0));
+    let ours = worst(&run(1.0, 26));
     eprintln!("DFSPH double dam break to 1 s against SPlisHSPlasH: {ours:?}");
     // The negative controls: water frozen at its first frame; gravity × 0.8.
     let first = theirs[0].clone();
     let frozen = worst(&(2..=26).map(|f| against(f, &first)).collect::<Vec<_>>());
-    let weak = worst(&run(0.8));
+    let weak = worst(&run(0.8, 10));
     eprintln!("frozen at frame 1: {frozen:?}\ngravity × 0.8: {weak:?}");
     assert!(gate.check(&ours).is_ok(), "{}", gate.check(&ours).unwrap_err());
     assert!(gate.check(&frozen).is_err(), "the gate passes water frozen at its first frame: {frozen:?}");
