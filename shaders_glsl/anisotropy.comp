@@ -12,7 +12,7 @@
 //! In: sorted points, cells. Out: aniso (three vec4 per point: centre + det M, m00 m01 m02 m11, m12 m22).
 #include "common.glsl"
 #define ISO_NO_WEIGHTS
-#include "iso_field.glsl"
+#include "iso/iso_field.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, set = 0, binding = 3) writeonly buffer Aniso { vec4 aniso[]; };
 

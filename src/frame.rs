@@ -102,11 +102,13 @@ impl FrameUniforms {
 use crate::gpu::recording::{Part, Recording};
 use crate::passes::{FrameInfo, Passes};
 
-/// Every pass name in frame order — the frame's passes with the built-in effects before `normals` (timestamp
-/// keys, JSON keys, `--timings` rows).
+/// Every pass name in frame order — the shared frame passes, the surface techniques' after `splat` and the
+/// built-in effects' before `normals` (timestamp keys, JSON keys, `--timings` rows).
 pub fn pass_names() -> &'static [&'static str] {
     static NAMES: std::sync::LazyLock<Vec<&'static str>> = std::sync::LazyLock::new(|| {
         let mut names = crate::passes::PASS_NAMES.to_vec();
+        let at = names.iter().position(|n| *n == crate::passes::splat::NAME).map_or(names.len(), |k| k + 1);
+        names.splice(at..at, crate::surface::PASS_NAMES.iter().copied());
         let at = names.iter().position(|n| *n == crate::passes::normals::NAME).unwrap_or(names.len());
         names.splice(at..at, crate::effect::BUILT_IN.iter().copied());
         names

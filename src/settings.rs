@@ -122,11 +122,11 @@ pub struct Settings {
     #[serde(alias = "spray")]
     pub isolated: IsolatedParams,
     /// `[iso]`: the iso-surface ray cast.
-    pub iso: crate::passes::iso::Params,
+    pub iso: crate::surface::iso::params::Params,
     /// `[anisotropy]`: the anisotropic kernels (with `kernel = "anisotropic"`).
-    pub anisotropy: crate::passes::anisotropy::Params,
+    pub anisotropy: crate::surface::grid::params::Params,
     /// `[mesh]`: the extracted mesh's cube size.
-    pub mesh: crate::passes::mesh::Params,
+    pub mesh: crate::surface::mesh::params::Params,
     /// `[thickness]`: resolution and blur.
     pub thickness: crate::passes::thickness::Params,
     /// `[filter]`: the depth filter.

@@ -1,7 +1,8 @@
 //! The frame's images, built from a [`TargetsDesc`]: the one place that decides which images exist and how
 //! big they are (output size, fluid and thickness scales, and the optional images: the raw depth kept for
-//! dumps, the far depth the iso march needs, the rasterised splats' depth buffer, the full-size depth the
-//! upsample pass writes). An image that is not needed is `None`, never a 1×1 stand-in.
+//! dumps, the rasterised splats' depth buffer, the full-size depth the upsample pass writes). An image that is
+//! not needed is `None`, never a 1×1 stand-in. These are the images every surface shares; a technique's own
+//! (the iso surface's far bound and queue) are its own (`crate::surface::iso::targets`).
 
 use std::sync::Arc;
 
@@ -9,7 +10,7 @@ use ash::vk;
 
 use crate::error::Result;
 use crate::gpu::{Gpu, Image};
-use crate::settings::{Settings, Surface};
+use crate::settings::Settings;
 
 /// What the frame's images must be; two equal descriptions give the same images.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,8 +25,6 @@ pub struct TargetsDesc {
     pub thickness: vk::Extent2D,
     /// Keep the splatted depth intact through smoothing (a second ping-pong image): dumps, the demo's views.
     pub keep_raw: bool,
-    /// The iso march's far bound (`surface = "iso"`).
-    pub back: bool,
     /// The D32 depth buffer of the depth-tested rasterised splats.
     pub zbuffer: bool,
 }
@@ -39,7 +38,6 @@ impl TargetsDesc {
             fluid: scaled(width, height, s.fluid_scale),
             thickness: scaled(width, height, s.thickness.scale),
             keep_raw,
-            back: s.surface == Surface::Iso,
             zbuffer: s.splat.mode.depth_tested(),
         }
     }
@@ -82,12 +80,6 @@ pub struct Targets {
     pub filter_a: Image,
     /// The second ping-pong image when the raw depth is kept (else the raw depth itself is the second one).
     pub filter_b: Option<Image>,
-    /// The `iso` march's far bound per pixel (`surface = "iso"`), R32F + R32_UINT view.
-    pub depth_back: Option<Image>,
-    /// The same per 8×8 tile (written instead when the splat culls).
-    pub depth_back_tiles: Option<Image>,
-    /// The `iso` cast's queue of unfinished rays (`surface = "iso"`).
-    pub iso_queue: Option<crate::passes::iso::queue::IsoQueue>,
     /// Occlusion bound per 8×8 tile of `depth` (the compute splat's software Hi-Z), R32_UINT float bits.
     pub depth_tiles: Image,
     /// The compute splat's work counts (`crate::work::SplatWork`).
@@ -130,12 +122,6 @@ impl Targets {
                 scene_color: img("scene_color", full, vk::Format::R16G16B16A16_SFLOAT, storage | U::SAMPLED, None)?,
                 scene_depth: img("scene_depth", full, r32, storage, None)?,
                 depth: img("depth", fluid, r32, storage | U::COLOR_ATTACHMENT, bits)?,
-                depth_back: d.back.then(|| img("depth_back", fluid, r32, storage, bits)).transpose()?,
-                depth_back_tiles: d.back.then(|| img("depth_back_tiles", tiles, r32, storage, bits)).transpose()?,
-                iso_queue: d
-                    .back
-                    .then(|| crate::passes::iso::queue::IsoQueue::new(gpu, fluid.width, fluid.height))
-                    .transpose()?,
                 depth_tiles: img("depth_tiles", tiles, vk::Format::R32_UINT, storage, None)?,
                 splat_work: crate::work::Counters::new(gpu, "splat_work")?,
                 zbuffer: d
@@ -156,9 +142,9 @@ impl Targets {
         made.map_err(|e| match e {
             crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } | crate::error::Error::Limit(_) => {
                 let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
-                // 28 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 28 per fluid
-                // pixel (depth, smoothing, back depth, thickness, iso queue).
-                let mb = (28 * px(full) + 28 * px(fluid)) as f64 / 1e6;
+                // 28 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 8 per fluid
+                // pixel (depth, smoothing, thickness).
+                let mb = (28 * px(full) + 8 * px(fluid)) as f64 / 1e6;
                 crate::error::Error::Limit(format!(
                     "a {}×{} frame needs about {mb:.0} MB of images, more than this device could allocate ({e}); \
                      choose a smaller --width/--height or --fluid-scale",
@@ -190,7 +176,7 @@ impl Targets {
         Ok(crate::work::SplatWork { tests, spheres, tiles_skipped })
     }
 
-    /// (name, bytes) of every image (and the iso queue) that exists.
+    /// (name, bytes) of every image that exists.
     pub fn memory(&self) -> Vec<(&str, u64)> {
         let always = [
             &self.scene_color,
@@ -204,26 +190,23 @@ impl Targets {
             &self.ssr,
             &self.final_color,
         ];
-        let optional = [&self.filter_b, &self.depth_full, &self.zbuffer, &self.depth_back, &self.depth_back_tiles];
-        let images = always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes()));
-        let queue = self.iso_queue.iter().map(|q| (q.entries.name.as_str(), q.entries.size));
-        images.chain(queue).collect()
+        let optional = [&self.filter_b, &self.depth_full, &self.zbuffer];
+        always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes())).collect()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::settings::Surface;
 
     /// The description alone decides which optional images exist; equal settings give equal descriptions.
     #[test]
     fn optional_images_follow_the_settings() {
         let s = Settings { surface: Surface::Spheres, ..Settings::default() };
         let d = TargetsDesc::new(640, 360, &s, false);
-        assert!(!d.back && !d.zbuffer && !d.keep_raw && !d.upsampled());
+        assert!(!d.zbuffer && !d.keep_raw && !d.upsampled());
         assert_eq!(d, TargetsDesc::new(640, 360, &s.clone(), false));
-        let iso = Settings { surface: Surface::Iso, ..s.clone() };
-        assert!(TargetsDesc::new(640, 360, &iso, false).back);
         let half = Settings { fluid_scale: 0.5, ..s.clone() };
         let d = TargetsDesc::new(640, 360, &half, true);
         assert!(d.upsampled() && d.keep_raw);

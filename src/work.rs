@@ -45,7 +45,7 @@ impl Counters {
 
 /// The `iso` pass's work in one frame that its queue counts: the rays its first dispatch left unfinished
 /// (after `[iso] first_steps` samples) for the second to finish, and the coarse-to-fine cast's fallbacks
-/// (`passes::iso::queue::IsoQueue::work`). The second dispatch's cost follows the first count and how far those rays
+/// (`surface::iso::queue::IsoQueue::work`). The second dispatch's cost follows the first count and how far those rays
 /// march.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct IsoWork {

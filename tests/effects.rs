@@ -19,7 +19,7 @@ mod tint {
     use ash::vk;
     use meniscus::compute::clear::Clear;
     use meniscus::device::{FrameCtx, Gpu, Image};
-    use meniscus::effect::{replace, Effect, EffectFrame, EffectPrepare};
+    use meniscus::effect::{Effect, EffectFrame, EffectPrepare};
     use meniscus::layer::{Blend, Detail, Layer};
     use meniscus::settings::Settings;
 
@@ -54,7 +54,7 @@ mod tint {
             if !fits {
                 let extent = vk::Extent2D { width: p.width, height: p.height };
                 let usage = vk::ImageUsageFlags::STORAGE;
-                replace(&mut self.image, p.executor, || {
+                p.executor.replace(&mut self.image, || {
                     Image::new(p.gpu, "tint", extent, vk::Format::R32_UINT, usage, None).map(Some)
                 })?;
             }

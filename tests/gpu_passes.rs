@@ -995,7 +995,16 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
     s.iso.first_steps = 0;
     render_counted(&mut rd, &v, &s).unwrap();
     let one_dispatch = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
-    let work = |rd: &Renderer| rd.state().targets().unwrap().iso_queue.as_ref().unwrap().work(&gpu).unwrap();
+    let work = |rd: &Renderer| {
+        rd.state()
+            .surfaces()
+            .technique::<meniscus::surface::iso::IsoSurface>()
+            .unwrap()
+            .queue()
+            .unwrap()
+            .work(&gpu)
+            .unwrap()
+    };
     let whole = work(&rd);
     s.iso.first_steps = first_steps;
     s.iso.rest_lanes = 1;
@@ -1038,7 +1047,7 @@ fn iso_matches_cpu(kernel: meniscus::settings::Kernel, (blend, shape): (f32, f32
         }
         s.iso.rest_lanes = lanes;
         rd.render(&v, &s).unwrap();
-        let queue = rd.state().targets().unwrap().iso_queue.as_ref().unwrap();
+        let queue = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().unwrap().queue().unwrap();
         let queued = queue.work(&gpu).unwrap().queued as usize;
         let wide_got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
         let (mut differ, mut far) = (0, 0);
@@ -1167,7 +1176,7 @@ fn check_cast(
 /// The smoothed field's sparse lattice read back densely: (allocated bricks, sums, field) over the whole box.
 fn read_lattice(
     gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
-    vol: &meniscus::passes::iso::IsoVolume,
+    vol: &meniscus::surface::iso::volume::IsoVolume,
 ) -> (Vec<bool>, Vec<[u32; 2]>, Vec<[f32; 2]>) {
     let shape = vol.shape;
     let read = |buf, bytes: usize| meniscus::gpu::transfer::read_buffer(gpu, buf, bytes as u64).unwrap();
@@ -1216,7 +1225,7 @@ fn smoothed_iso_field_matches_cpu() {
     let mut s = settings(r);
     s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
+    s.iso.smoothing = meniscus::surface::iso::params::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
     *rd.parts_mut().keep_raw_depth = true;
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
@@ -1226,8 +1235,8 @@ fn smoothed_iso_field_matches_cpu() {
     assert!(ran(&first, "iso_volume"), "{:?}", first.0);
     assert!(!ran(&again, "iso_volume"), "a static frame reuses it: {:?}", again.0);
     let got = read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap();
-    let b = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().and_then(|i| i.grid()).unwrap();
-    let vol = b.volume.as_ref().expect("the lattice");
+    let iso = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().unwrap();
+    let (b, vol) = (iso.grid().unwrap(), iso.volume().expect("the lattice"));
     let shape = vol.shape;
     assert_eq!(shape.spacing, s.iso.voxel * r, "the voxel size asked for");
     let (alloc, acc_gpu, field_gpu) = read_lattice(&gpu, vol);
@@ -1309,13 +1318,13 @@ fn smoothed_iso_field_is_sparse_in_a_large_box() {
     let mut s = settings(r);
     s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
+    s.iso.smoothing = meniscus::surface::iso::params::Params::default().smoothing;
     let mut rd = Renderer::new(&gpu).unwrap();
     rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
     let v = view([50.0, 50.0, 50.0], [12.0, 12.0, 12.0], 160, 120, 50.0);
     rd.render(&v, &s).unwrap();
-    let b = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().and_then(|i| i.grid()).unwrap();
-    let vol = b.volume.as_ref().expect("the lattice");
+    let iso = rd.state().surfaces().technique::<meniscus::surface::iso::IsoSurface>().unwrap();
+    let vol = iso.volume().expect("the lattice");
     let shape = vol.shape;
     assert_eq!(shape.spacing, s.iso.voxel * r, "the voxel size asked for, not a coarser one");
     assert!(shape.voxels() > 16 << 20, "the box holds {} voxels", shape.voxels());
@@ -1344,7 +1353,7 @@ fn the_64_bit_deposit_equals_the_32_bit_one() {
     let mut s = settings(r);
     s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
+    s.iso.smoothing = meniscus::surface::iso::params::Params::default().smoothing;
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], 96, 64, 45.0);
     let lattice = |no_int64_atomics: bool| {
         let gpu = meniscus::gpu::Gpu::new(&meniscus::gpu::GpuOptions {
@@ -1357,13 +1366,7 @@ fn the_64_bit_deposit_equals_the_32_bit_one() {
         rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
         rd.render(&v, &s).unwrap();
         let state = rd.state();
-        let vol = state
-            .surfaces()
-            .technique::<meniscus::surface::iso::IsoSurface>()
-            .and_then(|i| i.grid())
-            .unwrap()
-            .volume
-            .as_ref();
+        let vol = state.surfaces().technique::<meniscus::surface::iso::IsoSurface>().and_then(|i| i.volume());
         let vol = vol.expect("the lattice");
         let out = read_lattice(&gpu, vol);
         let work = vol.work(&gpu).unwrap();
@@ -1410,7 +1413,7 @@ fn smoothed_iso_surface_has_no_seams_at_voxel_faces() {
     let mut s = settings(r);
     s.filter.method = Filter::None;
     s.surface = meniscus::settings::Surface::Iso;
-    s.iso.smoothing = meniscus::passes::iso::Params::default().smoothing;
+    s.iso.smoothing = meniscus::surface::iso::params::Params::default().smoothing;
     s.iso.bulk = [0.0, 0.0];
     // The march's depth to well below a pixel's normal step (its last linear interpolation alone leaves an
     // error that follows where each ray starts: the bound spheres' pattern).

@@ -64,44 +64,61 @@ fn library_code() -> Vec<(PathBuf, String)> {
         .collect()
 }
 
-fn scan(dir: &Path, top: Option<&str>, graph: &mut BTreeMap<String, BTreeSet<String>>) {
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let p = e.path();
-        let name = p.file_name().unwrap().to_string_lossy().into_owned();
-        if p.is_dir() {
-            if top.is_none() && name == "bin" {
-                continue;
-            }
-            scan(&p, Some(top.unwrap_or(&name)), graph);
-        } else if name.ends_with(".rs") && name != "tests.rs" {
+/// The node a file belongs to: its top-level module, except a settings section's own file (`params.rs`: the
+/// `[iso]` section in `surface/iso/params.rs`), which is a node of its own — `settings` gathers the sections,
+/// so a section lives with what reads it only if its file is a leaf that `settings` may import without
+/// importing that module's whole folder.
+fn node_of(rel: &Path) -> String {
+    let parts: Vec<String> = rel.iter().map(|c| c.to_string_lossy().trim_end_matches(".rs").to_string()).collect();
+    if parts.len() > 1 && parts.last().is_some_and(|l| l == "params") {
+        return parts.join("::");
+    }
+    parts[0].clone()
+}
+
+/// The node a `crate::a::b::…` path names: a section's own node when the path goes through it, else `a`.
+fn node_named(path: &str, sections: &BTreeSet<String>) -> String {
+    let segments: Vec<&str> = path.split("::").collect();
+    (2..=segments.len())
+        .rev()
+        .map(|k| segments[..k].join("::"))
+        .find(|p| sections.contains(p))
+        .unwrap_or_else(|| segments[0].to_string())
+}
+
+fn scan(src: &Path, graph: &mut BTreeMap<String, BTreeSet<String>>) {
+    let files: Vec<PathBuf> = rust_files(src, None)
+        .into_iter()
+        .filter(|p| {
+            let rel = p.strip_prefix(src).unwrap();
             // (A module's tests in their own file, `mod tests;` under `#[cfg(test)]`, are not library code.)
-            let module = top.map(str::to_string).unwrap_or_else(|| name.trim_end_matches(".rs").to_string());
-            if module == "lib" {
-                continue;
-            }
-            let text = std::fs::read_to_string(&p).unwrap();
-            let code = text.split("#[cfg(test)]").next().unwrap();
-            let deps = graph.entry(module.clone()).or_default();
-            for line in code.lines() {
-                let line = line.split("//").next().unwrap();
-                for part in line.split("crate::").skip(1) {
-                    let dep: String = part.chars().take_while(|c| c.is_ascii_lowercase() || *c == '_').collect();
-                    if !dep.is_empty() && dep != module {
-                        deps.insert(dep);
-                    }
+            !rel.starts_with("bin") && !rel.ends_with("tests.rs") && !rel.ends_with("lib.rs")
+        })
+        .collect();
+    let nodes: Vec<(String, &PathBuf)> = files.iter().map(|p| (node_of(p.strip_prefix(src).unwrap()), p)).collect();
+    let sections: BTreeSet<String> = nodes.iter().map(|(n, _)| n.clone()).filter(|n| n.contains("::")).collect();
+    for (module, p) in nodes {
+        let text = std::fs::read_to_string(p).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap();
+        let deps = graph.entry(module.clone()).or_default();
+        for line in code.lines() {
+            let line = line.split("//").next().unwrap();
+            for part in line.split("crate::").skip(1) {
+                let path: String = part
+                    .chars()
+                    .take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || "_:".contains(*c))
+                    .collect();
+                let dep = node_named(path.trim_end_matches(':'), &sections);
+                if !dep.is_empty() && dep != module {
+                    deps.insert(dep);
                 }
             }
         }
     }
 }
 
-#[test]
-fn the_top_level_modules_form_no_cycle() {
-    let mut graph = BTreeMap::new();
-    scan(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), None, &mut graph);
-    let names: BTreeSet<String> = graph.keys().cloned().collect();
-    assert!(names.contains("surface") && names.contains("renderer") && names.len() > 15, "{names:?}");
-    // Depth-first search for a back edge.
+/// A cycle of `graph` (each node's imports), if it has one: depth-first search for a back edge.
+fn find_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
     fn visit(
         n: &str,
         g: &BTreeMap<String, BTreeSet<String>>,
@@ -125,11 +142,31 @@ fn the_top_level_modules_form_no_cycle() {
         None
     }
     let mut state = BTreeMap::new();
-    for n in graph.keys() {
-        if let Some(cycle) = visit(n, &graph, &mut state, &mut vec![]) {
-            panic!("import cycle among the library's modules: {}", cycle.join(" -> "));
-        }
+    graph.keys().find_map(|n| visit(n, graph, &mut state, &mut vec![]))
+}
+
+#[test]
+fn the_top_level_modules_form_no_cycle() {
+    let mut graph = BTreeMap::new();
+    scan(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut graph);
+    let names: BTreeSet<String> = graph.keys().cloned().collect();
+    assert!(names.contains("surface") && names.contains("renderer") && names.len() > 15, "{names:?}");
+    // A section's file is its own node, named by its path; `settings` imports it, not its folder.
+    assert!(graph["settings"].contains("surface::iso::params") && !graph["settings"].contains("surface"));
+    if let Some(cycle) = find_cycle(&graph) {
+        panic!("import cycle among the library's modules: {}", cycle.join(" -> "));
     }
+    // The controls: settings importing the iso surface's folder (not its section) closes a cycle, as would a
+    // section that imported what reads it.
+    let mut folder = graph.clone();
+    folder.get_mut("settings").unwrap().insert("surface".into());
+    assert!(find_cycle(&folder).is_some(), "settings -> surface -> settings was not found");
+    let mut section = graph.clone();
+    section.get_mut("surface::iso::params").unwrap().insert("settings".into());
+    assert!(find_cycle(&section).is_some(), "a section importing settings was not found");
+    let sections = ["surface::iso::params".to_string()].into();
+    assert_eq!(node_named("surface::iso::params::Params", &sections), "surface::iso::params");
+    assert_eq!(node_named("surface::iso::cast", &sections), "surface");
 }
 
 /// The applications (the CLI, demo and bench in `src/bin`, the Python package) use the library's public API:

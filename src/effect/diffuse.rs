@@ -49,7 +49,7 @@ impl Effect for DiffuseEffect {
         };
         if !keep {
             let (gpu, w, h, draws) = (p.gpu, p.width, p.height, self.draws);
-            super::replace(&mut self.images, p.executor, || draws.then(|| DiffuseTargets::new(gpu, w, h)).transpose())?;
+            p.executor.replace(&mut self.images, || draws.then(|| DiffuseTargets::new(gpu, w, h)).transpose())?;
         }
         Ok(())
     }

@@ -189,12 +189,3 @@ impl Effects {
         self.all.iter_mut().find_map(|e| (e.as_mut() as &mut dyn Any).downcast_mut::<T>())
     }
 }
-
-/// Wait for the frames in flight, then replace `slot` with what `make` builds (None: free it). An effect's
-/// images change only through here, so no frame in flight loses an image it uses.
-pub fn replace<T>(slot: &mut Option<T>, executor: &Executor, make: impl FnOnce() -> Result<Option<T>>) -> Result<()> {
-    executor.wait_idle()?;
-    *slot = None;
-    *slot = make()?;
-    Ok(())
-}

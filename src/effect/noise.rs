@@ -62,7 +62,7 @@ impl Effect for NoiseEffect {
         if on != self.images.is_some() || !self.images.as_ref().is_none_or(fits) {
             let gpu = p.gpu;
             let (w, h) = (p.width, p.height);
-            super::replace(&mut self.images, p.executor, || on.then(|| NoiseTargets::new(gpu, w, h)).transpose())?;
+            p.executor.replace(&mut self.images, || on.then(|| NoiseTargets::new(gpu, w, h)).transpose())?;
         }
         // The splat's lists follow the particle count.
         let (count, tiled) = (p.particles.count(), self.pass.is_tiled());

@@ -485,6 +485,15 @@ impl Executor {
         unsafe { self.gpu.device.wait_semaphores(&wi, u64::MAX) }.vk("vkWaitSemaphores")
     }
 
+    /// Wait for the frames in flight, then replace `slot` with what `make` builds (None: free it). A technique's
+    /// or an effect's frame resources change only through here, so no frame in flight loses an image it uses.
+    pub fn replace<T>(&self, slot: &mut Option<T>, make: impl FnOnce() -> Result<Option<T>>) -> Result<()> {
+        self.wait_idle()?;
+        *slot = None;
+        *slot = make()?;
+        Ok(())
+    }
+
     /// Wait for every frame submitted so far, on both queues.
     pub fn wait_idle(&self) -> Result<()> {
         if self.submitted > 0 {

@@ -20,8 +20,9 @@ macro_rules! frame_passes {
             }
         }
 
-        /// Every frame pass name, in frame order (timestamp keys, JSON keys, `--timings` rows). `iso` runs only
-        /// with `surface = "iso"` (`anisotropy` too, with `kernel = "anisotropic"`), `mesh` (instead of `splat`) with `surface = "mesh"`, `upsample` only when the fluid is rendered at reduced resolution.
+        /// The shared frame passes' names, in frame order (timestamp keys, JSON keys, `--timings` rows): the
+        /// surface techniques' own (`crate::surface::PASS_NAMES`) run after `splat`, the effects' before
+        /// `normals` (`crate::frame::pass_names` has them all). `upsample` runs only when the fluid is rendered at reduced resolution.
         pub const PASS_NAMES: &[&str] = &[$($module::NAME,)*];
     };
 }
@@ -33,12 +34,6 @@ frame_passes! {
     thickness: Thickness,
     /// Nearest sphere depth of every particle.
     splat: Splat,
-    /// Anisotropic kernels of the iso field (`kernel = "anisotropic"`).
-    anisotropy: Anisotropy,
-    /// The SPH iso-surface, ray-cast from the splatted depth.
-    iso: Iso,
-    /// The extracted iso-surface mesh, ray-cast through its BVH (`surface = "mesh"`).
-    mesh: Mesh,
     /// The screen-space depth filter (the spheres' surface; `[filter]`).
     filter: DepthFilter,
     /// Reduced-resolution depth back to full size.

@@ -47,7 +47,8 @@ impl Renderer {
         self.ensure_targets(view.width, view.height, s)?;
         let cached = self.background.cached(view, s);
         // The surface brings its resources up to date (grids, lattice, mesh) for these particles and settings.
-        let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s };
+        let fluid = self.targets.as_ref().expect("ensured").desc.fluid;
+        let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s, fluid };
         self.surfaces.get_mut(s.surface).prepare(&prep)?;
         let (width, height) = (view.width, view.height);
         let (gpu, executor, particles) = (&self.gpu, &self.executor, &self.particles);

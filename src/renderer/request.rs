@@ -314,16 +314,12 @@ impl<'a> RendererState<'a> {
         let Some(t) = self.targets else { return Ok(crate::work::FrameWork::default()) };
         let compute = settings.splat.mode == crate::named::SplatMode::Compute;
         let splat = (ran(crate::passes::splat::NAME) && compute).then(|| t.splat_work(self.gpu)).transpose()?;
-        let iso = match (ran(crate::passes::iso::NAME), &t.iso_queue) {
+        let iso_surface = self.surfaces.technique::<crate::surface::iso::IsoSurface>();
+        let iso = match (ran(crate::surface::iso::cast::NAME), iso_surface.and_then(|i| i.queue())) {
             (true, Some(q)) => Some(q.work(self.gpu)?),
             _ => None,
         };
-        let volume = self
-            .surfaces
-            .technique::<crate::surface::iso::IsoSurface>()
-            .and_then(|i| i.grid())
-            .and_then(|b| b.volume.as_ref());
-        let iso_volume = match (ran(crate::passes::iso::VOLUME_NAME), volume) {
+        let iso_volume = match (ran(crate::surface::iso::volume::NAME), iso_surface.and_then(|i| i.volume())) {
             (true, Some(v)) => Some(v.work(self.gpu)?),
             _ => None,
         };
@@ -367,10 +363,10 @@ impl<'a> RendererState<'a> {
         self.surfaces
     }
 
-    /// (name, bytes) of every image and buffer the frame holds now: its targets', then its effects'.
+    /// (name, bytes) of every image and buffer the frame holds now: its targets', its surfaces', its effects'.
     pub fn memory(&self) -> Vec<(&'a str, u64)> {
         let targets = self.targets.into_iter().flat_map(|t| t.memory());
-        targets.chain(self.effects.memory()).collect()
+        targets.chain(self.surfaces.memory()).chain(self.effects.memory()).collect()
     }
 
     /// Where the host's time went in the latest submission.

@@ -34,6 +34,8 @@ pub struct Prepare<'a> {
     pub particles: &'a ParticleSet,
     /// The frame's settings.
     pub settings: &'a Settings,
+    /// The fluid images' size (`TargetsDesc::fluid`): a technique's own frame resources follow it.
+    pub fluid: ash::vk::Extent2D,
 }
 
 /// What a technique records with: the passes, the frame's images, uniforms and particles.
@@ -85,7 +87,17 @@ pub trait Technique: std::any::Any {
     fn strays(&self) -> Option<(u64, usize)> {
         None
     }
+    /// (name, bytes) of its frame resources (`Renderer::state().memory()`).
+    fn memory(&self) -> Vec<(&str, u64)> {
+        vec![]
+    }
 }
+
+/// The frame passes the techniques own, in frame order, where they run: after `splat`, before `filter`
+/// (timestamp keys, JSON keys, `--timings` rows; `crate::frame::pass_names` puts them there). `anisotropy` runs
+/// with `kernel = "anisotropic"`, `iso` with `surface = "iso"`, `mesh` (instead of `splat`) with
+/// `surface = "mesh"`.
+pub const PASS_NAMES: &[&str] = &[grid::anisotropy::NAME, iso::cast::NAME, mesh::cast::NAME];
 
 /// Every surface technique, each owning its resources, in the order of `settings::Surface`.
 pub struct Surfaces {
@@ -123,6 +135,11 @@ impl Surfaces {
     /// has: the iso surface's grid, the mesh's build statistics.
     pub fn technique<T: Technique>(&self) -> Option<&T> {
         self.all.iter().find_map(|t| (t.as_ref() as &dyn std::any::Any).downcast_ref::<T>())
+    }
+
+    /// (name, bytes) of every technique's frame resources.
+    pub fn memory(&self) -> Vec<(&str, u64)> {
+        self.all.iter().flat_map(|t| t.memory()).collect()
     }
 }
 

@@ -22,7 +22,7 @@ impl Technique for Spheres {
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
         let s = p.settings;
         if s.ellipsoid_splats() {
-            self.grid.prepare(p, false)?;
+            self.grid.prepare(p)?;
         }
         Ok(())
     }
@@ -62,7 +62,7 @@ impl Technique for Spheres {
                 );
             }
             None => {
-                record_splat(ctx, f)?;
+                record_splat(ctx, f, None)?;
             }
         }
         Ok(())

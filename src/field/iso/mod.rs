@@ -235,7 +235,7 @@ impl IsoGrid {
     }
 }
 
-/// Parameters of the anisotropic kernels (Yu & Turk 2013 §4); see `passes::anisotropy::Params`.
+/// Parameters of the anisotropic kernels (Yu & Turk 2013 §4); see `surface::grid::params::Params` (the `[anisotropy]` section).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AnisoParams {
     /// Largest ratio of the longest to the shortest axis (Yu & Turk's k_r).

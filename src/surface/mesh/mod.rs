@@ -1,7 +1,11 @@
 //! The mesh surface (`--preset smooth`): the marching-cubes mesh of the iso field (`extract`, on the CPU with
 //! rayon; the `mc` pass is its GPU twin for `meniscus mesh --gpu`), optionally smoothed with splashsurf's
 //! feature-weighted Laplacian (`smooth`), its BVH ray-cast per pixel by the `mesh` pass. It owns the mesh's
-//! BVH and what it was made from; the CPU extracts again whenever the particles or the field change.
+//! BVH and what it was made from; the CPU extracts again whenever the particles or the field change. Its files:
+//! this one, [`params`] (the `[mesh]` section), [`cast`] (the `mesh` pass), its shader in shaders_glsl/mesh/.
+
+pub mod cast;
+pub mod params;
 
 use crate::error::Result;
 use crate::field::{extract, smooth};
@@ -20,6 +24,8 @@ type MeshKey = ([f32; 3], smooth::SmoothParams, u64);
 #[derive(Default)]
 pub struct FluidMesh {
     bvh: Option<(BvhBuffers, MeshKey)>,
+    /// The `mesh` pass, built on the first prepare.
+    cast: Option<cast::MeshCast>,
     /// Seconds (CPU) the last extraction and BVH build took, and the mesh's vertex and triangle counts.
     stats: Option<(f64, usize, usize)>,
 }
@@ -35,6 +41,9 @@ impl Technique for FluidMesh {
     /// Extract the iso-surface mesh of the current particles (isolated particles and strays left out) with the `[iso]` field
     /// and the `[mesh]` cube size, and upload its BVH, unless it is there already.
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
+        if self.cast.is_none() {
+            self.cast = Some(cast::MeshCast::new(p.gpu)?);
+        }
         let s = p.settings;
         let smoothing = smooth::SmoothParams {
             iterations: s.mesh.smoothing_iters,
@@ -72,8 +81,8 @@ impl Technique for FluidMesh {
     }
 
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
-        if let Some((m, _)) = &self.bvh {
-            f.passes.mesh.record(ctx, f.frame, m, &f.targets.depth);
+        if let (Some((m, _)), Some(cast)) = (&self.bvh, &self.cast) {
+            cast.record(ctx, f.frame, m, &f.targets.depth);
         }
         Ok(())
     }

@@ -2,6 +2,20 @@
 //! field, the smoothed field's lattice) and the spheres' ellipsoids (Yu & Turk 2013), and the host analysis of a
 //! particle set a sequence's loader may compute ahead ([`analyse`]). Neither technique imports the other: both
 //! use this module. `crate::field::iso` is the CPU reference.
+//!
+//! Its files: this one (the buffers' life: built on the GPU or uploaded, kept while a sequence's box fits),
+//! [`buffers`] (what the shaders read), [`programs`] (the grid's build and `iso_density`), [`anisotropy`] (the
+//! `anisotropy` pass) and [`params`] (the `[anisotropy]` section).
+
+pub mod anisotropy;
+mod buffers;
+pub mod params;
+pub mod programs;
+
+pub use buffers::{IsoBuffers, IsoPush};
+
+use anisotropy::Anisotropy;
+use programs::GridPrograms;
 
 use ash::vk;
 
@@ -9,7 +23,6 @@ use crate::error::Result;
 use crate::field::iso as field;
 use crate::gpu::transfer::upload_buffer;
 use crate::gpu::{Buffer, FrameCtx};
-use crate::passes::iso::IsoBuffers;
 use crate::settings::Settings;
 
 use super::{Prepare, SurfaceFrame};
@@ -26,10 +39,12 @@ pub struct IsoResources {
     /// The ray cast's and the smoothed field's parameters in world units (`Settings::iso_params`), derived once
     /// per change of the settings they come from, not per frame.
     derived: Option<(IsoKey, crate::field::iso::IsoParams)>,
+    /// Its programs (the grid's build and weights, the anisotropic kernels), built on the first prepare.
+    programs: Option<(GridPrograms, Anisotropy)>,
 }
 
 /// What `Settings::iso_params` derives from: `[iso]`, `[anisotropy]`, the kernel and the radius.
-type IsoKey = (crate::passes::iso::Params, crate::passes::anisotropy::Params, crate::settings::Kernel, u32);
+type IsoKey = (crate::surface::iso::params::Params, params::Params, crate::settings::Kernel, u32);
 
 /// `scene::fluid_bounds` of a particle set: the box and the strays left out (None: no finite particle).
 type FluidBox = Option<(crate::scene::Bounds, usize)>;
@@ -57,15 +72,14 @@ impl IsoResources {
 
     /// Prepare for a frame: the parameters, the grid (`support`; cells at least the parameters' reach wide),
     /// and the smoothed field when `[iso] smoothing` asks for it.
-    pub fn prepare(&mut self, p: &Prepare, volume: bool) -> Result<()> {
+    pub fn prepare(&mut self, p: &Prepare) -> Result<()> {
+        if self.programs.is_none() {
+            self.programs = Some((GridPrograms::new(p.gpu)?, Anisotropy::new(p.gpu)?));
+        }
         let s = p.settings;
         let h = s.iso.support * s.radius;
         let reach = self.derive(s).reach(h);
-        self.ensure(p, h, reach)?;
-        if volume {
-            self.ensure_volume(p)?;
-        }
-        Ok(())
+        self.ensure(p, h, reach)
     }
 
     /// The buffers, once built.
@@ -103,7 +117,7 @@ impl IsoResources {
             let n = particles.count();
             let shape = grid_shape(bounds, reach, n);
             let d = shape.dims;
-            let push = crate::passes::iso::IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
+            let push = IsoPush::grid(shape.origin_cell, [d[0], d[1], d[2], n], support);
             if let Some(b) = &mut self.buffers {
                 let fits = b.aniso.size >= aniso_bytes(n.max(1) as u64);
                 // A sequence's box moves every frame: the buffers are kept while they hold the new grid (they are
@@ -124,8 +138,7 @@ impl IsoResources {
                 }
             }
             p.executor.wait_idle()?;
-            // The smoothed field's buffers outlive the grid's (ensure_volume reuses them if they fit).
-            let volume = self.buffers.take().and_then(|b| b.volume);
+            self.buffers = None;
             // A quarter more points and cells than this frame's: the next frames of a sequence fit.
             let room = |x: u32| x.saturating_add(x / 4);
             let cap = room(n.max(1));
@@ -146,8 +159,7 @@ impl IsoResources {
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),
-                volume,
-                volume_for: std::cell::Cell::new(None),
+                generation: std::cell::Cell::new(buffers::next_generation()),
             });
             self.built_for = Some(particles.generation());
             return Ok(());
@@ -166,7 +178,7 @@ impl IsoResources {
         let pts = crate::scene::without_strays(&particles.surface_positions(), reach).0.into_owned();
         let grid = field::IsoGrid::build_reaching(&pts, support, reach);
         p.executor.wait_idle()?;
-        let volume = self.buffers.take().and_then(|b| b.volume);
+        self.buffers = None;
         let points = upload_buffer(gpu, "iso_points", bytemuck::cast_slice(&grid.points), None)?
             .with_texel_view(IsoBuffers::POINTS)?;
         let cells = upload_buffer(gpu, "iso_cells", bytemuck::cast_slice(&grid.cells), None)?
@@ -189,7 +201,7 @@ impl IsoResources {
             Buffer::texels(gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, IsoBuffers::CELLS)
         };
         let (cells_empty, empty_scratch) = (cell_buf("iso_cells_empty")?, cell_buf("iso_empty_scratch")?);
-        let shape = crate::passes::iso::IsoPush::shape(&grid);
+        let shape = IsoPush::shape(&grid);
         self.buffers = Some(IsoBuffers {
             points,
             cells,
@@ -203,76 +215,22 @@ impl IsoResources {
             rebuild: std::cell::Cell::new(false),
             weights_stale: std::cell::Cell::new(true),
             kernels_for: std::cell::Cell::new(None),
-            volume,
-            volume_for: std::cell::Cell::new(None),
+            generation: std::cell::Cell::new(buffers::next_generation()),
         });
         self.built_for = Some(particles.generation());
         Ok(())
     }
 
-    /// The smoothed field's sparse lattice for the grid's box, when `[iso] smoothing` asks for it: its pool
-    /// sized for the bricks the particles need (counted here by the rule iso_volume marks them with, so memory
-    /// follows the water, not the box; particles written on the GPU, whose positions the host does not have,
-    /// get every brick of their box), (re)allocated when the box or the count outgrows it (its field is then
-    /// stale); dropped when smoothing is off.
-    fn ensure_volume(&mut self, p: &Prepare) -> Result<()> {
-        let volume = self.params().and_then(|q| q.volume);
-        let Some(b) = &mut self.buffers else { return Ok(()) };
-        let Some(params) = volume else {
-            if b.volume.is_some() {
-                p.executor.wait_idle()?;
-                b.volume = None;
-            }
-            return Ok(());
-        };
-        let (o, d) = (b.shape.origin, b.shape.dims);
-        let shape = volume_shape(o, [d[0], d[1], d[2]], &params).map_err(crate::error::Error::Limit)?;
-        let unchanged = b.volume.as_ref().is_some_and(|v| v.shape == shape);
-        if unchanged && b.volume_for.get().is_some() {
-            return Ok(());
-        }
-        let ahead = p.particles.analysis().and_then(|a| a.volume).filter(|(s, _)| *s == shape);
-        let bricks = if p.particles.is_external() {
-            shape.table_len() as u32
-        } else if let Some((_, bricks)) = ahead {
-            bricks
-        } else {
-            marked_bricks(&shape, p.particles.positions())
-        };
-        // A sequence's box and bricks change every frame: the buffers are kept while they hold the new lattice
-        // (its field is rebuilt for the new particles anyway), and grow by a quarter when they do not.
-        if let Some(v) = b.volume.as_mut().filter(|v| v.fits(&shape, bricks)) {
-            v.shape = shape;
-            b.volume_for.set(None);
-            return Ok(());
-        }
-        p.executor.wait_idle()?;
-        b.volume = None;
-        let spare = if p.particles.is_external() { bricks } else { bricks + bricks / 4 };
-        let mut table = shape;
-        // The table too gets a quarter to spare (its box moves with the water).
-        table.bricks = shape.bricks.map(|n| n + n / 8);
-        let mut v = crate::passes::iso::IsoVolume::new(p.gpu, table, spare.max(1))?;
-        v.shape = shape;
-        b.volume = Some(v);
-        b.volume_for.set(None);
-        Ok(())
-    }
-
     /// Record the grid's build (when the particles changed) and, with `kernel = "anisotropic"`, the kernels;
-    /// `weights`: also each particle's 1/n_j and the smoothed field (the iso surface's, not the ellipsoids').
+    /// `weights`: also each particle's 1/n_j (`iso_density`: the iso surface's field, not the ellipsoids').
     pub(crate) fn record(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, weights: bool) -> Option<&IsoBuffers> {
-        let b = self.buffers.as_ref()?;
-        let (p, params) = (f.passes, self.params()?);
-        p.iso.record_grid(ctx, f.particles.0, f.particles.1, b);
+        let (b, params, (grid, anisotropy)) = (self.buffers.as_ref()?, self.params()?, self.programs.as_ref()?);
+        grid.record_grid(ctx, f.particles.0, f.particles.1, b);
         if weights {
-            p.iso.record_density(ctx, f.frame, b);
-            if let Some(v) = &params.volume {
-                p.iso.record_volume(ctx, f.frame, b, v);
-            }
+            grid.record_density(ctx, f.frame, b);
         }
         if let Some(a) = &params.aniso {
-            p.anisotropy.record(ctx, f.frame, b, a);
+            anisotropy.record(ctx, f.frame, b, a);
         }
         Some(b)
     }
@@ -293,7 +251,7 @@ fn grid_shape(bounds: FluidBox, reach: f32, n: u32) -> crate::compute::grid::Gri
 }
 
 /// The smoothed field's lattice over a grid's box (corner and cell side `o`, `d` cells per axis).
-fn volume_shape(
+pub(crate) fn volume_shape(
     o: [f32; 4],
     d: [u32; 3],
     params: &crate::field::volume::VolumeParams,
@@ -304,7 +262,7 @@ fn volume_shape(
 }
 
 /// The bricks of `shape` the positions mark (the pool's size).
-fn marked_bricks(shape: &crate::field::volume::VolumeShape, positions: &[[f32; 3]]) -> u32 {
+pub(crate) fn marked_bricks(shape: &crate::field::volume::VolumeShape, positions: &[[f32; 3]]) -> u32 {
     shape.marked(positions, |&x| glam::Vec3::from(x)).iter().filter(|&&m| m).count() as u32
 }
 
