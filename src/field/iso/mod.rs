@@ -235,7 +235,9 @@ impl IsoGrid {
     }
 }
 
-/// Parameters of the anisotropic kernels (Yu & Turk 2013 §4); see `surface::grid::params::Params` (the `[anisotropy]` section).
+/// Parameters of the anisotropic kernels (Yu & Turk 2013 §4) in world units: the one form the `anisotropy` pass and
+/// the CPU reference read. The `[anisotropy]` section (`surface::grid::params::Params`) holds the same keys in
+/// particle radii (`max_shift`) and supports (`radius`); its `world()` is the one conversion.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AnisoParams {
     /// Largest ratio of the longest to the shortest axis (Yu & Turk's k_r).
@@ -365,7 +367,9 @@ impl Aniso {
     }
 }
 
-/// Parameters of the ray cast (all lengths in world units), shared with the shader's push constants.
+/// Parameters of the ray cast and the smoothed field in world units: the one form the `iso` cast, the
+/// `iso_volume` lattice and the CPU reference read. The `[iso]` section (`surface::iso::params::Params`) holds the
+/// same keys in particle radii; its `world()` is the one conversion (`Settings::iso_params` adds the kernels').
 #[derive(Clone, Copy, Debug)]
 pub struct IsoParams {
     /// Field value of the surface (splashsurf: 0.6).
