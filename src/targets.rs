@@ -139,20 +139,10 @@ impl Targets {
             })
         })();
         // A frame larger than the device holds is the user's size, not a Vulkan failure: say so with the size.
-        made.map_err(|e| match e {
-            crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } | crate::error::Error::Limit(_) => {
-                let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
-                // 28 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 8 per fluid
-                // pixel (depth, smoothing, thickness).
-                let mb = (28 * px(full) + 8 * px(fluid)) as f64 / 1e6;
-                crate::error::Error::Limit(format!(
-                    "a {}×{} frame needs about {mb:.0} MB of images, more than this device could allocate ({e}); \
-                     choose a smaller --width/--height or --fluid-scale",
-                    d.width, d.height
-                ))
-            }
-            e => e,
-        })
+        // 28 bytes per output pixel (scene colour and depth, normals, SSR, final) and about 8 per fluid pixel
+        // (depth, smoothing, thickness).
+        let px = |e: vk::Extent2D| e.width as u64 * e.height as u64;
+        made.map_err(|e| too_large(e, full, 28 * px(full) + 8 * px(fluid)))
     }
 
     /// The smoothing ping-pong pair: `filter_a`, then `filter_b` or (without it) the raw depth.
@@ -192,6 +182,23 @@ impl Targets {
         ];
         let optional = [&self.filter_b, &self.depth_full, &self.zbuffer];
         always.into_iter().chain(optional.into_iter().flatten()).map(|i| (i.name.as_str(), i.bytes())).collect()
+    }
+}
+
+/// An allocation failure of a frame's images, as what it is: a frame of `size` too large for the device (about
+/// `bytes` of images), said with its size and what to change. Other errors pass through.
+pub fn too_large(e: crate::error::Error, size: vk::Extent2D, bytes: u64) -> crate::error::Error {
+    match e {
+        crate::error::Error::Alloc { .. } | crate::error::Error::Vulkan { .. } | crate::error::Error::Limit(_) => {
+            crate::error::Error::Limit(format!(
+                "a {}×{} frame needs about {:.0} MB of images, more than this device could allocate ({e}); choose a \
+                 smaller --width/--height or --fluid-scale",
+                size.width,
+                size.height,
+                bytes as f64 / 1e6
+            ))
+        }
+        e => e,
     }
 }
 

@@ -105,7 +105,7 @@ pub struct RendererParts<'a> {
 
 /// Host-written memory of one frame slot.
 #[derive(Default)]
-struct SlotMemory {
+pub(super) struct SlotMemory {
     uniforms: Option<Buffer>,
     staging: Option<Buffer>,
     readback: Option<Buffer>,

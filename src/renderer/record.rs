@@ -36,30 +36,10 @@ impl Renderer {
                 ms
             }
         };
-        s.validate()?;
-        if !self.passes.splat.supports(s.splat.mode) {
-            return Err(Error::Invalid(format!(
-                "splat mode {} is not supported on {}",
-                s.splat.mode.name(),
-                self.gpu.info.name
-            )));
-        }
-        self.ensure_targets(view.width, view.height, s)?;
-        let cached = self.background.cached(view, s);
-        // The surface brings its resources up to date (grids, lattice, mesh) for these particles and settings.
-        let fluid = self.targets.as_ref().expect("ensured").desc.fluid;
-        let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s, fluid };
-        self.surfaces.get_mut(s.surface).prepare(&prep)?;
-        let (width, height) = (view.width, view.height);
-        let (gpu, executor, particles) = (&self.gpu, &self.executor, &self.particles);
-        self.effects.prepare(&EffectPrepare { gpu, executor, particles, settings: s, width, height })?;
+        let cached = self.prepare(&view, s, hooks.produce.is_some())?;
         // The composite's layers, once a frame; too many is the caller's error, found before a slot is begun.
         let layers = self.effects.layers(s)?;
         let split = self.async_compute;
-        if self.particles.is_external() && hooks.produce.is_none() {
-            return Err(Error::Invalid("particles uploaded as Upload::Gpu need a frame with Hooks::produce".into()));
-        }
-        self.particles.prepare(&self.gpu, &self.executor, split)?;
         let d_near = self.particles.nearest_depth(view, s.radius);
         host.prepare = lap();
         // The slot: its previous frame is complete from here on, so its host memory may be rewritten.
@@ -69,48 +49,12 @@ impl Renderer {
         }
         host.slot_wait = lap();
         let gpu = self.gpu.clone();
-        let mem = &mut self.slots[k];
         let count = self.particles.count();
-        let u = FrameUniforms::new(view, s, count);
-        if mem.uniforms.is_none() {
-            mem.uniforms = Some(Buffer::new(
-                &gpu,
-                "frame",
-                std::mem::size_of::<FrameUniforms>() as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
-                MemoryLocation::CpuToGpu,
-            )?);
-        }
-        mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(&u))?;
         let (staged, external) = self.particles.take_pending();
-        if let Some(st) = &staged {
-            let bytes = st.len * 16;
-            if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes) {
-                mem.staging = Some(Buffer::new(
-                    &gpu,
-                    "particles staging",
-                    (bytes as u64).max(16),
-                    vk::BufferUsageFlags::TRANSFER_SRC,
-                    MemoryLocation::CpuToGpu,
-                )?);
-            }
-            let staging = mem.staging.as_mut().expect("set");
-            let mut at = 0;
-            for part in self.particles.staged_parts(st) {
-                staging.write(at, bytemuck::cast_slice(part))?;
-                at += part.len() * 16;
-            }
-        }
-        let need = self.targets.as_ref().expect("ensured").final_color.bytes();
-        if readback && mem.readback.as_ref().is_none_or(|b| b.size < need) {
-            mem.readback = Some(Buffer::new(
-                &gpu,
-                "readback",
-                need,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuToCpu,
-            )?);
-        }
+        let need = readback.then(|| self.targets.as_ref().expect("ensured").final_color.bytes());
+        let u = FrameUniforms::new(view, s, count);
+        fill_slot(&gpu, &mut self.slots[k], &self.particles, &u, staged.as_ref(), need)?;
+        let mem = &self.slots[k];
         host.stage = lap();
         let t = self.targets.as_ref().expect("ensured");
         let info = FrameInfo {
@@ -204,4 +148,76 @@ impl Renderer {
         self.host = host;
         sub
     }
+
+    /// Before a frame slot is begun: the request's checks, then the surface, the effects and the particles brought
+    /// up to date (host work and allocations). Returns whether the background's images still hold.
+    fn prepare(&mut self, view: &crate::view::View, s: &crate::settings::Settings, produces: bool) -> Result<bool> {
+        s.validate()?;
+        if !self.passes.splat.supports(s.splat.mode) {
+            return Err(Error::Invalid(format!(
+                "splat mode {} is not supported on {}",
+                s.splat.mode.name(),
+                self.gpu.info.name
+            )));
+        }
+        self.ensure_targets(view.width, view.height, s)?;
+        let cached = self.background.cached(view, s);
+        // The surface brings its resources up to date (grids, lattice, mesh) for these particles and settings.
+        let fluid = self.targets.as_ref().expect("ensured").desc.fluid;
+        let prep = Prepare { gpu: &self.gpu, executor: &self.executor, particles: &self.particles, settings: s, fluid };
+        self.surfaces.get_mut(s.surface).prepare(&prep)?;
+        let (width, height) = (view.width, view.height);
+        let (gpu, executor, particles) = (&self.gpu, &self.executor, &self.particles);
+        self.effects.prepare(&EffectPrepare { gpu, executor, particles, settings: s, width, height })?;
+        if self.particles.is_external() && !produces {
+            return Err(Error::Invalid("particles uploaded as Upload::Gpu need a frame with Hooks::produce".into()));
+        }
+        self.particles.prepare(&self.gpu, &self.executor, self.async_compute)?;
+        Ok(cached)
+    }
+}
+
+/// A slot's host-written memory for this frame: the uniform block, the staged particles (their parts copied into
+/// its staging buffer, grown to fit) and, when the final image is read back, a buffer of `readback` bytes.
+fn fill_slot(
+    gpu: &std::sync::Arc<crate::gpu::Gpu>,
+    mem: &mut super::SlotMemory,
+    particles: &crate::particles::ParticleSet,
+    u: &FrameUniforms,
+    staged: Option<&crate::particles::Staged>,
+    readback: Option<u64>,
+) -> Result<()> {
+    if mem.uniforms.is_none() {
+        mem.uniforms = Some(Buffer::new(
+            gpu,
+            "frame",
+            std::mem::size_of::<FrameUniforms>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?);
+    }
+    mem.uniforms.as_mut().expect("set").write(0, bytemuck::bytes_of(u))?;
+    if let Some(st) = staged {
+        let bytes = st.len * 16;
+        if mem.staging.as_ref().is_none_or(|b| (b.size as usize) < bytes) {
+            mem.staging = Some(Buffer::new(
+                gpu,
+                "particles staging",
+                (bytes as u64).max(16),
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        let staging = mem.staging.as_mut().expect("set");
+        let mut at = 0;
+        for part in particles.staged_parts(st) {
+            staging.write(at, bytemuck::cast_slice(part))?;
+            at += part.len() * 16;
+        }
+    }
+    if let Some(need) = readback.filter(|&n| mem.readback.as_ref().is_none_or(|b| b.size < n)) {
+        mem.readback =
+            Some(Buffer::new(gpu, "readback", need, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?);
+    }
+    Ok(())
 }

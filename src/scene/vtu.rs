@@ -215,7 +215,8 @@ impl<'a> B64<'a> {
     }
 }
 
-/// Parse VTU/VTP bytes.
+/// Parse VTU/VTP bytes: the XML scanned for the arrays' descriptions ([`scan`]), then each array decoded
+/// ([`values`]) from its inline text or the appended section.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let perr = |at: usize, r: String| super::bytes::err_at(path, at, r);
     // Appended data is not XML: cut it off, remember where it starts.
@@ -236,6 +237,48 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         }
         None => (bytes, None, false),
     };
+    let Scanned { big, header, compressor, n_points, arrays } = scan(path, xml)?;
+    let n = n_points.ok_or_else(|| perr(0, "no <Piece NumberOfPoints=…>".into()))?;
+    let ctx = Ctx { path, big, header, compressor };
+    // The encoded appended section, whitespace removed once (offsets count its characters).
+    let app_text: Option<Vec<u8>> = match (appended, app_b64) {
+        (Some(start), true) => {
+            let end = find(&bytes[start..], b"<").map(|k| start + k).unwrap_or(bytes.len());
+            Some(bytes[start..end].iter().copied().filter(|b| !b.is_ascii_whitespace()).collect())
+        }
+        _ => None,
+    };
+    let appended = Appended { bytes, start: appended, text: app_text.as_deref().filter(|_| app_b64) };
+    let mut positions = None;
+    let mut out = vec![];
+    for a in arrays {
+        let vals = values(&ctx, &a, n, &appended)?;
+        if a.in_points {
+            if a.comps != 3 {
+                return Err(perr(a.at, format!("<Points> array has {} components, expected 3", a.comps)));
+            }
+            positions = Some(vals.chunks_exact(3).map(|c| [c[0] as f32, c[1] as f32, c[2] as f32]).collect());
+        } else {
+            out.push(Attribute { name: a.name, components: a.comps, data: vals });
+        }
+    }
+    let positions = positions.ok_or_else(|| perr(0, "no <Points> DataArray".into()))?;
+    Ok(Raw { positions, arrays: out })
+}
+
+/// What the XML says: the byte order, the block header's size, the compressor, the point count and the arrays
+/// of `<Points>` and `<PointData>`.
+struct Scanned {
+    big: bool,
+    header: usize,
+    compressor: Compressor,
+    n_points: Option<usize>,
+    arrays: Vec<ArrayDesc>,
+}
+
+/// Scan the XML part of a VTU/VTP file (the appended data cut off) for its header and arrays.
+fn scan(path: &Path, xml: &[u8]) -> Result<Scanned> {
+    let perr = |at: usize, r: String| super::bytes::err_at(path, at, r);
     let mut rd = quick_xml::Reader::from_reader(xml);
     rd.config_mut().check_end_names = false;
     let mut buf = vec![];
@@ -325,115 +368,107 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         }
         buf.clear();
     }
-    let n = n_points.ok_or_else(|| perr(0, "no <Piece NumberOfPoints=…>".into()))?;
-    let ctx = Ctx { path, big, header, compressor };
-    // The encoded appended section, whitespace removed once (offsets count its characters).
-    let app_text: Option<Vec<u8>> = match (appended, app_b64) {
-        (Some(start), true) => {
-            let end = find(&bytes[start..], b"<").map(|k| start + k).unwrap_or(bytes.len());
-            Some(bytes[start..end].iter().copied().filter(|b| !b.is_ascii_whitespace()).collect())
-        }
-        _ => None,
+    Ok(Scanned { big, header, compressor, n_points, arrays })
+}
+
+/// The appended section: the file's bytes, where the section starts (after its '_'), and its base64 text with
+/// whitespace removed when it is base64.
+struct Appended<'a> {
+    bytes: &'a [u8],
+    start: Option<usize>,
+    text: Option<&'a [u8]>,
+}
+
+/// The values of array `a` of `n` points: its ASCII text, base64 inline blocks or appended blocks, checked
+/// against what the file can hold before anything is inflated.
+fn values(ctx: &Ctx, a: &ArrayDesc, n: usize, app: &Appended) -> Result<Vec<f64>> {
+    let perr = |at: usize, r: String| super::bytes::err_at(ctx.path, at, r);
+    let (bytes, appended, big, compressor) = (app.bytes, app.start, ctx.big, ctx.compressor);
+    let scalar = Scalar::parse(&a.ty)
+        .ok_or_else(|| perr(a.at, format!("DataArray {:?}: unsupported type {:?}", a.name, a.ty)))?;
+    let size = scalar.size();
+    let count = n.checked_mul(a.comps).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
+    let want = count.checked_mul(size).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
+    // Bytes that can hold this array: the inline text or the appended section (zlib inflates ≤ 1032×).
+    let avail = if a.format == "appended" { appended.map(|s| bytes.len() - s).unwrap_or(0) } else { a.text.len() };
+    // zlib inflates ≤ 1032×, LZ4 ≤ 255×; LZMA can exceed that on degenerate data, so it gets a wide bound.
+    let ratio = match compressor {
+        Compressor::None => 1,
+        Compressor::Zlib | Compressor::Lz4 => 1100,
+        Compressor::Lzma => 100_000,
     };
-    let mut positions = None;
-    let mut out = vec![];
-    for a in arrays {
-        let scalar = Scalar::parse(&a.ty)
-            .ok_or_else(|| perr(a.at, format!("DataArray {:?}: unsupported type {:?}", a.name, a.ty)))?;
-        let size = scalar.size();
-        let count = n.checked_mul(a.comps).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
-        let want = count.checked_mul(size).ok_or_else(|| perr(a.at, "array size overflows".into()))?;
-        // Bytes that can hold this array: the inline text or the appended section (zlib inflates ≤ 1032×).
-        let avail = if a.format == "appended" { appended.map(|s| bytes.len() - s).unwrap_or(0) } else { a.text.len() };
-        // zlib inflates ≤ 1032×, LZ4 ≤ 255×; LZMA can exceed that on degenerate data, so it gets a wide bound.
-        let ratio = match compressor {
-            Compressor::None => 1,
-            Compressor::Zlib | Compressor::Lz4 => 1100,
-            Compressor::Lzma => 100_000,
-        };
-        let limit = avail.saturating_mul(ratio).saturating_add(64);
-        if a.format != "ascii" && want > limit {
-            return Err(perr(
-                a.at,
-                format!(
-                    "DataArray {:?}: {n} points × {} components need {want} bytes, more than the file holds",
-                    a.name, a.comps
-                ),
-            ));
-        }
-        let vals: Vec<f64> = match a.format.as_str() {
-            "ascii" => {
-                let held = a.text.split_ascii_whitespace().count();
-                if held > count {
-                    return Err(perr(
-                        a.at,
-                        format!(
-                            "DataArray {:?}: {held} values, more than the {n} points × {} components declared \
-                             (NumberOfPoints under-counts the data?)",
-                            a.name, a.comps
-                        ),
-                    ));
-                }
-                let v: Vec<f64> = a
-                    .text
-                    .split_ascii_whitespace()
-                    .take(count)
-                    .map(|t| t.parse::<f64>())
-                    .collect::<std::result::Result<_, _>>()
-                    .map_err(|_| perr(a.at, format!("DataArray {:?}: not a number in ascii data", a.name)))?;
-                if v.len() < count {
-                    return Err(perr(
-                        a.at,
-                        format!(
-                            "DataArray {:?}: {n} points × {} components need {count} values, the file has {}",
-                            a.name,
-                            a.comps,
-                            v.len()
-                        ),
-                    ));
-                }
-                v
-            }
-            "binary" => {
-                let mut b = B64::new(&a.text);
-                let raw = ctx.block(a.at, want, &mut |k| b.take(k))?;
-                raw.chunks_exact(size).map(|c| scalar.read(c, big)).collect()
-            }
-            "appended" => {
-                let start = appended.ok_or_else(|| perr(a.at, "format=\"appended\" but no <AppendedData>".into()))?;
-                let off = a.offset.ok_or_else(|| perr(a.at, format!("DataArray {:?} lacks offset", a.name)))?;
-                let raw = if app_b64 {
-                    let text = app_text.as_deref().unwrap_or(&[]);
-                    let mut b = B64::clean(
-                        text.get(off..).ok_or_else(|| perr(a.at, format!("offset {off} past the appended data")))?,
-                    );
-                    ctx.block(start + off, want, &mut |k| b.take(k))?
-                } else {
-                    let mut p = start
-                        .checked_add(off)
-                        .filter(|&p| p <= bytes.len())
-                        .ok_or_else(|| perr(a.at, format!("offset {off} past the end of the file")))?;
-                    ctx.block(p, want, &mut |k| {
-                        let r = bytes.get(p..p.checked_add(k)?)?.to_vec();
-                        p += k;
-                        Some(r)
-                    })?
-                };
-                raw.chunks_exact(size).map(|c| scalar.read(c, big)).collect()
-            }
-            f => return Err(perr(a.at, format!("DataArray {:?}: unknown format {f:?}", a.name))),
-        };
-        if a.in_points {
-            if a.comps != 3 {
-                return Err(perr(a.at, format!("<Points> array has {} components, expected 3", a.comps)));
-            }
-            positions = Some(vals.chunks_exact(3).map(|c| [c[0] as f32, c[1] as f32, c[2] as f32]).collect());
-        } else {
-            out.push(Attribute { name: a.name, components: a.comps, data: vals });
-        }
+    let limit = avail.saturating_mul(ratio).saturating_add(64);
+    if a.format != "ascii" && want > limit {
+        return Err(perr(
+            a.at,
+            format!(
+                "DataArray {:?}: {n} points × {} components need {want} bytes, more than the file holds",
+                a.name, a.comps
+            ),
+        ));
     }
-    let positions = positions.ok_or_else(|| perr(0, "no <Points> DataArray".into()))?;
-    Ok(Raw { positions, arrays: out })
+    let vals: Vec<f64> = match a.format.as_str() {
+        "ascii" => {
+            let held = a.text.split_ascii_whitespace().count();
+            if held > count {
+                return Err(perr(
+                    a.at,
+                    format!(
+                        "DataArray {:?}: {held} values, more than the {n} points × {} components declared \
+                         (NumberOfPoints under-counts the data?)",
+                        a.name, a.comps
+                    ),
+                ));
+            }
+            let v: Vec<f64> = a
+                .text
+                .split_ascii_whitespace()
+                .take(count)
+                .map(|t| t.parse::<f64>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| perr(a.at, format!("DataArray {:?}: not a number in ascii data", a.name)))?;
+            if v.len() < count {
+                return Err(perr(
+                    a.at,
+                    format!(
+                        "DataArray {:?}: {n} points × {} components need {count} values, the file has {}",
+                        a.name,
+                        a.comps,
+                        v.len()
+                    ),
+                ));
+            }
+            v
+        }
+        "binary" => {
+            let mut b = B64::new(&a.text);
+            let raw = ctx.block(a.at, want, &mut |k| b.take(k))?;
+            raw.chunks_exact(size).map(|c| scalar.read(c, big)).collect()
+        }
+        "appended" => {
+            let start = appended.ok_or_else(|| perr(a.at, "format=\"appended\" but no <AppendedData>".into()))?;
+            let off = a.offset.ok_or_else(|| perr(a.at, format!("DataArray {:?} lacks offset", a.name)))?;
+            let raw = if let Some(text) = app.text {
+                let mut b = B64::clean(
+                    text.get(off..).ok_or_else(|| perr(a.at, format!("offset {off} past the appended data")))?,
+                );
+                ctx.block(start + off, want, &mut |k| b.take(k))?
+            } else {
+                let mut p = start
+                    .checked_add(off)
+                    .filter(|&p| p <= bytes.len())
+                    .ok_or_else(|| perr(a.at, format!("offset {off} past the end of the file")))?;
+                ctx.block(p, want, &mut |k| {
+                    let r = bytes.get(p..p.checked_add(k)?)?.to_vec();
+                    p += k;
+                    Some(r)
+                })?
+            };
+            raw.chunks_exact(size).map(|c| scalar.read(c, big)).collect()
+        }
+        f => return Err(perr(a.at, format!("DataArray {:?}: unknown format {f:?}", a.name))),
+    };
+    Ok(vals)
 }
 
 fn find(h: &[u8], needle: &[u8]) -> Option<usize> {

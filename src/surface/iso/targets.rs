@@ -29,11 +29,16 @@ impl IsoTargets {
         let (r32, bits) = (vk::Format::R32_SFLOAT, Some(vk::Format::R32_UINT));
         let tile = crate::shader_constants::SPLAT_TILE;
         let tiles = vk::Extent2D { width: fluid.width.div_ceil(tile), height: fluid.height.div_ceil(tile) };
-        Ok(IsoTargets {
-            depth_back: Image::new(gpu, "depth_back", fluid, r32, usage, bits)?,
-            depth_back_tiles: Image::new(gpu, "depth_back_tiles", tiles, r32, usage, bits)?,
-            queue: IsoQueue::new(gpu, fluid.width, fluid.height)?,
-        })
+        let made = (|| {
+            Ok(IsoTargets {
+                depth_back: Image::new(gpu, "depth_back", fluid, r32, usage, bits)?,
+                depth_back_tiles: Image::new(gpu, "depth_back_tiles", tiles, r32, usage, bits)?,
+                queue: IsoQueue::new(gpu, fluid.width, fluid.height)?,
+            })
+        })();
+        // 4 bytes of far bound and 16 of queue per fluid pixel: a fluid image too large for the device is the
+        // user's size (the fluid's, which is the frame's at the default fluid scale).
+        made.map_err(|e| crate::targets::too_large(e, fluid, 20 * fluid.width as u64 * fluid.height as u64))
     }
 
     /// The fluid size they were made for.
