@@ -28,10 +28,72 @@ struct Element {
     props: Vec<Prop>,
 }
 
-/// Parse PLY bytes.
+/// Parse PLY bytes: the header ([`header`]), every element's values in order ([`Body`]: only the vertices' are
+/// kept, and nothing may follow the last element), the vertex columns grouped into positions and attributes
+/// ([`columns`]).
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
     let err = |offset: usize, reason: String| super::bytes::err_at(path, offset, reason);
-    // Header: lines up to "end_header".
+    let (enc, elements, pos) = header(path, bytes)?;
+    let vi = elements.iter().position(|e| e.name == "vertex").ok_or_else(|| err(0, "no vertex element".into()))?;
+    // Bound allocations: every vertex takes at least one byte per property (two in ASCII).
+    let v = &elements[vi];
+    let min_bytes = v.props.len().max(1) * if enc == Enc::Ascii { 2 } else { 1 };
+    if v.count > (bytes.len() - pos) / min_bytes + 1 {
+        return Err(err(
+            pos,
+            format!("header claims {} vertices, more than the {} bytes of data can hold", v.count, bytes.len() - pos),
+        ));
+    }
+    let mut body = Body { path, bytes, pos, enc, tokens: (enc == Enc::Ascii).then_some(AsciiTokens { b: bytes, pos }) };
+    let mut values: Vec<Vec<f64>> = vec![];
+    // Every element is read (only the vertices are kept), so that data beyond what the header declares shows.
+    for (k, el) in elements.iter().enumerate() {
+        let keep = k == vi;
+        if keep {
+            values = vec![Vec::with_capacity(el.count); el.props.len()];
+        }
+        for _ in 0..el.count {
+            for (j, prop) in el.props.iter().enumerate() {
+                match prop {
+                    Prop::Scalar { ty, .. } => {
+                        let x = body.num(*ty, &el.name)?;
+                        if keep {
+                            values[j].push(x);
+                        }
+                    }
+                    Prop::List { count_ty, item_ty } => {
+                        let n = body.num(*count_ty, &el.name)?;
+                        if !(0.0..1e9).contains(&n) {
+                            return Err(err(body.pos, format!("bad list length {n}")));
+                        }
+                        for _ in 0..n as usize {
+                            body.num(*item_ty, "a list")?;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // Nothing may follow the last element (a header that under-counts its vertices or faces).
+    let rest = body.end();
+    if rest < bytes.len() {
+        return Err(err(
+            rest,
+            format!(
+                "{} bytes follow the {} vertices{} the header declares (a header that under-counts them?)",
+                bytes.len() - rest,
+                v.count,
+                if vi + 1 < elements.len() { " and the elements after them" } else { "" }
+            ),
+        ));
+    }
+    columns(path, v, &values)
+}
+
+/// The header's lines up to "end_header": the encoding, the elements with their properties, and where the data
+/// starts.
+fn header(path: &Path, bytes: &[u8]) -> Result<(Enc, Vec<Element>, usize)> {
+    let err = |offset: usize, reason: String| super::bytes::err_at(path, offset, reason);
     let mut pos = 0;
     let mut enc = None;
     let mut elements: Vec<Element> = vec![];
@@ -84,97 +146,47 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         }
     }
     let enc = enc.ok_or_else(|| err(0, "header has no format line".into()))?;
-    let vi = elements.iter().position(|e| e.name == "vertex").ok_or_else(|| err(0, "no vertex element".into()))?;
-    // Bound allocations: every vertex takes at least one byte per property (two in ASCII).
-    let v = &elements[vi];
-    let min_bytes = v.props.len().max(1) * if enc == Enc::Ascii { 2 } else { 1 };
-    if v.count > (bytes.len() - pos) / min_bytes + 1 {
-        return Err(err(
-            pos,
-            format!("header claims {} vertices, more than the {} bytes of data can hold", v.count, bytes.len() - pos),
-        ));
-    }
-    let mut tokens = if enc == Enc::Ascii { Some(AsciiTokens { b: bytes, pos }) } else { None };
-    let mut values: Vec<Vec<f64>> = vec![];
-    // Every element is read (only the vertices are kept), so that data beyond what the header declares shows.
-    for (k, el) in elements.iter().enumerate() {
-        let keep = k == vi;
-        if keep {
-            values = vec![Vec::with_capacity(el.count); el.props.len()];
+    Ok((enc, elements, pos))
+}
+
+/// The data after the header, read value by value: ASCII tokens or binary scalars.
+struct Body<'a> {
+    path: &'a Path,
+    bytes: &'a [u8],
+    /// The next binary value's offset.
+    pos: usize,
+    enc: Enc,
+    tokens: Option<AsciiTokens<'a>>,
+}
+
+impl Body<'_> {
+    /// The next value, of type `ty` in a binary file; `within` names where it is for the error.
+    fn num(&mut self, ty: Scalar, within: &str) -> Result<f64> {
+        if let Some(t) = self.tokens.as_mut() {
+            return t.next_num().map_err(|(o, r)| super::bytes::err_at(self.path, o, r));
         }
-        for _ in 0..el.count {
-            for (j, prop) in el.props.iter().enumerate() {
-                match prop {
-                    Prop::Scalar { ty, .. } => {
-                        let x = match tokens.as_mut() {
-                            Some(t) => t.next_num().map_err(|(o, r)| err(o, r))?,
-                            None => {
-                                let s = ty.size();
-                                if bytes.len() - pos < s {
-                                    return Err(err(pos, format!("file truncated in element {:?}", el.name)));
-                                }
-                                let x = ty.read(&bytes[pos..], enc == Enc::Be);
-                                pos += s;
-                                x
-                            }
-                        };
-                        if keep {
-                            values[j].push(x);
-                        }
-                    }
-                    Prop::List { count_ty, item_ty } => {
-                        let n = match tokens.as_mut() {
-                            Some(t) => t.next_num().map_err(|(o, r)| err(o, r))?,
-                            None => {
-                                let s = count_ty.size();
-                                if bytes.len() - pos < s {
-                                    return Err(err(pos, format!("file truncated in element {:?}", el.name)));
-                                }
-                                let x = count_ty.read(&bytes[pos..], enc == Enc::Be);
-                                pos += s;
-                                x
-                            }
-                        };
-                        if !(0.0..1e9).contains(&n) {
-                            return Err(err(pos, format!("bad list length {n}")));
-                        }
-                        for _ in 0..n as usize {
-                            match tokens.as_mut() {
-                                Some(t) => {
-                                    t.next_num().map_err(|(o, r)| err(o, r))?;
-                                }
-                                None => {
-                                    let s = item_ty.size();
-                                    if bytes.len() - pos < s {
-                                        return Err(err(pos, "file truncated in a list".into()));
-                                    }
-                                    pos += s;
-                                }
-                            }
-                        }
-                    }
-                }
-            }
+        let s = ty.size();
+        if self.bytes.len() - self.pos < s {
+            return Err(super::bytes::err_at(self.path, self.pos, format!("file truncated in element {within:?}")));
         }
+        let x = ty.read(&self.bytes[self.pos..], self.enc == Enc::Be);
+        self.pos += s;
+        Ok(x)
     }
-    // Nothing may follow the last element (a header that under-counts its vertices or faces).
-    {
-        let rest = match &tokens {
+
+    /// Where the data read so far ends (trailing whitespace of an ASCII file included).
+    fn end(&self) -> usize {
+        match &self.tokens {
             Some(t) => t.pos + t.b[t.pos..].iter().take_while(|b| b.is_ascii_whitespace()).count(),
-            None => pos,
-        };
-        if rest < bytes.len() {
-            return Err(err(
-                rest,
-                format!(
-                    "{} bytes follow the {} vertices{} the header declares (a header that under-counts them?)",
-                    bytes.len() - rest,
-                    v.count,
-                    if vi + 1 < elements.len() { " and the elements after them" } else { "" }
-                ),
-            ));
+            None => self.pos,
         }
     }
+}
+
+/// The vertex element's columns: x, y, z as positions, the other scalar properties grouped like CSV columns
+/// (vx vy vz → velocity, nx ny nz → n).
+fn columns(path: &Path, v: &Element, values: &[Vec<f64>]) -> Result<Raw> {
+    let err = |offset: usize, reason: String| super::bytes::err_at(path, offset, reason);
     let names: Vec<Option<&str>> =
         v.props.iter().map(|p| if let Prop::Scalar { name, .. } = p { Some(name.as_str()) } else { None }).collect();
     let col = |n: &str| names.iter().position(|m| *m == Some(n));
@@ -182,7 +194,6 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         return Err(err(0, "the vertex element has no x, y and z properties".into()));
     };
     let positions = (0..v.count).map(|i| [values[x][i] as f32, values[y][i] as f32, values[z][i] as f32]).collect();
-    // Group the other properties like CSV columns (vx vy vz → velocity, nx ny nz → n).
     let mut arrays: Vec<Attribute> = vec![];
     for (j, n) in names.iter().enumerate() {
         let Some(n) = n else { continue };

@@ -87,28 +87,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 let v = values(&mut c, binary, n3, ty, "POINTS")?;
                 positions = Some(v.chunks_exact(3).map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect());
             }
-            "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" | "CELLS" => {
-                let _n: usize = c.number("cell count")?;
-                let size: usize = c.number("cell list size")?;
-                // VTK 5.x: OFFSETS/CONNECTIVITY follow; legacy: `size` ints.
-                let save = c.pos;
-                match c.token() {
-                    Some(t) if t.eq_ignore_ascii_case("OFFSETS") => {
-                        let ty = c.expect_token("offsets type")?;
-                        values(&mut c, binary, _n, ty, "OFFSETS")?;
-                        let t2 = c.expect_token("CONNECTIVITY")?;
-                        if !t2.eq_ignore_ascii_case("CONNECTIVITY") {
-                            return Err(c.err(c.pos, format!("expected CONNECTIVITY, found {t2:?}")));
-                        }
-                        let ty = c.expect_token("connectivity type")?;
-                        values(&mut c, binary, size, ty, "CONNECTIVITY")?;
-                    }
-                    _ => {
-                        c.pos = save;
-                        values(&mut c, binary, size, "int", kw)?;
-                    }
-                }
-            }
+            "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" | "CELLS" => cells(&mut c, binary, kw)?,
             "CELL_TYPES" => {
                 let n: usize = c.number("cell type count")?;
                 values(&mut c, binary, n, "int", "CELL_TYPES")?;
@@ -124,25 +103,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
             "SCALARS" => {
                 let name = c.expect_token("scalar name")?.to_string();
                 let ty = c.expect_token("scalar type")?;
-                // Optional component count, then LOOKUP_TABLE.
-                let save = c.pos;
-                let mut ncomp = 1usize;
-                match c.token() {
-                    Some(t) if t.eq_ignore_ascii_case("LOOKUP_TABLE") => {
-                        c.expect_token("lookup table name")?;
-                    }
-                    Some(t) => {
-                        ncomp = t.parse().map_err(|_| c.err(save, format!("bad component count {t:?}")))?;
-                        let s2 = c.pos;
-                        match c.token() {
-                            Some(t) if t.eq_ignore_ascii_case("LOOKUP_TABLE") => {
-                                c.expect_token("lookup table name")?;
-                            }
-                            _ => c.pos = s2,
-                        }
-                    }
-                    None => return Err(c.err(save, "file truncated after SCALARS")),
-                }
+                let ncomp = scalars_components(&mut c)?;
                 let n = if in_point_data { n_point_data } else { n_cell_data };
                 let total = n.checked_mul(ncomp).ok_or_else(|| c.err(at, "SCALARS size overflows"))?;
                 let v = values(&mut c, binary, total, ty, "SCALARS")?;
@@ -187,17 +148,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
                 while c.pos < c.d.len() && !c.line().trim().is_empty() {}
             }
             _ => {
-                let what = if kw.parse::<f64>().is_ok() { "a number" } else { "not a section keyword" };
-                let reason = match &last {
-                    // More data than the section's count says: the count is too small (or the file damaged).
-                    Some((sec, n)) => format!(
-                        "{kw:?} is {what}, found where the next section should start: the data of {sec} is longer \
-                         than its count ({n}) says (the count is too small, or the file is damaged)"
-                    ),
-                    None => {
-                        format!("{kw:?} is {what}, found where a section (POINTS, CELLS, POINT_DATA, …) should start")
-                    }
-                };
+                let reason = stray(kw, last.as_ref());
                 return Err(c.err(at, reason));
             }
         }
@@ -217,6 +168,71 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Raw> {
         .map(|(name, components, data)| Attribute { name, components, data })
         .collect();
     Ok(Raw { positions, arrays })
+}
+
+/// A cell section (`kw`: VERTICES, LINES, POLYGONS, TRIANGLE_STRIPS, CELLS) read past: its legacy list of ints,
+/// or VTK 5's OFFSETS and CONNECTIVITY arrays.
+fn cells(c: &mut Cursor, binary: bool, kw: &str) -> Result<()> {
+    let _n: usize = c.number("cell count")?;
+    let size: usize = c.number("cell list size")?;
+    // VTK 5.x: OFFSETS/CONNECTIVITY follow; legacy: `size` ints.
+    let save = c.pos;
+    match c.token() {
+        Some(t) if t.eq_ignore_ascii_case("OFFSETS") => {
+            let ty = c.expect_token("offsets type")?;
+            values(c, binary, _n, ty, "OFFSETS")?;
+            let t2 = c.expect_token("CONNECTIVITY")?;
+            if !t2.eq_ignore_ascii_case("CONNECTIVITY") {
+                return Err(c.err(c.pos, format!("expected CONNECTIVITY, found {t2:?}")));
+            }
+            let ty = c.expect_token("connectivity type")?;
+            values(c, binary, size, ty, "CONNECTIVITY")?;
+        }
+        _ => {
+            c.pos = save;
+            values(c, binary, size, "int", kw)?;
+        }
+    }
+    Ok(())
+}
+
+/// A SCALARS line's optional component count and LOOKUP_TABLE, after its name and type.
+fn scalars_components(c: &mut Cursor) -> Result<usize> {
+    // Optional component count, then LOOKUP_TABLE.
+    let save = c.pos;
+    let mut ncomp = 1usize;
+    match c.token() {
+        Some(t) if t.eq_ignore_ascii_case("LOOKUP_TABLE") => {
+            c.expect_token("lookup table name")?;
+        }
+        Some(t) => {
+            ncomp = t.parse().map_err(|_| c.err(save, format!("bad component count {t:?}")))?;
+            let s2 = c.pos;
+            match c.token() {
+                Some(t) if t.eq_ignore_ascii_case("LOOKUP_TABLE") => {
+                    c.expect_token("lookup table name")?;
+                }
+                _ => c.pos = s2,
+            }
+        }
+        None => return Err(c.err(save, "file truncated after SCALARS")),
+    }
+    Ok(ncomp)
+}
+
+/// What a token that starts no section means, after the section `last` (name, count) if any.
+fn stray(kw: &str, last: Option<&(String, usize)>) -> String {
+    let what = if kw.parse::<f64>().is_ok() { "a number" } else { "not a section keyword" };
+    match last {
+        // More data than the section's count says: the count is too small (or the file damaged).
+        Some((sec, n)) => format!(
+            "{kw:?} is {what}, found where the next section should start: the data of {sec} is longer \
+             than its count ({n}) says (the count is too small, or the file is damaged)"
+        ),
+        None => {
+            format!("{kw:?} is {what}, found where a section (POINTS, CELLS, POINT_DATA, …) should start")
+        }
+    }
 }
 
 /// Write legacy VTK like SPlisHSPlasH (UNSTRUCTURED_GRID of vertex cells; `id` as SCALARS int, the other
