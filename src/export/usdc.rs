@@ -249,8 +249,84 @@ impl CrateWriter {
         self.put(&block)
     }
 
+    /// The stage's specs, fields and path tree written as the crate's sections (TOKENS, STRINGS, FIELDS,
+    /// FIELDSETS, PATHS, SPECS), then the table of contents and the bootstrap; the partial file committed.
     pub(crate) fn finish(mut self, info: &StageInfo) -> Result<()> {
-        // The specs: (path, its fields), in path order; paths as (parent, element, is property).
+        let (paths, specs) = self.specs(info)?;
+        // Fields and field sets.
+        let mut fields: Vec<(u32, u64)> = vec![];
+        let mut fieldsets: Vec<i32> = vec![];
+        let mut spec_rows: Vec<[i32; 3]> = vec![];
+        for (path, kind, fs) in &specs {
+            spec_rows.push([*path as i32, fieldsets.len() as i32, *kind as i32]);
+            for (name, rep) in fs {
+                let t = self.token(name);
+                fieldsets.push(fields.len() as i32);
+                fields.push((t, *rep));
+            }
+            fieldsets.push(-1);
+        }
+        // Path elements' tokens (negative for properties), and the tree as the crate walks it: depth first,
+        // each entry's jump -1 (child next, no sibling), -2 (leaf, no sibling), 0 (no child, sibling next) or
+        // the distance to its sibling (child next).
+        let elements: Vec<i32> = (0..paths.len())
+            .map(|i| {
+                let (parent, name, prop) = paths[i].clone();
+                match parent {
+                    None => 0,
+                    Some(_) if prop => -(self.token(&name) as i32),
+                    Some(_) => self.token(&name) as i32,
+                }
+            })
+            .collect();
+        let kids: Vec<Vec<usize>> =
+            (0..paths.len()).map(|i| (0..paths.len()).filter(|&j| paths[j].0 == Some(i)).collect()).collect();
+        let mut order: Vec<(usize, i32)> = vec![];
+        fn walk(n: usize, sibling: bool, kids: &[Vec<usize>], order: &mut Vec<(usize, i32)>) {
+            let me = order.len();
+            order.push((n, 0));
+            for (k, &c) in kids[n].iter().enumerate() {
+                walk(c, k + 1 < kids[n].len(), kids, order);
+            }
+            order[me].1 = match (!kids[n].is_empty(), sibling) {
+                (true, true) => (order.len() - me) as i32,
+                (true, false) => -1,
+                (false, true) => 0,
+                (false, false) => -2,
+            };
+        }
+        walk(0, false, &kids, &mut order);
+
+        let sections = self.write_sections(&paths, &elements, &order, &fields, &fieldsets, &spec_rows)?;
+        // Table of contents, then the bootstrap.
+        let toc = self.pos;
+        self.put(&(sections.len() as u64).to_le_bytes())?;
+        for (name, start, size) in &sections {
+            let mut n = [0u8; 16];
+            n[..name.len()].copy_from_slice(name.as_bytes());
+            self.put(&n)?;
+            self.put(&start.to_le_bytes())?;
+            self.put(&size.to_le_bytes())?;
+        }
+        let mut boot = [0u8; BOOTSTRAP as usize];
+        boot[..8].copy_from_slice(b"PXR-USDC");
+        boot[8..11].copy_from_slice(&VERSION);
+        boot[16..24].copy_from_slice(&toc.to_le_bytes());
+        let CrateWriter { path, partial, out, .. } = self;
+        let res = (|| -> std::io::Result<()> {
+            let mut f = out.into_inner().map_err(|e| e.into_error())?;
+            f.seek(SeekFrom::Start(0))?;
+            f.write_all(&boot)?;
+            f.sync_all()
+        })();
+        res.map_err(|e| Error::io(&path, e))?;
+        partial.commit()
+    }
+
+    /// The specs (path, kind, fields), in path order, and the paths as (parent, element, is property): the pseudo
+    /// root, /water, its prims and their attributes with their time samples.
+    #[allow(clippy::type_complexity)]
+    fn specs(&mut self, info: &StageInfo) -> Result<(Vec<(Option<usize>, String, bool)>, Vec<Spec>)> {
         let mut paths: Vec<(Option<usize>, String, bool)> = vec![(None, String::new(), false)];
         let mut specs: Vec<Spec> = vec![];
         let mut children: Vec<&str> = vec!["surface"];
@@ -322,51 +398,20 @@ impl CrateWriter {
                 specs.push((at, SPEC_ATTRIBUTE, fields));
             }
         }
-        // Fields and field sets.
-        let mut fields: Vec<(u32, u64)> = vec![];
-        let mut fieldsets: Vec<i32> = vec![];
-        let mut spec_rows: Vec<[i32; 3]> = vec![];
-        for (path, kind, fs) in &specs {
-            spec_rows.push([*path as i32, fieldsets.len() as i32, *kind as i32]);
-            for (name, rep) in fs {
-                let t = self.token(name);
-                fieldsets.push(fields.len() as i32);
-                fields.push((t, *rep));
-            }
-            fieldsets.push(-1);
-        }
-        // Path elements' tokens (negative for properties), and the tree as the crate walks it: depth first,
-        // each entry's jump -1 (child next, no sibling), -2 (leaf, no sibling), 0 (no child, sibling next) or
-        // the distance to its sibling (child next).
-        let elements: Vec<i32> = (0..paths.len())
-            .map(|i| {
-                let (parent, name, prop) = paths[i].clone();
-                match parent {
-                    None => 0,
-                    Some(_) if prop => -(self.token(&name) as i32),
-                    Some(_) => self.token(&name) as i32,
-                }
-            })
-            .collect();
-        let kids: Vec<Vec<usize>> =
-            (0..paths.len()).map(|i| (0..paths.len()).filter(|&j| paths[j].0 == Some(i)).collect()).collect();
-        let mut order: Vec<(usize, i32)> = vec![];
-        fn walk(n: usize, sibling: bool, kids: &[Vec<usize>], order: &mut Vec<(usize, i32)>) {
-            let me = order.len();
-            order.push((n, 0));
-            for (k, &c) in kids[n].iter().enumerate() {
-                walk(c, k + 1 < kids[n].len(), kids, order);
-            }
-            order[me].1 = match (!kids[n].is_empty(), sibling) {
-                (true, true) => (order.len() - me) as i32,
-                (true, false) => -1,
-                (false, true) => 0,
-                (false, false) => -2,
-            };
-        }
-        walk(0, false, &kids, &mut order);
+        Ok((paths, specs))
+    }
 
-        let mut sections: Vec<(&str, u64, u64)> = vec![];
+    /// The sections from TOKENS to SPECS, each (name, start, size).
+    fn write_sections(
+        &mut self,
+        paths: &[(Option<usize>, String, bool)],
+        elements: &[i32],
+        order: &[(usize, i32)],
+        fields: &[(u32, u64)],
+        fieldsets: &[i32],
+        spec_rows: &[[i32; 3]],
+    ) -> Result<Vec<(&'static str, u64, u64)>> {
+        let mut sections: Vec<(&'static str, u64, u64)> = vec![];
         // TOKENS: count, bytes, then the compressed null-terminated names.
         let start = self.pos;
         let mut blob = vec![];
@@ -395,7 +440,7 @@ impl CrateWriter {
         sections.push(("FIELDS", start, self.pos - start));
         let start = self.pos;
         self.put(&(fieldsets.len() as u64).to_le_bytes())?;
-        self.put_ints(&fieldsets)?;
+        self.put_ints(fieldsets)?;
         sections.push(("FIELDSETS", start, self.pos - start));
         let start = self.pos;
         self.put(&(paths.len() as u64).to_le_bytes())?;
@@ -410,29 +455,7 @@ impl CrateWriter {
             self.put_ints(&spec_rows.iter().map(|r| r[k]).collect::<Vec<_>>())?;
         }
         sections.push(("SPECS", start, self.pos - start));
-        // Table of contents, then the bootstrap.
-        let toc = self.pos;
-        self.put(&(sections.len() as u64).to_le_bytes())?;
-        for (name, start, size) in &sections {
-            let mut n = [0u8; 16];
-            n[..name.len()].copy_from_slice(name.as_bytes());
-            self.put(&n)?;
-            self.put(&start.to_le_bytes())?;
-            self.put(&size.to_le_bytes())?;
-        }
-        let mut boot = [0u8; BOOTSTRAP as usize];
-        boot[..8].copy_from_slice(b"PXR-USDC");
-        boot[8..11].copy_from_slice(&VERSION);
-        boot[16..24].copy_from_slice(&toc.to_le_bytes());
-        let CrateWriter { path, partial, out, .. } = self;
-        let res = (|| -> std::io::Result<()> {
-            let mut f = out.into_inner().map_err(|e| e.into_error())?;
-            f.seek(SeekFrom::Start(0))?;
-            f.write_all(&boot)?;
-            f.sync_all()
-        })();
-        res.map_err(|e| Error::io(&path, e))?;
-        partial.commit()
+        Ok(sections)
     }
 }
 
