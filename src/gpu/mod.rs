@@ -267,51 +267,7 @@ impl Gpu {
             None => unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?,
         };
 
-        let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
-        let has_validation = layers.iter().any(|l| cstr_of(&l.layer_name) == "VK_LAYER_KHRONOS_validation");
-        if validation_wanted && !has_validation {
-            return Err(Error::NoDevice(
-                "validation was requested but VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)".into(),
-            ));
-        }
-        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .vk("vkEnumerateInstanceExtensionProperties")?;
-        let has_debug_utils = exts.iter().any(|e| cstr_of(&e.extension_name) == "VK_EXT_debug_utils");
-
-        let app_name = CString::new("meniscus").unwrap();
-        let app = vk::ApplicationInfo::default()
-            .application_name(&app_name)
-            .engine_name(&app_name)
-            .api_version(vk::API_VERSION_1_3);
-        let layer_names: Vec<*const std::ffi::c_char> =
-            if validation_wanted { vec![c"VK_LAYER_KHRONOS_validation".as_ptr()] } else { vec![] };
-        let mut ext_names: Vec<*const std::ffi::c_char> = opts.surface_extensions.iter().map(|e| e.as_ptr()).collect();
-        for e in &opts.surface_extensions {
-            if !exts.iter().any(|x| cstr_of(&x.extension_name) == e.to_string_lossy()) {
-                return Err(Error::NoDevice(format!(
-                    "the Vulkan loader lacks the window extension {}",
-                    e.to_string_lossy()
-                )));
-            }
-        }
-        if has_debug_utils {
-            ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-        let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
-        let mut ci = vk::InstanceCreateInfo::default()
-            .application_info(&app)
-            .enabled_layer_names(&layer_names)
-            .enabled_extension_names(&ext_names);
-        if validation_wanted {
-            ci = ci.push_next(&mut features);
-        }
-        let instance = unsafe { entry.create_instance(&ci, None) }.map_err(|r| match r {
-            vk::Result::ERROR_INCOMPATIBLE_DRIVER => {
-                Error::NoDevice("the Vulkan loader found no driver (ERROR_INCOMPATIBLE_DRIVER)".into())
-            }
-            r => Error::Vulkan { call: "vkCreateInstance", result: r },
-        })?;
+        let (instance, has_debug_utils) = Self::create_instance(&entry, opts, validation_wanted)?;
 
         let validation = Arc::new(ValidationLog::default());
         let mut validation_ptr = None;
@@ -412,6 +368,61 @@ impl Gpu {
         }))
     }
 
+    /// The instance: the validation layer (with synchronisation validation) when wanted, the window's surface
+    /// extensions, debug utils where the loader has them. Returns it and whether debug utils are on.
+    fn create_instance(
+        entry: &ash::Entry,
+        opts: &GpuOptions,
+        validation_wanted: bool,
+    ) -> Result<(ash::Instance, bool)> {
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
+        let has_validation = layers.iter().any(|l| cstr_of(&l.layer_name) == "VK_LAYER_KHRONOS_validation");
+        if validation_wanted && !has_validation {
+            return Err(Error::NoDevice(
+                "validation was requested but VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)".into(),
+            ));
+        }
+        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .vk("vkEnumerateInstanceExtensionProperties")?;
+        let has_debug_utils = exts.iter().any(|e| cstr_of(&e.extension_name) == "VK_EXT_debug_utils");
+
+        let app_name = CString::new("meniscus").unwrap();
+        let app = vk::ApplicationInfo::default()
+            .application_name(&app_name)
+            .engine_name(&app_name)
+            .api_version(vk::API_VERSION_1_3);
+        let layer_names: Vec<*const std::ffi::c_char> =
+            if validation_wanted { vec![c"VK_LAYER_KHRONOS_validation".as_ptr()] } else { vec![] };
+        let mut ext_names: Vec<*const std::ffi::c_char> = opts.surface_extensions.iter().map(|e| e.as_ptr()).collect();
+        for e in &opts.surface_extensions {
+            if !exts.iter().any(|x| cstr_of(&x.extension_name) == e.to_string_lossy()) {
+                return Err(Error::NoDevice(format!(
+                    "the Vulkan loader lacks the window extension {}",
+                    e.to_string_lossy()
+                )));
+            }
+        }
+        if has_debug_utils {
+            ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+        let mut ci = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_names)
+            .enabled_extension_names(&ext_names);
+        if validation_wanted {
+            ci = ci.push_next(&mut features);
+        }
+        let instance = unsafe { entry.create_instance(&ci, None) }.map_err(|r| match r {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => {
+                Error::NoDevice("the Vulkan loader found no driver (ERROR_INCOMPATIBLE_DRIVER)".into())
+            }
+            r => Error::Vulkan { call: "vkCreateInstance", result: r },
+        })?;
+        Ok((instance, has_debug_utils))
+    }
+
     fn pick_device(
         entry: &ash::Entry,
         instance: &ash::Instance,
@@ -468,37 +479,7 @@ impl Gpu {
             }));
         };
 
-        let props = unsafe { instance.get_physical_device_properties(pd) };
-        let mut driver = vk::PhysicalDeviceDriverProperties::default();
-        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver).push_next(&mut subgroup);
-        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
-        let v = props.api_version;
-        let mut info = DeviceInfo {
-            name: cstr_of(&props.device_name),
-            driver: format!("{} {}", cstr_of(&driver.driver_name), cstr_of(&driver.driver_info)),
-            api_version: format!(
-                "{}.{}.{}",
-                vk::api_version_major(v),
-                vk::api_version_minor(v),
-                vk::api_version_patch(v)
-            ),
-            device_type: format!("{:?}", props.device_type),
-            timestamp_period: props.limits.timestamp_period,
-            timestamp_valid_bits: valid_bits,
-            queues: None,
-            calibrated_timestamps: false,
-            subgroup_size: subgroup.subgroup_size,
-            subgroup_shuffle: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
-                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::SHUFFLE)
-                && (8..=64).contains(&subgroup.subgroup_size)
-                && 64u32.is_multiple_of(subgroup.subgroup_size),
-            max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
-            max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
-            int64_atomics: false,
-            pipeline_statistics: false,
-            mesh_shader: false,
-        };
+        let mut info = device_info(instance, pd, valid_bits);
 
         // Features: synchronization2 and dynamic rendering (1.3), demote-to-helper (shaderc turns `discard`
         // into it), maintenance4 (quiets "output not consumed" warnings).
@@ -663,5 +644,36 @@ impl Drop for Gpu {
             }
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+/// What the device is (name, driver, API version, limits, subgroups) before its features are chosen; the
+/// queues and the optional features are filled in by `Gpu::pick_device`.
+fn device_info(instance: &ash::Instance, pd: vk::PhysicalDevice, valid_bits: u32) -> DeviceInfo {
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver).push_next(&mut subgroup);
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let v = props.api_version;
+    DeviceInfo {
+        name: cstr_of(&props.device_name),
+        driver: format!("{} {}", cstr_of(&driver.driver_name), cstr_of(&driver.driver_info)),
+        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        device_type: format!("{:?}", props.device_type),
+        timestamp_period: props.limits.timestamp_period,
+        timestamp_valid_bits: valid_bits,
+        queues: None,
+        calibrated_timestamps: false,
+        subgroup_size: subgroup.subgroup_size,
+        subgroup_shuffle: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::SHUFFLE)
+            && (8..=64).contains(&subgroup.subgroup_size)
+            && 64u32.is_multiple_of(subgroup.subgroup_size),
+        max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
+        max_texel_buffer_elements: props.limits.max_texel_buffer_elements as u64,
+        int64_atomics: false,
+        pipeline_statistics: false,
+        mesh_shader: false,
     }
 }
