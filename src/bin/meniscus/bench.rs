@@ -279,61 +279,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         eprintln!("warning: MENISCUS_PARTS=1 is deprecated: it is `bench --parts` now");
     }
     PARTS.store(a.parts || env_parts, std::sync::atomic::Ordering::Relaxed);
-    use meniscus::output::FileKind;
-    if a.sweep.is_none() && a.mesh.is_none() && a.chart.is_some() {
-        bail!("--chart applies to a sweep or --mesh: add --sweep particles (or pixels), or --mesh FILE");
-    }
-    if a.sweep.is_none() && !a.sweep_particles.is_empty() {
-        bail!("--sweep-particles applies to a sweep: add --sweep particles (or pixels)");
-    }
-    for f in &a.scenes {
-        meniscus::input::note(std::path::Path::new(f));
-    }
-    for (flag, path, kind) in [
-        ("--json", &a.json, FileKind::Json),
-        ("--markdown", &a.markdown, FileKind::Markdown),
-        ("--chart", &a.chart, FileKind::Png),
-    ] {
-        if let Some(p) = path {
-            crate::args::check_report(flag, p, kind)?;
-        }
-    }
-    if let Some(n) = a.threads.iter().find(|n| !(1..=crate::mesh::MAX_THREADS).contains(n)) {
-        bail!("--threads {n}: between 1 and {}", crate::mesh::MAX_THREADS);
-    }
+    check_args(a)?;
     if let Some(file) = &a.mesh {
-        // The frame flags have no meaning for the mesh extraction's benchmark: refused, not ignored.
-        let unused: Vec<&str> = [
-            ("--sweep", a.sweep.is_some()),
-            ("--scenes", !a.scenes.is_empty()),
-            ("--sim", a.sim.is_some()),
-            ("--variants", a.variants),
-            ("--also-presets", !a.also_presets.is_empty()),
-            ("--in-flight", a.in_flight),
-        ]
-        .into_iter()
-        .filter(|(_, on)| *on)
-        .map(|(f, _)| f)
-        .collect();
-        if !unused.is_empty() {
-            bail!("{} measure frames; --mesh measures the mesh extraction: run them apart", unused.join(", "));
-        }
-        let opts = crate::bench_mesh::Options {
-            threads: a.threads.clone(),
-            cubes: a.cube_size.clone(),
-            blocks: a.block.clone(),
-            radius: a.radius,
-            repeat: a.mesh_repeat,
-            gpu: a.mesh_gpu.then(|| a.gpu.clone()),
-        };
-        return crate::bench_mesh::run(
-            file,
-            &a.load,
-            &opts,
-            a.json.as_deref(),
-            a.markdown.as_deref(),
-            a.chart.as_deref(),
-        );
+        return run_mesh(a, file);
     }
     if !a.threads.is_empty() || !a.cube_size.is_empty() || !a.block.is_empty() || a.mesh_gpu {
         bail!("--threads, --cube-size, --block and --mesh-gpu apply to --mesh FILE");
@@ -345,24 +293,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     if let Some(f) = &a.settings {
         base = crate::args::settings_file(&base, f)?;
     }
-    let scenes: Vec<String> = if !a.scenes.is_empty() {
-        a.scenes.clone()
-    } else if table43 {
-        vec!["wave".into()]
-    } else if moritz {
-        ["wave", "crown1", "crown2", "waterfall", "worst"].map(String::from).to_vec()
-    } else {
-        vec!["wave".into()]
-    };
-    let resolutions: Vec<(u32, u32)> = if !a.resolutions.is_empty() {
-        a.resolutions.iter().map(|r| crate::args::parse_resolution(r)).collect::<Result<_>>()?
-    } else if table43 {
-        vec![(1920, 1080)]
-    } else if moritz {
-        vec![(1920, 1080), (960, 540)]
-    } else {
-        vec![(960, 540)]
-    };
+    let (scenes, resolutions) = workloads(a, table43, moritz)?;
     let gpu = a.gpu.open()?;
     eprintln!("device: {} ({}), Vulkan {}", gpu.info.name, gpu.info.driver, gpu.info.api_version);
     if let Some(sim) = &a.sim {
@@ -372,19 +303,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     let mut r = Renderer::new(&gpu)?;
     r.parts_mut().background.always_render = !a.cache_background;
-    let mut also = vec![];
-    for p in &a.also_presets {
-        // PRESET, or PRESET@FILE: that preset with FILE's settings instead of --settings.
-        let (name, file) = match p.split_once('@') {
-            Some((n, f)) => (n, Some(PathBuf::from(f))),
-            None => (p.as_str(), a.settings.clone()),
-        };
-        let mut s = Settings::preset(name)?;
-        if let Some(f) = &file {
-            s = crate::args::settings_file(&s, f)?;
-        }
-        also.push((p.clone(), s));
-    }
+    let also = also_presets(a)?;
     let mut variants: Vec<(String, Settings)> = vec![(a.preset.clone(), base.clone())];
     let n_var = if a.variants { 12 } else { 0 };
     let bar = indicatif::ProgressBar::new((scenes.len() * resolutions.len() + n_var) as u64);
@@ -459,25 +378,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             }
             bar.inc(1);
             if a.variants && k == 0 && j == 0 {
-                variants.clear();
-                for f in [Filter::Bilateral, Filter::NarrowRange, Filter::CurvatureFlow] {
-                    variants.push((format!("filter {}", f.name()), base.with(|s| s.filter.method = f)));
-                }
-                for kk in [1, 4] {
-                    variants.push((
-                        format!("curvature-flow {kk} it/dispatch"),
-                        base.with(|s| {
-                            s.filter.method = Filter::CurvatureFlow;
-                            s.filter.curvature.iters_per_dispatch = kk;
-                        }),
-                    ));
-                }
-                variants.push(("no smoothing".into(), base.with(|s| s.filter.method = Filter::None)));
-                for &m in SplatMode::ALL {
-                    if r.state().supports_splat(m) {
-                        variants.push((format!("splat {}", m.name()), base.with(|s| s.splat.mode = m)));
-                    }
-                }
+                variants = variant_settings(&base, &r);
                 for (label, vs) in &variants {
                     bar.set_message(format!("variant {label}"));
                     entries.push(measure(&mut r, &w, (wd, ht), vs, label, a.plan())?);
@@ -490,6 +391,147 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let table = markdown(&entries);
     println!("{} — {} — preset {} — commit {}\n", gpu.info.name, gpu.info.driver, a.preset, git_commit());
     println!("{table}");
+    print_ratios(a, &entries, &also);
+    let overlap = overlap_report(&entries);
+    if !overlap.is_empty() {
+        let clock = if gpu.info.calibrated_timestamps {
+            "one device time domain (calibrated timestamps)"
+        } else {
+            "per-queue timestamps assumed on one clock (no calibrated timestamps on this device)"
+        };
+        println!("\n{overlap}({clock})");
+    }
+    write_reports(a, &gpu, base, entries, &table)?;
+    finish(&gpu)
+}
+
+/// The scenes and resolutions to measure: the flags', else the preset's (`moritz`: five scenes at 1080p and
+/// 540p; `table43`: the wave at 1080p), else the wave at 960×540.
+#[allow(clippy::type_complexity)]
+fn workloads(a: &BenchArgs, table43: bool, moritz: bool) -> Result<(Vec<String>, Vec<(u32, u32)>)> {
+    let scenes: Vec<String> = if !a.scenes.is_empty() {
+        a.scenes.clone()
+    } else if table43 {
+        vec!["wave".into()]
+    } else if moritz {
+        ["wave", "crown1", "crown2", "waterfall", "worst"].map(String::from).to_vec()
+    } else {
+        vec!["wave".into()]
+    };
+    let resolutions: Vec<(u32, u32)> = if !a.resolutions.is_empty() {
+        a.resolutions.iter().map(|r| crate::args::parse_resolution(r)).collect::<Result<_>>()?
+    } else if table43 {
+        vec![(1920, 1080)]
+    } else if moritz {
+        vec![(1920, 1080), (960, 540)]
+    } else {
+        vec![(960, 540)]
+    };
+    Ok((scenes, resolutions))
+}
+
+/// `--also-presets`: each PRESET, or PRESET@FILE (that preset with FILE's settings instead of --settings).
+fn also_presets(a: &BenchArgs) -> Result<Vec<(String, Settings)>> {
+    let mut also = vec![];
+    for p in &a.also_presets {
+        // PRESET, or PRESET@FILE: that preset with FILE's settings instead of --settings.
+        let (name, file) = match p.split_once('@') {
+            Some((n, f)) => (n, Some(PathBuf::from(f))),
+            None => (p.as_str(), a.settings.clone()),
+        };
+        let mut s = Settings::preset(name)?;
+        if let Some(f) = &file {
+            s = crate::args::settings_file(&s, f)?;
+        }
+        also.push((p.clone(), s));
+    }
+    Ok(also)
+}
+
+/// The flags `bench` refuses before any work: reports' paths, and the flags of one kind of run given to another.
+fn check_args(a: &BenchArgs) -> Result<()> {
+    use meniscus::output::FileKind;
+    if a.sweep.is_none() && a.mesh.is_none() && a.chart.is_some() {
+        bail!("--chart applies to a sweep or --mesh: add --sweep particles (or pixels), or --mesh FILE");
+    }
+    if a.sweep.is_none() && !a.sweep_particles.is_empty() {
+        bail!("--sweep-particles applies to a sweep: add --sweep particles (or pixels)");
+    }
+    for f in &a.scenes {
+        meniscus::input::note(std::path::Path::new(f));
+    }
+    for (flag, path, kind) in [
+        ("--json", &a.json, FileKind::Json),
+        ("--markdown", &a.markdown, FileKind::Markdown),
+        ("--chart", &a.chart, FileKind::Png),
+    ] {
+        if let Some(p) = path {
+            crate::args::check_report(flag, p, kind)?;
+        }
+    }
+    if let Some(n) = a.threads.iter().find(|n| !(1..=crate::mesh::MAX_THREADS).contains(n)) {
+        bail!("--threads {n}: between 1 and {}", crate::mesh::MAX_THREADS);
+    }
+    Ok(())
+}
+
+/// `bench --mesh FILE`: the mesh extraction's benchmark (the frame flags refused, not ignored).
+fn run_mesh(a: &BenchArgs, file: &std::path::Path) -> Result<()> {
+    // The frame flags have no meaning for the mesh extraction's benchmark: refused, not ignored.
+    let unused: Vec<&str> = [
+        ("--sweep", a.sweep.is_some()),
+        ("--scenes", !a.scenes.is_empty()),
+        ("--sim", a.sim.is_some()),
+        ("--variants", a.variants),
+        ("--also-presets", !a.also_presets.is_empty()),
+        ("--in-flight", a.in_flight),
+    ]
+    .into_iter()
+    .filter(|(_, on)| *on)
+    .map(|(f, _)| f)
+    .collect();
+    if !unused.is_empty() {
+        bail!("{} measure frames; --mesh measures the mesh extraction: run them apart", unused.join(", "));
+    }
+    let opts = crate::bench_mesh::Options {
+        threads: a.threads.clone(),
+        cubes: a.cube_size.clone(),
+        blocks: a.block.clone(),
+        radius: a.radius,
+        repeat: a.mesh_repeat,
+        gpu: a.mesh_gpu.then(|| a.gpu.clone()),
+    };
+    crate::bench_mesh::run(file, &a.load, &opts, a.json.as_deref(), a.markdown.as_deref(), a.chart.as_deref())
+}
+
+/// `--variants`: the filters, the curvature flow's iterations per dispatch, no smoothing and every splat mode the
+/// device supports, each a variant of `base`.
+fn variant_settings(base: &Settings, r: &Renderer) -> Vec<(String, Settings)> {
+    let mut variants = vec![];
+    for f in [Filter::Bilateral, Filter::NarrowRange, Filter::CurvatureFlow] {
+        variants.push((format!("filter {}", f.name()), base.with(|s| s.filter.method = f)));
+    }
+    for kk in [1, 4] {
+        variants.push((
+            format!("curvature-flow {kk} it/dispatch"),
+            base.with(|s| {
+                s.filter.method = Filter::CurvatureFlow;
+                s.filter.curvature.iters_per_dispatch = kk;
+            }),
+        ));
+    }
+    variants.push(("no smoothing".into(), base.with(|s| s.filter.method = Filter::None)));
+    for &m in SplatMode::ALL {
+        if r.state().supports_splat(m) {
+            variants.push((format!("splat {}", m.name()), base.with(|s| s.splat.mode = m)));
+        }
+    }
+    variants
+}
+
+/// The ratios the run's table implies: the curvature flow's and the splat modes' (`--variants`), and each
+/// `--also-presets` preset's frame time against the main preset's.
+fn print_ratios(a: &BenchArgs, entries: &[Entry], also: &[(String, Settings)]) {
     if a.variants {
         let find = |v: &str| {
             entries
@@ -535,17 +577,6 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             }
         }
     }
-    let overlap = overlap_report(&entries);
-    if !overlap.is_empty() {
-        let clock = if gpu.info.calibrated_timestamps {
-            "one device time domain (calibrated timestamps)"
-        } else {
-            "per-queue timestamps assumed on one clock (no calibrated timestamps on this device)"
-        };
-        println!("\n{overlap}({clock})");
-    }
-    write_reports(a, &gpu, base, entries, &table)?;
-    finish(&gpu)
 }
 
 fn run_sweep(
