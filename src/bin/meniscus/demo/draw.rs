@@ -29,6 +29,83 @@ impl App {
         let n = self.src.len();
         let due = now.duration_since(self.last_advance).as_secs_f32() >= 1.0 / (self.o.fps * self.speed);
         // The live simulation: one simulated frame per due frame while playing (or one on request).
+        let produce = self.advance_sim(st, now, due, extent)?;
+        if self.playing && n > 1 && due {
+            self.last_advance = now;
+            match playback::next_frame(self.frame, n, self.looping) {
+                Some(f) => self.frame = f,
+                None => self.playing = false,
+            }
+        }
+        let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
+        // Upload only when the frame changed (or a preset changed the `[isolated]` settings): re-uploading also
+        // dropped the iso grid, which was then rebuilt every frame of a static scene.
+        self.upload_frame(st)?;
+        // Frames in flight: the slot this frame takes is free once the frame N back is done (the only host wait).
+        let k = st.renderer.slots().next();
+        st.renderer.slots().wait(k)?;
+        let legend = self.particle_values(st, k)?;
+        // Overlay text (the GPU times of an earlier frame: a frame's are read when its slot comes round again).
+        let (ow, oh) = self.stage_overlay(st, k, n, legend.as_ref(), extent)?;
+        // Acquire the swapchain image (signals the slot's semaphore; no fence, no host wait).
+        let swap = st.swap.as_ref().expect("checked above");
+        let Some((index, suboptimal)) = present::acquire(swap, st.acquired[k])? else {
+            self.resized = true;
+            return Ok(());
+        };
+        self.resized |= suboptimal;
+        let overlay_img = st.overlay.as_ref().expect("set");
+        let staging = st.overlay_staging[k].as_ref().expect("set");
+        let upload_overlay = |ctx: &mut FrameCtx| {
+            meniscus::device::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
+        };
+        let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
+        let (inspector, overlay, mode, settings) = (&st.inspector, st.overlay.as_ref(), self.mode, &self.settings);
+        // The chosen view and the overlay over the final image, then its blit into the swapchain image.
+        let after = |ctx: &mut FrameCtx, f: &FrameImages| {
+            inspector.record(ctx, f, mode, values, overlay, settings);
+            present::record_blit(ctx, swap, index, f.images.final_color)
+        };
+        // The simulation's frame, recorded into this frame's command buffer; it writes the particle buffer the
+        // passes read.
+        let sim_cell = std::cell::RefCell::new(st.sim.as_mut());
+        let sim_err = std::cell::RefCell::new(None);
+        let step = |ctx: &mut FrameCtx, out: &Buffer| {
+            if let Some(sim) = sim_cell.borrow_mut().as_mut() {
+                if let Err(e) = sim.record_frame(ctx, Some(out)) {
+                    *sim_err.borrow_mut() = Some(e);
+                }
+            }
+        };
+        let hooks = Hooks {
+            before: Some(&upload_overlay),
+            after: Some(&after),
+            produce: if produce { Some(&step) } else { None },
+        };
+        let binary = Binary {
+            wait: Some((st.acquired[k], vk::PipelineStageFlags2::ALL_COMMANDS)),
+            signal: Some(present::rendered(swap, index)),
+        };
+        // The raw depth view and the particle view read the splatted depth after smoothing.
+        *st.renderer.parts_mut().keep_raw_depth = true;
+        st.renderer.submit(FrameRequest { hooks, binary, ..FrameRequest::new(&view, &self.settings) })?;
+        let late = st.renderer.state().late_times().cloned();
+        if let Some(e) = sim_err.into_inner() {
+            return Err(e);
+        }
+        if let Some(t) = late {
+            self.last_times = t;
+        }
+        if present::queue_present(&st.gpu, swap, index)? {
+            self.resized = true;
+        }
+        self.after_present(st, now, el)
+    }
+
+    /// The live simulation's next frame when one is due (spray, foam and bubbles switched with `[diffuse]
+    /// enabled`, their counts read twice a second); returns whether the frame's particles come from the solver's
+    /// buffer (recorded into the frame) rather than an upload.
+    fn advance_sim(&mut self, st: &mut State, now: Instant, due: bool, extent: vk::Extent2D) -> Result<bool> {
         let mut produce = false;
         if let Some(sim) = st.sim.as_mut() {
             sim.pusher = if self.mods.control_key() { self.pusher(sim, extent) } else { None };
@@ -83,16 +160,12 @@ impl App {
             }
             self.uploaded = Some(self.frame);
         }
-        if self.playing && n > 1 && due {
-            self.last_advance = now;
-            match playback::next_frame(self.frame, n, self.looping) {
-                Some(f) => self.frame = f,
-                None => self.playing = false,
-            }
-        }
-        let view = View { camera: self.camera, width: extent.width, height: extent.height, env: self.env.clone() };
-        // Upload only when the frame changed (or a preset changed the `[isolated]` settings): re-uploading also
-        // dropped the iso grid, which was then rebuilt every frame of a static scene.
+        Ok(produce)
+    }
+
+    /// Upload the playback's frame when it changed (the motion continued in time order, the diffuse particles
+    /// walked along).
+    fn upload_frame(&mut self, st: &mut State) -> Result<()> {
         if self.uploaded != Some(self.frame) {
             // The next frame in time order continues the motion; any other jump starts it again.
             if self.uploaded.is_none_or(|u| u + 1 != self.frame) {
@@ -120,10 +193,15 @@ impl App {
             }
             self.uploaded = Some(self.frame);
         }
-        // Frames in flight: the slot this frame takes is free once the frame N back is done (the only host wait).
-        let k = st.renderer.slots().next();
-        st.renderer.slots().wait(k)?;
-        let legend = if self.mode == ViewMode::Particles {
+        Ok(())
+    }
+
+    /// In the particle view: the particles' values in slot `k`'s buffer, and the legend (name, low, high).
+    fn particle_values(&mut self, st: &mut State, k: usize) -> Result<Option<(String, f32, f32)>> {
+        if self.mode != ViewMode::Particles {
+            return Ok(None);
+        }
+        {
             let p = match &self.sim_particles {
                 Some(p) => p.clone(),
                 None if st.sim.is_some() => {
@@ -147,12 +225,21 @@ impl App {
                 )?);
             }
             st.values[k].as_mut().expect("set").write(0, bytes)?;
-            Some((name, lo, hi))
-        } else {
-            None
-        };
-        // Overlay text (the GPU times of an earlier frame: a frame's are read when its slot comes round again).
-        let text = self.overlay_text(st, n, legend.as_ref());
+            Ok(Some((name, lo, hi)))
+        }
+    }
+
+    /// The overlay's text rasterised into slot `k`'s staging buffer (its image remade when its size changed);
+    /// returns the overlay's size.
+    fn stage_overlay(
+        &mut self,
+        st: &mut State,
+        k: usize,
+        n: usize,
+        legend: Option<&(String, f32, f32)>,
+        extent: vk::Extent2D,
+    ) -> Result<(u32, u32)> {
+        let text = self.overlay_text(st, n, legend);
         let ov = overlay::rasterize(&text, legend.is_some(), if extent.width >= 1000 { 2 } else { 1 });
         let (ow, oh) = (ov.width().min(extent.width), ov.height().min(extent.height));
         let need_new = st.overlay.as_ref().is_none_or(|o| o.extent.width != ow || o.extent.height != oh);
@@ -179,58 +266,12 @@ impl App {
             )?);
         }
         st.overlay_staging[k].as_mut().expect("set").write(0, bytes)?;
-        // Acquire the swapchain image (signals the slot's semaphore; no fence, no host wait).
-        let swap = st.swap.as_ref().expect("checked above");
-        let Some((index, suboptimal)) = present::acquire(swap, st.acquired[k])? else {
-            self.resized = true;
-            return Ok(());
-        };
-        self.resized |= suboptimal;
-        let overlay_img = st.overlay.as_ref().expect("set");
-        let staging = st.overlay_staging[k].as_ref().expect("set");
-        let upload_overlay = |ctx: &mut FrameCtx| {
-            meniscus::device::record_upload(ctx, staging, overlay_img, vk::Extent2D { width: ow, height: oh })
-        };
-        let values = if self.mode == ViewMode::Particles { st.values[k].as_ref() } else { None };
-        let (inspector, overlay, mode, settings) = (&st.inspector, st.overlay.as_ref(), self.mode, &self.settings);
-        // The chosen view and the overlay over the final image, then its blit into the swapchain image.
-        let after = |ctx: &mut FrameCtx, f: &FrameImages| {
-            inspector.record(ctx, f, mode, values, overlay, settings);
-            present::record_blit(ctx, swap, index, f.images.final_color)
-        };
-        // The simulation's frame, recorded into this frame's command buffer; it writes the particle buffer the
-        // passes read.
-        let sim_cell = std::cell::RefCell::new(st.sim.as_mut());
-        let sim_err = std::cell::RefCell::new(None);
-        let step = |ctx: &mut FrameCtx, out: &Buffer| {
-            if let Some(sim) = sim_cell.borrow_mut().as_mut() {
-                if let Err(e) = sim.record_frame(ctx, Some(out)) {
-                    *sim_err.borrow_mut() = Some(e);
-                }
-            }
-        };
-        let hooks = Hooks {
-            before: Some(&upload_overlay),
-            after: Some(&after),
-            produce: if produce { Some(&step) } else { None },
-        };
-        let binary = Binary {
-            wait: Some((st.acquired[k], vk::PipelineStageFlags2::ALL_COMMANDS)),
-            signal: Some(present::rendered(swap, index)),
-        };
-        // The raw depth view and the particle view read the splatted depth after smoothing.
-        *st.renderer.parts_mut().keep_raw_depth = true;
-        st.renderer.submit(FrameRequest { hooks, binary, ..FrameRequest::new(&view, &self.settings) })?;
-        let late = st.renderer.state().late_times().cloned();
-        if let Some(e) = sim_err.into_inner() {
-            return Err(e);
-        }
-        if let Some(t) = late {
-            self.last_times = t;
-        }
-        if present::queue_present(&st.gpu, swap, index)? {
-            self.resized = true;
-        }
+        Ok((ow, oh))
+    }
+
+    /// After the frame is presented: the counts, the recording, the frame rate, the resize exercise and the
+    /// screenshot and exit after `--frames`.
+    fn after_present(&mut self, st: &mut State, now: Instant, el: &ActiveEventLoop) -> Result<()> {
         self.frames_drawn += 1;
         self.fps_window.1 += 1;
         if self.recorder.is_none() && self.recordings == 0 && self.o.record.is_some() {
