@@ -124,33 +124,10 @@ pub fn run(
         }
         bar.inc(1);
     }
-    // A solver stage's median per step, a diffuse stage's per frame.
-    let median_of = |name: &str| {
-        let mut v: Vec<f64> = runs.iter().filter_map(|(t, _)| t.get(name)).collect();
-        median(&mut v)
-    };
+    let (stages, diffuse, ms_per_step, ms_per_frame) = stage_medians(&runs);
     let mut steps: Vec<f64> = runs.iter().map(|(_, n)| *n as f64).collect();
     let (fewest, most) = steps.iter().fold((f64::MAX, 0f64), |(a, b), &n| (a.min(n), b.max(n)));
     let median_steps = median(&mut steps);
-    // The stages that ran (sim_vorticity only with confinement on), in order.
-    let stages: Vec<(String, f64)> = STAGE_NAMES
-        .iter()
-        .chain(meniscus::sim::dfsph::STAGE_NAMES)
-        .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
-        .map(|n| (n.to_string(), median_of(n)))
-        .collect();
-    let diffuse_names = meniscus::sim::diffuse::STAGE_NAMES;
-    let diffuse: Vec<(String, f64)> = diffuse_names
-        .iter()
-        .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
-        .map(|n| (n.to_string(), median_of(n)))
-        .collect();
-    let step_total = |t: &PassTimes| t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>();
-    let mut totals: Vec<f64> = runs.iter().map(|(t, _)| step_total(t)).collect();
-    let ms_per_step = median(&mut totals);
-    // Per frame (a simulated 1/fps s): what an adaptive step's cost compares by.
-    let mut frame_totals: Vec<f64> = runs.iter().map(|(t, n)| step_total(t) * *n as f64).collect();
-    let ms_per_frame = median(&mut frame_totals);
     // Rendering and simulating together.
     let mut combined = vec![];
     let mut r = Renderer::new(gpu)?;
@@ -170,115 +147,213 @@ pub fn run(
         },
     };
     for &on in modes {
-        *r.parts_mut().async_compute = on;
-        let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
-        if with_diffuse {
-            sim.set_diffuse(Some(&base.diffuse))?;
-        }
-        let mut spans_all = vec![];
-        for k in 0..warmup + frames {
-            r.upload(Upload::Gpu { count: sim.count(), bounds: scene.container, diffuse_slots: sim.diffuse_slots() })?;
-            let cell = std::cell::RefCell::new(&mut sim);
-            let err = std::cell::RefCell::new(None);
-            let step = |ctx: &mut FrameCtx, out: &Buffer| {
-                if let Err(e) = cell.borrow_mut().record_frame(ctx, Some(out)) {
-                    *err.borrow_mut() = Some(e);
-                }
-            };
-            let hooks = Hooks { produce: Some(&step), ..Default::default() };
-            let sub = r.submit(FrameRequest::new(&view, &s).hooks(hooks).time_parts(crate::bench::parts()))?;
-            let spans = r.spans(sub)?;
-            if let Some(e) = err.into_inner() {
-                return Err(e.into());
-            }
-            if k >= warmup {
-                spans_all.push(spans);
-            }
-            bar.inc(1);
-        }
-        let mut names: Vec<String> = vec![];
-        for sp in spans_all.iter().flatten() {
-            if !names.contains(&sp.name) {
-                names.push(sp.name.clone());
-            }
-        }
-        let passes = names
-            .iter()
-            .map(|n| {
-                let mut v: Vec<f64> = spans_all
-                    .iter()
-                    .map(|f| f.iter().filter(|x| &x.name == n).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum())
-                    .collect();
-                (n.clone(), median(&mut v))
-            })
-            .collect();
-        let busy = |q: QueueId| {
-            let mut v: Vec<f64> = spans_all
-                .iter()
-                .map(|f| f.iter().filter(|x| x.queue == q).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum())
-                .collect();
-            median(&mut v)
-        };
-        let mut unions: Vec<f64> = spans_all
-            .iter()
-            .map(|f| {
-                let a = f.iter().map(|x| x.begin_ns).fold(f64::INFINITY, f64::min);
-                let b = f.iter().map(|x| x.end_ns).fold(f64::NEG_INFINITY, f64::max);
-                if f.is_empty() {
-                    0.0
-                } else {
-                    (b - a) * 1e-6
-                }
-            })
-            .collect();
-        combined.push(Combined {
-            async_compute: on,
-            passes,
-            queue_main_ms: busy(QueueId::Main),
-            queue_compute_ms: busy(QueueId::Compute),
-            union_ms: median(&mut unions),
-        });
+        combined.push(measure_combined(
+            gpu,
+            &mut r,
+            (&scene, base),
+            (&view, &s),
+            on,
+            (warmup, frames),
+            with_diffuse,
+            &bar,
+        )?);
     }
     bar.finish_and_clear();
-    // Report.
-    let steps_line = if fewest < most {
-        format!("adaptive: {fewest}–{most} steps per frame, median {median_steps}")
-    } else {
-        format!("{} steps per frame, Δt {:.2} ms", median_steps, 1e3 / sim.params.fps as f64 / median_steps)
+    let fps = sim.params.fps;
+    let report = SimReport {
+        schema: 1,
+        device: gpu.info.clone(),
+        git_commit: env!("MENISCUS_GIT_COMMIT").to_string(),
+        scene: name.to_string(),
+        particles: sim.count(),
+        radius: scene.radius(),
+        substeps: median_steps as u32,
+        substeps_range: [fewest as u32, most as u32],
+        adaptive_step: sim.params.adapts_step(),
+        solver: sim.params.solver.name().to_string(),
+        iterations: sim.params.iterations,
+        dfsph: solves,
+        dt_ms: 1e3 / sim.params.fps / median_steps as f32,
+        warmup_frames: warmup,
+        frames,
+        stages_ms_per_step: stages,
+        diffuse_stages_ms_per_frame: diffuse,
+        ms_per_step,
+        ms_per_frame,
+        steps_per_second: 1e3 / ms_per_step,
+        width,
+        height,
+        combined,
     };
-    println!("## sim {name}: {} particles on {} ({steps_line}, {solver})\n", sim.count(), gpu.info.name);
-    if stages.is_empty() {
+    print_stages(&report, gpu, fps, &solver);
+    print_combined(gpu, (width, height), &report.combined);
+    if let Some(p) = json {
+        meniscus::output::write_json(p, &report)?;
+        eprintln!("wrote {}", p.display());
+    }
+    crate::args::finish(gpu)
+}
+
+/// The solver's table: its stages per step, the step and the frame, DFSPH's solves, the diffuse stages.
+fn print_stages(r: &SimReport, gpu: &Arc<Gpu>, fps: f32, solver: &str) {
+    let steps_line = if r.substeps_range[0] < r.substeps_range[1] {
+        format!("adaptive: {}–{} steps per frame, median {}", r.substeps_range[0], r.substeps_range[1], r.substeps)
+    } else {
+        format!("{} steps per frame, Δt {:.2} ms", r.substeps, r.dt_ms)
+    };
+    println!("## sim {}: {} particles on {} ({steps_line}, {solver})\n", r.scene, r.particles, gpu.info.name);
+    if r.stages_ms_per_step.is_empty() {
         println!(
             "GPU times: not measured — a frame opens more timestamp scopes than the {} one frame can time\n",
             meniscus::timing::MAX_SCOPES
         );
     }
-    println!("| stage | ms per step (median of {frames} frames) |\n|---|---|");
-    for (n, ms) in &stages {
+    println!("| stage | ms per step (median of {} frames) |\n|---|---|", r.frames);
+    for (n, ms) in &r.stages_ms_per_step {
         println!("| {n} | {ms:.3} |");
     }
-    println!("| **step** | **{ms_per_step:.3}** ({:.1} steps/s) |", 1e3 / ms_per_step);
+    println!("| **step** | **{:.3}** ({:.1} steps/s) |", r.ms_per_step, r.steps_per_second);
     println!(
-        "| **frame** ({} s simulated) | **{ms_per_frame:.3}** ({:.2} s per simulated second) |\n",
-        1.0 / sim.params.fps,
-        ms_per_frame * sim.params.fps as f64 * 1e-3
+        "| **frame** ({} s simulated) | **{:.3}** ({:.2} s per simulated second) |\n",
+        1.0 / fps,
+        r.ms_per_frame,
+        r.ms_per_frame * fps as f64 * 1e-3
     );
-    if let Some(st) = &solves {
+    if let Some(st) = &r.dfsph {
         for (label, s) in st.labelled() {
             println!("DFSPH {label} solve: {}", s.summary());
         }
         println!();
     }
-    if !diffuse.is_empty() {
+    if !r.diffuse_stages_ms_per_frame.is_empty() {
         println!("| diffuse stage (once per frame) | ms per frame |\n|---|---|");
-        for (n, ms) in &diffuse {
+        for (n, ms) in &r.diffuse_stages_ms_per_frame {
             println!("| {n} | {ms:.3} |");
         }
-        println!("| **diffuse** | **{:.3}** |\n", diffuse.iter().map(|d| d.1).sum::<f64>());
+        println!("| **diffuse** | **{:.3}** |\n", r.diffuse_stages_ms_per_frame.iter().map(|d| d.1).sum::<f64>());
     }
+}
+
+/// The solver's stages' medians per step and the diffuse stages' per frame (those that ran, in order), and the
+/// step's and the frame's medians (a frame: the steps of a simulated 1/fps s), from each frame's times and
+/// step count.
+#[allow(clippy::type_complexity)]
+fn stage_medians(runs: &[(PassTimes, u32)]) -> (Vec<(String, f64)>, Vec<(String, f64)>, f64, f64) {
+    // A solver stage's median per step, a diffuse stage's per frame.
+    let median_of = |name: &str| {
+        let mut v: Vec<f64> = runs.iter().filter_map(|(t, _)| t.get(name)).collect();
+        median(&mut v)
+    };
+    // The stages that ran (sim_vorticity only with confinement on), in order.
+    let stages: Vec<(String, f64)> = STAGE_NAMES
+        .iter()
+        .chain(meniscus::sim::dfsph::STAGE_NAMES)
+        .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
+        .map(|n| (n.to_string(), median_of(n)))
+        .collect();
+    let diffuse_names = meniscus::sim::diffuse::STAGE_NAMES;
+    let diffuse: Vec<(String, f64)> = diffuse_names
+        .iter()
+        .filter(|n| runs.iter().any(|(t, _)| t.get(n).is_some()))
+        .map(|n| (n.to_string(), median_of(n)))
+        .collect();
+    let step_total = |t: &PassTimes| t.total() - diffuse_names.iter().filter_map(|k| t.get(k)).sum::<f64>();
+    let mut totals: Vec<f64> = runs.iter().map(|(t, _)| step_total(t)).collect();
+    let ms_per_step = median(&mut totals);
+    // Per frame (a simulated 1/fps s): what an adaptive step's cost compares by.
+    let mut frame_totals: Vec<f64> = runs.iter().map(|(t, n)| step_total(t) * *n as f64).collect();
+    let ms_per_frame = median(&mut frame_totals);
+    (stages, diffuse, ms_per_step, ms_per_frame)
+}
+
+/// Rendering and simulating together, one async mode: `warmup` + `frames` frames whose particles the
+/// simulation writes inside the frame; the passes' and queues' medians.
+#[allow(clippy::too_many_arguments)]
+fn measure_combined(
+    gpu: &Arc<Gpu>,
+    r: &mut Renderer,
+    (scene, base): (&meniscus::sim::scene::SimScene, &Settings),
+    (view, s): (&View, &Settings),
+    on: bool,
+    (warmup, frames): (u32, u32),
+    with_diffuse: bool,
+    bar: &indicatif::ProgressBar,
+) -> Result<Combined> {
+    *r.parts_mut().async_compute = on;
+    let mut sim = Simulation::new(gpu, scene.clone(), base.sim.clone())?;
+    if with_diffuse {
+        sim.set_diffuse(Some(&base.diffuse))?;
+    }
+    let mut spans_all = vec![];
+    for k in 0..warmup + frames {
+        r.upload(Upload::Gpu { count: sim.count(), bounds: scene.container, diffuse_slots: sim.diffuse_slots() })?;
+        let cell = std::cell::RefCell::new(&mut sim);
+        let err = std::cell::RefCell::new(None);
+        let step = |ctx: &mut FrameCtx, out: &Buffer| {
+            if let Err(e) = cell.borrow_mut().record_frame(ctx, Some(out)) {
+                *err.borrow_mut() = Some(e);
+            }
+        };
+        let hooks = Hooks { produce: Some(&step), ..Default::default() };
+        let sub = r.submit(FrameRequest::new(&view, &s).hooks(hooks).time_parts(crate::bench::parts()))?;
+        let spans = r.spans(sub)?;
+        if let Some(e) = err.into_inner() {
+            return Err(e.into());
+        }
+        if k >= warmup {
+            spans_all.push(spans);
+        }
+        bar.inc(1);
+    }
+    let mut names: Vec<String> = vec![];
+    for sp in spans_all.iter().flatten() {
+        if !names.contains(&sp.name) {
+            names.push(sp.name.clone());
+        }
+    }
+    let passes = names
+        .iter()
+        .map(|n| {
+            let mut v: Vec<f64> = spans_all
+                .iter()
+                .map(|f| f.iter().filter(|x| &x.name == n).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum())
+                .collect();
+            (n.clone(), median(&mut v))
+        })
+        .collect();
+    let busy = |q: QueueId| {
+        let mut v: Vec<f64> = spans_all
+            .iter()
+            .map(|f| f.iter().filter(|x| x.queue == q).map(|x| (x.end_ns - x.begin_ns) * 1e-6).sum())
+            .collect();
+        median(&mut v)
+    };
+    let mut unions: Vec<f64> = spans_all
+        .iter()
+        .map(|f| {
+            let a = f.iter().map(|x| x.begin_ns).fold(f64::INFINITY, f64::min);
+            let b = f.iter().map(|x| x.end_ns).fold(f64::NEG_INFINITY, f64::max);
+            if f.is_empty() {
+                0.0
+            } else {
+                (b - a) * 1e-6
+            }
+        })
+        .collect();
+    Ok(Combined {
+        async_compute: on,
+        passes,
+        queue_main_ms: busy(QueueId::Main),
+        queue_compute_ms: busy(QueueId::Compute),
+        union_ms: median(&mut unions),
+    })
+}
+
+/// The render + simulate table, and what the async queue hid.
+fn print_combined(gpu: &Arc<Gpu>, (width, height): (u32, u32), combined: &[Combined]) {
     println!("Render + simulate one frame at {width}×{height} (GPU ms per frame, medians):\n");
     println!("| async | main queue | compute queue | union |\n|---|---|---|---|");
-    for cb in &combined {
+    for cb in combined {
         println!(
             "| {} | {:.2} | {:.2} | {:.2} |",
             if cb.async_compute { "on" } else { "off" },
@@ -296,37 +371,4 @@ pub fn run(
             gpu.queues.describe()
         );
     }
-    if let Some(p) = json {
-        let report = SimReport {
-            schema: 1,
-            device: gpu.info.clone(),
-            git_commit: env!("MENISCUS_GIT_COMMIT").to_string(),
-            scene: name.to_string(),
-            particles: sim.count(),
-            radius: scene.radius(),
-            substeps: median_steps as u32,
-            substeps_range: [fewest as u32, most as u32],
-            adaptive_step: sim.params.adapts_step(),
-            solver: sim.params.solver.name().to_string(),
-            iterations: sim.params.iterations,
-            dfsph: solves,
-            dt_ms: 1e3 / sim.params.fps / median_steps as f32,
-            warmup_frames: warmup,
-            frames,
-            stages_ms_per_step: stages,
-            diffuse_stages_ms_per_frame: diffuse,
-            ms_per_step,
-            ms_per_frame,
-            steps_per_second: 1e3 / ms_per_step,
-            width,
-            height,
-            combined,
-        };
-        let text = serde_json::to_string_pretty(&report)?;
-        meniscus::output::write_atomic(p, meniscus::output::FileKind::Json, |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })?;
-        eprintln!("wrote {}", p.display());
-    }
-    crate::args::finish(gpu)
 }
