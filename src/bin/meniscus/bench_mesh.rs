@@ -162,122 +162,15 @@ pub fn run(
         };
         let mut first_wall = None;
         for &t in &threads {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
-            let mut samples: Vec<CpuRun> = vec![];
-            for _ in 0..o.repeat {
-                let t0 = Instant::now();
-                let (m, rep) = pool.install(|| meniscus::surface::mesh::reconstruct(positions, &recon, None))?;
-                let t_write = Instant::now();
-                meniscus::output::write_mesh(&scratch, m.data())?;
-                let write = t_write.elapsed().as_secs_f64();
-                let wall = t0.elapsed().as_secs_f64();
-                let times = match rep.extraction {
-                    Extraction::Cpu(Some(x)) => x,
-                    _ => Default::default(),
-                };
-                samples.push((wall, rep.field_s, times, write, m.vertices.len(), m.triangles.len()));
-            }
-            let pick = |f: &dyn Fn(&CpuRun) -> f64| median(samples.iter().map(f).collect());
-            let wall = pick(&|s| s.0);
-            let blocks = pick(&|s| s.2.blocks_wall);
-            let blocks_thread = pick(&|s| s.2.scatter + s.2.march);
-            let first = *first_wall.get_or_insert(wall);
-            rows.push(Row {
-                cube_radii: cube,
-                block: samples[0].2.block,
-                path: "cpu".into(),
-                threads: t,
-                wall,
-                grid: pick(&|s| s.1),
-                blocks,
-                blocks_thread,
-                weld: pick(&|s| s.2.weld),
-                write: pick(&|s| s.3),
-                gpu_ms: 0.0,
-                vertices: samples[0].4,
-                triangles: samples[0].5,
-                speedup: first / wall,
-                efficiency: blocks_thread / (blocks * t as f64).max(1e-12),
-            });
+            rows.push(cpu_row(t, positions, &recon, &scratch, o.repeat, cube, &mut first_wall)?);
             // splashsurf once per cube size and thread count (the first block size).
             if let Some(bin) = ss.as_ref().filter(|_| block == block_sizes[0]) {
-                let mut walls = vec![];
-                for _ in 0..o.repeat {
-                    let t0 = Instant::now();
-                    let out = std::process::Command::new(bin)
-                        .arg("reconstruct")
-                        .arg(file)
-                        .args(["--particle-radius", &r.to_string(), "--smoothing-length", "2.0"])
-                        .args(["--cube-size", &cube.to_string(), "--surface-threshold", "0.6"])
-                        .args(["--num-threads", &t.to_string(), "--output-file"])
-                        .arg(&scratch)
-                        .output()
-                        .context("running splashsurf")?;
-                    if !out.status.success() {
-                        bail!("splashsurf failed: {}", String::from_utf8_lossy(&out.stderr).trim());
-                    }
-                    walls.push(t0.elapsed().as_secs_f64());
-                }
-                rows.push(Row {
-                    cube_radii: cube,
-                    block: 0,
-                    path: "splashsurf".into(),
-                    threads: t,
-                    wall: median(walls),
-                    grid: 0.0,
-                    blocks: 0.0,
-                    blocks_thread: 0.0,
-                    weld: 0.0,
-                    write: 0.0,
-                    gpu_ms: 0.0,
-                    vertices: 0,
-                    triangles: 0,
-                    speedup: 0.0,
-                    efficiency: 0.0,
-                });
+                rows.push(splashsurf_row(bin, file, r, cube, t, &scratch, o.repeat)?);
             }
             bar.inc(1);
         }
         if let Some((g, mc)) = gpu.as_ref().filter(|_| block == block_sizes[0]) {
-            let mut samples: Vec<GpuRun> = vec![];
-            for _ in 0..o.repeat {
-                let t0 = Instant::now();
-                let (m, rep) = meniscus::surface::mesh::reconstruct(positions, &recon, Some((g, mc)))?;
-                let t_write = Instant::now();
-                meniscus::output::write_mesh(&scratch, m.data())?;
-                let write = t_write.elapsed().as_secs_f64();
-                let (gpu_ms, host) = match &rep.extraction {
-                    Extraction::Gpu(st) => (st.gpu_ms(), st.host_ms() * 1e-3),
-                    _ => (0.0, 0.0),
-                };
-                samples.push((
-                    t0.elapsed().as_secs_f64(),
-                    rep.field_s,
-                    gpu_ms,
-                    host,
-                    write,
-                    m.vertices.len(),
-                    m.triangles.len(),
-                ));
-            }
-            let pick = |f: &dyn Fn(&GpuRun) -> f64| median(samples.iter().map(f).collect());
-            rows.push(Row {
-                cube_radii: cube,
-                block: 0,
-                path: "gpu".into(),
-                threads: rayon::current_num_threads(),
-                wall: pick(&|s| s.0),
-                grid: pick(&|s| s.1),
-                blocks: 0.0,
-                blocks_thread: 0.0,
-                weld: pick(&|s| s.3),
-                write: pick(&|s| s.4),
-                gpu_ms: pick(&|s| s.2),
-                vertices: samples[0].5,
-                triangles: samples[0].6,
-                speedup: 0.0,
-                efficiency: 0.0,
-            });
+            rows.push(gpu_row((g, mc), positions, &recon, &scratch, o.repeat, cube)?);
         }
     }
     bar.finish_and_clear();
@@ -311,6 +204,144 @@ pub fn run(
         eprintln!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// The CPU path at `t` threads: `repeat` runs of the reconstruction and the PLY write, their medians
+/// (`first_wall`: the first thread count's wall time, which the speed-up is relative to).
+fn cpu_row(
+    t: usize,
+    positions: &[[f32; 3]],
+    recon: &Reconstruct,
+    scratch: &Path,
+    repeat: u32,
+    cube: f32,
+    first_wall: &mut Option<f64>,
+) -> Result<Row> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
+    let mut samples: Vec<CpuRun> = vec![];
+    for _ in 0..repeat {
+        let t0 = Instant::now();
+        let (m, rep) = pool.install(|| meniscus::surface::mesh::reconstruct(positions, &recon, None))?;
+        let t_write = Instant::now();
+        meniscus::output::write_mesh(&scratch, m.data())?;
+        let write = t_write.elapsed().as_secs_f64();
+        let wall = t0.elapsed().as_secs_f64();
+        let times = match rep.extraction {
+            Extraction::Cpu(Some(x)) => x,
+            _ => Default::default(),
+        };
+        samples.push((wall, rep.field_s, times, write, m.vertices.len(), m.triangles.len()));
+    }
+    let pick = |f: &dyn Fn(&CpuRun) -> f64| median(samples.iter().map(f).collect());
+    let wall = pick(&|s| s.0);
+    let blocks = pick(&|s| s.2.blocks_wall);
+    let blocks_thread = pick(&|s| s.2.scatter + s.2.march);
+    let first = *first_wall.get_or_insert(wall);
+    Ok(Row {
+        cube_radii: cube,
+        block: samples[0].2.block,
+        path: "cpu".into(),
+        threads: t,
+        wall,
+        grid: pick(&|s| s.1),
+        blocks,
+        blocks_thread,
+        weld: pick(&|s| s.2.weld),
+        write: pick(&|s| s.3),
+        gpu_ms: 0.0,
+        vertices: samples[0].4,
+        triangles: samples[0].5,
+        speedup: first / wall,
+        efficiency: blocks_thread / (blocks * t as f64).max(1e-12),
+    })
+}
+
+/// splashsurf on the same file at `t` threads as a whole process, `repeat` times: its median wall time.
+fn splashsurf_row(bin: &Path, file: &Path, r: f32, cube: f32, t: usize, scratch: &Path, repeat: u32) -> Result<Row> {
+    let mut walls = vec![];
+    for _ in 0..repeat {
+        let t0 = Instant::now();
+        let out = std::process::Command::new(bin)
+            .arg("reconstruct")
+            .arg(file)
+            .args(["--particle-radius", &r.to_string(), "--smoothing-length", "2.0"])
+            .args(["--cube-size", &cube.to_string(), "--surface-threshold", "0.6"])
+            .args(["--num-threads", &t.to_string(), "--output-file"])
+            .arg(&scratch)
+            .output()
+            .context("running splashsurf")?;
+        if !out.status.success() {
+            bail!("splashsurf failed: {}", String::from_utf8_lossy(&out.stderr).trim());
+        }
+        walls.push(t0.elapsed().as_secs_f64());
+    }
+    Ok(Row {
+        cube_radii: cube,
+        block: 0,
+        path: "splashsurf".into(),
+        threads: t,
+        wall: median(walls),
+        grid: 0.0,
+        blocks: 0.0,
+        blocks_thread: 0.0,
+        weld: 0.0,
+        write: 0.0,
+        gpu_ms: 0.0,
+        vertices: 0,
+        triangles: 0,
+        speedup: 0.0,
+        efficiency: 0.0,
+    })
+}
+
+/// The GPU path (the field and marching cubes on the device): `repeat` runs, their medians.
+fn gpu_row(
+    (g, mc): (&std::sync::Arc<meniscus::device::Gpu>, &meniscus::compute::mc::Mc),
+    positions: &[[f32; 3]],
+    recon: &Reconstruct,
+    scratch: &Path,
+    repeat: u32,
+    cube: f32,
+) -> Result<Row> {
+    let mut samples: Vec<GpuRun> = vec![];
+    for _ in 0..repeat {
+        let t0 = Instant::now();
+        let (m, rep) = meniscus::surface::mesh::reconstruct(positions, &recon, Some((g, mc)))?;
+        let t_write = Instant::now();
+        meniscus::output::write_mesh(&scratch, m.data())?;
+        let write = t_write.elapsed().as_secs_f64();
+        let (gpu_ms, host) = match &rep.extraction {
+            Extraction::Gpu(st) => (st.gpu_ms(), st.host_ms() * 1e-3),
+            _ => (0.0, 0.0),
+        };
+        samples.push((
+            t0.elapsed().as_secs_f64(),
+            rep.field_s,
+            gpu_ms,
+            host,
+            write,
+            m.vertices.len(),
+            m.triangles.len(),
+        ));
+    }
+    let pick = |f: &dyn Fn(&GpuRun) -> f64| median(samples.iter().map(f).collect());
+    Ok(Row {
+        cube_radii: cube,
+        block: 0,
+        path: "gpu".into(),
+        threads: rayon::current_num_threads(),
+        wall: pick(&|s| s.0),
+        grid: pick(&|s| s.1),
+        blocks: 0.0,
+        blocks_thread: 0.0,
+        weld: pick(&|s| s.3),
+        write: pick(&|s| s.4),
+        gpu_ms: pick(&|s| s.2),
+        vertices: samples[0].5,
+        triangles: samples[0].6,
+        speedup: 0.0,
+        efficiency: 0.0,
+    })
 }
 
 /// One panel per cube size: wall seconds against threads for each block size of the CPU path, the GPU path,
