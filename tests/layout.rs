@@ -193,6 +193,64 @@ fn no_source_file_is_over_700_lines() {
     assert!(long.is_empty(), "library files over 700 lines: {long:?}");
 }
 
+/// Each function of `code` that is over `limit` lines, as (name, first line, lines): a `fn` line at some indent
+/// up to the `}` line at the same indent (rustfmt's layout).
+fn long_functions(code: &str, limit: usize) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut out = vec![];
+    for (i, l) in lines.iter().enumerate() {
+        let t = l.trim_start();
+        let indent = l.len() - t.len();
+        let t = t
+            .strip_prefix("pub ")
+            .or_else(|| t.strip_prefix("pub(crate) "))
+            .or_else(|| t.strip_prefix("pub(super) "))
+            .unwrap_or(t);
+        let Some(rest) = t.strip_prefix("fn ") else { continue };
+        let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        // A declaration without a body (a trait's) ends with ';' before any '{'.
+        let Some(open) =
+            (i..lines.len()).find(|&k| lines[k].trim_end().ends_with('{') || lines[k].trim_end().ends_with(';'))
+        else {
+            continue;
+        };
+        if lines[open].trim_end().ends_with(';') {
+            continue;
+        }
+        let close = format!("{}}}", " ".repeat(indent));
+        if let Some(end) = (open + 1..lines.len()).find(|&k| lines[k] == close) {
+            let n = end - i + 1;
+            if n > limit {
+                out.push((name, i + 1, n));
+            }
+        }
+    }
+    out
+}
+
+/// No function is over 150 lines, in the library, the applications or the Python package: a function does one
+/// thing.
+#[test]
+fn no_function_is_over_150_lines() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let long: Vec<String> = [rust_files(&root.join("src"), None), rust_files(&root.join("python/src"), None)]
+        .concat()
+        .into_iter()
+        .flat_map(|p| {
+            let code = std::fs::read_to_string(&p).unwrap();
+            long_functions(&code, 150)
+                .into_iter()
+                .map(move |(f, at, n)| format!("{}:{at} {f} ({n} lines)", p.display()))
+        })
+        .collect();
+    assert!(long.is_empty(), "functions over 150 lines: {long:#?}");
+    // The control: a function of 151 lines is found, one of 150 is not, a trait's declaration is no function.
+    let body = |n: usize| format!("    pub fn f() {{\n{}    }}\n", "        x();\n".repeat(n - 2));
+    assert_eq!(long_functions(&body(151), 150), vec![("f".to_string(), 1, 151)]);
+    assert!(long_functions(&body(150), 150).is_empty());
+    assert!(long_functions("    fn g(&self);\n    fn h() {\n    }\n", 0).len() == 1);
+}
+
 /// The renderer's door stays small: at most 13 public methods on `Renderer` (src/renderer/mod.rs), its
 /// requests, state and parts in their own types (`state()` reads, `parts_mut()` changes), and no public field.
 #[test]

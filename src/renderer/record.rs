@@ -36,7 +36,7 @@ impl Renderer {
                 ms
             }
         };
-        let cached = self.prepare(&view, s, hooks.produce.is_some())?;
+        let cached = self.prepare(view, s, hooks.produce.is_some())?;
         // The composite's layers, once a frame; too many is the caller's error, found before a slot is begun.
         let layers = self.effects.layers(s)?;
         let split = self.async_compute;

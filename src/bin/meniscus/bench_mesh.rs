@@ -221,9 +221,9 @@ fn cpu_row(
     let mut samples: Vec<CpuRun> = vec![];
     for _ in 0..repeat {
         let t0 = Instant::now();
-        let (m, rep) = pool.install(|| meniscus::surface::mesh::reconstruct(positions, &recon, None))?;
+        let (m, rep) = pool.install(|| meniscus::surface::mesh::reconstruct(positions, recon, None))?;
         let t_write = Instant::now();
-        meniscus::output::write_mesh(&scratch, m.data())?;
+        meniscus::output::write_mesh(scratch, m.data())?;
         let write = t_write.elapsed().as_secs_f64();
         let wall = t0.elapsed().as_secs_f64();
         let times = match rep.extraction {
@@ -267,7 +267,7 @@ fn splashsurf_row(bin: &Path, file: &Path, r: f32, cube: f32, t: usize, scratch:
             .args(["--particle-radius", &r.to_string(), "--smoothing-length", "2.0"])
             .args(["--cube-size", &cube.to_string(), "--surface-threshold", "0.6"])
             .args(["--num-threads", &t.to_string(), "--output-file"])
-            .arg(&scratch)
+            .arg(scratch)
             .output()
             .context("running splashsurf")?;
         if !out.status.success() {
@@ -306,9 +306,9 @@ fn gpu_row(
     let mut samples: Vec<GpuRun> = vec![];
     for _ in 0..repeat {
         let t0 = Instant::now();
-        let (m, rep) = meniscus::surface::mesh::reconstruct(positions, &recon, Some((g, mc)))?;
+        let (m, rep) = meniscus::surface::mesh::reconstruct(positions, recon, Some((g, mc)))?;
         let t_write = Instant::now();
-        meniscus::output::write_mesh(&scratch, m.data())?;
+        meniscus::output::write_mesh(scratch, m.data())?;
         let write = t_write.elapsed().as_secs_f64();
         let (gpu_ms, host) = match &rep.extraction {
             Extraction::Gpu(st) => (st.gpu_ms(), st.host_ms() * 1e-3),

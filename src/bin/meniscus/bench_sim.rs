@@ -295,7 +295,7 @@ fn measure_combined(
             }
         };
         let hooks = Hooks { produce: Some(&step), ..Default::default() };
-        let sub = r.submit(FrameRequest::new(&view, &s).hooks(hooks).time_parts(crate::bench::parts()))?;
+        let sub = r.submit(FrameRequest::new(view, s).hooks(hooks).time_parts(crate::bench::parts()))?;
         let spans = r.spans(sub)?;
         if let Some(e) = err.into_inner() {
             return Err(e.into());

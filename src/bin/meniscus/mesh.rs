@@ -160,45 +160,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         None
     };
     // Extract one frame: the mesh with its field, and a line saying where the time went.
-    let extract = |p: &Particles| -> Result<(Reconstructed, String, f64)> {
-        let t0 = std::time::Instant::now();
-        let (m, how) = pool.install(|| -> Result<_> {
-            let recon = meniscus::surface::mesh::Reconstruct {
-                support: support * r,
-                extract: params,
-                smoothing: meniscus::field::smooth::SmoothParams {
-                    iterations: a.smoothing_iters,
-                    weights: !a.no_smoothing_weights,
-                    ..Default::default()
-                },
-            };
-            let rec = meniscus::surface::mesh::reconstruct_field(
-                &p.positions,
-                &recon,
-                gpu_mc.as_ref().map(|(g, mc)| (g, mc)),
-            )
-            .with_context(|| {
-                if a.gpu {
-                    format!(
-                        "mesh --gpu at --cube-size {} (radii): try a larger --cube-size, or the CPU path \
-                                 (without --gpu)",
-                        a.cube_size
-                    )
-                } else {
-                    format!("mesh at --cube-size {} (radii)", a.cube_size)
-                }
-            })?;
-            let rep = &rec.report;
-            // The one stray-particle policy: particles far from the fluid are left out, and counted.
-            if rep.strays > 0 {
-                eprintln!("{}", scene::stray_warning(rep.strays, "the mesh"));
-            }
-            let gpu_name = gpu_mc.as_ref().map_or("", |(g, _)| g.info.name.as_str());
-            let how = describe(rep, gpu_name, pool.current_num_threads(), recon.smoothing.iterations);
-            Ok((rec, how))
-        })?;
-        Ok((m, how, t0.elapsed().as_secs_f64()))
-    };
+    let extract = |p: &Particles| extract_frame(a, &pool, p, (support * r, params), gpu_mc.as_ref());
     let vdb = |rec: &Reconstructed, out: &PathBuf| -> Result<()> {
         pool.install(|| vdb::write_surface(out, rec, vdb_half_width, a.vdb_fog))?;
         Ok(())
@@ -222,35 +184,7 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         let m = &rec.mesh;
         let t_write = std::time::Instant::now();
         let shown = match usd.as_mut() {
-            Some(w) => {
-                let t_vel = std::time::Instant::now();
-                let vel = match &p.velocities {
-                    Some(v) => pool.install(|| rec.at_vertices(v)),
-                    None => {
-                        if !no_velocities {
-                            eprintln!(
-                                "warning: {} has no velocities: the stage's velocities are zero (no motion blur)",
-                                job.label
-                            );
-                            no_velocities = true;
-                        }
-                        vec![[0.0; 3]; m.vertices.len()]
-                    }
-                };
-                let vel_s = t_vel.elapsed().as_secs_f64();
-                pool.install(|| w.add_mesh(number as f64, &m.vertices, &m.normals, &m.triangles, &vel))?;
-                if let Some(walk) = walk.as_mut() {
-                    let ps = walk.advance(number, Some(p))?;
-                    let size = job.settings.diffuse.size * job.settings.radius * 2.0;
-                    let pos: Vec<[f32; 3]> = ps.iter().map(|d| d.position.to_array()).collect();
-                    let vel: Vec<[f32; 3]> = ps.iter().map(|d| d.velocity.to_array()).collect();
-                    let widths = vec![size; ps.len()];
-                    let kinds: Vec<i32> = ps.iter().map(|d| d.kind as i32).collect();
-                    let frame = PointsFrame { positions: &pos, velocities: &vel, widths: &widths, kinds: &kinds };
-                    w.add_points(number as f64, &frame)?;
-                }
-                format!("{} (time {number}; vertex velocities {vel_s:.3} s)", out.display())
-            }
+            Some(w) => write_usd_frame(w, (&rec, p, number), &pool, &job, walk.as_mut(), &mut no_velocities, out)?,
             None if out_kind == FileKind::Vdb => {
                 vdb(&rec, out)?;
                 out.display().to_string()
@@ -303,6 +237,88 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     // The bar is hidden when stderr is not a terminal: say what was done either way.
     eprintln!("{} meshes in {:.1} s; the last: {last}", frames.len(), t0.elapsed().as_secs_f64());
     done()
+}
+
+/// One frame's mesh with its field (`support` in world units, the lattice `params`; on the device with
+/// `gpu_mc`), a line saying where the time went, and the seconds it took.
+fn extract_frame(
+    a: &MeshArgs,
+    pool: &rayon::ThreadPool,
+    p: &Particles,
+    (support, params): (f32, ExtractParams),
+    gpu_mc: Option<&(std::sync::Arc<meniscus::device::Gpu>, meniscus::compute::mc::Mc)>,
+) -> Result<(Reconstructed, String, f64)> {
+    let t0 = std::time::Instant::now();
+    let (m, how) = pool.install(|| -> Result<_> {
+        let recon = meniscus::surface::mesh::Reconstruct {
+            support,
+            extract: params,
+            smoothing: meniscus::field::smooth::SmoothParams {
+                iterations: a.smoothing_iters,
+                weights: !a.no_smoothing_weights,
+                ..Default::default()
+            },
+        };
+        let rec = meniscus::surface::mesh::reconstruct_field(&p.positions, &recon, gpu_mc.map(|(g, mc)| (g, mc)))
+            .with_context(|| {
+                if a.gpu {
+                    format!(
+                        "mesh --gpu at --cube-size {} (radii): try a larger --cube-size, or the CPU path \
+                             (without --gpu)",
+                        a.cube_size
+                    )
+                } else {
+                    format!("mesh at --cube-size {} (radii)", a.cube_size)
+                }
+            })?;
+        let rep = &rec.report;
+        // The one stray-particle policy: particles far from the fluid are left out, and counted.
+        if rep.strays > 0 {
+            eprintln!("{}", scene::stray_warning(rep.strays, "the mesh"));
+        }
+        let gpu_name = gpu_mc.map_or("", |(g, _)| g.info.name.as_str());
+        let how = describe(rep, gpu_name, pool.current_num_threads(), recon.smoothing.iterations);
+        Ok((rec, how))
+    })?;
+    Ok((m, how, t0.elapsed().as_secs_f64()))
+}
+
+/// One frame of a USD stage: the mesh at time `number` with its vertex velocities (zero, said once through
+/// `warned`, when the particles have none), and the diffuse particles the walk gives (`--diffuse`).
+fn write_usd_frame(
+    w: &mut UsdWriter,
+    (rec, p, number): (&Reconstructed, &Particles, u64),
+    pool: &rayon::ThreadPool,
+    job: &Job,
+    walk: Option<&mut crate::diffuse::Walk>,
+    warned: &mut bool,
+    out: &std::path::Path,
+) -> Result<String> {
+    let m = &rec.mesh;
+    let t_vel = std::time::Instant::now();
+    let vel = match &p.velocities {
+        Some(v) => pool.install(|| rec.at_vertices(v)),
+        None => {
+            if !*warned {
+                eprintln!("warning: {} has no velocities: the stage's velocities are zero (no motion blur)", job.label);
+                *warned = true;
+            }
+            vec![[0.0; 3]; m.vertices.len()]
+        }
+    };
+    let vel_s = t_vel.elapsed().as_secs_f64();
+    pool.install(|| w.add_mesh(number as f64, &m.vertices, &m.normals, &m.triangles, &vel))?;
+    if let Some(walk) = walk {
+        let ps = walk.advance(number, Some(p))?;
+        let size = job.settings.diffuse.size * job.settings.radius * 2.0;
+        let pos: Vec<[f32; 3]> = ps.iter().map(|d| d.position.to_array()).collect();
+        let vel: Vec<[f32; 3]> = ps.iter().map(|d| d.velocity.to_array()).collect();
+        let widths = vec![size; ps.len()];
+        let kinds: Vec<i32> = ps.iter().map(|d| d.kind as i32).collect();
+        let frame = PointsFrame { positions: &pos, velocities: &vel, widths: &widths, kinds: &kinds };
+        w.add_points(number as f64, &frame)?;
+    }
+    Ok(format!("{} (time {number}; vertex velocities {vel_s:.3} s)", out.display()))
 }
 
 /// Where one frame's extraction spent its time, as the progress line says it.
