@@ -405,6 +405,45 @@ fn a_movie_on_a_full_disk_keeps_the_good_one() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
+/// `mesh SEQ` writes frame k − 1 on its own thread while frame k is extracted: a write that fails there (a full
+/// disk) still ends the run with the file and the cause said, and leaves no partial file; the control: the same
+/// run without the limit writes every frame.
+#[test]
+fn a_mesh_sequence_on_a_full_disk_says_which_file() {
+    let d = common::tmpdir("hostile", "mesh-disk");
+    for n in 1..=4 {
+        write_bgeo(&d.join(format!("f_{n}.bgeo")), &block(12, &[[0.1 * n as f32, 0.3, 0.1]]));
+    }
+    let seq = d.join("f_{}.bgeo").to_string_lossy().into_owned();
+    let run = |folder: &str, limit: Option<u32>| {
+        let out = d.join(folder).join("m.ply");
+        std::fs::create_dir_all(d.join(folder)).unwrap();
+        let args: Vec<&std::ffi::OsStr> = ["mesh", seq.as_str(), "--radius", "0.01", "--out"]
+            .into_iter()
+            .map(|a| a.as_ref())
+            .chain([out.as_os_str()])
+            .collect();
+        let o = match limit {
+            Some(kib) => meniscus_with_file_limit(kib, &args),
+            None => meniscus().args(&args).output().unwrap(),
+        };
+        let names: Vec<String> = std::fs::read_dir(d.join(folder))
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        (o, names)
+    };
+    let (o, names) = run("ok", None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(names.len(), 4, "{names:?}");
+    let (o, names) = run("full", Some(16));
+    fails_with(&o, &["m_0001.ply"]);
+    let e = stderr(&o);
+    assert!(e.contains("File too large") || e.contains("No space"), "the cause is not said: {e}");
+    assert!(!names.iter().any(|n| n.contains(".partial")), "partial files left: {names:?}");
+}
+
 #[test]
 fn resume_renders_damaged_frames_again() {
     let d = common::tmpdir("hostile", "resume");

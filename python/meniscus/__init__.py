@@ -22,7 +22,7 @@ import numpy as np
 
 from . import _meniscus
 
-__all__ = ["Renderer", "Simulation", "Diffuse", "Foam", "reconstruct_surface", "load", "device_info", "sim_scenes",
+__all__ = ["Renderer", "Simulation", "Diffuse", "Foam", "Reconstructor", "reconstruct_surface", "load", "device_info", "sim_scenes",
            "UsdStage", "write_vdb", "sequence", "mesh_edges", "__version__"]
 __version__ = _meniscus.__version__
 
@@ -291,6 +291,50 @@ def _support(support: Optional[float], smoothing_length: Optional[float]) -> flo
     return 2.0 * float(smoothing_length)
 
 
+class Reconstructor:
+    """The SPH iso-surface of particles as a triangle mesh, for a simulator that meshes every frame: the
+    parameters fixed once (as `reconstruct_surface`'s), and with `gpu` the device, its pipelines and its buffers
+    kept between calls — a call pays for the extraction and its transfers, not for their set-up. Positions are read
+    in place when they are a C-contiguous float32 N×3 array (else converted once).
+
+        rec = meniscus.Reconstructor(particle_radius=0.025, gpu=True)
+        for step in range(steps):
+            sim.step()
+            vertices, triangles, normals = rec.reconstruct(sim.positions)
+    """
+
+    def __init__(self, *, particle_radius: float, support: Optional[float] = None, cube_size: float = 0.5,
+                 iso_surface_threshold: float = 0.6, mesh_smoothing_iters: int = 0, gpu: bool = True,
+                 device: Optional[str] = None, smoothing_length: Optional[float] = None) -> None:
+        support = _support(support, smoothing_length)
+        if not (support > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
+            raise ValueError("support must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
+        if int(mesh_smoothing_iters) < 0 or int(mesh_smoothing_iters) > 1000:
+            raise ValueError("mesh_smoothing_iters must be in [0, 1000]")
+        self._r = _meniscus.Reconstructor(_radius(particle_radius), support, float(cube_size),
+                                          float(iso_surface_threshold), int(mesh_smoothing_iters), bool(gpu), device)
+
+    def reconstruct(self, particles: ArrayLike, velocities: Optional[ArrayLike] = None) -> Tuple[np.ndarray, ...]:
+        """(vertices N×3 float32, triangles M×3 uint32, normals N×3 float32), and with `velocities` (one row per
+        particle) a fourth array: the velocity at each vertex (SPH-interpolated: motion blur)."""
+        pts = _points(particles, "particles")
+        vel = None if velocities is None else _points(velocities, "velocities")
+        if vel is not None and len(vel) != len(pts):
+            raise ValueError(f"velocities: {len(vel)} rows for {len(pts)} particles")
+        v, t, n, mv = self._r.reconstruct(pts, vel)
+        return (v, t, n) if vel is None else (v, t, n, mv)
+
+    @property
+    def device(self) -> Optional[str]:
+        """The device it extracts on; None on the CPU."""
+        return self._r.device_name()
+
+    @property
+    def kept_bytes(self) -> int:
+        """Device memory kept between calls (the case table and the grown scratch buffers), bytes."""
+        return int(self._r.kept_bytes())
+
+
 def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, support: Optional[float] = None,
                         cube_size: float = 0.5, iso_surface_threshold: float = 0.6, mesh_smoothing_iters: int = 0,
                         gpu: bool = True, device: Optional[str] = None, velocities: Optional[ArrayLike] = None,
@@ -301,20 +345,11 @@ def reconstruct_surface(particles: ArrayLike, *, particle_radius: float, support
     `meniscus mesh` writes (`--gpu` when `gpu`); with `velocities` (one row per particle) a fourth array, the
     velocity at each vertex (SPH-interpolated, as `meniscus mesh --out X.usda` writes it: motion blur). Without a
     real GPU pass `gpu=False`: on lavapipe the GPU path runs emulated on the CPU, about 40× slower than the CPU
-    extraction (benches/results/llvmpipe-python-binding.md)."""
-    pts = _points(particles, "particles")
-    vel = None if velocities is None else _points(velocities, "velocities")
-    if vel is not None and len(vel) != len(pts):
-        raise ValueError(f"velocities: {len(vel)} rows for {len(pts)} particles")
-    support = _support(support, smoothing_length)
-    if not (support > 0 and cube_size > 0.05 and 0 < iso_surface_threshold < 1):
-        raise ValueError("support must be > 0, cube_size > 0.05, iso_surface_threshold in (0, 1)")
-    if int(mesh_smoothing_iters) < 0 or int(mesh_smoothing_iters) > 1000:
-        raise ValueError("mesh_smoothing_iters must be in [0, 1000]")
-    v, t, n, mv = _meniscus.reconstruct(pts, _radius(particle_radius), support,
-                                        float(cube_size), float(iso_surface_threshold), int(mesh_smoothing_iters),
-                                        bool(gpu), device, vel)
-    return (v, t, n) if vel is None else (v, t, n, mv)
+    extraction (benches/results/llvmpipe-python-binding.md). One call; a simulator meshing every frame keeps a
+    `Reconstructor` instead (its device set-up is paid once)."""
+    return Reconstructor(particle_radius=particle_radius, support=support, cube_size=cube_size,
+                         iso_surface_threshold=iso_surface_threshold, mesh_smoothing_iters=mesh_smoothing_iters,
+                         gpu=gpu, device=device, smoothing_length=smoothing_length).reconstruct(particles, velocities)
 
 
 def mesh_edges(triangles: ArrayLike) -> Tuple[np.ndarray, np.ndarray]:

@@ -1,6 +1,6 @@
 //! `meniscus._meniscus`: the native half of the Python package — thin wrappers of the library (no logic of the
 //! CLI repeated): the renderer (`Renderer`), the simulation (`Simulation`), spray, foam and bubbles (`Diffuse`:
-//! `meniscus::diffuse::generator::Live`), surface reconstruction (`reconstruct`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
+//! `meniscus::diffuse::generator::Live`), surface reconstruction (`Reconstructor`) and the loaders (`load`). Arrays arrive validated and C-contiguous from `meniscus/__init__.py`
 //! and are read in place; the GIL is released while the GPU or the CPU extraction works; library errors become
 //! `ValueError` (bad input), `OSError` (files) or `RuntimeError` (the device).
 
@@ -512,59 +512,97 @@ type MeshArrays<'py> = (
     Option<Bound<'py, PyArray2<f32>>>,
 );
 
-/// The iso surface of particles as a mesh — `meniscus mesh`'s (surface::mesh::reconstruct_field) — and, given
-/// per-particle velocities, their SPH interpolation at the vertices (USD's `velocities`).
-#[pyfunction]
-#[pyo3(signature = (positions, radius, support, cube, threshold, smoothing_iters, gpu, device=None, velocities=None))]
-#[allow(clippy::too_many_arguments)]
-fn reconstruct<'py>(
-    py: Python<'py>,
-    positions: PyReadonlyArray2<f32>,
-    radius: f32,
-    support: f32,
-    cube: f32,
-    threshold: f32,
-    smoothing_iters: u32,
-    gpu: bool,
-    device: Option<String>,
-    velocities: Option<PyReadonlyArray2<f32>>,
-) -> PyResult<MeshArrays<'py>> {
-    use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
-    use meniscus::surface::mesh::Reconstruct;
-    let pts = points(&positions)?;
-    let vel = velocities.as_ref().map(points).transpose()?;
-    if vel.as_ref().is_some_and(|v| v.len() != pts.len()) {
-        return Err(PyValueError::new_err("velocities: expected one row per particle"));
+/// A surface reconstructor for simulators: the iso surface of particles as a mesh — `meniscus mesh`'s
+/// (surface::mesh::reconstruct_field) — with its parameters fixed, and on the GPU its device, pipelines and
+/// buffers kept between calls (`compute::mc::Mc` keeps the case table and grows its scratch buffers), so a call
+/// pays for the extraction and its transfers, not for their set-up. Positions are read from the numpy array in
+/// place (C-contiguous float32, as `meniscus/__init__.py` hands them over), without a copy.
+#[pyclass(unsendable, module = "meniscus._meniscus")]
+struct Reconstructor {
+    recon: meniscus::surface::mesh::Reconstruct,
+    dev: Option<(Arc<Gpu>, meniscus::compute::mc::Mc)>,
+}
+
+#[pymethods]
+impl Reconstructor {
+    #[new]
+    #[pyo3(signature = (radius, support, cube, threshold, smoothing_iters, gpu, device=None))]
+    fn new(
+        radius: f32,
+        support: f32,
+        cube: f32,
+        threshold: f32,
+        smoothing_iters: u32,
+        gpu: bool,
+        device: Option<String>,
+    ) -> PyResult<Self> {
+        use meniscus::field::{extract::ExtractParams, smooth::SmoothParams};
+        let recon = meniscus::surface::mesh::Reconstruct {
+            support: support * radius,
+            extract: ExtractParams::new(cube * radius, threshold),
+            smoothing: SmoothParams { iterations: smoothing_iters, ..Default::default() },
+        };
+        let dev = if gpu {
+            let g = crate::device(device)?;
+            let mc = meniscus::compute::mc::Mc::new(&g).map_err(py_err)?;
+            Some((g, mc))
+        } else {
+            None
+        };
+        Ok(Reconstructor { recon, dev })
     }
-    let r = Reconstruct {
-        support: support * radius,
-        extract: ExtractParams::new(cube * radius, threshold),
-        smoothing: SmoothParams { iterations: smoothing_iters, ..Default::default() },
-    };
-    let dev = if gpu {
-        let g = crate::device(device)?;
-        let mc = meniscus::compute::mc::Mc::new(&g).map_err(py_err)?;
-        Some((g, mc))
-    } else {
-        None
-    };
-    let work = OnThisThread((&pts, &r, dev.as_ref(), vel.as_deref()));
-    let (m, mv) = py
-        .allow_threads(move || {
-            let (pts, r, dev, vel) = work.into_inner();
-            let rec = meniscus::surface::mesh::reconstruct_field(pts, r, dev.map(|(g, mc)| (g, mc)))?;
-            let mv = vel.map(|v| rec.at_vertices(v));
-            Ok::<_, meniscus::Error>((rec.mesh, mv))
-        })
-        .map_err(py_err)?;
-    let tris: Vec<u32> = m.triangles.iter().flatten().copied().collect();
-    let nt = m.triangles.len();
-    Ok((
-        vec3_array(py, m.vertices)?,
-        tris.into_pyarray(py).reshape([nt, 3])?,
-        vec3_array(py, m.normals)?,
-        mv.map(|v| vec3_array(py, v)).transpose()?,
-    ))
+
+    /// The mesh of `positions` (N×3): vertices, triangles, normals, and with `velocities` (N×3) their SPH
+    /// interpolation at the vertices.
+    #[pyo3(signature = (positions, velocities=None))]
+    fn reconstruct<'py>(
+        &self,
+        py: Python<'py>,
+        positions: PyReadonlyArray2<'py, f32>,
+        velocities: Option<PyReadonlyArray2<'py, f32>>,
+    ) -> PyResult<MeshArrays<'py>> {
+        let pts = rows(&positions)?;
+        let vel = velocities.as_ref().map(rows).transpose()?;
+        if vel.is_some_and(|v| v.len() != pts.len()) {
+            return Err(PyValueError::new_err("velocities: expected one row per particle"));
+        }
+        let work = OnThisThread((pts, &self.recon, self.dev.as_ref(), vel));
+        let (m, mv) = py
+            .allow_threads(move || {
+                let (pts, r, dev, vel) = work.into_inner();
+                let rec = meniscus::surface::mesh::reconstruct_field(pts, r, dev.map(|(g, mc)| (g, mc)))?;
+                let mv = vel.map(|v| rec.at_vertices(v));
+                Ok::<_, meniscus::Error>((rec.mesh, mv))
+            })
+            .map_err(py_err)?;
+        let tris: Vec<u32> = m.triangles.iter().flatten().copied().collect();
+        let nt = m.triangles.len();
+        Ok((
+            vec3_array(py, m.vertices)?,
+            tris.into_pyarray(py).reshape([nt, 3])?,
+            vec3_array(py, m.normals)?,
+            mv.map(|v| vec3_array(py, v)).transpose()?,
+        ))
+    }
+
+    /// The device it extracts on (None: the CPU).
+    fn device_name(&self) -> Option<String> {
+        self.dev.as_ref().map(|(g, _)| g.info.name.clone())
+    }
+
+    /// Bytes of device memory it keeps between calls.
+    fn kept_bytes(&self) -> u64 {
+        self.dev.as_ref().map_or(0, |(_, mc)| mc.kept_bytes())
+    }
+}
+
+/// An N×3 float32 array's rows in place (no copy): C-contiguous, as `meniscus/__init__.py` makes them.
+fn rows<'a>(a: &'a PyReadonlyArray2<'_, f32>) -> PyResult<&'a [[f32; 3]]> {
+    let s = a.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous N×3 float32 array"))?;
+    if s.len() % 3 != 0 {
+        return Err(PyValueError::new_err("expected an N×3 array"));
+    }
+    Ok(bytemuck::cast_slice(s))
 }
 
 /// Edge vertex pairs (E×2) and each corner's edge (3M).
@@ -853,7 +891,7 @@ fn _meniscus(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Renderer>()?;
     m.add_class::<Diffuse>()?;
     m.add_class::<Simulation>()?;
-    m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
+    m.add_class::<Reconstructor>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
     m.add_function(wrap_pyfunction!(write_vdb, m)?)?;

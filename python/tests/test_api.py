@@ -104,12 +104,40 @@ def read_ply(path):
 @pytest.mark.parametrize("gpu", [False, True])
 def test_reconstruct_surface_equals_meniscus_mesh(cli, frame, tmp_path, gpu):
     ply = tmp_path / "m.ply"
-    run(cli, "mesh", frame, "--radius", "0.025", "--out", ply, *(["--gpu"] if gpu else []))
+    # On the GPU, 1 r cubes (lavapipe emulates the GPU path; the equality does not depend on the cube size).
+    cube = 1.0 if gpu else 0.5
+    run(cli, "mesh", frame, "--radius", "0.025", "--cube-size", cube, "--out", ply, *(["--gpu"] if gpu else []))
     want_v, want_t, want_n = read_ply(ply)
     pos = meniscus.load(frame)["positions"]
-    v, t, n = meniscus.reconstruct_surface(pos, particle_radius=0.025, gpu=gpu)
+    v, t, n = meniscus.reconstruct_surface(pos, particle_radius=0.025, cube_size=cube, gpu=gpu)
     assert v.dtype == np.float32 and t.dtype == np.uint32 and len(t) > 1000
     assert np.array_equal(t, want_t) and np.array_equal(v, want_v) and np.array_equal(n, want_n)
+
+
+@pytest.mark.parametrize("gpu", [False, True])
+def test_a_reconstructor_keeps_its_device_and_gives_the_same_meshes(frame, gpu):
+    """A Reconstructor's meshes are reconstruct_surface's, call after call: a smaller set between two calls of a
+    larger one leaves nothing stale in the buffers it keeps (the GPU path's grow, never shrink), and a second
+    call of the same size allocates nothing new."""
+    pos = meniscus.load(frame)["positions"]
+    small = np.ascontiguousarray(pos[pos[:, 1] < np.median(pos[:, 1])])
+    # 1 r cubes: the GPU path is emulated on lavapipe, and the buffers' reuse does not depend on the cube size.
+    rec = meniscus.Reconstructor(particle_radius=0.025, cube_size=1.0, gpu=gpu)
+    assert (rec.device is None) == (not gpu)
+    same = lambda a, b: len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
+    first = rec.reconstruct(pos)
+    once = lambda p: meniscus.reconstruct_surface(p, particle_radius=0.025, cube_size=1.0, gpu=gpu)
+    assert len(first[1]) > 1000 and same(first, once(pos))
+    few = rec.reconstruct(small)
+    assert 0 < len(few[1]) < len(first[1])
+    assert same(few, once(small))
+    kept = rec.kept_bytes
+    assert same(rec.reconstruct(pos), first)
+    assert rec.kept_bytes == kept and (kept > 0) == gpu, (kept, rec.kept_bytes)
+    # The comparison sees a different mesh (its control): the small set's is not the large one's.
+    assert not same(few, first)
+    with pytest.raises(ValueError, match="velocities"):
+        rec.reconstruct(pos, velocities=pos[:10])
 
 
 def test_simulation_equals_meniscus_sim_and_renders_from_the_gpu(cli, tmp_path):

@@ -104,12 +104,61 @@ impl McStats {
     }
 }
 
-/// The pass's programs.
+/// The pass's programs, and the device buffers it keeps between extractions (a sequence's frames, a simulator's
+/// calls): the case table, uploaded once, and the scratch buffers, grown when a frame needs more.
 pub struct Mc {
     field: ComputeProgram<McPush>,
     count: ComputeProgram<McPush>,
     scan: ComputeProgram<ScanPush>,
     emit: ComputeProgram<McPush>,
+    kept: std::sync::Mutex<Kept>,
+}
+
+/// What [`Mc`] keeps between extractions.
+#[derive(Default)]
+struct Kept {
+    /// The case table (`table_words`), uploaded on the first extraction.
+    table: Option<Buffer>,
+    /// Scratch buffers by name, each at least as large as the largest extraction so far needed.
+    scratch: Vec<(&'static str, Buffer)>,
+}
+
+impl Kept {
+    /// The scratch buffer `name` of at least `bytes`: the kept one when it is large enough, else a new one with a
+    /// quarter to spare (the next frames of a sequence grow a little).
+    fn take(&mut self, gpu: &Arc<Gpu>, name: &'static str, bytes: u64) -> Result<Buffer> {
+        if let Some(k) = self.scratch.iter().position(|(n, b)| *n == name && b.size >= bytes.max(16)) {
+            return Ok(self.scratch.swap_remove(k).1);
+        }
+        self.scratch.retain(|(n, _)| *n != name);
+        device_buffer(gpu, name, bytes.saturating_add(bytes / 4))
+    }
+
+    /// Keep `bufs` for the next extraction.
+    fn keep(&mut self, bufs: impl IntoIterator<Item = Buffer>, names: &[&'static str]) {
+        self.scratch.extend(names.iter().copied().zip(bufs));
+    }
+
+    /// Bytes of device memory kept.
+    fn bytes(&self) -> u64 {
+        self.scratch.iter().map(|(_, b)| b.size).sum::<u64>() + self.table.as_ref().map_or(0, |t| t.size)
+    }
+}
+
+/// The lower corners (one cube of margin below) of the blocks with keys `keys` in a lattice of `nb` blocks per
+/// axis of `b` cubes each.
+fn block_corners(keys: &[i64], nb: IVec3, b: i32) -> Vec<[i32; 4]> {
+    keys.par_iter()
+        .map(|&k| {
+            let bi = IVec3::new(
+                (k / nb.z as i64 / nb.y as i64) as i32,
+                (k / nb.z as i64 % nb.y as i64) as i32,
+                (k % nb.z as i64) as i32,
+            );
+            let c0 = bi * b - 1;
+            [c0.x, c0.y, c0.z, 0]
+        })
+        .collect()
 }
 
 fn groups_2d(n: u32) -> [u32; 3] {
@@ -131,7 +180,13 @@ impl Mc {
             count: ComputeProgram::new(gpu, &COUNT)?,
             scan: ComputeProgram::new(gpu, &SCAN)?,
             emit: ComputeProgram::new(gpu, &EMIT)?,
+            kept: Default::default(),
         })
+    }
+
+    /// Bytes of device memory it keeps between extractions (the case table and the scratch buffers).
+    pub fn kept_bytes(&self) -> u64 {
+        self.kept.lock().map_or(0, |k| k.bytes())
     }
 
     /// Extract the iso-surface of `grid`'s field (weights `inv_n`, see [`IsoGrid::inv_density`]) on the GPU:
@@ -177,18 +232,7 @@ impl Mc {
         let (keys, nb) = occupied_blocks(grid, &lat, b);
         stats.blocks = keys.len();
         // Block lower corners (with the margin), in key order = (x, y, z) order: mc_emit searches them.
-        let c0s: Vec<[i32; 4]> = keys
-            .par_iter()
-            .map(|&k| {
-                let bi = IVec3::new(
-                    (k / nb.z as i64 / nb.y as i64) as i32,
-                    (k / nb.z as i64 % nb.y as i64) as i32,
-                    (k % nb.z as i64) as i32,
-                );
-                let c0 = bi * b - 1;
-                [c0.x, c0.y, c0.z, 0]
-            })
-            .collect();
+        let c0s = block_corners(&keys, nb, b);
         let g = &grid.grid;
         let weights: Vec<f32> = if p.metaball { vec![1.0; g.points.len()] } else { inv_n.to_vec() };
         stats.host_setup_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -198,16 +242,21 @@ impl Mc {
         let cells = up("mc_cells", bytemuck::cast_slice(&g.cells))?;
         let wts = up("mc_weights", bytemuck::cast_slice(&weights))?;
         let blocks = up("mc_blocks", bytemuck::cast_slice(&c0s))?;
-        let table = up("mc_table", bytemuck::cast_slice(&table_words()))?;
+        let mut kept = self.kept.lock().map_err(|_| Error::Invalid("mc: a previous extraction panicked".into()))?;
+        if kept.table.is_none() {
+            kept.table = Some(up("mc_table", bytemuck::cast_slice(&table_words()))?);
+        }
         let nblocks = keys.len() as u32;
         let ncubes = nblocks * MC_BLOCK * MC_BLOCK * MC_BLOCK;
         let nc = (MC_BLOCK + 3).pow(3) as u64;
-        let field = device_buffer(gpu, "mc_field", 4 * nc * nblocks as u64)?;
-        let counts = device_buffer(gpu, "mc_counts", 4 * ncubes as u64)?;
-        let start = device_buffer(gpu, "mc_start", 4 * ncubes as u64)?;
-        let vcounts = device_buffer(gpu, "mc_vcounts", 4 * ncubes as u64)?;
-        let vstart = device_buffer(gpu, "mc_vstart", 4 * ncubes as u64)?;
-        let sums = device_buffer(gpu, "mc_sums", 4 * ncubes.div_ceil(SCAN_BLOCK) as u64)?;
+        let per_cube = 4 * ncubes as u64;
+        let field = kept.take(gpu, "mc_field", 4 * nc * nblocks as u64)?;
+        let counts = kept.take(gpu, "mc_counts", per_cube)?;
+        let start = kept.take(gpu, "mc_start", per_cube)?;
+        let vcounts = kept.take(gpu, "mc_vcounts", per_cube)?;
+        let vstart = kept.take(gpu, "mc_vstart", per_cube)?;
+        let sums = kept.take(gpu, "mc_sums", 4 * ncubes.div_ceil(SCAN_BLOCK) as u64)?;
+        let table = kept.table.take().expect("uploaded");
         let push = McPush {
             lat: [lat.lo.x, lat.lo.y, lat.lo.z, lat.h],
             grid: [g.origin.x, g.origin.y, g.origin.z, g.cell],
@@ -247,15 +296,18 @@ impl Mc {
         let word = |i: usize| -> Result<u32> { Ok(host_vec::<u32>(&tails[i], 1)?[0]) };
         let (total, vtotal) = (word(0)? + word(1)?, word(2)? + word(3)?);
         stats.host_copy_ms = t_copy.elapsed().as_secs_f64() * 1e3;
+        const SCRATCH: [&str; 6] = ["mc_field", "mc_counts", "mc_start", "mc_vcounts", "mc_vstart", "mc_sums"];
         if total == 0 {
             // No cube crosses the threshold: nothing to emit (and no zero-sized copies to make).
             stats.gpu = PassTimes(times);
+            kept.table = Some(table);
+            kept.keep([field, counts, start, vcounts, vstart, sums], &SCRATCH);
             return Ok((TriMesh::default(), vec![], stats));
         }
-        let pos = device_buffer(gpu, "mc_pos", 12 * vtotal as u64)?;
-        let nrm = device_buffer(gpu, "mc_nrm", 12 * vtotal as u64)?;
-        let tri = device_buffer(gpu, "mc_tri", 12 * total as u64)?;
-        let edge = device_buffer(gpu, "mc_edge", 16 * vtotal as u64)?;
+        let pos = kept.take(gpu, "mc_pos", 12 * vtotal as u64)?;
+        let nrm = kept.take(gpu, "mc_nrm", 12 * vtotal as u64)?;
+        let tri = kept.take(gpu, "mc_tri", 12 * total as u64)?;
+        let edge = kept.take(gpu, "mc_edge", 16 * vtotal as u64)?;
         let mut timer = Timer::new(gpu)?;
         gpu.one_shot(|cmd| {
             let mut ctx = FrameCtx::new(gpu, cmd, Some(&mut timer));
@@ -284,6 +336,10 @@ impl Mc {
             ranges.push((&edge, 0, 16 * vtotal as u64));
         }
         let host = read_back(gpu, &ranges)?;
+        kept.table = Some(table);
+        kept.keep([field, counts, start, vcounts, vstart, sums], &SCRATCH);
+        kept.keep([pos, nrm, tri, edge], &["mc_pos", "mc_nrm", "mc_tri", "mc_edge"]);
+        drop(kept);
         let (nv, nt) = (vtotal as usize, total as usize);
         let vertices: Vec<[f32; 3]> = host_vec(&host[0], nv)?;
         let normals: Vec<[f32; 3]> = host_vec(&host[1], nv)?;

@@ -179,35 +179,38 @@ pub fn run(a: &MeshArgs) -> Result<()> {
     let mut walk = if a.diffuse { Some(crate::diffuse::Walk::new(&job)?) } else { None };
     let mut no_velocities = false;
     let per_frame_files = usd.is_none();
-    let mut one = |p: &Particles, number: u64, out: &PathBuf| -> Result<String> {
-        let (rec, how, secs) = extract(p)?;
-        let m = &rec.mesh;
-        let t_write = std::time::Instant::now();
-        let shown = match usd.as_mut() {
-            Some(w) => write_usd_frame(w, (&rec, p, number), &pool, &job, walk.as_mut(), &mut no_velocities, out)?,
+    // Write one frame's mesh (a stage's time sample, a VDB or a mesh file); returns where it went.
+    let mut write = |rec: &Reconstructed, p: &Particles, number: u64, out: &PathBuf| -> Result<String> {
+        match usd.as_mut() {
+            Some(w) => write_usd_frame(w, (rec, p, number), &pool, &job, walk.as_mut(), &mut no_velocities, out),
             None if out_kind == FileKind::Vdb => {
-                vdb(&rec, out)?;
-                out.display().to_string()
+                vdb(rec, out)?;
+                Ok(out.display().to_string())
             }
             None => {
-                meniscus::output::write_mesh(out, m.data())?;
-                out.display().to_string()
+                meniscus::output::write_mesh(out, rec.mesh.data())?;
+                Ok(out.display().to_string())
             }
-        };
-        Ok(format!(
-            "{} particles → {} vertices, {} triangles in {secs:.2} s {how}, written in {:.3} s → {}",
+        }
+    };
+    // One frame's line: what went in and out, where the time went.
+    let line = |p: &Particles, (rec, how, secs): &(Reconstructed, String, f64), write_s: f64, shown: &str| {
+        let m = &rec.mesh;
+        format!(
+            "{} particles → {} vertices, {} triangles in {secs:.2} s {how}, written in {write_s:.3} s → {shown}",
             p.len(),
             m.vertices.len(),
             m.triangles.len(),
-            t_write.elapsed().as_secs_f64(),
-            shown
-        ))
+        )
     };
     // Validation messages (--validation) fail the run at its end.
     let done = || gpu_mc.as_ref().map_or(Ok(()), |(gpu, _)| crate::args::finish(gpu));
     let Some(frames) = job.frames.clone() else {
         // One file: one time sample, at 0.
-        eprintln!("{}", one(&job.first, 0, &out).with_context(|| job.label.clone())?);
+        let done_frame = extract(&job.first).with_context(|| job.label.clone())?;
+        let t_write = std::time::Instant::now();
+        let shown = write(&done_frame.0, &job.first, 0, &out).with_context(|| job.label.clone())?;
+        eprintln!("{}", line(&job.first, &done_frame, t_write.elapsed().as_secs_f64(), &shown));
         if let Some(w) = usd {
             w.finish()?;
         }
@@ -220,14 +223,36 @@ pub fn run(a: &MeshArgs) -> Result<()> {
         }
     }
     let bar = crate::args::progress(frames.len() as u64, "meshes");
-    let (t0, mut last) = (std::time::Instant::now(), String::new());
-    for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
-        let (p, ()): (scene::Particles, ()) = loaded?;
-        let path = if out_kind == FileKind::Usd { out.clone() } else { names.path(frame.number) };
-        last = one(&p, frame.number, &path).with_context(|| frame.path.display().to_string())?;
-        bar.set_message(last.clone());
-        bar.inc(1);
-    }
+    // A pipeline of three: the prefetch thread loads frame k + 1 while this one extracts frame k (on the CPU's
+    // threads or the device) and the writer writes frame k − 1.
+    let t0 = std::time::Instant::now();
+    let last = std::thread::scope(|sc| -> Result<String> {
+        type Done = (Particles, (Reconstructed, String, f64), u64, PathBuf, PathBuf);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Done>(1);
+        let bar = &bar;
+        let writer = sc.spawn(move || -> Result<String> {
+            let mut last = String::new();
+            for (p, done, number, path, source) in rx {
+                let t_write = std::time::Instant::now();
+                let shown = write(&done.0, &p, number, &path).with_context(|| source.display().to_string())?;
+                last = line(&p, &done, t_write.elapsed().as_secs_f64(), &shown);
+                bar.set_message(last.clone());
+                bar.inc(1);
+            }
+            Ok(last)
+        });
+        for (frame, loaded) in Prefetch::start(frames.clone(), job.load.clone(), 2) {
+            let (p, ()): (scene::Particles, ()) = loaded?;
+            let path = if out_kind == FileKind::Usd { out.clone() } else { names.path(frame.number) };
+            let done = extract(&p).with_context(|| frame.path.display().to_string())?;
+            // A writer that stopped has an error to say: it is joined below.
+            if tx.send((p, done, frame.number, path, frame.path.clone())).is_err() {
+                break;
+            }
+        }
+        drop(tx);
+        writer.join().map_err(|_| anyhow::anyhow!("the mesh writer panicked"))?
+    })?;
     bar.finish();
     if let Some(w) = usd {
         let t = std::time::Instant::now();
