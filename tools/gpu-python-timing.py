@@ -1,6 +1,8 @@
 """The Python package's per-call cost on a device (#46: `Renderer.render` at 1080p ≤ 6 ms per call): renders the
 59k dam-break frame through `meniscus.Renderer` and prints the wall time per call beside the GPU passes' times,
-then the live simulation's step + render and the positions read-back at 1M particles.
+then the live simulation's step + render and the positions read-back at 1M particles, and (#72) the surface
+mesher for simulators: a `Reconstructor` on the device meshing the 59k frame and the 1M-particle simulation's
+positions at 1 r, per call including the read-back, beside one-shot `reconstruct_surface` calls.
 
 Usage: python3 tools/gpu-python-timing.py FRAME.bgeo [--calls N] [--no-sim] [--sizes 1920x1080,960x540]
 (the GPU bundle's `python` step runs it; on lavapipe `--no-sim --sizes 960x540` leaves out the 1M simulation)
@@ -66,6 +68,17 @@ def main():
     print(f"sim 1M step+render (default, 1080p): {ms:.2f} ms per frame; render passes {sum(r.timings().values()):.2f} ms")
     ms = per_call(lambda: sim.positions(), 10)
     print(f"positions() 1M read-back: {ms:.2f} ms")
+    # The mesher for simulators: device, pipelines and buffers kept between calls (target: 1M at 1 r ≤ 20 ms).
+    million = sim.positions()
+    for label, p, radius in (("59k frame", pts, 0.0125), ("1M sim", million, sim.particle_radius)):
+        rec = meniscus.Reconstructor(particle_radius=radius, cube_size=1.0, gpu=True)
+        ms = per_call(lambda: rec.reconstruct(p), 10)
+        v, t, _ = rec.reconstruct(p)
+        once = per_call(lambda: meniscus.reconstruct_surface(p, particle_radius=radius, cube_size=1.0, gpu=True), 3)
+        cpu = per_call(lambda: meniscus.reconstruct_surface(p, particle_radius=radius, cube_size=1.0, gpu=False), 3)
+        print(f"Reconstructor {label} ({len(p)} particles) at 1 r on {rec.device}: {ms:.2f} ms/call with the "
+              f"read-back ({len(v)} vertices, {len(t)} triangles; {rec.kept_bytes >> 20} MiB kept); one-shot "
+              f"reconstruct_surface(gpu=True) {once:.2f} ms, the CPU path {cpu:.2f} ms")
     return 0
 
 
