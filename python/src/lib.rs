@@ -76,9 +76,9 @@ fn settings(preset: &str, file: Option<&str>) -> PyResult<Settings> {
     Ok(s)
 }
 
+/// An N×3 float32 array's rows, copied (where the library keeps them); [`rows`] reads them in place.
 fn points(a: &PyReadonlyArray2<f32>) -> PyResult<Vec<[f32; 3]>> {
-    let s = a.as_slice().map_err(|_| PyValueError::new_err("expected a C-contiguous N×3 float32 array"))?;
-    Ok(s.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+    Ok(rows(a)?.to_vec())
 }
 
 fn camera(c: Option<([f32; 3], [f32; 3], f32)>) -> PyResult<Option<Camera>> {
