@@ -1219,6 +1219,8 @@ fn smoothed_iso_field_matches_cpu() {
     let (w, h) = (128usize, 96usize);
     let r = 0.05f32;
     let mut pts = jittered_slab(12345, [14, 5, 10], [-0.65, -0.3, -0.5], r, [1.0, 1.5, 1.0]);
+    // A block on an exact lattice in front of the disordered slab: its particles deposit the wider blur.
+    pts.extend(jittered_slab(1, [6, 3, 4], [0.2, -0.3, 0.55], r, [0.0; 3]));
     let lone = [0.0, 0.55, 0.0];
     pts.push(lone);
     let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
@@ -1256,7 +1258,24 @@ fn smoothed_iso_field_matches_cpu() {
     }
     assert!((0..=2).all(|e| grid.empty().contains(&e)), "empty distances {:?}", grid.empty());
     let inv = grid.inv_density();
-    let c = grid.neighbour_weights();
+    let c = grid.volume_weights(2.0 * r);
+    // iso_density's (c_j, o_j) against the reference's, as sorted lists (the GPU orders a cell's points its own
+    // way); both kinds of particle are there: the lattice block's (order 1) and the slab's and the droplet's (0).
+    let counts: Vec<[f32; 2]> = bytemuck::pod_collect_to_vec(
+        &meniscus::gpu::transfer::read_buffer(&gpu, &b.counts, 8 * grid.points.len() as u64).unwrap(),
+    );
+    for k in 0..2 {
+        let sorted = |v: &[[f32; 2]]| {
+            let mut x: Vec<f32> = v.iter().map(|w| w[k]).collect();
+            x.sort_by(f32::total_cmp);
+            x
+        };
+        let worst = sorted(&counts).iter().zip(sorted(&c)).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+        assert!(worst < 1e-3, "iso_density's {} differ from the reference's by up to {worst}", ["c_j", "o_j"][k]);
+    }
+    let ordered = c.iter().filter(|w| w[1] > 0.99).count();
+    let liquid = c.iter().filter(|w| w[1] < 0.01).count();
+    assert!(ordered >= 40 && liquid >= 400, "{ordered} particles on a lattice, {liquid} not");
     let p = meniscus::field::iso::IsoParams { near: v.camera.near, ..s.iso_params() };
     let vp = p.volume.expect("smoothing on");
     let weighted: Vec<[f32; 4]> = grid.points.iter().zip(&inv).map(|(q, &i)| [q[0], q[1], q[2], i]).collect();
@@ -1268,7 +1287,7 @@ fn smoothed_iso_field_matches_cpu() {
     // The deposit's own count of its work: the reference's point–voxel pairs (a pair at the kernel's rim may
     // round the other way on another device's arithmetic: within 0.01 %).
     let work = vol.work(&gpu).unwrap();
-    let pairs = shape.deposits(&weighted, &vp);
+    let pairs = shape.deposits(&weighted, &c, &vp);
     eprintln!("iso_volume: {work:?}; the reference's {pairs} point–voxel pairs");
     assert!(pairs > 10_000 && work.deposits.abs_diff(pairs) <= pairs / 10_000, "{work:?} against {pairs} pairs");
     assert_eq!(work.atomics, if gpu.info.int64_atomics { work.deposits } else { 2 * work.deposits });

@@ -31,7 +31,7 @@ layout(set = 0, binding = 8) uniform usamplerBuffer iso_volume_t;  // RG32UI per
 #endif
 #ifdef ISO_WRITES_WEIGHTS
 layout(std430, set = 0, binding = 3) writeonly buffer IsoWeighted { vec4 iso_weighted_out[]; };
-layout(std430, set = 0, binding = 4) writeonly buffer IsoCounts { float iso_counts_out[]; };
+layout(std430, set = 0, binding = 4) writeonly buffer IsoCounts { vec2 iso_counts_out[]; };
 #endif
 
 #ifdef ISO_ANISO_BINDING

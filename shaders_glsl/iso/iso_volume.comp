@@ -15,8 +15,9 @@
 //!     order varies between runs, the values at each voxel do not) and lists its coordinates; the header
 //!     counts them;
 //! (plain) — per point, its mass M_j = I_W h³/n_j (I_W = π/8, the integral of the unnormalised cubic spline)
-//!     spread over the voxels within R by the smooth kernel K(d) = (1 − d²/R²)³ / (0.6383 R³) (C² where it
-//!     ends), and M_j c_j likewise: B(v) = Σ_j M_j K(|v − x_j|) is the blurred colour field sampled at the
+//!     spread over the voxels within R_j by the smooth kernel K(d) = (1 − d²/R_j²)³ / (0.6383 R_j³) (C² where
+//!     it ends), and M_j c_j likewise; R_j is wider where the point's lattice order o_j (iso_density) is high
+//!     (`[iso] lattice_smoothing`: a lattice's terraces are wider than a liquid's bumps): B(v) = Σ_j M_j K(|v − x_j|) is the blurred colour field sampled at the
 //!     voxel, B c̄ its neighbour count interpolated (Shepard). Fixed point (ISO_VOLUME_FIX_BITS), integer
 //!     atomics: the same sums in any order, on any device. ISO_VOLUME_DEPOSIT64 (devices with
 //!     shaderBufferInt64Atomics) adds both sums of a voxel with one 64-bit atomic — the pair is one
@@ -40,7 +41,8 @@ layout(local_size_x = LOCAL_1D) in;
 layout(push_constant) uniform VolPush {
     vec4 origin;  // xyz: voxel (0, 0, 0) (world), w: voxel spacing s
     uvec4 bdims;  // xyz: bricks per axis (the table), w: the pool's capacity (bricks)
-    vec4 params;  // x: the deposit's scale I_W h³ / (0.6383 R³), y: R (voxels), z: ⌈R⌉ (the bricks marked)
+    vec4 params;  // x: the deposit's scale I_W h³ / (0.6383 R³) and y: R (voxels) of the least ordered point,
+                  // z: ⌈R⌉ of the widest (the bricks marked), w: R of the most ordered point (voxels)
     uvec4 misc;   // x: points
 } pc;
 
@@ -135,11 +137,16 @@ void main() {
     if (j >= pc.misc.x) return;
     ivec3 bd = ivec3(pc.bdims.xyz);
     vec3 u = lattice_pos(j, bd);
-    float rv = pc.params.y;  // the deposit kernel's radius R, voxels
+    // The deposit kernel's radius R (voxels): R² blended from the least ordered point's to the most ordered's
+    // by this point's lattice order, its scale by (R0 / R)³ (VolumeParams::deposit_radius, point_radius).
+    vec2 co = texelFetch(counts_t, int(j)).xy;
+    float r0 = pc.params.y, r1 = pc.params.w;
+    float rv = sqrt(r0 * r0 + clamp(co.y, 0.0, 1.0) * (r1 * r1 - r0 * r0));
+    float ratio = r0 / rv;
     ivec3 lo = ivec3(ceil(u - rv)), hi = ivec3(floor(u + rv));
     float inv_r2 = 1.0 / (rv * rv);
-    float m = pc.params.x * texelFetch(points_t, int(j)).w * float(1u << ISO_VOLUME_FIX_BITS);
-    float c = texelFetch(counts_t, int(j)).x;
+    float m = pc.params.x * (ratio * ratio * ratio) * texelFetch(points_t, int(j)).w * float(1u << ISO_VOLUME_FIX_BITS);
+    float c = co.x;
     uint deposits = 0u;
     for (int z = lo.z; z <= hi.z; ++z) {
         for (int y = lo.y; y <= hi.y; ++y) {

@@ -25,38 +25,81 @@ pub struct VolumeParams {
     pub spacing: f32,
     /// The SPH kernel's support h (world units).
     pub support: f32,
+    /// σ of the blur for particles that sit on a lattice (world units; [`lattice_order`] 1), blended with
+    /// `sigma` by their order: a lattice's surface crosses its layers in terraces whose treads are wider than
+    /// `sigma` blurs away. Equal to `sigma`: one blur for every particle.
+    pub lattice_sigma: f32,
+    /// The particles' spacing (world units; 2 r): the scale [`lattice_order`] reads neighbour distances in.
+    pub particle_spacing: f32,
 }
 
 /// ∫ (1 − |x|²)³ dV over the unit ball (4π · 16/315): the deposit kernel's normalisation.
 pub const DEPOSIT_INTEGRAL: f32 = 0.638_304;
 
 impl VolumeParams {
-    /// The deposit kernel's radius R (world units): B stands for G_σ ∗ φ, a sum of kernels each of per-axis
-    /// variance σ² + 0.075 h² (Gaussian ∗ cubic spline, taken as one smooth kernel of that variance); the
-    /// kernel (1 − d²/R²)³ has variance R²/11 and the quadratic B-spline read adds s²/4, so R² = 11 (σ² +
-    /// 0.075 h² − s²/4). At least one voxel (the field is then that much smoother than asked).
-    pub fn deposit_radius(&self) -> f32 {
-        let s = self.spacing;
-        let v = self.sigma * self.sigma + KERNEL_VARIANCE * self.support * self.support - 0.25 * s * s;
+    /// The deposit kernel's radius R (world units) of a particle of lattice order `order` ([`lattice_order`]):
+    /// B stands for G_σ ∗ φ, a sum of kernels each of per-axis variance σ² + 0.075 h² (Gaussian ∗ cubic spline,
+    /// taken as one smooth kernel of that variance); the kernel (1 − d²/R²)³ has variance R²/11 and the
+    /// quadratic B-spline read adds s²/4, so R² = 11 (σ² + 0.075 h² − s²/4), with σ² blended from `sigma`² to
+    /// `lattice_sigma`² by the order. At least one voxel (the field is then that much smoother than asked).
+    pub fn deposit_radius(&self, order: f32) -> f32 {
+        let (s, o) = (self.spacing, order.clamp(0.0, 1.0));
+        let sigma2 = self.sigma * self.sigma + o * (self.lattice_sigma * self.lattice_sigma - self.sigma * self.sigma);
+        let v = sigma2 + KERNEL_VARIANCE * self.support * self.support - 0.25 * s * s;
         (11.0 * v).max(0.0).sqrt().max(s)
     }
 
-    /// Voxels a particle's deposit reaches either side of it: ⌈R / s⌉.
+    /// The deposit radius of the least and of the most ordered particle: R(0), R(1) (world units).
+    pub fn deposit_radii(&self) -> [f32; 2] {
+        [self.deposit_radius(0.0), self.deposit_radius(1.0)]
+    }
+
+    /// Voxels a particle's deposit reaches either side of it, the widest of the two: ⌈max R / s⌉.
     pub fn reach(&self) -> u32 {
-        (self.deposit_radius() / self.spacing).ceil() as u32
+        let [r0, r1] = self.deposit_radii();
+        (r0.max(r1) / self.spacing).ceil() as u32
     }
 
     /// A bound of |∇B| (1 / world units): water of density ρ ≤ 1.5 (the colour field's units; 1 at rest) under
-    /// the kernel, whose 1D marginal peaks at 2π / (8 · 0.6383 R) = 1.23 / R, the B-spline read only lowering
-    /// it. The cast skips (threshold − B) / this where the water is bulk.
+    /// the narrowest kernel, whose 1D marginal peaks at 2π / (8 · 0.6383 R) = 1.23 / R, the B-spline read only
+    /// lowering it. The cast skips (threshold − B) / this where the water is bulk.
     pub fn gradient_bound(&self) -> f32 {
-        1.5 * 1.2304 / self.deposit_radius()
+        let [r0, r1] = self.deposit_radii();
+        1.5 * 1.2304 / r0.min(r1)
     }
 
-    /// The deposit's scale: a particle's mass I_W h³ (÷ n_j) times the kernel's normalisation 1 / (0.6383 R³).
-    pub fn deposit_scale(&self) -> f32 {
-        KERNEL_INTEGRAL * self.support.powi(3) / (DEPOSIT_INTEGRAL * self.deposit_radius().powi(3))
+    /// The deposit's scale for a kernel of radius `r` (world units): a particle's mass I_W h³ (÷ n_j) times
+    /// the kernel's normalisation 1 / (0.6383 R³).
+    pub fn deposit_scale(&self, r: f32) -> f32 {
+        KERNEL_INTEGRAL * self.support.powi(3) / (DEPOSIT_INTEGRAL * r.powi(3))
     }
+}
+
+use crate::shader_constants::{
+    LATTICE_FEW, LATTICE_GAP_AT, LATTICE_GAP_HALF, LATTICE_MANY, LATTICE_NEAR_FROM, LATTICE_NEAR_TO,
+    LATTICE_SHARE_FROM, LATTICE_SHARE_TO,
+};
+
+/// GLSL's smoothstep.
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// One neighbour at distance `t` spacings: (its weight in the gap, its weight among the near ones).
+#[inline]
+pub fn lattice_terms(t: f32) -> (f32, f32) {
+    let gap = (1.0 - (t - LATTICE_GAP_AT).abs() / LATTICE_GAP_HALF).max(0.0);
+    (gap, 1.0 - smoothstep(LATTICE_NEAR_FROM, LATTICE_NEAR_TO, t))
+}
+
+/// A particle's lattice order from the sums of [`lattice_terms`] pooled over its neighbourhood and its own near
+/// count: 1 where none of the near neighbours sits between a lattice's first two shells, 0 where a liquid's
+/// share does or where the particle has few near neighbours (spray).
+#[inline]
+pub fn lattice_order(gap: f32, near: f32, own_near: f32) -> f32 {
+    (1.0 - smoothstep(LATTICE_SHARE_FROM, LATTICE_SHARE_TO, gap / near.max(1.0)))
+        * smoothstep(LATTICE_FEW, LATTICE_MANY, own_near)
 }
 
 /// Voxels per edge of a brick of the smoothed field's sparse lattice.
@@ -263,35 +306,44 @@ impl VolumeShape {
         Some((depth_in.min_element() + self.empty_reach()) * self.spacing)
     }
 
-    /// The `iso_volume` deposit, densely: per point j (xyz, 1/n_j) and voxel v within R, w = K (1 − d²/R²)³
-    /// / n_j and w c_j, each rounded to ISO_VOLUME_FIX_BITS fixed-point bits (as the shader's integer atomics).
-    /// Voxels outside the box are dropped.
-    pub fn deposit(&self, points: &[[f32; 4]], c: &[f32], p: &VolumeParams) -> Vec<[u32; 2]> {
+    /// The `iso_volume` deposit, densely: per point j (xyz, 1/n_j; its neighbour count c_j and lattice order
+    /// o_j in `c`) and voxel v within R(o_j), w = K(R) (1 − d²/R²)³ / n_j and w c_j, each rounded to
+    /// ISO_VOLUME_FIX_BITS fixed-point bits (as the shader's integer atomics). Voxels outside the box are
+    /// dropped.
+    pub fn deposit(&self, points: &[[f32; 4]], c: &[[f32; 2]], p: &VolumeParams) -> Vec<[u32; 2]> {
         let fix = (1u32 << crate::shader_constants::ISO_VOLUME_FIX_BITS) as f32;
-        let k = p.deposit_scale();
         let mut acc = vec![[0u32; 2]; self.voxels()];
-        self.each_deposit(points, p, |j, voxel, q| {
+        self.each_deposit(points, c, p, |j, voxel, q, k| {
             let w = q * q * q * (k * points[j][3] * fix);
             let a = &mut acc[voxel];
             a[0] = a[0].wrapping_add((w + 0.5) as u32);
-            a[1] = a[1].wrapping_add((w * c[j] + 0.5) as u32);
+            a[1] = a[1].wrapping_add((w * c[j][0] + 0.5) as u32);
         });
         acc
     }
 
     /// How many point–voxel deposits [`VolumeShape::deposit`] makes (the `iso_volume` pass's own count of its
     /// work, `crate::work::IsoVolumeWork::deposits`).
-    pub fn deposits(&self, points: &[[f32; 4]], p: &VolumeParams) -> u64 {
+    pub fn deposits(&self, points: &[[f32; 4]], c: &[[f32; 2]], p: &VolumeParams) -> u64 {
         let mut n = 0u64;
-        self.each_deposit(points, p, |_, _, _| n += 1);
+        self.each_deposit(points, c, p, |_, _, _, _| n += 1);
         n
     }
 
-    /// Every deposit of `points`: (point, voxel index, q = 1 − d²/R² > 0), as iso_volume.comp visits them.
-    fn each_deposit(&self, points: &[[f32; 4]], p: &VolumeParams, mut f: impl FnMut(usize, usize, f32)) {
-        let rv = p.deposit_radius() / self.spacing;
+    /// Every deposit of `points`: (point, voxel index, q = 1 − d²/R² > 0, the point's scale K(R)), as
+    /// iso_volume.comp visits them: R² (voxels) blended from R(0)² to R(1)² by the point's order c[j][1].
+    fn each_deposit(
+        &self,
+        points: &[[f32; 4]],
+        c: &[[f32; 2]],
+        p: &VolumeParams,
+        mut f: impl FnMut(usize, usize, f32, f32),
+    ) {
+        let [r0, r1] = p.deposit_radii().map(|r| r / self.spacing);
+        let k0 = p.deposit_scale(p.deposit_radius(0.0));
         let d = self.dims().map(|n| n as i64);
         for (j, pt) in points.iter().enumerate() {
+            let (rv, k) = point_radius(r0, r1, c[j][1], k0);
             let u = self.lattice(Vec3::new(pt[0], pt[1], pt[2]));
             let lo = (u - Vec3::splat(rv)).ceil();
             let hi = (u + Vec3::splat(rv)).floor();
@@ -302,7 +354,7 @@ impl VolumeShape {
                         if q <= 0.0 || x < 0 || y < 0 || z < 0 || x >= d[0] || y >= d[1] || z >= d[2] {
                             continue;
                         }
-                        f(j, self.index(x as u32, y as u32, z as u32), q);
+                        f(j, self.index(x as u32, y as u32, z as u32), q, k);
                     }
                 }
             }
@@ -340,6 +392,15 @@ impl VolumeShape {
         }
         s
     }
+}
+
+/// A point's deposit radius (voxels) and scale, as iso_volume.comp computes them: R² = R0² + o (R1² − R0²)
+/// and K = K0 (R0 / R)³, from the least ordered point's R0, R1 (voxels) and K0.
+#[inline]
+pub fn point_radius(r0: f32, r1: f32, order: f32, k0: f32) -> (f32, f32) {
+    let r = (r0 * r0 + order.clamp(0.0, 1.0) * (r1 * r1 - r0 * r0)).sqrt();
+    let ratio = r0 / r;
+    (r, k0 * (ratio * ratio * ratio))
 }
 
 /// The smoothed iso field at x (the volume cast's sample, iso_field.glsl): F = φ + w(c̄) (B − φ) with B and
@@ -388,6 +449,52 @@ impl IsoGrid {
                     }
                 });
                 c
+            })
+            .collect()
+    }
+
+    /// Each sorted point's (c_j, o_j): its neighbour count ([`IsoGrid::neighbour_weights`]) and its lattice order
+    /// (distances in `particle_spacing`s), as iso_density.comp's two dispatches compute them: per point the
+    /// sums (g_j, m_j) of [`lattice_terms`] over its neighbours within the support, then [`lattice_order`] of
+    /// those sums pooled over its neighbourhood (weights 1 − d²/h², itself 1).
+    pub fn volume_weights(&self, particle_spacing: f32) -> Vec<[f32; 2]> {
+        use rayon::prelude::*;
+        let (h, inv_a) = (self.support, 1.0 / particle_spacing);
+        let at = |p: &[f32; 4]| Vec3::new(p[0], p[1], p[2]);
+        let own: Vec<[f32; 3]> = self
+            .points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let x = at(p);
+                let (mut c, mut gap, mut near) = (0.0, 0.0, 0.0);
+                self.for_each_near(x, |j, y| {
+                    let d2 = x.distance_squared(y);
+                    if j != i && d2 < h * h {
+                        c += 1.0 - d2 / (h * h);
+                        let (g, n) = lattice_terms(d2.sqrt() * inv_a);
+                        gap += g;
+                        near += n;
+                    }
+                });
+                [c, gap, near]
+            })
+            .collect();
+        self.points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let x = at(p);
+                let (mut gap, mut near) = (0.0, 0.0);
+                self.for_each_near(x, |j, y| {
+                    let d2 = x.distance_squared(y);
+                    if d2 < h * h {
+                        let w = 1.0 - d2 / (h * h);
+                        gap += w * own[j][1];
+                        near += w * own[j][2];
+                    }
+                });
+                [own[i][0], lattice_order(gap, near, own[i][2])]
             })
             .collect()
     }

@@ -25,8 +25,12 @@ pub struct IsoBuffers {
     pub weighted: Buffer,
     /// Each point's anisotropic kernel (three vec4), written by the `anisotropy` pass.
     pub aniso: Buffer,
-    /// Each sorted point's neighbour count c_j (R32F), written by `iso_density`, read by `iso_volume`.
+    /// Each sorted point's neighbour count c_j and lattice order o_j (RG32F), written by `iso_density`, read by
+    /// `iso_volume`.
     pub counts: Buffer,
+    /// Each sorted point's lattice sums (g_j, m_j) (RG32F): its neighbours in a lattice's gap and near it,
+    /// written by `iso_density`, pooled into o_j by its second dispatch.
+    pub lattice: Buffer,
     /// Grid shape as push constants.
     pub shape: IsoPush,
     /// The GPU grid (`grid` pass + `iso_gather`) that fills `points` and `cells` from the particle buffer;
@@ -63,6 +67,8 @@ impl IsoBuffers {
     pub const WEIGHTED: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
     /// See [`IsoBuffers::POINTS`].
     pub const ANISO: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+    /// The neighbour counts and lattice orders (c_j, o_j) iso_volume.comp reads.
+    pub const COUNTS: vk::Format = vk::Format::R32G32_SFLOAT;
 }
 
 /// Push constants (IsoPush in iso_field.glsl).

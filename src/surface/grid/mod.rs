@@ -153,7 +153,8 @@ impl IsoResources {
                 empty_scratch: buf("iso_empty_scratch", cell_room as u64 * 8, IsoBuffers::CELLS)?,
                 weighted: buf("iso_weighted", cap as u64 * 16, IsoBuffers::WEIGHTED)?,
                 aniso: buf("iso_aniso", aniso_bytes(cap as u64), IsoBuffers::ANISO)?,
-                counts: buf("iso_counts", cap as u64 * 4, vk::Format::R32_SFLOAT)?,
+                counts: buf("iso_counts", cap as u64 * 8, IsoBuffers::COUNTS)?,
+                lattice: buf("iso_lattice", cap as u64 * 8, IsoBuffers::COUNTS)?,
                 shape: push,
                 gpu: Some(crate::compute::grid::GridBuffers::with_room(gpu, "iso", shape, cell_room, cap)?),
                 rebuild: std::cell::Cell::new(true),
@@ -195,7 +196,8 @@ impl IsoResources {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             IsoBuffers::ANISO,
         )?;
-        let counts = buf("iso_counts", 4, vk::Format::R32_SFLOAT)?;
+        let counts = buf("iso_counts", 8, IsoBuffers::COUNTS)?;
+        let lattice = buf("iso_lattice", 8, IsoBuffers::COUNTS)?;
         let cell_buf = |name: &str| {
             let bytes = (grid.cells.len() as u64 * 8).max(16);
             Buffer::texels(gpu, name, bytes, vk::BufferUsageFlags::STORAGE_BUFFER, IsoBuffers::CELLS)
@@ -210,6 +212,7 @@ impl IsoResources {
             weighted,
             aniso,
             counts,
+            lattice,
             shape,
             gpu: None,
             rebuild: std::cell::Cell::new(false),

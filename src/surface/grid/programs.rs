@@ -22,6 +22,7 @@ pub struct GridPrograms {
     grid: crate::compute::grid::NeighbourGrid,
     gather: ComputeProgram<GatherPush>,
     density: ComputeProgram<IsoPush>,
+    order: ComputeProgram<IsoPush>,
     empty: [ComputeProgram<EmptyPush>; 3],
 }
 
@@ -38,8 +39,11 @@ pub struct GatherPush {
 // Gather: particles, order, start, counts → sorted points, cell table.
 declare_program!(pub GATHER: GatherPush = compute(shaders::ISO_GATHER, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
 
-// Density: frame, grid points, cell table → the weighted points (xyz, 1/n_j), the neighbour counts c_j.
-declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite, BufWrite]));
+// Density: frame, grid points, cell table → the weighted points (xyz, 1/n_j), the neighbour counts (c_j, 0),
+// the lattice sums (g_j, m_j).
+declare_program!(pub DENSITY: IsoPush = compute(shaders::ISO_DENSITY, [Uniform, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
+// Order: frame, grid points, cell table, the lattice sums → the counts' o_j.
+declare_program!(pub ORDER: IsoPush = compute(shaders::ISO_DENSITY_ORDER, [Uniform, TexelRead, TexelRead, TexelRead, BufWrite]));
 // The cells' empty distance, an axis per dispatch: cell table → scratch .x; scratch .x → .y; cell table and
 // scratch .y → the casts' cell table.
 declare_program!(pub EMPTY_X: EmptyPush = compute(shaders::ISO_EMPTY_X, [Uniform, TexelRead, BufWrite]));
@@ -61,6 +65,7 @@ impl GridPrograms {
             grid: crate::compute::grid::NeighbourGrid::new(gpu)?,
             gather: ComputeProgram::new(gpu, &GATHER)?,
             density: ComputeProgram::new(gpu, &DENSITY)?,
+            order: ComputeProgram::new(gpu, &ORDER)?,
             empty: [
                 ComputeProgram::new(gpu, &EMPTY_X)?,
                 ComputeProgram::new(gpu, &EMPTY_Y)?,
@@ -101,8 +106,11 @@ impl GridPrograms {
         }
         ctx.pass(DENSITY_NAME, |ctx| {
             let n = b.shape.dims[3];
-            let bufs = [frame.into(), (&b.points).into(), (&b.cells).into(), (&b.weighted).into(), (&b.counts).into()];
+            let (points, cells) = ((&b.points).into(), (&b.cells).into());
+            let bufs = [frame.into(), points, cells, (&b.weighted).into(), (&b.counts).into(), (&b.lattice).into()];
             self.density.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(LOCAL_1D), 1, 1]);
+            let bufs = [frame.into(), points, cells, (&b.lattice).into(), (&b.counts).into()];
+            self.order.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(LOCAL_1D), 1, 1]);
             let d = b.shape.dims;
             let cells = d[0] * d[1] * d[2];
             let push = EmptyPush { dims: [d[0], d[1], d[2], cells] };

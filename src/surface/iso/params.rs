@@ -60,6 +60,14 @@ pub struct Params {
     /// targets on the shared frames and on a drop's splash, where 1.5 smoothed the jet 7.2° away from the raw
     /// reference (docs/iso-surface.md).
     pub smoothing: f32,
+    /// Iso-surface: σ of the blur for water whose particles sit on a lattice (particle radii): a scene
+    /// generator's output, a simulation's first frames, a resting pool before it settles. Such water crosses
+    /// its particle layers in terraces whose treads are wider than `smoothing` blurs away (the built-in wave
+    /// shows them as rows); each particle's blur is blended from `smoothing` to this by its lattice order (1
+    /// where none of its neighbours lies between a lattice's first two shells, 0 in a liquid: iso_density.comp),
+    /// so disordered, moving water keeps `smoothing`. 2.0: the wave's and the drop's roughness p90 3.8° → 1.4°,
+    /// the shared frames unchanged (docs/quality.md). Equal to `smoothing`: one blur for all.
+    pub lattice_smoothing: f32,
     /// Iso-surface smoothing: the blur's weight ramps (smoothstep) from 0 to 1 as the neighbour count c_j =
     /// Σ_k (1 − d²/h²) (splashsurf's feature weight), interpolated to the lattice, goes from bulk[0] to bulk[1]
     /// (bulk[1] ≤ bulk[0]: blur everywhere).
@@ -84,6 +92,7 @@ impl Default for Params {
             rest_lanes: 32,
             fine_px: 4.0,
             smoothing: 1.1,
+            lattice_smoothing: 2.0,
             bulk: [4.0, 9.0],
             voxel: 2.0,
         }
@@ -109,6 +118,8 @@ impl Params {
                 bulk: self.bulk,
                 spacing: self.voxel * radius,
                 support: self.support * radius,
+                lattice_sigma: self.lattice_smoothing * radius,
+                particle_spacing: 2.0 * radius,
             }),
             aniso,
             // The view's (the GPU reads it from the frame); CPU references set it.
@@ -143,6 +154,7 @@ impl crate::section::Section for Params {
             format!("fine_px = {} must be 0 (off) or 1 … 64", self.fine_px)
         })?;
         k.within("smoothing", self.smoothing, 0.0, 8.0)?;
+        k.within("lattice_smoothing", self.lattice_smoothing, 0.0, 8.0)?;
         k.each("bulk", &self.bulk, 0.0, 1000.0)?;
         k.within("voxel", self.voxel, 0.25, 4.0)
     }

@@ -104,11 +104,12 @@ impl IsoVolume {
 
     /// The push constants of iso_volume.comp for `points` points.
     pub fn vol_push(&self, p: &VolumeParams, points: u32) -> VolPush {
-        let (o, b) = (self.shape.origin, self.shape.bricks);
+        let (o, b, s) = (self.shape.origin, self.shape.bricks, self.shape.spacing);
+        let [r0, r1] = p.deposit_radii();
         VolPush {
             origin: [o.x, o.y, o.z, self.shape.spacing],
             bdims: [b[0], b[1], b[2], self.capacity],
-            params: [p.deposit_scale(), p.deposit_radius() / self.shape.spacing, self.shape.taps as f32, 0.0],
+            params: [p.deposit_scale(r0), r0 / s, self.shape.taps as f32, r1 / s],
             misc: [points, 0, 0, 0],
         }
     }
@@ -122,7 +123,8 @@ pub struct VolPush {
     pub origin: [f32; 4],
     /// xyz: bricks per axis, w: the pool's capacity (bricks).
     pub bdims: [u32; 4],
-    /// x: the deposit's scale I_W h³ / (0.6383 R³), y: R (voxels), z: ⌈R⌉.
+    /// x: the deposit's scale I_W h³ / (0.6383 R³) of the least ordered point, y: its R (voxels), z: ⌈R⌉ of
+    /// the widest, w: the most ordered point's R (voxels).
     pub params: [f32; 4],
     /// x: points.
     pub misc: [u32; 4],
