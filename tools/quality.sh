@@ -33,7 +33,7 @@ spheres + narrow-range (--preset fast)|--surface spheres --filter narrow-range;\
 ellipsoids + none|--surface spheres --filter none --kernel anisotropic;\
 ellipsoids + narrow-range|--surface spheres --filter narrow-range --kernel anisotropic;\
 ellipsoids + curvature-flow|--surface spheres --filter curvature-flow --kernel anisotropic;\
-iso smoothed σ 1.5 r, bulk c̄ 4…9 (default)|;iso smoothed, bulk c̄ 5…9|--settings $out/bulk59.toml;\
+iso smoothed σ 1.1 r (2 r on a lattice), bulk c̄ 4…9 (default)|;iso smoothed, one blur for all (no lattice widening)|--settings $out/onewidth.toml;iso smoothed, bulk c̄ 5…9|--settings $out/bulk59.toml;\
 iso smoothed σ 1.25 r|--settings $out/sigma125.toml;iso smoothed everywhere (no bulk weight)|--settings $out/everywhere.toml;\
 iso exact (--preset quality)|--preset quality;iso exact, anisotropic|--preset quality --kernel anisotropic;\
 iso exact, anisotropic stretch 1.5|--preset quality --kernel anisotropic --settings $out/stretch.toml;\
@@ -44,6 +44,7 @@ mesh + 10 smoothing iterations|--surface mesh --filter none --settings $out/smoo
 mesh + 25 smoothing iterations (as the smoothed reference)|--surface mesh --filter none --settings $out/smooth25.toml"
 printf '[iso]\nbulk = [5.0, 9.0]\n' > "$out/bulk59.toml"
 printf '[iso]\nsmoothing = 1.25\n' > "$out/sigma125.toml"
+printf '[iso]\nlattice_smoothing = 1.1\n' > "$out/onewidth.toml"
 printf '[iso]\nbulk = [0.0, 0.0]\n' > "$out/everywhere.toml"
 printf '[anisotropy]\nstretch = 1.5\n' > "$out/stretch.toml"
 printf '[anisotropy]\ncentre_blend = 0.3\n' > "$out/centres.toml"
