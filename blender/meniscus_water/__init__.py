@@ -11,7 +11,9 @@ stage (time-sampled mesh with velocities) or as a sequence of OpenVDB level sets
 
 Blender frame N shows the particle file numbered N. The particle radius and frame rate come from the files as
 `meniscus mesh` takes them (a SPlisHSPlasH scene.json beside them, else the radius is estimated), unless set.
-Requires the `meniscus` Python package in Blender's Python (`pip install meniscus-*.whl`; README).
+Meshing runs on the GPU when Vulkan offers one, else on the CPU's cores; the panel says which and why.
+Installed as a Blender extension (`tools/blender-extension` builds the zip, which carries the `meniscus` wheel:
+Edit → Preferences → Get Extensions → Install from Disk), Blender installs the package itself.
 """
 
 bl_info = {
@@ -54,6 +56,7 @@ class _State:
         self.cache = collections.OrderedDict()
         self.key = None
         self.last_seconds = 0.0
+        self.device = None  # (use the GPU, what the panel says), probed once
 
 
 STATE = _State()
@@ -73,7 +76,8 @@ class MeniscusWaterSettings(bpy.types.PropertyGroup):
         description="Kernel support in particle radii (as [iso] support; splashsurf's 2 × smoothing length)")
     threshold: bpy.props.FloatProperty(name="Iso value", default=0.6, min=0.01, max=0.99)
     use_gpu: bpy.props.BoolProperty(
-        name="GPU", default=True, description="Extract on the GPU (Vulkan); off: on the CPU (all cores)")
+        name="GPU", default=True,
+        description="Extract on the GPU (Vulkan) when there is one (the panel says); off: on the CPU (all cores)")
     cache_frames: bpy.props.IntProperty(name="Cache", default=4, min=0, max=64, description="Meshes kept in memory")
     material: bpy.props.BoolProperty(name="Water material", default=True)
     diffuse: bpy.props.StringProperty(
@@ -83,6 +87,26 @@ class MeniscusWaterSettings(bpy.types.PropertyGroup):
         name="Bake to", items=[("USD", "USD stage", "One .usda with every frame as a time sample"),
                                ("VDB", "OpenVDB", "One level set .vdb per frame")], default="USD")
     bake_path: bpy.props.StringProperty(name="Bake path", subtype="FILE_PATH", default="//water.usd")
+
+
+def meshing_device(s):
+    """Where meshing runs: (on the GPU, the panel's line). The Vulkan device is probed once: a GPU meshes there; no
+    device, or only a CPU driver (lavapipe, whose GPU path is an emulation slower than the CPU mesher), meshes on
+    the CPU's cores."""
+    if not s.use_gpu:
+        return False, "CPU (GPU off)"
+    if STATE.device is None:
+        m = _meniscus()
+        try:
+            info = m.device_info()
+        except Exception as e:  # no Vulkan loader or device: the CPU path needs neither
+            STATE.device = (False, f"CPU: no Vulkan device ({e})")
+        else:
+            if info.get("device_type") == "CPU":
+                STATE.device = (False, f"CPU: the only Vulkan device is {info['name']}, a CPU driver")
+            else:
+                STATE.device = (True, f"GPU: {info['name']}")
+    return STATE.device
 
 
 def _settings(scene):
@@ -128,7 +152,8 @@ def surface(s, number):
         if vel is None or getattr(vel, "shape", None) != pos.shape:
             vel = np.zeros_like(pos)
         mesh = m.reconstruct_surface(pos, particle_radius=STATE.radius, support=s.support,
-                                     cube_size=s.cube_size, iso_surface_threshold=s.threshold, gpu=s.use_gpu,
+                                     cube_size=s.cube_size, iso_surface_threshold=s.threshold,
+                                     gpu=meshing_device(s)[0],
                                      velocities=vel)
         mesh = (*mesh, m.mesh_edges(mesh[1]))
     STATE.last_seconds = time.perf_counter() - t0
@@ -345,6 +370,10 @@ class MENISCUS_PT_panel(bpy.types.Panel):
         col.prop(s, "support")
         col.prop(s, "threshold")
         col.prop(s, "use_gpu")
+        try:
+            col.label(text="Meshing on " + meshing_device(s)[1])
+        except RuntimeError as e:  # the package missing: say so where the user looks
+            col.label(text=str(e))
         col.prop(s, "cache_frames")
         col.prop(s, "material")
         col.prop(s, "diffuse")
