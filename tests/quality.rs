@@ -175,6 +175,55 @@ fn the_default_shows_no_particle_rows_and_one_blur_for_all_does() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The GPU mesh (`mesh --gpu`) is measured as the CPU mesh is: the 6,859-particle dam break's frame 40 at 1 r,
+/// each ray-cast at one camera (`quality --depth MESH --depth-out`), gives the same depth image within 10⁻³ r
+/// wherever either covers, and the same coverage (the same triangles; on lavapipe the same bits). The control: the
+/// CPU mesh at 0.5 r, another surface, is told apart.
+#[test]
+fn the_gpu_mesh_measures_as_the_cpu_mesh() {
+    let Some(frame) = common::shared_data("splishsplash/dambreak_6859/partio/ParticleData_Fluid_40.bgeo") else {
+        return;
+    };
+    let d = tmpdir("quality", "gpu-mesh");
+    let depth = |name: &str, args: &[&str]| {
+        let mesh = d.join(format!("{name}.ply"));
+        let o = meniscus().arg("mesh").arg(&frame).args(args).arg("--out").arg(&mesh).output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let npy = d.join(format!("{name}.npy"));
+        let o = meniscus()
+            .arg("quality")
+            .arg(&frame)
+            .args(["--width", "160", "--height", "90", "--depth"])
+            .arg(&mesh)
+            .arg("--depth-out")
+            .arg(&npy)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        meniscus::quality::read_depth_npy(&npy).unwrap()
+    };
+    let radius = 0.025;
+    let cpu = depth("cpu", &["--cube-size", "1.0"]);
+    let gpu = depth("gpu", &["--cube-size", "1.0", "--gpu"]);
+    let finer = depth("cpu-finer", &["--cube-size", "0.5"]);
+    let apart = |a: &meniscus::quality::DepthImage, b: &meniscus::quality::DepthImage| {
+        let (mut cover, mut worst) = (0usize, 0f32);
+        for (x, y) in a.depth.iter().zip(&b.depth) {
+            match (x.is_finite(), y.is_finite()) {
+                (true, true) => worst = worst.max((x - y).abs() / radius),
+                (false, false) => {}
+                _ => cover += 1,
+            }
+        }
+        (cover, worst)
+    };
+    let (cover, worst) = apart(&cpu, &gpu);
+    assert!(cover == 0 && worst <= 1e-3, "the GPU mesh: {cover} pixels covered by one only, depth {worst} r apart");
+    let (cover, worst) = apart(&cpu, &finer);
+    assert!(cover > 0 || worst > 1e-2, "the control (0.5 r) looks the same: {cover} pixels, {worst} r");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A slab of 14 × 5 × 14 particles 0.02 apart, each moved by up to `jitter` (a hash of its index and `seed`).
 fn slab(jitter: f32, seed: u32) -> Particles {
     let mut positions = vec![];
