@@ -112,6 +112,8 @@ pub struct Mc {
     scan: ComputeProgram<ScanPush>,
     emit: ComputeProgram<McPush>,
     kept: std::sync::Mutex<Kept>,
+    /// The mesh's Laplacian smoothing and normals on the device (`compute::smooth`).
+    smooth: crate::compute::smooth::GpuSmooth,
 }
 
 /// What [`Mc`] keeps between extractions.
@@ -181,7 +183,20 @@ impl Mc {
             scan: ComputeProgram::new(gpu, &SCAN)?,
             emit: ComputeProgram::new(gpu, &EMIT)?,
             kept: Default::default(),
+            smooth: crate::compute::smooth::GpuSmooth::new(gpu)?,
         })
+    }
+
+    /// Smooth an extracted mesh on the device as `field::smooth::smooth` does on the CPU (`compute::smooth`).
+    pub fn smooth(
+        &self,
+        gpu: &Arc<Gpu>,
+        m: &mut TriMesh,
+        grid: &IsoGrid,
+        inv_n: &[f32],
+        p: &crate::field::smooth::SmoothParams,
+    ) -> Result<PassTimes> {
+        self.smooth.smooth(gpu, m, grid, inv_n, p)
     }
 
     /// Bytes of device memory it keeps between extractions (the case table and the scratch buffers).

@@ -7,3 +7,4 @@
 pub mod clear;
 pub mod grid;
 pub mod mc;
+pub mod smooth;

@@ -200,7 +200,13 @@ pub fn reconstruct_field(
         }
     };
     let t_smooth = std::time::Instant::now();
-    smooth::smooth(&mut m, &grid, &inv, &r.smoothing);
+    // Smoothed where it was extracted: on the device its iterations and normals run there (the same mesh).
+    match gpu {
+        Some((gpu, mc)) => {
+            mc.smooth(gpu, &mut m, &grid, &inv, &r.smoothing)?;
+        }
+        None => smooth::smooth(&mut m, &grid, &inv, &r.smoothing),
+    }
     let report = ReconstructReport { strays, field_s, extraction, smooth_s: t_smooth.elapsed().as_secs_f64() };
     Ok(Reconstructed { mesh: m, report, grid, inv_n: inv, kept, params: *r })
 }
