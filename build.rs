@@ -81,7 +81,18 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
     // The iso grid cells' empty distance, one axis per dispatch.
     ("iso_empty.comp", &[("X", "ISO_EMPTY_X"), ("Y", "ISO_EMPTY_Y"), ("Z", "ISO_EMPTY_Z")]),
     // A mesh's Laplacian smoothing iteration, and its vertex normals.
-    ("mesh_smooth.comp", &[("", ""), ("NORMALS", "MESH_SMOOTH_NORMALS")]),
+    (
+        "mesh_smooth.comp",
+        &[
+            ("", ""),
+            ("NORMALS", "MESH_SMOOTH_NORMALS"),
+            ("COUNT", "MESH_SMOOTH_COUNT"),
+            ("FILL", "MESH_SMOOTH_FILL"),
+            ("SORT", "MESH_SMOOTH_SORT"),
+            ("NEIGHBOURS", "MESH_SMOOTH_NEIGHBOURS"),
+            ("WEIGHTS", "MESH_SMOOTH_WEIGHTS"),
+        ],
+    ),
     // The weights and neighbour counts, then each point's lattice order pooled over its neighbours.
     ("iso_density.comp", &[("", ""), ("ORDER", "ISO_DENSITY_ORDER")]),
 ];

@@ -2750,7 +2750,8 @@ fn an_analysis_computed_ahead_renders_the_same_frame() {
 }
 
 /// The GPU's Laplacian smoothing and normals (`compute::smooth`, `mesh --gpu` with smoothing) give the CPU
-/// reference's mesh (`field::smooth::smooth`, 25 iterations with feature weights): vertices within 10⁻⁴ r and
+/// reference's mesh (`field::smooth::smooth`, 25 iterations, with feature weights and without — the weights
+/// computed on the device too): vertices within 10⁻⁴ r and
 /// normals' components within 10⁻⁵ (0.0006°), on a random cloud's mesh and, when the shared data is here, the 6,859-particle dam
 /// break's frame 40 at 1 r. The control: 24 iterations on the GPU are told apart from the CPU's 25.
 #[test]
@@ -2783,13 +2784,19 @@ fn gpu_mesh_smoothing_matches_the_cpu() {
         assert!(raw.triangles.len() > 100, "{label}: {} triangles", raw.triangles.len());
         let p = SmoothParams::default();
         let mut cpu = raw.clone();
-        smooth(&mut cpu, &grid, &inv, &p);
-        let mut on_gpu = raw.clone();
-        let times = gs.smooth(&gpu, &mut on_gpu, &grid, &inv, &p).unwrap();
-        assert_eq!(on_gpu.triangles, cpu.triangles);
-        let (d, angle) = apart(&cpu, &on_gpu);
-        eprintln!("{label}: {} vertices, apart {} r, normals {angle}, GPU {times:?}", raw.vertices.len(), d / r);
-        assert!(d <= 1e-4 * r && angle <= 1e-5, "{label}: vertices {} r, normals {angle} apart", d / r);
+        for weights in [false, true] {
+            let q = SmoothParams { weights, ..p };
+            let mut cpu_q = raw.clone();
+            smooth(&mut cpu_q, &grid, &inv, &q);
+            let mut on_gpu = raw.clone();
+            let times = gs.smooth(&gpu, &mut on_gpu, &grid, &inv, &q).unwrap();
+            assert_eq!(on_gpu.triangles, cpu_q.triangles);
+            let (d, angle) = apart(&cpu_q, &on_gpu);
+            let n = raw.vertices.len();
+            eprintln!("{label}, weights {weights}: {n} vertices, apart {} r, normals {angle}, GPU {times:?}", d / r);
+            assert!(d <= 1e-4 * r && angle <= 1e-5, "{label}, weights {weights}: {} r, normals {angle} apart", d / r);
+            cpu = cpu_q;
+        }
         let mut short = raw.clone();
         gs.smooth(&gpu, &mut short, &grid, &inv, &SmoothParams { iterations: 24, ..p }).unwrap();
         let (d, _) = apart(&cpu, &short);
