@@ -140,6 +140,22 @@ def test_a_reconstructor_keeps_its_device_and_gives_the_same_meshes(frame, gpu):
         rec.reconstruct(pos, velocities=pos[:10])
 
 
+def test_gpu_smoothing_gives_the_cpu_smoothed_mesh(frame):
+    """`mesh_smoothing_iters` on the GPU path (its smoothing passes, `compute::smooth`) gives the CPU path's smoothed
+    mesh: as many vertices and triangles, and the vertices' coordinates, each axis sorted (each path numbers the
+    vertices its own way, so they are compared as sets, and the neighbours are summed in another order), within
+    1e-4 of a radius; the control, one iteration fewer, is told apart."""
+    pos = meniscus.load(frame)["positions"]
+    r = 0.025
+    mesh = lambda gpu, n: meniscus.reconstruct_surface(pos, particle_radius=r, cube_size=1.0,
+                                                       mesh_smoothing_iters=n, gpu=gpu)
+    apart = lambda a, b: max(np.abs(np.sort(a[:, k]) - np.sort(b[:, k])).max() for k in range(3))
+    cpu, gpu = mesh(False, 10), mesh(True, 10)
+    assert len(cpu[1]) == len(gpu[1]) > 1000 and len(cpu[0]) == len(gpu[0])
+    assert apart(cpu[0], gpu[0]) <= 1e-4 * r, apart(cpu[0], gpu[0]) / r
+    assert apart(cpu[0], mesh(True, 9)[0]) > 1e-3 * r, "the control (9 iterations) looks the same"
+
+
 def test_simulation_equals_meniscus_sim_and_renders_from_the_gpu(cli, tmp_path):
     run(cli, "sim", "dambreak", "--particles", "2000", "--frames", "4", "--export", tmp_path / "f_{}.bgeo")
     want = meniscus.load(tmp_path / "f_4.bgeo")
