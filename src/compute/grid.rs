@@ -175,6 +175,22 @@ impl GridBuffers {
     }
 }
 
+/// The exclusive prefix sum of the first `n` values of `counts` into `start` (grid_scan.comp's three dispatches;
+/// `sums`: scratch of 4 bytes per SCAN_BLOCK values), as the grid, the marching cubes and the mesh smoothing take
+/// it.
+pub fn record_scan(
+    scan: &ComputeProgram<ScanPush>,
+    ctx: &mut FrameCtx,
+    (counts, start, sums): (&Buffer, &Buffer, &Buffer),
+    n: u32,
+) {
+    let blocks = n.div_ceil(SCAN_BLOCK);
+    let res = [counts.into(), start.into(), sums.into()];
+    scan.dispatch(ctx, &res, &ScanPush { cells: n, blocks, mode: 0 }, [blocks, 1, 1]);
+    scan.dispatch(ctx, &res, &ScanPush { cells: n, blocks, mode: 1 }, [1, 1, 1]);
+    scan.dispatch(ctx, &res, &ScanPush { cells: n, blocks, mode: 2 }, [n.div_ceil(SCAN_LOCAL), 1, 1]);
+}
+
 /// The pass: its five programs.
 pub struct NeighbourGrid {
     count: ComputeProgram<CountPush>,
@@ -202,7 +218,6 @@ impl NeighbourGrid {
         debug_assert!(n <= g.capacity);
         let cells = g.shape.cells();
         let runs = cells.div_ceil(GRID_RUN);
-        let blocks = runs.div_ceil(SCAN_BLOCK);
         ctx.fill(&g.counts, 0);
         let push = CountPush { shape: g.shape, n };
         self.count.dispatch(
@@ -213,10 +228,7 @@ impl NeighbourGrid {
         );
         let run_groups = [runs.div_ceil(LOCAL_1D), 1, 1];
         self.run_sum.dispatch(ctx, &[(&g.counts).into(), (&g.run_counts).into()], &RunPush { cells }, run_groups);
-        let res = [(&g.run_counts).into(), (&g.run_start).into(), (&g.sums).into()];
-        self.scan.dispatch(ctx, &res, &ScanPush { cells: runs, blocks, mode: 0 }, [blocks, 1, 1]);
-        self.scan.dispatch(ctx, &res, &ScanPush { cells: runs, blocks, mode: 1 }, [1, 1, 1]);
-        self.scan.dispatch(ctx, &res, &ScanPush { cells: runs, blocks, mode: 2 }, [runs.div_ceil(SCAN_LOCAL), 1, 1]);
+        record_scan(&self.scan, ctx, (&g.run_counts, &g.run_start, &g.sums), runs);
         let res = [(&g.counts).into(), (&g.run_start).into(), (&g.start).into()];
         self.run_place.dispatch(ctx, &res, &RunPush { cells }, run_groups);
         let res = [(&g.keys).into(), (&g.start).into(), (&g.order).into()];

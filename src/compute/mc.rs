@@ -17,19 +17,18 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use ash::vk;
 use glam::IVec3;
-use gpu_allocator::MemoryLocation;
 use rayon::prelude::*;
 
-use crate::compute::grid::{ScanPush, SCAN};
+use crate::compute::grid::{record_scan, ScanPush, SCAN};
+use crate::compute::{device_buffer, groups_2d};
 use crate::declare_program;
 use crate::error::{Error, Result};
 use crate::field::extract::{case_table, occupied_blocks, ExtractParams, Lattice, TriMesh, EDGES};
 use crate::field::iso::IsoGrid;
 use crate::gpu::transfer::{host_vec, read_back};
 use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Timer};
-use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK, SCAN_LOCAL};
+use crate::shader_constants::{LOCAL_1D, MC_BLOCK, MC_MAX_TRIS, SCAN_BLOCK};
 use crate::shaders;
 use crate::timing::PassTimes;
 
@@ -163,17 +162,6 @@ fn block_corners(keys: &[i64], nb: IVec3, b: i32) -> Vec<[i32; 4]> {
         .collect()
 }
 
-fn groups_2d(n: u32) -> [u32; 3] {
-    let x = n.clamp(1, 32_768);
-    [x, n.div_ceil(x).max(1), 1]
-}
-
-fn device_buffer(gpu: &Arc<Gpu>, name: &str, bytes: u64) -> Result<Buffer> {
-    let usage =
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
-    Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly)
-}
-
 impl Mc {
     /// Build the pipelines.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
@@ -292,13 +280,8 @@ impl Mc {
                 self.count.dispatch(ctx, &res, &push, groups_2d(ncubes.div_ceil(LOCAL_1D)));
             });
             ctx.pass("mc_scan", |ctx| {
-                let sb = ncubes.div_ceil(SCAN_BLOCK);
-                let g2 = ncubes.div_ceil(SCAN_LOCAL);
                 for (c, st) in [(&counts, &start), (&vcounts, &vstart)] {
-                    let res = [c.into(), st.into(), (&sums).into()];
-                    self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 0 }, [sb, 1, 1]);
-                    self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 1 }, [1, 1, 1]);
-                    self.scan.dispatch(ctx, &res, &ScanPush { cells: ncubes, blocks: sb, mode: 2 }, [g2, 1, 1]);
+                    record_scan(&self.scan, ctx, (c, st, &sums), ncubes);
                 }
             });
             Ok(())

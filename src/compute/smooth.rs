@@ -8,18 +8,16 @@
 //! The feature weights too: each particle's neighbour count, then each vertex's interpolation of them.
 use std::sync::Arc;
 
-use ash::vk;
-use gpu_allocator::MemoryLocation;
-
-use crate::compute::grid::{ScanPush, SCAN};
+use crate::compute::grid::{record_scan, ScanPush, SCAN};
+use crate::compute::{device_buffer, groups_2d};
 use crate::declare_program;
 use crate::error::Result;
 use crate::field::extract::TriMesh;
 use crate::field::iso::IsoGrid;
 use crate::field::smooth::SmoothParams;
 use crate::gpu::transfer::{host_vec, read_back, upload_buffer};
-use crate::gpu::{Buffer, ComputeProgram, FrameCtx, Gpu, Timer};
-use crate::shader_constants::{LOCAL_1D, SCAN_BLOCK, SCAN_LOCAL};
+use crate::gpu::{ComputeProgram, FrameCtx, Gpu, Timer};
+use crate::shader_constants::{LOCAL_1D, SCAN_BLOCK};
 use crate::shaders;
 use crate::timing::PassTimes;
 
@@ -67,12 +65,6 @@ pub struct GpuSmooth {
     normals: ComputeProgram<SmoothPush>,
 }
 
-fn groups(n: u32) -> [u32; 3] {
-    let g = n.div_ceil(LOCAL_1D).max(1);
-    let x = g.min(32_768);
-    [x, g.div_ceil(x), 1]
-}
-
 impl GpuSmooth {
     /// Build the pipelines.
     pub fn new(gpu: &Arc<Gpu>) -> Result<Self> {
@@ -105,10 +97,7 @@ impl GpuSmooth {
         }
         let (nv, nt) = (m.vertices.len() as u32, m.triangles.len() as u32);
         let bytes = 12 * nv as u64;
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
-            | vk::BufferUsageFlags::TRANSFER_SRC
-            | vk::BufferUsageFlags::TRANSFER_DST;
-        let scratch = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes.max(16), usage, MemoryLocation::GpuOnly);
+        let scratch = |name: &str, bytes: u64| device_buffer(gpu, name, bytes);
         // Both position buffers readable back (the last iteration may end in either).
         let first = upload_buffer(
             gpu,
@@ -131,8 +120,7 @@ impl GpuSmooth {
             scratch("mesh_smooth_starts", 4 * nv as u64)?,
             scratch("mesh_smooth_fill", 4 * nv as u64)?,
         );
-        let sb = nv.div_ceil(SCAN_BLOCK);
-        let sums = scratch("mesh_smooth_sums", 4 * sb as u64)?;
+        let sums = scratch("mesh_smooth_sums", 4 * nv.div_ceil(SCAN_BLOCK) as u64)?;
         let (tri_runs, nbr_runs) =
             (scratch("mesh_smooth_tri_runs", 4 * corners)?, scratch("mesh_smooth_nbr_runs", 8 * corners)?);
         let ranges = scratch("mesh_smooth_ranges", 8 * nv as u64)?;
@@ -144,7 +132,7 @@ impl GpuSmooth {
             field: [grid.support, p.normalization, 0.0, 0.0],
         };
         let (pv, pt) = (push(nv), push(nt));
-        let (gv, gt) = (groups(nv), groups(nt));
+        let (gv, gt) = (groups_2d(nv.div_ceil(LOCAL_1D)), groups_2d(nt.div_ceil(LOCAL_1D)));
         let iterations = p.iterations as usize;
         let mut timer = Timer::new(gpu)?;
         gpu.one_shot(|cmd| {
@@ -152,7 +140,7 @@ impl GpuSmooth {
             ctx.pass("mesh_smooth/weights", |ctx| {
                 if p.weights {
                     let res = [(&points).into(), (&cells).into(), (&c).into()];
-                    self.neighbours.dispatch(ctx, &res, &push(np), groups(np));
+                    self.neighbours.dispatch(ctx, &res, &push(np), groups_2d(np.div_ceil(LOCAL_1D)));
                     let res = [
                         (&points).into(),
                         (&cells).into(),
@@ -170,10 +158,7 @@ impl GpuSmooth {
                 ctx.fill(&counts, 0);
                 ctx.fill(&fill, 0);
                 self.count.dispatch(ctx, &[(&tris).into(), (&counts).into()], &pt, gt);
-                let res = [(&counts).into(), (&starts).into(), (&sums).into()];
-                for (mode, g) in [(0, [sb, 1, 1]), (1, [1, 1, 1]), (2, [nv.div_ceil(SCAN_LOCAL), 1, 1])] {
-                    self.scan.dispatch(ctx, &res, &ScanPush { cells: nv, blocks: sb, mode }, g);
-                }
+                record_scan(&self.scan, ctx, (&counts, &starts, &sums), nv);
                 let res = [(&tris).into(), (&starts).into(), (&fill).into(), (&tri_runs).into(), (&nbr_runs).into()];
                 self.fill.dispatch(ctx, &res, &pt, gt);
                 let res =
