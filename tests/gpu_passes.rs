@@ -2804,3 +2804,38 @@ fn gpu_mesh_smoothing_matches_the_cpu() {
     }
     assert_clean(&gpu);
 }
+
+/// The lattice order is computed only for a smoothed field that widens its blur by it (`--preset quality`, the
+/// anisotropic kernels and `lattice_smoothing` = `smoothing` skip it), and when the settings then ask for it on
+/// the same particles it is computed before the field is built: a block on an exact lattice rendered first
+/// unsmoothed, then at the default, gives the depth a fresh renderer's default frame gives, bit for bit. The
+/// control: with one blur for all (`lattice_smoothing` = `smoothing`) the depth differs, so an order left out
+/// would be seen.
+#[test]
+fn the_lattice_order_follows_a_change_of_settings() {
+    let gpu = gpu();
+    let r = 0.05f32;
+    let pts = jittered_slab(1, [12, 4, 10], [-0.6, -0.2, -0.5], r, [0.0; 3]);
+    let v = view([0.6, 0.9, 1.6], [0.0, 0.0, 0.0], 128, 96, 45.0);
+    let mut s = settings(r);
+    s.filter.method = Filter::None;
+    s.surface = meniscus::settings::Surface::Iso;
+    let defaults = meniscus::surface::iso::params::Params::default();
+    s.iso.smoothing = defaults.smoothing;
+    s.iso.lattice_smoothing = defaults.lattice_smoothing;
+    let depth = |steps: &[&meniscus::settings::Settings]| {
+        let mut rd = Renderer::new(&gpu).unwrap();
+        rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
+        for st in steps {
+            rd.render(&v, st).unwrap();
+        }
+        read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap()
+    };
+    let fresh = depth(&[&s]);
+    let unsmoothed = s.with(|q| q.iso.smoothing = 0.0);
+    assert_eq!(depth(&[&unsmoothed, &s]), fresh, "the order computed when the settings came to need it");
+    let one_blur = s.with(|q| q.iso.lattice_smoothing = q.iso.smoothing);
+    let differ = depth(&[&one_blur]).iter().zip(&fresh).filter(|(a, b)| a != b).count();
+    assert!(differ > 100, "the control: one blur for all changes {differ} pixels");
+    assert_clean(&gpu);
+}

@@ -45,6 +45,9 @@ pub struct IsoBuffers {
     /// The parameters `aniso` was computed with for the current particles (`None`: stale). The kernels, like the
     /// weights, depend on the particles, not the view: the `anisotropy` pass runs when either changes.
     pub kernels_for: std::cell::Cell<Option<crate::field::iso::AnisoParams>>,
+    /// `counts` hold each point's lattice order for the current particles (`iso_density`'s second dispatch, run
+    /// only for a smoothed field that widens its blur by it; the first dispatch writes the orders 0).
+    pub ordered: std::cell::Cell<bool>,
     /// How many times the particles (or the support) changed since the buffers were made: what a technique
     /// derives from the weights (the iso surface's smoothed field) is stale when this moved.
     pub generation: std::cell::Cell<u64>,

@@ -160,6 +160,7 @@ impl IsoResources {
                 rebuild: std::cell::Cell::new(true),
                 weights_stale: std::cell::Cell::new(true),
                 kernels_for: std::cell::Cell::new(None),
+                ordered: std::cell::Cell::new(false),
                 generation: std::cell::Cell::new(buffers::next_generation()),
             });
             self.built_for = Some(particles.generation());
@@ -218,6 +219,7 @@ impl IsoResources {
             rebuild: std::cell::Cell::new(false),
             weights_stale: std::cell::Cell::new(true),
             kernels_for: std::cell::Cell::new(None),
+            ordered: std::cell::Cell::new(false),
             generation: std::cell::Cell::new(buffers::next_generation()),
         });
         self.built_for = Some(particles.generation());
@@ -230,7 +232,9 @@ impl IsoResources {
         let (b, params, (grid, anisotropy)) = (self.buffers.as_ref()?, self.params()?, self.programs.as_ref()?);
         grid.record_grid(ctx, f.particles.0, f.particles.1, b);
         if weights {
-            grid.record_density(ctx, f.frame, b);
+            // The lattice order only where the smoothed field widens its blur by it.
+            let order = params.volume.is_some_and(|v| v.lattice_sigma != v.sigma);
+            grid.record_density(ctx, f.frame, b, order);
         }
         if let Some(a) = &params.aniso {
             anisotropy.record(ctx, f.frame, b, a);

@@ -98,27 +98,40 @@ impl GridPrograms {
         });
     }
 
-    /// When `b`'s weights are stale: the `iso_density` pass, each sorted point with its weight 1/n_j (its own
+    /// When `b`'s weights are stale: the `iso_density` pass, each sorted point with its weight 1/n_j and its
+    /// neighbour count; with `order`, when the counts do not hold them yet, also each point's lattice order (its own
     /// timestamp, so sequences, where it runs every frame, show its cost).
-    pub fn record_density(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers) {
-        if !b.weights_stale.replace(false) {
+    pub fn record_density(&self, ctx: &mut FrameCtx, frame: &Buffer, b: &IsoBuffers, order: bool) {
+        let density = b.weights_stale.replace(false);
+        if density {
+            b.ordered.set(false);
+        }
+        let order = order && !b.ordered.get();
+        if !density && !order {
             return;
         }
+        b.ordered.set(b.ordered.get() || order);
         ctx.pass(DENSITY_NAME, |ctx| {
             let n = b.shape.dims[3];
             let (points, cells) = ((&b.points).into(), (&b.cells).into());
-            let bufs = [frame.into(), points, cells, (&b.weighted).into(), (&b.counts).into(), (&b.lattice).into()];
-            self.density.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(LOCAL_1D), 1, 1]);
-            let bufs = [frame.into(), points, cells, (&b.lattice).into(), (&b.counts).into()];
-            self.order.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(LOCAL_1D), 1, 1]);
-            let d = b.shape.dims;
-            let cells = d[0] * d[1] * d[2];
-            let push = EmptyPush { dims: [d[0], d[1], d[2], cells] };
-            let g = [cells.div_ceil(LOCAL_1D), 1, 1];
-            let (table, scratch) = ((&b.cells).into(), (&b.empty_scratch).into());
-            self.empty[0].dispatch(ctx, &[frame.into(), table, scratch], &push, g);
-            self.empty[1].dispatch(ctx, &[frame.into(), scratch], &push, g);
-            self.empty[2].dispatch(ctx, &[frame.into(), table, scratch, (&b.cells_empty).into()], &push, g);
+            if density {
+                let bufs = [frame.into(), points, cells, (&b.weighted).into(), (&b.counts).into(), (&b.lattice).into()];
+                self.density.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(LOCAL_1D), 1, 1]);
+            }
+            if order {
+                let bufs = [frame.into(), points, cells, (&b.lattice).into(), (&b.counts).into()];
+                self.order.dispatch(ctx, &bufs, &b.shape, [n.div_ceil(LOCAL_1D), 1, 1]);
+            }
+            if density {
+                let d = b.shape.dims;
+                let cells = d[0] * d[1] * d[2];
+                let push = EmptyPush { dims: [d[0], d[1], d[2], cells] };
+                let g = [cells.div_ceil(LOCAL_1D), 1, 1];
+                let (table, scratch) = ((&b.cells).into(), (&b.empty_scratch).into());
+                self.empty[0].dispatch(ctx, &[frame.into(), table, scratch], &push, g);
+                self.empty[1].dispatch(ctx, &[frame.into(), scratch], &push, g);
+                self.empty[2].dispatch(ctx, &[frame.into(), table, scratch, (&b.cells_empty).into()], &push, g);
+            }
         });
     }
 }
