@@ -144,20 +144,25 @@ fn isolated_particle_keeps_a_spherical_kernel_and_a_plane_flattens() {
     assert!(ani < iso, "anisotropic surface at {ani}, isotropic at {iso}");
 }
 
-/// `marked` (one neighbour mask per point's brick, chunks in parallel) marks exactly the bricks of every
-/// point's box, as marking each box brick by brick does: points inside the box, on brick faces, and
-/// outside it on every side (clamped into the lattice's margin).
-#[test]
-fn marked_bricks_are_each_points_box() {
-    let r = 0.01;
-    let p = VolumeParams {
+/// The smoothed field's parameters at their defaults for particles of radius `r` (σ 1.1 r, 2 r on a lattice).
+fn default_volume(r: f32) -> VolumeParams {
+    VolumeParams {
         sigma: 1.1 * r,
         bulk: [4.0, 9.0],
         spacing: 2.0 * r,
         support: 4.0 * r,
         lattice_sigma: 2.0 * r,
         particle_spacing: 2.0 * r,
-    };
+    }
+}
+
+/// `marked` (one neighbour mask per point's brick, chunks in parallel) marks exactly the bricks of every
+/// point's box, as marking each box brick by brick does: points inside the box, on brick faces, and
+/// outside it on every side (clamped into the lattice's margin).
+#[test]
+fn marked_bricks_are_each_points_box() {
+    let r = 0.01;
+    let p = default_volume(r);
     let shape = VolumeShape::around(Vec3::ZERO, Vec3::new(0.8, 0.5, 0.6), &p).unwrap();
     let mut seed = 11u32;
     let mut rnd = move || {
@@ -200,14 +205,7 @@ fn marked_bricks_are_each_points_box() {
 #[test]
 fn empty_brick_gap_is_a_lower_bound_of_the_nearest_point() {
     let r = 0.01;
-    let p = VolumeParams {
-        sigma: 1.1 * r,
-        bulk: [4.0, 9.0],
-        spacing: 2.0 * r,
-        support: 4.0 * r,
-        lattice_sigma: 2.0 * r,
-        particle_spacing: 2.0 * r,
-    };
+    let p = default_volume(r);
     let mut seed = 7u32;
     let mut rnd = move || {
         seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
