@@ -21,6 +21,12 @@ mod shader_constants {
 /// `splat.frag` gives SPLAT_FRAGDEPTH_FRAG, SPLAT_CONSERVATIVE_FRAG and SPLAT_MIN_FRAG; a ("", "") entry keeps
 /// the plain program too (`sim_density.comp` gives SIM_DENSITY and SIM_DENSITY_NBR16).
 const VARIANTS: &[(&str, &[(&str, &str)])] = &[
+    // The `mc` pass's stages as the live mesh surface runs them (block count and capacities on the device), and
+    // its blocks found on the device (src/surface/mesh/live.rs).
+    ("mc_field.comp", &[("", ""), ("LIVE", "MC_LIVE")]),
+    ("mc_count.comp", &[("", ""), ("LIVE", "MC_LIVE")]),
+    ("mc_emit.comp", &[("", ""), ("LIVE", "MC_LIVE")]),
+    ("mc_blocks.comp", &[("MARK", "MC_BLOCKS_MARK"), ("LIST", "MC_BLOCKS_LIST"), ("ARGS", "MC_BLOCKS_ARGS")]),
     ("splat.frag", &[("FRAGDEPTH", "FRAG_DEPTH"), ("CONSERVATIVE", "CONSERVATIVE_DEPTH"), ("MIN", "MIN_BLEND")]),
     // The simulation's neighbour-list stages: 32-bit lists, and 16-bit pairs (src/sim/stages.rs).
     ("sim_neighbours.comp", NBR),

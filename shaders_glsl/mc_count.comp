@@ -4,7 +4,9 @@
 //! (field ≥ threshold) and looks up how many triangles the case table gives it; and counts the crossed edges it
 //! OWNS — the three that start at its lower corner (+x, +y, +z), so that every crossed edge of the lattice has
 //! exactly one owner. Exclusive prefix sums of both counts (the `grid` pass's scan) then give every cube its place
-//! in the triangle and the vertex output. In: field, blocks, table. Out: counts, vertex counts (one per cube).
+//! in the triangle and the vertex output. In: field, blocks, table (MC_LIVE: the block count, binding 5). Out:
+//! counts, vertex counts (one per cube).
+#define MC_LIVE_BINDING 5
 #include "mc_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, binding = 0) readonly buffer Field { float field[]; };
@@ -17,7 +19,7 @@ layout(std430, binding = 4) writeonly buffer VCounts { uint vcounts[]; };
 void main() {
     uint id = flat_group() * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
     const uint per = MC_BLOCK * MC_BLOCK * MC_BLOCK;
-    if (id >= uint(pc.ldims.w) * per) return;
+    if (id >= MC_BLOCKS * per) return;
     uvec3 l;
     uint mask = cube_mask(id, l);
     bool crossing = mask != 0u && mask != 255u;

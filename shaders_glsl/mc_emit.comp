@@ -11,6 +11,9 @@
 //! every block that holds it (mc_field gathers by global corner), so the owner's edges read here are the ones
 //! the owner counted. In: field, blocks, table, start, vertex start. Out: pos, nrm (3 floats per vertex),
 //! tri (3 indices per triangle), edge (global start corner xyz, axis per vertex).
+//! MC_LIVE (the live mesh surface): the block count and the capacities at binding 8 (instead of the edges); nothing is written past
+//! a capacity (the host grows the buffers when mc_blocks' totals exceed them), and no edges (the draw needs none).
+#define MC_LIVE_BINDING 8
 #include "mc_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 layout(std430, binding = 0) readonly buffer Field { float field[]; };
@@ -21,7 +24,9 @@ layout(std430, binding = 4) readonly buffer VStart { uint vstart[]; };
 layout(std430, binding = 5) writeonly buffer Pos { float pos[]; };
 layout(std430, binding = 6) writeonly buffer Nrm { float nrm[]; };
 layout(std430, binding = 7) writeonly buffer Tri { uint tri[]; };
+#ifndef MC_LIVE
 layout(std430, binding = 8) writeonly buffer Edge { ivec4 edge[]; };
+#endif
 #include "mc_cube.glsl"
 
 const uint NONE = 0xffffffffu;
@@ -37,14 +42,14 @@ uvec3 unit(uint axis) { return uvec3(axis == 0u ? 1u : 0u, axis == 1u ? 1u : 0u,
 
 // The block whose lower corner (with its margin) is c0, or NONE: blocks are sorted by (x, y, z).
 uint find_block(ivec3 c0) {
-    uint lo = 0u, hi = uint(pc.ldims.w);
+    uint lo = 0u, hi = MC_BLOCKS;
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
         ivec3 m = blocks[mid].xyz;
         bool less = m.x < c0.x || (m.x == c0.x && (m.y < c0.y || (m.y == c0.y && m.z < c0.z)));
         if (less) lo = mid + 1u; else hi = mid;
     }
-    return lo < uint(pc.ldims.w) && blocks[lo].xyz == c0 ? lo : NONE;
+    return lo < MC_BLOCKS && blocks[lo].xyz == c0 ? lo : NONE;
 }
 
 // The vertex of the edge along `axis` from local corner `la` of block b (la in 1 … MC_BLOCK + 1).
@@ -68,7 +73,7 @@ uint vertex_of(uint b, uvec3 la, uint axis) {
 void main() {
     uint id = flat_group() * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
     const uint per = MC_BLOCK * MC_BLOCK * MC_BLOCK;
-    if (id >= uint(pc.ldims.w) * per) return;
+    if (id >= MC_BLOCKS * per) return;
     uvec3 l;
     uint mask = cube_mask(id, l);
     if (mask == 0u || mask == 255u) return;
@@ -87,16 +92,26 @@ void main() {
         vec3 g = -(grad(b, l) * (1.0 - tt) + grad(b, lb) * tt);
         float gl = length(g);
         vec3 n = gl > 0.0 && !isinf(gl) ? g / gl : vec3(0.0);
+#ifdef MC_LIVE
+        if (v < live_vert_cap) {
+#endif
         for (uint k = 0u; k < 3u; ++k) {
             pos[3u * v + k] = p[k];
             nrm[3u * v + k] = n[k];
         }
+#ifdef MC_LIVE
+        }
+#else
         edge[v] = ivec4(c0 + ivec3(l), int(axis));
+#endif
         ++v;
     }
     // The triangles, by the vertices of their edges.
     uint n = table[MC_COUNTS + mask];
     uint o = start[id];
+#ifdef MC_LIVE
+    n = min(n, live_tri_cap - min(o, live_tri_cap));
+#endif
     for (uint t = 0u; t < n; ++t) {
         for (uint k = 0u; k < 3u; ++k) {
             uint e = table[MC_EDGES + (mask * MC_MAX_TRIS + t) * 3u + k];

@@ -6,11 +6,19 @@
 //! Field: the SPH colour field Σ W(|x − x_j| / h) / n_j (cubic spline, splashsurf's), or the thesis' metaball
 //! field Σ f(|x − x_j| / R_c) (Janisz §2.2). In: points (sorted), cells, weights 1/n_j, blocks (c0).
 //! Out: field[block × MC_NC + corner].
+//! MC_LIVE: the points are the renderer's grid's weighted points (xyz, 1/n_j: iso_density's), binding 2 the
+//! block count (mc_common.glsl).
+#define MC_LIVE_BINDING 2
 #include "mc_common.glsl"
 layout(local_size_x = 128) in;
 layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };
 layout(std430, binding = 1) readonly buffer Cells { uvec2 cells[]; };
+#ifdef MC_LIVE
+#define WEIGHT(j) pts[j].w
+#else
 layout(std430, binding = 2) readonly buffer Weights { float wts[]; };
+#define WEIGHT(j) wts[j]
+#endif
 layout(std430, binding = 3) readonly buffer Blocks { ivec4 blocks[]; };
 layout(std430, binding = 4) writeonly buffer Field { float field[]; };
 
@@ -27,7 +35,7 @@ float kernel(float q) {
 
 void main() {
     uint b = flat_group();
-    if (b >= uint(pc.ldims.w)) return;
+    if (b >= MC_BLOCKS) return;
     ivec3 c0 = blocks[b].xyz;
     ivec3 gd = ivec3(pc.gdims.xyz);
     float s2 = pc.field.x * pc.field.x;
@@ -49,7 +57,7 @@ void main() {
                 float d2 = dy * dy + dz * dz;
                 if (d2 >= s2) continue;
                 float q = sqrt(dx * dx + d2) * pc.field.y;
-                v += kernel(q) * (pc.gdims.w == 1u ? 1.0 : wts[j]);
+                v += kernel(q) * (pc.gdims.w == 1u ? 1.0 : WEIGHT(j));
             }
         }
         field[b * MC_NC + c] = v;

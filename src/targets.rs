@@ -25,7 +25,7 @@ pub struct TargetsDesc {
     pub thickness: vk::Extent2D,
     /// Keep the splatted depth intact through smoothing (a second ping-pong image): dumps, the demo's views.
     pub keep_raw: bool,
-    /// The D32 depth buffer of the depth-tested rasterised splats.
+    /// The D32 depth buffer of the depth-tested rasterised splats and of the live mesh surface's draw.
     pub zbuffer: bool,
 }
 
@@ -38,7 +38,7 @@ impl TargetsDesc {
             fluid: scaled(width, height, s.fluid_scale),
             thickness: scaled(width, height, s.thickness.scale),
             keep_raw,
-            zbuffer: s.splat.mode.depth_tested(),
+            zbuffer: s.splat.mode.depth_tested() || s.surface == crate::settings::Surface::Mesh,
         }
     }
 

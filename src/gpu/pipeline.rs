@@ -144,7 +144,9 @@ impl<P: bytemuck::Pod> ProgramDecl<P> {
             return Some(e);
         }
         if let Some(f) = self.fragment {
-            if let Some(e) = shader_mismatch(f, self.slots, self.push_size()) {
+            // A fragment shader without push constants is fine (the vertex stage reads them).
+            let push = if f.push == 0 { 0 } else { self.push_size() };
+            if let Some(e) = shader_mismatch(f, self.slots, push) {
                 return Some(e);
             }
         }
@@ -162,7 +164,9 @@ impl<P: bytemuck::Pod> ProgramDecl<P> {
     /// The same check with the binding numbers and types spelled out (runtime and tests).
     pub fn check(&self) -> Result<()> {
         for sh in std::iter::once(self.shader).chain(self.fragment) {
-            if let Some(e) = shader_mismatch(sh, self.slots, self.push_size()).or(self.mismatch()) {
+            let push =
+                if self.fragment.is_some_and(|f| std::ptr::eq(f, sh)) && sh.push == 0 { 0 } else { self.push_size() };
+            if let Some(e) = shader_mismatch(sh, self.slots, push).or(self.mismatch()) {
                 let declared: Vec<String> =
                     self.slots.iter().enumerate().map(|(i, s)| format!("{i}={:?}", s.descriptor_type())).collect();
                 let reflected: Vec<String> =
@@ -635,10 +639,38 @@ impl<P: bytemuck::Pod> GraphicsProgram<P> {
         depth: Option<&Image>,
         vertices: u32,
     ) {
+        self.record(ctx, res, push, (color, clear, depth), DrawCount::Vertices(vertices));
+    }
+
+    /// As [`GraphicsProgram::draw`], with the vertex count read by the device from the `VkDrawIndirectCommand`
+    /// at byte `offset` of `args` (an earlier dispatch wrote it; its barrier derived like any other use).
+    pub fn draw_indirect(
+        &self,
+        ctx: &mut FrameCtx,
+        res: &[Res],
+        push: &P,
+        (color, clear, depth): (&Image, f32, Option<&Image>),
+        args: &Buffer,
+        offset: u64,
+    ) {
+        self.record(ctx, res, push, (color, clear, depth), DrawCount::Indirect(args, offset));
+    }
+
+    fn record(
+        &self,
+        ctx: &mut FrameCtx,
+        res: &[Res],
+        push: &P,
+        (color, clear, depth): (&Image, f32, Option<&Image>),
+        count: DrawCount,
+    ) {
         let c = &self.core;
         let mut attachments = vec![Use::Image(color, Access::ColorAttachment, true)];
         if let Some(z) = depth {
             attachments.push(Use::Image(z, Access::DepthAttachment, true));
+        }
+        if let DrawCount::Indirect(args, _) = count {
+            attachments.push(Use::Buffer(args, Access::IndirectRead));
         }
         ctx.barrier(&attachments);
         c.bind(ctx, vk::PipelineBindPoint::GRAPHICS, res);
@@ -679,12 +711,21 @@ impl<P: bytemuck::Pod> GraphicsProgram<P> {
         }
         c.push(cmd, push);
         unsafe {
-            if vertices > 0 {
-                d.cmd_draw(cmd, vertices, 1, 0, 0);
+            match count {
+                DrawCount::Vertices(0) => {}
+                DrawCount::Vertices(n) => d.cmd_draw(cmd, n, 1, 0, 0),
+                DrawCount::Indirect(args, offset) => d.cmd_draw_indirect(cmd, args.raw, offset, 1, 0),
             }
             d.cmd_end_rendering(cmd);
         }
     }
+}
+
+/// How many vertices a draw has: known on the host, or written by the device.
+#[derive(Clone, Copy)]
+enum DrawCount<'a> {
+    Vertices(u32),
+    Indirect(&'a Buffer, u64),
 }
 
 #[cfg(test)]

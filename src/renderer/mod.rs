@@ -165,7 +165,13 @@ impl Renderer {
     }
 
     /// Render one frame of `view` with settings `s` and wait for it; returns the GPU time of each pass.
+    /// A surface whose device-sized buffers the frame outgrew (the live mesh's) renders it once more, grown.
     pub fn render(&mut self, view: &View, s: &Settings) -> Result<PassTimes> {
+        let sub = self.submit(FrameRequest::new(view, s))?;
+        let times = self.finish(sub)?;
+        if !self.surfaces.get(s.surface).outgrown() {
+            return Ok(times);
+        }
         let sub = self.submit(FrameRequest::new(view, s))?;
         self.finish(sub)
     }

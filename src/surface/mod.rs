@@ -91,6 +91,11 @@ pub trait Technique: std::any::Any {
     fn memory(&self) -> Vec<(&str, u64)> {
         vec![]
     }
+    /// Whether the latest frame (finished) drew less than its resources should have held (read from the device):
+    /// the next prepare grows them, and a one-frame render renders again (`Renderer::render`).
+    fn outgrown(&self) -> bool {
+        false
+    }
 }
 
 /// The frame passes the techniques own, in frame order, where they run: after `splat`, before `filter`

@@ -487,12 +487,18 @@ pub(crate) fn occupied_blocks(grid: &IsoGrid, lat: &Lattice, b: i32) -> (Vec<i64
 /// How many blocks of `b`³ cubes [`occupied_blocks`] lists, from one bit per block (no list, no sort: what the
 /// choice of the block size reads).
 pub(crate) fn occupied_count(grid: &IsoGrid, lat: &Lattice, b: i32) -> usize {
+    occupied_count_of(&grid.points, lat, grid.support, b)
+}
+
+/// [`occupied_count`] of `points` (xyz first) with kernel `support`: what the live mesh surface sizes its
+/// buffers by (src/surface/mesh/live.rs, whose mc_blocks.comp marks the same blocks on the device).
+pub(crate) fn occupied_count_of<P: AsRef<[f32]> + Sync>(points: &[P], lat: &Lattice, support: f32, b: i32) -> usize {
     use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-    let r = BlockReach::new(grid, lat, b);
+    let r = BlockReach::with_support(support, lat, b);
     let blocks = r.nb.x as usize * r.nb.y as usize * r.nb.z as usize;
     let bits: Vec<AtomicU64> = (0..blocks.div_ceil(64)).map(|_| AtomicU64::new(0)).collect();
-    grid.points.par_iter().for_each(|q| {
-        for k in r.keys(q) {
+    points.par_iter().filter(|q| q.as_ref()[..3].iter().all(|x| x.is_finite())).for_each(|q| {
+        for k in r.keys(q.as_ref()) {
             bits[k as usize / 64].fetch_or(1 << (k % 64), Relaxed);
         }
     });
@@ -513,8 +519,12 @@ struct BlockReach {
 
 impl BlockReach {
     fn new(grid: &IsoGrid, lat: &Lattice, b: i32) -> BlockReach {
+        Self::with_support(grid.support, lat, b)
+    }
+
+    fn with_support(support: f32, lat: &Lattice, b: i32) -> BlockReach {
         let (h, dims) = (lat.h, lat.dims);
-        BlockReach { lo: lat.lo, h, reach: (grid.support / h).ceil() as i32, dims, b, nb: (dims - 1 + b - 1) / b }
+        BlockReach { lo: lat.lo, h, reach: (support / h).ceil() as i32, dims, b, nb: (dims - 1 + b - 1) / b }
     }
 
     fn keys(&self, q: &[f32]) -> impl Iterator<Item = i64> + '_ {

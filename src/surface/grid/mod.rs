@@ -82,6 +82,37 @@ impl IsoResources {
         self.ensure(p, h, reach)
     }
 
+    /// Prepare the grid for kernels of `support` (world units) alone, cells `support` wide: what the mesh
+    /// surface's field needs (no smoothed field, no anisotropic kernels; [`IsoResources::record_weights`]).
+    pub fn prepare_support(&mut self, p: &Prepare, support: f32) -> Result<()> {
+        if self.programs.is_none() {
+            self.programs = Some((GridPrograms::new(p.gpu)?, Anisotropy::new(p.gpu)?));
+        }
+        self.ensure(p, support, support)
+    }
+
+    /// The box the grid spans: the fluid's (the particles without strays; a simulation's container), or the
+    /// host-built grid's cells.
+    pub fn fluid_box(&self) -> Option<crate::scene::Bounds> {
+        let b = self.buffers.as_ref()?;
+        if b.gpu.is_some() {
+            return self.bounds.and_then(|(_, _, f)| f.map(|(bounds, _)| bounds));
+        }
+        let o = b.shape.origin;
+        let lo = glam::Vec3::new(o[0], o[1], o[2]);
+        let d = b.shape.dims;
+        Some(crate::scene::Bounds { lo, hi: lo + glam::Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) * o[3] })
+    }
+
+    /// Record the grid's build (when the particles changed) and each point's weight 1/n_j (`iso_density`, no
+    /// lattice order, no kernels): the colour field's inputs.
+    pub(crate) fn record_weights(&self, ctx: &mut FrameCtx, f: &SurfaceFrame) -> Option<&IsoBuffers> {
+        let (b, (grid, _)) = (self.buffers.as_ref()?, self.programs.as_ref()?);
+        grid.record_grid(ctx, f.particles.0, f.particles.1, b);
+        grid.record_density(ctx, f.frame, b, false);
+        Some(b)
+    }
+
     /// The buffers, once built.
     pub fn buffers(&self) -> Option<&IsoBuffers> {
         self.buffers.as_ref()

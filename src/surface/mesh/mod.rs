@@ -1,26 +1,34 @@
-//! The mesh surface (`--preset smooth`): the marching-cubes mesh of the iso field (`extract`, on the CPU with
-//! rayon; the `mc` pass is its GPU twin for `meniscus mesh --gpu`), optionally smoothed with splashsurf's
-//! feature-weighted Laplacian (`smooth`), its BVH ray-cast per pixel by the `mesh` pass. It owns the mesh's
-//! BVH and what it was made from; the CPU extracts again whenever the particles or the field change. Its files:
-//! this one, [`params`] (the `[mesh]` section), [`cast`] (the `mesh` pass), its shader in shaders_glsl/mesh/.
+//! The mesh surface (`--surface mesh`, `--preset smooth`): the marching-cubes mesh of the iso field, extracted
+//! where `[mesh] extraction` says ([`params::Extraction`]):
+//! * on the CPU (`extract`, rayon), optionally smoothed with splashsurf's feature-weighted Laplacian (`smooth`),
+//!   its BVH ray-cast per pixel by the `mesh` pass ([`cast`]); extracted again whenever the particles change;
+//! * on the GPU inside the frame ([`live`]): the `mc` pass's stages on the renderer's particle grid, the
+//!   triangles drawn by a raster pass straight from the device's buffers — live with GPU-written particles.
+//!
+//! `auto` takes the GPU on a GPU, the CPU on a CPU driver (lavapipe emulates the marching cubes slower than the
+//! CPU runs it) or for a smoothed mesh, and the GPU for a simulation's particles (they never reach the host);
+//! [`FluidMesh::path`] says which and why. Its files: this one, [`params`] (the `[mesh]` section), [`cast`],
+//! [`live`], their shaders in shaders_glsl/mesh/ (the `mc` stages in shaders_glsl/mc_*.comp).
 
 pub mod cast;
+pub mod live;
 pub mod params;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::field::{extract, smooth};
-use crate::gpu::recording::Recording;
+use crate::gpu::recording::{Part, Recording};
 use crate::gpu::transfer::upload_buffer;
 use crate::gpu::FrameCtx;
 use crate::passes::background::BvhBuffers;
 use crate::scene::geometry::{Geometry, GpuBvh};
 
+use super::grid::IsoResources;
 use super::{Kernels, Prepare, SurfaceFrame, Technique};
 
 /// What a mesh is made from: [support, cube, threshold] in world units, the smoothing, the particles.
 type MeshKey = ([f32; 3], smooth::SmoothParams, u64);
 
-/// The mesh technique: the extracted mesh's BVH on the device.
+/// The mesh technique: the CPU-extracted mesh's BVH, or the live mesh on the device.
 #[derive(Default)]
 pub struct FluidMesh {
     bvh: Option<(BvhBuffers, MeshKey)>,
@@ -28,29 +36,102 @@ pub struct FluidMesh {
     cast: Option<cast::MeshCast>,
     /// Seconds (CPU) the last extraction and BVH build took, and the mesh's vertex and triangle counts.
     stats: Option<(f64, usize, usize)>,
+    /// The particles' grid and weights on the device (the live mesh's field).
+    grid: IsoResources,
+    /// The live mesh, built when first used.
+    live: Option<live::LiveMesh>,
+    /// Where the latest prepare extracts, and why.
+    path: Option<(params::Extraction, String)>,
 }
 
 impl FluidMesh {
-    /// Seconds its last host build took, and the mesh's vertex and triangle counts, once built.
+    /// Seconds its last host build took, and the mesh's vertex and triangle counts, once built (the CPU path).
     pub fn mesh_stats(&self) -> Option<(f64, usize, usize)> {
         self.stats
     }
+
+    /// Where the latest prepare extracted the mesh (`params::Extraction::Cpu` or `params::Extraction::Gpu`) and why.
+    pub fn path(&self) -> Option<(params::Extraction, &str)> {
+        self.path.as_ref().map(|(e, w)| (*e, w.as_str()))
+    }
+
+    /// The live mesh's work in its latest extraction (after its frame finished), on the GPU path.
+    pub fn live_work(&self) -> Option<live::MeshWork> {
+        match self.path {
+            Some((params::Extraction::Gpu, _)) => self.live.as_ref()?.work(),
+            _ => None,
+        }
+    }
+}
+
+/// Where `[mesh] extraction = e` extracts for this device and these particles, and why (see the module).
+pub fn choose(
+    e: params::Extraction,
+    gpu: &crate::gpu::Gpu,
+    smoothing_iters: u32,
+    external: bool,
+) -> Result<(params::Extraction, String)> {
+    let cpu_driver = gpu.info.device_type == "CPU";
+    Ok(match e {
+        params::Extraction::Cpu if external => {
+            return Err(Error::Invalid(
+                "[mesh] extraction = \"cpu\" cannot mesh particles written on the GPU (a simulation's): they never \
+                 reach the host; use \"gpu\" or \"auto\""
+                    .into(),
+            ))
+        }
+        params::Extraction::Gpu if smoothing_iters > 0 => {
+            return Err(Error::Invalid(format!(
+                "[mesh] extraction = \"gpu\" draws the mesh as extracted: smoothing_iters = {smoothing_iters} needs \
+                 extraction = \"cpu\""
+            )))
+        }
+        params::Extraction::Cpu => (params::Extraction::Cpu, "[mesh] extraction = \"cpu\"".into()),
+        params::Extraction::Gpu => (params::Extraction::Gpu, "[mesh] extraction = \"gpu\"".into()),
+        params::Extraction::Auto if external => (
+            params::Extraction::Gpu,
+            "the particles are written on the GPU (a simulation's): they never reach the host".into(),
+        ),
+        params::Extraction::Auto if smoothing_iters > 0 => (
+            params::Extraction::Cpu,
+            format!("the mesh is smoothed ({smoothing_iters} iterations), which the renderer does on the CPU"),
+        ),
+        params::Extraction::Auto if cpu_driver => (
+            params::Extraction::Cpu,
+            format!("{} is a CPU driver: its marching cubes is an emulation, slower than the CPU's", gpu.info.name),
+        ),
+        params::Extraction::Auto => (params::Extraction::Gpu, format!("{} is a GPU", gpu.info.name)),
+    })
 }
 
 impl Technique for FluidMesh {
-    /// Extract the iso-surface mesh of the current particles (isolated particles and strays left out) with the `[iso]` field
-    /// and the `[mesh]` cube size, and upload its BVH, unless it is there already.
+    /// Choose where to extract; on the CPU extract the iso-surface mesh of the current particles (isolated
+    /// particles and strays left out) with the `[iso]` field and the `[mesh]` cube size and upload its BVH unless
+    /// it is there already; on the GPU bring the grid and the live mesh's buffers up to date.
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
+        let s = p.settings;
+        let path = choose(s.mesh.extraction, p.gpu, s.mesh.smoothing_iters, p.particles.is_external())?;
+        let on_gpu = path.0 == params::Extraction::Gpu;
+        self.path = Some(path);
+        let field = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
+        if on_gpu {
+            self.grid.prepare_support(p, field[0])?;
+            if self.live.is_none() {
+                self.live = Some(live::LiveMesh::new(p.gpu)?);
+            }
+            let (Some(b), Some(bx), Some(l)) = (self.grid.buffers(), self.grid.fluid_box(), self.live.as_mut()) else {
+                return Ok(());
+            };
+            return l.prepare(p, (bx.lo, bx.hi), (field[0], field[1], field[2]), b.generation.get());
+        }
         if self.cast.is_none() {
             self.cast = Some(cast::MeshCast::new(p.gpu)?);
         }
-        let s = p.settings;
         let smoothing = smooth::SmoothParams {
             iterations: s.mesh.smoothing_iters,
             weights: s.mesh.smoothing_weights,
             ..Default::default()
         };
-        let field = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
         let key = (field, smoothing, p.particles.generation());
         if self.bvh.as_ref().is_some_and(|m| m.1 == key) {
             return Ok(());
@@ -76,15 +157,39 @@ impl Technique for FluidMesh {
         Ok(())
     }
 
-    fn record_kernels<'a>(&'a self, _: &mut Recording, _: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
+    fn record_kernels<'a>(&'a self, rec: &mut Recording, f: &SurfaceFrame<'a>) -> Option<Kernels<'a>> {
+        if let (Some((params::Extraction::Gpu, _)), Some(l)) = (&self.path, &self.live) {
+            let ctx = rec.part(Part::Fluid);
+            if let Some(b) = self.grid.record_weights(ctx, f) {
+                l.record_extract(ctx, b);
+            }
+        }
         None
     }
 
     fn record_depth(&self, ctx: &mut FrameCtx, f: &SurfaceFrame, _: Option<Kernels>) -> Result<()> {
+        if let (Some((params::Extraction::Gpu, _)), Some(l)) = (&self.path, &self.live) {
+            return l.record_draw(ctx, f.frame, &f.targets.depth, f.targets.zbuffer.as_ref());
+        }
         if let (Some((m, _)), Some(cast)) = (&self.bvh, &self.cast) {
             cast.record(ctx, f.frame, m, &f.targets.depth);
         }
         Ok(())
+    }
+
+    fn strays(&self) -> Option<(u64, usize)> {
+        match self.path {
+            Some((params::Extraction::Gpu, _)) => self.grid.strays(),
+            _ => None,
+        }
+    }
+
+    fn outgrown(&self) -> bool {
+        matches!(self.path, Some((params::Extraction::Gpu, _))) && self.live.as_ref().is_some_and(|l| l.outgrown())
+    }
+
+    fn memory(&self) -> Vec<(&str, u64)> {
+        self.live.as_ref().map(|l| l.memory()).unwrap_or_default()
     }
 }
 

@@ -1,8 +1,24 @@
-//! The `[mesh]` section of a settings file: the mesh surface's marching-cubes lattice and its smoothing (also
-//! `meniscus mesh`'s defaults), its check. A leaf: it imports nothing of the renderer, so `settings` can hold it.
+//! The `[mesh]` section of a settings file: the mesh surface's marching-cubes lattice, its smoothing (also
+//! `meniscus mesh`'s defaults) and where it is extracted, its check. A leaf: it imports nothing of the renderer,
+//! so `settings` can hold it.
 
 /// The section's name.
 const NAME: &str = "mesh";
+
+crate::named::named_enum! {
+    /// Where the mesh surface is extracted (`[mesh] extraction`).
+    pub enum Extraction {
+        /// On the GPU where the device is one, on the CPU where the Vulkan device is a CPU driver (lavapipe: its
+        /// emulated marching cubes is slower than the CPU's) or the mesh is smoothed (the renderer's smoothing
+        /// runs on the CPU).
+        Auto = "auto",
+        /// On the CPU (rayon), its BVH ray-cast per pixel (`mesh` pass), again whenever the particles change.
+        Cpu = "cpu",
+        /// On the GPU inside the frame, drawn by a raster pass from the device's buffers (no read-back): live
+        /// with a simulation (`demo --sim --surface mesh`). Unsmoothed only.
+        Gpu = "gpu",
+    }
+}
 
 /// Settings of the `mesh` surface: the `[mesh]` section of a settings file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -14,11 +30,13 @@ pub struct Params {
     pub smoothing_iters: u32,
     /// Smoothing with feature weights (isolated droplets keep their shape).
     pub smoothing_weights: bool,
+    /// Where the mesh is extracted: `auto`, `cpu` or `gpu` ([`Extraction`]).
+    pub extraction: Extraction,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { cube: 0.5, smoothing_iters: 0, smoothing_weights: true }
+        Params { cube: 0.5, smoothing_iters: 0, smoothing_weights: true, extraction: Extraction::Auto }
     }
 }
 
@@ -30,6 +48,17 @@ impl crate::section::Section for Params {
     fn check(&self) -> crate::section::Checked {
         let k = crate::section::Keys(NAME);
         k.above("cube", self.cube, 0.05, 8.0)?;
-        k.count("smoothing_iters", self.smoothing_iters, 0, 1000)
+        k.count("smoothing_iters", self.smoothing_iters, 0, 1000)?;
+        if self.extraction == Extraction::Gpu && self.smoothing_iters > 0 {
+            return Err((
+                "extraction",
+                format!(
+                    "[mesh] extraction = \"gpu\" draws the mesh as extracted: smoothing_iters = {} needs \
+                     extraction = \"cpu\" (or \"auto\", which chooses it)",
+                    self.smoothing_iters
+                ),
+            ));
+        }
+        Ok(())
     }
 }
