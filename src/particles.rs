@@ -83,6 +83,8 @@ pub struct ParticleSet {
     gpu_diffuse: u32,
     /// The next frame's particles are written on the GPU by `Hooks::produce`.
     external: bool,
+    /// The current particles were written on the GPU (the last set was `set_gpu`'s): the host holds only their box.
+    gpu_written: bool,
     positions: Vec<[f32; 3]>,
     isolated: Option<Vec<bool>>,
     generation: u64,
@@ -149,6 +151,7 @@ impl ParticleSet {
         self.fluid = data;
         self.gpu_diffuse = 0;
         self.external = false;
+        self.gpu_written = false;
         self.count = n as u32;
         self.restage();
         self.positions.clear();
@@ -201,6 +204,7 @@ impl ParticleSet {
             .collect();
         self.fluid.clear();
         self.external = true;
+        self.gpu_written = true;
         self.count = count;
         self.gpu_diffuse = slots;
         if slots > 0 {
@@ -298,6 +302,12 @@ impl ParticleSet {
     /// The particles are written on the GPU (a simulation), not uploaded.
     pub fn is_external(&self) -> bool {
         self.external
+    }
+
+    /// The current particles were written on the GPU (a simulation's, `set_gpu`): the host holds only the box
+    /// around them, in the frames after the one that produced them too.
+    pub fn gpu_written(&self) -> bool {
+        self.gpu_written
     }
 
     /// Linear depth of the nearest particle surface in front of the camera (at least the near plane).

@@ -1,8 +1,9 @@
 //! What a pass did, counted on the device: beside its time, the measure of a change's GPU cost that every
 //! device gives alike (lavapipe's milliseconds do not follow a GPU's; these counts do). The `noise` pass counts
 //! its own work ([`NoiseWork`]), so do `splat` ([`SplatWork`]: sphere–pixel tests), `iso` ([`IsoWork`]: field
-//! samples, rays queued) and `iso_volume` ([`IsoVolumeWork`]: deposits and their atomics); `meniscus bench`
-//! reports them (JSON `noise_work`, `splat_work`, `iso_work`, `iso_volume_work`) beside every pass's compute
+//! samples, rays queued), `iso_volume` ([`IsoVolumeWork`]: deposits and their atomics) and the live mesh's `mc`
+//! stages ([`MeshWork`]: blocks, cubes, field samples, triangles); `meniscus bench` reports them (JSON
+//! `noise_work`, `splat_work`, `iso_work`, `iso_volume_work`, `mesh_work`) beside every pass's compute
 //! invocations (the GPU timer's pipeline-statistics queries, `crate::gpu::timer`).
 
 use std::sync::Arc;
@@ -114,4 +115,24 @@ pub struct FrameWork {
     pub iso_volume: Option<IsoVolumeWork>,
     /// `noise`.
     pub noise: Option<NoiseWork>,
+    /// The live mesh surface's extraction (its latest: it runs when the particles change).
+    pub mesh: Option<MeshWork>,
+}
+
+/// What the live extraction did in its latest frame, counted on the device: the measure of its cost that every
+/// device gives alike (bench JSON `mesh_work`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MeshWork {
+    /// Occupied blocks of MC_BLOCK³ cubes.
+    pub blocks: u64,
+    /// Cubes visited (mc_count and mc_emit: MC_BLOCK³ per block).
+    pub cubes: u64,
+    /// Field samples (mc_field: (MC_BLOCK + 3)³ corners per block, each a gather over the neighbour cells).
+    pub field_samples: u64,
+    /// Triangles extracted (and drawn, when none was past the capacity).
+    pub triangles: u64,
+    /// Vertices extracted.
+    pub vertices: u64,
+    /// Whether a buffer was too small (the frame drew what fit; the next prepare grows them).
+    pub outgrown: bool,
 }

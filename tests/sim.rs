@@ -548,6 +548,90 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
     common::assert_clean(&gpu);
 }
 
+/// `demo --sim --surface mesh`: the mesh surface of GPU-written particles is extracted on the GPU inside each
+/// frame (`[mesh] extraction = "auto"` takes the GPU for them: they never reach the host) and drawn from the
+/// device's buffers: it draws what the same particles uploaded from the host draw as a live mesh (within the
+/// golden frame's tolerance: the lattice spans the container instead of the particles' box), and the next step's
+/// frame draws the moved water (the depth changes where the water moved; control: a frame without a step draws
+/// the same depth bit for bit). Asking for the CPU extraction of GPU-written particles is an error that says why.
+#[test]
+fn the_live_mesh_surface_meshes_gpu_written_particles_every_step() {
+    use meniscus::gpu::{Buffer, FrameCtx};
+    use meniscus::renderer::{FrameRequest, Hooks, Renderer};
+    use meniscus::settings::Surface;
+    use meniscus::surface::mesh::{params::Extraction, FluidMesh};
+    let gpu = common::gpu();
+    let scene = SimScene::new("dambreak", 3000).unwrap();
+    let mut sim = Simulation::new(&gpu, scene.clone(), Params::default()).unwrap();
+    for _ in 0..3 {
+        sim.step_frame().unwrap();
+    }
+    let p = sim.read().unwrap();
+    let v = common::view([0.0, 1.5, 4.0], [-0.8, 0.3, 0.0], 96, 64, 45.0);
+    let mut s = common::settings(scene.radius());
+    s.surface = Surface::Mesh;
+    s.mesh.extraction = Extraction::Gpu;
+    let mut host = Renderer::new(&gpu).unwrap();
+    host.upload(meniscus::renderer::Upload::points(&p.positions)).unwrap();
+    host.render(&v, &s).unwrap();
+    let host_image = host.state().read_final().unwrap();
+    s.mesh.extraction = Extraction::Auto;
+    let mut r = Renderer::new(&gpu).unwrap();
+    type Frame = (Vec<f32>, image::RgbaImage, meniscus::work::MeshWork);
+    // A frame that draws the simulation's current particles (`fresh`: new ones, as the demo uploads per step).
+    let frame = |r: &mut Renderer,
+                 sim: &Simulation,
+                 s: &meniscus::settings::Settings,
+                 fresh: bool|
+     -> meniscus::Result<Frame> {
+        if fresh {
+            r.upload(meniscus::renderer::Upload::Gpu {
+                count: sim.count(),
+                bounds: scene.container,
+                diffuse_slots: 0,
+            })?;
+        }
+        let src = sim.particle_buffer();
+        let copy = |ctx: &mut FrameCtx, out: &Buffer| {
+            let size = sim.count() as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
+            ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
+        };
+        let sub = r.submit(FrameRequest::new(&v, s).hooks(Hooks { produce: Some(&copy), ..Default::default() }))?;
+        r.spans(sub)?;
+        let depth = meniscus::gpu::transfer::read_f32(&gpu, &r.state().targets().unwrap().depth)?;
+        let mesh = r.state().surfaces().technique::<FluidMesh>().unwrap();
+        assert_eq!(mesh.path().unwrap().0, Extraction::Gpu, "{:?}", mesh.path());
+        let work = mesh.live_work().unwrap();
+        assert!(!work.outgrown && work.triangles > 1000, "{work:?}");
+        Ok((depth, r.state().read_final()?, work))
+    };
+    let (depth0, fed_image, _) = frame(&mut r, &sim, &s, true).unwrap();
+    let covered = depth0.iter().filter(|d| **d < 1e30).count();
+    assert!(covered > 300, "the water covers only {covered} pixels");
+    let (mut sum, mut bad) = (0u64, 0usize);
+    for (a, b) in host_image.pixels().zip(fed_image.pixels()) {
+        let d = (0..3).map(|c| a[c].abs_diff(b[c]) as u64).max().unwrap();
+        sum += d;
+        bad += (d > 24) as usize;
+    }
+    let n = (host_image.len() / 4) as f64;
+    eprintln!("fed vs host live mesh: mean diff {:.2}, {bad} pixels > 24 levels", sum as f64 / n);
+    assert!(sum as f64 / n <= 2.0 && bad as f64 <= 0.005 * n, "fed vs host: mean {}, {bad} bad", sum as f64 / n);
+    // Control: no new particles, the same depth (the mesh kept, not extracted again).
+    let (same, _, _) = frame(&mut r, &sim, &s, false).unwrap();
+    assert!(same.iter().zip(&depth0).all(|(a, b)| a.to_bits() == b.to_bits()), "a frame without a step moved");
+    sim.step_frame().unwrap();
+    let (moved, _, _) = frame(&mut r, &sim, &s, true).unwrap();
+    let changed = moved.iter().zip(&depth0).filter(|(a, b)| (**a - **b).abs() > 0.01 * scene.radius()).count();
+    eprintln!("one step later: {changed} of {covered} pixels' depth changed");
+    assert!(changed > covered / 20, "the mesh did not follow the step: {changed} pixels changed");
+    // The CPU cannot mesh what it never sees.
+    s.mesh.extraction = Extraction::Cpu;
+    let e = frame(&mut r, &sim, &s, true).expect_err("extraction = cpu of GPU-written particles").to_string();
+    assert!(e.contains("never reach the host"), "{e}");
+    common::assert_clean(&gpu);
+}
+
 /// The flicker figure of the diffuse layer (#37): a waterfall — a steady flow once its stream runs — is
 /// simulated, its spray, foam and bubbles generated as the run goes (`diffuse::generator::Live`) and drawn. The figure is
 /// the mean absolute change of the layer's coverage from one frame to the next, summed over 8×8-pixel blocks

@@ -46,7 +46,7 @@ pub enum Upload<'a> {
     /// `count` particles written on the GPU by each frame's `Hooks::produce` (xyz, w = 0), inside `bounds`
     /// (the near plane and the iso surface's grid are fitted to it), followed by `diffuse_slots` diffuse
     /// particles the producer writes too (a simulation's spray, foam and bubbles). No host copy: the mesh
-    /// surface, which needs one, cannot draw them.
+    /// surface extracts them on the GPU (`[mesh] extraction = "auto"` or `"gpu"`).
     Gpu {
         /// Fluid particles.
         count: u32,
@@ -327,7 +327,9 @@ impl<'a> RendererState<'a> {
             Some(n) if ran(crate::passes::noise::NAME) => n.work()?,
             _ => None,
         };
-        Ok(crate::work::FrameWork { splat, iso, iso_volume, noise })
+        let mesh = self.surfaces.technique::<crate::surface::mesh::FluidMesh>().and_then(|m| m.live_work());
+        let mesh = mesh.filter(|_| settings.surface == crate::settings::Surface::Mesh);
+        Ok(crate::work::FrameWork { splat, iso, iso_volume, noise, mesh })
     }
 
     /// The image that holds the last frame's smoothed depth.

@@ -253,6 +253,7 @@ impl Series {
         self.next_particles(r, w)?;
         let counted = r.submit(FrameRequest::new(&self.view, &self.s).count_work())?;
         r.finish(counted)?;
+        crate::job::say_mesh_path(r, &self.s, &mut None);
         let memory: Vec<Mem> =
             r.state().memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
         let ran = |pass: &str| self.per_pass.iter().any(|(n, _)| n == pass);
@@ -292,6 +293,7 @@ impl Series {
             iso_work: work.iso,
             splat_work: work.splat,
             iso_volume_work: work.iso_volume,
+            mesh_work: work.mesh,
             host_ms: HOST_STAGES
                 .iter()
                 .enumerate()

@@ -92,6 +92,9 @@ pub struct Entry {
     /// The smoothed field's deposit at its last build in the measured frames (absent when no measured frame
     /// rebuilt it: a still scene builds it once, in the warm-up).
     pub iso_volume_work: Option<meniscus::work::IsoVolumeWork>,
+    /// The live mesh surface's extraction (`--surface mesh` extracted on the GPU), its latest: occupied blocks,
+    /// cubes visited, field samples, triangles and vertices (absent on the CPU path).
+    pub mesh_work: Option<meniscus::work::MeshWork>,
     /// The effect images that exist (`noise_accum`, `noise`, `diffuse_white`, …), by name: none when the
     /// effects are off.
     pub effect_images: Vec<String>,
@@ -300,7 +303,7 @@ pub fn work_table(entries: &[Entry]) -> String {
         "\nWork per pass (each pass's own counters, from a frame counted after the timed ones, which run without \
          counting):\n\n| scene | resolution | variant | splat: \
          sphere–pixel tests (spheres) | iso: field samples (rays queued; tiles cast) | iso_volume: deposits (atomics) | noise: \
-         texels evaluated (level) |\n|---|---|---|---:|---:|---:|---:|\n",
+         texels evaluated (level) | mesh: field samples (blocks; triangles) |\n|---|---|---|---:|---:|---:|---:|---:|\n",
     );
     let dash = || "–".to_string();
     for e in entries {
@@ -308,8 +311,9 @@ pub fn work_table(entries: &[Entry]) -> String {
         let iso = e.iso_work.map_or_else(dash, |w| format!("{} ({}; {})", w.samples, w.queued + w.fallbacks, w.tiles));
         let vol = e.iso_volume_work.map_or_else(dash, |w| format!("{} ({})", w.deposits, w.atomics));
         let noise = e.noise_work.map_or_else(dash, |w| format!("{} ({})", w.evaluated, w.level));
+        let mesh = e.mesh_work.map_or_else(dash, |w| format!("{} ({}; {})", w.field_samples, w.blocks, w.triangles));
         s.push_str(&format!(
-            "| {} | {}×{} | {} | {splat} | {iso} | {vol} | {noise} |\n",
+            "| {} | {}×{} | {} | {splat} | {iso} | {vol} | {noise} | {mesh} |\n",
             e.scene, e.width, e.height, e.variant
         ));
     }

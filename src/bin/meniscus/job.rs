@@ -380,6 +380,27 @@ fn hash(p: &Particles) -> u64 {
     h
 }
 
+/// Say where the mesh surface is extracted and why (`[mesh] extraction`, `FluidMesh::path`), once per change:
+/// the library chooses, the application says so. `last`: what was said last.
+pub fn say_mesh_path(r: &Renderer, s: &Settings, last: &mut Option<String>) {
+    if s.surface != meniscus::settings::Surface::Mesh {
+        return;
+    }
+    let mesh = r.state().surfaces().technique::<meniscus::surface::mesh::FluidMesh>();
+    if let Some((e, why)) = mesh.and_then(|m| m.path()) {
+        let line = match e {
+            meniscus::surface::mesh::params::Extraction::Gpu => {
+                format!("mesh surface: extracted on the GPU in the frame and rasterised ({why})")
+            }
+            _ => format!("mesh surface: extracted on the CPU and ray-cast ({why})"),
+        };
+        if last.as_deref() != Some(line.as_str()) {
+            eprintln!("{line}");
+            *last = Some(line);
+        }
+    }
+}
+
 /// Warn once per set of particles about the strays the surface left out (particles far from the fluid): the
 /// library counts them (`Technique::strays`), the application says so. `last`: the particle generation warned
 /// about last.

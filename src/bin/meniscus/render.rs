@@ -124,6 +124,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     r.parts_mut().background.always_render = a.timings;
     let mut times = r.render(&view, s)?;
     crate::job::warn_strays(&r, s, &mut None);
+    crate::job::say_mesh_path(&r, s, &mut None);
     let first = times.clone();
     if a.timings {
         let mut runs = vec![];
@@ -334,6 +335,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
     let (tx, writer) = start_writer(a, job, movie)?;
     let mut pending = std::collections::VecDeque::new();
     let mut strays_warned = None;
+    let mut mesh_said = None;
     let mut skipped = vec![];
     let mut rendered = 0usize;
     let mut take =
@@ -379,6 +381,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
             }
             let sub = r.submit(FrameRequest::new(&view, s).readback())?;
             crate::job::warn_strays(&r, s, &mut strays_warned);
+            crate::job::say_mesh_path(&r, s, &mut mesh_said);
             let name = frame.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
             pending.push_back((sub, names.path(frame.number), name));
             if pending.len() >= r.slots().count() && !take(&mut r, pending.pop_front().expect("non-empty"))? {

@@ -33,6 +33,7 @@ use crate::gpu::{Access, Buffer, ComputeProgram, FrameCtx, Gpu, GraphicsProgram,
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, SCAN_BLOCK};
 use crate::shaders;
 use crate::surface::grid::IsoBuffers;
+pub use crate::work::MeshWork;
 
 /// The draw's pass name: the pass that writes the mesh into the fluid depth is `mesh` either way (ray cast or
 /// raster), so timings compare by one key.
@@ -62,24 +63,6 @@ pub struct RasterPush {
     pub size: [f32; 2],
     /// Vertices the position buffer holds.
     pub vert_cap: u32,
-}
-
-/// What the live extraction did in its latest frame, counted on the device: the measure of its cost that every
-/// device gives alike (bench JSON `mesh_work`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct MeshWork {
-    /// Occupied blocks of MC_BLOCK³ cubes.
-    pub blocks: u64,
-    /// Cubes visited (mc_count and mc_emit: MC_BLOCK³ per block).
-    pub cubes: u64,
-    /// Field samples (mc_field: (MC_BLOCK + 3)³ corners per block, each a gather over the neighbour cells).
-    pub field_samples: u64,
-    /// Triangles extracted (and drawn, when none was past the capacity).
-    pub triangles: u64,
-    /// Vertices extracted.
-    pub vertices: u64,
-    /// Whether a buffer was too small (the frame drew what fit; the next prepare grows them).
-    pub outgrown: bool,
 }
 
 /// The marching-cubes lattice of the live mesh: the CPU's `Lattice::of` over the grid's box (the particles'
@@ -298,7 +281,7 @@ impl LiveMesh {
         // mc_blocks'), else a quarter of the particles (eight fill a block of a liquid's interior), grown when a
         // frame needs more.
         let particles = p.particles;
-        let want = if particles.is_external() {
+        let want = if particles.gpu_written() {
             (particles.count() / 4).max(1024)
         } else {
             let lattice = crate::field::extract::Lattice { lo: lat.lo, h: lat.h, dims: lat.dims };

@@ -110,7 +110,7 @@ impl Technique for FluidMesh {
     /// it is there already; on the GPU bring the grid and the live mesh's buffers up to date.
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
         let s = p.settings;
-        let path = choose(s.mesh.extraction, p.gpu, s.mesh.smoothing_iters, p.particles.is_external())?;
+        let path = choose(s.mesh.extraction, p.gpu, s.mesh.smoothing_iters, p.particles.gpu_written())?;
         let on_gpu = path.0 == params::Extraction::Gpu;
         self.path = Some(path);
         let field = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];

@@ -89,6 +89,7 @@ impl App {
         // The raw depth view and the particle view read the splatted depth after smoothing.
         *st.renderer.parts_mut().keep_raw_depth = true;
         st.renderer.submit(FrameRequest { hooks, binary, ..FrameRequest::new(&view, &self.settings) })?;
+        crate::job::say_mesh_path(&st.renderer, &self.settings, &mut self.mesh_said);
         let late = st.renderer.state().late_times().cloned();
         if let Some(e) = sim_err.into_inner() {
             return Err(e);
@@ -132,7 +133,11 @@ impl App {
                     }
                     self.diffuse_counts = c;
                 }
-                if self.settings.surface != Surface::Mesh && self.mode != ViewMode::Particles {
+                // The mesh surface meshes GPU-written particles on the GPU (live); only its CPU extraction needs
+                // them on the host.
+                let cpu_mesh = self.settings.surface == Surface::Mesh
+                    && self.settings.mesh.extraction == meniscus::surface::mesh::params::Extraction::Cpu;
+                if !cpu_mesh && self.mode != ViewMode::Particles {
                     st.renderer.upload(Upload::Gpu {
                         count: sim.count(),
                         bounds: sim.scene.container,

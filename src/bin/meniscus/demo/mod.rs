@@ -256,6 +256,8 @@ struct App {
     fps_window: (Instant, u32, f32),
     last_frame: Instant,
     last_times: PassTimes,
+    /// Where the mesh surface was last said to be extracted (`job::say_mesh_path`).
+    mesh_said: Option<String>,
     screenshot_count: u32,
     /// The movie being recorded (M, `--record`) and how many were started.
     recorder: Option<(crate::movie::Movie, PathBuf)>,
@@ -321,6 +323,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         fps_window: (Instant::now(), 0, 0.0),
         last_frame: Instant::now(),
         last_times: PassTimes::default(),
+        mesh_said: None,
         screenshot_count: 0,
         recorder: None,
         recordings: 0,
