@@ -127,6 +127,10 @@ pub struct BenchArgs {
     /// TOML settings over the preset.
     #[arg(long)]
     pub settings: Option<PathBuf>,
+    /// Fluid depth over the preset and settings: iso, spheres or mesh (`--surface mesh` with `[mesh] extraction
+    /// = "gpu"`, the default on a GPU, measures the live mesh: its `mc_*` stages and draw, and its work).
+    #[arg(long, value_parser = crate::args::named::<meniscus::settings::Surface>())]
+    pub surface: Option<meniscus::settings::Surface>,
     /// Also measure these presets (comma-separated: default, fast, quality, moritz) on every workload and
     /// resolution, in the same run with their frames interleaved with the main preset's (one renderer each, so
     /// all see the same host), and print each one's frame time as a ratio of the main preset's. PRESET@FILE
@@ -292,6 +296,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let mut base = Settings::preset(if table43 { "moritz" } else { &a.preset })?;
     if let Some(f) = &a.settings {
         base = crate::args::settings_file(&base, f)?;
+    }
+    if let Some(m) = a.surface {
+        base.set_surface(m);
     }
     let (scenes, resolutions) = workloads(a, table43, moritz)?;
     let gpu = a.gpu.open()?;
