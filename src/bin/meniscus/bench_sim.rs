@@ -23,6 +23,13 @@ use meniscus::timing::PassTimes;
 use meniscus::view::Environment;
 use meniscus::view::View;
 
+/// DFSPH's corrections per step: performed (dispatches with work) and recorded (indirect, empty once converged).
+#[derive(Serialize)]
+struct CorrectionsPerStep {
+    performed: f64,
+    recorded: u32,
+}
+
 /// One render + simulation configuration.
 #[derive(Serialize)]
 struct Combined {
@@ -53,6 +60,12 @@ struct SimReport {
     iterations: u32,
     /// DFSPH: what its solves did over the measured frames (corrections, the errors they stopped at).
     dfsph: Option<meniscus::sim::dfsph::SolverStats>,
+    /// DFSPH, per step: the corrections the two solves performed (each a dispatch with work groups), beside the
+    /// ones recorded (`max_solver_iterations` per solve, dispatched indirectly: those after convergence get zero
+    /// work groups from the device). Performed + 2 (each solve's warm start) dispatches do work.
+    dfsph_corrections_per_step: Option<CorrectionsPerStep>,
+    /// Simulated seconds per second of the solver's GPU time (1 / fps over the median frame's GPU ms).
+    simulated_seconds_per_gpu_second: f64,
     dt_ms: f32,
     warmup_frames: u32,
     frames: u32,
@@ -173,6 +186,11 @@ pub fn run(
         solver: sim.params.solver.name().to_string(),
         iterations: sim.params.iterations,
         dfsph: solves,
+        dfsph_corrections_per_step: solves.map(|st| CorrectionsPerStep {
+            performed: (st.divergence.corrections + st.density.corrections) as f64 / st.density.steps.max(1) as f64,
+            recorded: 2 * sim.params.max_solver_iterations,
+        }),
+        simulated_seconds_per_gpu_second: 1e3 / (fps as f64 * ms_per_frame),
         dt_ms: 1e3 / sim.params.fps / median_steps as f32,
         warmup_frames: warmup,
         frames,
@@ -219,9 +237,17 @@ fn print_stages(r: &SimReport, gpu: &Arc<Gpu>, fps: f32, solver: &str) {
         r.ms_per_frame,
         r.ms_per_frame * fps as f64 * 1e-3
     );
+    println!("{:.3} simulated seconds per second of GPU time\n", r.simulated_seconds_per_gpu_second);
     if let Some(st) = &r.dfsph {
         for (label, s) in st.labelled() {
             println!("DFSPH {label} solve: {}", s.summary());
+        }
+        if let Some(c) = &r.dfsph_corrections_per_step {
+            println!(
+                "DFSPH corrections per step: {:.1} performed (+ 2 warm starts: the dispatches with work), {} recorded \
+                 (indirect; empty once converged)",
+                c.performed, c.recorded
+            );
         }
         println!();
     }
