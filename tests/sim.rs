@@ -632,6 +632,47 @@ fn the_live_mesh_surface_meshes_gpu_written_particles_every_step() {
     common::assert_clean(&gpu);
 }
 
+/// `[sim] adaptive_corrections`: DFSPH records per solve the most corrections a step of the recent
+/// frames performed plus `ADAPTIVE_SPARE` instead of every one of `max_solver_iterations` — a converged solve no
+/// longer leaves some ninety empty indirect dispatches (and their barriers) per step — and the water moves as with
+/// all recorded, bit for bit, since no step needed more: the first frame records all (no history), the next ones
+/// at most the most performed + the spare, no step stops at the recorded count above its bound. Control: a limit
+/// that cuts the solves short (2) moves the water elsewhere, and the bitwise comparison tells it apart.
+#[test]
+fn dfsph_records_the_corrections_its_steps_need_and_moves_the_water_as_with_all() {
+    use meniscus::sim::params::{Solver, ADAPTIVE_SPARE};
+    let gpu = common::gpu();
+    let scene = SimScene::new("dambreak", 3000).unwrap();
+    let run = |adaptive_corrections: bool, max_solver_iterations: u32| {
+        let params = Params { solver: Solver::Dfsph, adaptive_corrections, max_solver_iterations, ..Params::default() };
+        let mut sim = Simulation::new(&gpu, scene.clone(), params).unwrap();
+        let (mut recorded, mut most, mut cut) = (vec![], 0u32, 0u32);
+        for _ in 0..6 {
+            sim.step_frame().unwrap();
+            let st = sim.solver_stats().unwrap().expect("DFSPH statistics");
+            recorded.push(sim.recorded_corrections().unwrap());
+            most = most.max(st.density.max_corrections).max(st.divergence.max_corrections);
+            cut += st.density.unconverged + st.divergence.unconverged;
+        }
+        let bits: Vec<u32> = sim.read().unwrap().positions.iter().flatten().map(|x| x.to_bits()).collect();
+        (bits, recorded, most, cut)
+    };
+    let (all, all_recorded, most, cut) = run(false, 100);
+    assert!(all_recorded.iter().all(|r| *r == [100, 100]), "{all_recorded:?}");
+    assert_eq!(cut, 0, "a step of the dam break needed all 100 corrections");
+    let (adaptive, recorded, adaptive_most, adaptive_cut) = run(true, 100);
+    eprintln!("recorded per solve by frame: {recorded:?} (most performed {most})");
+    assert_eq!(recorded[0], [100, 100], "the first frame has no history");
+    for r in &recorded[1..] {
+        assert!(r.iter().all(|&k| k <= most + ADAPTIVE_SPARE && k < 100), "{recorded:?}, most performed {most}");
+    }
+    assert_eq!((adaptive_most, adaptive_cut), (most, 0));
+    assert!(adaptive == all, "the adaptive count moved the water elsewhere");
+    let (cut_short, _, _, cut) = run(false, 2);
+    assert!(cut > 0 && cut_short != all, "the control did not cut any solve short");
+    common::assert_clean(&gpu);
+}
+
 /// The flicker figure of the diffuse layer (#37): a waterfall — a steady flow once its stream runs — is
 /// simulated, its spray, foam and bubbles generated as the run goes (`diffuse::generator::Live`) and drawn. The figure is
 /// the mean absolute change of the layer's coverage from one frame to the next, summed over 8×8-pixel blocks

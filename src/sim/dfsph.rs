@@ -22,6 +22,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::params::{ADAPTIVE_SPARE, ADAPTIVE_WINDOW};
 use super::stages::Neighbours;
 use crate::declare_program;
 use crate::error::Result;
@@ -190,8 +191,12 @@ pub struct Dfsph {
     partials: Buffer,
     /// The next iteration's indirect dispatch (x: work groups, y, z: 1; w: corrections so far).
     args: Buffer,
-    /// [`SolverStats`] as words.
+    /// [`SolverStats`] as words (host-visible: the adaptive count reads the latest without waiting).
     stats: Buffer,
+    /// Corrections recorded per solve [divergence-free, constant-density] for the next frame's steps.
+    recorded: std::cell::Cell<[u32; 2]>,
+    /// The most corrections each solve performed in a step of each recent frame (newest last).
+    window: std::cell::RefCell<std::collections::VecDeque<[u32; 2]>>,
 }
 
 /// What a DFSPH step reads and writes of the simulation's buffers.
@@ -253,8 +258,58 @@ impl Dfsph {
                 usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
                 MemoryLocation::GpuOnly,
             )?,
-            stats: Buffer::new(gpu, "sim_dfsph_stats", 64, usage, MemoryLocation::GpuOnly)?,
+            stats: {
+                let mut b = Buffer::new(gpu, "sim_dfsph_stats", 64, usage, MemoryLocation::GpuToCpu)?;
+                b.write(0, &[0; 64])?;
+                b
+            },
+            recorded: std::cell::Cell::new([0; 2]),
+            window: Default::default(),
         })
+    }
+
+    /// Choose the corrections the next frame records per solve (before its `clear_stats`): all of
+    /// `max_solver_iterations`, or with `adaptive_corrections` the most either solve performed in a step of the
+    /// last [`ADAPTIVE_WINDOW`] frames plus [`ADAPTIVE_SPARE`] — all again after a frame where a step stopped at
+    /// the recorded count above its bound. Reads the statistics as the device left them, without waiting: the
+    /// latest finished frame's, or part of one in flight (a lower maximum, which the window's older frames cover).
+    pub fn adapt(&self, p: &super::params::Params) -> Result<()> {
+        let max = p.max_solver_iterations;
+        if !p.adaptive_corrections {
+            self.recorded.set([max; 2]);
+            return Ok(());
+        }
+        let bytes = self.stats.read()?;
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..64]);
+        let mut window = self.window.borrow_mut();
+        let before = self.recorded.get();
+        let mut next = [max; 2];
+        // Steps counted: this reading holds a frame's statistics (zero right after a clear).
+        if w[0] > 0 && w[8] > 0 {
+            window.push_back([w[2], w[10]]);
+            while window.len() > ADAPTIVE_WINDOW {
+                window.pop_front();
+            }
+        }
+        for s in 0..2 {
+            // A step stopped at the recorded count above its bound: record all again.
+            let cut_short = w[8 * s] > 0 && w[8 * s + 6] > 0 && before[s] > 0 && before[s] < max;
+            let most = window.iter().map(|m| m[s]).max();
+            next[s] = match most {
+                Some(m) if !cut_short => (m + ADAPTIVE_SPARE).clamp(2 + ADAPTIVE_SPARE, max),
+                _ => max,
+            };
+        }
+        if next.contains(&max) && window.is_empty() {
+            next = [max; 2];
+        }
+        self.recorded.set(next);
+        Ok(())
+    }
+
+    /// Corrections recorded per solve [divergence-free, constant-density] for the latest frame's steps.
+    pub fn recorded(&self) -> [u32; 2] {
+        self.recorded.get()
     }
 
     /// Zero the solver statistics (recorded).
@@ -316,7 +371,11 @@ impl Dfsph {
         // The divergence-free solve (at least one correction, SPlisHSPlasH's rule), then the constant-density
         // solve (at least two) — their bounds as fractions of ρ0.
         let solves = [(0usize, 1u32, p.max_divergence_error), (1, 2, p.max_density_error)];
+        let recorded = self.recorded.get().map(|r| if r == 0 { p.max_solver_iterations } else { r });
         for (solve, min_iter, percent) in solves {
+            // The corrections recorded: the check stops the solve there (counted as at its limit when above the
+            // bound, which makes the next frame record all).
+            let limit = recorded[solve].min(p.max_solver_iterations);
             let rate = b.neighbours.bound(b.uniforms, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
             let (warm, sum) = [(&self.kappa_v_warm, &self.kappa_v_sum), (&self.kappa_warm, &self.kappa_sum)][solve];
             let update = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa, b.vel, sum]);
@@ -328,7 +387,7 @@ impl Dfsph {
                 groups,
                 init,
                 min_iter,
-                max_iter: p.max_solver_iterations,
+                max_iter: limit,
                 eta: percent * 0.01,
                 solve: solve as u32,
             };
@@ -338,7 +397,7 @@ impl Dfsph {
                 ctx.part(&u, |ctx| l.update.dispatch(ctx, &warm, &(), [groups, 1, 1]));
                 ctx.part(&r, |ctx| l.rate[solve].dispatch(ctx, &rate, &(), [groups, 1, 1]));
                 ctx.part(&c, |ctx| self.check.dispatch(ctx, &check_res, &check(1), [1, 1, 1]));
-                for _ in 0..p.max_solver_iterations {
+                for _ in 0..limit {
                     ctx.part(&u, |ctx| l.update.dispatch_indirect(ctx, &update, &(), &self.args, 0));
                     ctx.part(&r, |ctx| l.rate[solve].dispatch_indirect(ctx, &rate, &(), &self.args, 0));
                     ctx.part(&c, |ctx| self.check.dispatch(ctx, &check_res, &check(0), [1, 1, 1]));

@@ -391,6 +391,7 @@ impl Simulation {
         self.uniforms[k].write(0, bytemuck::bytes_of(&u))?;
         let out = out.unwrap_or(&self.particles);
         if let Some(d) = &self.dfsph {
+            d.adapt(&self.params)?;
             d.clear_stats(ctx);
         }
         ctx.fill(&self.speed[k], 0);
@@ -524,6 +525,12 @@ impl Simulation {
     /// after frames recorded into a caller's submission).
     pub fn last_speed(&self) -> Option<f32> {
         self.speed_known
+    }
+
+    /// The corrections DFSPH's solves recorded per step in the latest frame [divergence-free, constant-density]
+    /// (`[sim] adaptive_corrections`; None for PBF).
+    pub fn recorded_corrections(&self) -> Option<[u32; 2]> {
+        self.dfsph.as_ref().map(|d| d.recorded())
     }
 
     /// The DFSPH solves' statistics over the last recorded frame (None for PBF; waits for the device).

@@ -61,14 +61,30 @@ pub struct Params {
     /// DFSPH: the divergence-free solve's bound on the average density change over a step, percent of ρ0
     /// (SPlisHSPlasH's `maxErrorV`).
     pub max_divergence_error: f32,
-    /// DFSPH: most corrections per solve (each is recorded; the solves stop on the GPU once converged, and a
-    /// correction left over costs an empty indirect dispatch). 100, SPlisHSPlasH's default: the 59k dam break's
+    /// DFSPH: most corrections per solve (recorded up to it, or by `adaptive_corrections`; the solves stop on
+    /// the GPU once converged, and a recorded correction left over costs an empty indirect dispatch). 100,
+    /// SPlisHSPlasH's default: the 59k dam break's
     /// collapse at 5 ms steps needs up to 52 to keep the 0.05 % bound in its floor impact (at 20 a quarter of
     /// its steps stopped at the limit, at up to 0.155 %). A resting pool converged from its first step stays at
     /// rest since its lattice keeps `scene::WALL_GAP` from the walls (docs/simulation.md). A SPlisHSPlasH scene
     /// file brings its own (`DFSPH.maxIterations`).
     pub max_solver_iterations: u32,
+    /// DFSPH: record each solve's corrections by what recent steps performed — the most either solve needed in
+    /// the last `ADAPTIVE_WINDOW` frames plus `ADAPTIVE_SPARE`, all `max_solver_iterations` again the frame after a
+    /// step stopped at that count above its bound — instead of all `max_solver_iterations` (the default, `false`).
+    /// A recorded correction after convergence is an empty indirect dispatch and its barriers, which still cost
+    /// (lavapipe: the 3,000-particle dam break's step 32.6 → 11.9 ms, the same water bit for bit; the H100: ~9 µs
+    /// each). Off by default: where the need jumps within a frame (the 59k collapse's floor impact) the count
+    /// recorded from the frames before cuts steps short (6 of 48, at up to 0.24 % against the 0.05 % bound;
+    /// docs/simulation.md): for a run that wants DFSPH's frame time more than its bound in every step.
+    pub adaptive_corrections: bool,
 }
+
+/// Corrections recorded beyond the most a solve performed in the recent frames ([`Params::adaptive_corrections`]).
+pub const ADAPTIVE_SPARE: u32 = 8;
+
+/// Frames whose most corrections per solve the adaptive count keeps ([`Params::adaptive_corrections`]).
+pub const ADAPTIVE_WINDOW: usize = 32;
 
 crate::named::named_enum! {
     /// The pressure solver of a [`Simulation`] (`[sim] solver`, `sim --solver`, Python's `solver=`): one name
@@ -106,6 +122,7 @@ impl Default for Params {
             max_density_error: 0.05,
             max_divergence_error: 0.1,
             max_solver_iterations: 100,
+            adaptive_corrections: false,
         }
     }
 }

@@ -26,8 +26,12 @@ use meniscus::view::View;
 /// DFSPH's corrections per step: performed (dispatches with work) and recorded (indirect, empty once converged).
 #[derive(Serialize)]
 struct CorrectionsPerStep {
+    /// Performed, the mean over the measured steps.
     performed: f64,
-    recorded: u32,
+    /// The most one step performed (either solve's most, summed).
+    most: u32,
+    /// Recorded, the mean over the measured frames.
+    recorded: f64,
 }
 
 /// One render + simulation configuration.
@@ -61,8 +65,9 @@ struct SimReport {
     /// DFSPH: what its solves did over the measured frames (corrections, the errors they stopped at).
     dfsph: Option<meniscus::sim::dfsph::SolverStats>,
     /// DFSPH, per step: the corrections the two solves performed (each a dispatch with work groups), beside the
-    /// ones recorded (`max_solver_iterations` per solve, dispatched indirectly: those after convergence get zero
-    /// work groups from the device). Performed + 2 (each solve's warm start) dispatches do work.
+    /// ones recorded (dispatched indirectly: those after convergence get zero work groups from the device;
+    /// `max_solver_iterations` per solve, or with `[sim] adaptive_corrections` the recent most + a spare).
+    /// Performed + 2 (each solve's warm start) dispatches do work.
     dfsph_corrections_per_step: Option<CorrectionsPerStep>,
     /// Simulated seconds per second of the solver's GPU time (1 / fps over the median frame's GPU ms).
     simulated_seconds_per_gpu_second: f64,
@@ -126,6 +131,8 @@ pub fn run(
     }
     let mut runs = vec![];
     let mut solves: Option<meniscus::sim::dfsph::SolverStats> = None;
+    // The corrections recorded per step (both solves), per measured frame.
+    let mut recorded: Vec<f64> = vec![];
     // Each frame's times, the solver's per step (`sim::per_step`), with its step count (`[sim] adaptive_step`
     // changes it per frame).
     for _ in 0..frames {
@@ -134,6 +141,9 @@ pub fn run(
         runs.push((meniscus::sim::per_step(t, steps), steps));
         if let Some(st) = sim.solver_stats()? {
             solves.get_or_insert_with(Default::default).merge(&st);
+        }
+        if let Some(r) = sim.recorded_corrections() {
+            recorded.push((r[0] + r[1]) as f64);
         }
         bar.inc(1);
     }
@@ -188,7 +198,8 @@ pub fn run(
         dfsph: solves,
         dfsph_corrections_per_step: solves.map(|st| CorrectionsPerStep {
             performed: (st.divergence.corrections + st.density.corrections) as f64 / st.density.steps.max(1) as f64,
-            recorded: 2 * sim.params.max_solver_iterations,
+            most: st.divergence.max_corrections + st.density.max_corrections,
+            recorded: recorded.iter().sum::<f64>() / recorded.len().max(1) as f64,
         }),
         simulated_seconds_per_gpu_second: 1e3 / (fps as f64 * ms_per_frame),
         dt_ms: 1e3 / sim.params.fps / median_steps as f32,
@@ -244,9 +255,9 @@ fn print_stages(r: &SimReport, gpu: &Arc<Gpu>, fps: f32, solver: &str) {
         }
         if let Some(c) = &r.dfsph_corrections_per_step {
             println!(
-                "DFSPH corrections per step: {:.1} performed (+ 2 warm starts: the dispatches with work), {} recorded \
-                 (indirect; empty once converged)",
-                c.performed, c.recorded
+                "DFSPH corrections per step: {:.1} performed (most {}; + 2 warm starts: the dispatches with work), \
+                 {:.1} recorded (indirect; empty once converged)",
+                c.performed, c.most, c.recorded
             );
         }
         println!();
