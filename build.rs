@@ -97,6 +97,12 @@ const VARIANTS: &[(&str, &[(&str, &str)])] = &[
             ("SORT", "MESH_SMOOTH_SORT"),
             ("NEIGHBOURS", "MESH_SMOOTH_NEIGHBOURS"),
             ("WEIGHTS", "MESH_SMOOTH_WEIGHTS"),
+            // The live mesh surface's: counts from the device (src/surface/mesh/live.rs).
+            ("LIVE", "MESH_SMOOTH_LIVE"),
+            ("COUNT_LIVE", "MESH_SMOOTH_COUNT_LIVE"),
+            ("FILL_LIVE", "MESH_SMOOTH_FILL_LIVE"),
+            ("SORT_LIVE", "MESH_SMOOTH_SORT_LIVE"),
+            ("WEIGHTS_LIVE", "MESH_SMOOTH_WEIGHTS_LIVE"),
         ],
     ),
     // The weights and neighbour counts, then each point's lattice order pooled over its neighbours.

@@ -12,9 +12,10 @@
 //!   indirect dispatches: mc_field one work group per block, mc_count and mc_emit one thread per cube.
 //! * MC_BLOCKS_ARGS: after mc_count and the scans of both counts (over every cube the buffers hold; the cubes
 //!   past the blocks count zero), the totals: the draw's vertex count (3 per triangle, at most the capacity) and
-//!   the work the host reads after the frame (blocks, triangles, vertices, whether a capacity was exceeded).
+//!   the work the host reads after the frame (blocks, triangles, vertices, whether a capacity was exceeded),
+//!   and for the smoothing the counts (LiveN) and its per-vertex and per-triangle indirect dispatches.
 //! In/out by variant: MARK points (xyz) → flags; LIST flags, numbers → blocks, Live, args; ARGS triangle counts
-//! and starts, vertex counts and starts, Live → args, stats.
+//! and starts, vertex counts and starts, Live → args, stats, LiveN.
 #include "mc_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 
@@ -82,18 +83,33 @@ layout(std430, binding = 1) readonly buffer Start { uint start[]; };
 layout(std430, binding = 2) readonly buffer VCounts { uint vcounts[]; };
 layout(std430, binding = 3) readonly buffer VStart { uint vstart[]; };
 layout(std430, binding = 4) readonly buffer LiveIn { uvec4 live_in; };
-layout(std430, binding = 5) buffer Args { uint args[]; };
+layout(std430, binding = 5) writeonly buffer Args { uint args[]; };
 layout(std430, binding = 6) writeonly buffer Stats { uint stats[]; };
+layout(std430, binding = 7) writeonly buffer LiveN { uvec4 live_n; };
+
+// A VkDispatchIndirectCommand of n threads of LOCAL_1D (compute::groups_2d's split, as flat ids count them).
+void threads_2d(uint at, uint n) {
+    uint g = (n + LOCAL_1D - 1u) / LOCAL_1D;
+    uint x = clamp(g, 1u, 32768u);
+    args[at] = x;
+    args[at + 1u] = max((g + x - 1u) / x, 1u);
+    args[at + 2u] = 1u;
+}
 
 void main() {
     if (gl_GlobalInvocationID.x != 0u) return;
     uint last = pc.gdims.w - 1u;
     uint tris = start[last] + counts[last], verts = vstart[last] + vcounts[last];
+    uint t = min(tris, live_in.y), v = min(verts, live_in.z);
     // VkDrawIndirectCommand: vertices, instances, first vertex, first instance.
-    args[8] = 3u * min(tris, live_in.y);
+    args[8] = 3u * t;
     args[9] = 1u;
     args[10] = 0u;
     args[11] = 0u;
+    // The smoothing's dispatches (mesh_smooth.comp's LIVE variants): per vertex, per triangle; their counts.
+    threads_2d(12u, v);
+    threads_2d(16u, t);
+    live_n = uvec4(t, v, 0u, 0u);
     bool over = live_in.w > live_in.x || tris > live_in.y || verts > live_in.z;
     stats[0] = live_in.w;
     stats[1] = tris;

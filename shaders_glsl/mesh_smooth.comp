@@ -19,6 +19,29 @@
 //!     sum is. In: positions (0), starts (1), counts (2), triangle runs (3), triangles (4). Out: normals (5).
 //! Positions and normals are packed float triples; sums are `precise` (no contracted multiply-adds), so on a
 //! device that rounds as the CPU does the result is the CPU's bit for bit (lavapipe: it is).
+//! *_LIVE (the live mesh surface, src/surface/mesh/live.rs): the same passes on the mesh the frame extracted, its
+//! triangle and vertex counts read from the device (LiveN, the last binding; `n.x` is then the buffers' capacity
+//! and `n.y` which count: 0 triangles, 1 vertices), the weights' 1/n_j the w of the renderer's weighted points.
+#if defined(MESH_SMOOTH_WEIGHTS_LIVE)
+#define MESH_SMOOTH_WEIGHTS
+#define MESH_SMOOTH_LIVE
+#elif defined(MESH_SMOOTH_COUNT_LIVE)
+#define MESH_SMOOTH_COUNT
+#define MESH_SMOOTH_LIVE
+#elif defined(MESH_SMOOTH_FILL_LIVE)
+#define MESH_SMOOTH_FILL
+#define MESH_SMOOTH_LIVE
+#elif defined(MESH_SMOOTH_SORT_LIVE)
+#define MESH_SMOOTH_SORT
+#define MESH_SMOOTH_LIVE
+#endif
+#ifdef MESH_SMOOTH_LIVE
+#define N min(pc.n.x, live_n[pc.n.y])
+#define LIVE_N(b) layout(std430, set = 0, binding = b) readonly buffer LiveN { uint live_n[4]; };
+#else
+#define N pc.n.x
+#define LIVE_N(b)
+#endif
 layout(local_size_x = LOCAL_1D) in;
 layout(push_constant) uniform SmoothPush {
     uvec4 n;      // x: vertices, or triangles (COUNT, FILL), or particles (NEIGHBOURS)
@@ -74,6 +97,12 @@ layout(std430, set = 0, binding = 2) readonly buffer InvN { float inv_n[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Counts { float counts[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Pos { float pos[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer Weights { float weights[]; };
+LIVE_N(6)
+#ifdef MESH_SMOOTH_LIVE
+#define INV_N(j) inv_n[4u * (j) + 3u]
+#else
+#define INV_N(j) inv_n[j]
+#endif
 float kernel(float q) {
     if (q <= 0.5) return 1.0 - 6.0 * q * q + 6.0 * q * q * q;
     float a = 1.0 - q;
@@ -81,12 +110,12 @@ float kernel(float q) {
 }
 void main() {
     uint i = flat_id();
-    if (i >= pc.n.x) return;
+    if (i >= N) return;
     vec3 x = vec3(pos[3u * i], pos[3u * i + 1u], pos[3u * i + 2u]);
     precise float num = 0.0, den = 0.0;
 #define VISIT_W(j)                                                                               \
     {                                                                                            \
-        float w_ = kernel(distance(x, pts[j].xyz) / pc.field.x) * inv_n[j];                      \
+        float w_ = kernel(distance(x, pts[j].xyz) / pc.field.x) * INV_N(j);                      \
         num += w_ * counts[j];                                                                   \
         den += w_;                                                                               \
     }
@@ -98,9 +127,10 @@ void main() {
 #elif defined(MESH_SMOOTH_COUNT)
 layout(std430, set = 0, binding = 0) readonly buffer Tris { uint tris[]; };
 layout(std430, set = 0, binding = 1) buffer Counts { uint counts[]; };
+LIVE_N(2)
 void main() {
     uint t = flat_id();
-    if (t >= pc.n.x) return;
+    if (t >= N) return;
     for (uint k = 0u; k < 3u; ++k) atomicAdd(counts[tris[3u * t + k]], 1u);
 }
 #elif defined(MESH_SMOOTH_FILL)
@@ -109,9 +139,10 @@ layout(std430, set = 0, binding = 1) readonly buffer Starts { uint starts[]; };
 layout(std430, set = 0, binding = 2) buffer Fill { uint fill[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer TriRuns { uint tri_runs[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer NbrRuns { uint nbr_runs[]; };
+LIVE_N(5)
 void main() {
     uint t = flat_id();
-    if (t >= pc.n.x) return;
+    if (t >= N) return;
     for (uint k = 0u; k < 3u; ++k) {
         uint v = tris[3u * t + k];
         uint at = starts[v] + atomicAdd(fill[v], 1u);
@@ -126,9 +157,10 @@ layout(std430, set = 0, binding = 1) readonly buffer Counts { uint counts[]; };
 layout(std430, set = 0, binding = 2) buffer TriRuns { uint tri_runs[]; };
 layout(std430, set = 0, binding = 3) buffer NbrRuns { uint nbr_runs[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Ranges { uvec2 ranges[]; };
+LIVE_N(5)
 void main() {
     uint v = flat_id();
-    if (v >= pc.n.x) return;
+    if (v >= N) return;
     uint s = starts[v], c = counts[v];
     // Insertion sorts: a vertex of a marching-cubes mesh has a handful of triangles.
     for (uint i = 1u; i < c; ++i) {
@@ -163,11 +195,12 @@ layout(std430, set = 0, binding = 1) readonly buffer Ranges { uvec2 ranges[]; };
 layout(std430, set = 0, binding = 2) readonly buffer NbrRuns { uint nbr_runs[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Weights { float weights[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Out { float outv[]; };
+LIVE_N(5)
 #endif
 
 void main() {
     uint i = flat_id();
-    if (i >= pc.n.x) return;
+    if (i >= N) return;
 #if defined(MESH_SMOOTH_NORMALS)
     vec3 acc = vec3(0.0);
     for (uint k = starts[i]; k < starts[i] + counts[i]; ++k) {

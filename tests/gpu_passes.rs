@@ -1877,6 +1877,67 @@ fn mesh_depth_matches_iso_ray_cast() {
     assert_clean(&gpu);
 }
 
+/// The mesh surface of `pts` (radius 0.05, the test view) extracted where `extraction` says, smoothed `iters`
+/// times: its fluid depth, final image and (vertices, triangles).
+fn mesh_surface(
+    gpu: &std::sync::Arc<meniscus::gpu::Gpu>,
+    pts: &[[f32; 3]],
+    extraction: meniscus::surface::mesh::params::Extraction,
+    iters: u32,
+) -> (Vec<f32>, image::RgbaImage, (usize, usize)) {
+    use meniscus::surface::mesh::{params::Extraction, FluidMesh};
+    let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], 128, 96, 45.0);
+    let mut s = settings(0.05);
+    s.surface = meniscus::settings::Surface::Mesh;
+    s.mesh.extraction = extraction;
+    s.mesh.smoothing_iters = iters;
+    let mut rd = Renderer::new(gpu).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(pts)).unwrap();
+    let times = rd.render(&v, &s).unwrap();
+    let st = rd.state();
+    let mesh = st.surfaces().technique::<FluidMesh>().unwrap();
+    assert_eq!(mesh.path().unwrap().0, extraction, "{:?}", mesh.path());
+    let counts = match extraction {
+        Extraction::Gpu => {
+            assert!(times.get("mc_field").is_some() && times.get("mesh").is_some(), "{times:?}");
+            assert_eq!(times.get("mesh_smooth").is_some(), iters > 0, "{times:?}");
+            let work = mesh.live_work().unwrap();
+            assert!(!work.outgrown && work.blocks > 0, "{work:?}");
+            (work.vertices as usize, work.triangles as usize)
+        }
+        _ => mesh.mesh_stats().map(|(_, v, t)| (v, t)).unwrap(),
+    };
+    let depth = read_f32(gpu, &st.targets().unwrap().depth).unwrap();
+    (depth, st.read_final().unwrap(), counts)
+}
+
+/// The jittered slab and lone droplet the mesh surface tests draw (radius 0.05).
+fn mesh_test_particles() -> Vec<[f32; 3]> {
+    let mut pts = jittered_slab(777, [12, 3, 8], [-0.55, -0.3, -0.4], 0.05, [1.0; 3]);
+    pts.push([0.1, 0.4, 0.0]); // a lone droplet
+    pts
+}
+
+/// Whether depth `d` is `reference`'s within the live mesh tests' gate: coverage on ≥ 99.5 % of the pixels, the
+/// depth within `median` r at the median and `p95` r at the 95th percentile.
+fn same_surface(reference: &[f32], d: &[f32], (median_max, p95_max): (f32, f32)) -> bool {
+    let DepthDiff { same, fluid, median, p95 } = depth_diff(reference, d, 0.05);
+    eprintln!("coverage {same} of {}, median {median:.6} r, p95 {p95:.6} r over {fluid}", d.len());
+    fluid > 1000 && same as f32 >= 0.995 * d.len() as f32 && median < median_max && p95 < p95_max
+}
+
+/// The golden frame's tolerance: mean channel difference ≤ 2 levels, ≤ 0.5 % of pixels off by more than 24.
+fn within_golden_tolerance(a: &image::RgbaImage, b: &image::RgbaImage) -> bool {
+    let (mut sum, mut bad) = (0u64, 0usize);
+    for (p, q) in a.pixels().zip(b.pixels()) {
+        let d = (0..3).map(|c| p[c].abs_diff(q[c]) as u64).max().unwrap();
+        sum += d;
+        bad += (d > 24) as usize;
+    }
+    let n = (a.width() * a.height()) as f64;
+    sum as f64 / n <= 2.0 && bad as f64 <= 0.005 * n
+}
+
 /// The live mesh surface (`[mesh] extraction = "gpu"`: the `mc` stages inside the frame on the renderer's grid,
 /// the triangles drawn by the raster `mesh` pass from the device's buffers) draws the mesh the CPU extracts and
 /// the BVH cast draws: the same triangle and vertex counts (the same lattice and blocks, found on the device),
@@ -1885,56 +1946,44 @@ fn mesh_depth_matches_iso_ray_cast() {
 /// half a radius fails the depth gate.
 #[test]
 fn live_mesh_surface_draws_the_cpu_extracted_mesh() {
-    use meniscus::surface::mesh::{params::Extraction, FluidMesh};
+    use meniscus::surface::mesh::params::Extraction;
     let gpu = gpu();
-    let (w, h) = (128usize, 96usize);
-    let r = 0.05f32;
-    let mut pts = jittered_slab(777, [12, 3, 8], [-0.55, -0.3, -0.4], r, [1.0; 3]);
-    pts.push([0.1, 0.4, 0.0]); // a lone droplet
-    let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
-    let render = |extraction: Extraction, pts: &[[f32; 3]]| {
-        let mut s = settings(r);
-        s.surface = meniscus::settings::Surface::Mesh;
-        s.mesh.extraction = extraction;
-        let mut rd = Renderer::new(&gpu).unwrap();
-        rd.upload(meniscus::renderer::Upload::points(pts)).unwrap();
-        let times = rd.render(&v, &s).unwrap();
-        let st = rd.state();
-        let mesh = st.surfaces().technique::<FluidMesh>().unwrap();
-        assert_eq!(mesh.path().unwrap().0, extraction, "{:?}", mesh.path());
-        let counts = match extraction {
-            Extraction::Gpu => {
-                assert!(times.get("mc_field").is_some() && times.get("mesh").is_some(), "{times:?}");
-                let work = mesh.live_work().unwrap();
-                assert!(!work.outgrown && work.blocks > 0, "{work:?}");
-                (work.vertices as usize, work.triangles as usize)
-            }
-            _ => mesh.mesh_stats().map(|(_, v, t)| (v, t)).unwrap(),
-        };
-        let depth = read_f32(&gpu, &st.targets().unwrap().depth).unwrap();
-        (depth, st.read_final().unwrap(), counts)
-    };
-    let (cpu_depth, cpu_image, cpu_counts) = render(Extraction::Cpu, &pts);
-    let (gpu_depth, gpu_image, gpu_counts) = render(Extraction::Gpu, &pts);
+    let pts = mesh_test_particles();
+    let (cpu_depth, cpu_image, cpu_counts) = mesh_surface(&gpu, &pts, Extraction::Cpu, 0);
+    let (gpu_depth, gpu_image, gpu_counts) = mesh_surface(&gpu, &pts, Extraction::Gpu, 0);
     assert_eq!(gpu_counts, cpu_counts, "(vertices, triangles) live vs CPU");
-    let gate = |d: &[f32]| {
-        let DepthDiff { same, fluid, median, p95 } = depth_diff(&cpu_depth, d, r);
-        eprintln!("live vs CPU mesh: coverage {same} of {}, median {median:.5} r, p95 {p95:.5} r over {fluid}", w * h);
-        fluid > 1000 && same as f32 >= 0.995 * (w * h) as f32 && median < 0.002 && p95 < 0.02
-    };
-    assert!(gate(&gpu_depth), "the live mesh's depth is not the CPU mesh's");
-    let (mut sum, mut bad) = (0u64, 0usize);
-    for (p, q) in cpu_image.pixels().zip(gpu_image.pixels()) {
-        let d = (0..3).map(|c| p[c].abs_diff(q[c]) as u64).max().unwrap();
-        sum += d;
-        bad += (d > 24) as usize;
-    }
-    let mean = sum as f64 / (w * h) as f64;
-    assert!(mean <= 2.0 && bad as f64 <= 0.005 * (w * h) as f64, "image: mean diff {mean:.2}, {bad} pixels > 24");
+    let gate = (0.002, 0.02);
+    assert!(same_surface(&cpu_depth, &gpu_depth, gate), "the live mesh's depth is not the CPU mesh's");
+    assert!(within_golden_tolerance(&cpu_image, &gpu_image), "the live mesh's image is not the CPU mesh's");
     // Control: particles half a radius off draw another surface, which the gate rejects.
-    let moved: Vec<[f32; 3]> = pts.iter().map(|p| [p[0], p[1] + 0.5 * r, p[2]]).collect();
-    let (moved_depth, _, _) = render(Extraction::Gpu, &moved);
-    assert!(!gate(&moved_depth), "the gate passes a surface half a radius off");
+    let moved: Vec<[f32; 3]> = pts.iter().map(|p| [p[0], p[1] + 0.025, p[2]]).collect();
+    let (moved_depth, _, _) = mesh_surface(&gpu, &moved, Extraction::Gpu, 0);
+    assert!(!same_surface(&cpu_depth, &moved_depth, gate), "the gate passes a surface half a radius off");
+    assert_clean(&gpu);
+}
+
+/// `--preset smooth` live: the live mesh smoothed on the device (`compute::smooth`'s passes with the counts from
+/// the device) draws the CPU's smoothed mesh — 24 and 25 iterations (the result in either position buffer),
+/// feature weights on: coverage on ≥ 99.5 % of the pixels, depths within 0.0005 r at the median and 0.005 r at the
+/// 95th percentile (the two meshes' vertices come in different orders, so their neighbour sums round apart),
+/// the image within the golden tolerance. Control: the unsmoothed live mesh against the CPU's smoothed one fails.
+#[test]
+fn live_smoothed_mesh_surface_draws_the_cpu_smoothed_mesh() {
+    use meniscus::surface::mesh::params::Extraction;
+    let gpu = gpu();
+    let pts = mesh_test_particles();
+    let gate = (0.0005, 0.005);
+    for iters in [24, 25] {
+        let (cpu_depth, cpu_image, cpu_counts) = mesh_surface(&gpu, &pts, Extraction::Cpu, iters);
+        let (gpu_depth, gpu_image, gpu_counts) = mesh_surface(&gpu, &pts, Extraction::Gpu, iters);
+        assert_eq!(gpu_counts, cpu_counts, "{iters} iterations: (vertices, triangles) live vs CPU");
+        assert!(same_surface(&cpu_depth, &gpu_depth, gate), "{iters} iterations: the depth differs");
+        assert!(within_golden_tolerance(&cpu_image, &gpu_image), "{iters} iterations: the image differs");
+        if iters == 25 {
+            let (raw, _, _) = mesh_surface(&gpu, &pts, Extraction::Gpu, 0);
+            assert!(!same_surface(&cpu_depth, &raw, gate), "the gate passes the unsmoothed mesh");
+        }
+    }
     assert_clean(&gpu);
 }
 

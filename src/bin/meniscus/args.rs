@@ -123,7 +123,7 @@ fn input_help() -> String {
 pub struct SettingsArgs {
     /// Settings preset: default (ray-cast SPH iso-surface, its field smoothed in 3D where the water is calm),
     /// fast (particle spheres + narrow-range filter), quality (the exact SPH iso-surface, unsmoothed), smooth (the marching-cubes mesh with 25 Laplacian smoothing iterations, as splashsurf users finish it;
-    /// offline: re-extracted on the CPU whenever the particles change), moritz (the thesis' curvature flow).
+    /// extracted and smoothed on the GPU in the frame where the device is one, else on the CPU whenever the particles change), moritz (the thesis' curvature flow).
     #[arg(long, default_value = "default")]
     pub preset: String,
     /// TOML file of settings applied over the preset, one section per pass, e.g. `[filter.narrow]` then

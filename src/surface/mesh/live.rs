@@ -27,9 +27,11 @@ use gpu_allocator::MemoryLocation;
 
 use crate::compute::grid::{record_scan, ScanPush, SCAN};
 use crate::compute::mc::{table_words, McPush};
+use crate::compute::smooth::{SmoothPush, NEIGHBOURS};
 use crate::compute::{device_buffer, groups_2d};
 use crate::declare_program;
 use crate::error::{Error, Result};
+use crate::field::smooth::SmoothParams;
 use crate::gpu::{Access, Buffer, ComputeProgram, FrameCtx, Gpu, GraphicsProgram, RasterTargets, Use};
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, SCAN_BLOCK};
 use crate::shaders;
@@ -46,13 +48,22 @@ pub const BLOCKS_NAME: &str = "mc_blocks";
 // starts, Live → draw args, stats.
 declare_program!(pub MARK: McPush = compute(shaders::MC_BLOCKS_MARK, [BufRead, BufWrite]));
 declare_program!(pub LIST: McPush = compute(shaders::MC_BLOCKS_LIST, [BufRead, BufRead, BufWrite, BufWrite, BufWrite]));
-declare_program!(pub ARGS: McPush = compute(shaders::MC_BLOCKS_ARGS, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite]));
+declare_program!(pub ARGS: McPush = compute(shaders::MC_BLOCKS_ARGS, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite]));
 // The `mc` stages with the block count and capacities from Live: field (weighted points, cells, Live, blocks →
 // field), count (field, blocks, table → counts, vertex counts; Live), emit (field, blocks, table, starts →
 // positions, normals, triangles; Live).
 declare_program!(pub FIELD: McPush = compute(shaders::MC_FIELD_LIVE, [BufRead, BufRead, BufRead, BufRead, BufWrite]));
 declare_program!(pub COUNT: McPush = compute(shaders::MC_COUNT_LIVE, [BufRead, BufRead, BufRead, BufWrite, BufWrite, BufRead]));
 declare_program!(pub EMIT: McPush = compute(shaders::MC_EMIT_LIVE, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufWrite, BufWrite, BufRead]));
+// The smoothing (mesh_smooth.comp's LIVE variants, `compute::smooth`'s passes with the counts from LiveN, the last
+// slot): weights (points, cells, weighted points as 1/n_j, c_j, positions → weights), count (triangles → counts),
+// fill (triangles, starts → fill, triangle runs, neighbour runs), sort (starts, counts → runs sorted, ranges),
+// an iteration (positions, ranges, neighbour runs, weights → positions).
+declare_program!(pub SMOOTH_WEIGHTS: SmoothPush = compute(shaders::MESH_SMOOTH_WEIGHTS_LIVE, [BufRead, BufRead, BufRead, BufRead, BufRead, BufWrite, BufRead]));
+declare_program!(pub SMOOTH_COUNT: SmoothPush = compute(shaders::MESH_SMOOTH_COUNT_LIVE, [BufRead, BufWrite, BufRead]));
+declare_program!(pub SMOOTH_FILL: SmoothPush = compute(shaders::MESH_SMOOTH_FILL_LIVE, [BufRead, BufRead, BufWrite, BufWrite, BufWrite, BufRead]));
+declare_program!(pub SMOOTH_SORT: SmoothPush = compute(shaders::MESH_SMOOTH_SORT_LIVE, [BufRead, BufRead, BufWrite, BufWrite, BufWrite, BufRead]));
+declare_program!(pub SMOOTH_ITERATE: SmoothPush = compute(shaders::MESH_SMOOTH_LIVE, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufRead]));
 // The draw: frame, positions, triangles.
 declare_program!(pub RASTER: RasterPush = graphics(shaders::MESH_RASTER_VERT, shaders::MESH_RASTER_FRAG, [Uniform, BufRead, BufRead]));
 
@@ -152,8 +163,11 @@ struct LiveBuffers {
     block_sums: Buffer,
     blocks: Buffer,
     live: Buffer,
-    /// Indirect commands: mc_field's dispatch (bytes 0–11), mc_count's and mc_emit's (16–27), the draw (32–47).
+    /// Indirect commands: mc_field's dispatch (bytes 0–11), mc_count's and mc_emit's (16–27), the draw (32–47),
+    /// the smoothing's per vertex (48–59) and per triangle (64–75).
     args: Buffer,
+    /// The triangles and vertices extracted (at most the capacities), for the smoothing's shaders.
+    live_n: Buffer,
     field: Buffer,
     counts: Buffer,
     start: Buffer,
@@ -181,10 +195,11 @@ impl LiveBuffers {
             block_sums: b("mesh_live_block_sums", 4 * (all_blocks as u64).div_ceil(SCAN_BLOCK as u64))?,
             blocks: b("mesh_live_blocks", 16 * caps.blocks as u64)?,
             live: b("mesh_live_header", 16)?,
+            live_n: b("mesh_live_counts_n", 16)?,
             args: Buffer::new(
                 gpu,
                 "mesh_live_args",
-                48,
+                80,
                 usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
                 MemoryLocation::GpuOnly,
             )?,
@@ -206,6 +221,59 @@ impl LiveBuffers {
     }
 }
 
+/// The smoothing's buffers for the capacities of a [`LiveBuffers`] and `points` particles.
+struct SmoothBuffers {
+    caps: Caps,
+    points: u32,
+    /// Each particle's neighbour count c_j.
+    c: Buffer,
+    weights: Buffer,
+    counts: Buffer,
+    starts: Buffer,
+    fill: Buffer,
+    sums: Buffer,
+    tri_runs: Buffer,
+    nbr_runs: Buffer,
+    ranges: Buffer,
+    /// The iterations' second position buffer (odd iterations end here).
+    pos2: Buffer,
+}
+
+impl SmoothBuffers {
+    fn new(gpu: &Arc<Gpu>, caps: Caps, points: u32) -> Result<SmoothBuffers> {
+        let b = |name: &str, bytes: u64| device_buffer(gpu, name, bytes);
+        let (nv, corners) = (caps.verts as u64, 3 * caps.tris as u64);
+        Ok(SmoothBuffers {
+            caps,
+            points,
+            c: b("mesh_live_smooth_c", 4 * points as u64)?,
+            weights: b("mesh_live_smooth_weights", 4 * nv)?,
+            counts: b("mesh_live_smooth_counts", 4 * nv)?,
+            starts: b("mesh_live_smooth_starts", 4 * nv)?,
+            fill: b("mesh_live_smooth_fill", 4 * nv)?,
+            sums: b("mesh_live_smooth_sums", 4 * nv.div_ceil(SCAN_BLOCK as u64))?,
+            tri_runs: b("mesh_live_smooth_tri_runs", 4 * corners)?,
+            nbr_runs: b("mesh_live_smooth_nbr_runs", 8 * corners)?,
+            ranges: b("mesh_live_smooth_ranges", 8 * nv)?,
+            pos2: b("mesh_live_smooth_positions", 12 * nv)?,
+        })
+    }
+
+    fn bytes(&self) -> u64 {
+        4 * self.points as u64 + 36 * self.caps.verts as u64 + 36 * self.caps.tris as u64
+    }
+}
+
+/// The smoothing's programs.
+struct SmoothPrograms {
+    neighbours: ComputeProgram<SmoothPush>,
+    weights: ComputeProgram<SmoothPush>,
+    count: ComputeProgram<SmoothPush>,
+    fill: ComputeProgram<SmoothPush>,
+    sort: ComputeProgram<SmoothPush>,
+    iterate: ComputeProgram<SmoothPush>,
+}
+
 /// The live mesh: its programs, the case table, its buffers, the lattice they were made for.
 pub struct LiveMesh {
     mark: ComputeProgram<McPush>,
@@ -216,10 +284,15 @@ pub struct LiveMesh {
     emit: ComputeProgram<McPush>,
     scan: ComputeProgram<ScanPush>,
     raster: GraphicsProgram<RasterPush>,
+    smoothing: SmoothPrograms,
     table: Buffer,
     bufs: Option<LiveBuffers>,
-    /// The lattice and the grid generation the buffers hold the mesh of.
-    extracted: Option<(LiveLattice, u64)>,
+    /// The smoothing's buffers, while the mesh is smoothed.
+    smooth_bufs: Option<SmoothBuffers>,
+    /// The smoothing of this frame (`[mesh] smoothing_iters`, `smoothing_weights`), set by `prepare`.
+    smooth: SmoothParams,
+    /// The lattice, the smoothing and the grid generation the buffers hold the mesh of.
+    extracted: Option<(LiveLattice, SmoothParams, u64)>,
     /// The lattice of this frame, set by `prepare`.
     lattice: Option<LiveLattice>,
     /// The next frame extracts again (the particles, the lattice or the capacities changed).
@@ -247,6 +320,14 @@ impl LiveMesh {
             emit: ComputeProgram::new(gpu, &EMIT)?,
             scan: ComputeProgram::new(gpu, &SCAN)?,
             raster: GraphicsProgram::new(gpu, &RASTER, targets)?,
+            smoothing: SmoothPrograms {
+                neighbours: ComputeProgram::new(gpu, &NEIGHBOURS)?,
+                weights: ComputeProgram::new(gpu, &SMOOTH_WEIGHTS)?,
+                count: ComputeProgram::new(gpu, &SMOOTH_COUNT)?,
+                fill: ComputeProgram::new(gpu, &SMOOTH_FILL)?,
+                sort: ComputeProgram::new(gpu, &SMOOTH_SORT)?,
+                iterate: ComputeProgram::new(gpu, &SMOOTH_ITERATE)?,
+            },
             table: crate::gpu::transfer::upload_buffer(
                 gpu,
                 "mesh_live_table",
@@ -254,6 +335,8 @@ impl LiveMesh {
                 None,
             )?,
             bufs: None,
+            smooth_bufs: None,
+            smooth: SmoothParams::default(),
             extracted: None,
             lattice: None,
             stale: Cell::new(true),
@@ -269,7 +352,8 @@ impl LiveMesh {
         p: &super::super::Prepare,
         (lo, hi): (Vec3, Vec3),
         (support, cube, threshold): (f32, f32, f32),
-        generation: u64,
+        smooth: SmoothParams,
+        (generation, points): (u64, u32),
     ) -> Result<()> {
         let lat = LiveLattice::new(lo, hi, support, cube, threshold)?;
         let all = lat.all_blocks();
@@ -302,10 +386,22 @@ impl LiveMesh {
             p.executor.replace(&mut self.bufs, || LiveBuffers::new(gpu, room(all), caps).map(Some))?;
             self.extracted = None;
         }
-        if self.extracted != Some((lat, generation)) {
-            self.stale.set(true);
-            self.extracted = Some((lat, generation));
+        // The smoothing's buffers follow the mesh's capacities and the particles.
+        let caps = self.bufs.as_ref().map(|b| b.caps);
+        let fits = |s: &SmoothBuffers| Some(s.caps) == caps && s.points >= points;
+        if smooth.iterations == 0 {
+            self.smooth_bufs = None;
+        } else if let (false, Some(caps)) = (self.smooth_bufs.as_ref().is_some_and(fits), caps) {
+            let gpu = p.gpu;
+            let points = points.saturating_add(points / 4).max(1);
+            p.executor.replace(&mut self.smooth_bufs, || SmoothBuffers::new(gpu, caps, points).map(Some))?;
+            self.extracted = None;
         }
+        if self.extracted != Some((lat, smooth, generation)) {
+            self.stale.set(true);
+            self.extracted = Some((lat, smooth, generation));
+        }
+        self.smooth = smooth;
         self.lattice = Some(lat);
         Ok(())
     }
@@ -430,6 +526,7 @@ impl LiveMesh {
                 (&b.live).into(),
                 (&b.args).into(),
                 (&b.stats).into(),
+                (&b.live_n).into(),
             ];
             self.args.dispatch(ctx, &res, &args, [1, 1, 1]);
             ctx.barrier(&[Use::Buffer(&b.stats, Access::HostRead)]);
@@ -448,6 +545,89 @@ impl LiveMesh {
             ];
             self.emit.dispatch_indirect(ctx, &res, &push, &b.args, 16);
         });
+        if let Some(sb) = self.smooth_bufs.as_ref().filter(|_| self.smooth.iterations > 0) {
+            self.record_smooth(ctx, g, b, sb);
+        }
+    }
+
+    /// The smoothing of the extracted mesh (`compute::smooth`'s passes, the counts from the device): each
+    /// particle's neighbour count, each vertex's feature weight, the vertices' neighbours, the Jacobi iterations
+    /// (ending in `pos` after an even count, `pos2` after an odd one).
+    fn record_smooth(&self, ctx: &mut FrameCtx, g: &IsoBuffers, b: &LiveBuffers, sb: &SmoothBuffers) {
+        let (p, sm) = (&self.smooth, &self.smoothing);
+        let (o, d) = (g.shape.origin, g.shape.dims);
+        let push = |n: u32, which: u32| SmoothPush {
+            n: [n, which, 0, 0],
+            grid: o,
+            gdims: [d[0], d[1], d[2], 0],
+            field: [g.shape.support(), p.normalization, 0.0, 0.0],
+        };
+        let (pv, pt) = (push(b.caps.verts, 1), push(b.caps.tris, 0));
+        let (vargs, targs) = (48, 64);
+        ctx.pass("mesh_smooth/weights", |ctx| {
+            if p.weights {
+                let np = d[3];
+                let res = [(&g.weighted).into(), (&g.cells).into(), (&sb.c).into()];
+                sm.neighbours.dispatch(ctx, &res, &push(np, 0), groups_2d(np.div_ceil(LOCAL_1D)));
+                let res = [
+                    (&g.weighted).into(),
+                    (&g.cells).into(),
+                    (&g.weighted).into(),
+                    (&sb.c).into(),
+                    (&b.pos).into(),
+                    (&sb.weights).into(),
+                    (&b.live_n).into(),
+                ];
+                sm.weights.dispatch_indirect(ctx, &res, &pv, &b.args, vargs);
+            } else {
+                ctx.fill(&sb.weights, 1f32.to_bits());
+            }
+        });
+        ctx.pass("mesh_smooth/adjacency", |ctx| {
+            ctx.fill(&sb.counts, 0);
+            ctx.fill(&sb.fill, 0);
+            sm.count.dispatch_indirect(
+                ctx,
+                &[(&b.tri).into(), (&sb.counts).into(), (&b.live_n).into()],
+                &pt,
+                &b.args,
+                targs,
+            );
+            record_scan(&self.scan, ctx, (&sb.counts, &sb.starts, &sb.sums), b.caps.verts);
+            let res = [
+                (&b.tri).into(),
+                (&sb.starts).into(),
+                (&sb.fill).into(),
+                (&sb.tri_runs).into(),
+                (&sb.nbr_runs).into(),
+                (&b.live_n).into(),
+            ];
+            sm.fill.dispatch_indirect(ctx, &res, &pt, &b.args, targs);
+            let res = [
+                (&sb.starts).into(),
+                (&sb.counts).into(),
+                (&sb.tri_runs).into(),
+                (&sb.nbr_runs).into(),
+                (&sb.ranges).into(),
+                (&b.live_n).into(),
+            ];
+            sm.sort.dispatch_indirect(ctx, &res, &pv, &b.args, vargs);
+        });
+        ctx.pass(crate::compute::smooth::NAME, |ctx| {
+            let pos = [&b.pos, &sb.pos2];
+            for k in 0..p.iterations as usize {
+                let (src, dst) = (pos[k % 2], pos[(k + 1) % 2]);
+                let res = [
+                    src.into(),
+                    (&sb.ranges).into(),
+                    (&sb.nbr_runs).into(),
+                    (&sb.weights).into(),
+                    dst.into(),
+                    (&b.live_n).into(),
+                ];
+                sm.iterate.dispatch_indirect(ctx, &res, &pv, &b.args, vargs);
+            }
+        });
     }
 
     /// Record the `mesh` pass: the extracted triangles into `depth` (linear eye depth, +inf where none) with the
@@ -463,8 +643,13 @@ impl LiveMesh {
         let z = zbuffer
             .ok_or_else(|| Error::Invalid("mesh: the live mesh surface needs the frame's depth buffer".into()))?;
         let push = RasterPush { size: [depth.extent.width as f32, depth.extent.height as f32], vert_cap: b.caps.verts };
+        // After an odd number of smoothing iterations the positions are in the second buffer.
+        let pos = match &self.smooth_bufs {
+            Some(sb) if self.smooth.iterations % 2 == 1 => &sb.pos2,
+            _ => &b.pos,
+        };
         ctx.pass(NAME, |ctx| {
-            let res = [frame.into(), (&b.pos).into(), (&b.tri).into()];
+            let res = [frame.into(), pos.into(), (&b.tri).into()];
             self.raster.draw_indirect(ctx, &res, &push, (depth, f32::INFINITY, Some(z)), &b.args, 32);
         });
         Ok(())
@@ -493,6 +678,7 @@ impl LiveMesh {
 
     /// (name, bytes) of its buffers.
     pub fn memory(&self) -> Vec<(&str, u64)> {
-        self.bufs.as_ref().map(|b| vec![("mesh_live", b.caps.bytes())]).unwrap_or_default()
+        let smooth = self.smooth_bufs.as_ref().map_or(0, |s| s.bytes());
+        self.bufs.as_ref().map(|b| vec![("mesh_live", b.caps.bytes() + smooth)]).unwrap_or_default()
     }
 }

@@ -2,11 +2,12 @@
 //! where `[mesh] extraction` says ([`params::Extraction`]):
 //! * on the CPU (`extract`, rayon), optionally smoothed with splashsurf's feature-weighted Laplacian (`smooth`),
 //!   its BVH ray-cast per pixel by the `mesh` pass ([`cast`]); extracted again whenever the particles change;
-//! * on the GPU inside the frame ([`live`]): the `mc` pass's stages on the renderer's particle grid, the
-//!   triangles drawn by a raster pass straight from the device's buffers — live with GPU-written particles.
+//! * on the GPU inside the frame ([`live`]): the `mc` pass's stages on the renderer's particle grid, smoothed
+//!   there too (`compute::smooth`'s passes), the triangles drawn by a raster pass straight from the device's
+//!   buffers — live with GPU-written particles.
 //!
 //! `auto` takes the GPU on a GPU, the CPU on a CPU driver (lavapipe emulates the marching cubes slower than the
-//! CPU runs it) or for a smoothed mesh, and the GPU for a simulation's particles (they never reach the host);
+//! CPU runs it), and the GPU for a simulation's particles (they never reach the host);
 //! [`FluidMesh::path`] says which and why. Its files: this one, [`params`] (the `[mesh]` section), [`cast`],
 //! [`live`], their shaders in shaders_glsl/mesh/ (the `mc` stages in shaders_glsl/mc_*.comp).
 
@@ -65,36 +66,21 @@ impl FluidMesh {
 }
 
 /// Where `[mesh] extraction = e` extracts for this device and these particles, and why (see the module).
-pub fn choose(
-    e: params::Extraction,
-    gpu: &crate::gpu::Gpu,
-    smoothing_iters: u32,
-    external: bool,
-) -> Result<(params::Extraction, String)> {
+pub fn choose(e: params::Extraction, gpu: &crate::gpu::Gpu, gpu_written: bool) -> Result<(params::Extraction, String)> {
     let cpu_driver = gpu.info.device_type == "CPU";
     Ok(match e {
-        params::Extraction::Cpu if external => {
+        params::Extraction::Cpu if gpu_written => {
             return Err(Error::Invalid(
                 "[mesh] extraction = \"cpu\" cannot mesh particles written on the GPU (a simulation's): they never \
                  reach the host; use \"gpu\" or \"auto\""
                     .into(),
             ))
         }
-        params::Extraction::Gpu if smoothing_iters > 0 => {
-            return Err(Error::Invalid(format!(
-                "[mesh] extraction = \"gpu\" draws the mesh as extracted: smoothing_iters = {smoothing_iters} needs \
-                 extraction = \"cpu\""
-            )))
-        }
         params::Extraction::Cpu => (params::Extraction::Cpu, "[mesh] extraction = \"cpu\"".into()),
         params::Extraction::Gpu => (params::Extraction::Gpu, "[mesh] extraction = \"gpu\"".into()),
-        params::Extraction::Auto if external => (
+        params::Extraction::Auto if gpu_written => (
             params::Extraction::Gpu,
             "the particles are written on the GPU (a simulation's): they never reach the host".into(),
-        ),
-        params::Extraction::Auto if smoothing_iters > 0 => (
-            params::Extraction::Cpu,
-            format!("the mesh is smoothed ({smoothing_iters} iterations), which the renderer does on the CPU"),
         ),
         params::Extraction::Auto if cpu_driver => (
             params::Extraction::Cpu,
@@ -110,10 +96,15 @@ impl Technique for FluidMesh {
     /// it is there already; on the GPU bring the grid and the live mesh's buffers up to date.
     fn prepare(&mut self, p: &Prepare) -> Result<()> {
         let s = p.settings;
-        let path = choose(s.mesh.extraction, p.gpu, s.mesh.smoothing_iters, p.particles.gpu_written())?;
+        let path = choose(s.mesh.extraction, p.gpu, p.particles.gpu_written())?;
         let on_gpu = path.0 == params::Extraction::Gpu;
         self.path = Some(path);
         let field = [s.iso.support * s.radius, s.mesh.cube * s.radius, s.iso.threshold];
+        let smoothing = smooth::SmoothParams {
+            iterations: s.mesh.smoothing_iters,
+            weights: s.mesh.smoothing_weights,
+            ..Default::default()
+        };
         if on_gpu {
             self.grid.prepare_support(p, field[0])?;
             if self.live.is_none() {
@@ -122,16 +113,12 @@ impl Technique for FluidMesh {
             let (Some(b), Some(bx), Some(l)) = (self.grid.buffers(), self.grid.fluid_box(), self.live.as_mut()) else {
                 return Ok(());
             };
-            return l.prepare(p, (bx.lo, bx.hi), (field[0], field[1], field[2]), b.generation.get());
+            let (generation, points) = (b.generation.get(), b.shape.dims[3]);
+            return l.prepare(p, (bx.lo, bx.hi), (field[0], field[1], field[2]), smoothing, (generation, points));
         }
         if self.cast.is_none() {
             self.cast = Some(cast::MeshCast::new(p.gpu)?);
         }
-        let smoothing = smooth::SmoothParams {
-            iterations: s.mesh.smoothing_iters,
-            weights: s.mesh.smoothing_weights,
-            ..Default::default()
-        };
         let key = (field, smoothing, p.particles.generation());
         if self.bvh.as_ref().is_some_and(|m| m.1 == key) {
             return Ok(());

@@ -8,14 +8,13 @@ const NAME: &str = "mesh";
 crate::named::named_enum! {
     /// Where the mesh surface is extracted (`[mesh] extraction`).
     pub enum Extraction {
-        /// On the GPU where the device is one, on the CPU where the Vulkan device is a CPU driver (lavapipe: its
-        /// emulated marching cubes is slower than the CPU's) or the mesh is smoothed (the renderer's smoothing
-        /// runs on the CPU).
+        /// On the GPU where the device is one or the particles are GPU-written, on the CPU where the Vulkan
+        /// device is a CPU driver (lavapipe: its emulated marching cubes is slower than the CPU's).
         Auto = "auto",
         /// On the CPU (rayon), its BVH ray-cast per pixel (`mesh` pass), again whenever the particles change.
         Cpu = "cpu",
-        /// On the GPU inside the frame, drawn by a raster pass from the device's buffers (no read-back): live
-        /// with a simulation (`demo --sim --surface mesh`). Unsmoothed only.
+        /// On the GPU inside the frame, smoothed there, drawn by a raster pass from the device's buffers (no
+        /// read-back): live with a simulation (`demo --sim --surface mesh`).
         Gpu = "gpu",
     }
 }
@@ -48,17 +47,6 @@ impl crate::section::Section for Params {
     fn check(&self) -> crate::section::Checked {
         let k = crate::section::Keys(NAME);
         k.above("cube", self.cube, 0.05, 8.0)?;
-        k.count("smoothing_iters", self.smoothing_iters, 0, 1000)?;
-        if self.extraction == Extraction::Gpu && self.smoothing_iters > 0 {
-            return Err((
-                "extraction",
-                format!(
-                    "[mesh] extraction = \"gpu\" draws the mesh as extracted: smoothing_iters = {} needs \
-                     extraction = \"cpu\" (or \"auto\", which chooses it)",
-                    self.smoothing_iters
-                ),
-            ));
-        }
-        Ok(())
+        k.count("smoothing_iters", self.smoothing_iters, 0, 1000)
     }
 }
