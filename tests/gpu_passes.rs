@@ -1962,6 +1962,44 @@ fn live_mesh_surface_draws_the_cpu_extracted_mesh() {
     assert_clean(&gpu);
 }
 
+/// The live mesh's buffers grow when a frame needs more than they hold: with room for 0.001 triangles per cube, a
+/// single frame (submitted and finished, no second try) reports itself outgrown and misses most of the surface
+/// (the control: its depth fails the gate), the next frame grows the buffers and draws the CPU's mesh;
+/// `Renderer::render` does that on its own (one call gives the whole mesh).
+#[test]
+fn the_live_mesh_grows_its_buffers_when_a_frame_needs_more() {
+    use meniscus::renderer::FrameRequest;
+    use meniscus::surface::mesh::{params::Extraction, FluidMesh};
+    let gpu = gpu();
+    let pts = mesh_test_particles();
+    let (cpu_depth, _, cpu_counts) = mesh_surface(&gpu, &pts, Extraction::Cpu, 0);
+    let v = view([0.3, 1.2, 2.4], [0.0, 0.0, 0.0], 128, 96, 45.0);
+    let mut s = settings(0.05);
+    s.surface = meniscus::settings::Surface::Mesh;
+    s.mesh.extraction = Extraction::Gpu;
+    s.mesh.live_triangles_per_cube = 0.001;
+    let mut rd = Renderer::new(&gpu).unwrap();
+    rd.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
+    let frame = |rd: &mut Renderer| {
+        let sub = rd.submit(FrameRequest::new(&v, &s)).unwrap();
+        rd.finish(sub).unwrap();
+        let work = rd.state().surfaces().technique::<FluidMesh>().unwrap().live_work().unwrap();
+        (read_f32(&gpu, &rd.state().targets().unwrap().depth).unwrap(), work)
+    };
+    let (first, work) = frame(&mut rd);
+    assert!(work.outgrown, "{work:?}");
+    assert!(!same_surface(&cpu_depth, &first, (0.002, 0.02)), "an outgrown frame drew the whole mesh");
+    let (second, work) = frame(&mut rd);
+    assert!(!work.outgrown && (work.vertices as usize, work.triangles as usize) == cpu_counts, "{work:?}");
+    assert!(same_surface(&cpu_depth, &second, (0.002, 0.02)), "the grown buffers did not draw the CPU's mesh");
+    let mut once = Renderer::new(&gpu).unwrap();
+    once.upload(meniscus::renderer::Upload::points(&pts)).unwrap();
+    once.render(&v, &s).unwrap();
+    let depth = read_f32(&gpu, &once.state().targets().unwrap().depth).unwrap();
+    assert!(same_surface(&cpu_depth, &depth, (0.002, 0.02)), "render() left an outgrown frame");
+    assert_clean(&gpu);
+}
+
 /// `--preset smooth` live: the live mesh smoothed on the device (`compute::smooth`'s passes with the counts from
 /// the device) draws the CPU's smoothed mesh — 24 and 25 iterations (the result in either position buffer),
 /// feature weights on: coverage on ≥ 99.5 % of the pixels, depths within 0.0005 r at the median and 0.005 r at the

@@ -354,6 +354,7 @@ impl LiveMesh {
         (support, cube, threshold): (f32, f32, f32),
         smooth: SmoothParams,
         (generation, points): (u64, u32),
+        triangles_per_cube: f32,
     ) -> Result<()> {
         let lat = LiveLattice::new(lo, hi, support, cube, threshold)?;
         let all = lat.all_blocks();
@@ -381,7 +382,7 @@ impl LiveMesh {
         };
         if grow {
             let old = self.bufs.as_ref().map(|b| b.caps);
-            let caps = Self::caps(p.gpu, want, old, need)?;
+            let caps = Self::caps(p.gpu, want, triangles_per_cube, old, need)?;
             let gpu = p.gpu;
             p.executor.replace(&mut self.bufs, || LiveBuffers::new(gpu, room(all), caps).map(Some))?;
             self.extracted = None;
@@ -419,18 +420,19 @@ impl LiveMesh {
     }
 
     /// The capacities for `blocks` occupied blocks (or what `need` said, with a quarter to spare): triangles for
-    /// a sixth and vertices for a twelfth of their cubes (the 6,859 dam break at 0.5 r: 0.088 triangles and 0.044
-    /// vertices per cube of its occupied blocks), never fewer than before, within [`BUDGET`] and the device's
-    /// buffer range.
-    fn caps(gpu: &Gpu, blocks: u32, old: Option<Caps>, need: Option<Caps>) -> Result<Caps> {
+    /// `per_cube` of their cubes and vertices for half as many (`[mesh] live_triangles_per_cube`, a sixth; the
+    /// 6,859 dam break at 0.5 r: 0.088 triangles and 0.044 vertices per cube of its occupied blocks), never fewer
+    /// than before, within [`BUDGET`] and the device's buffer range.
+    fn caps(gpu: &Gpu, blocks: u32, per_cube: f32, old: Option<Caps>, need: Option<Caps>) -> Result<Caps> {
         let room = |x: u32| x.saturating_add(x / 4);
         let per = (MC_BLOCK * MC_BLOCK * MC_BLOCK) as u64;
         let mut c = Caps { blocks: blocks.max(1), tris: 0, verts: 0 };
         if let Some(n) = need {
             c.blocks = c.blocks.max(room(n.blocks));
         }
-        c.tris = (c.blocks as u64 * per / 6).min(u32::MAX as u64) as u32;
-        c.verts = (c.blocks as u64 * per / 12).min(u32::MAX as u64) as u32;
+        let cubes = (c.blocks as u64 * per) as f64;
+        c.tris = (cubes * per_cube as f64).clamp(1.0, u32::MAX as f64) as u32;
+        c.verts = (cubes * per_cube as f64 / 2.0).clamp(1.0, u32::MAX as f64) as u32;
         if let Some(o) = old {
             c.tris = c.tris.max(o.tris);
             c.verts = c.verts.max(o.verts);

@@ -114,7 +114,15 @@ impl Technique for FluidMesh {
                 return Ok(());
             };
             let (generation, points) = (b.generation.get(), b.shape.dims[3]);
-            return l.prepare(p, (bx.lo, bx.hi), (field[0], field[1], field[2]), smoothing, (generation, points));
+            let per_cube = s.mesh.live_triangles_per_cube;
+            return l.prepare(
+                p,
+                (bx.lo, bx.hi),
+                (field[0], field[1], field[2]),
+                smoothing,
+                (generation, points),
+                per_cube,
+            );
         }
         if self.cast.is_none() {
             self.cast = Some(cast::MeshCast::new(p.gpu)?);
