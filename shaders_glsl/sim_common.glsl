@@ -18,7 +18,7 @@ layout(std140, binding = 0) uniform Sim {
     uvec4 counts;        // particles; colliders; neighbour-list stride (capacity); s_corr exponent n
     vec4 sdf_lo;         // the mesh collider's distance lattice (src/sim/sdf.rs): first node (xyz), spacing (w)
     uvec4 sdf_dims;      // its nodes per axis (xyz); w: 1 when there is a mesh collider
-    vec4 wall;           // static friction μ_s of the container's faces (x); yzw unused
+    vec4 wall;           // static friction μ_s of the container's faces (x); y: 1 with a dynamic body; zw unused
     vec4 colliders[2 * MAX_COLLIDERS]; // per collider: (a.xyz, kind), (b) — see collide()
 } sim;
 
@@ -102,6 +102,36 @@ float wall_density(vec3 x, out vec3 grad) {
     }
     return f;
 }
+
+#ifdef SIM_BODY_BINDING
+// The dynamic rigid sphere (src/sim/scene.rs `Body`; DFSPH only, `sim.wall.y` = 1 when the scene has one): body[0]
+// its centre and radius, [1] its velocity and mass, [2] its angular velocity, [3] restitution and friction against
+// the container's faces, [4] and [5] the faces its centre's contacts keep it within (lo, hi); from
+// body[BODY_HEAD] on, per particle (grid order, this step), the impulse the particle's corrections gave the body
+// (sim_dfsph_update adds, sim_dfsph_alpha zeroes, sim_body sums).
+layout(std430, binding = SIM_BODY_BINDING) buffer Body { vec4 body[]; };
+const uint BODY_HEAD = 6u;
+
+bool body_on() { return sim.wall.y > 0.5; }
+
+// The body's surface as the container's walls are: rest-density fluid beyond it, the particle missing the mass
+// F(d) at distance d = |x − c| − R of the surface (the plane's F, wall_f: the sphere's curvature neglected — its
+// radius is ~6 kernel radii in the shipped scene, where the plane's share overestimates the missing mass by a few
+// per cent), the gradient pointing into the body. SPlisHSPlasH's volume maps integrate the body's own shape.
+float body_density(vec3 x, out vec3 grad) {
+    grad = vec3(0.0);
+    if (!body_on()) return 0.0;
+    vec3 d = x - body[0].xyz;
+    float l = length(d);
+    float a;
+    float f = wall_f(l - body[0].w, a);
+    if (l > 1e-9) grad = -a * d / l;
+    return f;
+}
+
+// The body's surface velocity along its normal: the centre's (a sphere's rotation moves its surface tangentially).
+vec3 body_velocity() { return body[1].xyz; }
+#endif
 
 #ifdef SIM_SDF_BINDING
 // The mesh collider (src/sim/sdf.rs, whose Sdf::sample and push_out do the same arithmetic): a signed distance

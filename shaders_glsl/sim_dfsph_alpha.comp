@@ -11,6 +11,9 @@
 //! kappa_v_warm (sim_reorder's carry), halved here in place.
 //! In: the neighbour lists, pred (x, grid order; w: the last κ sum), the sorted state. Out: dfsph (ρ̂, factor),
 //! vel, density (kg/m³, exported with the cache), kappa_warm, kappa_sum, kappa_v_sum. In/out: kappa_v_warm.
+//! With a dynamic body (binding 12, sim_common.glsl's body_density) its surface adds to ρ̂ and the factor as the
+//! walls do, and the particle's impulse on it starts at 0.
+#define SIM_BODY_BINDING 12
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
@@ -42,9 +45,10 @@ void main() {
     vec3 gsum = vec3(0.0);
     float g2 = 0.0;
     FOR_NEIGHBOURS(i, VISIT)
-    vec3 gw;
-    float rho = sim.kern.w * wsum + wall_density(xi, gw);
-    vec3 s1 = gsum + gw;
+    vec3 gw, gb;
+    float rho = sim.kern.w * wsum + wall_density(xi, gw) + body_density(xi, gb);
+    vec3 s1 = gsum + gw + gb;
+    if (body_on()) body[BODY_HEAD + i] = vec4(0.0);
     float s = dot(s1, s1) + g2;
     dfsph[i] = vec4(rho, s > 1e-6 ? -1.0 / s : 0.0, 0.0, 0.0);
     vel[i] = vec4(state_v(sorted, i).xyz, 0.0);

@@ -9,6 +9,8 @@
 //!   factor_i / Δt², error ρ̂*_i − 1.
 //! Each work group sums its particles' errors into one partial (sim_dfsph_check reduces them).
 //! In: the neighbour lists, pred (x), vel, dfsph (ρ̂, factor). Out: kappa, partials.
+//! With a dynamic body (binding 8) its surface adds (v_i − v_body)·∇F_body, as the walls' term (they stand still).
+#define SIM_BODY_BINDING 8
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
@@ -39,9 +41,10 @@ void main() {
         float d = 0.0;
         uint nn = 0u;
         FOR_NEIGHBOURS(i, VISIT)
-        vec3 gw;
+        vec3 gw, gb;
         wall_density(xi, gw);
-        d = sim.kern.w * d + dot(vi, gw);
+        body_density(xi, gb);
+        d = sim.kern.w * d + dot(vi, gw) + dot(vi - body_velocity(), gb);
         vec2 rf = texelFetch(dfsph, int(i)).xy;
         float dt = sim.lo_dt.w;
         float k;

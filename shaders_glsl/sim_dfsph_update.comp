@@ -6,6 +6,10 @@
 //! velocity is read and written, so the update is in place. The κ applied is summed per particle (the next
 //! step's warm start of the same solve).
 //! In: the neighbour lists, pred (x), kappa. In/out: vel, kappa_sum.
+//! With a dynamic body (binding 7) its surface pushes as the walls do, Δt κ_i ∇F_body, and the body takes the
+//! reaction: the particle's impulse on it, −m Δt κ_i ∇F_body, summed over the step's corrections in body[BODY_HEAD + i]
+//! (SPlisHSPlasH's DFSPH adds −m_i Δv to a dynamic boundary the same way).
+#define SIM_BODY_BINDING 7
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
 NEIGHBOUR_BUFFERS
@@ -27,9 +31,11 @@ void main() {
     float ki = texelFetch(kappa, int(i)).x;
     vec3 dv = vec3(0.0);
     FOR_NEIGHBOURS(i, VISIT)
-    vec3 gw;
+    vec3 gw, gb;
     wall_density(xi, gw);
+    body_density(xi, gb);
     float dt = sim.lo_dt.w;
-    vel[i].xyz += dt * (sim.kern.w * dv + ki * gw);
+    vel[i].xyz += dt * (sim.kern.w * dv + ki * (gw + gb));
+    if (body_on()) body[BODY_HEAD + i].xyz -= sim.gravity_mass.w * dt * ki * gb;
     kappa_sum[i] += ki;
 }

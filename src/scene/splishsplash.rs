@@ -32,6 +32,12 @@ pub struct SceneJson {
     pub boxes: Vec<(Vec3, Vec3)>,
     /// Other meshes: the OBJ file (resolved against the scene.json's folder) and its placement.
     pub meshes: Vec<SceneMesh>,
+    /// The first container's restitution and friction (what a dynamic body's contact with it combines with).
+    pub container_contact: (f32, f32),
+    /// The first container's box for the rigid bodies' contacts (`collisionObjectType` 2 with its
+    /// `collisionObjectScale`), when the file gives one: the shared double dam break's is 3 m high where its
+    /// mesh, the water's wall, is 3.1 m.
+    pub container_collision: Option<(Vec3, Vec3)>,
     /// Bodies that could not be drawn (a rotated box, a non-finite placement), one line each.
     pub skipped: Vec<String>,
     /// Written by `meniscus sim --export` (so a later export may replace it).
@@ -49,6 +55,23 @@ pub struct SceneMesh {
     pub rotation: (Vec3, f32),
     /// Translation.
     pub translation: Vec3,
+    /// SPlisHSPlasH's `isDynamic` and the properties it comes with, when set.
+    pub dynamic: Option<DynamicProps>,
+}
+
+/// A dynamic rigid body's properties in a scene file (`isDynamic` true).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DynamicProps {
+    /// `density` (kg/m³; SPlisHSPlasH's default 1000).
+    pub density: f32,
+    /// `velocity` at the start.
+    pub velocity: Vec3,
+    /// `restitution` (default 0.6).
+    pub restitution: f32,
+    /// `friction` (default 0.2).
+    pub friction: f32,
+    /// The contact sphere's radius (`collisionObjectType` 1: `collisionObjectScale[0]`), when given.
+    pub sphere_radius: Option<f32>,
 }
 
 impl SceneMesh {
@@ -91,6 +114,19 @@ struct RigidBody {
     is_wall: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     is_dynamic: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    density: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    velocity: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    restitution: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    friction: Option<f32>,
+    /// SPlisHSPlasH's contact shape: 1 a sphere of radius `collisionObjectScale[0]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    collision_object_type: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    collision_object_scale: Option<[f32; 3]>,
 }
 
 fn one3() -> [f32; 3] {
@@ -141,11 +177,22 @@ impl SceneJson {
                     s.skipped.push(format!("{} with a non-finite or degenerate placement", b.geometry_file));
                     continue;
                 }
+                let dynamic = (b.is_dynamic == Some(true)).then(|| DynamicProps {
+                    density: b.density.unwrap_or(1000.0),
+                    velocity: Vec3::from(b.velocity.unwrap_or([0.0; 3])),
+                    restitution: b.restitution.unwrap_or(0.6),
+                    friction: b.friction.unwrap_or(0.2),
+                    sphere_radius: match (b.collision_object_type, b.collision_object_scale) {
+                        (Some(1), Some(sc)) if sc[0].is_finite() && sc[0] > 0.0 => Some(sc[0]),
+                        _ => None,
+                    },
+                });
                 s.meshes.push(SceneMesh {
                     file: dir.join(&b.geometry_file),
                     scale: sc,
                     rotation: (axis.normalize(), b.rotation_angle),
                     translation: t,
+                    dynamic,
                 });
                 continue;
             }
@@ -162,6 +209,16 @@ impl SceneJson {
                 continue;
             }
             if b.is_wall {
+                if s.containers.is_empty() {
+                    s.container_contact = (b.restitution.unwrap_or(0.6), b.friction.unwrap_or(0.2));
+                    // The rigid bodies' contact box (SPlisHSPlasH's collision object, type 2), where it differs.
+                    s.container_collision = match (b.collision_object_type, b.collision_object_scale) {
+                        (Some(2), Some(sc)) if Vec3::from(sc).is_finite() => {
+                            Some((c - Vec3::from(sc).abs() * 0.5, c + Vec3::from(sc).abs() * 0.5))
+                        }
+                        _ => None,
+                    };
+                }
                 s.containers.push((c - half, c + half));
             } else {
                 s.boxes.push((c - half, c + half));
@@ -238,6 +295,12 @@ pub fn write_scene_json(
         rotation_angle: 0.0,
         is_wall: wall,
         is_dynamic: Some(false),
+        density: None,
+        velocity: None,
+        restitution: None,
+        friction: None,
+        collision_object_type: None,
+        collision_object_scale: None,
     };
     let unit = || "../models/UnitBox.obj".to_string();
     let mut bodies = vec![body(unit(), container.0, container.1, true)];
@@ -292,6 +355,7 @@ mod tests {
             scale: Vec3::splat(2.0),
             rotation: (Vec3::Y, std::f32::consts::FRAC_PI_2),
             translation: Vec3::new(0.0, 1.0, 0.0),
+            dynamic: None,
         };
         let t = placed.load().unwrap().triangles[0];
         assert!(t[1].abs_diff_eq(Vec3::new(0.0, 1.0, -4.0), 1e-5), "{t:?}");

@@ -60,14 +60,16 @@ pub struct CheckPush {
 }
 
 declare_program!(pub BEGIN: () = compute(shaders::SIM_DFSPH_BEGIN, [Uniform, TexelRead, BufWrite, TexelRead]));
-declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
-declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
-declare_program!(pub RATE: () = compute(shaders::SIM_DFSPH_RATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
-declare_program!(pub RATE_NBR16: () = compute(shaders::SIM_DFSPH_RATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
-declare_program!(pub UPDATE: () = compute(shaders::SIM_DFSPH_UPDATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite]));
-declare_program!(pub UPDATE_NBR16: () = compute(shaders::SIM_DFSPH_UPDATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite]));
+declare_program!(pub ALPHA: () = compute(shaders::SIM_DFSPH_ALPHA, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub ALPHA_NBR16: () = compute(shaders::SIM_DFSPH_ALPHA_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub RATE: () = compute(shaders::SIM_DFSPH_RATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufRead]));
+declare_program!(pub RATE_NBR16: () = compute(shaders::SIM_DFSPH_RATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufRead]));
+declare_program!(pub UPDATE: () = compute(shaders::SIM_DFSPH_UPDATE, [Uniform, TexelRead, BufRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
+declare_program!(pub UPDATE_NBR16: () = compute(shaders::SIM_DFSPH_UPDATE_NBR16, [Uniform, TexelRead, TexelRead, TexelRead, TexelRead, BufWrite, BufWrite, BufWrite]));
 declare_program!(pub CHECK: CheckPush = compute(shaders::SIM_DFSPH_CHECK, [Uniform, BufRead, BufWrite, BufWrite]));
-declare_program!(pub INTEGRATE: () = compute(shaders::SIM_DFSPH_INTEGRATE, [Uniform, TexelRead, TexelRead, BufWrite, BufRead]));
+// The dynamic body's step: uniforms, body.
+declare_program!(pub BODY: () = compute(shaders::SIM_BODY, [Uniform, BufWrite]));
+declare_program!(pub INTEGRATE: () = compute(shaders::SIM_DFSPH_INTEGRATE, [Uniform, TexelRead, TexelRead, BufWrite, BufRead, BufWrite]));
 
 /// What the solves did since the last [`Dfsph::clear_stats`], per solve (read back by `Simulation::solver_stats`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -169,6 +171,7 @@ struct Listed {
 pub struct Dfsph {
     begin: ComputeProgram,
     integrate: ComputeProgram,
+    body: ComputeProgram,
     check: ComputeProgram<CheckPush>,
     /// By list format: [32-bit, 16-bit].
     listed: [Listed; 2],
@@ -217,6 +220,10 @@ pub struct StepBuffers<'a> {
     pub density: &'a Buffer,
     /// The mesh collider's distances.
     pub sdf: &'a Buffer,
+    /// The dynamic body and the impulses on it (`sim::scene::Body`; 64 unused bytes without one).
+    pub body: &'a Buffer,
+    /// Whether the scene has a dynamic body (`sim_body` runs after the solves).
+    pub body_on: bool,
 }
 
 impl Dfsph {
@@ -242,6 +249,7 @@ impl Dfsph {
         Ok(Dfsph {
             begin: ComputeProgram::new(gpu, &BEGIN)?,
             integrate: ComputeProgram::specialized(gpu, &INTEGRATE, &[4, m])?,
+            body: ComputeProgram::new(gpu, &BODY)?,
             check: ComputeProgram::new(gpu, &CHECK)?,
             listed: [listed(&ALPHA, &RATE, &UPDATE)?, listed(&ALPHA_NBR16, &RATE_NBR16, &UPDATE_NBR16)?],
             factor: Buffer::texels(gpu, "sim_dfsph_factor", 16 * cap, usage, vk::Format::R32G32B32A32_SFLOAT)?,
@@ -364,6 +372,7 @@ impl Dfsph {
                     &self.kappa_sum,
                     &self.kappa_v_warm,
                     &self.kappa_v_sum,
+                    b.body,
                 ],
             );
             l.alpha.dispatch(ctx, &res, &(), [groups, 1, 1]);
@@ -376,12 +385,12 @@ impl Dfsph {
             // The corrections recorded: the check stops the solve there (counted as at its limit when above the
             // bound, which makes the next frame record all).
             let limit = recorded[solve].min(p.max_solver_iterations);
-            let rate = b.neighbours.bound(b.uniforms, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials]);
+            let rate = b.neighbours.bound(b.uniforms, &[b.x, b.vel, &self.factor, &self.kappa, &self.partials, b.body]);
             let (warm, sum) = [(&self.kappa_v_warm, &self.kappa_v_sum), (&self.kappa_warm, &self.kappa_sum)][solve];
-            let update = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa, b.vel, sum]);
+            let update = b.neighbours.bound(b.uniforms, &[b.x, &self.kappa, b.vel, sum, b.body]);
             // The warm start (Bender & Koschier 2017 §4.4): one correction with half the κ each particle's last
             // solve of this kind summed.
-            let warm = b.neighbours.bound(b.uniforms, &[b.x, warm, b.vel, sum]);
+            let warm = b.neighbours.bound(b.uniforms, &[b.x, warm, b.vel, sum, b.body]);
             let check_res = [b.uniforms.into(), (&self.partials).into(), (&self.args).into(), (&self.stats).into()];
             let check = |init: u32| CheckPush {
                 groups,
@@ -405,8 +414,11 @@ impl Dfsph {
             });
         }
         ctx.pass("sim_dfsph_integrate", |ctx| {
-            let res = [b.uniforms.into(), b.x.into(), b.vel.into(), b.x_new.into(), b.sdf.into()];
+            let res = [b.uniforms.into(), b.x.into(), b.vel.into(), b.x_new.into(), b.sdf.into(), b.body.into()];
             self.integrate.dispatch(ctx, &res, &(), [groups, 1, 1]);
         });
+        if b.body_on {
+            ctx.pass("sim_body", |ctx| self.body.dispatch(ctx, &[b.uniforms.into(), b.body.into()], &(), [1, 1, 1]));
+        }
     }
 }

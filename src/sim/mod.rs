@@ -69,6 +69,20 @@ pub fn per_step(times: PassTimes, steps: u32) -> PassTimes {
 /// flight, so a frame never rewrites memory a running frame reads.
 const RING: usize = 3;
 
+/// vec4s of the dynamic body's state before the per-particle impulses (sim_common.glsl's `Body`).
+const BODY_HEAD: usize = 6;
+
+/// A dynamic body's state ([`Simulation::body_state`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyState {
+    /// Centre (m).
+    pub centre: Vec3,
+    /// Velocity (m/s).
+    pub velocity: Vec3,
+    /// Angular velocity (rad/s; from its contacts with the container's faces).
+    pub angular_velocity: Vec3,
+}
+
 /// A running simulation on one device.
 pub struct Simulation {
     gpu: Arc<Gpu>,
@@ -105,6 +119,10 @@ pub struct Simulation {
     particles: Buffer,
     /// The mesh collider's signed distances (16 unused bytes without one).
     sdf: Buffer,
+    /// The dynamic body (sim_common.glsl's layout: its state, then each particle's impulse on it in a step;
+    /// 64 unused bytes without one), and its initial state, copied in when the scene starts again.
+    body: Buffer,
+    body_init: Option<Buffer>,
     grid: GridBuffers,
     neighbours: stages::Neighbours,
     n: u32,
@@ -131,6 +149,13 @@ impl Simulation {
     /// Set up `scene` on `gpu` with `params` (nothing is recorded until the first frame).
     pub fn new(gpu: &Arc<Gpu>, scene: SimScene, params: Params) -> Result<Simulation> {
         params.validate()?;
+        let mut scene = scene;
+        // PBF has no two-way coupling: a dynamic body stands still there, a sphere collider.
+        if params.solver == Solver::Pbf {
+            if let Some(b) = scene.body.take() {
+                scene.colliders.push(Collider::Sphere { centre: b.centre, radius: b.radius });
+            }
+        }
         if scene.colliders.len() + 1 > MAX_COLLIDERS as usize {
             return Err(Error::Limit(format!("a scene has at most {} colliders", MAX_COLLIDERS - 1)));
         }
@@ -202,6 +227,30 @@ impl Simulation {
             sdf: match &scene.mesh_collider {
                 Some(m) => crate::gpu::transfer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
                 None => buf("sim_sdf", 16)?,
+            },
+            body: buf("sim_body", if scene.body.is_some() { 16 * (BODY_HEAD as u64 + cap) } else { 16 })?,
+            body_init: match &scene.body {
+                Some(b) => {
+                    let (lo, hi) = b.contact_box.unwrap_or(scene.container);
+                    let head: [[f32; 4]; BODY_HEAD] = [
+                        b.centre.extend(b.radius).to_array(),
+                        b.velocity.extend(b.mass()).to_array(),
+                        [0.0; 4],
+                        [b.restitution, b.friction, 0.0, 0.0],
+                        lo.extend(0.0).to_array(),
+                        hi.extend(0.0).to_array(),
+                    ];
+                    let mut init = Buffer::new(
+                        gpu,
+                        "sim_body_init",
+                        16 * BODY_HEAD as u64,
+                        vk::BufferUsageFlags::TRANSFER_SRC,
+                        MemoryLocation::CpuToGpu,
+                    )?;
+                    init.write(0, bytemuck::cast_slice(&head))?;
+                    Some(init)
+                }
+                None => None,
             },
             grid: GridBuffers::new(gpu, "sim", shape, cap as u32)?,
             neighbours: stages::Neighbours {
@@ -381,6 +430,11 @@ impl Simulation {
             ctx.copy_buffer(staging, &self.state[0], region);
             if at == 0 {
                 ctx.fill(&self.neighbours.overflow, 0);
+                // The body starts again with the water.
+                if let Some(init) = &self.body_init {
+                    let size = 16 * BODY_HEAD as u64;
+                    ctx.copy_buffer(init, &self.body, vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
+                }
             }
             if let Some(d) = &self.dfsph {
                 d.clear_warm_start(ctx, at, data.len() as u32);
@@ -444,7 +498,7 @@ impl Simulation {
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, self.params.scorr_n],
             sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
             sdf_dims: self.scene.mesh_collider.as_ref().map_or([0; 4], |m| m.dims.extend(1).to_array()),
-            wall: [self.params.wall_friction, 0.0, 0.0, 0.0],
+            wall: [self.params.wall_friction, self.body_init.is_some() as u32 as f32, 0.0, 0.0],
             colliders,
         }
     }
@@ -478,6 +532,8 @@ impl Simulation {
                     vel: &self.vel,
                     density: &self.density,
                     sdf: &self.sdf,
+                    body: &self.body,
+                    body_on: self.body_init.is_some(),
                 };
                 d.solve(ctx, &bufs, &self.params, n);
                 &self.pred[0]
@@ -525,6 +581,21 @@ impl Simulation {
     /// after frames recorded into a caller's submission).
     pub fn last_speed(&self) -> Option<f32> {
         self.speed_known
+    }
+
+    /// The dynamic body's centre, velocity and angular velocity after the frames recorded so far (waits for the
+    /// device); None without one (or with PBF, where it stands still as a collider).
+    pub fn body_state(&self) -> Result<Option<BodyState>> {
+        if self.body_init.is_none() {
+            return Ok(None);
+        }
+        let b = crate::gpu::transfer::read_buffer(&self.gpu, &self.body, 48)?;
+        let w: Vec<f32> = bytemuck::pod_collect_to_vec(&b);
+        Ok(Some(BodyState {
+            centre: Vec3::new(w[0], w[1], w[2]),
+            velocity: Vec3::new(w[4], w[5], w[6]),
+            angular_velocity: Vec3::new(w[8], w[9], w[10]),
+        }))
     }
 
     /// The corrections DFSPH's solves recorded per step in the latest frame [divergence-free, constant-density]

@@ -103,6 +103,39 @@ pub struct SimScene {
     pub viscosity: f32,
     /// A triangle mesh the water cannot enter, as a signed distance field ([`SimScene::add_mesh_collider`]).
     pub mesh_collider: Option<std::sync::Arc<Sdf>>,
+    /// A dynamic rigid sphere coupled both ways with the water (DFSPH; a SPlisHSPlasH scene file's `isDynamic`
+    /// sphere): [`Body`].
+    pub body: Option<Body>,
+}
+
+/// A dynamic rigid sphere (`RigidBodies[]` with `isDynamic` in a SPlisHSPlasH scene file): its mass from its
+/// density and volume, moved by gravity, the water's pressure on it and the container's faces, and moving the
+/// water (DFSPH: its surface enters the solves as the container's walls do, `sim_body` integrates it;
+/// src/sim/dfsph.rs). Its rotation is not simulated: a sphere's shape does not turn with it, and only friction
+/// at the walls would spin it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Body {
+    /// Centre at the start.
+    pub centre: Vec3,
+    /// Radius.
+    pub radius: f32,
+    /// Density (kg/m³).
+    pub density: f32,
+    /// Velocity at the start.
+    pub velocity: Vec3,
+    /// Restitution against the container's faces (SPlisHSPlasH's `restitution`).
+    pub restitution: f32,
+    /// Coulomb friction against the container's faces (`friction`).
+    pub friction: f32,
+    /// The box its centre's contacts keep it in (lo, hi of the faces); None: the container's.
+    pub contact_box: Option<(Vec3, Vec3)>,
+}
+
+impl Body {
+    /// Mass (kg).
+    pub fn mass(&self) -> f32 {
+        self.density * 4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3)
+    }
 }
 
 /// The built-in scenes, with their default particle counts.
@@ -247,6 +280,7 @@ impl SimScene {
             emitter: None,
             viscosity: 0.02,
             mesh_collider: None,
+            body: None,
         }
     }
 

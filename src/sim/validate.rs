@@ -90,6 +90,7 @@ pub fn column(w: u32, depth: u32) -> SimScene {
         emitter: None,
         viscosity: 1e-6,
         mesh_collider: None,
+        body: None,
     }
 }
 

@@ -300,6 +300,12 @@ pub fn run(a: &SimArgs) -> Result<()> {
         );
     }
     report_times(&runs, &sim);
+    if let Some(b) = sim.body_state()? {
+        eprintln!(
+            "dynamic sphere: centre ({:.3}, {:.3}, {:.3}) m, velocity ({:.3}, {:.3}, {:.3}) m/s at the end",
+            b.centre.x, b.centre.y, b.centre.z, b.velocity.x, b.velocity.y, b.velocity.z
+        );
+    }
     let over = sim.neighbour_overflow()?;
     if over > 0 {
         eprintln!(

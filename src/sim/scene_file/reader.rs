@@ -340,18 +340,21 @@ impl<'a> Reader<'a> {
                         "isWall",
                         "mapInvert",
                         "invertSDF",
+                        // A dynamic sphere's (SceneFile::load reads them; other dynamic bodies are warned there).
+                        "isDynamic",
+                        "density",
+                        "velocity",
+                        "restitution",
+                        "friction",
                     ];
                     if used.contains(&key.as_str()) || seen.contains(key) {
                         continue;
                     }
-                    if key == "isDynamic" && v.as_bool() != Some(true) {
-                        continue;
-                    }
+                    let _ = v;
                     seen.push(key.clone());
                     let why = match key.as_str() {
-                        "isDynamic" => "a dynamic body stands still here (no rigid-body solver)",
                         "color" => "drawing colour: ignored",
-                        _ => "not supported (static colliders only): ignored",
+                        _ => "not supported: ignored",
                     };
                     self.warn(format!("RigidBodies[].{key}"), why);
                 }
