@@ -217,7 +217,10 @@ impl<'a> Reader<'a> {
                 "WCSPH" | "PCISPH" | "PBF" | "IISPH" | "DFSPHSolver" => {
                     "another solver's settings (the solvers here: PBF and DFSPH, docs/simulation.md): ignored"
                 }
-                "boundaryHandlingMethod" => "boundaries here are the container's faces and collider distances: ignored",
+                "boundaryHandlingMethod" => {
+                    "boundaries here are the container's faces and a dynamic sphere's surface as the missing mass of a \
+                     plane (a density map in closed form), and collider distances: ignored"
+                }
                 "enablePartioExport"
                 | "enableVTKExport"
                 | "particleAttributes"
@@ -346,6 +349,9 @@ impl<'a> Reader<'a> {
                         "velocity",
                         "restitution",
                         "friction",
+                        // The contact shapes: a dynamic sphere's (type 1), the container's box (type 2).
+                        "collisionObjectType",
+                        "collisionObjectScale",
                     ];
                     if used.contains(&key.as_str()) || seen.contains(key) {
                         continue;
