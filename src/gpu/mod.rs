@@ -10,6 +10,7 @@ mod context;
 pub mod executor;
 mod pipeline;
 pub mod queues;
+mod raster;
 pub mod recording;
 mod resource;
 pub mod schedule;
@@ -30,7 +31,8 @@ use queues::{choose_async_queue, AsyncQueue, QueueRef, Queues};
 
 pub use access::{Access, AccessState};
 pub use context::{FrameCtx, Measure, Use};
-pub use pipeline::{groups_2d, ComputeProgram, GraphicsProgram, ProgramDecl, RasterTargets, Res, Shader, Slot};
+pub use pipeline::{groups_2d, ComputeProgram, ProgramDecl, Res, Shader, Slot};
+pub use raster::{GraphicsProgram, RasterTargets};
 pub use resource::{Buffer, Image};
 pub use specialize::WORK_COUNTING_ID;
 pub use timer::Timer;

@@ -23,6 +23,7 @@
 //! 25 fps frame), or with `[sim] adaptive_step` from the largest speed of the frame before, re-chosen every frame
 //! (`sim_viscosity` keeps each frame's largest speed; [`constants::cfl_substeps`]).
 
+pub mod body;
 pub mod constants;
 pub mod dfsph;
 pub mod diffuse;
@@ -69,20 +70,6 @@ pub fn per_step(times: PassTimes, steps: u32) -> PassTimes {
 /// flight, so a frame never rewrites memory a running frame reads.
 const RING: usize = 3;
 
-/// vec4s of the dynamic body's state before the per-particle impulses (sim_common.glsl's `Body`).
-const BODY_HEAD: usize = 6;
-
-/// A dynamic body's state ([`Simulation::body_state`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyState {
-    /// Centre (m).
-    pub centre: Vec3,
-    /// Velocity (m/s).
-    pub velocity: Vec3,
-    /// Angular velocity (rad/s; from its contacts with the container's faces).
-    pub angular_velocity: Vec3,
-}
-
 /// A running simulation on one device.
 pub struct Simulation {
     gpu: Arc<Gpu>,
@@ -119,10 +106,8 @@ pub struct Simulation {
     particles: Buffer,
     /// The mesh collider's signed distances (16 unused bytes without one).
     sdf: Buffer,
-    /// The dynamic body (sim_common.glsl's layout: its state, then each particle's impulse on it in a step;
-    /// 64 unused bytes without one), and its initial state, copied in when the scene starts again.
-    body: Buffer,
-    body_init: Option<Buffer>,
+    /// The dynamic body's buffers (`body`).
+    body: body::BodyBuffers,
     grid: GridBuffers,
     neighbours: stages::Neighbours,
     n: u32,
@@ -150,11 +135,8 @@ impl Simulation {
     pub fn new(gpu: &Arc<Gpu>, scene: SimScene, params: Params) -> Result<Simulation> {
         params.validate()?;
         let mut scene = scene;
-        // PBF has no two-way coupling: a dynamic body stands still there, a sphere collider.
         if params.solver == Solver::Pbf {
-            if let Some(b) = scene.body.take() {
-                scene.colliders.push(Collider::Sphere { centre: b.centre, radius: b.radius });
-            }
+            body::for_pbf(&mut scene);
         }
         if scene.colliders.len() + 1 > MAX_COLLIDERS as usize {
             return Err(Error::Limit(format!("a scene has at most {} colliders", MAX_COLLIDERS - 1)));
@@ -228,30 +210,7 @@ impl Simulation {
                 Some(m) => crate::gpu::transfer::upload_buffer(gpu, "sim_sdf", bytemuck::cast_slice(&m.values), None)?,
                 None => buf("sim_sdf", 16)?,
             },
-            body: buf("sim_body", if scene.body.is_some() { 16 * (BODY_HEAD as u64 + cap) } else { 16 })?,
-            body_init: match &scene.body {
-                Some(b) => {
-                    let (lo, hi) = b.contact_box.unwrap_or(scene.container);
-                    let head: [[f32; 4]; BODY_HEAD] = [
-                        b.centre.extend(b.radius).to_array(),
-                        b.velocity.extend(b.mass()).to_array(),
-                        [0.0; 4],
-                        [b.restitution, b.friction, 0.0, 0.0],
-                        lo.extend(0.0).to_array(),
-                        hi.extend(0.0).to_array(),
-                    ];
-                    let mut init = Buffer::new(
-                        gpu,
-                        "sim_body_init",
-                        16 * BODY_HEAD as u64,
-                        vk::BufferUsageFlags::TRANSFER_SRC,
-                        MemoryLocation::CpuToGpu,
-                    )?;
-                    init.write(0, bytemuck::cast_slice(&head))?;
-                    Some(init)
-                }
-                None => None,
-            },
+            body: body::BodyBuffers::new(gpu, &scene, cap, usage)?,
             grid: GridBuffers::new(gpu, "sim", shape, cap as u32)?,
             neighbours: stages::Neighbours {
                 count: Buffer::texels(gpu, "sim_nbr_count", 4 * cap, usage, vk::Format::R32_UINT)?,
@@ -431,10 +390,7 @@ impl Simulation {
             if at == 0 {
                 ctx.fill(&self.neighbours.overflow, 0);
                 // The body starts again with the water.
-                if let Some(init) = &self.body_init {
-                    let size = 16 * BODY_HEAD as u64;
-                    ctx.copy_buffer(init, &self.body, vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
-                }
+                self.body.reset(ctx);
             }
             if let Some(d) = &self.dfsph {
                 d.clear_warm_start(ctx, at, data.len() as u32);
@@ -498,7 +454,7 @@ impl Simulation {
             counts: [self.n, all.len() as u32, (self.neighbours.count.size / 4) as u32, self.params.scorr_n],
             sdf_lo: self.scene.mesh_collider.as_ref().map_or([0.0; 4], |m| m.origin.extend(m.cell).to_array()),
             sdf_dims: self.scene.mesh_collider.as_ref().map_or([0; 4], |m| m.dims.extend(1).to_array()),
-            wall: [self.params.wall_friction, self.body_init.is_some() as u32 as f32, 0.0, 0.0],
+            wall: [self.params.wall_friction, self.body.on() as u32 as f32, 0.0, 0.0],
             colliders,
         }
     }
@@ -532,8 +488,8 @@ impl Simulation {
                     vel: &self.vel,
                     density: &self.density,
                     sdf: &self.sdf,
-                    body: &self.body,
-                    body_on: self.body_init.is_some(),
+                    body: &self.body.body,
+                    body_on: self.body.on(),
                 };
                 d.solve(ctx, &bufs, &self.params, n);
                 &self.pred[0]
@@ -585,17 +541,8 @@ impl Simulation {
 
     /// The dynamic body's centre, velocity and angular velocity after the frames recorded so far (waits for the
     /// device); None without one (or with PBF, where it stands still as a collider).
-    pub fn body_state(&self) -> Result<Option<BodyState>> {
-        if self.body_init.is_none() {
-            return Ok(None);
-        }
-        let b = crate::gpu::transfer::read_buffer(&self.gpu, &self.body, 48)?;
-        let w: Vec<f32> = bytemuck::pod_collect_to_vec(&b);
-        Ok(Some(BodyState {
-            centre: Vec3::new(w[0], w[1], w[2]),
-            velocity: Vec3::new(w[4], w[5], w[6]),
-            angular_velocity: Vec3::new(w[8], w[9], w[10]),
-        }))
+    pub fn body_state(&self) -> Result<Option<body::BodyState>> {
+        self.body.state(&self.gpu)
     }
 
     /// The corrections DFSPH's solves recorded per step in the latest frame [divergence-free, constant-density]
@@ -727,45 +674,4 @@ impl Simulation {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::{reference, Params};
-
-    /// `[sim] wall_friction` outside 0..=10 (or not a number) is a settings error naming the key.
-    #[test]
-    fn wall_friction_out_of_range_is_an_error() {
-        for bad in [-1.0, 10.5, f32::NAN, f32::INFINITY] {
-            let e = Params { wall_friction: bad, ..Params::default() }.validate().unwrap_err().to_string();
-            assert!(e.contains("wall_friction"), "{bad}: {e}");
-        }
-        for good in [0.0, 1.0, 10.0] {
-            Params { wall_friction: good, ..Params::default() }.validate().unwrap();
-        }
-    }
-
-    /// `[sim] scorr_n` is a whole number 1..=15 (the shader's powers by squaring); a fraction is a parse error.
-    #[test]
-    fn scorr_n_out_of_range_is_an_error() {
-        for bad in [0, 16] {
-            let e = Params { scorr_n: bad, ..Params::default() }.validate().unwrap_err().to_string();
-            assert!(e.contains("scorr_n"), "{bad}: {e}");
-        }
-        for good in [1, 4, 15] {
-            Params { scorr_n: good, ..Params::default() }.validate().unwrap();
-        }
-        assert!(toml::from_str::<Params>("scorr_n = 4.5").is_err());
-    }
-
-    /// The CPU reference's s_corr power (the shader's, product for product) is xⁿ for every allowed n, and
-    /// exactly (x·x)·(x·x) for the default n = 4.
-    #[test]
-    fn scorr_power_by_squaring() {
-        for n in 1..=15u32 {
-            for x in [0.0f32, 0.3, 0.77, 1.0, 1.9] {
-                let p = reference::scorr_pow_n(n, x);
-                let want = x.powi(n as i32);
-                assert!((p - want).abs() <= 1e-6 * want.abs().max(1e-30), "{x}^{n}: {p} vs {want}");
-            }
-        }
-        assert_eq!(reference::scorr_pow_n(4, 0.77), (0.77f32 * 0.77) * (0.77 * 0.77));
-    }
-}
+mod tests;

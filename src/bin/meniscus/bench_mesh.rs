@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
 use meniscus::field::extract::ExtractParams;
-use meniscus::surface::mesh::{Extraction, Reconstruct};
+use meniscus::surface::mesh::{ExtractionStats, Reconstruct};
 
 use crate::args::{GpuArgs, LoadArgs};
 
@@ -227,7 +227,7 @@ fn cpu_row(
         let write = t_write.elapsed().as_secs_f64();
         let wall = t0.elapsed().as_secs_f64();
         let times = match rep.extraction {
-            Extraction::Cpu(Some(x)) => x,
+            ExtractionStats::Cpu(Some(x)) => x,
             _ => Default::default(),
         };
         samples.push((wall, rep.field_s, times, write, m.vertices.len(), m.triangles.len()));
@@ -311,7 +311,7 @@ fn gpu_row(
         meniscus::output::write_mesh(scratch, m.data())?;
         let write = t_write.elapsed().as_secs_f64();
         let (gpu_ms, host) = match &rep.extraction {
-            Extraction::Gpu(st) => (st.gpu_ms(), st.host_ms() * 1e-3),
+            ExtractionStats::Gpu(st) => (st.gpu_ms(), st.host_ms() * 1e-3),
             _ => (0.0, 0.0),
         };
         samples.push((

@@ -11,7 +11,7 @@ use clap::Args;
 use meniscus::field::extract::ExtractParams;
 use meniscus::scene::sequence::{FrameRange, Prefetch};
 use meniscus::scene::{self, Particles};
-use meniscus::surface::mesh::Extraction;
+use meniscus::surface::mesh::ExtractionStats;
 
 use meniscus::export::usd::{PointsFrame, UsdWriter};
 use meniscus::export::vdb;
@@ -355,7 +355,7 @@ fn describe(
 ) -> String {
     let t_field = rep.field_s;
     let how = match &rep.extraction {
-        Extraction::Gpu(st) => {
+        ExtractionStats::Gpu(st) => {
             let stages: Vec<String> = st.gpu.0.iter().map(|(n, t)| format!("{n} {t:.2}")).collect();
             format!(
                 "on {gpu_name} ({} blocks; host: grid and 1/n {t_field:.3} s, blocks {:.1} ms, upload {:.1} ms; GPU \
@@ -369,12 +369,12 @@ fn describe(
             )
         }
         // Where the time goes: scatter and march are summed over the threads.
-        Extraction::Cpu(Some(t)) => format!(
+        ExtractionStats::Cpu(Some(t)) => format!(
             "({threads} threads; grid and 1/n {t_field:.3} s, {} blocks of {}³ cubes: scatter {:.3} s, march {:.3} s \
              (thread time), weld {:.3} s)",
             t.blocks, t.block, t.scatter, t.march, t.weld
         ),
-        Extraction::Cpu(None) => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
+        ExtractionStats::Cpu(None) => format!("({threads} threads; grid and 1/n {t_field:.3} s)"),
     };
     if smoothing > 0 {
         format!("{how}, smoothed ({smoothing} iterations) in {:.3} s", rep.smooth_s)

@@ -214,51 +214,7 @@ impl SceneFile {
             mesh_collider: None,
             body: None,
         };
-        // A dynamic sphere moves (DFSPH, `sim::scene::Body`); any other dynamic body stands still as a collider.
-        let mut fixed = vec![];
-        for m in &sj.meshes {
-            let Some(props) = m.dynamic else {
-                fixed.push(m.clone());
-                continue;
-            };
-            let mesh = m.load()?;
-            let (lo, hi) = mesh.bounds();
-            let half = 0.5 * (hi - lo);
-            let round = half.min_element() > 0.0 && half.max_element() / half.min_element() < 1.05;
-            if !round || scene.body.is_some() {
-                let why = if round { "one dynamic body per scene" } else { "only a dynamic sphere moves here" };
-                r.warn("RigidBodies".into(), &format!("{}: {why}: it stands still as a collider", m.file.display()));
-                fixed.push(m.clone());
-                continue;
-            }
-            // The contact sphere's radius where the file gives one (SPlisHSPlasH's collision object), else the
-            // mesh's: the tessellated sphere's extremes lie a little inside its nominal radius.
-            let (centre, radius) = (0.5 * (lo + hi), props.sphere_radius.unwrap_or((half.x + half.y + half.z) / 3.0));
-            // SPlisHSPlasH's contact between two bodies: restitutions multiplied, frictions added.
-            let (e, mu) = sj.container_contact;
-            let body = crate::sim::scene::Body {
-                centre,
-                radius,
-                density: props.density,
-                velocity: props.velocity,
-                restitution: props.restitution * e,
-                friction: props.friction + mu,
-                contact_box: sj.container_collision,
-            };
-            let before = scene.positions.len();
-            let keep: Vec<bool> =
-                scene.positions.iter().map(|p| (Vec3::from(*p) - centre).length() >= radius + 0.5 * d).collect();
-            let mut k = keep.iter();
-            scene.positions.retain(|_| *k.next().unwrap_or(&true));
-            let mut k = keep.iter();
-            scene.velocities.retain(|_| *k.next().unwrap_or(&true));
-            let removed = before - scene.positions.len();
-            if removed > 0 {
-                r.warn("RigidBodies".into(), &format!("{removed} particles inside {} left out", m.file.display()));
-            }
-            scene.capacity -= removed;
-            scene.body = Some(body);
-        }
+        let fixed = dynamic_bodies(&mut r, &sj, &mut scene, d)?;
         match fixed.as_slice() {
             [] => {}
             [m, rest @ ..] => {
@@ -336,4 +292,60 @@ impl SceneFile {
             params.max_solver_iterations = n;
         }
     }
+}
+
+/// The scene file's dynamic bodies: a sphere becomes `scene.body` (DFSPH moves it, `sim::scene::Body`; the
+/// particles inside it are left out), any other dynamic body — or a second sphere — stands still as a collider
+/// (warned). Returns the meshes that stay colliders.
+fn dynamic_bodies(
+    r: &mut reader::Reader,
+    sj: &crate::scene::splishsplash::SceneJson,
+    scene: &mut SimScene,
+    d: f32,
+) -> Result<Vec<crate::scene::splishsplash::SceneMesh>> {
+    let mut fixed = vec![];
+    for m in &sj.meshes {
+        let Some(props) = m.dynamic else {
+            fixed.push(m.clone());
+            continue;
+        };
+        let mesh = m.load()?;
+        let (lo, hi) = mesh.bounds();
+        let half = 0.5 * (hi - lo);
+        let round = half.min_element() > 0.0 && half.max_element() / half.min_element() < 1.05;
+        if !round || scene.body.is_some() {
+            let why = if round { "one dynamic body per scene" } else { "only a dynamic sphere moves here" };
+            r.warn("RigidBodies".into(), &format!("{}: {why}: it stands still as a collider", m.file.display()));
+            fixed.push(m.clone());
+            continue;
+        }
+        // The contact sphere's radius where the file gives one (SPlisHSPlasH's collision object), else the
+        // mesh's: the tessellated sphere's extremes lie a little inside its nominal radius.
+        let (centre, radius) = (0.5 * (lo + hi), props.sphere_radius.unwrap_or((half.x + half.y + half.z) / 3.0));
+        // SPlisHSPlasH's contact between two bodies: restitutions multiplied, frictions added.
+        let (e, mu) = sj.container_contact;
+        let body = crate::sim::scene::Body {
+            centre,
+            radius,
+            density: props.density,
+            velocity: props.velocity,
+            restitution: props.restitution * e,
+            friction: props.friction + mu,
+            contact_box: sj.container_collision,
+        };
+        let before = scene.positions.len();
+        let keep: Vec<bool> =
+            scene.positions.iter().map(|p| (Vec3::from(*p) - centre).length() >= radius + 0.5 * d).collect();
+        let mut k = keep.iter();
+        scene.positions.retain(|_| *k.next().unwrap_or(&true));
+        let mut k = keep.iter();
+        scene.velocities.retain(|_| *k.next().unwrap_or(&true));
+        let removed = before - scene.positions.len();
+        if removed > 0 {
+            r.warn("RigidBodies".into(), &format!("{removed} particles inside {} left out", m.file.display()));
+        }
+        scene.capacity -= removed;
+        scene.body = Some(body);
+    }
+    Ok(fixed)
 }

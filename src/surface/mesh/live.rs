@@ -36,7 +36,7 @@ use crate::gpu::{Access, Buffer, ComputeProgram, FrameCtx, Gpu, GraphicsProgram,
 use crate::shader_constants::{LOCAL_1D, MC_BLOCK, SCAN_BLOCK};
 use crate::shaders;
 use crate::surface::grid::IsoBuffers;
-pub use crate::work::MeshWork;
+use crate::work::MeshWork;
 
 /// The draw's pass name: the pass that writes the mesh into the fluid depth is `mesh` either way (ray cast or
 /// raster), so timings compare by one key.
@@ -65,12 +65,12 @@ declare_program!(pub SMOOTH_FILL: SmoothPush = compute(shaders::MESH_SMOOTH_FILL
 declare_program!(pub SMOOTH_SORT: SmoothPush = compute(shaders::MESH_SMOOTH_SORT_LIVE, [BufRead, BufRead, BufWrite, BufWrite, BufWrite, BufRead]));
 declare_program!(pub SMOOTH_ITERATE: SmoothPush = compute(shaders::MESH_SMOOTH_LIVE, [BufRead, BufRead, BufRead, BufRead, BufWrite, BufRead]));
 // The draw: frame, positions, triangles.
-declare_program!(pub RASTER: RasterPush = graphics(shaders::MESH_RASTER_VERT, shaders::MESH_RASTER_FRAG, [Uniform, BufRead, BufRead]));
+declare_program!(pub RASTER: Push = graphics(shaders::MESH_RASTER_VERT, shaders::MESH_RASTER_FRAG, [Uniform, BufRead, BufRead]));
 
 /// Push constants of mesh_raster.vert.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct RasterPush {
+pub struct Push {
     /// The fluid depth image in pixels.
     pub size: [f32; 2],
     /// Vertices the position buffer holds.
@@ -283,7 +283,7 @@ pub struct LiveMesh {
     count: ComputeProgram<McPush>,
     emit: ComputeProgram<McPush>,
     scan: ComputeProgram<ScanPush>,
-    raster: GraphicsProgram<RasterPush>,
+    raster: GraphicsProgram<Push>,
     smoothing: SmoothPrograms,
     table: Buffer,
     bufs: Option<LiveBuffers>,
@@ -644,7 +644,7 @@ impl LiveMesh {
         let Some(b) = &self.bufs else { return Ok(()) };
         let z = zbuffer
             .ok_or_else(|| Error::Invalid("mesh: the live mesh surface needs the frame's depth buffer".into()))?;
-        let push = RasterPush { size: [depth.extent.width as f32, depth.extent.height as f32], vert_cap: b.caps.verts };
+        let push = Push { size: [depth.extent.width as f32, depth.extent.height as f32], vert_cap: b.caps.verts };
         // After an odd number of smoothing iterations the positions are in the second buffer.
         let pos = match &self.smooth_bufs {
             Some(sb) if self.smooth.iterations % 2 == 1 => &sb.pos2,

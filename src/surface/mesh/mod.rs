@@ -57,7 +57,7 @@ impl FluidMesh {
     }
 
     /// The live mesh's work in its latest extraction (after its frame finished), on the GPU path.
-    pub fn live_work(&self) -> Option<live::MeshWork> {
+    pub fn live_work(&self) -> Option<crate::work::MeshWork> {
         match self.path {
             Some((params::Extraction::Gpu, _)) => self.live.as_ref()?.work(),
             _ => None,
@@ -207,14 +207,14 @@ pub struct ReconstructReport {
     /// Seconds for the grid and each particle's 1/n_j (host).
     pub field_s: f64,
     /// The CPU extraction's times (block path), or the GPU's stages.
-    pub extraction: Extraction,
+    pub extraction: ExtractionStats,
     /// Seconds the smoothing took.
     pub smooth_s: f64,
 }
 
 /// How the mesh was extracted.
 #[derive(Clone, Debug)]
-pub enum Extraction {
+pub enum ExtractionStats {
     /// On the CPU (times of the block path, when it ran).
     Cpu(Option<extract::blocks::ExtractTimes>),
     /// On the GPU (the `mc` pass).
@@ -292,11 +292,11 @@ pub fn reconstruct_field(
     let (mut m, extraction) = match gpu {
         Some((gpu, mc)) => {
             let (m, st) = mc.extract(gpu, &grid, &inv, &r.extract)?;
-            (m, Extraction::Gpu(st))
+            (m, ExtractionStats::Gpu(st))
         }
         None => {
             let (m, t) = extract::extract_timed(&grid, &inv, &r.extract);
-            (m, Extraction::Cpu(t))
+            (m, ExtractionStats::Cpu(t))
         }
     };
     let t_smooth = std::time::Instant::now();
