@@ -6,19 +6,17 @@ scene to --seconds; a callback after every step records the time, the step size 
 divergence-free solves' iterations. Then `meniscus sim SCENE --frames N` (DFSPH and PBF, both with the file's
 adaptive step) runs the same simulated time. Prints markdown: per exported frame (1/25 s) SPlisHSPlasH's steps and
 iterations, and the totals of both — steps, corrections per step, corrections in all, wall seconds on this host
-(SPlisHSPlasH natively on the CPU's cores, Meniscus on its Vulkan device). The wheel bundles its own
-libGLdispatch/libGLX, which crash beside the system's libGLX at import: the script re-runs itself with them
-preloaded."""
+(SPlisHSPlasH natively on the CPU's cores, Meniscus on its Vulkan device). Loading the wheel and the scene's
+copy: tools/splishsplash_common.py."""
 import argparse
-import importlib.util
-import json
-import os
 import pathlib
 import re
 import subprocess
 import sys
 import tempfile
 import time
+
+import splishsplash_common
 
 ap = argparse.ArgumentParser()
 ap.add_argument("scene")
@@ -28,43 +26,15 @@ ap.add_argument("--bin", default=str(pathlib.Path(__file__).resolve().parents[1]
 ap.add_argument("--settings", default=None, help="a Meniscus settings file for both Meniscus runs")
 a = ap.parse_args()
 
-spec = importlib.util.find_spec("pysplishsplash")
-if spec is None:
-    sys.exit("pysplishsplash is not installed: pip install pysplishsplash")
-libs = pathlib.Path(spec.origin).parent / "pysplishsplash.libs"
-if "MENISCUS_SPLASH_PRELOADED" not in os.environ and libs.is_dir():
-    pre = [str(p) for n in ("libGLdispatch", "libGLX") for p in sorted(libs.glob(n + "-*"))]
-    env = dict(os.environ, MENISCUS_SPLASH_PRELOADED="1", LD_PRELOAD=" ".join(pre))
-    sys.exit(subprocess.run([sys.executable] + sys.argv, env=env).returncode)
-
-import pysplishsplash as sph  # noqa: E402  (after the preload above)
+sph = splishsplash_common.load()
 
 scene = pathlib.Path(a.scene).resolve()
 frame = 1.0 / a.fps
 frames = round(a.seconds * a.fps)
 
-def geometry(path):
-    """A rigid body's geometry file: relative to the scene's folder, else the wheel's own models (its example
-    scenes name `../models/UnitBox.obj`, which the wheel installs beside the interpreter, in data/models/)."""
-    p = (scene.parent / path).resolve()
-    shipped = pathlib.Path(sys.executable).parent / "data" / "models" / pathlib.Path(path).name
-    return str(p if p.exists() or not shipped.exists() else shipped)
-
-
 with tempfile.TemporaryDirectory() as tmp:
-    # A copy of the scene in a temporary folder (nothing is written beside the input): no exports, stopping at
-    # --seconds, its geometry paths made absolute.
-    s = json.loads(scene.read_text())
-    s["Configuration"].update(stopAt=a.seconds, enablePartioExport=False, enableVTKExport=False)
-    for body in s.get("RigidBodies", []):
-        if "geometryFile" in body:
-            body["geometryFile"] = geometry(body["geometryFile"])
-    copy = pathlib.Path(tmp) / "scene.json"
-    copy.write_text(json.dumps(s))
+    copy, _ = splishsplash_common.scene_copy(scene, tmp, a.seconds)
     rows = []
-    base = sph.Exec.SimulatorBase()
-    base.init(useGui=False, outputDir=str(pathlib.Path(tmp) / "out"), sceneFile=str(copy))
-    base.setValueFloat(base.STOP_AT, a.seconds)
 
     def after_step():
         ts = sph.Simulation.getCurrent().getTimeStep()
@@ -72,9 +42,8 @@ with tempfile.TemporaryDirectory() as tmp:
         rows.append((tm.getTime(), tm.getTimeStepSize(), ts.getValueInt(ts.SOLVER_ITERATIONS),
                      ts.getValueInt(ts.SOLVER_ITERATIONS_V)))
 
-    base.setTimeStepCB(after_step)
     t0 = time.time()
-    base.run()
+    splishsplash_common.run(sph, copy, tmp, a.seconds, after_step)
     splash_wall = time.time() - t0
 
 

@@ -27,6 +27,7 @@ pub mod body;
 pub mod constants;
 pub mod dfsph;
 pub mod diffuse;
+mod emit;
 pub mod observe;
 pub mod params;
 pub mod reference;
@@ -112,7 +113,9 @@ pub struct Simulation {
     neighbours: stages::Neighbours,
     n: u32,
     /// Particles to upload at the next recorded frame (the initial state, or emitted ones) at this index.
-    pending: Option<(u32, Vec<[f32; 8]>)>,
+    pending: Option<Pending>,
+    /// Particles the emitter has recycled since the start.
+    reused: u64,
     /// The host-visible buffer [`Simulation::read`] and [`Simulation::read_positions`] copy the state into, kept
     /// between calls (a new 36 MB buffer per call cost a 1M-particle read-back most of its time).
     readback: std::sync::Mutex<Option<Buffer>>,
@@ -128,6 +131,14 @@ pub struct Simulation {
     diffuse: Option<diffuse::DiffuseStages>,
     /// The DFSPH stages and buffers (`[sim] solver = "dfsph"`).
     dfsph: Option<dfsph::Dfsph>,
+}
+
+/// State rows (position, id bits, velocity) to upload at the next recorded frame: rows[0] goes to particle `at`;
+/// particles from `fresh` on are new (the initial state, emitted ones), the ones before it rewritten (recycled).
+struct Pending {
+    at: u32,
+    fresh: u32,
+    rows: Vec<[f32; 8]>,
 }
 
 impl Simulation {
@@ -229,6 +240,7 @@ impl Simulation {
             },
             n: 0,
             pending: None,
+            reused: 0,
             readback: std::sync::Mutex::new(None),
             next_id: 0,
             time: 0.0,
@@ -258,7 +270,8 @@ impl Simulation {
             .collect();
         self.n = 0;
         self.next_id = init.len() as u32;
-        self.pending = Some((0, init));
+        self.pending = Some(Pending { at: 0, fresh: 0, rows: init });
+        self.reused = 0;
         self.time = 0.0;
         self.frames = 0;
         if let Some(d) = self.diffuse.as_mut() {
@@ -307,7 +320,7 @@ impl Simulation {
 
     /// Particles after the next frame's uploads (the count the renderer draws).
     pub fn count(&self) -> u32 {
-        self.n + self.pending.as_ref().map_or(0, |p| p.1.len() as u32)
+        self.pending.as_ref().map_or(self.n, |p| self.n.max(p.at + p.rows.len() as u32))
     }
 
     /// Whether the neighbour lists hold 16-bit indices, two per word (the default up to 65,536 particles; see
@@ -339,26 +352,10 @@ impl Simulation {
         self.scene.radius()
     }
 
-    /// Add the emitter's particles for the coming frame to the pending upload.
-    fn emit(&mut self) {
-        let dt = 1.0 / self.params.fps as f64;
-        let room = self.capacity().saturating_sub(self.count()) as usize;
-        let new = self.scene.emit(self.time, self.time + dt, room);
-        if new.is_empty() {
-            return;
-        }
-        let at = self.count();
-        let pending = self.pending.get_or_insert_with(|| (at, vec![]));
-        for (p, v) in new {
-            pending.1.push([p[0], p[1], p[2], f32::from_bits(self.next_id), v[0], v[1], v[2], 0.0]);
-            self.next_id += 1;
-        }
-    }
-
     /// Record one frame (`substeps` steps) into `ctx`, each stage in its own pass scope; the renderer's particles
     /// (xyz, w = 0) go to `out`, or to the simulation's own buffer. Advances `time` by one frame.
     pub fn record_frame(&mut self, ctx: &mut FrameCtx, out: Option<&Buffer>) -> Result<()> {
-        self.emit();
+        self.emit()?;
         let k = self.ring;
         self.ring = (self.ring + 1) % RING;
         if self.params.adapts_step() {
@@ -372,8 +369,8 @@ impl Simulation {
                 self.constants = self.initial.with_substeps(n, &self.params);
             }
         }
-        if let Some((at, data)) = self.pending.take() {
-            let bytes: &[u8] = bytemuck::cast_slice(&data);
+        if let Some(Pending { at, fresh, rows }) = self.pending.take() {
+            let bytes: &[u8] = bytemuck::cast_slice(&rows);
             if self.staging[k].as_ref().is_none_or(|b| (b.size as usize) < bytes.len()) {
                 self.staging[k] = Some(Buffer::new(
                     &self.gpu,
@@ -387,15 +384,16 @@ impl Simulation {
             staging.write(0, bytes)?;
             let region = vk::BufferCopy { src_offset: 0, dst_offset: at as u64 * 32, size: bytes.len() as u64 };
             ctx.copy_buffer(staging, &self.state[0], region);
-            if at == 0 {
+            if self.n == 0 {
                 ctx.fill(&self.neighbours.overflow, 0);
                 // The body starts again with the water.
                 self.body.reset(ctx);
             }
+            let end = at + rows.len() as u32;
             if let Some(d) = &self.dfsph {
-                d.clear_warm_start(ctx, at, data.len() as u32);
+                d.clear_warm_start(ctx, fresh, end - fresh);
             }
-            self.n = at + data.len() as u32;
+            self.n = end;
         }
         let u = self.uniforms_now();
         self.uniforms[k].write(0, bytemuck::bytes_of(&u))?;

@@ -78,6 +78,10 @@ pub struct Emitter {
     pub end: f64,
     /// Only the lattice points within the ellipse inscribed in the rectangle (SPlisHSPlasH's emitter type 1).
     pub circle: bool,
+    /// Recycling (SPlisHSPlasH's `emitterReuseParticles` with `emitterBoxMin/Max`): particles outside this box
+    /// (lo, hi) are emitted again before the room for new ones is used, and slowed while they wait
+    /// ([`crate::sim::Simulation`]'s frame start); `None`: emitted particles stay.
+    pub reuse: Option<(Vec3, Vec3)>,
 }
 
 /// A scene with its particles laid out.
@@ -240,6 +244,7 @@ impl SimScene {
                     start: 0.0,
                     end: f64::INFINITY,
                     circle: false,
+                    reuse: None,
                 };
                 // About 6 s of emission fill the capacity.
                 let rate = 4.0 * emitter.half[0] * emitter.half[1] * emitter.velocity.length();

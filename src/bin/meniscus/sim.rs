@@ -306,6 +306,14 @@ pub fn run(a: &SimArgs) -> Result<()> {
             b.centre.x, b.centre.y, b.centre.z, b.velocity.x, b.velocity.y, b.velocity.z
         );
     }
+    if let Some((lo, hi)) = sim.scene.emitter.and_then(|e| e.reuse) {
+        eprintln!(
+            "emitter: {} particles at the end of a room of {}, {} recycled after leaving the box {lo}–{hi}",
+            sim.count(),
+            sim.capacity(),
+            sim.reused()
+        );
+    }
     let over = sim.neighbour_overflow()?;
     if over > 0 {
         eprintln!(

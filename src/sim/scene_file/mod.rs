@@ -169,10 +169,10 @@ impl SceneFile {
         let d = 2.0 * radius;
         let TimeKeys { fps, stop, gravity, cfl_method, cfl, max_dt, substeps } = r.time()?;
         let SolverKeys { solver, max_error, max_error_v, max_iterations } = r.solver()?;
-        let MaterialKeys { rest_density, viscosity, vorticity, max_emitted } = r.materials()?;
+        let MaterialKeys { rest_density, viscosity, vorticity, max_emitted, reuse } = r.materials()?;
         let Bodies { sj, container, colliders } = r.bodies(&text)?;
         let Fluid { mut positions, mut velocities } = r.fluid(radius, d)?;
-        let emitter = r.emitter(d)?;
+        let emitter = r.emitter(d)?.map(|e| crate::sim::scene::Emitter { reuse, ..e });
         // Water outside the container is dropped, as SPlisHSPlasH's boundary would push it in.
         let keep: Vec<bool> = positions
             .iter()

@@ -36,6 +36,8 @@ pub(super) struct MaterialKeys {
     pub(super) viscosity: Option<f32>,
     pub(super) vorticity: Option<f32>,
     pub(super) max_emitted: usize,
+    /// The recycling box (`emitterReuseParticles` true: `emitterBoxMin/Max`, SPlisHSPlasH's default ±1 m).
+    pub(super) reuse: Option<(Vec3, Vec3)>,
 }
 
 /// The bodies: the container, the solid boxes, and the file's own reading of their placement (its meshes).
@@ -245,6 +247,7 @@ impl<'a> Reader<'a> {
         let (mut rest_density, mut viscosity, mut vorticity) = (None, None, None);
         // SPlisHSPlasH's default room for emitted particles.
         let mut max_emitted: usize = 10_000;
+        let (mut reuse, mut box_lo, mut box_hi) = (false, Vec3::NEG_ONE, Vec3::ONE);
         if let Some(mats) = top.get("Materials").and_then(Value::as_array) {
             for (i, m) in mats.iter().enumerate() {
                 let Some(m) = m.as_object() else { continue };
@@ -268,11 +271,11 @@ impl<'a> Reader<'a> {
                             }
                             max_emitted = n as usize;
                         }
-                        "emitterReuseParticles" if v.as_bool() != Some(true) => {}
-                        "emitterReuseParticles" | "emitterBoxMin" | "emitterBoxMax" => self.warn(
-                            at,
-                            "emitted particles are not recycled here (they stay until the room is used up): ignored",
-                        ),
+                        "emitterReuseParticles" => {
+                            reuse = v.as_bool().ok_or_else(|| invalid(path, &at, "must be true or false"))?;
+                        }
+                        "emitterBoxMin" => box_lo = checked(path, &at, Some(v), vec3)?.unwrap_or(box_lo),
+                        "emitterBoxMax" => box_hi = checked(path, &at, Some(v), vec3)?.unwrap_or(box_hi),
                         _ => self.warn(at, "not supported: ignored"),
                     }
                 }
@@ -288,7 +291,15 @@ impl<'a> Reader<'a> {
                 &format!("the rigid-body and cloth solver's settings are not used ({})", keys.join(", ")),
             );
         }
-        Ok(MaterialKeys { rest_density, viscosity, vorticity, max_emitted })
+        if reuse && box_lo.cmpgt(box_hi).any() {
+            return Err(invalid(
+                path,
+                "Materials[0].emitterBoxMin",
+                &format!("the recycling box's corner {box_lo} is above emitterBoxMax {box_hi} on an axis"),
+            ));
+        }
+        let reuse = reuse.then_some((box_lo, box_hi));
+        Ok(MaterialKeys { rest_density, viscosity, vorticity, max_emitted, reuse })
     }
 
     /// The container, the solid boxes and the mesh colliders (`text`: the file, for SceneJson).
@@ -469,6 +480,7 @@ impl<'a> Reader<'a> {
                     start,
                     end,
                     circle: kind == 1.0,
+                    reuse: None,
                 });
                 let known = [
                     "width",
