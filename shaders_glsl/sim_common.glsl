@@ -20,7 +20,23 @@ layout(std140, binding = 0) uniform Sim {
     uvec4 sdf_dims;      // its nodes per axis (xyz); w: 1 when there is a mesh collider
     vec4 wall;           // static friction μ_s of the container's faces (x); y: 1 with a dynamic body; zw unused
     vec4 colliders[2 * MAX_COLLIDERS]; // per collider: (a.xyz, kind), (b) — see collide()
+    // The emitter's nozzle (sim::scene::Emitter::nozzle; SPlisHSPlasH's particles AnimatedByEmitter): centre (xyz)
+    // and kind (w: 0 none, 1 box, 2 cylinder); its axes along the flow, up and across (xyz) with the half
+    // extents (w; the cylinder's radius in the up one's); the velocity it moves its particles at (xyz).
+    vec4 nozzle[5];
 } sim;
+
+// Whether a particle at x (its position at the step's start) is in the emitter's nozzle, which moves it at
+// sim.nozzle[4] instead of the solve (sim_velocity, sim_viscosity).
+bool in_nozzle(vec3 x) {
+    float kind = sim.nozzle[0].w;
+    if (kind == 0.0) return false;
+    vec3 r = x - sim.nozzle[0].xyz;
+    float a = dot(r, sim.nozzle[1].xyz), u = dot(r, sim.nozzle[2].xyz), c = dot(r, sim.nozzle[3].xyz);
+    if (abs(a) > sim.nozzle[1].w) return false;
+    if (kind == 1.0) return abs(u) <= sim.nozzle[2].w && abs(c) <= sim.nozzle[3].w;
+    return u * u + c * c <= sim.nozzle[2].w * sim.nozzle[2].w;
+}
 
 struct State {
     vec4 x;   // position; w: the particle's id (uint bits)

@@ -5,7 +5,8 @@
 //! velocity when that velocity is at most μ_s times the normal velocity change the step's constraints made
 //! (the face's push: g·Δt for water resting on the floor). Flowing water (a dam-break surge is 100× faster than
 //! that bound) slides freely, as on SPlisHSPlasH's free-slip walls; water at rest does not creep along the
-//! floor. In: the sorted state (x, and v after gravity as sim_reorder stored it; RGBA32UI texels, two per
+//! floor. A particle the emitter's nozzle holds (in_nozzle at its step's start) takes the nozzle's velocity.
+//! In: the sorted state (x, and v after gravity as sim_reorder stored it; RGBA32UI texels, two per
 //! particle), pred (final x*, texels). Out: vel (grid order).
 #include "sim_common.glsl"
 layout(local_size_x = LOCAL_1D) in;
@@ -28,5 +29,7 @@ void main() {
         float push = side * (v[k] - vp[k]);
         if (side != 0.0 && push > 0.0 && dot(vt, vt) <= mu * mu * push * push) v = v - vt;
     }
+    // The emitter's nozzle moves its particles at its own velocity (sim_common.glsl in_nozzle).
+    if (in_nozzle(state_x(state, i).xyz)) v = sim.nozzle[4].xyz;
     vel[i] = vec4(v, 0.0);
 }

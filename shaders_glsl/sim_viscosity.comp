@@ -1,7 +1,8 @@
 #version 460
 //! sim_viscosity — the end of a PBF step (Macklin & Müller 2013, eqs. 16–17): vorticity confinement
 //! f = ε_v·(N × ω_i), N = η/|η|, η = Σ_j V·(|ω_j| − |ω_i|)·∇W_spiky(x_i − x_j); then XSPH viscosity
-//! v_i ← v_i + c·Σ_j V·(v_j − v_i)·W_poly6(x_i − x_j); x ← x*. Writes the new state (grid order of this step)
+//! v_i ← v_i + c·Σ_j V·(v_j − v_i)·W_poly6(x_i − x_j); x ← x* (in the emitter's nozzle: v ← the nozzle's
+//! velocity, x ← x + Δt v). Writes the new state (grid order of this step)
 //! and the renderer's particles (xyz, w = 0: the frame radius), then after them the motions (id bits, |Δv|/Δt).
 //! The frame's largest speed is kept (max over its steps) for the adaptive step's CFL bound (`[sim]
 //! adaptive_step`; SPlisHSPlasH's cflMethod 1): each work group's largest |v|, then one atomic max of its bits
@@ -50,6 +51,12 @@ float end_step(uint i) {
         if (le > 1e-9) v += sim.lo_dt.w * sim.visc.y * cross(eta / le, omega_i.xyz);
     }
     vec4 xs = state_x(sorted, i);
+    // A particle in the emitter's nozzle moves at its velocity from where the step started, as SPlisHSPlasH's
+    // emitters animate theirs (no gravity, pressure or viscosity there).
+    if (in_nozzle(xs.xyz)) {
+        v = sim.nozzle[4].xyz;
+        xi = xs.xyz + sim.lo_dt.w * v;
+    }
     // How fast the velocity changes, |Δv| / Δt, for the renderer's noise (NVIDIA patent US 8,947,430, eq. 17):
     // this step's (the sorted state's velocity has gravity's Δt·g added: take it back out), low-passed over
     // about one frame (sim.visc.w = Δt / (Δt + frame time)) so that it measures what a sequence's frames would,

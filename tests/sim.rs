@@ -1338,9 +1338,10 @@ fn the_adaptive_step_follows_the_largest_speed() {
 
 /// Recycling as SPlisHSPlasH 2.19 does it on the same file (tests/fixtures/splishsplash-emitter-reuse.scene.json,
 /// its run recorded by tools/splishsplash-emitter.py in tests/fixtures/splishsplash-emitter-reuse.json): a jet
-/// falls from the emitter into a drain (the recycling box ends 0.25 m above the floor), the particles that leave
-/// the box carry the emitter's next layers before the room (600) is used, so the count levels off well below the
-/// room. Per frame to 1.6 s: the particles in the simulation, those inside the box, and those recycled in all.
+/// leaves the emitter's nozzle and falls into a drain (the recycling box ends 0.25 m above the floor), the
+/// particles that leave the box carry the emitter's next layers before the room (600) is used, so the count
+/// levels off well below the room. Per frame to 1.6 s: the particles in the simulation (equal before the drain,
+/// their level within 3 %), those inside the box (12 %) and those recycled in all (5 %).
 #[test]
 fn scene_file_emitters_recycle_as_splishsplash_does() {
     let fixtures = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
@@ -1393,11 +1394,20 @@ fn scene_file_emitters_recycle_as_splishsplash_does() {
             late(ours.iter().filter(|o| o[0] >= 0.8).map(|o| o[1]).collect()),
             late(theirs.iter().filter(|t| t[0] >= 0.8).map(|t| t[1]).collect()),
         );
-        if (mine - its).abs() > 0.1 * its || ours.iter().any(|o| o[1] >= room) {
+        if (mine - its).abs() > 0.03 * its || ours.iter().any(|o| o[1] >= room) {
             wrong.push(format!("level from 0.8 s: {mine:.0} particles, SPlisHSPlasH {its:.0} (room {room})"));
         }
+        // Inside the box: SPlisHSPlasH takes a particle back at its next step, Meniscus at its next frame, so
+        // more of ours wait outside (about 35 of 460).
+        let (mine, its) = (
+            late(ours.iter().filter(|o| o[0] >= 0.8).map(|o| o[2]).collect()),
+            late(theirs.iter().filter(|t| t[0] >= 0.8).map(|t| t[4]).collect()),
+        );
+        if (mine - its).abs() > 0.12 * its {
+            wrong.push(format!("inside the box from 0.8 s: {mine:.0}, SPlisHSPlasH {its:.0}"));
+        }
         let (last, its_last) = (ours[ours.len() - 1][3], theirs[ours.len()][3]);
-        if (last - its_last).abs() > 0.1 * its_last {
+        if (last - its_last).abs() > 0.05 * its_last {
             wrong.push(format!("recycled in all: {last}, SPlisHSPlasH {its_last}"));
         }
         wrong

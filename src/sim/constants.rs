@@ -39,6 +39,8 @@ pub struct SimUniforms {
     pub wall: [f32; 4],
     /// Two vec4 per collider.
     pub colliders: [[f32; 4]; 2 * MAX_COLLIDERS as usize],
+    /// The emitter's nozzle ([`crate::sim::scene::Emitter::nozzle`]).
+    pub nozzle: [[f32; 4]; 5],
 }
 
 /// The constants of the equations for one scene and parameter set (shared by the GPU and the CPU reference).

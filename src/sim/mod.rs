@@ -454,6 +454,7 @@ impl Simulation {
             sdf_dims: self.scene.mesh_collider.as_ref().map_or([0; 4], |m| m.dims.extend(1).to_array()),
             wall: [self.params.wall_friction, self.body.on() as u32 as f32, 0.0, 0.0],
             colliders,
+            nozzle: self.scene.emitter.map_or([[0.0; 4]; 5], |e| e.nozzle(self.scene.spacing, self.time)),
         }
     }
 

@@ -84,6 +84,43 @@ pub struct Emitter {
     pub reuse: Option<(Vec3, Vec3)>,
 }
 
+impl Emitter {
+    /// The rectangle's axes: along the flow, up (the height's), across (the width's).
+    pub fn axes(&self) -> [Vec3; 3] {
+        let dir = self.velocity.normalize_or(Vec3::X);
+        let w = self.width_axis - dir * self.width_axis.dot(dir);
+        let across = if w.length_squared() > 1e-12 { w.normalize() } else { dir.cross(Vec3::Y).normalize_or(Vec3::Z) };
+        [dir, across.cross(dir), across]
+    }
+
+    /// The nozzle at simulated time `t`, as sim_common.glsl's uniform block holds it: SPlisHSPlasH's emitters
+    /// (`Emitter::emitParticles`, `getSize`; the sizes of its density- and volume-map boundaries, particles
+    /// spaced `d`, support radius 2d) move every particle in a box reaching half a support radius behind the
+    /// emitter and 1.5 ahead, 1.25 d wider than the rectangle on each side (a cylinder 2.25 support radii long of
+    /// 1.125 (the disc's radius + d) for a circular one), at the emitter's velocity from 0.25 s before its start
+    /// to its end — before the start at 40 radii per second, to clear the way. Zero (none) outside that time.
+    pub fn nozzle(&self, d: f32, t: f64) -> [[f32; 4]; 5] {
+        if t < self.start - 0.25 || t > self.end {
+            return [[0.0; 4]; 5];
+        }
+        let [dir, up, across] = self.axes();
+        let support = 2.0 * d;
+        let (kind, half) = if self.circle {
+            (2.0, [1.125 * support, 1.125 * (self.half[0] + d), 0.0])
+        } else {
+            (1.0, [support, self.half[1] + 1.25 * d, self.half[0] + 1.25 * d])
+        };
+        let v = if t < self.start { dir * 20.0 * d } else { self.velocity };
+        [
+            (self.centre + dir * 0.5 * support).extend(kind).to_array(),
+            dir.extend(half[0]).to_array(),
+            up.extend(half[1]).to_array(),
+            across.extend(half[2]).to_array(),
+            v.extend(0.0).to_array(),
+        ]
+    }
+}
+
 /// A scene with its particles laid out.
 #[derive(Clone, Debug)]
 pub struct SimScene {
@@ -325,11 +362,8 @@ impl SimScene {
         if speed <= 0.0 || room == 0 {
             return vec![];
         }
-        let dir = e.velocity / speed as f32;
         // The width axis made perpendicular to the flow (or the horizontal across it).
-        let w = e.width_axis - dir * e.width_axis.dot(dir);
-        let across = if w.length_squared() > 1e-12 { w.normalize() } else { dir.cross(Vec3::Y).normalize_or(Vec3::Z) };
-        let up = across.cross(dir);
+        let [dir, up, across] = e.axes();
         let (na, nu) = ((2.0 * e.half[0] / self.spacing) as i32, (2.0 * e.half[1] / self.spacing) as i32);
         let mut out = vec![];
         // Layer k leaves the rectangle at t = start + k d / speed (until `end`); a layer emitted at t has
@@ -418,5 +452,35 @@ mod tests {
         let b = s.emit(0.5, 1.0, usize::MAX).len();
         assert!(a > 0 && (a as i64 - b as i64).abs() <= (a as i64 / 5).max(1));
         assert_eq!(s.emit(0.0, 0.5, 10).len(), 10);
+    }
+
+    /// SPlisHSPlasH's nozzle: a box from half a support radius (2d) behind the emitter to 1.5 ahead, 1.25 d wider
+    /// than the rectangle each side, moving at the emitter's velocity from 0.25 s before its start (at 20 d/s
+    /// then) to its end; none outside that time.
+    #[test]
+    fn the_nozzle_holds_the_box_ahead_of_the_emitter() {
+        let e = Emitter {
+            centre: Vec3::new(1.0, 2.0, 3.0),
+            velocity: Vec3::new(0.0, 0.0, -2.0),
+            half: [0.3, 0.1],
+            width_axis: Vec3::X,
+            start: 1.0,
+            end: 2.0,
+            circle: false,
+            reuse: None,
+        };
+        let d = 0.05;
+        assert_eq!(e.nozzle(d, 0.7), [[0.0; 4]; 5]);
+        assert_eq!(e.nozzle(d, 2.01), [[0.0; 4]; 5]);
+        let close = |a: [f32; 4], b: [f32; 4]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-6);
+        let n = e.nozzle(d, 1.5);
+        assert!(close(n[0], [1.0, 2.0, 3.0 - d, 1.0]), "{:?}", n[0]);
+        assert!(close(n[1], [0.0, 0.0, -1.0, 2.0 * d]), "{:?}", n[1]);
+        assert!(close(n[2], [0.0, 1.0, 0.0, 0.1 + 1.25 * d]), "{:?}", n[2]);
+        assert!(close(n[3], [1.0, 0.0, 0.0, 0.3 + 1.25 * d]), "{:?}", n[3]);
+        assert!(close(n[4], [0.0, 0.0, -2.0, 0.0]), "{:?}", n[4]);
+        assert!(close(e.nozzle(d, 0.8)[4], [0.0, 0.0, -20.0 * d, 0.0]));
+        let c = Emitter { circle: true, ..e }.nozzle(d, 1.5);
+        assert!(close([c[0][3], c[1][3], c[2][3], 0.0], [2.0, 2.25 * d, 1.125 * (0.3 + d), 0.0]), "{c:?}");
     }
 }
