@@ -24,9 +24,9 @@ layout(push_constant) uniform Push { uint node_count; } pc;
 bool in_shadow(vec3 p) {
     float ts; vec3 ns;
 #ifdef BACKGROUND_MESH
-    return hit_boxes(p, frame.sun.xyz, ts, ns) || hit_mesh(p, frame.sun.xyz, INF, pc.node_count, ts, ns);
+    return hit_scenery(p, frame.sun.xyz, ts, ns) || hit_mesh(p, frame.sun.xyz, INF, pc.node_count, ts, ns);
 #else
-    return hit_boxes(p, frame.sun.xyz, ts, ns);
+    return hit_scenery(p, frame.sun.xyz, ts, ns);
 #endif
 }
 
@@ -40,7 +40,7 @@ void main() {
     float t = INF;
     vec3 c = sky(dw);
     float tb; vec3 nb;
-    bool box = hit_boxes(o, dw, tb, nb);
+    bool box = hit_scenery(o, dw, tb, nb);
     float tg = INF;
     if (frame.ground.z > 0.5 && dw.y < 0.0) tg = (frame.ground.x - o.y) / dw.y;
     if (tg <= 0.0) tg = INF;

@@ -20,9 +20,10 @@ layout(std140, set = 0, binding = 0) uniform Frame {
     vec4 fluid_color;   // rgb: I0, light scattered out of the fluid; w: ambient light
     vec4 shading;       // x: refraction alpha (px per world unit), y: beta (max px), z: gamma (transparency), w: k_s
     vec4 shading2;      // x: shininess c, y: F0, z: sky reflection on/off, w: 1 = sky cube map loaded
-    vec4 box_count;     // x: number of boxes
+    vec4 box_count;     // x: number of boxes, y: number of spheres
     vec4 box_min[MAX_BOXES];    // axis-aligned boxes of the background scene (world)
     vec4 box_max[MAX_BOXES];
+    vec4 spheres[MAX_SPHERES];  // spheres of the background scene: centre (xyz, world), radius (w) — a moving body
 } frame;
 
 #include "particle_layout.glsl"
@@ -87,8 +88,8 @@ vec3 sky(vec3 dir) {
     return c;
 }
 
-/// Ray against the background's boxes: nearest entry t > 0 and its normal; false when nothing is hit.
-bool hit_boxes(vec3 o, vec3 d, out float t_hit, out vec3 n_hit) {
+/// Ray against the background's boxes and spheres: nearest entry t > 0 and its normal; false when nothing is hit.
+bool hit_scenery(vec3 o, vec3 d, out float t_hit, out vec3 n_hit) {
     t_hit = INF;
     int count = int(frame.box_count.x);
     for (int i = 0; i < count; ++i) {
@@ -101,6 +102,19 @@ bool hit_boxes(vec3 o, vec3 d, out float t_hit, out vec3 n_hit) {
         if (tn <= tf && tn > 0.0 && tn < t_hit) {
             t_hit = tn;
             n_hit = tn == tmin.x ? vec3(-sign(d.x), 0, 0) : (tn == tmin.y ? vec3(0, -sign(d.y), 0) : vec3(0, 0, -sign(d.z)));
+        }
+    }
+    int spheres = int(frame.box_count.y);
+    for (int i = 0; i < spheres; ++i) {
+        // |o + t d − c|² = r² (d need not be unit): the nearer root in front of o.
+        vec3 oc = o - frame.spheres[i].xyz;
+        float a = dot(d, d), b = dot(oc, d), c = dot(oc, oc) - frame.spheres[i].w * frame.spheres[i].w;
+        float disc = b * b - a * c;
+        if (disc < 0.0) continue;
+        float t = (-b - sqrt(disc)) / a;
+        if (t > 0.0 && t < t_hit) {
+            t_hit = t;
+            n_hit = normalize(oc + t * d);
         }
     }
     return t_hit < INF;

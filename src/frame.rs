@@ -15,6 +15,8 @@ use crate::targets::Targets;
 
 /// Maximum number of boxes in the background scene (fixed array in the uniform block).
 pub const MAX_BOXES: usize = crate::shader_constants::MAX_BOXES as usize;
+/// Maximum number of spheres in the background scene.
+pub const MAX_SPHERES: usize = crate::shader_constants::MAX_SPHERES as usize;
 
 /// Mirror of `Frame` in shaders_glsl/common.glsl (std140: only vec4/mat4 members).
 #[repr(C)]
@@ -42,15 +44,17 @@ pub struct FrameUniforms {
     pub shading: [f32; 4],
     /// x: shininess, y: F0, z: sky reflection on/off, w: 1 when a sky cube map is loaded.
     pub shading2: [f32; 4],
-    /// x: number of background boxes.
+    /// x: number of background boxes, y: of spheres.
     pub box_count: [f32; 4],
     /// Minimum corners of the background boxes (world).
     pub box_min: [[f32; 4]; MAX_BOXES],
     /// Maximum corners of the background boxes (world).
     pub box_max: [[f32; 4]; MAX_BOXES],
+    /// The background's spheres: centre (world), radius.
+    pub spheres: [[f32; 4]; MAX_SPHERES],
 }
 
-const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 2 * 64 + 10 * 16 + 2 * 16 * MAX_BOXES);
+const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 2 * 64 + 10 * 16 + 2 * 16 * MAX_BOXES + 16 * MAX_SPHERES);
 
 impl FrameUniforms {
     /// Fill the block from the view and the settings.
@@ -87,10 +91,14 @@ impl FrameUniforms {
                 s.composite.reflect_sky as u32 as f32,
                 v.env.sky_cube as u32 as f32,
             ],
-            box_count: [v.env.boxes.len().min(MAX_BOXES) as f32, 0.0, 0.0, 0.0],
+            box_count: [v.env.boxes.len().min(MAX_BOXES) as f32, v.env.spheres.len().min(MAX_SPHERES) as f32, 0.0, 0.0],
             box_min: [[0.0; 4]; MAX_BOXES],
             box_max: [[0.0; 4]; MAX_BOXES],
+            spheres: [[0.0; 4]; MAX_SPHERES],
         };
+        for (k, (c, r)) in v.env.spheres.iter().take(MAX_SPHERES).enumerate() {
+            u.spheres[k] = c.extend(*r).to_array();
+        }
         for (k, (lo, hi)) in v.env.boxes.iter().take(MAX_BOXES).enumerate() {
             u.box_min[k] = lo.extend(0.0).to_array();
             u.box_max[k] = hi.extend(0.0).to_array();

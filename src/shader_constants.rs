@@ -13,6 +13,8 @@ pub const LOCAL_1D: u32 = 64;
 pub const CURVATURE_LOCAL: u32 = 8;
 /// Boxes of the background scene in the frame's uniform block.
 pub const MAX_BOXES: u32 = 8;
+/// Spheres in the background scene (the frame block's `spheres`: a simulation's moving bodies).
+pub const MAX_SPHERES: u32 = 4;
 /// Value of an `ssr` pixel whose ray hits nothing.
 pub const SSR_MISS: u32 = 0xffff_ffff;
 /// Per-thread pixel budget of the particle passes: a sphere covering more (it swallowed the camera) is skipped.
@@ -228,6 +230,7 @@ pub const SHADER_CONSTANTS: &[(&str, u32)] = &[
     ("DETAIL_UNITS", DETAIL_UNITS),
     ("CURVATURE_LOCAL", CURVATURE_LOCAL),
     ("MAX_BOXES", MAX_BOXES),
+    ("MAX_SPHERES", MAX_SPHERES),
     ("SSR_MISS", SSR_MISS),
     ("MAX_PIXELS_PER_PARTICLE", MAX_PIXELS_PER_PARTICLE),
     ("SPLAT_TILE", SPLAT_TILE),

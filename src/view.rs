@@ -20,6 +20,8 @@ pub struct Environment {
     pub ground: bool,
     /// Axis-aligned boxes beside the fluid, as (min, max) corners.
     pub boxes: Vec<(Vec3, Vec3)>,
+    /// Spheres (centre, radius): a simulation's moving bodies, placed per frame.
+    pub spheres: Vec<(Vec3, f32)>,
     /// A sky cube map is loaded in the renderer (see `Renderer::set_skybox`).
     pub sky_cube: bool,
 }
@@ -47,7 +49,15 @@ impl Environment {
             ));
         }
         let tile = (size / 8.0).max(radius * 4.0);
-        Environment { ground_y, tile, fog: size * 12.0, ground: s.background.ground, boxes, sky_cube: false }
+        Environment {
+            ground_y,
+            tile,
+            fog: size * 12.0,
+            ground: s.background.ground,
+            boxes,
+            spheres: vec![],
+            sky_cube: false,
+        }
     }
 }
 

@@ -575,6 +575,60 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert_eq!((img.width(), img.height()), (240, 60));
 }
 
+/// A scene file's dynamic sphere moves in the simulation, so the export's scene.json carries its centre at every
+/// exported frame (`Meniscus.bodies`) and `render` of a frame draws it there: the frames where the ball has
+/// fallen differ from a render of the same particles with the track held at frame 1 (the control).
+#[test]
+fn sim_exports_a_moving_sphere_that_renders_where_it_was() {
+    let d = common::tmpdir("cli", "sim-body");
+    // An octahedron: round enough (its box is a cube) to be the dynamic sphere, radius 0.2 m.
+    std::fs::write(d.join("ball.obj"), "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\nf 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n").unwrap();
+    std::fs::write(
+        d.join("scene.json"),
+        r#"{"Configuration": {"particleRadius": 0.025, "simulationMethod": 4, "dataExportFPS": 25},
+            "RigidBodies": [
+                {"geometryFile": "UnitBox.obj", "translation": [0, 0.75, 0], "scale": [1.5, 1.5, 1.0], "isWall": true},
+                {"geometryFile": "ball.obj", "translation": [0.3, 1.1, 0], "scale": [0.2, 0.2, 0.2], "isDynamic": true,
+                 "density": 500}],
+            "FluidBlocks": [{"start": [-0.7, 0.0, -0.45], "end": [0.0, 0.4, 0.45]}]}"#,
+    )
+    .unwrap();
+    let out = d.join("cache");
+    let o = meniscus()
+        .arg("sim")
+        .arg(d.join("scene.json"))
+        .args(["--frames", "8", "--export"])
+        .arg(out.join("f_{}.bgeo"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("dynamic sphere"), "{err}");
+    let sj = meniscus::scene::splishsplash::SceneJson::load(&out.join("scene.json")).unwrap();
+    assert_eq!(sj.tracks.len(), 1, "{:?}", sj.tracks);
+    let t = &sj.tracks[0];
+    assert_eq!(t.centres.len(), 8, "one centre per exported frame");
+    assert!((t.radius - 0.2).abs() < 1e-3 && t.centres[0].abs_diff_eq(glam::Vec3::new(0.3, 1.1, 0.0), 1e-5));
+    // Falling freely for 7 frames (0.28 s): about g t² / 2 = 0.38 m.
+    let fall = t.centres[0].y - t.centres[7].y;
+    assert!((0.3..0.45).contains(&fall), "fell {fall} m");
+    let last = out.join("f_8.bgeo");
+    let (moved, held) = (d.join("moved.png"), d.join("held.png"));
+    let o = render_small(&last, &[], &moved);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The control: the same frame with the track stopped at frame 1 (the ball where it started).
+    let text = std::fs::read_to_string(out.join("scene.json")).unwrap();
+    let mut j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let first = j["Meniscus"]["bodies"][0]["centres"][0].clone();
+    j["Meniscus"]["bodies"][0]["centres"] = serde_json::json!([first]);
+    std::fs::write(out.join("scene.json"), serde_json::to_string(&j).unwrap()).unwrap();
+    let o = render_small(&last, &[], &held);
+    assert!(o.status.success());
+    let (a, b) = (image::open(&moved).unwrap().to_rgba8(), image::open(&held).unwrap().to_rgba8());
+    let differ = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+    assert!(differ > 20, "{differ} pixels differ between the ball's place at frame 8 and at frame 1");
+}
+
 /// Issue #13: `meniscus sim` writes a cache (position, velocity, density, id) as .bgeo and .vtk that the loaders,
 /// `info` and `render` read; bad scenes and patterns are one-line errors that write nothing.
 #[test]

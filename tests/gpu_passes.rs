@@ -1571,6 +1571,57 @@ v 0.2 0.1 0.8\nv 0.6 0.1 0.8\nv 0.4 0.5 0.9\nv 0.4 0.2 1.2\nf 5 6 7\nf 5 6 8\nf 
     assert_clean(&gpu);
 }
 
+/// A sphere in the background (a simulation's moving body): scene depth equals the CPU's ray–sphere
+/// intersection, and without it those pixels are sky (the control).
+#[test]
+fn background_sphere_depth_matches_cpu_ray_cast() {
+    use glam::Vec3;
+    let gpu = gpu();
+    let (w, h) = (96usize, 64usize);
+    let (c, radius) = (Vec3::new(0.3, -0.1, 0.2), 0.6f32);
+    let mut v = view([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], w as u32, h as u32, 45.0);
+    let mut s = settings(0.05);
+    s.filter.method = Filter::None;
+    let mut r = Renderer::new(&gpu).unwrap();
+    r.upload(meniscus::renderer::Upload::points(&[[10.0, 10.0, 10.0]])).unwrap();
+    let mut depth_with = |spheres: Vec<(Vec3, f32)>| {
+        v.env.spheres = spheres;
+        r.render(&v, &s).unwrap();
+        read_f32(&gpu, &r.state().targets().unwrap().scene_depth).unwrap()
+    };
+    let without = depth_with(vec![]);
+    let depth = depth_with(vec![(c, radius)]);
+    let inv = v.camera.view().inverse();
+    let f = v.camera.focal_px(h as u32) as f64;
+    let (mut hit, mut max_err, mut mismatch, mut sky) = (0, 0f32, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let dv = pixel_dir(x, y, w, h, f);
+            let d = inv.transform_vector3(Vec3::new(dv[0] as f32, dv[1] as f32, dv[2] as f32));
+            // |o + t d − c|² = r²: the nearer root (depth along the view axis: d's view-space z is −1).
+            let oc = v.camera.eye - c;
+            let (a, b, q) = (d.dot(d), oc.dot(d), oc.dot(oc) - radius * radius);
+            let disc = b * b - a * q;
+            let want = (disc >= 0.0).then(|| (-b - disc.sqrt()) / a).filter(|t| *t > 0.0);
+            let got = depth[y * w + x];
+            match want {
+                Some(t) if got.is_finite() => {
+                    hit += 1;
+                    max_err = max_err.max((got - t).abs());
+                    sky += without[y * w + x].is_infinite() as usize;
+                }
+                None if got.is_infinite() => {}
+                _ => mismatch += 1,
+            }
+        }
+    }
+    assert!(hit > 700, "{hit} sphere pixels");
+    assert!(mismatch <= 4, "{mismatch} pixels disagree on coverage");
+    assert!(max_err < 1e-4, "max depth error {max_err}");
+    assert_eq!(sky, hit, "without the sphere its pixels are sky");
+    assert_clean(&gpu);
+}
+
 /// The splat's occlusion pre-pass (`splat_cull`, on when spheres span tiles) changes nothing: a dense block
 /// of large spheres splats bit-identically to the rasterised MIN-blend variant, which has no culling.
 /// The compute splat counts its work: without the occlusion cull, one sphere–pixel test per pixel of each

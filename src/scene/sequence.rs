@@ -210,6 +210,11 @@ fn name_pattern(name: &str) -> Option<String> {
     Some(format!("{}{{}}{}", &name[..start], &name[end..]))
 }
 
+/// The frame number of a numbered file name (`dir/f_16.bgeo` → 16): its stem's last run of digits.
+pub fn number_of(path: &Path) -> Option<u64> {
+    frame_number(&path.file_name()?.to_string_lossy())
+}
+
 /// The sequence pattern a numbered file belongs to (`dir/f_16.bgeo` → `dir/f_{}.bgeo`), for [`resolve_all`].
 pub fn numbered_pattern(path: &Path) -> Option<String> {
     let name = name_pattern(&path.file_name()?.to_string_lossy())?;

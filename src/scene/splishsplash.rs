@@ -42,6 +42,26 @@ pub struct SceneJson {
     pub skipped: Vec<String>,
     /// Written by `meniscus sim --export` (so a later export may replace it).
     pub by_meniscus: bool,
+    /// The simulation's moving bodies, frame by frame (`meniscus sim --export` of a scene with a dynamic sphere).
+    pub tracks: Vec<BodyTrack>,
+}
+
+/// A sphere's centre at every exported frame, as `meniscus sim --export` writes it beside the cache (the
+/// scene.json's `Meniscus.bodies`, which SPlisHSPlasH ignores), so a render of the cache draws it where it was.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BodyTrack {
+    /// Radius (m).
+    pub radius: f32,
+    /// Centre at frame 1, 2, … (the export's numbers).
+    pub centres: Vec<Vec3>,
+}
+
+impl BodyTrack {
+    /// The centre at `frame` (numbered from 1); the last one past the end, `None` before frame 1.
+    pub fn centre_at(&self, frame: u64) -> Option<Vec3> {
+        let k = (frame as usize).checked_sub(1)?;
+        self.centres.get(k.min(self.centres.len().checked_sub(1)?)).copied()
+    }
 }
 
 /// A rigid body given as a mesh file.
@@ -154,6 +174,36 @@ pub(crate) fn offset_of(text: &str, line: usize, column: usize) -> u64 {
     (start + column.saturating_sub(1)) as u64
 }
 
+/// `Meniscus.bodies` of a scene.json meniscus wrote: [{"radius": r, "centres": [[x, y, z], …]}, …].
+fn tracks_of(path: &Path, text: &str, m: &serde_json::Value) -> Result<Vec<BodyTrack>> {
+    let Some(list) = m.get("bodies") else { return Ok(vec![]) };
+    let wrong = |why: &str| Error::Parse {
+        path: path.to_path_buf(),
+        offset: text.find("\"bodies\"").unwrap_or(0) as u64,
+        reason: format!("Meniscus.bodies: {why}"),
+    };
+    let list = list.as_array().ok_or_else(|| wrong("not a list"))?;
+    list.iter()
+        .map(|b| {
+            let radius = b.get("radius").and_then(|r| r.as_f64()).filter(|r| r.is_finite() && *r > 0.0);
+            let radius = radius.ok_or_else(|| wrong("a body without a positive radius"))? as f32;
+            let centres = b.get("centres").and_then(|c| c.as_array()).ok_or_else(|| wrong("a body without centres"))?;
+            let centres = centres
+                .iter()
+                .map(|c| {
+                    let v: Option<Vec<f32>> =
+                        c.as_array().map(|a| a.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect());
+                    match v.as_deref() {
+                        Some([x, y, z]) if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(*x, *y, *z)),
+                        _ => Err(wrong("a centre that is not three finite numbers")),
+                    }
+                })
+                .collect::<Result<Vec<_>>>()?;
+            Ok(BodyTrack { radius, centres })
+        })
+        .collect()
+}
+
 impl SceneJson {
     /// Parse `text` (the contents of `path`).
     pub fn parse(path: &Path, text: &str) -> Result<SceneJson> {
@@ -167,6 +217,7 @@ impl SceneJson {
             radius: f.configuration.particle_radius,
             fps: f.configuration.data_export_fps.filter(|f| f.is_finite() && *f > 0.0),
             by_meniscus: f.meniscus.is_some(),
+            tracks: f.meniscus.as_ref().map_or(Ok(vec![]), |m| tracks_of(path, text, m))?,
             ..Default::default()
         };
         let dir = path.parent().unwrap_or(Path::new(""));
@@ -286,6 +337,7 @@ pub fn write_scene_json(
     container: (Vec3, Vec3),
     boxes: &[(Vec3, Vec3)],
     meshes: &[PathBuf],
+    tracks: &[BodyTrack],
 ) -> Result<()> {
     let body = |file: String, lo: Vec3, hi: Vec3, wall: bool| RigidBody {
         geometry_file: file,
@@ -312,7 +364,13 @@ pub fn write_scene_json(
     let f = File {
         configuration: Configuration { particle_radius: Some(radius), data_export_fps: None },
         rigid_bodies: bodies,
-        meniscus: Some(serde_json::json!({ "writtenBy": concat!("meniscus ", env!("CARGO_PKG_VERSION")) })),
+        meniscus: Some(serde_json::json!({
+            "writtenBy": concat!("meniscus ", env!("CARGO_PKG_VERSION")),
+            "bodies": tracks.iter().map(|t| serde_json::json!({
+                "radius": t.radius,
+                "centres": t.centres.iter().map(|c| c.to_array()).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+        })),
     };
     crate::output::write_json(path, &f)
 }
@@ -340,12 +398,23 @@ mod tests {
         let boxes = [(Vec3::new(-2.0, 0.0, -0.75), Vec3::new(-0.8, 1.2, 0.75))];
         let obj = dir.join("block.obj");
         std::fs::write(&obj, "v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-        write_scene_json(&p, 0.01, s.containers[0], &boxes, std::slice::from_ref(&obj)).unwrap();
+        let track = BodyTrack { radius: 0.1, centres: vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.1, 0.9, 0.0)] };
+        write_scene_json(&p, 0.01, s.containers[0], &boxes, std::slice::from_ref(&obj), std::slice::from_ref(&track))
+            .unwrap();
         let back = SceneJson::find_for(&dir.join("partio").join("f_1.bgeo")).unwrap().unwrap();
         assert_eq!((back.radius, back.containers.clone()), (Some(0.01), s.containers.clone()));
         assert!(back.by_meniscus && !s.by_meniscus);
         let (lo, hi) = back.boxes[0];
         assert!(lo.abs_diff_eq(boxes[0].0, 1e-6) && hi.abs_diff_eq(boxes[0].1, 1e-6), "{:?}", back.boxes);
+        // The moving body's track: frame 1 first, the last centre past the end, none before frame 1.
+        assert_eq!(back.tracks, vec![track.clone()]);
+        assert_eq!(
+            (track.centre_at(0), track.centre_at(1), track.centre_at(2), track.centre_at(9)),
+            (None, Some(Vec3::Y), Some(Vec3::new(0.1, 0.9, 0.0)), Some(Vec3::new(0.1, 0.9, 0.0)))
+        );
+        // A track that is not one is an error naming the key.
+        let e = SceneJson::parse(&p, r#"{"Meniscus": {"bodies": [{"radius": 0.1, "centres": [[0, 1]]}]}}"#);
+        assert!(e.unwrap_err().to_string().contains("Meniscus.bodies"));
         // The mesh comes back where it was (identity placement).
         let m = back.meshes[0].load().unwrap();
         assert_eq!(m.triangles, vec![[Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::Y]]);

@@ -82,7 +82,15 @@ pub fn view(eye: [f32; 3], target: [f32; 3], w: u32, h: u32, fovy: f32) -> View 
         camera,
         width: w,
         height: h,
-        env: Environment { ground_y: -100.0, tile: 1.0, fog: 1e6, ground: false, boxes: vec![], sky_cube: false },
+        env: Environment {
+            ground_y: -100.0,
+            tile: 1.0,
+            fog: 1e6,
+            ground: false,
+            boxes: vec![],
+            spheres: vec![],
+            sky_cube: false,
+        },
     }
 }
 

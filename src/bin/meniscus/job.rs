@@ -65,6 +65,9 @@ pub struct Job {
     pub floor: Option<f32>,
     /// The sequence's own frame rate, when its scene.json says it (a movie's default --fps).
     pub fps: Option<f32>,
+    /// Spheres frame by frame (a simulation's moving body and sphere colliders: the scene.json `meniscus sim
+    /// --export` wrote, or the live scene's), drawn in the background ([`Job::place_bodies`]).
+    pub tracks: Vec<meniscus::scene::splishsplash::BodyTrack>,
 }
 
 /// The `scene.json` describing the particle file `path`, if any, with one line about what it gives; one that
@@ -219,29 +222,28 @@ impl Job {
         let bounds = scene::percentile_bounds(&first.positions, 0.01).context("no finite particle positions")?;
         let camera = scene_args.camera.as_deref().map(Camera::parse).transpose()?;
         camera.unwrap_or_else(|| Camera::fit(&bounds, 16.0 / 9.0)).check()?;
-        let mut mesh = scene_args.background_obj.as_deref().map(Geometry::load_obj).transpose()?;
-        // A scene.json's mesh bodies join the background mesh; one that cannot be read is reported and left out.
-        if let Some(sj) = &scene_json {
-            for m in &sj.meshes {
-                match m.load() {
-                    Ok(placed) => mesh.get_or_insert_with(Geometry::default).triangles.extend(placed.triangles),
-                    Err(e) => eprintln!("{}: not drawn: {e}", sj.path.display()),
-                }
-            }
-        }
+        let mesh = scene_args.background_obj.as_deref().map(Geometry::load_obj).transpose()?;
         if radius_from == RadiusFrom::Estimated {
             eprintln!("radius {radius:.5} estimated from the particles' number density (pass --radius to override)");
         }
-        // A scene.json's container: its walls in the background, on its floor.
-        let (walls, floor) = match &scene_json {
-            Some(sj) if !sj.containers.is_empty() || !sj.boxes.is_empty() => {
-                let size = sj.containers.iter().map(|c| (c.1 - c.0).max_element()).fold(0.0, f32::max);
-                (sj.background_boxes((0.02 * size).max(2.0 * radius)), sj.floor())
-            }
-            _ => (vec![], None),
+        let Scenery { walls, floor, fps, tracks, mesh } = scenery(scene_json, radius, mesh);
+        let job = Job {
+            label,
+            first,
+            frames,
+            whole,
+            load,
+            settings,
+            radius_from,
+            bounds,
+            camera,
+            mesh,
+            walls,
+            floor,
+            fps,
+            tracks,
         };
-        let fps = scene_json.as_ref().and_then(|s| s.fps);
-        Ok(Job { label, first, frames, whole, load, settings, radius_from, bounds, camera, mesh, walls, floor, fps })
+        Ok(job)
     }
 
     /// The job of a live simulation (`demo --sim`): the scene's initial particles, its radius, its container as
@@ -276,6 +278,22 @@ impl Job {
             walls: scene.wall_boxes(),
             floor: Some(lo.y),
             fps: None,
+            tracks: scene
+                .colliders
+                .iter()
+                .filter_map(|c| match *c {
+                    meniscus::sim::scene::Collider::Sphere { centre, radius } => {
+                        Some(meniscus::scene::splishsplash::BodyTrack { radius, centres: vec![centre] })
+                    }
+                    _ => None,
+                })
+                .chain(
+                    scene.body.map(|b| meniscus::scene::splishsplash::BodyTrack {
+                        radius: b.radius,
+                        centres: vec![b.centre],
+                    }),
+                )
+                .collect(),
         })
     }
 
@@ -293,6 +311,11 @@ impl Job {
             view.env.ground_y = self.floor.unwrap_or(self.bounds.lo.y);
         }
         view
+    }
+
+    /// The spheres of frame `frame` (numbered as the sequence's files) in `view`'s background.
+    pub fn place_bodies(&self, view: &mut View, frame: u64) {
+        view.env.spheres = self.tracks.iter().filter_map(|t| Some((t.centre_at(frame)?, t.radius))).collect();
     }
 
     /// Upload one frame's particles (isolated flags, per-particle radii) with this job's settings.
@@ -411,4 +434,41 @@ pub fn warn_strays(r: &Renderer, s: &Settings, last: &mut Option<u64>) {
         }
         *last = Some(generation);
     }
+}
+
+/// What a scene.json puts around the particles.
+struct Scenery {
+    /// Its container's walls, in the background.
+    walls: Vec<(glam::Vec3, glam::Vec3)>,
+    /// The container's floor.
+    floor: Option<f32>,
+    /// The sequence's frame rate.
+    fps: Option<f32>,
+    /// Spheres frame by frame.
+    tracks: Vec<meniscus::scene::splishsplash::BodyTrack>,
+    /// The background mesh: `--background-obj`'s with the scene.json's mesh bodies.
+    mesh: Option<Geometry>,
+}
+
+/// See [`Scenery`]; `radius`: the particles' (the walls are at least two thick); `mesh`: `--background-obj`'s.
+fn scenery(
+    scene_json: Option<meniscus::scene::splishsplash::SceneJson>,
+    radius: f32,
+    mut mesh: Option<Geometry>,
+) -> Scenery {
+    let Some(sj) = scene_json else { return Scenery { walls: vec![], floor: None, fps: None, tracks: vec![], mesh } };
+    // The mesh bodies join the background mesh; one that cannot be read is reported and left out.
+    for m in &sj.meshes {
+        match m.load() {
+            Ok(placed) => mesh.get_or_insert_with(Geometry::default).triangles.extend(placed.triangles),
+            Err(e) => eprintln!("{}: not drawn: {e}", sj.path.display()),
+        }
+    }
+    let (walls, floor) = if !sj.containers.is_empty() || !sj.boxes.is_empty() {
+        let size = sj.containers.iter().map(|c| (c.1 - c.0).max_element()).fold(0.0, f32::max);
+        (sj.background_boxes((0.02 * size).max(2.0 * radius)), sj.floor())
+    } else {
+        (vec![], None)
+    };
+    Scenery { walls, floor, fps: sj.fps, tracks: sj.tracks, mesh }
 }

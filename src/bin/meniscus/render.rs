@@ -110,6 +110,11 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let sky = a.skybox.as_deref().map(meniscus::scene::sky::load_faces).transpose()?;
     let s = &job.settings;
     let mut view = job.view(a.width, a.height);
+    // A frame of an export draws the simulation's spheres where they were at its number (else frame 1's).
+    job.place_bodies(
+        &mut view,
+        meniscus::scene::sequence::number_of(std::path::Path::new(&a.scene.input)).unwrap_or(1),
+    );
     let gpu = a.gpu.open()?;
     let mut r = Renderer::new(&gpu)?;
     job.apply_background(&mut r)?;
@@ -379,6 +384,7 @@ fn render_sequence(a: &RenderArgs, job: &Job) -> Result<()> {
                 diffuse_total += ps.len();
                 r.upload(Upload::Diffuse { particles: &ps, settings: s })?;
             }
+            job.place_bodies(&mut view, frame.number);
             let sub = r.submit(FrameRequest::new(&view, s).readback())?;
             crate::job::warn_strays(&r, s, &mut strays_warned);
             crate::job::say_mesh_path(&r, s, &mut mesh_said);

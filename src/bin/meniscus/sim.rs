@@ -256,8 +256,23 @@ pub fn run(a: &SimArgs) -> Result<()> {
         Ok(())
     };
     write(&sim, 1)?;
+    // The moving body's centre at every exported frame, for the scene.json beside the cache.
+    let radius = sim.scene.body.map(|b| b.radius);
+    let mut track: Vec<glam::Vec3> = sim.scene.body.map(|b| b.centre).into_iter().collect();
+    // Sphere colliders stand still: one centre each.
+    let still: Vec<_> = sim
+        .scene
+        .colliders
+        .iter()
+        .filter_map(|c| match *c {
+            meniscus::sim::scene::Collider::Sphere { centre, radius } => {
+                Some(meniscus::scene::splishsplash::BodyTrack { radius, centres: vec![centre] })
+            }
+            _ => None,
+        })
+        .collect();
     if let Some(e) = &a.export {
-        write_scene_json(a, &sim, e)?;
+        write_scene_json(a, &sim, e, &still)?;
     }
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
@@ -267,6 +282,9 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let (mut fewest, mut most, mut fastest) = (u32::MAX, 0u32, 0f32);
     for n in 2..=frames {
         let t = sim.step_frame()?;
+        if radius.is_some() && a.export.is_some() {
+            track.extend(sim.body_state()?.map(|b| b.centre));
+        }
         let steps = sim.constants.substeps;
         (fewest, most) = (fewest.min(steps), most.max(steps));
         fastest = fastest.max(sim.last_speed().unwrap_or(0.0));
@@ -322,6 +340,12 @@ pub fn run(a: &SimArgs) -> Result<()> {
         );
     }
     if let Some(e) = &a.export {
+        if let Some(radius) = radius {
+            // Again, now with the body's track (a run stopped early leaves the scene.json without it).
+            let mut tracks = still;
+            tracks.push(meniscus::scene::splishsplash::BodyTrack { radius, centres: track });
+            write_scene_json(a, &sim, e, &tracks)?;
+        }
         eprintln!("wrote {} files: {e}", frames);
     }
     if let Some(f) = &a.diffuse {
@@ -385,8 +409,13 @@ fn check_outputs(a: &SimArgs, frames: u32) -> Result<()> {
 }
 
 /// The container beside the cache `e` (SPlisHSPlasH's scene.json), so `render` draws the tank and needs no
-/// --radius; a scene.json that meniscus did not write is left alone.
-fn write_scene_json(a: &SimArgs, sim: &Simulation, e: &str) -> Result<()> {
+/// --radius, and the moving body's `tracks`; a scene.json that meniscus did not write is left alone.
+fn write_scene_json(
+    a: &SimArgs,
+    sim: &Simulation,
+    e: &str,
+    tracks: &[meniscus::scene::splishsplash::BodyTrack],
+) -> Result<()> {
     let dir = std::path::Path::new(e).parent().unwrap_or(std::path::Path::new(""));
     let path = dir.join("scene.json");
     let ours = !path.exists() || meniscus::scene::splishsplash::SceneJson::is_ours(&path);
@@ -395,7 +424,14 @@ fn write_scene_json(a: &SimArgs, sim: &Simulation, e: &str) -> Result<()> {
         // The collider mesh by its absolute path, so `render` of the export draws it from any folder.
         let meshes: Vec<std::path::PathBuf> =
             a.collider.iter().map(|c| std::fs::canonicalize(c).unwrap_or_else(|_| c.clone())).collect();
-        meniscus::scene::splishsplash::write_scene_json(&path, s.radius(), s.container, &s.box_colliders(), &meshes)?;
+        meniscus::scene::splishsplash::write_scene_json(
+            &path,
+            s.radius(),
+            s.container,
+            &s.box_colliders(),
+            &meshes,
+            tracks,
+        )?;
     } else {
         eprintln!("warning: {} exists and was not written by meniscus: left as it is", path.display());
     }

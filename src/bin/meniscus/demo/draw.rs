@@ -135,6 +135,14 @@ impl App {
                 }
                 // The mesh surface meshes GPU-written particles on the GPU (live); only its CPU extraction needs
                 // them on the host.
+                // A moving body is drawn where the frames so far left it (a wait for the device: one frame late,
+                // the last of the live scene's spheres).
+                if sim.scene.body.is_some() && sim.frames > 0 {
+                    st.renderer.slots().wait_all()?;
+                    if let (Some(b), Some(last)) = (sim.body_state()?, self.env.spheres.last_mut()) {
+                        last.0 = b.centre;
+                    }
+                }
                 let cpu_mesh = self.settings.surface == Surface::Mesh
                     && self.settings.mesh.extraction == meniscus::surface::mesh::params::Extraction::Cpu;
                 if !cpu_mesh && self.mode != ViewMode::Particles {
@@ -162,6 +170,10 @@ impl App {
                     }
                     self.sim_particles = Some(p);
                 }
+            }
+            if let playback::Source::Sequence { frames, .. } = &self.src {
+                let number = frames[self.frame].number;
+                self.env.spheres = self.tracks.iter().filter_map(|t| Some((t.centre_at(number)?, t.radius))).collect();
             }
             self.uploaded = Some(self.frame);
         }

@@ -234,6 +234,8 @@ struct App {
     fit: Camera,
     camera: Camera,
     env: Environment,
+    /// Spheres frame by frame (a simulation's bodies: an export's scene.json, the live scene's), placed in `env`.
+    tracks: Vec<meniscus::scene::splishsplash::BodyTrack>,
     state: Option<State>,
     error: Option<Error>,
     // Playback and interaction.
@@ -272,7 +274,10 @@ struct App {
 pub fn run(job: Job, o: DemoOptions) -> Result<()> {
     let fit = Camera::fit(&job.bounds, o.width as f32 / o.height as f32);
     let camera = job.camera_for(o.width, o.height);
-    let env = job.view(o.width, o.height).env;
+    let mut first_view = job.view(o.width, o.height);
+    job.place_bodies(&mut first_view, job.frames.as_ref().map_or(1, |f| f[0].number));
+    let env = first_view.env;
+    let tracks = job.tracks.clone();
     let radius = job.settings.radius;
     // A sequence's spray, foam and bubbles: calibrated over the sequence now (a few seconds for a long one),
     // generated as it plays.
@@ -301,6 +306,7 @@ pub fn run(job: Job, o: DemoOptions) -> Result<()> {
         camera,
         fit,
         env,
+        tracks,
         src,
         radius,
         state: None,
