@@ -214,6 +214,11 @@ class Simulation:
         return self._s.count
 
     @property
+    def reused(self) -> int:
+        """Particles the emitter has recycled since the start (a scene file's `emitterReuseParticles`)."""
+        return self._s.reused
+
+    @property
     def substeps(self) -> int:
         """Steps of the last frame (with the adaptive step, chosen per frame)."""
         return self._s.substeps

@@ -447,6 +447,12 @@ impl Simulation {
         self.core.count()
     }
 
+    /// Particles the emitter has recycled since the start (a scene file's `emitterReuseParticles`).
+    #[getter]
+    fn reused(&self) -> u64 {
+        self.core.reused()
+    }
+
     /// Steps of the last frame (with the adaptive step, chosen per frame).
     #[getter]
     fn substeps(&self) -> u32 {

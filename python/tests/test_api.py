@@ -1,5 +1,6 @@
 """The package against the CLI it shares the library with: the same pixels, the same meshes, the same
 simulation; bad input raises ValueError."""
+import pathlib
 import struct
 import subprocess
 
@@ -299,6 +300,18 @@ def test_simulation_of_a_splishsplash_scene_file(shared):
     assert np.isfinite(sim.positions()).all()
     with pytest.raises(ValueError, match="particleRadius"):
         meniscus.Simulation(str(scene), particles=1000)
+
+
+def test_simulation_of_a_recycling_emitter():
+    """A scene file whose emitter recycles (tests/fixtures/splishsplash-emitter-reuse.scene.json): the jet reaches
+    the drain after 0.44 s and its particles are taken back, so the count stays below the room of 600."""
+    scene = pathlib.Path(__file__).resolve().parents[2] / "tests/fixtures/splishsplash-emitter-reuse.scene.json"
+    sim = meniscus.Simulation(str(scene))
+    assert sim.count == 0 and sim.reused == 0
+    sim.step(11)
+    assert sim.count == 432 and sim.reused == 0
+    sim.step(6)
+    assert sim.reused > 0 and sim.count < 600
 
 
 def test_simulation_with_dfsph_reports_its_solves(cli, tmp_path):
