@@ -575,6 +575,48 @@ fn mesh_subcommand_writes_ply_and_obj() {
     assert_eq!((img.width(), img.height()), (240, 60));
 }
 
+/// `bench --flicker` reports a sequence's flicker in its JSON and table (`meniscus quality`'s measure): a
+/// sequence of one frame repeated does not change at all, the same frame jittered by a tenth of a radius per
+/// frame does (the control); a still workload has none.
+#[test]
+fn bench_reports_a_sequences_flicker() {
+    let d = common::tmpdir("cli", "bench-flicker");
+    let g = meniscus::scene::procedural::generate("wave", 3000).unwrap();
+    let r = g.radius;
+    for k in 1..=4u32 {
+        meniscus::scene::write_particles(&d.join(format!("still_{k}.bgeo")), &g.particles).unwrap();
+        let mut p = g.particles.clone();
+        for (i, x) in p.positions.iter_mut().enumerate() {
+            // A fixed pseudo-random offset per particle and frame, ±0.1 r on each axis.
+            let h = |a: u32| ((i as u32).wrapping_mul(2_654_435_761) ^ (k * 97 + a).wrapping_mul(40_503)) % 1000;
+            for a in 0..3 {
+                x[a] += r * 0.1 * (h(a as u32) as f32 / 500.0 - 1.0);
+            }
+        }
+        meniscus::scene::write_particles(&d.join(format!("jitter_{k}.bgeo")), &p).unwrap();
+    }
+    let flicker = |pattern: &str| {
+        let scene = d.join(pattern).to_string_lossy().into_owned();
+        let args = ["--scenes", &scene, "--resolutions", "160x90", "--warmup", "1", "--frames", "3", "--flicker"];
+        let (o, j) = bench_json(&format!("bench-flicker-{}", &pattern[..5]), &args);
+        assert!(String::from_utf8_lossy(&o.stdout).contains("Flicker"), "{}", String::from_utf8_lossy(&o.stdout));
+        j["entries"][0]["flicker"].clone()
+    };
+    let still = flicker("still_{}.bgeo");
+    let jitter = flicker("jitter_{}.bgeo");
+    assert_eq!(still["pairs"], 3);
+    // Identical pictures (the angle between a normal and itself rounds to under a thousandth of a degree).
+    assert_eq!(still["colour_mean"].as_f64(), Some(0.0));
+    assert!(still["normal_mean_deg"].as_f64().unwrap() < 1e-3, "{still}");
+    assert!(jitter["colour_mean"].as_f64().unwrap() > 0.05, "{jitter}");
+    assert!(jitter["normal_mean_deg"].as_f64().unwrap() > 0.1, "{jitter}");
+    let (_, j) = bench_json(
+        "bench-flicker-wave",
+        &["--scenes", "wave:2000", "--resolutions", "160x90", "--warmup", "1", "--frames", "1", "--flicker"],
+    );
+    assert!(j["entries"][0]["flicker"].is_null(), "a still workload has no flicker: {}", j["entries"][0]["flicker"]);
+}
+
 /// A scene file's dynamic sphere moves in the simulation, so the export's scene.json carries its centre at every
 /// exported frame (`Meniscus.bodies`) and `render` of a frame draws it there: the frames where the ball has
 /// fallen differ from a render of the same particles with the track held at frame 1 (the control).

@@ -41,6 +41,8 @@ pub struct Workload {
     pub sequence: Vec<Particles>,
     /// The spray, foam and bubbles of each sequence frame (`--diffuse`), drawn by the `diffuse` pass.
     pub diffuse: Vec<Vec<meniscus::diffuse::Particle>>,
+    /// A sequence's frame rate (the flicker's warping error moves the surface by velocity × frame time).
+    pub fps: f32,
 }
 
 /// `meniscus bench`.
@@ -83,6 +85,11 @@ pub struct BenchArgs {
     /// sustains, the slower of the host and the GPU.
     #[arg(long = "in-flight")]
     pub in_flight: bool,
+    /// Sequence workloads: then render the sequence's frames once more, read each back and report its flicker
+    /// (JSON `flicker`, the measure of `meniscus quality` over a sequence: colour and normal change between
+    /// consecutive frames where the water stays, and the normals' warping error with the files' velocities).
+    #[arg(long)]
+    pub flicker: bool,
     /// Also time each part of a pass on its own (its dispatches: `noise/scan`, `iso/rest`, DFSPH's every recorded
     /// correction, …), in the table and the JSON beside the pass. Every part's timestamps drain the GPU's
     /// pipeline, so the passes themselves read slower: measure parts apart from frame times.
@@ -178,7 +185,7 @@ pub struct BenchArgs {
 impl BenchArgs {
     /// The frames each measurement renders.
     fn plan(&self) -> Plan {
-        Plan { warmup: self.warmup, frames: self.frames, in_flight: self.in_flight }
+        Plan { warmup: self.warmup, frames: self.frames, in_flight: self.in_flight, flicker: self.flicker }
     }
 }
 
@@ -245,6 +252,7 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
                         camera: job.camera,
                         sequence,
                         diffuse,
+                        fps: job.frame_rate(),
                     },
                     Some(job),
                 ));
@@ -261,6 +269,7 @@ fn workload(name: &str, a: &BenchArgs, base: &Settings, quarter: bool) -> Result
             camera: None,
             sequence: vec![],
             diffuse: vec![],
+            fps: meniscus::motion::DEFAULT_FPS,
         },
         None,
     ))
@@ -621,6 +630,7 @@ fn run_sweep(
                 camera: None,
                 sequence: vec![],
                 diffuse: vec![],
+                fps: meniscus::motion::DEFAULT_FPS,
             };
             let e = measure(r, &w, res, base, "sweep particles", a.plan())?;
             pts.push((e.particles as f64, chart_point(&e)));
@@ -639,6 +649,7 @@ fn run_sweep(
             camera: None,
             sequence: vec![],
             diffuse: vec![],
+            fps: meniscus::motion::DEFAULT_FPS,
         };
         let mut pts = vec![];
         for &(wd, ht) in &sizes {

@@ -21,6 +21,8 @@ pub struct Plan {
     pub warmup: u32,
     pub frames: u32,
     pub in_flight: bool,
+    /// Sequences: their flicker after the measured frames (`--flicker`).
+    pub flicker: bool,
 }
 
 /// Run one workload at one size with settings `s`.
@@ -39,7 +41,7 @@ pub fn measure(
     if plan.in_flight {
         series.in_flight_ms = Some(series.in_flight(r, w, plan.frames)?);
     }
-    series.finish(r, w, plan.warmup, plan.frames)
+    series.finish(r, w, plan)
 }
 
 /// Run several settings on one workload at one size with frames interleaved (frame k of every variant, then
@@ -68,7 +70,7 @@ pub fn measure_interleaved(
             x.in_flight_ms = Some(x.in_flight(r, w, plan.frames)?);
         }
     }
-    rs.iter_mut().zip(series).map(|(r, x)| x.finish(r, w, plan.warmup, plan.frames)).collect()
+    rs.iter_mut().zip(series).map(|(r, x)| x.finish(r, w, plan)).collect()
 }
 
 /// One variant's measured frames: set up once (camera, particles), then one [`Series::frame`] per frame.
@@ -249,7 +251,8 @@ impl Series {
     /// The entry: the timed frames' statistics, and each pass's own work from one more frame that counts it (the
     /// counting sums would cost the timed frames: docs/gpu-frame.md) — a sequence's next frame, a still scene's
     /// same particles.
-    fn finish(mut self, r: &mut Renderer, w: &Workload, warmup: u32, frames: u32) -> Result<Entry> {
+    fn finish(mut self, r: &mut Renderer, w: &Workload, plan: Plan) -> Result<Entry> {
+        let (warmup, frames) = (plan.warmup, plan.frames);
         self.next_particles(r, w)?;
         let counted = r.submit(FrameRequest::new(&self.view, &self.s).count_work())?;
         r.finish(counted)?;
@@ -258,6 +261,7 @@ impl Series {
             r.state().memory().into_iter().map(|(n, b)| Mem { name: n.to_string(), bytes: b }).collect();
         let ran = |pass: &str| self.per_pass.iter().any(|(n, _)| n == pass);
         let work = r.state().work(&self.s, ran)?;
+        let flicker = if plan.flicker && w.sequence.len() > 1 { Some(self.flicker(r, w)?) } else { None };
         Ok(Entry {
             scene: w.label.clone(),
             particles: w.particles.len(),
@@ -302,6 +306,38 @@ impl Series {
             analysis_ahead_ms: self.ahead.iter().any(|a| a.is_some()).then(|| Stat::of(&self.ahead_ms)),
             invocations: self.invocations,
             effect_images: r.state().effects().memory().into_iter().map(|(n, _)| n.to_string()).collect(),
+            flicker,
         })
+    }
+}
+
+/// A rendered frame as the flicker meter reads it.
+fn picture(f: &crate::quality::Rendered) -> meniscus::quality::Picture<'_> {
+    meniscus::quality::Picture { colour: &f.0, depth: &f.1, normals: &f.2 }
+}
+
+impl Series {
+    /// The sequence's frames rendered once more and read back: their flicker (`meniscus quality`'s measure,
+    /// the warping error with the files' velocities where they have them).
+    fn flicker(&self, r: &mut Renderer, w: &Workload) -> Result<meniscus::quality::Flicker> {
+        let mut meter = meniscus::quality::FlickerMeter::default();
+        let mut prev: Option<crate::quality::Rendered> = None;
+        for p in &w.sequence {
+            r.upload(Upload::Scene { particles: p, settings: &self.s, motion: None, ahead: None })?;
+            r.render(&self.view, &self.s)?;
+            let now = crate::quality::read_frame(r, self.view.width, self.view.height)?;
+            if let Some(before) = &prev {
+                let motion = p.velocities.as_ref().map(|v| meniscus::quality::SurfaceMotion {
+                    positions: &p.positions,
+                    velocities: v,
+                    dt: 1.0 / w.fps,
+                    camera: &self.view.camera,
+                    radius: self.s.radius,
+                });
+                meter.add(&picture(before), &picture(&now), motion.as_ref());
+            }
+            prev = Some(now);
+        }
+        Ok(meter.result())
     }
 }

@@ -110,6 +110,9 @@ pub struct Entry {
     /// device has them: `info --device`), in frame order; a pass timed inside another is counted in its parent.
     /// The work a pass did, device-independent: a change's GPU cost can be judged from it on lavapipe.
     pub invocations: Vec<(String, u64)>,
+    /// With `--flicker`, a sequence's flicker over its frames rendered once more after the measured ones
+    /// (`meniscus quality`'s measure: docs/quality.md); absent otherwise.
+    pub flicker: Option<meniscus::quality::Flicker>,
 }
 
 /// The host stages `bench` times per frame (`Entry::host_ms`).
@@ -274,6 +277,9 @@ Compute invocations per pass (pipeline statistics, last measured frame; thousand
     }
     // The passes' own counts of their work, the last measured frame.
     s.push_str(&work_table(entries));
+    if entries.iter().any(|e| e.flicker.is_some()) {
+        s.push_str(&flicker_table(entries));
+    }
     // GPU memory: every live allocation after each workload's last entry (the JSON has them per entry).
     for (i, e) in entries.iter().enumerate() {
         let last = entries.get(i + 1).is_none_or(|n| n.scene != e.scene || n.width != e.width || n.height != e.height);
@@ -315,6 +321,37 @@ pub fn work_table(entries: &[Entry]) -> String {
         s.push_str(&format!(
             "| {} | {}×{} | {} | {splat} | {iso} | {vol} | {noise} | {mesh} |\n",
             e.scene, e.width, e.height, e.variant
+        ));
+    }
+    s
+}
+
+/// The sequences' flicker (`--flicker`, markdown): colour and normal change between consecutive frames where
+/// the water stays, and the normals' warping error along the particles' velocities (docs/quality.md).
+pub fn flicker_table(entries: &[Entry]) -> String {
+    let mut s = String::from(
+        "\nFlicker (the sequence rendered once more after the timed frames, as `meniscus quality` measures it):\n\n\
+         | scene | resolution | variant | pairs | colour mean (steps) | colour p99 (steps) | normals mean (°) | \
+         normals p90 (°) | warping error (°) | pixels warped | particle step (r) |\n\
+         |---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    let opt = |v: Option<f32>, k: usize| v.map_or("–".to_string(), |v| format!("{v:.k$}"));
+    for e in entries {
+        let Some(f) = &e.flicker else { continue };
+        s.push_str(&format!(
+            "| {} | {}×{} | {} | {} | {:.3} | {:.0} | {:.3} | {:.3} | {} | {} | {} |\n",
+            e.scene,
+            e.width,
+            e.height,
+            e.variant,
+            f.pairs,
+            f.colour_mean,
+            f.colour_p99,
+            f.normal_mean_deg,
+            f.normal_p90_deg,
+            opt(f.warp_mean_deg, 2),
+            f.warp_coverage.map_or("–".to_string(), |c| format!("{:.0} %", 100.0 * c)),
+            opt(f.particle_step_median_r, 3),
         ));
     }
     s

@@ -87,10 +87,10 @@ struct Report {
 }
 
 /// A rendered frame: colour, the water's depth and its view-space normals.
-type Rendered = (image::RgbaImage, DepthImage, Vec<[f32; 3]>);
+pub type Rendered = (image::RgbaImage, DepthImage, Vec<[f32; 3]>);
 
 /// The frame just rendered.
-fn read_frame(r: &Renderer, w: u32, h: u32) -> Result<Rendered> {
+pub fn read_frame(r: &Renderer, w: u32, h: u32) -> Result<Rendered> {
     let state = r.state();
     let colour = state.read_final()?;
     let depth = state.read_f32(state.smoothed_depth().context("nothing rendered")?)?;
