@@ -589,8 +589,8 @@ fn bench_reports_a_sequences_flicker() {
         for (i, x) in p.positions.iter_mut().enumerate() {
             // A fixed pseudo-random offset per particle and frame, ±0.1 r on each axis.
             let h = |a: u32| ((i as u32).wrapping_mul(2_654_435_761) ^ (k * 97 + a).wrapping_mul(40_503)) % 1000;
-            for a in 0..3 {
-                x[a] += r * 0.1 * (h(a as u32) as f32 / 500.0 - 1.0);
+            for (a, c) in x.iter_mut().enumerate() {
+                *c += r * 0.1 * (h(a as u32) as f32 / 500.0 - 1.0);
             }
         }
         meniscus::scene::write_particles(&d.join(format!("jitter_{k}.bgeo")), &p).unwrap();
