@@ -501,12 +501,39 @@ fn the_dam_break_front_follows_splishsplash() {
     common::assert_clean(&gpu);
 }
 
+/// One frame drawn from the simulation's own particle buffer, as `demo --sim` draws it: with `fresh` the
+/// renderer is told of new GPU-written particles (`Upload::Gpu`), the frame's `produce` hook copies the
+/// simulation's buffer into the renderer's, and the frame is waited for.
+fn render_gpu_fed(
+    r: &mut meniscus::renderer::Renderer,
+    sim: &Simulation,
+    (v, s): (&meniscus::view::View, &meniscus::settings::Settings),
+    fresh: bool,
+) -> meniscus::Result<()> {
+    use meniscus::gpu::{Buffer, FrameCtx};
+    use meniscus::renderer::{FrameRequest, Hooks};
+    if fresh {
+        r.upload(meniscus::renderer::Upload::Gpu {
+            count: sim.count(),
+            bounds: sim.scene.container,
+            diffuse_slots: 0,
+        })?;
+    }
+    let src = sim.particle_buffer();
+    let copy = |ctx: &mut FrameCtx, out: &Buffer| {
+        let size = sim.count() as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
+        ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
+    };
+    let sub = r.submit(FrameRequest::new(v, s).hooks(Hooks { produce: Some(&copy), ..Default::default() }))?;
+    r.spans(sub)?;
+    Ok(())
+}
+
 /// The simulation feeding the renderer on the GPU (`set_gpu_particles` + `Hooks::produce`, the iso surface's
 /// grid built on the GPU from that buffer) draws what the same particles uploaded from the host draw.
 #[test]
 fn gpu_fed_particles_render_like_uploaded_ones() {
-    use meniscus::gpu::{Buffer, FrameCtx};
-    use meniscus::renderer::{FrameRequest, Hooks, Renderer};
+    use meniscus::renderer::Renderer;
     use meniscus::settings::Surface;
     let gpu = common::gpu();
     let scene = SimScene::new("dambreak", 3000).unwrap();
@@ -524,16 +551,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
         r.render(&v, &s).unwrap();
         let host = r.state().read_final().unwrap();
         let mut r = Renderer::new(&gpu).unwrap();
-        r.upload(meniscus::renderer::Upload::Gpu { count: sim.count(), bounds: scene.container, diffuse_slots: 0 })
-            .unwrap();
-        let src = sim.particle_buffer();
-        let copy = |ctx: &mut FrameCtx, out: &Buffer| {
-            let size = sim.count() as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
-            ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
-        };
-        let sub =
-            r.submit(FrameRequest::new(&v, &s).hooks(Hooks { produce: Some(&copy), ..Default::default() })).unwrap();
-        r.spans(sub).unwrap();
+        render_gpu_fed(&mut r, &sim, (&v, &s), true).unwrap();
         let fed = r.state().read_final().unwrap();
         let depth = meniscus::gpu::transfer::read_f32(&gpu, r.state().smoothed_depth().unwrap()).unwrap();
         let covered = depth.iter().filter(|d| **d < 1e30).count();
@@ -556,8 +574,7 @@ fn gpu_fed_particles_render_like_uploaded_ones() {
 /// the same depth bit for bit). Asking for the CPU extraction of GPU-written particles is an error that says why.
 #[test]
 fn the_live_mesh_surface_meshes_gpu_written_particles_every_step() {
-    use meniscus::gpu::{Buffer, FrameCtx};
-    use meniscus::renderer::{FrameRequest, Hooks, Renderer};
+    use meniscus::renderer::Renderer;
     use meniscus::settings::Surface;
     use meniscus::surface::mesh::{params::Extraction, FluidMesh};
     let gpu = common::gpu();
@@ -584,20 +601,7 @@ fn the_live_mesh_surface_meshes_gpu_written_particles_every_step() {
                  s: &meniscus::settings::Settings,
                  fresh: bool|
      -> meniscus::Result<Frame> {
-        if fresh {
-            r.upload(meniscus::renderer::Upload::Gpu {
-                count: sim.count(),
-                bounds: scene.container,
-                diffuse_slots: 0,
-            })?;
-        }
-        let src = sim.particle_buffer();
-        let copy = |ctx: &mut FrameCtx, out: &Buffer| {
-            let size = sim.count() as u64 * meniscus::shader_constants::BYTES_PER_PARTICLE;
-            ctx.copy_buffer(src, out, ash::vk::BufferCopy { src_offset: 0, dst_offset: 0, size });
-        };
-        let sub = r.submit(FrameRequest::new(&v, s).hooks(Hooks { produce: Some(&copy), ..Default::default() }))?;
-        r.spans(sub)?;
+        render_gpu_fed(r, sim, (&v, s), fresh)?;
         let depth = meniscus::gpu::transfer::read_f32(&gpu, &r.state().targets().unwrap().depth)?;
         let mesh = r.state().surfaces().technique::<FluidMesh>().unwrap();
         assert_eq!(mesh.path().unwrap().0, Extraction::Gpu, "{:?}", mesh.path());
