@@ -7,29 +7,13 @@ runs the scene to --seconds; a callback after every step records, at the first s
 first fluid's active particles, the particles its emitters have emitted and reused in all, and the active particles
 inside the recycling box (Materials[0].emitterBoxMin/Max; every active particle without one). The JSON (written
 whole, never over the scene) holds the scene's name, the wheel's version and the rows [t, active, emitted, reused,
-inside]. Loading the wheel and the scene's copy: tools/splishsplash_common.py."""
-import argparse
-import importlib.metadata
-import json
-import pathlib
-import sys
+inside]. Loading the wheel, the scene's copy, the arguments and the writing: tools/splishsplash_common.py."""
 import tempfile
 
 import splishsplash_common
 
-ap = argparse.ArgumentParser()
-ap.add_argument("scene")
-ap.add_argument("--seconds", type=float, default=1.6)
-ap.add_argument("--fps", type=float, default=25.0)
-ap.add_argument("--out", required=True)
-a = ap.parse_args()
-
+a, scene, out = splishsplash_common.recording_args(1.6)
 sph = splishsplash_common.load()
-
-scene = pathlib.Path(a.scene).resolve()
-out = pathlib.Path(a.out).resolve()
-if out == scene:
-    sys.exit(f"--out {out} is the scene itself")
 
 with tempfile.TemporaryDirectory() as tmp:
     copy, s = splishsplash_common.scene_copy(scene, tmp, a.seconds)
@@ -37,13 +21,8 @@ with tempfile.TemporaryDirectory() as tmp:
     lo = m.get("emitterBoxMin", [-float("inf")] * 3)
     hi = m.get("emitterBoxMax", [float("inf")] * 3)
     rows = []
-    nxt = [0.0]
 
-    def after_step():
-        t = sph.TimeManager.getCurrent().getTime()
-        if t + 1e-9 < nxt[0]:
-            return
-        nxt[0] += 1.0 / a.fps
+    def record(t):
         fm = sph.Simulation.getCurrent().getFluidModel(0)
         es = fm.getEmitterSystem()
         n = fm.numActiveParticles()
@@ -53,17 +32,7 @@ with tempfile.TemporaryDirectory() as tmp:
             inside += all(lo[k] <= float(x[k]) <= hi[k] for k in range(3))
         rows.append([t, n, es.numEmittedParticles(), es.numReusedParticles(), inside])
 
-    splishsplash_common.run(sph, copy, tmp, a.seconds, after_step)
+    splishsplash_common.run_per_frame(sph, copy, tmp, a.seconds, a.fps, record)
 
-doc = {
-    "scene": scene.name,
-    "pysplishsplash": importlib.metadata.version("pysplishsplash"),
-    "seconds": a.seconds,
-    "fps": a.fps,
-    "columns": ["t", "active", "emitted", "reused", "inside"],
-    "rows": rows,
-}
-tmp_out = out.with_suffix(out.suffix + ".partial")
-tmp_out.write_text(json.dumps(doc, indent=1) + "\n")
-tmp_out.replace(out)
+splishsplash_common.write_record(out, scene.name, a, {"columns": ["t", "active", "emitted", "reused", "inside"], "rows": rows})
 print(f"wrote {out}: {len(rows)} rows")

@@ -8,6 +8,8 @@ interpreter resolves to: the re-run then uses a copy of the interpreter in the e
 beside the input): no exports, stopping at `seconds`, its geometry paths made absolute (relative to the scene's
 folder, else the wheel's own models: its example scenes name `../models/UnitBox.obj`, which the wheel installs
 beside the interpreter, in data/models/)."""
+import argparse
+import importlib.metadata
 import importlib.util
 import json
 import os
@@ -74,3 +76,48 @@ def run(sph, copy, tmp, seconds, after_step):
     base.setValueFloat(base.STOP_AT, seconds)
     base.setTimeStepCB(after_step)
     base.run()
+
+
+def recording_args(seconds):
+    """The recording tools' arguments (SCENE, --seconds, default `seconds`; --fps; --out): (args, the scene's path,
+    the output's path); exits when --out is the scene itself."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene")
+    ap.add_argument("--seconds", type=float, default=seconds)
+    ap.add_argument("--fps", type=float, default=25.0)
+    ap.add_argument("--out", required=True)
+    a = ap.parse_args()
+    scene = pathlib.Path(a.scene).resolve()
+    out = pathlib.Path(a.out).resolve()
+    if out == scene:
+        sys.exit(f"--out {out} is the scene itself")
+    return a, scene, out
+
+
+def run_per_frame(sph, copy, tmp, seconds, fps, record):
+    """`run`, calling `record(t)` at the first step at or past every 1/fps s (t = 0 first)."""
+    nxt = [0.0]
+
+    def after_step():
+        t = sph.TimeManager.getCurrent().getTime()
+        if t + 1e-9 < nxt[0]:
+            return
+        nxt[0] += 1.0 / fps
+        record(t)
+
+    run(sph, copy, tmp, seconds, after_step)
+
+
+def write_record(out, scene, a, fields):
+    """The record's JSON at `out`, written whole (never half): the scene's name, the wheel's version, --seconds and
+    --fps, then `fields`."""
+    doc = {
+        "scene": scene,
+        "pysplishsplash": importlib.metadata.version("pysplishsplash"),
+        "seconds": a.seconds,
+        "fps": a.fps,
+        **fields,
+    }
+    partial = out.with_suffix(out.suffix + ".partial")
+    partial.write_text(json.dumps(doc, indent=1) + "\n")
+    partial.replace(out)
