@@ -62,6 +62,11 @@ impl BodyTrack {
         let k = (frame as usize).checked_sub(1)?;
         self.centres.get(k.min(self.centres.len().checked_sub(1)?)).copied()
     }
+
+    /// The spheres (centre, radius) `tracks` place at `frame`, as the background draws them.
+    pub fn spheres_at(tracks: &[BodyTrack], frame: u64) -> Vec<(Vec3, f32)> {
+        tracks.iter().filter_map(|t| Some((t.centre_at(frame)?, t.radius))).collect()
+    }
 }
 
 /// A rigid body given as a mesh file.

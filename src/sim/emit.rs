@@ -33,17 +33,18 @@ impl Simulation {
     /// Add the emitter's particles for the coming frame to the pending upload (recycling first, when the scene
     /// recycles and the state is on the device).
     pub(super) fn emit(&mut self) -> Result<()> {
-        let dt = 1.0 / self.params.fps as f64;
+        let (t0, t1) = (self.time, self.time + 1.0 / self.params.fps as f64);
+        let room = self.capacity().saturating_sub(self.count()) as usize;
         let reuse = self.scene.emitter.and_then(|e| e.reuse);
         let (mut layers, rows) = match reuse {
+            // Recycled particles carry any number of the frame's layers; new ones fill the room.
             Some(bounds) if self.pending.is_none() && self.frames > 0 && self.n > 0 => {
-                let layers = self.scene.emit(self.time, self.time + dt, usize::MAX);
-                let r = self.recycle(bounds, layers)?;
+                let r = self.recycle(bounds, self.scene.emit(t0, t1, usize::MAX))?;
                 (r.rest, r.state)
             }
-            _ => (self.scene.emit(self.time, self.time + dt, usize::MAX), None),
+            _ => (self.scene.emit(t0, t1, room), None),
         };
-        layers.truncate(self.capacity().saturating_sub(self.count()) as usize);
+        layers.truncate(room);
         if layers.is_empty() && rows.is_none() {
             return Ok(());
         }

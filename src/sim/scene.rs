@@ -353,6 +353,17 @@ impl SimScene {
         0.5 * self.spacing
     }
 
+    /// The scene's spheres as the background draws them: each sphere collider standing still (one centre), then
+    /// the dynamic body at its start (a simulation adds its later centres).
+    pub fn sphere_tracks(&self) -> Vec<crate::scene::splishsplash::BodyTrack> {
+        use crate::scene::splishsplash::BodyTrack;
+        let still = self.colliders.iter().filter_map(|c| match *c {
+            Collider::Sphere { centre, radius } => Some(BodyTrack { radius, centres: vec![centre] }),
+            _ => None,
+        });
+        still.chain(self.body.map(|b| BodyTrack { radius: b.radius, centres: vec![b.centre] })).collect()
+    }
+
     /// The water the emitter adds when it has run `from`..`to` seconds: positions and velocities of the
     /// lattice layers whose travel crossed the rectangle in that interval (at most `room` particles).
     pub fn emit(&self, from: f64, to: f64, room: usize) -> Vec<([f32; 3], [f32; 3])> {

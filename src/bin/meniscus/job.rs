@@ -278,22 +278,7 @@ impl Job {
             walls: scene.wall_boxes(),
             floor: Some(lo.y),
             fps: None,
-            tracks: scene
-                .colliders
-                .iter()
-                .filter_map(|c| match *c {
-                    meniscus::sim::scene::Collider::Sphere { centre, radius } => {
-                        Some(meniscus::scene::splishsplash::BodyTrack { radius, centres: vec![centre] })
-                    }
-                    _ => None,
-                })
-                .chain(
-                    scene.body.map(|b| meniscus::scene::splishsplash::BodyTrack {
-                        radius: b.radius,
-                        centres: vec![b.centre],
-                    }),
-                )
-                .collect(),
+            tracks: scene.sphere_tracks(),
         })
     }
 
@@ -315,7 +300,7 @@ impl Job {
 
     /// The spheres of frame `frame` (numbered as the sequence's files) in `view`'s background.
     pub fn place_bodies(&self, view: &mut View, frame: u64) {
-        view.env.spheres = self.tracks.iter().filter_map(|t| Some((t.centre_at(frame)?, t.radius))).collect();
+        view.env.spheres = meniscus::scene::splishsplash::BodyTrack::spheres_at(&self.tracks, frame);
     }
 
     /// Upload one frame's particles (isolated flags, per-particle radii) with this job's settings.

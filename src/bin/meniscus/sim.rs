@@ -256,23 +256,12 @@ pub fn run(a: &SimArgs) -> Result<()> {
         Ok(())
     };
     write(&sim, 1)?;
-    // The moving body's centre at every exported frame, for the scene.json beside the cache.
-    let radius = sim.scene.body.map(|b| b.radius);
-    let mut track: Vec<glam::Vec3> = sim.scene.body.map(|b| b.centre).into_iter().collect();
-    // Sphere colliders stand still: one centre each.
-    let still: Vec<_> = sim
-        .scene
-        .colliders
-        .iter()
-        .filter_map(|c| match *c {
-            meniscus::sim::scene::Collider::Sphere { centre, radius } => {
-                Some(meniscus::scene::splishsplash::BodyTrack { radius, centres: vec![centre] })
-            }
-            _ => None,
-        })
-        .collect();
+    // The scene's spheres for the scene.json beside the cache: the still ones, and the moving body's centre at
+    // every exported frame (the last track).
+    let mut tracks = sim.scene.sphere_tracks();
+    let moving = sim.scene.body.is_some();
     if let Some(e) = &a.export {
-        write_scene_json(a, &sim, e, &still)?;
+        write_scene_json(a, &sim, e, &tracks[..tracks.len() - moving as usize])?;
     }
     let bar = crate::args::progress(frames as u64 - 1, "frames");
     let mut runs = vec![];
@@ -282,8 +271,10 @@ pub fn run(a: &SimArgs) -> Result<()> {
     let (mut fewest, mut most, mut fastest) = (u32::MAX, 0u32, 0f32);
     for n in 2..=frames {
         let t = sim.step_frame()?;
-        if radius.is_some() && a.export.is_some() {
-            track.extend(sim.body_state()?.map(|b| b.centre));
+        if moving && a.export.is_some() {
+            if let (Some(b), Some(t)) = (sim.body_state()?, tracks.last_mut()) {
+                t.centres.push(b.centre);
+            }
         }
         let steps = sim.constants.substeps;
         (fewest, most) = (fewest.min(steps), most.max(steps));
@@ -340,10 +331,8 @@ pub fn run(a: &SimArgs) -> Result<()> {
         );
     }
     if let Some(e) = &a.export {
-        if let Some(radius) = radius {
+        if moving {
             // Again, now with the body's track (a run stopped early leaves the scene.json without it).
-            let mut tracks = still;
-            tracks.push(meniscus::scene::splishsplash::BodyTrack { radius, centres: track });
             write_scene_json(a, &sim, e, &tracks)?;
         }
         eprintln!("wrote {} files: {e}", frames);

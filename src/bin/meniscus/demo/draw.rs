@@ -133,8 +133,6 @@ impl App {
                     }
                     self.diffuse_counts = c;
                 }
-                // The mesh surface meshes GPU-written particles on the GPU (live); only its CPU extraction needs
-                // them on the host.
                 // A moving body is drawn where the frames so far left it (a wait for the device: one frame late,
                 // the last of the live scene's spheres).
                 if sim.scene.body.is_some() && sim.frames > 0 {
@@ -143,6 +141,8 @@ impl App {
                         last.0 = b.centre;
                     }
                 }
+                // The mesh surface meshes GPU-written particles on the GPU (live); only its CPU extraction needs
+                // them on the host.
                 let cpu_mesh = self.settings.surface == Surface::Mesh
                     && self.settings.mesh.extraction == meniscus::surface::mesh::params::Extraction::Cpu;
                 if !cpu_mesh && self.mode != ViewMode::Particles {
@@ -173,7 +173,7 @@ impl App {
             }
             if let playback::Source::Sequence { frames, .. } = &self.src {
                 let number = frames[self.frame].number;
-                self.env.spheres = self.tracks.iter().filter_map(|t| Some((t.centre_at(number)?, t.radius))).collect();
+                self.env.spheres = meniscus::scene::splishsplash::BodyTrack::spheres_at(&self.tracks, number);
             }
             self.uploaded = Some(self.frame);
         }
